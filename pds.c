@@ -1,0 +1,6850 @@
+/* pds.c - the PDS library: photon differential splatting and its baselines.
+   See pds.h for the public contract, README.md for the formats and the
+   command line, and the papers cited section by section.
+
+   Table of contents (grep for the tag); each section uses only those
+   above it:
+     >>config     feature macros, includes, limits
+     >>util       status strings, error reporting, growable arrays, files, time
+     >>math       3-vectors in double precision, orthonormal bases, transforms
+     >>mesh       the triangle store every shape ends up in; material table
+     >>rng        counter-based random numbers: f(seed, purpose, index, dim)
+     >>obj        Wavefront OBJ and MTL loader
+     >>shapes     generators: sphere, disk, quad, box, cylinder, torus,
+                  revolve, heightfield
+     >>bvh        binned-SAH BVH, watertight triangle test, traversal
+     >>materials  Fresnel (dielectric, conductor), BSDF sampling, Beer
+     >>lights     light selection, next-event sampling, photon emission
+     >>scene      the pds_scene value and its text format parser
+     >>image      PFM read/write, PNG write, tone mapping
+     >>metrics    RMSE and SSIM
+     >>render     camera, path tracer, preview, the thread scheduler
+     >>api        public entry points: render, options, benchmarks
+*/
+
+/* ===================================================================== */
+/* >>config                                                              */
+/* ===================================================================== */
+/* POSIX is needed for clock_gettime, sysconf and the threads; everything
+   else is C99. */
+#define _POSIX_C_SOURCE 200809L
+
+#include "pds.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <float.h>
+#include <limits.h>
+#include <math.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#define PDS__PI 3.14159265358979323846
+
+/* ===================================================================== */
+/* >>util                                                                */
+/* ===================================================================== */
+/* Errors are values: every failing function fills a caller-owned
+   pds_error (which may be NULL) and returns its status. */
+
+const char *pds_status_string(pds_status status)
+{
+    switch (status) {
+    case PDS_OK: return "ok";
+    case PDS_ERR_IO: return "input/output error";
+    case PDS_ERR_PARSE: return "parse error";
+    case PDS_ERR_NOMEM: return "out of memory";
+    case PDS_ERR_INVALID_ARG: return "invalid argument";
+    case PDS_ERR_LIMIT: return "limit exceeded";
+    }
+    return "unknown status";
+}
+
+/* Fill *err (if any) and return status. file may be NULL; line/column 0
+   mean unknown. err->text gets the printable "FILE:LINE:COLUMN: message". */
+static pds_status pds__fail(pds_error *err, pds_status status, const char *file,
+                            int line, int column, const char *fmt, ...)
+{
+    va_list ap;
+    if (!err) return status;
+    err->status = status;
+    err->file[0] = '\0';
+    if (file) {
+        strncpy(err->file, file, sizeof err->file - 1);
+        err->file[sizeof err->file - 1] = '\0';
+    }
+    err->line = line;
+    err->column = column;
+    va_start(ap, fmt);
+    vsnprintf(err->message, sizeof err->message, fmt, ap);
+    va_end(ap);
+    if (err->file[0] == '\0')
+        snprintf(err->text, sizeof err->text, "%s", err->message);
+    else if (line > 0 && column > 0)
+        snprintf(err->text, sizeof err->text, "%s:%d:%d: %s", err->file, line, column, err->message);
+    else if (line > 0)
+        snprintf(err->text, sizeof err->text, "%s:%d: %s", err->file, line, err->message);
+    else
+        snprintf(err->text, sizeof err->text, "%s: %s", err->file, err->message);
+    return status;
+}
+
+static pds_status pds__nomem(pds_error *err)
+{
+    return pds__fail(err, PDS_ERR_NOMEM, NULL, 0, 0, "out of memory");
+}
+
+const char *pds_error_string(const pds_error *err)
+{
+    return err ? err->text : "no error information";
+}
+
+/* Grow *ptr (an array of elem-byte items with capacity *cap) so that it holds
+   at least need items. Capacity doubles, so appends are amortised O(1).
+   Returns 0 on success, -1 when memory runs out (the array is unchanged). */
+static int pds__grow(void **ptr, size_t *cap, size_t need, size_t elem)
+{
+    size_t ncap;
+    void *p;
+    if (need <= *cap) return 0;
+    ncap = *cap ? *cap : 16;
+    while (ncap < need) {
+        if (ncap > ((size_t)-1) / 2 / elem) return -1;
+        ncap *= 2;
+    }
+    p = realloc(*ptr, ncap * elem);
+    if (!p) return -1;
+    *ptr = p;
+    *cap = ncap;
+    return 0;
+}
+
+/* Copy at most n-1 bytes and terminate. */
+static void pds__strlcpy(char *dst, const char *src, size_t n)
+{
+    size_t len = strlen(src);
+    if (len >= n) len = n - 1;
+    memcpy(dst, src, len);
+    dst[len] = '\0';
+}
+
+/* Read a whole file into a NUL-terminated buffer. */
+static pds_status pds__read_file(const char *path, char **out, size_t *size, pds_error *err)
+{
+    FILE *f = fopen(path, "rb");
+    char *buf = NULL;
+    size_t cap = 0, len = 0;
+    *out = NULL;
+    if (!f) return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot open: %s", strerror(errno));
+    for (;;) {
+        size_t n;
+        if (pds__grow((void **)&buf, &cap, len + 65536 + 1, 1)) {
+            fclose(f);
+            free(buf);
+            return pds__nomem(err);
+        }
+        n = fread(buf + len, 1, cap - len - 1, f);
+        len += n;
+        if (n == 0) break;
+    }
+    if (ferror(f)) {
+        fclose(f);
+        free(buf);
+        return pds__fail(err, PDS_ERR_IO, path, 0, 0, "read error: %s", strerror(errno));
+    }
+    fclose(f);
+    buf[len] = '\0';
+    *out = buf;
+    if (size) *size = len;
+    return PDS_OK;
+}
+
+/* Write size bytes to path atomically: to "path.tmp-PID-N" first, then
+   rename, so readers never see a half-written file and a failure leaves no
+   file behind. */
+static pds_status pds__write_file_atomic(const char *path, const void *data, size_t size,
+                                         pds_error *err)
+{
+    char tmp[4096];
+    FILE *f;
+    int ok;
+    static const char suffix[] = ".tmp-";
+    if (strlen(path) + sizeof suffix + 24 > sizeof tmp)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "output path too long");
+    snprintf(tmp, sizeof tmp, "%s%s%ld", path, suffix, (long)getpid());
+    f = fopen(tmp, "wb");
+    if (!f) return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot write: %s", strerror(errno));
+    ok = fwrite(data, 1, size, f) == size;
+    ok = (fclose(f) == 0) && ok;
+    if (!ok) {
+        remove(tmp);
+        return pds__fail(err, PDS_ERR_IO, path, 0, 0, "write failed: %s", strerror(errno));
+    }
+    if (rename(tmp, path) != 0) {
+        int e = errno;
+        remove(tmp);
+        return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot rename into place: %s", strerror(e));
+    }
+    return PDS_OK;
+}
+
+/* Directory part of a path including the trailing '/', or "" . */
+static void pds__dirname(const char *path, char *dir, size_t n)
+{
+    const char *slash = strrchr(path, '/');
+    size_t len = slash ? (size_t)(slash - path + 1) : 0;
+    if (len >= n) len = n - 1;
+    memcpy(dir, path, len);
+    dir[len] = '\0';
+}
+
+/* dir + name, unless name is absolute. Returns -1 if it does not fit. */
+static int pds__join_path(const char *dir, const char *name, char *out, size_t n)
+{
+    int w = name[0] == '/' ? snprintf(out, n, "%s", name) : snprintf(out, n, "%s%s", dir, name);
+    return (w < 0 || (size_t)w >= n) ? -1 : 0;
+}
+
+double pds_time_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+int pds_cpu_count(void)
+{
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    if (n < 1) return 1;
+    if (n > 256) return 256;
+    return (int)n;
+}
+
+/* ===================================================================== */
+/* >>math                                                                */
+/* ===================================================================== */
+/* Double-precision 3-vectors for everything but the BVH's hot loop, which
+   keeps its own float copies. */
+
+typedef pds_vec3 pds__v3;
+
+static pds__v3 pds__v(double x, double y, double z) { pds__v3 r; r.x = x; r.y = y; r.z = z; return r; }
+static pds__v3 pds__add(pds__v3 a, pds__v3 b) { return pds__v(a.x + b.x, a.y + b.y, a.z + b.z); }
+static pds__v3 pds__sub(pds__v3 a, pds__v3 b) { return pds__v(a.x - b.x, a.y - b.y, a.z - b.z); }
+static pds__v3 pds__scale(pds__v3 a, double s) { return pds__v(a.x * s, a.y * s, a.z * s); }
+static pds__v3 pds__mul(pds__v3 a, pds__v3 b) { return pds__v(a.x * b.x, a.y * b.y, a.z * b.z); }
+static double pds__dot(pds__v3 a, pds__v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static pds__v3 pds__cross(pds__v3 a, pds__v3 b)
+{
+    return pds__v(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+static double pds__length(pds__v3 a) { return sqrt(pds__dot(a, a)); }
+/* Unit vector along a; the zero vector stays zero. */
+static pds__v3 pds__normalize(pds__v3 a)
+{
+    double l = pds__length(a);
+    return l > 0.0 ? pds__scale(a, 1.0 / l) : a;
+}
+static pds__v3 pds__vmin(pds__v3 a, pds__v3 b)
+{
+    return pds__v(a.x < b.x ? a.x : b.x, a.y < b.y ? a.y : b.y, a.z < b.z ? a.z : b.z);
+}
+static pds__v3 pds__vmax(pds__v3 a, pds__v3 b)
+{
+    return pds__v(a.x > b.x ? a.x : b.x, a.y > b.y ? a.y : b.y, a.z > b.z ? a.z : b.z);
+}
+static double pds__v3_get(pds__v3 a, int axis) { return axis == 0 ? a.x : axis == 1 ? a.y : a.z; }
+
+/* Orthonormal basis (b1, b2) perpendicular to unit n, continuous except at
+   n = -z (Frisvad 2012, "Building an orthonormal basis from a 3D unit
+   vector without normalization", with the singularity branch). */
+static void pds__onb(pds__v3 n, pds__v3 *b1, pds__v3 *b2)
+{
+    if (n.z < -0.9999999) {
+        *b1 = pds__v(0.0, -1.0, 0.0);
+        *b2 = pds__v(-1.0, 0.0, 0.0);
+    } else {
+        double a = 1.0 / (1.0 + n.z);
+        double b = -n.x * n.y * a;
+        *b1 = pds__v(1.0 - n.x * n.x * a, b, -n.x);
+        *b2 = pds__v(b, 1.0 - n.y * n.y * a, -n.y);
+    }
+}
+
+/* 3x4 affine transform: p' = M p + t, rows m[0..2] = (m00 m01 m02 t0). */
+typedef struct pds__xform { double m[3][4]; } pds__xform;
+
+static pds__xform pds__xform_identity(void)
+{
+    pds__xform x;
+    int i, j;
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 4; j++) x.m[i][j] = (i == j) ? 1.0 : 0.0;
+    return x;
+}
+
+/* a after b: (a*b)(p) = a(b(p)). */
+static pds__xform pds__xform_mul(const pds__xform *a, const pds__xform *b)
+{
+    pds__xform r;
+    int i, j;
+    for (i = 0; i < 3; i++) {
+        for (j = 0; j < 4; j++) {
+            r.m[i][j] = a->m[i][0] * b->m[0][j] + a->m[i][1] * b->m[1][j] + a->m[i][2] * b->m[2][j];
+        }
+        r.m[i][3] += a->m[i][3];
+    }
+    return r;
+}
+
+static pds__v3 pds__xform_point(const pds__xform *x, pds__v3 p)
+{
+    return pds__v(x->m[0][0] * p.x + x->m[0][1] * p.y + x->m[0][2] * p.z + x->m[0][3],
+                  x->m[1][0] * p.x + x->m[1][1] * p.y + x->m[1][2] * p.z + x->m[1][3],
+                  x->m[2][0] * p.x + x->m[2][1] * p.y + x->m[2][2] * p.z + x->m[2][3]);
+}
+
+/* Normals transform by the inverse transpose of the linear part; the
+   cofactor matrix is that up to the (positive or negative) determinant,
+   so the result is normalised and flipped if det < 0 keeps orientation
+   consistent with the transformed triangle winding. */
+static pds__v3 pds__xform_normal(const pds__xform *x, pds__v3 n)
+{
+    const double (*m)[4] = x->m;
+    double c[3][3], det;
+    pds__v3 r;
+    c[0][0] = m[1][1] * m[2][2] - m[1][2] * m[2][1];
+    c[0][1] = m[1][2] * m[2][0] - m[1][0] * m[2][2];
+    c[0][2] = m[1][0] * m[2][1] - m[1][1] * m[2][0];
+    c[1][0] = m[0][2] * m[2][1] - m[0][1] * m[2][2];
+    c[1][1] = m[0][0] * m[2][2] - m[0][2] * m[2][0];
+    c[1][2] = m[0][1] * m[2][0] - m[0][0] * m[2][1];
+    c[2][0] = m[0][1] * m[1][2] - m[0][2] * m[1][1];
+    c[2][1] = m[0][2] * m[1][0] - m[0][0] * m[1][2];
+    c[2][2] = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+    det = m[0][0] * c[0][0] + m[0][1] * c[0][1] + m[0][2] * c[0][2];
+    r = pds__v(c[0][0] * n.x + c[0][1] * n.y + c[0][2] * n.z,
+               c[1][0] * n.x + c[1][1] * n.y + c[1][2] * n.z,
+               c[2][0] * n.x + c[2][1] * n.y + c[2][2] * n.z);
+    if (det < 0.0) r = pds__scale(r, -1.0);
+    return pds__normalize(r);
+}
+
+/* Determinant of the linear part (negative = mirroring). */
+static double pds__xform_det(const pds__xform *x)
+{
+    const double (*m)[4] = x->m;
+    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+         - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+}
+
+/* ===================================================================== */
+/* >>mesh                                                                */
+/* ===================================================================== */
+/* Every shape, generated or loaded, ends up as indexed triangles in one
+   pds__mesh: vertex positions and shading normals (float, 3 per vertex),
+   3 vertex indices and one material index per triangle. A vertex carries
+   exactly one normal, so loaders split vertices where normals differ.
+
+   Layout: pos[3*i..3*i+2] position of vertex i (scene units), nrm[...] its
+   unit shading normal; idx[3*t..3*t+2] the corners of triangle t, mat[t]
+   its material. */
+
+typedef struct pds__mesh {
+    float *pos, *nrm;
+    size_t nverts, cap_pos, cap_nrm;
+    int *idx, *mat;
+    size_t ntris, cap_idx, cap_mat;
+    long degenerate_dropped; /* zero-area triangles refused by add_tri */
+} pds__mesh;
+
+static void pds__mesh_free(pds__mesh *m)
+{
+    free(m->pos);
+    free(m->nrm);
+    free(m->idx);
+    free(m->mat);
+    memset(m, 0, sizeof *m);
+}
+
+/* Append a vertex; returns its index or -1 (out of memory or limit). */
+static long pds__mesh_add_vertex(pds__mesh *m, pds__v3 p, pds__v3 n)
+{
+    size_t i = m->nverts;
+    if (i >= (size_t)INT_MAX / 4) return -1;
+    if (pds__grow((void **)&m->pos, &m->cap_pos, 3 * (i + 1), sizeof(float))) return -1;
+    if (pds__grow((void **)&m->nrm, &m->cap_nrm, 3 * (i + 1), sizeof(float))) return -1;
+    m->pos[3 * i + 0] = (float)p.x;
+    m->pos[3 * i + 1] = (float)p.y;
+    m->pos[3 * i + 2] = (float)p.z;
+    m->nrm[3 * i + 0] = (float)n.x;
+    m->nrm[3 * i + 1] = (float)n.y;
+    m->nrm[3 * i + 2] = (float)n.z;
+    m->nverts = i + 1;
+    return (long)i;
+}
+
+static pds__v3 pds__mesh_pos(const pds__mesh *m, long i)
+{
+    return pds__v(m->pos[3 * i], m->pos[3 * i + 1], m->pos[3 * i + 2]);
+}
+
+static pds__v3 pds__mesh_nrm(const pds__mesh *m, long i)
+{
+    return pds__v(m->nrm[3 * i], m->nrm[3 * i + 1], m->nrm[3 * i + 2]);
+}
+
+/* Twice the area of triangle (a, b, c) from the stored (float) positions. */
+static double pds__mesh_tri_area2(const pds__mesh *m, long a, long b, long c)
+{
+    pds__v3 pa = pds__mesh_pos(m, a), pb = pds__mesh_pos(m, b), pc = pds__mesh_pos(m, c);
+    return pds__length(pds__cross(pds__sub(pb, pa), pds__sub(pc, pa)));
+}
+
+/* Append triangle (a, b, c) with material mat. A triangle of zero area (as
+   stored in float) is dropped and counted, never stored: it can only cause
+   trouble (NaN normals, zero-area light sampling). Returns 1 if added, 0 if
+   dropped, -1 when out of memory or over PDS_MAX_TRIANGLES. */
+static int pds__mesh_add_tri(pds__mesh *m, long a, long b, long c, int mat)
+{
+    size_t t = m->ntris;
+    double area2 = pds__mesh_tri_area2(m, a, b, c);
+    if (!(area2 > 0.0) || a == b || b == c || a == c) {
+        m->degenerate_dropped++;
+        return 0;
+    }
+    if (t >= (size_t)PDS_MAX_TRIANGLES) return -1;
+    if (pds__grow((void **)&m->idx, &m->cap_idx, 3 * (t + 1), sizeof(int))) return -1;
+    if (pds__grow((void **)&m->mat, &m->cap_mat, t + 1, sizeof(int))) return -1;
+    m->idx[3 * t + 0] = (int)a;
+    m->idx[3 * t + 1] = (int)b;
+    m->idx[3 * t + 2] = (int)c;
+    m->mat[t] = mat;
+    m->ntris = t + 1;
+    return 1;
+}
+
+/* Material table shared by the scene parser and the OBJ/MTL loader. */
+typedef struct pds__materials {
+    pds_material *items;
+    size_t count, cap;
+} pds__materials;
+
+/* Index of the material called name, or -1. */
+static int pds__materials_find(const pds__materials *ms, const char *name)
+{
+    size_t i;
+    for (i = 0; i < ms->count; i++)
+        if (strcmp(ms->items[i].name, name) == 0) return (int)i;
+    return -1;
+}
+
+/* A white diffuse material called name (the default for anything). */
+static pds_material pds__material_default(const char *name)
+{
+    pds_material m;
+    memset(&m, 0, sizeof m);
+    pds__strlcpy(m.name, name, sizeof m.name);
+    m.type = PDS_MAT_DIFFUSE;
+    m.albedo[0] = m.albedo[1] = m.albedo[2] = 0.8;
+    m.ior = 1.5;
+    m.outside_ior = 1.0;
+    return m;
+}
+
+/* Append; returns the new index, or -1 out of memory / over the limit. */
+static int pds__materials_add(pds__materials *ms, const pds_material *m)
+{
+    if (ms->count >= (size_t)PDS_MAX_MATERIALS) return -1;
+    if (pds__grow((void **)&ms->items, &ms->cap, ms->count + 1, sizeof *ms->items)) return -1;
+    ms->items[ms->count] = *m;
+    return (int)ms->count++;
+}
+
+/* ===================================================================== */
+/* >>rng                                                                 */
+/* ===================================================================== */
+/* Counter-based random numbers: every value is a pure function of
+   (seed, purpose, index, dimension), so results never depend on which
+   thread asked or in which order. The mixer is the SplitMix64 finaliser
+   (Steele, Lea, Flood 2014), applied to a combination of the keys that
+   keeps them from cancelling each other (each key is mixed before the
+   next is added). */
+
+enum pds__rng_purpose {
+    PDS__RNG_PIXEL = 1,   /* index = pixel * spp + sample, dim = 0.. */
+    PDS__RNG_BENCH = 2,   /* benchmark rays */
+    PDS__RNG_TEST = 3     /* test programs */
+};
+
+static uint64_t pds__mix64(uint64_t z)
+{
+    z += 0x9E3779B97F4A7C15ull;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+static uint64_t pds__rng_bits(uint64_t seed, uint64_t purpose, uint64_t index, uint64_t dim)
+{
+    uint64_t h = pds__mix64(seed);
+    h = pds__mix64(h ^ purpose);
+    h = pds__mix64(h ^ index);
+    return pds__mix64(h ^ dim);
+}
+
+/* Uniform double in [0, 1): the top 53 bits. */
+static double pds__rng_uniform(uint64_t seed, uint64_t purpose, uint64_t index, uint64_t dim)
+{
+    return (double)(pds__rng_bits(seed, purpose, index, dim) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+/* ===================================================================== */
+/* >>obj                                                                 */
+/* ===================================================================== */
+/* Wavefront OBJ and MTL loader: appends the polygons of one OBJ file (with
+   the materials of its MTL libraries) to a pds__mesh.
+
+   Format facts: REFERENCE.md section 8 and the Wavefront "Object Files
+   (.obj)" appendix of the Advanced Visualizer manual.
+
+   Reading (one pass over the file, kept in memory whole):
+   - Statements are whitespace-separated tokens; `#` at the start of a token
+     begins a comment that runs to the end of the physical line; a backslash
+     followed only by blanks before the newline continues the statement on
+     the next line; CRLF, tabs and a UTF-8 byte order mark are accepted.
+   - Supported: v x y z [w] (w is ignored: it is a rational weight meaningful
+     only for free-form geometry, and some exporters put vertex colours
+     there), vt u [v [w]] (checked and counted, not stored), vn x y z, f/fo
+     with v, v/vt, v//vn, v/vt/vn corners (mixable in one face; negative
+     indices count back from the last element read so far), o, g (any
+     number of names), s (off, 0, on, N), usemtl, mtllib. Known OBJ
+     statements PDS has no use for (l, p, vp, curv, surf, cstype, ...) are
+     skipped silently; unknown statements are skipped and counted.
+   - Error locations are FILE:LINE:COLUMN of the offending token (1-based,
+     bytes, CRLF is one line break). A token on a continuation line carries
+     its own physical line; statement-level errors (a face with too few
+     corners, missing coordinates) point at the statement's keyword. Index
+     errors point at the offending number inside the corner (7/2/9: the 9).
+
+   Geometry:
+   - Positions and vn normals are transformed as they are read (positions
+     by opt->xform, normals by its inverse transpose). A transform that
+     mirrors (det < 0) reverses every face's corner order, so that the
+     winding normal (P1-P0)x(P2-P0) keeps pointing to the same side of the
+     surface as the transformed shading normals (outside stays outside,
+     which dielectrics depend on).
+   - Polygons are triangulated by ear clipping in the plane of their Newell
+     normal (convex and simple concave polygons come out exactly); when no
+     ear can be found (self-intersecting or degenerate polygons) the rest of
+     the polygon becomes a fan.
+   - One mesh vertex per distinct (position, normal source) used by faces:
+     a vn index; a smoothing group (normal computed: angle-weighted mean of
+     the unit normals of the triangles that share the position within that
+     group, Thuermer and Wuethrich 1998); or, under `s off`, the face
+     itself (flat: the face's Newell normal, vertices not shared between
+     faces). A zero vn counts as absent. Faces before any `s` statement are
+     smooth in one implicit group of their own: most exporters that omit
+     `s` mean smooth meshes (note: a glass cube without normals and without
+     `s off` gets rounded shading normals).
+   - Zero-area triangles are refused by pds__mesh_add_tri and counted.
+
+   MTL to PDS material mapping (first rule that applies wins):
+     1. Ke with any channel > 0            -> EMISSIVE, radiance = Ke
+     2. illum 4, 6 or 7; or transparent    -> DIELECTRIC, ior = Ni, or 1.5
+        (d < 1, or Tr > 0 without d, or       when Ni is missing or <= 1;
+        Tf given and not 1 1 1) with an       absorption 0 (MTL has no
+        explicit Ni != 1                      length scale for Beer's law)
+     3. illum 3 or 5 with max(Ks) > 0      -> MIRROR, reflectance = Ks
+     4. anything else                      -> DIFFUSE, albedo = Kd (0.8 if
+                                              no Kd)
+   Colours are clamped to [0, 1] (radiance to >= 0). `Kd r` alone means
+   r r r; `Kd xyz X Y Z` is converted to linear sRGB (D65); `Kd spectral`
+   is ignored. Tr: exporters disagree (most write Tr = 1 - d, a few write
+   Tr = d); Tr is read as 1 - d and only when the material has no `d`.
+   Ka, map_*, bump, disp, refl, PBR extensions (Pr, Pm, ...) are ignored.
+   Every newmtl material is added to the scene's table unless one of the
+   same name exists already (the scene's wins) or opt->material_override
+   is set (then the MTL files are only checked). Names longer than 63
+   bytes are truncated like every pds_material name. */
+
+typedef struct pds__obj_options {
+    const pds__xform *xform;   /* applied to positions (pds__xform_point) and
+                                  normals (pds__xform_normal); NULL = identity */
+    int material_override;     /* >= 0: every triangle gets this material
+                                  index, MTL files still parsed for errors;
+                                  -1 = use usemtl */
+    int default_material;      /* material index for faces before any usemtl
+                                  or with an unknown name (must exist) */
+    /* optional per-name overrides: usemtl name -> scene material index */
+    const char *const *override_names;
+    const int *override_materials;
+    int override_count;
+} pds__obj_options;
+
+typedef struct pds__obj_stats {
+    long vertices, normals, texcoords; /* v, vn, vt statements */
+    long faces;                /* f statements */
+    long triangles;            /* triangles added to the mesh */
+    long degenerate_dropped;   /* zero-area triangles refused */
+    long groups, objects;      /* g and o statements */
+    int mtl_materials;         /* newmtl statements in all MTL files read */
+    long ignored_statements;   /* unknown statements skipped (OBJ and MTL) */
+    long unknown_materials;    /* distinct usemtl names that fell back to
+                                  default_material */
+    char ignored_example[640]; /* "FILE:LINE:COL: 'kw'" of the first
+                                  unknown statement, "" if none */
+} pds__obj_stats;
+
+/* ---------------------------------------------------------------- lexing */
+
+/* Cursor over a whole file in memory. p never passes end; line_start is
+   the first byte of the physical line p is on. */
+typedef struct pds__obj_lexer {
+    const char *p, *end, *line_start;
+    int line;
+} pds__obj_lexer;
+
+/* One token: bytes [s, s+len), found at line:col (1-based). */
+typedef struct pds__obj_token {
+    const char *s;
+    int len, line, col;
+} pds__obj_token;
+
+static int pds__obj_blank(char c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
+}
+
+/* q points at a backslash. If only blanks follow it up to a newline or the
+   end of the buffer, it is a line continuation: return the position of
+   that newline (or end); else NULL. */
+static const char *pds__obj_continuation(const pds__obj_lexer *lx, const char *q)
+{
+    q++;
+    while (q < lx->end && pds__obj_blank(*q)) q++;
+    if (q == lx->end || *q == '\n') return q;
+    return NULL;
+}
+
+static void pds__obj_lexer_init(pds__obj_lexer *lx, const char *buf, size_t size)
+{
+    lx->p = buf;
+    lx->end = buf + size;
+    if (size >= 3 && (unsigned char)buf[0] == 0xEF && (unsigned char)buf[1] == 0xBB &&
+        (unsigned char)buf[2] == 0xBF)
+        lx->p += 3; /* UTF-8 byte order mark */
+    lx->line_start = lx->p;
+    lx->line = 1;
+}
+
+/* Next token of the current statement into *tok. Returns 1, or 0 at the
+   end of the statement (newline, comment or end of file; the newline is
+   left for pds__obj_end_statement). Continuations are crossed silently. */
+static int pds__obj_next(pds__obj_lexer *lx, pds__obj_token *tok)
+{
+    const char *p = lx->p, *start;
+    for (;;) {
+        while (p < lx->end && pds__obj_blank(*p)) p++;
+        if (p == lx->end || *p == '\n') {
+            lx->p = p;
+            return 0;
+        }
+        if (*p == '#') {
+            while (p < lx->end && *p != '\n') p++;
+            lx->p = p;
+            return 0;
+        }
+        if (*p == '\\') {
+            const char *nl = pds__obj_continuation(lx, p);
+            if (nl) {
+                p = nl;
+                if (p < lx->end) {
+                    p++;
+                    lx->line++;
+                    lx->line_start = p;
+                }
+                continue;
+            }
+        }
+        break;
+    }
+    start = p;
+    while (p < lx->end && !pds__obj_blank(*p) && *p != '\n') {
+        if (*p == '\\' && pds__obj_continuation(lx, p)) break;
+        p++;
+    }
+    tok->s = start;
+    tok->len = (int)(p - start);
+    tok->line = lx->line;
+    tok->col = (int)(start - lx->line_start) + 1;
+    lx->p = p;
+    return 1;
+}
+
+/* Skip what is left of the statement and its newline. */
+static void pds__obj_end_statement(pds__obj_lexer *lx)
+{
+    pds__obj_token t;
+    while (pds__obj_next(lx, &t)) { /* discard */ }
+    if (lx->p < lx->end) { /* at '\n' */
+        lx->p++;
+        lx->line++;
+        lx->line_start = lx->p;
+    }
+}
+
+static int pds__obj_is(const pds__obj_token *t, const char *word)
+{
+    size_t n = strlen(word);
+    return (size_t)t->len == n && memcmp(t->s, word, n) == 0;
+}
+
+/* ------------------------------------------------------------- numbers */
+
+/* Parse a whole token as a decimal number in the C locale:
+   [+-] digits [. digits] [(e|E) [+-] digits], at least one mantissa digit.
+   Returns 1 and *out; 0 if the token is not such a number; -1 if it names
+   or overflows to a non-finite value (nan, inf, 1e999). The first 19
+   significant digits are kept; with <= 2^53 and |exponent| <= 22 the
+   result is correctly rounded (Clinger's fast path), else within a few
+   ulps, far below the float precision the mesh stores. */
+static int pds__obj_parse_double(const char *s, int len, double *out)
+{
+    static const double p10[23] = {1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10,
+                                   1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19,
+                                   1e20, 1e21, 1e22};
+    int i = 0, neg = 0, any = 0, e = 0;
+    unsigned long long m = 0;
+    long exp10 = 0;
+    double v;
+    if (i < len && (s[i] == '+' || s[i] == '-')) neg = s[i++] == '-';
+    if (len - i >= 3 && (tolower((unsigned char)s[i]) == 'n' || tolower((unsigned char)s[i]) == 'i')) {
+        char w[9];
+        int k, n = len - i;
+        if (n <= 8) {
+            for (k = 0; k < n; k++) w[k] = (char)tolower((unsigned char)s[i + k]);
+            w[n] = '\0';
+            if (!strcmp(w, "nan") || !strcmp(w, "inf") || !strcmp(w, "infinity")) return -1;
+        }
+        return 0;
+    }
+    while (i < len && s[i] >= '0' && s[i] <= '9') {
+        if (m < 100000000000000000ULL) m = m * 10 + (unsigned)(s[i] - '0');
+        else exp10++;
+        any = 1;
+        i++;
+    }
+    if (i < len && s[i] == '.') {
+        i++;
+        while (i < len && s[i] >= '0' && s[i] <= '9') {
+            if (m < 100000000000000000ULL) {
+                m = m * 10 + (unsigned)(s[i] - '0');
+                exp10--;
+            }
+            any = 1;
+            i++;
+        }
+    }
+    if (!any) return 0;
+    if (i < len && (s[i] == 'e' || s[i] == 'E')) {
+        int eneg = 0, edig = 0;
+        i++;
+        if (i < len && (s[i] == '+' || s[i] == '-')) eneg = s[i++] == '-';
+        while (i < len && s[i] >= '0' && s[i] <= '9') {
+            if (e < 100000) e = e * 10 + (s[i] - '0');
+            edig = 1;
+            i++;
+        }
+        if (!edig) return 0;
+        if (eneg) e = -e;
+    }
+    if (i != len) return 0;
+    exp10 += e;
+    if (m == 0) {
+        v = 0.0;
+    } else if (m <= (1ULL << 53) && exp10 >= -22 && exp10 <= 22) {
+        v = exp10 >= 0 ? (double)m * p10[exp10] : (double)m / p10[-exp10];
+    } else if (exp10 < -400) {
+        v = 0.0;
+    } else if (exp10 > 400) {
+        return -1;
+    } else {
+        /* two factors so that neither underflows nor overflows early */
+        long h = exp10 / 2;
+        v = (double)m * pow(10.0, (double)h) * pow(10.0, (double)(exp10 - h));
+    }
+    if (!(v == v) || v > DBL_MAX) return -1;
+    *out = neg ? -v : v;
+    return 1;
+}
+
+/* Parse [+-]digits at s (not necessarily the whole of [s, s+len)).
+   Returns the number of bytes used (0 if none); the value saturates at
+   +-10^15, far outside any valid index. */
+static int pds__obj_parse_int(const char *s, int len, long long *out)
+{
+    int i = 0, neg = 0, start;
+    long long v = 0;
+    if (i < len && (s[i] == '+' || s[i] == '-')) neg = s[i++] == '-';
+    start = i;
+    while (i < len && s[i] >= '0' && s[i] <= '9') {
+        if (v < 1000000000000000LL) v = v * 10 + (s[i] - '0');
+        i++;
+    }
+    if (i == start) return 0;
+    *out = neg ? -v : v;
+    return i;
+}
+
+/* ----------------------------------------------------- string hash map */
+
+/* Open-addressing map from strings (owned copies) to ints; capacity is a
+   power of two, at most half full. */
+typedef struct pds__obj_names {
+    char **keys;
+    int *vals;
+    size_t cap, count;
+} pds__obj_names;
+
+static size_t pds__obj_hash(const char *s, size_t n)
+{
+    size_t i;
+    unsigned long h = 2166136261UL; /* FNV-1a */
+    for (i = 0; i < n; i++) h = ((h ^ (unsigned char)s[i]) * 16777619UL) & 0xFFFFFFFFUL;
+    return (size_t)h;
+}
+
+/* Slot for key (s, n): where it is, or the empty slot where it would go. */
+static size_t pds__obj_names_slot(const pds__obj_names *h, const char *s, size_t n)
+{
+    size_t i = pds__obj_hash(s, n) & (h->cap - 1);
+    while (h->keys[i] && !(strlen(h->keys[i]) == n && memcmp(h->keys[i], s, n) == 0))
+        i = (i + 1) & (h->cap - 1);
+    return i;
+}
+
+static int pds__obj_names_find(const pds__obj_names *h, const char *s, size_t n)
+{
+    size_t i;
+    if (h->cap == 0) return -1;
+    i = pds__obj_names_slot(h, s, n);
+    return h->keys[i] ? h->vals[i] : -1;
+}
+
+/* Insert (s, n) -> val unless present. Returns the stored key (the copy),
+   or NULL when out of memory. */
+static const char *pds__obj_names_put(pds__obj_names *h, const char *s, size_t n, int val)
+{
+    size_t i;
+    if (2 * (h->count + 1) > h->cap) {
+        size_t ncap = h->cap ? 2 * h->cap : 64, j;
+        char **nk = (char **)calloc(ncap, sizeof *nk);
+        int *nv = (int *)malloc(ncap * sizeof *nv);
+        pds__obj_names old = *h;
+        if (!nk || !nv) {
+            free(nk);
+            free(nv);
+            return NULL;
+        }
+        h->keys = nk;
+        h->vals = nv;
+        h->cap = ncap;
+        for (j = 0; j < old.cap; j++) {
+            if (old.keys[j]) {
+                size_t k = pds__obj_names_slot(h, old.keys[j], strlen(old.keys[j]));
+                h->keys[k] = old.keys[j];
+                h->vals[k] = old.vals[j];
+            }
+        }
+        free(old.keys);
+        free(old.vals);
+    }
+    i = pds__obj_names_slot(h, s, n);
+    if (!h->keys[i]) {
+        char *copy = (char *)malloc(n + 1);
+        if (!copy) return NULL;
+        memcpy(copy, s, n);
+        copy[n] = '\0';
+        h->keys[i] = copy;
+        h->vals[i] = val;
+        h->count++;
+    }
+    return h->keys[i];
+}
+
+static void pds__obj_names_free(pds__obj_names *h)
+{
+    size_t i;
+    for (i = 0; i < h->cap; i++) free(h->keys[i]);
+    free(h->keys);
+    free(h->vals);
+    memset(h, 0, sizeof *h);
+}
+
+/* ----------------------------------------------------------- loader state */
+
+/* Sources of a mesh vertex's normal (see the prologue). */
+enum { PDS__OBJ_KEY_VN = 0, PDS__OBJ_KEY_SMOOTH = 1, PDS__OBJ_KEY_FLAT = 2 };
+
+/* Node of the per-position list of mesh vertices already made from that
+   position: key (kind, val) -> mesh vertex, next node or -1. */
+typedef struct pds__obj_vnode {
+    long long val;
+    int vert, next, kind;
+} pds__obj_vnode;
+
+typedef struct pds__obj_state {
+    const char *path;          /* the OBJ file, as given */
+    char dir[4096];            /* its directory, for mtllib names */
+    pds__mesh *mesh;
+    pds__materials *mats;
+    const pds__obj_options *opt;
+    pds__obj_stats *st;
+    pds_error *err;
+    pds__xform xf;             /* opt->xform or identity */
+    int flip;                  /* xf mirrors: reverse corner order */
+
+    pds__v3 *pos;              /* transformed positions */
+    int *head;                 /* per position: first pds__obj_vnode or -1 */
+    size_t npos, cap_pos, cap_head;
+    pds__v3 *nrm;              /* transformed unit vn normals (0 if zero) */
+    size_t nnrm, cap_nrm;
+    long ntex;
+    pds__obj_vnode *nodes;
+    size_t nnodes, cap_nodes;
+    pds__v3 *acc;              /* per new mesh vertex: smooth-normal sum */
+    unsigned char *kind;       /* per new mesh vertex: PDS__OBJ_KEY_* */
+    size_t cap_acc, cap_kind;
+
+    /* scratch for one face, reused */
+    int *fpos, *fnrm, *fvert;
+    size_t cap_fpos, cap_fnrm, cap_fvert;
+    pds__obj_token *ftok;
+    size_t cap_ftok;
+    double *u, *v;
+    int *prev, *next, *tris;
+    unsigned char *reflex;
+    size_t cap_u, cap_v, cap_prev, cap_next, cap_tris, cap_reflex;
+
+    long long group;           /* smoothing group: 0 off, -1 implicit */
+    int slot;                  /* current usemtl slot, -1 none */
+    pds__obj_names slots;      /* usemtl name -> slot */
+    const char **slot_names;   /* slot -> name (owned by slots) */
+    size_t nslots, cap_slot_names;
+    pds__obj_names matnames;   /* material name -> index in mats */
+    pds__obj_names mtl_loaded; /* MTL paths already read */
+    long face_no;
+
+    size_t base_v, base_t, base_mats;
+    long base_dropped;
+} pds__obj_state;
+
+static pds_status pds__obj_err(pds__obj_state *s, const pds__obj_token *t, const char *fmt, ...)
+{
+    char msg[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    return pds__fail(s->err, PDS_ERR_PARSE, s->path, t->line, t->col, "%s", msg);
+}
+
+/* Note an unknown statement (for the caller's warnings). */
+static void pds__obj_ignore(pds__obj_state *s, const char *file, const pds__obj_token *kw)
+{
+    s->st->ignored_statements++;
+    if (s->st->ignored_example[0] == '\0')
+        snprintf(s->st->ignored_example, sizeof s->st->ignored_example, "%s:%d:%d: '%.*s'",
+                 file, kw->line, kw->col, kw->len > 64 ? 64 : kw->len, kw->s);
+}
+
+/* Read exactly one number token of statement kw (in file) into *out.
+   Missing, malformed and non-finite numbers are errors. */
+static pds_status pds__obj_number(pds__obj_state *s, pds__obj_lexer *lx, const char *file,
+                                  const pds__obj_token *kw, double *out)
+{
+    pds__obj_token t;
+    int r;
+    if (!pds__obj_next(lx, &t))
+        return pds__fail(s->err, PDS_ERR_PARSE, file, kw->line, kw->col,
+                         "'%.*s' needs more numbers", kw->len, kw->s);
+    r = pds__obj_parse_double(t.s, t.len, out);
+    if (r == 1) return PDS_OK;
+    if (r < 0)
+        return pds__fail(s->err, PDS_ERR_PARSE, file, t.line, t.col,
+                         "'%.*s' is not a finite number", t.len > 64 ? 64 : t.len, t.s);
+    return pds__fail(s->err, PDS_ERR_PARSE, file, t.line, t.col,
+                     "expected a number for '%.*s', got '%.*s'", kw->len, kw->s,
+                     t.len > 64 ? 64 : t.len, t.s);
+}
+
+/* The remaining tokens of the statement, stored in s->ftok (count in *n),
+   and as one string in buf: the raw bytes when all tokens sit on one
+   physical line (inner spacing kept), else joined by single spaces.
+   Returns 0, -1 when buf (size cap) is too small, -2 out of memory. */
+static int pds__obj_rest(pds__obj_state *s, pds__obj_lexer *lx, char *buf, size_t cap, size_t *n)
+{
+    pds__obj_token t;
+    size_t k = 0, len = 0, i;
+    while (pds__obj_next(lx, &t)) {
+        if (pds__grow((void **)&s->ftok, &s->cap_ftok, k + 1, sizeof *s->ftok)) return -2;
+        s->ftok[k++] = t;
+    }
+    *n = k;
+    buf[0] = '\0';
+    if (k == 0) return 0;
+    if (s->ftok[0].line == s->ftok[k - 1].line) {
+        len = (size_t)(s->ftok[k - 1].s + s->ftok[k - 1].len - s->ftok[0].s);
+        if (len + 1 > cap) return -1;
+        memcpy(buf, s->ftok[0].s, len);
+    } else {
+        for (i = 0; i < k; i++) {
+            size_t tl = (size_t)s->ftok[i].len;
+            if (len + tl + 2 > cap) return -1;
+            if (i) buf[len++] = ' ';
+            memcpy(buf + len, s->ftok[i].s, tl);
+            len += tl;
+        }
+    }
+    buf[len] = '\0';
+    return 0;
+}
+
+/* ------------------------------------------------------------------ MTL */
+
+/* An MTL material as read, before mapping to a pds_material. */
+typedef struct pds__mtl_raw {
+    char name[64];
+    double kd[3], ks[3], ke[3], tf[3];
+    double ni, d, tr;
+    int has_kd, has_ks, has_ke, has_tf, has_ni, has_d, has_tr, illum;
+} pds__mtl_raw;
+
+static double pds__obj_clamp01(double x) { return x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x; }
+
+/* Map an MTL material to a PDS material (table in the prologue). */
+static pds_material pds__mtl_to_material(const pds__mtl_raw *r)
+{
+    pds_material m = pds__material_default(r->name);
+    double opacity = r->has_d ? r->d : r->has_tr ? 1.0 - r->tr : 1.0;
+    int tf_not_one = r->has_tf && (r->tf[0] != 1.0 || r->tf[1] != 1.0 || r->tf[2] != 1.0);
+    int transparent = opacity < 1.0 || tf_not_one;
+    int k;
+    if (r->has_ke && (r->ke[0] > 0.0 || r->ke[1] > 0.0 || r->ke[2] > 0.0)) {
+        m.type = PDS_MAT_EMISSIVE;
+        for (k = 0; k < 3; k++) m.radiance[k] = r->ke[k] > 0.0 ? r->ke[k] : 0.0;
+    } else if (r->illum == 4 || r->illum == 6 || r->illum == 7 ||
+               (transparent && r->has_ni && r->ni != 1.0)) {
+        m.type = PDS_MAT_DIELECTRIC;
+        m.ior = (r->has_ni && r->ni > 1.0) ? r->ni : 1.5;
+    } else if ((r->illum == 3 || r->illum == 5) && r->has_ks &&
+               (r->ks[0] > 0.0 || r->ks[1] > 0.0 || r->ks[2] > 0.0)) {
+        m.type = PDS_MAT_MIRROR;
+        for (k = 0; k < 3; k++) m.reflectance[k] = pds__obj_clamp01(r->ks[k]);
+    } else if (r->has_kd) {
+        for (k = 0; k < 3; k++) m.albedo[k] = pds__obj_clamp01(r->kd[k]);
+    }
+    return m;
+}
+
+/* Finish the material being read: add it unless its name exists or the
+   caller overrides all materials. */
+static pds_status pds__mtl_commit(pds__obj_state *s, const pds__mtl_raw *r)
+{
+    pds_material m;
+    int idx;
+    size_t n = strlen(r->name);
+    s->st->mtl_materials++;
+    if (s->opt->material_override >= 0) return PDS_OK;
+    if (pds__obj_names_find(&s->matnames, r->name, n) >= 0) return PDS_OK;
+    m = pds__mtl_to_material(r);
+    idx = pds__materials_add(s->mats, &m);
+    if (idx < 0) {
+        if (s->mats->count >= (size_t)PDS_MAX_MATERIALS)
+            return pds__fail(s->err, PDS_ERR_LIMIT, s->path, 0, 0,
+                             "more than %d materials", PDS_MAX_MATERIALS);
+        return pds__nomem(s->err);
+    }
+    if (!pds__obj_names_put(&s->matnames, r->name, n, idx)) return pds__nomem(s->err);
+    return PDS_OK;
+}
+
+/* Colour statement (Kd, Ks, Ke, Tf): "r [g b]", "xyz X [Y Z]" or
+   "spectral file [factor]" (ignored: *has stays as it was). */
+static pds_status pds__mtl_color(pds__obj_state *s, pds__obj_lexer *lx, const char *file,
+                                 const pds__obj_token *kw, double c[3], int *has)
+{
+    pds__obj_lexer save = *lx;
+    pds__obj_token t;
+    double v[3];
+    int n = 0, xyz = 0;
+    pds_status st;
+    if (pds__obj_next(lx, &t)) {
+        if (pds__obj_is(&t, "spectral")) return PDS_OK;
+        if (pds__obj_is(&t, "xyz")) xyz = 1;
+        else *lx = save;
+    }
+    if ((st = pds__obj_number(s, lx, file, kw, &v[0])) != PDS_OK) return st;
+    n = 1;
+    save = *lx;
+    if (pds__obj_next(lx, &t)) {
+        *lx = save;
+        if ((st = pds__obj_number(s, lx, file, kw, &v[1])) != PDS_OK) return st;
+        if ((st = pds__obj_number(s, lx, file, kw, &v[2])) != PDS_OK) return st;
+        n = 3;
+    }
+    if (n == 1) v[1] = v[2] = v[0];
+    if (xyz) { /* CIE XYZ -> linear sRGB primaries, D65 white */
+        c[0] = 3.2406 * v[0] - 1.5372 * v[1] - 0.4986 * v[2];
+        c[1] = -0.9689 * v[0] + 1.8758 * v[1] + 0.0415 * v[2];
+        c[2] = 0.0557 * v[0] - 0.2040 * v[1] + 1.0570 * v[2];
+    } else {
+        c[0] = v[0];
+        c[1] = v[1];
+        c[2] = v[2];
+    }
+    *has = 1;
+    return PDS_OK;
+}
+
+/* Read one MTL file (path already resolved). */
+static pds_status pds__mtl_load(pds__obj_state *s, const char *path)
+{
+    char *buf = NULL;
+    size_t size = 0;
+    pds__obj_lexer lx;
+    pds__obj_token kw, t;
+    pds__mtl_raw cur;
+    int have = 0;
+    char name[4096];
+    pds_status st = PDS_OK;
+    static const char *const ignored[] = {
+        "Ka", "bump", "disp", "decal", "refl", "norm", "sharpness", "Pr", "Pm", "Ps", "Pc",
+        "Pcr", "aniso", "anisor", "Km", "Tw"};
+
+    if ((st = pds__read_file(path, &buf, &size, s->err)) != PDS_OK) return st;
+    pds__obj_lexer_init(&lx, buf, size);
+    memset(&cur, 0, sizeof cur);
+    while (st == PDS_OK && lx.p < lx.end) {
+        if (!pds__obj_next(&lx, &kw)) {
+            pds__obj_end_statement(&lx);
+            continue;
+        }
+        if (pds__obj_is(&kw, "newmtl")) {
+            size_t nt;
+            int r;
+            if (have && (st = pds__mtl_commit(s, &cur)) != PDS_OK) break;
+            r = pds__obj_rest(s, &lx, name, sizeof name, &nt);
+            if (r) {
+                st = r == -2 ? pds__nomem(s->err)
+                             : pds__fail(s->err, PDS_ERR_PARSE, path, kw.line, kw.col, "material name is too long");
+                break;
+            }
+            if (nt == 0) {
+                st = pds__fail(s->err, PDS_ERR_PARSE, path, kw.line, kw.col, "'newmtl' needs a material name");
+                break;
+            }
+            memset(&cur, 0, sizeof cur);
+            pds__strlcpy(cur.name, name, sizeof cur.name);
+            have = 1;
+        } else if (!have) {
+            /* statements before the first newmtl have nothing to apply to */
+        } else if (pds__obj_is(&kw, "Kd")) {
+            st = pds__mtl_color(s, &lx, path, &kw, cur.kd, &cur.has_kd);
+        } else if (pds__obj_is(&kw, "Ks")) {
+            st = pds__mtl_color(s, &lx, path, &kw, cur.ks, &cur.has_ks);
+        } else if (pds__obj_is(&kw, "Ke")) {
+            st = pds__mtl_color(s, &lx, path, &kw, cur.ke, &cur.has_ke);
+        } else if (pds__obj_is(&kw, "Tf")) {
+            st = pds__mtl_color(s, &lx, path, &kw, cur.tf, &cur.has_tf);
+        } else if (pds__obj_is(&kw, "Ns")) {
+            double v; /* checked, not used: PDS has no glossy model */
+            st = pds__obj_number(s, &lx, path, &kw, &v);
+        } else if (pds__obj_is(&kw, "Ni")) {
+            st = pds__obj_number(s, &lx, path, &kw, &cur.ni);
+            cur.has_ni = 1;
+        } else if (pds__obj_is(&kw, "d") || pds__obj_is(&kw, "Tr")) {
+            pds__obj_lexer save = lx;
+            double v = 1.0;
+            if (!pds__obj_next(&lx, &t) || !pds__obj_is(&t, "-halo")) lx = save;
+            st = pds__obj_number(s, &lx, path, &kw, &v);
+            if (kw.s[0] == 'd') {
+                cur.d = v;
+                cur.has_d = 1;
+            } else {
+                cur.tr = v;
+                cur.has_tr = 1;
+            }
+        } else if (pds__obj_is(&kw, "illum")) {
+            double v = 0.0;
+            pds__obj_lexer save = lx;
+            st = pds__obj_number(s, &lx, path, &kw, &v);
+            if (st == PDS_OK && (v != floor(v) || v < 0.0 || v > 10.0)) {
+                pds__obj_next(&save, &t);
+                st = pds__fail(s->err, PDS_ERR_PARSE, path, t.line, t.col,
+                               "expected an illumination model number 0-10 for 'illum', got '%.*s'",
+                               t.len > 64 ? 64 : t.len, t.s);
+            }
+            cur.illum = (int)v;
+        } else if (kw.len > 4 && memcmp(kw.s, "map_", 4) == 0) {
+            /* textures: not used */
+        } else {
+            size_t i;
+            int known = 0;
+            for (i = 0; i < sizeof ignored / sizeof ignored[0]; i++)
+                if (pds__obj_is(&kw, ignored[i])) known = 1;
+            if (!known) pds__obj_ignore(s, path, &kw);
+        }
+        if (st == PDS_OK) pds__obj_end_statement(&lx);
+    }
+    if (st == PDS_OK && have) st = pds__mtl_commit(s, &cur);
+    free(buf);
+    return st;
+}
+
+/* mtllib statement: every name is a file relative to the OBJ's directory;
+   when the whole rest of the line names an existing file (a name with
+   spaces), that file is read instead. A library named twice is read once. */
+static pds_status pds__obj_mtllib(pds__obj_state *s, pds__obj_lexer *lx)
+{
+    char rest[4096], full[4096];
+    size_t n, i;
+    pds_status st;
+    FILE *f;
+    int r = pds__obj_rest(s, lx, rest, sizeof rest, &n);
+    if (r == -2) return pds__nomem(s->err);
+    if (r) return pds__obj_err(s, &s->ftok[0], "material library name is too long");
+    if (n > 1 && pds__join_path(s->dir, rest, full, sizeof full) == 0 && (f = fopen(full, "rb"))) {
+        fclose(f);
+        if (pds__obj_names_find(&s->mtl_loaded, full, strlen(full)) >= 0) return PDS_OK;
+        if (!pds__obj_names_put(&s->mtl_loaded, full, strlen(full), 1)) return pds__nomem(s->err);
+        return pds__mtl_load(s, full);
+    }
+    for (i = 0; i < n; i++) {
+        pds__obj_token t = s->ftok[i];
+        char name[4096];
+        memcpy(name, t.s, (size_t)t.len); /* t.len < sizeof rest <= sizeof name */
+        name[t.len] = '\0';
+        if (pds__join_path(s->dir, name, full, sizeof full))
+            return pds__obj_err(s, &t, "material library path is too long");
+        if (pds__obj_names_find(&s->mtl_loaded, full, strlen(full)) >= 0) continue;
+        f = fopen(full, "rb");
+        if (!f) {
+            int e = errno;
+            if (e == ENOENT)
+                return pds__obj_err(s, &t, "material library '%s' not found (looked for %s)", name, full);
+            return pds__obj_err(s, &t, "cannot open material library %s: %s", full, strerror(e));
+        }
+        fclose(f);
+        if (!pds__obj_names_put(&s->mtl_loaded, full, strlen(full), 1)) return pds__nomem(s->err);
+        if ((st = pds__mtl_load(s, full)) != PDS_OK) return st;
+    }
+    return PDS_OK;
+}
+
+/* ------------------------------------------------------- triangulation */
+
+/* Newell's normal of the polygon P[0..n-1]: twice its vector area, along
+   the normal that sees the corners counter-clockwise. Coordinates are
+   taken relative to P[0] for precision far from the origin. */
+static pds__v3 pds__obj_newell(const pds__v3 *pos, const int *idx, int n)
+{
+    pds__v3 r = pds__v(0.0, 0.0, 0.0), o = pos[idx[0]];
+    int i;
+    for (i = 0; i < n; i++) {
+        pds__v3 a = pds__sub(pos[idx[i]], o), b = pds__sub(pos[idx[(i + 1) % n]], o);
+        r.x += (a.y - b.y) * (a.z + b.z);
+        r.y += (a.z - b.z) * (a.x + b.x);
+        r.z += (a.x - b.x) * (a.y + b.y);
+    }
+    return r;
+}
+
+/* 2-D cross product (b - a) x (c - a): > 0 when a, b, c turn left. */
+static double pds__obj_orient(const double *u, const double *v, int a, int b, int c)
+{
+    return (u[b] - u[a]) * (v[c] - v[a]) - (v[b] - v[a]) * (u[c] - u[a]);
+}
+
+/* Is corner i of the remaining polygon an ear: convex, and no non-convex
+   corner inside or on the triangle (prev, i, next)? Corners at the very
+   same spot as a triangle corner do not count (bridged holes repeat
+   positions). Only non-convex corners need testing: if any polygon point
+   lay inside, a reflex corner would too. */
+static int pds__obj_is_ear(const pds__obj_state *s, int i, int nreflex)
+{
+    const double *u = s->u, *v = s->v;
+    int a = s->prev[i], c = s->next[i], r;
+    if (pds__obj_orient(u, v, a, i, c) <= 0.0) return 0;
+    if (nreflex == 0) return 1;
+    for (r = s->next[c]; r != a; r = s->next[r]) {
+        if (!s->reflex[r]) continue;
+        if ((u[r] == u[a] && v[r] == v[a]) || (u[r] == u[i] && v[r] == v[i]) ||
+            (u[r] == u[c] && v[r] == v[c]))
+            continue;
+        if (pds__obj_orient(u, v, a, i, r) >= 0.0 && pds__obj_orient(u, v, i, c, r) >= 0.0 &&
+            pds__obj_orient(u, v, c, a, r) >= 0.0)
+            return 0;
+    }
+    return 1;
+}
+
+/* Triangulate the face in s->fpos[0..n-1] (n >= 3) whose Newell normal is
+   nn. Writes n-2 corner triples to s->tris, counter-clockwise as seen
+   from nn. Ear clipping (Meisters 1975) in the plane that drops nn's
+   largest axis; a polygon with no ear left (self-intersecting or
+   degenerate) is finished as a fan. Returns 0, or -1 out of memory. */
+static int pds__obj_triangulate(pds__obj_state *s, int n, pds__v3 nn)
+{
+    int i, k = 0, remaining = n, nreflex = 0, stall = 0, axis;
+    double an[3];
+    if (pds__grow((void **)&s->tris, &s->cap_tris, 3 * (size_t)n, sizeof *s->tris)) return -1;
+    if (n == 3) {
+        s->tris[0] = 0;
+        s->tris[1] = 1;
+        s->tris[2] = 2;
+        return 0;
+    }
+    if (pds__grow((void **)&s->u, &s->cap_u, (size_t)n, sizeof *s->u) ||
+        pds__grow((void **)&s->v, &s->cap_v, (size_t)n, sizeof *s->v) ||
+        pds__grow((void **)&s->prev, &s->cap_prev, (size_t)n, sizeof *s->prev) ||
+        pds__grow((void **)&s->next, &s->cap_next, (size_t)n, sizeof *s->next) ||
+        pds__grow((void **)&s->reflex, &s->cap_reflex, (size_t)n, 1))
+        return -1;
+    /* Project: drop the dominant axis; (u, v) in cyclic order after it is
+       counter-clockwise when nn points along +axis, so swap when it is -. */
+    an[0] = fabs(nn.x);
+    an[1] = fabs(nn.y);
+    an[2] = fabs(nn.z);
+    axis = an[0] >= an[1] && an[0] >= an[2] ? 0 : an[1] >= an[2] ? 1 : 2;
+    for (i = 0; i < n; i++) {
+        pds__v3 p = s->pos[s->fpos[i]];
+        double a = pds__v3_get(p, (axis + 1) % 3), b = pds__v3_get(p, (axis + 2) % 3);
+        int neg = pds__v3_get(nn, axis) < 0.0;
+        s->u[i] = neg ? b : a;
+        s->v[i] = neg ? a : b;
+        s->prev[i] = (i + n - 1) % n;
+        s->next[i] = (i + 1) % n;
+    }
+    for (i = 0; i < n; i++) {
+        s->reflex[i] = pds__obj_orient(s->u, s->v, s->prev[i], i, s->next[i]) <= 0.0;
+        nreflex += s->reflex[i];
+    }
+    i = 0;
+    while (remaining > 3) {
+        if (pds__obj_is_ear(s, i, nreflex)) {
+            int a = s->prev[i], c = s->next[i], j;
+            s->tris[k++] = a;
+            s->tris[k++] = i;
+            s->tris[k++] = c;
+            s->next[a] = c;
+            s->prev[c] = a;
+            remaining--;
+            nreflex -= s->reflex[i];
+            /* the neighbours' angles changed */
+            for (j = 0; j < 2; j++) {
+                int w = j ? c : a;
+                unsigned char rf = pds__obj_orient(s->u, s->v, s->prev[w], w, s->next[w]) <= 0.0;
+                nreflex += (int)rf - (int)s->reflex[w];
+                s->reflex[w] = rf;
+            }
+            i = a;
+            stall = 0;
+        } else if (++stall > remaining) {
+            /* no ear: fan from i over what is left */
+            int b = s->next[i];
+            while (s->next[b] != i) {
+                s->tris[k++] = i;
+                s->tris[k++] = b;
+                s->tris[k++] = s->next[b];
+                b = s->next[b];
+            }
+            return 0;
+        } else {
+            i = s->next[i];
+        }
+    }
+    s->tris[k++] = s->prev[i];
+    s->tris[k++] = i;
+    s->tris[k++] = s->next[i];
+    return 0;
+}
+
+/* ---------------------------------------------------------------- faces */
+
+/* Mesh vertex (*out) for position p with normal source (kind, val);
+   made, with normal n, the first time it is asked for. */
+static pds_status pds__obj_vertex(pds__obj_state *s, int p, int kind, long long val, pds__v3 n,
+                                  int *out)
+{
+    int j;
+    long vi;
+    size_t local;
+    for (j = s->head[p]; j >= 0; j = s->nodes[j].next) {
+        if (s->nodes[j].kind == kind && s->nodes[j].val == val) {
+            *out = s->nodes[j].vert;
+            return PDS_OK;
+        }
+    }
+    if (s->mesh->nverts >= (size_t)INT_MAX / 4 - 1 || s->nnodes >= (size_t)INT_MAX - 1)
+        return pds__fail(s->err, PDS_ERR_LIMIT, s->path, 0, 0, "too many vertices");
+    vi = pds__mesh_add_vertex(s->mesh, s->pos[p], n);
+    local = s->mesh->nverts - s->base_v;
+    if (vi < 0 || pds__grow((void **)&s->nodes, &s->cap_nodes, s->nnodes + 1, sizeof *s->nodes) ||
+        pds__grow((void **)&s->acc, &s->cap_acc, local, sizeof *s->acc) ||
+        pds__grow((void **)&s->kind, &s->cap_kind, local, 1))
+        return pds__nomem(s->err);
+    s->acc[local - 1] = pds__v(0.0, 0.0, 0.0);
+    s->kind[local - 1] = (unsigned char)kind;
+    s->nodes[s->nnodes].val = val;
+    s->nodes[s->nnodes].kind = kind;
+    s->nodes[s->nnodes].vert = (int)vi;
+    s->nodes[s->nnodes].next = s->head[p];
+    s->head[p] = (int)s->nnodes++;
+    *out = (int)vi;
+    return PDS_OK;
+}
+
+/* Resolve a 1-based or negative OBJ index against count elements read so
+   far into a 0-based index. what/plural name the element for errors. */
+static pds_status pds__obj_index(pds__obj_state *s, const pds__obj_token *at, long long raw,
+                                 size_t count, const char *what, const char *one,
+                                 const char *many, int *out)
+{
+    long long r;
+    if (raw == 0)
+        return pds__obj_err(s, at, "%s index 0 is invalid: OBJ indices start at 1", what);
+    r = raw > 0 ? raw - 1 : (long long)count + raw;
+    if (r < 0 || r >= (long long)count)
+        return pds__obj_err(s, at, "%s index %lld is out of range: %lu %s defined so far", what, raw,
+                            (unsigned long)count, count == 1 ? one : many);
+    *out = (int)r;
+    return PDS_OK;
+}
+
+/* Parse one corner token "v", "v/vt", "v//vn", "v/vt/vn" (empty vt or vn
+   fields allowed) into a position index and a normal index (-1: none). */
+static pds_status pds__obj_corner(pds__obj_state *s, const pds__obj_token *t, int *p, int *nrm)
+{
+    int field = 0, i = 0, dummy;
+    pds_status st;
+    *nrm = -1;
+    while (field < 3) {
+        long long raw = 0;
+        int used = pds__obj_parse_int(t->s + i, t->len - i, &raw);
+        pds__obj_token at = *t;
+        at.col += i;
+        if (used == 0 && field == 0) break; /* malformed */
+        if (used > 0) {
+            if (field == 0) st = pds__obj_index(s, &at, raw, s->npos, "face", "vertex", "vertices", p);
+            else if (field == 1) st = pds__obj_index(s, &at, raw, (size_t)s->ntex, "texture coordinate",
+                                                     "texture coordinate", "texture coordinates", &dummy);
+            else st = pds__obj_index(s, &at, raw, s->nnrm, "normal", "normal", "normals", nrm);
+            if (st != PDS_OK) return st;
+            i += used;
+        }
+        field++;
+        if (i == t->len) return PDS_OK;
+        if (t->s[i] != '/') break;
+        i++;
+        if (i == t->len && field < 3) return PDS_OK; /* "7/" or "7//" */
+    }
+    return pds__obj_err(s, t, "expected a vertex index like 7, 7/2, 7//3 or 7/2/3, got '%.*s'",
+                        t->len > 64 ? 64 : t->len, t->s);
+}
+
+/* Angle-weighted smooth-normal sums of triangle (a, b, c) (corner indices
+   into the face scratch) for the corners whose vertex is smooth. */
+static void pds__obj_accumulate(pds__obj_state *s, int a, int b, int c)
+{
+    int cs[3], k;
+    pds__v3 p[3], n;
+    cs[0] = a;
+    cs[1] = b;
+    cs[2] = c;
+    for (k = 0; k < 3; k++) p[k] = s->pos[s->fpos[cs[k]]];
+    n = pds__normalize(pds__cross(pds__sub(p[1], p[0]), pds__sub(p[2], p[0])));
+    for (k = 0; k < 3; k++) {
+        size_t local = (size_t)s->fvert[cs[k]] - s->base_v;
+        pds__v3 e1, e2;
+        double ang;
+        if (s->kind[local] != PDS__OBJ_KEY_SMOOTH) continue;
+        e1 = pds__sub(p[(k + 1) % 3], p[k]);
+        e2 = pds__sub(p[(k + 2) % 3], p[k]);
+        ang = atan2(pds__length(pds__cross(e1, e2)), pds__dot(e1, e2));
+        s->acc[local] = pds__add(s->acc[local], pds__scale(n, ang));
+    }
+}
+
+/* f statement: corners, triangulation, vertices, triangles. */
+static pds_status pds__obj_face(pds__obj_state *s, pds__obj_lexer *lx, const pds__obj_token *kw)
+{
+    pds__obj_token t;
+    int n = 0, i, any_flat = 0, any_smooth = 0;
+    pds__v3 nn = pds__v(0.0, 0.0, 0.0), flat;
+    pds_status st;
+    s->st->faces++;
+    s->face_no++;
+    while (pds__obj_next(lx, &t)) {
+        if (n >= INT_MAX / 4) return pds__obj_err(s, &t, "face has too many corners");
+        if (pds__grow((void **)&s->fpos, &s->cap_fpos, (size_t)n + 1, sizeof *s->fpos) ||
+            pds__grow((void **)&s->fnrm, &s->cap_fnrm, (size_t)n + 1, sizeof *s->fnrm))
+            return pds__nomem(s->err);
+        if ((st = pds__obj_corner(s, &t, &s->fpos[n], &s->fnrm[n])) != PDS_OK) return st;
+        n++;
+    }
+    if (n < 3)
+        return pds__obj_err(s, kw, "a face needs at least 3 corners, got %d", n);
+    if (pds__grow((void **)&s->fvert, &s->cap_fvert, (size_t)n, sizeof *s->fvert))
+        return pds__nomem(s->err);
+    if (s->flip) { /* mirrored: reverse to keep the winding's side */
+        for (i = 0; i < n / 2; i++) {
+            int a = s->fpos[i], b = s->fnrm[i];
+            s->fpos[i] = s->fpos[n - 1 - i];
+            s->fnrm[i] = s->fnrm[n - 1 - i];
+            s->fpos[n - 1 - i] = a;
+            s->fnrm[n - 1 - i] = b;
+        }
+    }
+    for (i = 0; i < n; i++) {
+        if (s->fnrm[i] >= 0 && pds__dot(s->nrm[s->fnrm[i]], s->nrm[s->fnrm[i]]) == 0.0) s->fnrm[i] = -1;
+        if (s->fnrm[i] < 0 && s->group == 0) any_flat = 1;
+        if (s->fnrm[i] < 0 && s->group != 0) any_smooth = 1;
+    }
+    if (n > 3 || any_flat) nn = pds__obj_newell(s->pos, s->fpos, n);
+    flat = pds__normalize(nn);
+    for (i = 0; i < n; i++) {
+        pds__v3 zero = pds__v(0.0, 0.0, 0.0);
+        if (s->fnrm[i] >= 0)
+            st = pds__obj_vertex(s, s->fpos[i], PDS__OBJ_KEY_VN, s->fnrm[i], s->nrm[s->fnrm[i]], &s->fvert[i]);
+        else if (s->group != 0)
+            st = pds__obj_vertex(s, s->fpos[i], PDS__OBJ_KEY_SMOOTH, s->group, zero, &s->fvert[i]);
+        else
+            st = pds__obj_vertex(s, s->fpos[i], PDS__OBJ_KEY_FLAT, s->face_no, flat, &s->fvert[i]);
+        if (st != PDS_OK) return st;
+    }
+    if (pds__obj_triangulate(s, n, nn)) return pds__nomem(s->err);
+    for (i = 0; i < n - 2; i++) {
+        int a = s->tris[3 * i], b = s->tris[3 * i + 1], c = s->tris[3 * i + 2], r;
+        if (s->mesh->ntris >= (size_t)PDS_MAX_TRIANGLES)
+            return pds__fail(s->err, PDS_ERR_LIMIT, s->path, kw->line, kw->col,
+                             "more than %d triangles (the limit)", PDS_MAX_TRIANGLES);
+        r = pds__mesh_add_tri(s->mesh, s->fvert[a], s->fvert[b], s->fvert[c], s->slot);
+        if (r < 0) return pds__nomem(s->err);
+        if (r > 0 && any_smooth) pds__obj_accumulate(s, a, b, c);
+    }
+    return PDS_OK;
+}
+
+/* v and vn: three finite numbers (extra values ignored); with limit,
+   each must also be within +-PDS_MAX_COORD. */
+static pds_status pds__obj_vec3(pds__obj_state *s, pds__obj_lexer *lx, const pds__obj_token *kw,
+                                int limit, pds__v3 *out)
+{
+    double c[3];
+    int k;
+    pds_status st;
+    for (k = 0; k < 3; k++) {
+        pds__obj_lexer save = *lx;
+        pds__obj_token t;
+        if ((st = pds__obj_number(s, lx, s->path, kw, &c[k])) != PDS_OK) return st;
+        if (limit && fabs(c[k]) > PDS_MAX_COORD) {
+            pds__obj_next(&save, &t);
+            return pds__fail(s->err, PDS_ERR_LIMIT, s->path, t.line, t.col,
+                             "coordinate %g is larger than the limit %g", c[k], PDS_MAX_COORD);
+        }
+    }
+    *out = pds__v(c[0], c[1], c[2]);
+    return PDS_OK;
+}
+
+/* Statements PDS knows but has no use for (free-form geometry, lines,
+   points, display attributes). */
+static int pds__obj_known_unused(const pds__obj_token *kw)
+{
+    static const char *const words[] = {
+        "l", "p", "vp", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim",
+        "hole", "scrv", "sp", "end", "con", "mg", "bevel", "c_interp", "d_interp", "lod",
+        "shadow_obj", "trace_obj", "ctech", "stech", "maplib", "usemap", "call", "csh", "res"};
+    size_t i;
+    for (i = 0; i < sizeof words / sizeof words[0]; i++)
+        if (pds__obj_is(kw, words[i])) return 1;
+    return 0;
+}
+
+/* One statement starting with keyword kw. */
+static pds_status pds__obj_statement(pds__obj_state *s, pds__obj_lexer *lx, const pds__obj_token *kw)
+{
+    pds_status st;
+    pds__obj_token t;
+    if (pds__obj_is(kw, "v")) {
+        pds__v3 p;
+        if ((st = pds__obj_vec3(s, lx, kw, 1, &p)) != PDS_OK) return st;
+        if (s->npos >= (size_t)INT_MAX / 4)
+            return pds__fail(s->err, PDS_ERR_LIMIT, s->path, kw->line, kw->col, "too many vertices");
+        if (pds__grow((void **)&s->pos, &s->cap_pos, s->npos + 1, sizeof *s->pos) ||
+            pds__grow((void **)&s->head, &s->cap_head, s->npos + 1, sizeof *s->head))
+            return pds__nomem(s->err);
+        p = pds__xform_point(&s->xf, p);
+        if (!(fabs(p.x) <= PDS_MAX_COORD && fabs(p.y) <= PDS_MAX_COORD && fabs(p.z) <= PDS_MAX_COORD))
+            return pds__fail(s->err, PDS_ERR_LIMIT, s->path, kw->line, kw->col,
+                             "the transform moves this vertex beyond the coordinate limit %g", PDS_MAX_COORD);
+        s->pos[s->npos] = p;
+        s->head[s->npos] = -1;
+        s->npos++;
+        s->st->vertices++;
+    } else if (pds__obj_is(kw, "f") || pds__obj_is(kw, "fo")) {
+        return pds__obj_face(s, lx, kw);
+    } else if (pds__obj_is(kw, "vn")) {
+        pds__v3 n;
+        double m;
+        if ((st = pds__obj_vec3(s, lx, kw, 0, &n)) != PDS_OK) return st;
+        if (s->nnrm >= (size_t)INT_MAX / 4)
+            return pds__fail(s->err, PDS_ERR_LIMIT, s->path, kw->line, kw->col, "too many normals");
+        if (pds__grow((void **)&s->nrm, &s->cap_nrm, s->nnrm + 1, sizeof *s->nrm))
+            return pds__nomem(s->err);
+        /* scale by the largest component first: no overflow in the length */
+        m = fabs(n.x) > fabs(n.y) ? fabs(n.x) : fabs(n.y);
+        if (fabs(n.z) > m) m = fabs(n.z);
+        s->nrm[s->nnrm++] = m > 0.0 ? pds__xform_normal(&s->xf, pds__scale(n, 1.0 / m)) : n;
+        s->st->normals++;
+    } else if (pds__obj_is(kw, "vt")) {
+        double c;
+        int k;
+        if ((st = pds__obj_number(s, lx, s->path, kw, &c)) != PDS_OK) return st;
+        for (k = 0; k < 2; k++) {
+            pds__obj_lexer save = *lx;
+            if (!pds__obj_next(lx, &t)) break;
+            *lx = save;
+            if ((st = pds__obj_number(s, lx, s->path, kw, &c)) != PDS_OK) return st;
+        }
+        s->ntex++;
+        s->st->texcoords++;
+    } else if (pds__obj_is(kw, "s")) {
+        long long g = 0;
+        if (!pds__obj_next(lx, &t))
+            return pds__obj_err(s, kw, "'s' needs a smoothing group number or 'off'");
+        if (pds__obj_is(&t, "off")) g = 0;
+        else if (pds__obj_is(&t, "on")) g = 1;
+        else if (pds__obj_parse_int(t.s, t.len, &g) != t.len || g < 0)
+            return pds__obj_err(s, &t, "expected a smoothing group number or 'off' for 's', got '%.*s'",
+                                t.len > 64 ? 64 : t.len, t.s);
+        s->group = g;
+    } else if (pds__obj_is(kw, "usemtl")) {
+        char name[4096];
+        size_t n;
+        const char *key;
+        int slot, r = pds__obj_rest(s, lx, name, sizeof name, &n);
+        if (r == -2) return pds__nomem(s->err);
+        if (r) return pds__obj_err(s, kw, "material name is too long");
+        if (n == 0) {
+            s->slot = -1; /* "usemtl" alone: back to the default material */
+            return PDS_OK;
+        }
+        slot = pds__obj_names_find(&s->slots, name, strlen(name));
+        if (slot < 0) {
+            slot = (int)s->nslots;
+            key = pds__obj_names_put(&s->slots, name, strlen(name), slot);
+            if (!key || pds__grow((void **)&s->slot_names, &s->cap_slot_names, s->nslots + 1,
+                                  sizeof *s->slot_names))
+                return pds__nomem(s->err);
+            s->slot_names[s->nslots++] = key;
+        }
+        s->slot = slot;
+    } else if (pds__obj_is(kw, "mtllib")) {
+        return pds__obj_mtllib(s, lx);
+    } else if (pds__obj_is(kw, "g")) {
+        s->st->groups++;
+    } else if (pds__obj_is(kw, "o")) {
+        s->st->objects++;
+    } else if (!pds__obj_known_unused(kw)) {
+        pds__obj_ignore(s, s->path, kw);
+    }
+    return PDS_OK;
+}
+
+/* After the last face: material indices for the usemtl slots, final
+   smooth normals, and a normal for any vertex that still has none. */
+static pds_status pds__obj_finish(pds__obj_state *s)
+{
+    const pds__obj_options *o = s->opt;
+    int *resolve = NULL;
+    size_t i, t, nv = s->mesh->nverts - s->base_v;
+    resolve = (int *)malloc((s->nslots + 1) * sizeof *resolve);
+    if (!resolve) return pds__nomem(s->err);
+    resolve[0] = o->material_override >= 0 ? o->material_override : o->default_material;
+    for (i = 0; i < s->nslots; i++) {
+        const char *name = s->slot_names[i];
+        int m = -1, k;
+        char trunc[64];
+        if (o->material_override >= 0) {
+            resolve[i + 1] = o->material_override;
+            continue;
+        }
+        for (k = 0; k < o->override_count && m < 0; k++)
+            if (o->override_names[k] && strcmp(o->override_names[k], name) == 0) m = o->override_materials[k];
+        if (m < 0) {
+            pds__strlcpy(trunc, name, sizeof trunc);
+            m = pds__obj_names_find(&s->matnames, trunc, strlen(trunc));
+        }
+        if (m < 0) {
+            m = o->default_material;
+            s->st->unknown_materials++;
+        }
+        resolve[i + 1] = m;
+    }
+    for (t = s->base_t; t < s->mesh->ntris; t++) s->mesh->mat[t] = resolve[s->mesh->mat[t] + 1];
+    free(resolve);
+
+    for (i = 0; i < nv; i++) {
+        if (s->kind[i] == PDS__OBJ_KEY_SMOOTH) {
+            pds__v3 n = pds__normalize(s->acc[i]);
+            float *dst = s->mesh->nrm + 3 * (s->base_v + i);
+            dst[0] = (float)n.x;
+            dst[1] = (float)n.y;
+            dst[2] = (float)n.z;
+        }
+    }
+    /* Zero normals (smooth sums that cancel, degenerate flat faces, vertices
+       of dropped triangles only): the winding normal of the first kept
+       triangle using the vertex, else +z. */
+    for (t = s->base_t; t < s->mesh->ntris; t++) {
+        int k;
+        for (k = 0; k < 3; k++) {
+            long v = s->mesh->idx[3 * t + k];
+            float *dst = s->mesh->nrm + 3 * v;
+            if (dst[0] == 0.0f && dst[1] == 0.0f && dst[2] == 0.0f) {
+                const int *c = s->mesh->idx + 3 * t;
+                pds__v3 n = pds__cross(pds__sub(pds__mesh_pos(s->mesh, c[1]), pds__mesh_pos(s->mesh, c[0])),
+                                       pds__sub(pds__mesh_pos(s->mesh, c[2]), pds__mesh_pos(s->mesh, c[0])));
+                n = pds__normalize(n);
+                dst[0] = (float)n.x;
+                dst[1] = (float)n.y;
+                dst[2] = (float)n.z;
+            }
+        }
+    }
+    for (i = s->base_v; i < s->mesh->nverts; i++) {
+        float *dst = s->mesh->nrm + 3 * i;
+        if (dst[0] == 0.0f && dst[1] == 0.0f && dst[2] == 0.0f) dst[2] = 1.0f;
+    }
+    return PDS_OK;
+}
+
+static void pds__obj_state_free(pds__obj_state *s)
+{
+    free(s->pos);
+    free(s->head);
+    free(s->nrm);
+    free(s->nodes);
+    free(s->acc);
+    free(s->kind);
+    free(s->fpos);
+    free(s->fnrm);
+    free(s->fvert);
+    free(s->ftok);
+    free(s->u);
+    free(s->v);
+    free(s->prev);
+    free(s->next);
+    free(s->tris);
+    free(s->reflex);
+    free(s->slot_names);
+    pds__obj_names_free(&s->slots);
+    pds__obj_names_free(&s->matnames);
+    pds__obj_names_free(&s->mtl_loaded);
+}
+
+/* Load the OBJ file at path into mesh (appending vertices and triangles)
+   and its MTL materials into mats; see the prologue for the rules.
+   stats (may be NULL) is filled on success and failure alike. On failure
+   mesh and mats are restored to what they held before the call. */
+static pds_status pds__obj_load(const char *path, pds__mesh *mesh, pds__materials *mats,
+                                const pds__obj_options *opt, pds__obj_stats *stats, pds_error *err)
+{
+    pds__obj_state s;
+    pds__obj_stats local_stats;
+    pds__obj_lexer lx;
+    pds__obj_token kw;
+    char *buf = NULL;
+    size_t size = 0;
+    pds_status st = PDS_OK;
+    size_t i;
+    int k;
+
+    if (!stats) stats = &local_stats;
+    memset(stats, 0, sizeof *stats);
+    if (!path || !mesh || !mats || !opt)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds__obj_load: missing argument");
+    if (opt->material_override >= 0 ? (size_t)opt->material_override >= mats->count
+                                    : (opt->default_material < 0 || (size_t)opt->default_material >= mats->count))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "OBJ material index does not exist");
+    for (k = 0; k < opt->override_count; k++)
+        if (!opt->override_names || !opt->override_materials || opt->override_materials[k] < 0 ||
+            (size_t)opt->override_materials[k] >= mats->count)
+            return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "OBJ material override index does not exist");
+    if (strlen(path) >= 4096) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "OBJ path is too long");
+
+    memset(&s, 0, sizeof s);
+    s.path = path;
+    pds__dirname(path, s.dir, sizeof s.dir);
+    s.mesh = mesh;
+    s.mats = mats;
+    s.opt = opt;
+    s.st = stats;
+    s.err = err;
+    s.xf = opt->xform ? *opt->xform : pds__xform_identity();
+    s.flip = pds__xform_det(&s.xf) < 0.0;
+    s.group = -1;
+    s.slot = -1;
+    s.base_v = mesh->nverts;
+    s.base_t = mesh->ntris;
+    s.base_mats = mats->count;
+    s.base_dropped = mesh->degenerate_dropped;
+    for (i = 0; i < mats->count && st == PDS_OK; i++) {
+        const char *nm = mats->items[i].name;
+        if (!pds__obj_names_put(&s.matnames, nm, strlen(nm), (int)i)) st = pds__nomem(err);
+    }
+
+    if (st == PDS_OK) st = pds__read_file(path, &buf, &size, err);
+    if (st == PDS_OK) {
+        pds__obj_lexer_init(&lx, buf, size);
+        while (st == PDS_OK && lx.p < lx.end) {
+            if (pds__obj_next(&lx, &kw)) st = pds__obj_statement(&s, &lx, &kw);
+            if (st == PDS_OK) pds__obj_end_statement(&lx);
+        }
+    }
+    if (st == PDS_OK) st = pds__obj_finish(&s);
+
+    stats->triangles = (long)(mesh->ntris - s.base_t);
+    stats->degenerate_dropped = mesh->degenerate_dropped - s.base_dropped;
+    if (st != PDS_OK) {
+        mesh->nverts = s.base_v;
+        mesh->ntris = s.base_t;
+        mesh->degenerate_dropped = s.base_dropped;
+        mats->count = s.base_mats;
+    }
+    free(buf);
+    pds__obj_state_free(&s);
+    return st;
+}
+
+/* ===================================================================== */
+/* >>shapes                                                              */
+/* ===================================================================== */
+/* Built-in generators. Each one writes triangles with smooth vertex
+   normals into a pds__mesh, in world space: every vertex goes through the
+   shape's transform as it is emitted (positions by the affine map, normals
+   by the inverse transpose), and every triangle's winding is made to agree
+   with its vertex normals, so the geometric normal (P1-P0)x(P2-P0) points
+   to the same side as the shading normal whatever the transform (mirroring
+   included).
+
+   Local frames (before the transform), y is "up" everywhere:
+     sphere       centre at the origin
+     disk, quad   in the plane y = 0, facing +y
+     box          centred at the origin
+     cylinder     axis +y, from y = 0 to y = height
+     torus        around the y axis, in the plane y = 0
+     revolve      profile (r, y) swept around the y axis
+     heightfield  grid over x, z centred at the origin, y = h(x, z)
+   Swept shapes start at angle 0 on +x and turn towards +z. */
+
+typedef struct pds__emitter {
+    pds__mesh *mesh;
+    const pds__xform *xf;
+    int material;
+} pds__emitter;
+
+/* Emit one vertex (local position and normal); -1 when out of memory. */
+static long pds__emit_vertex(const pds__emitter *e, pds__v3 p, pds__v3 n)
+{
+    return pds__mesh_add_vertex(e->mesh, pds__xform_point(e->xf, p),
+                                pds__xform_normal(e->xf, pds__normalize(n)));
+}
+
+/* Emit triangle (a, b, c), swapping b and c if the winding disagrees with
+   the vertices' normals. Returns -1 only when out of memory / over the
+   limit (a degenerate triangle is dropped and counted by the mesh). */
+static int pds__emit_tri(const pds__emitter *e, long a, long b, long c)
+{
+    const pds__mesh *m = e->mesh;
+    pds__v3 pa = pds__mesh_pos(m, a);
+    pds__v3 ng = pds__cross(pds__sub(pds__mesh_pos(m, b), pa), pds__sub(pds__mesh_pos(m, c), pa));
+    pds__v3 ns = pds__add(pds__add(pds__mesh_nrm(m, a), pds__mesh_nrm(m, b)), pds__mesh_nrm(m, c));
+    if (pds__dot(ng, ns) < 0.0) {
+        long t = b;
+        b = c;
+        c = t;
+    }
+    return pds__mesh_add_tri(e->mesh, a, b, c, e->material) < 0 ? -1 : 0;
+}
+
+/* Emit a grid of (nu+1) x (nv+1) vertices produced by fn(u_index, v_index)
+   and the 2 nu nv triangles between them. The workhorse of every smooth
+   surface below: fn writes the local position and normal. */
+typedef void (*pds__grid_fn)(const void *ctx, int i, int j, pds__v3 *p, pds__v3 *n);
+
+static int pds__emit_grid(const pds__emitter *e, int nu, int nv, pds__grid_fn fn, const void *ctx)
+{
+    long base = (long)e->mesh->nverts;
+    int i, j;
+    for (j = 0; j <= nv; j++) {
+        for (i = 0; i <= nu; i++) {
+            pds__v3 p, n;
+            fn(ctx, i, j, &p, &n);
+            if (pds__emit_vertex(e, p, n) < 0) return -1;
+        }
+    }
+    for (j = 0; j < nv; j++) {
+        for (i = 0; i < nu; i++) {
+            long v00 = base + (long)j * (nu + 1) + i, v10 = v00 + 1;
+            long v01 = v00 + (nu + 1), v11 = v01 + 1;
+            if (pds__emit_tri(e, v00, v10, v11) < 0) return -1;
+            if (pds__emit_tri(e, v00, v11, v01) < 0) return -1;
+        }
+    }
+    return 0;
+}
+
+/* --- sphere: longitude i in [0, segments], latitude j in [0, rings] ---- */
+typedef struct pds__sphere_ctx { double radius; int segments, rings; } pds__sphere_ctx;
+
+static void pds__sphere_vertex(const void *vctx, int i, int j, pds__v3 *p, pds__v3 *n)
+{
+    const pds__sphere_ctx *c = (const pds__sphere_ctx *)vctx;
+    double phi = 2.0 * PDS__PI * (double)(i % c->segments) / c->segments;
+    double theta = PDS__PI * (double)j / c->rings;
+    *n = pds__v(sin(theta) * cos(phi), cos(theta), sin(theta) * sin(phi));
+    if (j == 0) *n = pds__v(0.0, 1.0, 0.0);
+    if (j == c->rings) *n = pds__v(0.0, -1.0, 0.0);
+    *p = pds__scale(*n, c->radius);
+}
+
+static int pds__gen_sphere(const pds__emitter *e, double radius, int segments, int rings)
+{
+    pds__sphere_ctx c;
+    c.radius = radius;
+    c.segments = segments;
+    c.rings = rings;
+    /* The pole rows are rings of coincident vertices: half of each pole
+       quad has zero area and is dropped by the mesh, as intended. Those
+       drops are not user errors, so they are not counted. */
+    {
+        long before = e->mesh->degenerate_dropped;
+        int r = pds__emit_grid(e, segments, rings, pds__sphere_vertex, &c);
+        e->mesh->degenerate_dropped = before;
+        return r;
+    }
+}
+
+/* --- annulus in a plane: disk (inner = 0), cylinder caps ---------------- */
+typedef struct pds__annulus_ctx {
+    double r0, r1, y, sweep_rad;
+    int segments;
+    double ny; /* normal is (0, ny, 0) */
+} pds__annulus_ctx;
+
+static void pds__annulus_vertex(const void *vctx, int i, int j, pds__v3 *p, pds__v3 *n)
+{
+    const pds__annulus_ctx *c = (const pds__annulus_ctx *)vctx;
+    double phi = c->sweep_rad * (double)i / c->segments;
+    double r = j == 0 ? c->r0 : c->r1;
+    *p = pds__v(r * cos(phi), c->y, r * sin(phi));
+    *n = pds__v(0.0, c->ny, 0.0);
+}
+
+/* A flat ring r0 <= r <= r1 at height y facing ny (+1 or -1). With r0 = 0
+   the inner row collapses to the centre and its triangles' zero-area
+   halves are dropped silently. */
+static int pds__gen_annulus(const pds__emitter *e, double r0, double r1, double y, double ny,
+                            int segments, double sweep_rad)
+{
+    pds__annulus_ctx c;
+    long before = e->mesh->degenerate_dropped;
+    int r;
+    c.r0 = r0;
+    c.r1 = r1;
+    c.y = y;
+    c.ny = ny;
+    c.segments = segments;
+    c.sweep_rad = sweep_rad;
+    r = pds__emit_grid(e, segments, 1, pds__annulus_vertex, &c);
+    e->mesh->degenerate_dropped = before;
+    return r;
+}
+
+/* --- quad: size_x by size_z in y = 0, segments x segments cells --------- */
+typedef struct pds__quad_ctx { double sx, sz; int nx, nz; } pds__quad_ctx;
+
+static void pds__quad_vertex(const void *vctx, int i, int j, pds__v3 *p, pds__v3 *n)
+{
+    const pds__quad_ctx *c = (const pds__quad_ctx *)vctx;
+    *p = pds__v(c->sx * ((double)i / c->nx - 0.5), 0.0, c->sz * ((double)j / c->nz - 0.5));
+    *n = pds__v(0.0, 1.0, 0.0);
+}
+
+static int pds__gen_quad(const pds__emitter *e, double sx, double sz, int segments)
+{
+    pds__quad_ctx c;
+    c.sx = sx;
+    c.sz = sz;
+    c.nx = segments;
+    c.nz = segments;
+    return pds__emit_grid(e, segments, segments, pds__quad_vertex, &c);
+}
+
+/* --- box: six flat faces, each its own vertices (sharp edges) ----------- */
+static int pds__gen_box(const pds__emitter *e, pds__v3 size)
+{
+    int axis, side;
+    pds__v3 h = pds__scale(size, 0.5);
+    for (axis = 0; axis < 3; axis++) {
+        for (side = -1; side <= 1; side += 2) {
+            /* Face normal along axis; u, v span the face. */
+            double nv[3] = {0, 0, 0}, uv[3] = {0, 0, 0}, vv[3] = {0, 0, 0};
+            pds__v3 n, u, v, c;
+            long k[4];
+            int q;
+            nv[axis] = side;
+            uv[(axis + 1) % 3] = 1.0;
+            vv[(axis + 2) % 3] = 1.0;
+            n = pds__v(nv[0], nv[1], nv[2]);
+            u = pds__v(uv[0] * h.x, uv[1] * h.y, uv[2] * h.z);
+            v = pds__v(vv[0] * h.x, vv[1] * h.y, vv[2] * h.z);
+            c = pds__v(nv[0] * h.x, nv[1] * h.y, nv[2] * h.z);
+            for (q = 0; q < 4; q++) {
+                double su = (q == 1 || q == 2) ? 1.0 : -1.0, sv = (q >= 2) ? 1.0 : -1.0;
+                k[q] = pds__emit_vertex(e, pds__add(c, pds__add(pds__scale(u, su), pds__scale(v, sv))), n);
+                if (k[q] < 0) return -1;
+            }
+            if (pds__emit_tri(e, k[0], k[1], k[2]) < 0 || pds__emit_tri(e, k[0], k[2], k[3]) < 0)
+                return -1;
+        }
+    }
+    return 0;
+}
+
+/* --- surfaces of revolution: cylinder walls, torus, revolve ------------- */
+/* A profile is a polyline of (r, y) points with a normal (nr, ny) at each
+   point; sweeping it around +y by sweep_rad in `segments` steps gives a
+   grid. Profile vertex j is row j of the grid. */
+typedef struct pds__profile_pt { double r, y, nr, ny; } pds__profile_pt;
+
+typedef struct pds__sweep_ctx {
+    const pds__profile_pt *pts;
+    int segments;
+    double sweep_rad;
+} pds__sweep_ctx;
+
+static void pds__sweep_vertex(const void *vctx, int i, int j, pds__v3 *p, pds__v3 *n)
+{
+    const pds__sweep_ctx *c = (const pds__sweep_ctx *)vctx;
+    double phi = c->sweep_rad * (double)i / c->segments;
+    /* A full turn closes exactly onto its first column. */
+    double cp = cos(phi), sp = sin(phi);
+    const pds__profile_pt *q = &c->pts[j];
+    if (fabs(c->sweep_rad - 2.0 * PDS__PI) < 1e-12 && i == c->segments) {
+        cp = 1.0;
+        sp = 0.0;
+    }
+    *p = pds__v(q->r * cp, q->y, q->r * sp);
+    *n = pds__v(q->nr * cp, q->ny, q->nr * sp);
+}
+
+/* Sweep npts profile points; zero-area triangles at the axis are dropped
+   silently. */
+static int pds__gen_sweep(const pds__emitter *e, const pds__profile_pt *pts, int npts,
+                          int segments, double sweep_rad)
+{
+    pds__sweep_ctx c;
+    long before = e->mesh->degenerate_dropped;
+    int r;
+    c.pts = pts;
+    c.segments = segments;
+    c.sweep_rad = sweep_rad;
+    r = pds__emit_grid(e, segments, npts - 1, pds__sweep_vertex, &c);
+    e->mesh->degenerate_dropped = before;
+    return r;
+}
+
+/* Flat cut face of a partial sweep, at angle phi: the polygon of the
+   profile between two curves is not needed here, only the rectangle of a
+   tube wall (r0..r1 by 0..h), facing away from the swept solid. */
+static int pds__gen_sweep_end(const pds__emitter *e, double r0, double r1, double h, double phi,
+                              double side)
+{
+    pds__v3 n = pds__v(-sin(phi) * side, 0.0, cos(phi) * side);
+    pds__v3 d = pds__v(cos(phi), 0.0, sin(phi));
+    long k[4];
+    k[0] = pds__emit_vertex(e, pds__scale(d, r0), n);
+    k[1] = pds__emit_vertex(e, pds__scale(d, r1), n);
+    k[2] = pds__emit_vertex(e, pds__add(pds__scale(d, r1), pds__v(0, h, 0)), n);
+    k[3] = pds__emit_vertex(e, pds__add(pds__scale(d, r0), pds__v(0, h, 0)), n);
+    if (k[0] < 0 || k[1] < 0 || k[2] < 0 || k[3] < 0) return -1;
+    if (pds__emit_tri(e, k[0], k[1], k[2]) < 0 || pds__emit_tri(e, k[0], k[2], k[3]) < 0) return -1;
+    return 0;
+}
+
+/* Cylinder of radius r around +y from y = 0 to height, optionally a tube
+   (inner > 0: inner wall facing the axis), optionally capped (closed: disks
+   or rings at both ends, plus the two cut faces of a partial sweep). */
+static int pds__gen_cylinder(const pds__emitter *e, double radius, double inner, double height,
+                             int segments, int closed, double sweep_rad)
+{
+    pds__profile_pt wall[2];
+    wall[0].r = radius;
+    wall[0].y = 0.0;
+    wall[0].nr = 1.0;
+    wall[0].ny = 0.0;
+    wall[1] = wall[0];
+    wall[1].y = height;
+    if (pds__gen_sweep(e, wall, 2, segments, sweep_rad) < 0) return -1;
+    if (inner > 0.0) {
+        wall[0].r = wall[1].r = inner;
+        wall[0].nr = wall[1].nr = -1.0;
+        if (pds__gen_sweep(e, wall, 2, segments, sweep_rad) < 0) return -1;
+    }
+    if (closed) {
+        if (pds__gen_annulus(e, inner, radius, 0.0, -1.0, segments, sweep_rad) < 0) return -1;
+        if (pds__gen_annulus(e, inner, radius, height, 1.0, segments, sweep_rad) < 0) return -1;
+        if (sweep_rad < 2.0 * PDS__PI - 1e-9) {
+            if (pds__gen_sweep_end(e, inner, radius, height, 0.0, -1.0) < 0) return -1;
+            if (pds__gen_sweep_end(e, inner, radius, height, sweep_rad, 1.0) < 0) return -1;
+        }
+    }
+    return 0;
+}
+
+/* Torus: tube of radius minor around the circle of radius major in y = 0.
+   The tube's cross-section is a profile of rings+1 points. */
+static int pds__gen_torus(const pds__emitter *e, double major, double minor, int segments, int rings,
+                          double sweep_rad)
+{
+    pds__profile_pt *pts = (pds__profile_pt *)malloc(sizeof *pts * (size_t)(rings + 1));
+    int j, r;
+    if (!pts) return -1;
+    for (j = 0; j <= rings; j++) {
+        double a = 2.0 * PDS__PI * (double)(j % rings) / rings;
+        pts[j].nr = cos(a);
+        pts[j].ny = sin(a);
+        pts[j].r = major + minor * pts[j].nr;
+        pts[j].y = minor * pts[j].ny;
+    }
+    r = pds__gen_sweep(e, pts, rings + 1, segments, sweep_rad);
+    free(pts);
+    return r;
+}
+
+/* Surface of revolution of the polyline (r_k, y_k). The normal of a
+   segment points to the right of its direction of travel in the (r, y)
+   plane: a profile drawn upwards on the outside of a vase faces outwards.
+   At a vertex where the two segments' normals differ by more than
+   crease_deg the vertex is split (a sharp rim); otherwise the normals are
+   averaged (a smooth bend). */
+static int pds__gen_revolve(const pds__emitter *e, const double *rz, int n, int segments,
+                            double sweep_rad, double crease_deg)
+{
+    pds__profile_pt *pts = (pds__profile_pt *)malloc(sizeof *pts * (size_t)(2 * n));
+    double cos_crease = cos(crease_deg * PDS__PI / 180.0);
+    int k, m = 0, r = 0, start = 0;
+    if (!pts) return -1;
+    for (k = 0; k < n; k++) {
+        pds__v3 nin = pds__v(0, 0, 0), nout = pds__v(0, 0, 0);
+        if (k > 0) nin = pds__normalize(pds__v(rz[2 * k + 1] - rz[2 * k - 1], -(rz[2 * k] - rz[2 * k - 2]), 0));
+        if (k + 1 < n) nout = pds__normalize(pds__v(rz[2 * k + 3] - rz[2 * k + 1], -(rz[2 * k + 2] - rz[2 * k]), 0));
+        if (k == 0) nin = nout;
+        if (k + 1 == n) nout = nin;
+        pts[m].r = rz[2 * k];
+        pts[m].y = rz[2 * k + 1];
+        if (pds__dot(nin, nout) >= cos_crease) {
+            pds__v3 avg = pds__normalize(pds__add(nin, nout));
+            pts[m].nr = avg.x;
+            pts[m].ny = avg.y;
+            m++;
+        } else {
+            /* Sharp: end the current strip with the incoming normal and
+               start a new one with the outgoing normal. */
+            pts[m].nr = nin.x;
+            pts[m].ny = nin.y;
+            m++;
+            if (m - start >= 2 && pds__gen_sweep(e, pts + start, m - start, segments, sweep_rad) < 0) {
+                r = -1;
+                break;
+            }
+            start = m;
+            pts[m].r = rz[2 * k];
+            pts[m].y = rz[2 * k + 1];
+            pts[m].nr = nout.x;
+            pts[m].ny = nout.y;
+            m++;
+        }
+    }
+    if (r == 0 && m - start >= 2 && pds__gen_sweep(e, pts + start, m - start, segments, sweep_rad) < 0)
+        r = -1;
+    free(pts);
+    return r;
+}
+
+/* --- heightfield: y = sum of sine waves --------------------------------- */
+/* Each wave: amplitude A, wavelength L, unit direction (dx, dz) in the
+   xz plane, phase p (radians): h = A sin(2 pi (dx x + dz z) / L + p).
+   The normal is analytic: n = (-h_x, 1, -h_z), normalised. */
+typedef struct pds__wave { double amplitude, wavelength, dx, dz, phase; } pds__wave;
+
+typedef struct pds__heightfield_ctx {
+    double sx, sz;
+    int nx, nz;
+    const pds__wave *waves;
+    int nwaves;
+} pds__heightfield_ctx;
+
+/* Height and gradient of a wave sum at (x, z). */
+static double pds__waves_eval(const pds__wave *w, int nw, double x, double z, double *hx, double *hz)
+{
+    double h = 0.0;
+    int i;
+    *hx = *hz = 0.0;
+    for (i = 0; i < nw; i++) {
+        double k = 2.0 * PDS__PI / w[i].wavelength;
+        double arg = k * (w[i].dx * x + w[i].dz * z) + w[i].phase;
+        h += w[i].amplitude * sin(arg);
+        *hx += w[i].amplitude * k * w[i].dx * cos(arg);
+        *hz += w[i].amplitude * k * w[i].dz * cos(arg);
+    }
+    return h;
+}
+
+static void pds__heightfield_vertex(const void *vctx, int i, int j, pds__v3 *p, pds__v3 *n)
+{
+    const pds__heightfield_ctx *c = (const pds__heightfield_ctx *)vctx;
+    double x = c->sx * ((double)i / c->nx - 0.5), z = c->sz * ((double)j / c->nz - 0.5), hx, hz;
+    double y = pds__waves_eval(c->waves, c->nwaves, x, z, &hx, &hz);
+    *p = pds__v(x, y, z);
+    *n = pds__v(-hx, 1.0, -hz);
+}
+
+static int pds__gen_heightfield(const pds__emitter *e, double sx, double sz, int nx, int nz,
+                                const pds__wave *waves, int nwaves)
+{
+    pds__heightfield_ctx c;
+    c.sx = sx;
+    c.sz = sz;
+    c.nx = nx;
+    c.nz = nz;
+    c.waves = waves;
+    c.nwaves = nwaves;
+    return pds__emit_grid(e, nx, nz, pds__heightfield_vertex, &c);
+}
+
+/* ===================================================================== */
+/* >>bvh                                                                 */
+/* ===================================================================== */
+/* A 4-wide bounding volume hierarchy over the scene's triangles: built as
+   a binary tree with the binned surface area heuristic, collapsed to four
+   children per node, traversed closest-child-first with an explicit stack;
+   watertight ray/triangle test.
+
+   Build (Wald, "On fast construction of SAH-based bounding volume
+   hierarchies", 2007): each node bins its triangles' centroids into
+   PDS__BVH_BINS equal bins along each axis, sweeps the bin boundaries, and
+   takes the plane of least SAH cost
+       C = C_trav + (A_L N_L + A_R N_R) / A_P         (C_isect = 1)
+   against the leaf cost N. Nodes with more than PDS__BVH_MAX_LEAF triangles
+   are always split; when every centroid sits at one spot the node is split
+   by count. From depth PDS__BVH_SAH_DEPTH on, the builder uses object
+   median splits, so no leaf is deeper than 56 (PDS_MAX_TRIANGLES < 2^26):
+   that bounds the traversal stack. The binary tree is then collapsed into
+   4-wide nodes by repeatedly opening the child of largest area, which
+   halves the levels a ray walks through and lets the compiler test four
+   boxes with one vector operation.
+
+   Memory layout (what the hot loop reads):
+     nodes  pds__bvh_node, 128 bytes = two cache lines, array aligned to 64:
+            bytes   0..95  float b[24]: b[4 row + k], rows 0..2 = child
+                           k's box minimum x y z, rows 3..5 its maximum
+                           (SoA, so the four slab tests are one loop over k)
+            bytes  96..111 uint32 child[4]: inner child: its node index;
+                           leaf child: its first triangle (leaf order)
+            bytes 112..127 uint32 count[4]: 0 = inner child, n = leaf of n
+                           triangles. Unused slots have an inverted box
+                           (min = FLT_MAX, max = -FLT_MAX) that no ray hits.
+            Node 0 is the root. Boxes are padded outward by an ulp (see
+            pds__bvh_collapse).
+     tri    9 floats (36 bytes) per triangle, in leaf order: the three
+            vertices in their original order, copied from the mesh, so a
+            leaf's triangles are contiguous in memory.
+     tri_id int per triangle in leaf order: the original triangle index.
+
+   Queries convert the ray to float once. Box test: slabs with precomputed
+   reciprocal directions, and the near plane of each axis known from the
+   direction's sign. A zero direction component gets the reciprocal FLT_MAX
+   (not infinity), so (plane - origin) * rcp is never 0 * inf = NaN. The far
+   distance is scaled by 1 + 2 gamma(3) (Ize, "Robust BVH ray traversal",
+   JCGT 2013) so rounding never rejects a box the exact ray touches.
+   Triangle test: Woop, Benthin, Wald, "Watertight ray/triangle
+   intersection", JCGT 2013, as in pbrt-v3: shear the triangle into the
+   ray's frame and evaluate the three 2D edge functions, here in double
+   where the products of the float coordinates are exact; neighbouring
+   triangles then never both miss a ray through their shared edge or
+   vertex, even under FMA contraction. The closest hit's t and
+   barycentrics are finally recomputed in double (Moller-Trumbore on the
+   same float vertices) for precision; the hit/miss decision stays the float
+   one.
+
+   Invariants: queries never modify the bvh (thread-safe, deterministic);
+   t is in units of |dir|; the float interval the loop uses lies inside
+   the caller's (tmin, tmax). */
+
+#define PDS__BVH_BINS 16       /* bins per axis (fewer in small nodes) */
+#define PDS__BVH_MAX_LEAF 4    /* triangles per leaf at most */
+#ifndef PDS__BVH_C_TRAV
+#define PDS__BVH_C_TRAV 1.0f   /* SAH cost of a traversal step, C_isect = 1 */
+#endif
+#define PDS__BVH_SAH_DEPTH 32
+#define PDS__BVH_MAX_DEPTH 64   /* > 56, the deepest leaf possible */
+#define PDS__BVH_STACK (3 * PDS__BVH_MAX_DEPTH + 4)
+
+typedef struct pds__bvh_node {
+    float b[24];        /* SoA child boxes: b[4 row + k], rows min x y z,
+                           max x y z */
+    uint32_t child[4];  /* node index (inner) or first triangle (leaf) */
+    uint32_t count[4];  /* 0 = inner child, else triangles in the leaf */
+} pds__bvh_node;
+
+typedef struct pds__bvh {
+    pds__bvh_node *nodes; /* 64-byte aligned view into nodes_mem */
+    void *nodes_mem;
+    size_t nnodes;
+    float *tri;           /* 9 floats per triangle, leaf order */
+    int *tri_id;          /* original triangle index, leaf order */
+    size_t ntris;
+    int depth;            /* deepest leaf of the binary tree (root = 0) */
+    long leaves;
+} pds__bvh;
+
+typedef struct pds__tri_hit {
+    double t;    /* distance in units of |dir| */
+    long tri;    /* original triangle index */
+    double u, v; /* P = (1-u-v) P0 + u P1 + v P2 */
+} pds__tri_hit;
+
+/* ------------------------------------------------------------------ build */
+
+/* Binary node of the build (32 bytes): box, and the left child's index
+   (right = first + 1) or the leaf's first triangle; count 0 = inner. */
+typedef struct pds__bvh2_node {
+    float lo[3];
+    uint32_t first;
+    float hi[3];
+    uint32_t count;
+} pds__bvh2_node;
+
+/* One triangle during the build: its box and original index. Records are
+   swapped (not indices) while partitioning, so every pass reads memory in
+   order. The centroid is used doubled, c2 = lo + hi, to save a multiply. */
+typedef struct pds__bvh_prim {
+    float lo[3];
+    int id;
+    float hi[3];
+    float pad;
+} pds__bvh_prim;
+
+typedef struct pds__bvh_bin {
+    float lo[3], hi[3];
+    uint32_t count;
+} pds__bvh_bin;
+
+/* A node waiting to be split: prims [begin, end), its centroid bounds. */
+typedef struct pds__bvh_task {
+    uint32_t node, begin, end;
+    int depth;
+    float clo[3], chi[3];
+} pds__bvh_task;
+
+static float pds__bvh_half_area(const float lo[3], const float hi[3])
+{
+    float dx = hi[0] - lo[0], dy = hi[1] - lo[1], dz = hi[2] - lo[2];
+    return dx * dy + dy * dz + dz * dx;
+}
+
+/* Bin of doubled centroid c given the node's centroid minimum and the scale
+   K (1 - eps) / extent. Written so NaN lands in bin 0 and nothing can make
+   the float-to-int conversion overflow; build and partition share it so
+   they always agree. */
+static int pds__bvh_bin_index(float c, float cmin, float scale)
+{
+    float f = (c - cmin) * scale;
+    f = f > 0.0f ? f : 0.0f; /* also NaN -> 0 */
+    f = f < (float)(PDS__BVH_BINS - 1) ? f : (float)(PDS__BVH_BINS - 1);
+    return (int)f;
+}
+
+static void pds__bvh_box_empty(float lo[3], float hi[3])
+{
+    lo[0] = lo[1] = lo[2] = FLT_MAX;
+    hi[0] = hi[1] = hi[2] = -FLT_MAX;
+}
+
+static void pds__bvh_box_grow(float lo[3], float hi[3], const float plo[3], const float phi[3])
+{
+    int k;
+    for (k = 0; k < 3; k++) {
+        lo[k] = plo[k] < lo[k] ? plo[k] : lo[k];
+        hi[k] = phi[k] > hi[k] ? phi[k] : hi[k];
+    }
+}
+
+/* Bounds of prims [b, e): their boxes into lo/hi, doubled centroids into
+   clo/chi. */
+static void pds__bvh_bounds(const pds__bvh_prim *p, uint32_t b, uint32_t e,
+                            float lo[3], float hi[3], float clo[3], float chi[3])
+{
+    uint32_t i;
+    int k;
+    pds__bvh_box_empty(lo, hi);
+    pds__bvh_box_empty(clo, chi);
+    for (i = b; i < e; i++) {
+        for (k = 0; k < 3; k++) {
+            float c = p[i].lo[k] + p[i].hi[k];
+            lo[k] = p[i].lo[k] < lo[k] ? p[i].lo[k] : lo[k];
+            hi[k] = p[i].hi[k] > hi[k] ? p[i].hi[k] : hi[k];
+            clo[k] = c < clo[k] ? c : clo[k];
+            chi[k] = c > chi[k] ? c : chi[k];
+        }
+    }
+}
+
+/* Reorders prims [b, e) so that the one with the median doubled centroid
+   along axis is at m = (b + e) / 2, smaller ones before it, larger after
+   (Hoare's selection, middle pivot; deterministic). Returns m. */
+static uint32_t pds__bvh_median_split(pds__bvh_prim *p, uint32_t b, uint32_t e, int axis)
+{
+    uint32_t m = b + (e - b) / 2, lo = b, hi = e - 1;
+    while (lo < hi) {
+        uint32_t i = lo, j = hi;
+        float pivot = p[lo + (hi - lo) / 2].lo[axis] + p[lo + (hi - lo) / 2].hi[axis];
+        for (;;) {
+            pds__bvh_prim tmp;
+            while (p[i].lo[axis] + p[i].hi[axis] < pivot) i++;
+            while (p[j].lo[axis] + p[j].hi[axis] > pivot) j--;
+            if (i >= j) break;
+            tmp = p[i];
+            p[i] = p[j];
+            p[j] = tmp;
+            i++;
+            j--;
+        }
+        /* now [lo, j] <= pivot <= [j+1, hi] */
+        if (m <= j) hi = j;
+        else lo = j + 1;
+    }
+    return m;
+}
+
+/* Best binned SAH split of prims [b, e) with centroid bounds clo/chi and
+   box area parent_area. Returns 1 and the axis and split bin (prims in bins
+   <= split go left) if some plane separates the centroids, with *cost the
+   SAH cost in units of C_isect. */
+static int pds__bvh_find_split(const pds__bvh_prim *p, uint32_t b, uint32_t e,
+                               const float clo[3], const float chi[3], float parent_area,
+                               int *axis_out, int *split_out, float scale_out[3], float *cost)
+{
+    pds__bvh_bin bins[3][PDS__BVH_BINS];
+    float right_area[PDS__BVH_BINS];
+    uint32_t right_count[PDS__BVH_BINS];
+    float scale[3];
+    int axis, k, found = 0;
+    uint32_t i;
+    float best = FLT_MAX;
+    /* small nodes need no more bins than triangles */
+    const int nb = e - b < PDS__BVH_BINS ? (e - b < 4 ? 4 : (int)(e - b)) : PDS__BVH_BINS;
+
+    for (axis = 0; axis < 3; axis++) {
+        float ext = chi[axis] - clo[axis];
+        scale[axis] = ext > 0.0f ? (float)nb * (1.0f - 1e-6f) / ext : 0.0f;
+        scale_out[axis] = scale[axis];
+        for (k = 0; k < nb; k++) {
+            pds__bvh_box_empty(bins[axis][k].lo, bins[axis][k].hi);
+            bins[axis][k].count = 0;
+        }
+    }
+    for (i = b; i < e; i++) {
+        const float lx = p[i].lo[0], ly = p[i].lo[1], lz = p[i].lo[2];
+        const float hx = p[i].hi[0], hy = p[i].hi[1], hz = p[i].hi[2];
+        pds__bvh_bin *bn[3];
+        bn[0] = &bins[0][pds__bvh_bin_index(lx + hx, clo[0], scale[0])];
+        bn[1] = &bins[1][pds__bvh_bin_index(ly + hy, clo[1], scale[1])];
+        bn[2] = &bins[2][pds__bvh_bin_index(lz + hz, clo[2], scale[2])];
+        for (axis = 0; axis < 3; axis++) {
+            pds__bvh_bin *q = bn[axis];
+            q->count++;
+            q->lo[0] = lx < q->lo[0] ? lx : q->lo[0];
+            q->lo[1] = ly < q->lo[1] ? ly : q->lo[1];
+            q->lo[2] = lz < q->lo[2] ? lz : q->lo[2];
+            q->hi[0] = hx > q->hi[0] ? hx : q->hi[0];
+            q->hi[1] = hy > q->hi[1] ? hy : q->hi[1];
+            q->hi[2] = hz > q->hi[2] ? hz : q->hi[2];
+        }
+    }
+    for (axis = 0; axis < 3; axis++) {
+        float lo[3], hi[3], area;
+        uint32_t n = 0;
+        if (scale[axis] == 0.0f) continue;
+        /* sweep from the right: area and count of bins k..K-1 (an empty
+           bin changes neither) */
+        pds__bvh_box_empty(lo, hi);
+        area = 0.0f;
+        for (k = nb - 1; k > 0; k--) {
+            if (bins[axis][k].count) {
+                n += bins[axis][k].count;
+                pds__bvh_box_grow(lo, hi, bins[axis][k].lo, bins[axis][k].hi);
+                area = pds__bvh_half_area(lo, hi);
+            }
+            right_count[k] = n;
+            right_area[k] = area;
+        }
+        /* sweep from the left; plane after bin k (after an empty bin it
+           is the same split as the plane before it) */
+        pds__bvh_box_empty(lo, hi);
+        n = 0;
+        for (k = 0; k < nb - 1; k++) {
+            float c;
+            if (bins[axis][k].count == 0) continue;
+            if (right_count[k + 1] == 0) break;
+            n += bins[axis][k].count;
+            pds__bvh_box_grow(lo, hi, bins[axis][k].lo, bins[axis][k].hi);
+            c = pds__bvh_half_area(lo, hi) * (float)n + right_area[k + 1] * (float)right_count[k + 1];
+            if (c < best) {
+                best = c;
+                *axis_out = axis;
+                *split_out = k;
+                found = 1;
+            }
+        }
+    }
+    if (found) *cost = PDS__BVH_C_TRAV + best / (parent_area > 0.0f ? parent_area : 1.0f);
+    return found;
+}
+
+/* Partitions prims [b, e) so those whose bin on axis is <= split come
+   first; returns the first index of the right part. */
+static uint32_t pds__bvh_partition(pds__bvh_prim *p, uint32_t b, uint32_t e, int axis,
+                                   int split, float cmin, float scale)
+{
+    uint32_t i = b, j = e;
+    while (i < j) {
+        if (pds__bvh_bin_index(p[i].lo[axis] + p[i].hi[axis], cmin, scale) <= split) {
+            i++;
+        } else {
+            pds__bvh_prim tmp = p[i];
+            j--;
+            p[i] = p[j];
+            p[j] = tmp;
+        }
+    }
+    return i;
+}
+
+static void pds__bvh_free(pds__bvh *bvh)
+{
+    free(bvh->nodes_mem);
+    free(bvh->tri);
+    free(bvh->tri_id);
+    memset(bvh, 0, sizeof *bvh);
+}
+
+/* Binary SAH build over prims[0, n) into bin (room for 2n nodes: the root
+   is node 0, node 1 is unused, children come in pairs from 2 on). Reorders
+   prims into leaf order. Returns the number of nodes used; *leaves and
+   *depth are set. */
+static size_t pds__bvh_build_binary(pds__bvh_prim *prims, uint32_t n, pds__bvh2_node *bin,
+                                    long *leaves, int *depth)
+{
+    pds__bvh_task stack[PDS__BVH_MAX_DEPTH + 2];
+    int sp = 1;
+    size_t next = 2;
+    float clo[3], chi[3];
+
+    pds__bvh_bounds(prims, 0, n, bin[0].lo, bin[0].hi, clo, chi);
+    memset(&bin[1], 0, sizeof bin[1]);
+    stack[0].node = 0;
+    stack[0].begin = 0;
+    stack[0].end = n;
+    stack[0].depth = 0;
+    memcpy(stack[0].clo, clo, sizeof clo);
+    memcpy(stack[0].chi, chi, sizeof chi);
+    *leaves = 0;
+    *depth = 0;
+
+    while (sp > 0) {
+        pds__bvh_task task = stack[--sp];
+        pds__bvh2_node *node = &bin[task.node];
+        uint32_t cnt = task.end - task.begin, mid = 0;
+        int axis = 0, split = 0, do_split = 0, k;
+        float scale[3], cost = 0.0f;
+
+        if (cnt > 1) {
+            if (task.depth < PDS__BVH_SAH_DEPTH &&
+                pds__bvh_find_split(prims, task.begin, task.end, task.clo, task.chi,
+                                    pds__bvh_half_area(node->lo, node->hi),
+                                    &axis, &split, scale, &cost) &&
+                (cnt > PDS__BVH_MAX_LEAF || cost < (float)cnt)) {
+                mid = pds__bvh_partition(prims, task.begin, task.end, axis, split,
+                                         task.clo[axis], scale[axis]);
+                do_split = mid > task.begin && mid < task.end;
+            }
+            if (!do_split && cnt > PDS__BVH_MAX_LEAF) {
+                /* deep, or all centroids at one spot: object median */
+                float best = -1.0f;
+                for (k = 0; k < 3; k++) {
+                    if (task.chi[k] - task.clo[k] > best) {
+                        best = task.chi[k] - task.clo[k];
+                        axis = k;
+                    }
+                }
+                mid = pds__bvh_median_split(prims, task.begin, task.end, axis);
+                do_split = 1;
+            }
+        }
+        /* (the depth test never fires: see the prologue) */
+        if (!do_split || task.depth >= PDS__BVH_MAX_DEPTH - 1) {
+            node->first = task.begin;
+            node->count = cnt;
+            ++*leaves;
+            if (task.depth > *depth) *depth = task.depth;
+            continue;
+        }
+        {
+            pds__bvh2_node *l = &bin[next], *r = &bin[next + 1];
+            pds__bvh_task lt, rt;
+            node->first = (uint32_t)next;
+            node->count = 0;
+            lt.node = (uint32_t)next;
+            rt.node = (uint32_t)next + 1;
+            next += 2;
+            lt.begin = task.begin;
+            lt.end = mid;
+            rt.begin = mid;
+            rt.end = task.end;
+            lt.depth = rt.depth = task.depth + 1;
+            pds__bvh_bounds(prims, lt.begin, lt.end, l->lo, l->hi, lt.clo, lt.chi);
+            pds__bvh_bounds(prims, rt.begin, rt.end, r->lo, r->hi, rt.clo, rt.chi);
+            stack[sp++] = rt;
+            stack[sp++] = lt;
+        }
+    }
+    return next;
+}
+
+/* Collapses the binary tree bin into 4-wide nodes (room for as many as
+   bin has inner nodes, at least one). Returns the number of nodes. */
+static size_t pds__bvh_collapse(const pds__bvh2_node *bin, pds__bvh_node *nodes)
+{
+    uint32_t jobs_bin[PDS__BVH_STACK], jobs_node[PDS__BVH_STACK];
+    int sp = 0;
+    size_t next = 1;
+
+    jobs_bin[0] = 0;
+    jobs_node[0] = 0;
+    sp = 1;
+    while (sp > 0) {
+        uint32_t slot[4], b = jobs_bin[--sp];
+        pds__bvh_node *q = &nodes[jobs_node[sp]];
+        int ns, k, c;
+        if (bin[b].count) {
+            slot[0] = b; /* a leaf root: one leaf child */
+            ns = 1;
+        } else {
+            slot[0] = bin[b].first;
+            slot[1] = bin[b].first + 1;
+            ns = 2;
+        }
+        /* open the inner slot of largest area while there is room */
+        while (ns < 4) {
+            int best = -1;
+            float best_area = -1.0f;
+            for (k = 0; k < ns; k++) {
+                const pds__bvh2_node *s = &bin[slot[k]];
+                float a = pds__bvh_half_area(s->lo, s->hi);
+                if (s->count == 0 && a > best_area) {
+                    best_area = a;
+                    best = k;
+                }
+            }
+            if (best < 0) break;
+            slot[ns] = bin[slot[best]].first + 1;
+            slot[best] = bin[slot[best]].first;
+            ns++;
+        }
+        for (k = 0; k < 4; k++) {
+            if (k >= ns) {
+                for (c = 0; c < 3; c++) {
+                    q->b[4 * c + k] = FLT_MAX;
+                    q->b[4 * (3 + c) + k] = -FLT_MAX;
+                }
+                q->child[k] = 0;
+                q->count[k] = 0;
+                continue;
+            }
+            for (c = 0; c < 3; c++) {
+                /* pad outward by at least one ulp: a ray lying in a box's
+                   face plane with a zero direction component would get
+                   (plane - origin) * FLT_MAX = 0 as its far distance and
+                   miss; with the padding its origin is strictly inside */
+                float lo = bin[slot[k]].lo[c], hi = bin[slot[k]].hi[c];
+                q->b[4 * c + k] = lo - (fabsf(lo) * (1.0f / 8388608.0f) + FLT_MIN);
+                q->b[4 * (3 + c) + k] = hi + (fabsf(hi) * (1.0f / 8388608.0f) + FLT_MIN);
+            }
+            if (bin[slot[k]].count) {
+                q->child[k] = bin[slot[k]].first;
+                q->count[k] = bin[slot[k]].count;
+            } else {
+                q->child[k] = (uint32_t)next;
+                q->count[k] = 0;
+                jobs_bin[sp] = slot[k];
+                jobs_node[sp] = (uint32_t)next;
+                sp++;
+                next++;
+            }
+        }
+    }
+    return next;
+}
+
+/* Builds the BVH of ntris triangles: pos holds 3 floats per vertex, idx 3
+   vertex indices per triangle (the pds__mesh layout). Indices must be valid
+   for pos (the mesh guarantees it); negative ones and non-finite or huge
+   (> 1e30) coordinates are refused with PDS_ERR_INVALID_ARG. ntris = 0
+   gives an empty BVH that every ray misses. On failure *bvh is left empty
+   (pds__bvh_free on it is harmless). */
+static pds_status pds__bvh_build(pds__bvh *bvh, const float *pos, const int *idx, size_t ntris,
+                                 pds_error *err)
+{
+    pds__bvh_prim *prims = NULL;
+    pds__bvh2_node *bin = NULL;
+    size_t i, nbin, ninner;
+    uintptr_t a;
+
+    memset(bvh, 0, sizeof *bvh);
+    if (ntris == 0) return PDS_OK;
+    if (ntris > (size_t)PDS_MAX_TRIANGLES)
+        return pds__fail(err, PDS_ERR_LIMIT, NULL, 0, 0,
+                         "%lu triangles is over the limit of %d", (unsigned long)ntris, PDS_MAX_TRIANGLES);
+
+    prims = (pds__bvh_prim *)malloc(ntris * sizeof *prims);
+    bin = (pds__bvh2_node *)malloc(2 * ntris * sizeof *bin);
+    if (!prims || !bin) goto nomem;
+    for (i = 0; i < ntris; i++) {
+        int c, k;
+        pds__bvh_box_empty(prims[i].lo, prims[i].hi);
+        prims[i].id = (int)i;
+        prims[i].pad = 0.0f;
+        for (c = 0; c < 3; c++) {
+            const float *v;
+            if (idx[3 * i + c] < 0) {
+                free(prims);
+                free(bin);
+                return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                                 "triangle %lu has a negative vertex index", (unsigned long)i);
+            }
+            v = pos + 3 * (size_t)idx[3 * i + c];
+            for (k = 0; k < 3; k++) {
+                if (!(v[k] >= -1e30f && v[k] <= 1e30f)) {
+                    free(prims);
+                    free(bin);
+                    return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                                     "triangle %lu has a vertex coordinate that is not a number or too large",
+                                     (unsigned long)i);
+                }
+                prims[i].lo[k] = v[k] < prims[i].lo[k] ? v[k] : prims[i].lo[k];
+                prims[i].hi[k] = v[k] > prims[i].hi[k] ? v[k] : prims[i].hi[k];
+            }
+        }
+    }
+
+    nbin = pds__bvh_build_binary(prims, (uint32_t)ntris, bin, &bvh->leaves, &bvh->depth);
+
+    /* 4-wide nodes: at most one per binary inner node, at least one */
+    ninner = nbin / 2;
+    bvh->nodes_mem = malloc(ninner * sizeof(pds__bvh_node) + 64);
+    bvh->tri = (float *)malloc(ntris * 9 * sizeof(float));
+    bvh->tri_id = (int *)malloc(ntris * sizeof(int));
+    if (!bvh->nodes_mem || !bvh->tri || !bvh->tri_id) goto nomem;
+    a = ((uintptr_t)bvh->nodes_mem + 63) & ~(uintptr_t)63;
+    bvh->nodes = (pds__bvh_node *)a;
+    bvh->nnodes = pds__bvh_collapse(bin, bvh->nodes);
+    free(bin);
+    bin = NULL;
+    if (bvh->nnodes < ninner) {
+        /* give back the unused tail; realloc may move the block, and with
+           it the 64-byte alignment offset, so the nodes are moved to the
+           new aligned start */
+        size_t off = (size_t)(a - (uintptr_t)bvh->nodes_mem);
+        void *mem = realloc(bvh->nodes_mem, bvh->nnodes * sizeof(pds__bvh_node) + 64);
+        if (mem) {
+            uintptr_t na = ((uintptr_t)mem + 63) & ~(uintptr_t)63;
+            if ((size_t)(na - (uintptr_t)mem) != off)
+                memmove((void *)na, (char *)mem + off, bvh->nnodes * sizeof(pds__bvh_node));
+            bvh->nodes_mem = mem;
+            bvh->nodes = (pds__bvh_node *)na;
+        }
+    }
+
+    /* triangles in leaf order */
+    bvh->ntris = ntris;
+    for (i = 0; i < ntris; i++) {
+        int id = prims[i].id, c;
+        bvh->tri_id[i] = id;
+        for (c = 0; c < 3; c++) {
+            const float *v = pos + 3 * (size_t)idx[3 * (size_t)id + c];
+            bvh->tri[9 * i + 3 * c + 0] = v[0];
+            bvh->tri[9 * i + 3 * c + 1] = v[1];
+            bvh->tri[9 * i + 3 * c + 2] = v[2];
+        }
+    }
+    free(prims);
+    return PDS_OK;
+
+nomem:
+    free(prims);
+    free(bin);
+    pds__bvh_free(bvh);
+    return pds__nomem(err);
+}
+
+/* Bytes owned by the bvh. */
+static size_t pds__bvh_memory(const pds__bvh *bvh)
+{
+    if (!bvh->nodes_mem) return 0;
+    return bvh->nnodes * sizeof(pds__bvh_node) + 64 + bvh->ntris * (9 * sizeof(float) + sizeof(int));
+}
+
+/* -------------------------------------------------------------- queries */
+
+/* The ray as the hot loop sees it, all float. */
+typedef struct pds__bvh_ray {
+    float o[3];         /* origin */
+    float rd[3];        /* 1 / dir, +-FLT_MAX for (near) zero components */
+    float o4[3][4], rd4[3][4]; /* the same, four copies each, for the
+                           vectorised slab test */
+    int nr[3], fr[3];   /* offset in node->b of the row holding the near /
+                           far slab plane per axis: 4 axis (min) or
+                           4 (3 + axis) (max) */
+    int kx, ky, kz;     /* watertight frame: kz = largest |dir| axis */
+    float sx, sy, sz;   /* shear: -d_kx / d_kz, -d_ky / d_kz, 1 / d_kz */
+    float tmin, tmax;   /* inside the caller's (tmin, tmax) */
+} pds__bvh_ray;
+
+/* Float just above x (|x| <= FLT_MAX): at least one ulp past (float)x when
+   that rounded down, so the float interval never leaves (tmin, tmax). */
+static float pds__bvh_float_above(double x)
+{
+    float f = (float)x;
+    if ((double)f < x) f += fabsf(f) * (1.0f / 8388608.0f) + FLT_MIN;
+    return f;
+}
+
+static float pds__bvh_float_below(double x)
+{
+    float f = (float)x;
+    if ((double)f > x) f -= fabsf(f) * (1.0f / 8388608.0f) + FLT_MIN;
+    return f;
+}
+
+/* Prepares the float ray. A direction whose largest component is outside
+   [2^-60, 2^60] is first scaled by a power of two s (exact), so every
+   float below stays finite; then t_caller = s t_internal, returned in
+   *tscale. Returns 0 if no hit is possible (zero, below 1e-300 or
+   non-finite direction, origin not finite or beyond 1e30, empty
+   interval). */
+static int pds__bvh_ray_setup(pds__bvh_ray *r, pds__v3 org, pds__v3 dir, double tmin, double tmax,
+                              double *tscale)
+{
+    double o[3], d[3], ad[3], m, inv;
+    int k;
+    o[0] = org.x; o[1] = org.y; o[2] = org.z;
+    d[0] = dir.x; d[1] = dir.y; d[2] = dir.z;
+    for (k = 0; k < 3; k++) {
+        if (!(fabs(o[k]) <= 1e30)) return 0;
+        r->o[k] = (float)o[k];
+        ad[k] = fabs(d[k]);
+    }
+    {
+        /* kz = argmax |d|, without branches (random rays mispredict them) */
+        int c01 = ad[1] > ad[0], c2;
+        double m01 = c01 ? ad[1] : ad[0];
+        c2 = ad[2] > m01;
+        r->kz = c2 * 2 + (1 - c2) * c01;
+        m = c2 ? ad[2] : m01;
+    }
+    if (!(m >= 1e-300 && m <= DBL_MAX) || !(ad[0] == ad[0] && ad[1] == ad[1] && ad[2] == ad[2])) return 0;
+    *tscale = 1.0;
+    if (m < 0x1p-60 || m > 0x1p60) {
+        int e;
+        double s;
+        (void)frexp(m, &e);
+        s = ldexp(1.0, -e);
+        for (k = 0; k < 3; k++) {
+            d[k] *= s;
+            ad[k] *= s;
+        }
+        tmin /= s;
+        tmax /= s;
+        *tscale = s;
+    }
+    for (k = 0; k < 3; k++) {
+        /* reciprocal; a (nearly) zero component gets FLT_MAX, never inf */
+        double rk = ad[k] > 1.0 / FLT_MAX ? 1.0 / d[k] : FLT_MAX;
+        int neg = rk < 0.0;
+        r->rd[k] = (float)rk;
+        r->nr[k] = 4 * (k + 3 * neg);
+        r->fr[k] = 4 * (k + 3 - 3 * neg);
+    }
+    for (k = 0; k < 3; k++) {
+        r->o4[k][0] = r->o4[k][1] = r->o4[k][2] = r->o4[k][3] = r->o[k];
+        r->rd4[k][0] = r->rd4[k][1] = r->rd4[k][2] = r->rd4[k][3] = r->rd[k];
+    }
+    r->kx = (r->kz + 1) % 3;
+    r->ky = (r->kz + 2) % 3;
+    inv = 1.0 / d[r->kz];
+    r->sx = (float)(-d[r->kx] * inv);
+    r->sy = (float)(-d[r->ky] * inv);
+    r->sz = (float)inv;
+    /* float interval inside the double one */
+    if (!(tmin < tmax) || tmin >= FLT_MAX || tmax <= -FLT_MAX) return 0;
+    r->tmin = tmin < -FLT_MAX ? -FLT_MAX : pds__bvh_float_above(tmin);
+    r->tmax = tmax > FLT_MAX ? FLT_MAX : pds__bvh_float_below(tmax);
+    return r->tmin < r->tmax;
+}
+
+/* Watertight test of the ray against triangle v (9 floats: v0 v1 v2).
+   Returns 1 with *t in (tmin, tmax) and barycentrics *u (of v1), *w (of
+   v2) on a hit. Woop, Benthin, Wald 2013: the vertices are translated to
+   the origin, permuted (kz = dominant axis) and sheared so the ray runs
+   along +z; then the 2D edge functions decide. They are evaluated in
+   double: products of floats are exact there, so each edge function has
+   the exact sign of its float inputs, and the value for an edge shared by
+   two triangles is exactly the negated one, whatever FP contraction (FMA)
+   the compiler applies. That is what makes the test watertight; it also
+   replaces pbrt's "recompute in double when zero" fallback. */
+static inline int pds__bvh_tri_test(const pds__bvh_ray *r, const float *v, float tmin, float tmax,
+                                    float *t, float *u, float *w)
+{
+    const int kx = r->kx, ky = r->ky, kz = r->kz;
+    /* vertices relative to the origin, in the ray's permuted, sheared frame */
+    const float az = v[kz] - r->o[kz], bz = v[3 + kz] - r->o[kz], cz = v[6 + kz] - r->o[kz];
+    const double ax = (v[kx] - r->o[kx]) + r->sx * az;
+    const double ay = (v[ky] - r->o[ky]) + r->sy * az;
+    const double bx = (v[3 + kx] - r->o[kx]) + r->sx * bz;
+    const double by = (v[3 + ky] - r->o[ky]) + r->sy * bz;
+    const double cx = (v[6 + kx] - r->o[kx]) + r->sx * cz;
+    const double cy = (v[6 + ky] - r->o[ky]) + r->sy * cz;
+    /* 2D edge functions: e0 weights v0, e1 v1, e2 v2 */
+    const double e0 = bx * cy - by * cx;
+    const double e1 = cx * ay - cy * ax;
+    const double e2 = ax * by - ay * bx;
+    double det, inv, td;
+    float tt;
+    if ((e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0)) return 0;
+    det = e0 + e1 + e2;
+    if (det == 0.0) return 0;
+    inv = 1.0 / det;
+    td = (e0 * az + e1 * bz + e2 * cz) * r->sz * inv;
+    if (!(td > -FLT_MAX && td < FLT_MAX)) return 0; /* (float) of it must be defined */
+    tt = (float)td;
+    if (!(tt > tmin && tt < tmax)) return 0;
+    *t = tt;
+    *u = (float)(e1 * inv);
+    *w = (float)(e2 * inv);
+    return 1;
+}
+
+/* 1 + 2 gamma(3) for float (Ize 2013): slack on a box's far distance. */
+#define PDS__BVH_FAR_SCALE 1.0000003576f
+/* A box is culled only when its entry distance exceeds the closest hit
+   so far by this factor (2^-20 relative): entry distances and triangle
+   distances are rounded differently, and a triangle lying in its box's
+   face (a flat leaf, coplanar geometry) must not be culled by a box entry
+   computed a few ulps too far. */
+#define PDS__BVH_CULL_SCALE 1.00000095f
+
+/* Distance pds__bvh_box4 gives a child the ray misses. */
+#define PDS__BVH_MISS FLT_MAX
+
+/* Slab test of the ray against node n's four child boxes: d[k] = entry
+   distance into child k (at least r->tmin), or PDS__BVH_MISS if the box is
+   missed or entered beyond tlimit. Written as a branch-free loop over the
+   SoA rows so compilers can run the four tests as one vector operation. */
+static inline void pds__bvh_box4(const pds__bvh_ray *r, const pds__bvh_node *n, float tlimit,
+                                 float d[4])
+{
+    const float *nx = n->b + r->nr[0], *ny = n->b + r->nr[1], *nz = n->b + r->nr[2];
+    const float *fx = n->b + r->fr[0], *fy = n->b + r->fr[1], *fz = n->b + r->fr[2];
+    const float tmin = r->tmin;
+    float dd[4];
+    int k;
+    for (k = 0; k < 4; k++) {
+        float tnx = (nx[k] - r->o4[0][k]) * r->rd4[0][k];
+        float tny = (ny[k] - r->o4[1][k]) * r->rd4[1][k];
+        float tnz = (nz[k] - r->o4[2][k]) * r->rd4[2][k];
+        float tfx = (fx[k] - r->o4[0][k]) * r->rd4[0][k];
+        float tfy = (fy[k] - r->o4[1][k]) * r->rd4[1][k];
+        float tfz = (fz[k] - r->o4[2][k]) * r->rd4[2][k];
+        float tn0 = tnx > tny ? tnx : tny, tn1 = tnz > tmin ? tnz : tmin;
+        float tf0 = tfx < tfy ? tfx : tfy, tn, tf;
+        tn = tn0 > tn1 ? tn0 : tn1;
+        tf = (tfz < tf0 ? tfz : tf0) * PDS__BVH_FAR_SCALE;
+        tf = tlimit < tf ? tlimit : tf;
+        dd[k] = tn <= tf ? tn : PDS__BVH_MISS;
+    }
+    for (k = 0; k < 4; k++) d[k] = dd[k];
+}
+
+/* Core traversal. any = 1 stops at the first hit (occlusion). Returns the
+   leaf-order index of the closest hit triangle or -1, with its float t, u,
+   v. At each node the four child boxes are tested at once; leaf children
+   hit are intersected on the spot (they are cheap, and a hit shrinks tcur
+   for everything after), inner children hit are visited nearest first with
+   the others pushed far first. The stack holds node indices and entry
+   distances in two arrays; popped entries beyond the closest hit so far
+   (with the PDS__BVH_CULL_SCALE slack) are skipped. */
+static long pds__bvh_traverse(const pds__bvh *bvh, const pds__bvh_ray *r, int any,
+                              float *t_out, float *u_out, float *v_out)
+{
+    uint32_t st_ref[PDS__BVH_STACK];
+    float st_t[PDS__BVH_STACK];
+    int sp = 0;
+    const pds__bvh_node *nodes = bvh->nodes;
+    uint32_t ref = 0;
+    float tcur = r->tmax, tcull = r->tmax * PDS__BVH_CULL_SCALE, hu = 0.0f, hv = 0.0f;
+    long best = -1;
+
+    for (;;) {
+        const pds__bvh_node *n = nodes + ref;
+        uint32_t e_ref[4];
+        float d[4], e_t[4];
+        int nh = 0, k, j;
+        pds__bvh_box4(r, n, tcull, d);
+        for (k = 0; k < 4; k++) {
+            if (d[k] == PDS__BVH_MISS) continue;
+            if (n->count[k]) {
+                uint32_t i = n->child[k], end = i + n->count[k];
+                for (; i < end; i++) {
+                    float t, u, v;
+                    if (pds__bvh_tri_test(r, bvh->tri + 9 * (size_t)i, r->tmin, tcur, &t, &u, &v)) {
+                        tcur = t;
+                        tcull = t * PDS__BVH_CULL_SCALE;
+                        hu = u;
+                        hv = v;
+                        best = (long)i;
+                        if (any) goto done;
+                    }
+                }
+                continue;
+            }
+            e_ref[nh] = n->child[k];
+            e_t[nh] = d[k];
+            nh++;
+        }
+        if (nh == 1) {
+            if (e_t[0] < tcull) {
+                ref = e_ref[0];
+                continue;
+            }
+        } else if (nh == 2) {
+            int f = e_t[1] < e_t[0];
+            st_ref[sp] = e_ref[1 - f];
+            st_t[sp] = e_t[1 - f];
+            sp++;
+            ref = e_ref[f];
+            if (e_t[f] < tcull) continue;
+        } else if (nh > 2) {
+            for (k = 1; k < nh; k++) {
+                uint32_t xr = e_ref[k];
+                float xt = e_t[k];
+                for (j = k; j > 0 && e_t[j - 1] > xt; j--) {
+                    e_ref[j] = e_ref[j - 1];
+                    e_t[j] = e_t[j - 1];
+                }
+                e_ref[j] = xr;
+                e_t[j] = xt;
+            }
+            for (k = nh - 1; k > 0; k--) {
+                st_ref[sp] = e_ref[k];
+                st_t[sp] = e_t[k];
+                sp++;
+            }
+            ref = e_ref[0];
+            if (e_t[0] < tcull) continue;
+        }
+        for (;;) {
+            if (sp == 0) goto done;
+            sp--;
+            if (st_t[sp] < tcull) break;
+        }
+        ref = st_ref[sp];
+    }
+done:
+    *t_out = tcur;
+    *u_out = hu;
+    *v_out = hv;
+    return best;
+}
+
+/* Recomputes t, u, v of a hit on triangle v (float vertices) in double with
+   Moller-Trumbore on the caller's double ray; keeps the float values if the
+   double ones are unusable or leave (tmin, tmax). */
+static void pds__bvh_refine(const float *v, pds__v3 org, pds__v3 dir, double tmin, double tmax,
+                            pds__tri_hit *hit)
+{
+    pds__v3 p0 = pds__v(v[0], v[1], v[2]);
+    pds__v3 e1 = pds__sub(pds__v(v[3], v[4], v[5]), p0);
+    pds__v3 e2 = pds__sub(pds__v(v[6], v[7], v[8]), p0);
+    pds__v3 p = pds__cross(dir, e2), s, q;
+    double det = pds__dot(e1, p), inv, u, w, t;
+    if (det == 0.0) return;
+    inv = 1.0 / det;
+    s = pds__sub(org, p0);
+    q = pds__cross(s, e1);
+    u = pds__dot(s, p) * inv;
+    w = pds__dot(dir, q) * inv;
+    t = pds__dot(e2, q) * inv;
+    if (!(t > tmin && t < tmax)) return;
+    /* the float test decided the hit; clamp rounding just outside an edge */
+    if (u < 0.0) u = 0.0;
+    if (w < 0.0) w = 0.0;
+    if (u + w > 1.0) {
+        double sum = u + w;
+        u /= sum;
+        w /= sum;
+    }
+    hit->t = t;
+    hit->u = u;
+    hit->v = w;
+}
+
+/* Closest hit with tmin < t < tmax (t in units of |dir|). Returns 1 and
+   fills *hit, or 0. Thread-safe; does not modify the bvh. */
+static int pds__bvh_intersect(const pds__bvh *bvh, pds__v3 org, pds__v3 dir, double tmin,
+                              double tmax, pds__tri_hit *hit)
+{
+    pds__bvh_ray r;
+    float t, u, v;
+    double tscale;
+    long i;
+    if (bvh->ntris == 0 || !pds__bvh_ray_setup(&r, org, dir, tmin, tmax, &tscale)) return 0;
+    i = pds__bvh_traverse(bvh, &r, 0, &t, &u, &v);
+    if (i < 0) return 0;
+    hit->t = t * tscale;
+    hit->u = u;
+    hit->v = v;
+    hit->tri = bvh->tri_id[i];
+    pds__bvh_refine(bvh->tri + 9 * (size_t)i, org, dir, tmin, tmax, hit);
+    return 1;
+}
+
+/* 1 if any triangle is hit with tmin < t < tmax. */
+static int pds__bvh_occluded(const pds__bvh *bvh, pds__v3 org, pds__v3 dir, double tmin, double tmax)
+{
+    pds__bvh_ray r;
+    float t, u, v;
+    double tscale;
+    if (bvh->ntris == 0 || !pds__bvh_ray_setup(&r, org, dir, tmin, tmax, &tscale)) return 0;
+    return pds__bvh_traverse(bvh, &r, 1, &t, &u, &v) >= 0;
+}
+
+/* ===================================================================== */
+/* >>materials                                                           */
+/* ===================================================================== */
+/* Scattering at a surface: Fresnel equations, BSDF sampling and evaluation,
+   Beer-Lambert absorption and dispersion. Both the path tracer (eye paths,
+   carrying radiance) and the photon tracer (light paths, carrying flux)
+   call the same functions; pds__transport says which one is asking.
+
+   Conventions (every function below relies on them):
+   - wo is the unit direction from the surface point back toward the
+     previous path vertex (minus the incoming ray direction); wi is the new
+     direction, also pointing away from the surface.
+   - ng is the geometric normal as stored. Its side is the FRONT: a
+     dielectric's outside_ior/outside_absorption medium is in front, its
+     ior/absorption medium behind. Which side a ray is on, and so whether
+     it enters or leaves a dielectric, is decided by ng only, never by the
+     interpolated shading normal ns, which may tilt past the surface.
+   - Scattering uses ns turned onto wo's side of ng ("the frame normal",
+     pds__bsdf_frame). When wo lies below that shading hemisphere (a
+     grazing view of a strongly interpolated mesh) the geometric normal is
+     used instead, so reflection and refraction formulas always see an
+     incident direction on the correct side.
+   - A sampled direction that ends up on the wrong side of ng (reflection
+     below the surface, refraction back out) is dropped: it counts as
+     absorption. That loses a little energy on smooth-shaded meshes but
+     never leaks light through a surface.
+
+   Formulas (REFERENCE.md sections 1 and 7; pbrt-v3 for the same equations):
+   - Dielectric Fresnel, exact and unpolarised, from Snell's law:
+     r_par = (nt ci - ni ct)/(nt ci + ni ct), r_perp = (ni ci - nt ct)/(ni ci
+     + nt ct), R = (r_par^2 + r_perp^2)/2; sin t >= 1 is total internal
+     reflection, R = 1.
+   - Conductor Fresnel for the complex relative index eta + i k, in the
+     closed form with a^2 + b^2 = |n^2 - sin^2| (Lagarde's write-up).
+   - Refraction: T = eta D - mu N, mu = eta (D.N) - (T.N),
+     T.N = -sqrt(1 - eta^2 (1 - (D.N)^2)), eta = n_incident/n_transmitted.
+   - Radiance is not conserved across a refraction: L/n^2 is (etendue).
+     An eye path carrying radiance from wi toward wo therefore picks up
+     (n_wo_side / n_wi_side)^2 at a refraction; photon flux does not.
+   - Diffuse: Lambertian f = albedo/pi, importance sampled with the cosine
+     (Malley's method), so the sample weight f cos / pdf is the albedo.
+   - Beer-Lambert: transmittance exp(-sigma d) along a segment of length d.
+   - Dispersion: Cauchy n = A + B/lambda^2 or Sellmeier n^2 = 1 + sum B_i
+     lambda^2/(lambda^2 - C_i), lambda in micrometres. The sampling code
+     reads m->ior; a spectral renderer passes a copy of the material whose
+     ior is pds__ior_at(m, lambda). */
+
+typedef enum pds__transport {
+    PDS__RADIANCE = 0,  /* eye paths: refraction scales by (n_wo/n_wi)^2 */
+    PDS__IMPORTANCE = 1 /* photon paths: no such factor, only the Fresnel T */
+} pds__transport;
+
+/* Exact unpolarised Fresnel reflectance of a dielectric interface.
+   cos_i in [0,1] is the cosine of the angle of incidence on the incident
+   side, eta_i the index of the incident medium, eta_t of the other one.
+   Returns 1 on total internal reflection and at exactly grazing incidence. */
+static double pds__fresnel_dielectric(double cos_i, double eta_i, double eta_t)
+{
+    double sin_i, sin_t, cos_t, r_par, r_perp, den_par, den_perp;
+    if (!(eta_i > 0.0) || !(eta_t > 0.0)) return 1.0;
+    if (!(cos_i > 0.0)) return 1.0;
+    if (cos_i > 1.0) cos_i = 1.0;
+    sin_i = sqrt(fmax(0.0, 1.0 - cos_i * cos_i));
+    sin_t = eta_i / eta_t * sin_i;
+    if (sin_t >= 1.0) return 1.0;
+    cos_t = sqrt(fmax(0.0, 1.0 - sin_t * sin_t));
+    den_par = eta_t * cos_i + eta_i * cos_t;
+    den_perp = eta_i * cos_i + eta_t * cos_t;
+    r_par = (eta_t * cos_i - eta_i * cos_t) / den_par;
+    r_perp = (eta_i * cos_i - eta_t * cos_t) / den_perp;
+    return 0.5 * (r_par * r_par + r_perp * r_perp);
+}
+
+/* Exact unpolarised Fresnel reflectance of a conductor with complex
+   relative index eta + i k (metal index over the outside index), for
+   cos_i in [0,1]. With t0 = eta^2 - k^2 - s^2 (s = sin i), the complex
+   square root sqrt(n^2 - s^2) = a + i b has a^2 + b^2 = sqrt(t0^2 +
+   4 eta^2 k^2) and a = sqrt((a^2 + b^2 + t0)/2); then
+   Rs = (a^2+b^2 + c^2 - 2ac)/(a^2+b^2 + c^2 + 2ac) and
+   Rp = Rs (c^2(a^2+b^2) + s^4 - 2ac s^2)/(c^2(a^2+b^2) + s^4 + 2ac s^2). */
+static double pds__fresnel_conductor(double cos_i, double eta, double k)
+{
+    double c, c2, s2, t0, ab2, a, t1, t2, t3, t4, rs, rp;
+    c = cos_i;
+    if (!(c > 0.0)) c = 0.0;
+    if (c > 1.0) c = 1.0;
+    c2 = c * c;
+    s2 = 1.0 - c2;
+    t0 = eta * eta - k * k - s2;
+    ab2 = sqrt(t0 * t0 + 4.0 * eta * eta * k * k);
+    a = sqrt(fmax(0.0, 0.5 * (ab2 + t0)));
+    t1 = ab2 + c2;
+    t2 = 2.0 * a * c;
+    if (!(t1 + t2 > 0.0)) return 1.0; /* eta = 1, k = 0 at grazing: 0/0 */
+    rs = (t1 - t2) / (t1 + t2);
+    t3 = c2 * ab2 + s2 * s2;
+    t4 = t2 * s2;
+    rp = (t3 + t4 > 0.0) ? rs * (t3 - t4) / (t3 + t4) : rs;
+    return 0.5 * (rs + rp);
+}
+
+/* Mirror, conductor and dielectric scatter only into delta directions. */
+static int pds__material_is_specular(const pds_material *m)
+{
+    return m->type == PDS_MAT_MIRROR || m->type == PDS_MAT_CONDUCTOR ||
+           m->type == PDS_MAT_DIELECTRIC;
+}
+
+/* Mirror direction of d about the unit normal n (either orientation). */
+static pds__v3 pds__reflect(pds__v3 d, pds__v3 n)
+{
+    return pds__sub(d, pds__scale(n, 2.0 * pds__dot(d, n)));
+}
+
+/* Refract the unit incident direction d (travelling toward the surface)
+   through the unit normal n facing against it (d.n < 0); eta =
+   n_incident / n_transmitted. Returns 0 on total internal reflection,
+   else 1 with *t the unit transmitted direction T = eta d - mu n,
+   mu = eta (d.n) - (T.n), T.n = -sqrt(1 - eta^2 (1 - (d.n)^2)). */
+static int pds__refract(pds__v3 d, pds__v3 n, double eta, pds__v3 *t)
+{
+    double dn = pds__dot(d, n);
+    double rad = 1.0 - eta * eta * (1.0 - dn * dn);
+    double tn, mu;
+    if (!(rad >= 0.0)) return 0;
+    tn = -sqrt(rad);
+    mu = eta * dn - tn;
+    *t = pds__sub(pds__scale(d, eta), pds__scale(n, mu));
+    return 1;
+}
+
+/* Result of pds__bsdf_sample. (The struct tag matches the function name;
+   the typedef cannot, since C puts typedefs and functions in one name
+   space.) */
+typedef struct pds__bsdf_sample {
+    pds__v3 wi;        /* unit sampled direction, away from the surface */
+    double weight[3];  /* throughput multiplier: f |cos| / pdf (diffuse);
+                          reflectance, Fresnel, or the radiance eta^2 factor
+                          (specular; the dielectric Fresnel choice cancels) */
+    double pdf;        /* solid-angle pdf (diffuse); probability of the
+                          chosen event (specular: 1, or F / 1-F) */
+    int delta;         /* 1 for specular events */
+    int transmitted;   /* 1 if wi is across the geometric normal from wo */
+    int side;          /* +1: wi in front of ng (dot(wi,ng) > 0), -1 behind */
+} pds__bsdf_result;
+
+/* The frame a scattering event at this point uses, seen from wo.
+   Outputs: *n, the unit shading normal turned onto wo's side of ng (or the
+   geometric normal on wo's side when wo is not above the shading
+   hemisphere, or when ns is missing or tangent); *ngw, the unit geometric
+   normal on wo's side; *side, +1 if wo is in front of ng, -1 behind.
+   Returns 0 (and leaves the outputs undefined) when wo is tangent to the
+   surface or a vector is NaN: no scattering is possible then.
+   Callers that evaluate the diffuse BSDF for light sampling should take
+   the cosine factor as dot(wi, n) with this n, which is what the sampler
+   divides by. */
+static int pds__bsdf_frame(pds__v3 wo, pds__v3 ns, pds__v3 ng, pds__v3 *n, pds__v3 *ngw,
+                           int *side)
+{
+    double cg, cs;
+    pds__v3 g = pds__normalize(ng), s = pds__normalize(ns);
+    cg = pds__dot(wo, g);
+    if (cg > 0.0) {
+        *side = 1;
+    } else if (cg < 0.0) {
+        *side = -1;
+        g = pds__scale(g, -1.0);
+    } else {
+        return 0; /* tangent, or NaN */
+    }
+    *ngw = g;
+    /* Orient ns with the (already flipped) geometric normal: this also
+       repairs a stored shading normal that points against ng. */
+    cs = pds__dot(s, g);
+    if (cs < 0.0) s = pds__scale(s, -1.0);
+    if (cs != 0.0 && pds__dot(wo, s) > 0.0) *n = s;
+    else *n = g;
+    return 1;
+}
+
+/* Sample the BSDF of material m for the outgoing direction wo.
+   Inputs: wo (unit, toward the previous vertex), ns (shading normal) and
+   ng (geometric normal as stored, defines the front), u = three uniforms
+   in [0,1) (u[0]: event choice / first diffuse coordinate, u[1]: second
+   diffuse coordinate, u[2]: unused, reserved), mode (eye or photon path).
+   Output *out (see pds__bsdf_result). Returns 0 when nothing scatters:
+   emitters absorb, zero albedo/reflectance, wo tangent, or the sample
+   fell on the wrong side of ng (absorbed). */
+static int pds__bsdf_sample(const pds_material *m, pds__v3 wo, pds__v3 ns, pds__v3 ng,
+                            const double u[3], pds__transport mode, pds__bsdf_result *out)
+{
+    pds__v3 n, g, wi;
+    int side, c;
+    double cos_o;
+    if (!pds__bsdf_frame(wo, ns, ng, &n, &g, &side)) return 0;
+    cos_o = pds__dot(wo, n);
+    out->delta = 1;
+    out->transmitted = 0;
+    out->side = side;
+    out->pdf = 1.0;
+
+    switch (m->type) {
+    case PDS_MAT_DIFFUSE: {
+        /* Malley: uniform on the unit disk, lifted to the hemisphere;
+           cos = sqrt(1 - u0) and cos^2 is uniform. */
+        double r = sqrt(u[0]), phi = 2.0 * PDS__PI * u[1];
+        double z = sqrt(fmax(0.0, 1.0 - u[0]));
+        pds__v3 b1, b2;
+        if (!(m->albedo[0] > 0.0 || m->albedo[1] > 0.0 || m->albedo[2] > 0.0)) return 0;
+        pds__onb(n, &b1, &b2);
+        wi = pds__add(pds__add(pds__scale(b1, r * cos(phi)), pds__scale(b2, r * sin(phi))),
+                      pds__scale(n, z));
+        wi = pds__normalize(wi);
+        z = pds__dot(wi, n);
+        if (!(z > 0.0) || !(pds__dot(wi, g) > 0.0)) return 0;
+        out->wi = wi;
+        out->pdf = z / PDS__PI;
+        out->delta = 0;
+        for (c = 0; c < 3; c++) out->weight[c] = m->albedo[c];
+        return 1;
+    }
+    case PDS_MAT_MIRROR:
+    case PDS_MAT_CONDUCTOR:
+        wi = pds__reflect(pds__scale(wo, -1.0), n);
+        if (!(pds__dot(wi, g) > 0.0)) return 0;
+        for (c = 0; c < 3; c++) {
+            out->weight[c] = m->type == PDS_MAT_MIRROR
+                                 ? m->reflectance[c]
+                                 : pds__fresnel_conductor(cos_o, m->eta[c], m->k[c]);
+        }
+        if (!(out->weight[0] > 0.0 || out->weight[1] > 0.0 || out->weight[2] > 0.0)) return 0;
+        out->wi = wi;
+        return 1;
+    case PDS_MAT_DIELECTRIC: {
+        /* Front: coming from the outside medium into the ior medium. */
+        double eta_i = side > 0 ? m->outside_ior : m->ior;
+        double eta_t = side > 0 ? m->ior : m->outside_ior;
+        double f = pds__fresnel_dielectric(cos_o, eta_i, eta_t);
+        if (u[0] < f) {
+            wi = pds__reflect(pds__scale(wo, -1.0), n);
+            if (!(pds__dot(wi, g) > 0.0)) return 0;
+            out->wi = wi;
+            out->pdf = f;
+            for (c = 0; c < 3; c++) out->weight[c] = 1.0;
+            return 1;
+        }
+        if (!pds__refract(pds__scale(wo, -1.0), n, eta_i / eta_t, &wi)) return 0;
+        if (!(pds__dot(wi, g) < 0.0)) return 0;
+        out->wi = wi;
+        out->pdf = 1.0 - f;
+        out->transmitted = 1;
+        out->side = -side;
+        for (c = 0; c < 3; c++)
+            out->weight[c] = mode == PDS__RADIANCE ? (eta_i * eta_i) / (eta_t * eta_t) : 1.0;
+        return 1;
+    }
+    case PDS_MAT_EMISSIVE:
+    default:
+        return 0;
+    }
+}
+
+/* The non-delta part of the BSDF (no cosine factor): for a diffuse
+   material f = albedo/pi when wo and wi are both on the same side of ng
+   and wi is above the frame normal of pds__bsdf_frame (the hemisphere the
+   sampler draws from), with *pdf = dot(wi, n)/pi, the density
+   pds__bsdf_sample would have drawn wi with. Anything else: f = 0,
+   *pdf = 0. f is symmetric in wo and wi whenever both lie above the
+   shading normal (the usual case; shading normals cannot be reciprocal
+   everywhere). */
+static void pds__bsdf_eval(const pds_material *m, pds__v3 wo, pds__v3 wi, pds__v3 ns, pds__v3 ng,
+                           double f[3], double *pdf)
+{
+    pds__v3 n, g;
+    int side, c;
+    double cos_i;
+    f[0] = f[1] = f[2] = 0.0;
+    *pdf = 0.0;
+    if (m->type != PDS_MAT_DIFFUSE) return;
+    if (!pds__bsdf_frame(wo, ns, ng, &n, &g, &side)) return;
+    cos_i = pds__dot(wi, n);
+    if (!(cos_i > 0.0) || !(pds__dot(wi, g) > 0.0)) return;
+    for (c = 0; c < 3; c++) f[c] = m->albedo[c] / PDS__PI;
+    *pdf = cos_i / PDS__PI;
+}
+
+/* Beer-Lambert coefficients (per scene unit, RGB) of the medium on `side`
+   of a dielectric: +1 the front (outside) medium, -1 the one behind.
+   NULL for other materials and for media that do not absorb, so callers
+   can skip the exponentials. */
+static const double *pds__medium_absorption(const pds_material *m, int side)
+{
+    const double *s;
+    if (m->type != PDS_MAT_DIELECTRIC) return NULL;
+    s = side > 0 ? m->outside_absorption : m->absorption;
+    if (s[0] > 0.0 || s[1] > 0.0 || s[2] > 0.0) return s;
+    return NULL;
+}
+
+/* Attenuate w by the transmittance exp(-sigma dist) of a segment of
+   length dist (scene units) in a medium with coefficients sigma (may be
+   NULL: clear medium). */
+static void pds__beer(const double *sigma, double dist, double w[3])
+{
+    int c;
+    if (!sigma) return;
+    for (c = 0; c < 3; c++)
+        if (sigma[c] != 0.0) w[c] *= exp(-sigma[c] * dist);
+}
+
+/* Index of refraction of the medium behind a dielectric at the given
+   wavelength (nm): Cauchy or Sellmeier with lambda in micrometres when
+   the material has dispersion, else m->ior. A formula that gives no real
+   index (at a Sellmeier pole) falls back to m->ior. */
+static double pds__ior_at(const pds_material *m, double wavelength_nm)
+{
+    double l = wavelength_nm * 1e-3, l2 = l * l, n;
+    const double *c = m->dispersion_coef;
+    if (m->dispersion == PDS_DISPERSION_CAUCHY) {
+        n = c[0] + c[1] / l2;
+    } else if (m->dispersion == PDS_DISPERSION_SELLMEIER) {
+        double n2 = 1.0 + c[0] * l2 / (l2 - c[3]) + c[1] * l2 / (l2 - c[4]) + c[2] * l2 / (l2 - c[5]);
+        n = n2 > 0.0 ? sqrt(n2) : 0.0;
+    } else {
+        return m->ior;
+    }
+    if (!(n > 0.0) || !(n < 1e6)) return m->ior;
+    return n;
+}
+
+/* ===================================================================== */
+/* >>lights                                                              */
+/* ===================================================================== */
+/* Light sources, for next-event estimation in the path tracer and for
+   photon emission (PDS and the photon-mapping baselines). Units: powers in
+   W, irradiance in W/m^2, intensity in W/sr, radiance in W/m^2/sr, per RGB
+   channel; "m" is the scene unit.
+
+   Conventions (one per pds_light_type):
+   - point: power P emitted uniformly, intensity I = P / (4 pi); irradiance
+     at distance r, normal incidence: I / r^2.
+   - spot: at `position`, unit axis `direction`. With ci = cos(inner),
+     co = cos(outer) and x = (cos theta - co) / (ci - co) clamped to [0,1],
+     I(theta) = I0 s(x), s(x) = 3x^2 - 2x^3 (smoothstep): I0 inside the
+     inner cone, 0 outside the outer one (inner == outer: a hard cone).
+     As the integral of s over [0,1] is 1/2,
+         P = 2 pi I0 [(1 - ci) + (ci - co) / 2],
+     which gives I0 from the power.
+   - directional: travel direction d, irradiance E across the beam. The
+     beam is the emitter (a disk of `radius` centred at `position` and
+     perpendicular to d when emitter_shape == 0, or the parallelogram
+     position +- edge1/2 +- edge2/2 when emitter_shape == 1, which need not
+     be perpendicular to d) swept along d. A point receives E exactly when
+     its backward ray (from the point along -d) crosses the emitter. Beam
+     cross-section A = pi R^2 or |(e1 x e2).d|; power E A.
+   - disk (centre `position`, unit normal `direction`, radius) and quad
+     (centre `position`, corners position +- edge1/2 +- edge2/2, normal
+     normalize(edge1 x edge2)): one-sided Lambertian emitters of radiance L
+     on the normal side, P = pi L A. They are analytic (not in the BVH) and
+     never block light; pds__light_intersect finds them.
+   - mesh: triangles first_triangle .. first_triangle + triangle_count - 1
+     of the scene mesh, radiance L on the side of each triangle's geometric
+     normal (P1 - P0) x (P2 - P0). They are in the BVH.
+   The selection weight of a light is the sum of its three channels of
+   power (directional: E A from the irradiance and the beam geometry; the
+   others: l->power). Geometric quantities (areas, normals) are recomputed
+   from the geometry here rather than trusted from the light record; they
+   agree with what the scene parser stores.
+
+   Sampling (pdfs are per unit area on the light, per unit solid angle for
+   directions): area lights are sampled uniformly by area (disk: Shirley and
+   Chiu's concentric square-to-disk map; mesh: a triangle by area through a
+   CDF, then uniform inside it), so the solid-angle pdf seen from p is
+   dist^2 / (A |cos theta_x|). Delta lights (point, spot, directional)
+   return pdf 1 and the irradiance at normal incidence.
+
+   Photon emission returns the flux a photon would carry if it were the only
+   one from its light; the caller divides by the photon count and by the
+   light's pick probability. A sample that returns 0 (no flux) must still be
+   counted in the photon count, or the estimate is biased upwards.
+   pds__light_emission_extent gives the emitting area Ae and emission solid
+   angle omega_e of eqs 5-6 of Frisvad et al. 2014 (photon differentials):
+   point (0, 4 pi), spot (0, 2 pi (1 - co)), directional (beam cross-section,
+   0), and for Lambertian area lights (A, 2 pi): the paper gives no omega_e
+   for them; the hemisphere is our choice. */
+
+typedef struct pds__light_table {
+    size_t nlights;
+    int *type;          /* per light: its pds_light_type (to check calls) */
+    double *pmf;        /* per light: pick probability, cdf[i+1] - cdf[i] */
+    double *cdf;        /* nlights + 1 entries: cdf[0] = 0, 1 from the last
+                           light with power on */
+    double *area;       /* per light: emitting area (mesh: sum of triangles;
+                           directional: beam cross-section; 0 for point/spot) */
+    size_t *tri_off;    /* per light: where its triangle CDF starts in tri_cdf */
+    size_t *tri_n;      /* per light: its number of triangles (0 unless mesh) */
+    double *tri_cdf;    /* per mesh light, triangle_count entries: running
+                           area / light area, the last exactly 1 */
+    int *tri_light;     /* per mesh triangle: its light, or -1 */
+    size_t ntris;       /* length of tri_light */
+    size_t pick_end;    /* 1 + the last light with pmf > 0; 0 if no light has
+                           power (so a zeroed table picks nothing) */
+} pds__light_table;
+
+typedef struct pds__light_li {
+    pds__v3 wi;     /* unit direction from the shading point p toward the sampled light point */
+    double dist;    /* distance to the sampled point (directional: to the emitter along -d);
+                       the caller's shadow ray tests (eps, dist * (1 - 1e-4)) */
+    double li[3];   /* area lights: radiance L toward p; delta lights: irradiance at
+                       normal incidence at p (I / dist^2 or E) */
+    double pdf;     /* solid-angle pdf of wi (area lights); 1 for delta lights */
+    int delta;      /* 1 for point, spot, directional */
+} pds__light_li;
+
+typedef struct pds__light_emit {
+    pds__v3 pos;        /* emission point */
+    pds__v3 dir;        /* unit emission direction */
+    pds__v3 normal;     /* unit surface normal at pos (area lights: the emitter's;
+                           directional: d; point/spot: the zero vector = no normal) */
+    double flux[3];     /* W carried if this were the light's only photon */
+    double pdf_pos;     /* area density of pos: 1/A (directional: per unit beam
+                           cross-section), 1 for point/spot */
+    double pdf_dir;     /* solid-angle density of dir, 1 for directional */
+} pds__light_emit;
+
+static int pds__light_is_area(int type)
+{
+    return type == PDS_LIGHT_DISK || type == PDS_LIGHT_QUAD || type == PDS_LIGHT_MESH;
+}
+
+/* Unit geometric normal and area of mesh triangle tri (float positions
+   widened to double, as everywhere else). */
+static double pds__lights_tri_geom(const pds__mesh *mesh, long tri, pds__v3 *p0, pds__v3 *p1,
+                                   pds__v3 *p2, pds__v3 *n)
+{
+    const int *v = &mesh->idx[3 * tri];
+    pds__v3 c;
+    double len;
+    *p0 = pds__mesh_pos(mesh, v[0]);
+    *p1 = pds__mesh_pos(mesh, v[1]);
+    *p2 = pds__mesh_pos(mesh, v[2]);
+    c = pds__cross(pds__sub(*p1, *p0), pds__sub(*p2, *p0));
+    len = pds__length(c);
+    *n = len > 0.0 ? pds__scale(c, 1.0 / len) : pds__v(0.0, 0.0, 0.0);
+    return 0.5 * len;
+}
+
+/* Emitting area of a light that needs no mesh: disk pi R^2, quad
+   |e1 x e2|, directional: its beam cross-section. 0 for point, spot and
+   mesh (a mesh light's area comes from the table). */
+static double pds__light_geom_area(const pds_light *l)
+{
+    switch (l->type) {
+    case PDS_LIGHT_DISK: return PDS__PI * l->radius * l->radius;
+    case PDS_LIGHT_QUAD: return pds__length(pds__cross(l->edge1, l->edge2));
+    case PDS_LIGHT_DIRECTIONAL:
+        if (l->emitter_shape == 0) return PDS__PI * l->radius * l->radius;
+        return fabs(pds__dot(pds__cross(l->edge1, l->edge2), pds__normalize(l->direction)));
+    default: return 0.0;
+    }
+}
+
+/* Unit normal of a disk or quad light (the side it emits on). */
+static pds__v3 pds__light_plane_normal(const pds_light *l)
+{
+    if (l->type == PDS_LIGHT_QUAD) return pds__normalize(pds__cross(l->edge1, l->edge2));
+    return pds__normalize(l->direction);
+}
+
+/* Selection weight: total power summed over the channels. */
+static double pds__light_total_power(const pds_light *l, double area)
+{
+    if (l->type == PDS_LIGHT_DIRECTIONAL)
+        return (l->irradiance[0] + l->irradiance[1] + l->irradiance[2]) * area;
+    return l->power[0] + l->power[1] + l->power[2];
+}
+
+/* Bytes the table owns. */
+static size_t pds__lights_memory(const pds__light_table *lt)
+{
+    size_t i, tris = 0, n = lt->nlights;
+    for (i = 0; lt->tri_n && i < n; i++) tris += lt->tri_n[i];
+    return n * (sizeof(int) + 3 * sizeof(double) + 2 * sizeof(size_t)) + (n ? sizeof(double) : 0) +
+           tris * sizeof(double) + lt->ntris * sizeof(int);
+}
+
+static void pds__lights_free(pds__light_table *lt)
+{
+    free(lt->type);
+    free(lt->pmf);
+    free(lt->cdf);
+    free(lt->area);
+    free(lt->tri_off);
+    free(lt->tri_n);
+    free(lt->tri_cdf);
+    free(lt->tri_light);
+    memset(lt, 0, sizeof *lt);
+}
+
+/* Build the light table: pick distribution by power, per-mesh-light
+   triangle CDFs by area, and the triangle -> light map. mesh may be NULL
+   when there are no mesh lights. Fails (INVALID_ARG) on mesh lights whose
+   triangle range lies outside the mesh or overlaps another mesh light, and
+   on powers that are not finite. On failure *lt owns nothing. */
+static pds_status pds__lights_prepare(pds__light_table *lt, const pds_light *lights, size_t nlights,
+                                      const pds__mesh *mesh, pds_error *err)
+{
+    size_t i, k, nemit = 0, cursor = 0, ntris = mesh ? mesh->ntris : 0, n1;
+    double total = 0.0, run = 0.0;
+    pds_status st = PDS_OK;
+    memset(lt, 0, sizeof *lt);
+    if (nlights > (size_t)PDS_MAX_LIGHTS)
+        return pds__fail(err, PDS_ERR_LIMIT, NULL, 0, 0, "%lu lights (the limit is %d)",
+                         (unsigned long)nlights, PDS_MAX_LIGHTS);
+    if (nlights > 0 && !lights)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "no light array given for %lu lights",
+                         (unsigned long)nlights);
+    for (i = 0; i < nlights; i++) {
+        const pds_light *l = &lights[i];
+        if (l->type != PDS_LIGHT_MESH) continue;
+        if (l->first_triangle < 0 || l->triangle_count < 0 || (size_t)l->first_triangle > ntris
+            || (size_t)l->triangle_count > ntris - (size_t)l->first_triangle)
+            return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                             "mesh light %lu uses triangles %d..%ld but the mesh has %lu triangles",
+                             (unsigned long)i, l->first_triangle,
+                             (long)l->first_triangle + (long)l->triangle_count - 1, (unsigned long)ntris);
+        nemit += (size_t)l->triangle_count;
+    }
+    /* allocate at least one item so a light-less scene is not a special case */
+    n1 = nlights ? nlights : 1;
+    lt->nlights = nlights;
+    lt->ntris = ntris;
+    lt->type = (int *)calloc(n1, sizeof *lt->type);
+    lt->pmf = (double *)calloc(n1, sizeof *lt->pmf);
+    lt->cdf = (double *)calloc(nlights + 1, sizeof *lt->cdf);
+    lt->area = (double *)calloc(n1, sizeof *lt->area);
+    lt->tri_off = (size_t *)calloc(n1, sizeof *lt->tri_off);
+    lt->tri_n = (size_t *)calloc(n1, sizeof *lt->tri_n);
+    lt->tri_cdf = (double *)calloc(nemit ? nemit : 1, sizeof *lt->tri_cdf);
+    lt->tri_light = (int *)malloc((ntris ? ntris : 1) * sizeof *lt->tri_light);
+    if (!lt->type || !lt->pmf || !lt->cdf || !lt->area || !lt->tri_off || !lt->tri_n || !lt->tri_cdf || !lt->tri_light) {
+        pds__lights_free(lt);
+        return pds__nomem(err);
+    }
+    for (k = 0; k < ntris; k++) lt->tri_light[k] = -1;
+
+    /* areas, triangle CDFs, weights (kept in pmf until normalised) */
+    for (i = 0; i < nlights && !st; i++) {
+        const pds_light *l = &lights[i];
+        double area, w;
+        lt->type[i] = (int)l->type;
+        if (l->type == PDS_LIGHT_MESH) {
+            double acc = 0.0;
+            size_t count = (size_t)l->triangle_count;
+            lt->tri_off[i] = cursor;
+            lt->tri_n[i] = count;
+            for (k = 0; k < count; k++) {
+                long tri = (long)l->first_triangle + (long)k;
+                pds__v3 p0, p1, p2, n;
+                if (lt->tri_light[tri] != -1) {
+                    st = pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                                   "triangle %ld belongs to mesh lights %d and %lu", tri,
+                                   lt->tri_light[tri], (unsigned long)i);
+                    break;
+                }
+                lt->tri_light[tri] = (int)i;
+                acc += pds__lights_tri_geom(mesh, tri, &p0, &p1, &p2, &n);
+                lt->tri_cdf[cursor + k] = acc;
+            }
+            if (acc > 0.0) {
+                for (k = 0; k < count; k++) lt->tri_cdf[cursor + k] /= acc;
+                lt->tri_cdf[cursor + count - 1] = 1.0;
+            }
+            cursor += count;
+            if (st) break;
+            area = acc;
+        } else {
+            area = pds__light_geom_area(l);
+        }
+        lt->area[i] = area;
+        w = pds__light_total_power(l, area);
+        if (w != w || w > DBL_MAX || !(area == area) || area > DBL_MAX) {
+            st = pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                           "light %lu has a power or size that is not a finite number", (unsigned long)i);
+            break;
+        }
+        /* a light without emitting area or without power is never picked */
+        if ((pds__light_is_area(l->type) || l->type == PDS_LIGHT_DIRECTIONAL) && !(area > 0.0)) w = 0.0;
+        if (!(w > 0.0)) w = 0.0;
+        lt->pmf[i] = w;
+        total += w;
+    }
+    if (!st && !(total <= DBL_MAX))
+        st = pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the lights' total power overflows");
+    if (st) {
+        pds__lights_free(lt);
+        return st;
+    }
+
+    /* CDF; pmf[i] = cdf[i+1] - cdf[i] so picking and pmf agree exactly */
+    lt->cdf[0] = 0.0;
+    for (i = 0; i < nlights; i++) {
+        run += lt->pmf[i];
+        lt->cdf[i + 1] = total > 0.0 ? run / total : 0.0;
+    }
+    for (i = 0; i < nlights; i++) {
+        lt->pmf[i] = lt->cdf[i + 1] - lt->cdf[i];
+        if (lt->pmf[i] > 0.0) lt->pick_end = i + 1;
+    }
+    if (lt->pick_end > 0) {
+        for (i = lt->pick_end; i <= nlights; i++) lt->cdf[i] = 1.0;
+        lt->pmf[lt->pick_end - 1] = 1.0 - lt->cdf[lt->pick_end - 1];
+    }
+    return PDS_OK;
+}
+
+/* Light index for a uniform u in [0,1), chosen with probability
+   proportional to power; *pmf (optional) gets that probability. -1 (and
+   pmf 0) when no light has power. */
+static int pds__lights_pick(const pds__light_table *lt, double u, double *pmf)
+{
+    size_t lo, hi;
+    if (lt->pick_end == 0) {
+        if (pmf) *pmf = 0.0;
+        return -1;
+    }
+    if (!(u >= 0.0)) u = 0.0; /* also NaN */
+    if (u >= 1.0) {
+        lo = lt->pick_end - 1;
+    } else {
+        /* smallest i with u < cdf[i+1]; a zero-power light has
+           cdf[i+1] == cdf[i], so it can never be the smallest */
+        lo = 0;
+        hi = lt->pick_end - 1;
+        while (lo < hi) {
+            size_t mid = lo + (hi - lo) / 2;
+            if (u < lt->cdf[mid + 1]) hi = mid;
+            else lo = mid + 1;
+        }
+    }
+    if (pmf) *pmf = lt->pmf[lo];
+    return (int)lo;
+}
+
+static double pds__lights_pmf(const pds__light_table *lt, int light)
+{
+    if (light < 0 || (size_t)light >= lt->nlights) return 0.0;
+    return lt->pmf[light];
+}
+
+static int pds__light_of_triangle(const pds__light_table *lt, long tri)
+{
+    if (tri < 0 || (size_t)tri >= lt->ntris) return -1;
+    return lt->tri_light[tri];
+}
+
+/* --- cone profile of the spot light ------------------------------------- */
+
+/* cos of the inner and outer half-angles; inner is clamped to at most
+   outer so that ci >= co. */
+static void pds__light_spot_cones(const pds_light *l, double *ci, double *co)
+{
+    double inner = l->cone_inner_deg, outer = l->cone_outer_deg;
+    if (inner > outer) inner = outer;
+    *ci = cos(inner * (PDS__PI / 180.0));
+    *co = cos(outer * (PDS__PI / 180.0));
+    if (*ci < *co) *ci = *co;
+}
+
+/* s(x) for the cosine c of the angle to the axis: 1 inside the inner
+   cone, 0 outside the outer one, smoothstep 3x^2 - 2x^3 between. */
+static double pds__light_spot_falloff(double c, double ci, double co)
+{
+    double x;
+    if (c >= ci) return 1.0;
+    if (c <= co) return 0.0;
+    x = (c - co) / (ci - co);
+    return x * x * (3.0 - 2.0 * x);
+}
+
+/* Axial intensity I0 (W/sr) of channel ch: P / (2 pi [(1-ci) + (ci-co)/2]). */
+static double pds__light_spot_i0(const pds_light *l, int ch, double ci, double co)
+{
+    double denom = 2.0 * PDS__PI * ((1.0 - ci) + 0.5 * (ci - co));
+    return denom > 0.0 ? l->power[ch] / denom : 0.0;
+}
+
+/* --- surface sampling ----------------------------------------------------- */
+
+/* Shirley and Chiu's concentric map: [0,1)^2 -> unit disk, area
+   preserving up to a constant, with low distortion. */
+static void pds__lights_concentric(double u1, double u2, double *dx, double *dy)
+{
+    double a = 2.0 * u1 - 1.0, b = 2.0 * u2 - 1.0, r, phi;
+    if (a == 0.0 && b == 0.0) {
+        *dx = *dy = 0.0;
+        return;
+    }
+    if (fabs(a) > fabs(b)) {
+        r = a;
+        phi = (PDS__PI / 4.0) * (b / a);
+    } else {
+        r = b;
+        phi = PDS__PI / 2.0 - (PDS__PI / 4.0) * (a / b);
+    }
+    *dx = r * cos(phi);
+    *dy = r * sin(phi);
+}
+
+/* Checks that light_index names a light of l's type in the table and,
+   for a mesh light, that its triangles exist in mesh. */
+static int pds__light_table_ok(const pds__light_table *lt, const pds_light *l, int light_index,
+                               const pds__mesh *mesh)
+{
+    if (!lt || light_index < 0 || (size_t)light_index >= lt->nlights) return 0;
+    if (lt->type[light_index] != (int)l->type) return 0;
+    if (l->type == PDS_LIGHT_MESH) {
+        if (!mesh || l->triangle_count <= 0 || l->first_triangle < 0) return 0;
+        if ((size_t)l->first_triangle + (size_t)l->triangle_count > mesh->ntris) return 0;
+        if ((size_t)l->triangle_count != lt->tri_n[light_index]) return 0; /* not the light prepared */
+        if (!(lt->area[light_index] > 0.0)) return 0;
+    }
+    return 1;
+}
+
+/* A point uniformly distributed by area on an area light: *x, its unit
+   normal *n (the emitting side) and the light's area *area. u1, u2 in
+   [0,1). Returns 0 when the light has no area or the call is invalid. */
+static int pds__light_sample_surface(const pds__light_table *lt, const pds_light *l, int light_index,
+                                     const pds__mesh *mesh, double u1, double u2, pds__v3 *x,
+                                     pds__v3 *n, double *area)
+{
+    if (l->type == PDS_LIGHT_DISK) {
+        pds__v3 b1, b2;
+        double dx, dy;
+        *n = pds__light_plane_normal(l);
+        *area = pds__light_geom_area(l);
+        if (!(*area > 0.0) || !(pds__length(*n) > 0.0)) return 0;
+        pds__onb(*n, &b1, &b2);
+        pds__lights_concentric(u1, u2, &dx, &dy);
+        *x = pds__add(l->position, pds__add(pds__scale(b1, dx * l->radius), pds__scale(b2, dy * l->radius)));
+        return 1;
+    }
+    if (l->type == PDS_LIGHT_QUAD) {
+        *n = pds__light_plane_normal(l);
+        *area = pds__light_geom_area(l);
+        if (!(*area > 0.0)) return 0;
+        *x = pds__add(l->position, pds__add(pds__scale(l->edge1, u1 - 0.5), pds__scale(l->edge2, u2 - 0.5)));
+        return 1;
+    }
+    if (l->type == PDS_LIGHT_MESH) {
+        const double *cdf;
+        size_t lo = 0, hi, count;
+        double prev, su, b0, b1;
+        pds__v3 p0, p1, p2;
+        if (!pds__light_table_ok(lt, l, light_index, mesh)) return 0;
+        count = (size_t)l->triangle_count;
+        cdf = lt->tri_cdf + lt->tri_off[light_index];
+        /* the triangle: smallest k with u1 < cdf[k] (zero-area ones never) */
+        hi = count - 1;
+        if (!(u1 >= 0.0)) u1 = 0.0;
+        while (lo < hi) {
+            size_t mid = lo + (hi - lo) / 2;
+            if (u1 < cdf[mid]) hi = mid;
+            else lo = mid + 1;
+        }
+        /* reuse u1 within the chosen bin */
+        prev = lo > 0 ? cdf[lo - 1] : 0.0;
+        u1 = cdf[lo] > prev ? (u1 - prev) / (cdf[lo] - prev) : 0.5;
+        if (u1 < 0.0) u1 = 0.0;
+        if (u1 > 1.0) u1 = 1.0;
+        pds__lights_tri_geom(mesh, (long)l->first_triangle + (long)lo, &p0, &p1, &p2, n);
+        /* uniform in the triangle: sqrt warp of the first coordinate */
+        su = sqrt(u1);
+        b0 = 1.0 - su;
+        b1 = su * (1.0 - u2);
+        *x = pds__add(pds__add(pds__scale(p0, b0), pds__scale(p1, b1)), pds__scale(p2, 1.0 - b0 - b1));
+        *area = lt->area[light_index];
+        return 1;
+    }
+    return 0;
+}
+
+/* Where the backward ray from p (along -d) crosses a directional light's
+   emitter: returns 1 and the distance *t > 0 when it does. */
+static int pds__light_beam_hit(const pds_light *l, pds__v3 p, double *t)
+{
+    pds__v3 d = pds__normalize(l->direction), n, q, r;
+    double denom, tt;
+    n = l->emitter_shape == 0 ? d : pds__cross(l->edge1, l->edge2);
+    denom = pds__dot(d, n);
+    if (!(fabs(denom) > 0.0)) return 0;
+    /* q = p - t d on the plane dot(q - c, n) = 0 */
+    tt = pds__dot(pds__sub(p, l->position), n) / denom;
+    if (!(tt > 0.0)) return 0;
+    q = pds__sub(p, pds__scale(d, tt));
+    r = pds__sub(q, l->position);
+    if (l->emitter_shape == 0) {
+        if (!(pds__dot(r, r) <= l->radius * l->radius)) return 0;
+    } else {
+        /* r = a e1 + b e2  =>  a = (r x e2).n / |n|^2, b = (e1 x r).n / |n|^2 */
+        double nn = pds__dot(n, n);
+        double a = pds__dot(pds__cross(r, l->edge2), n) / nn;
+        double b = pds__dot(pds__cross(l->edge1, r), n) / nn;
+        if (!(fabs(a) <= 0.5 && fabs(b) <= 0.5)) return 0;
+    }
+    *t = tt;
+    return 1;
+}
+
+/* --- next-event estimation ---------------------------------------------- */
+
+/* Sample light l (index light_index in lt) as seen from point p with
+   uniforms u1, u2 in [0,1). Fills *out; returns 0 when this sample brings
+   nothing to p: p behind a one-sided emitter (or behind the sampled
+   triangle of a mesh light), outside the spot cone or the directional
+   beam, at the light itself, or an invalid call. */
+static int pds__light_sample_li(const pds__light_table *lt, const pds_light *l, int light_index,
+                                const pds__mesh *mesh, pds__v3 p, double u1, double u2, pds__light_li *out)
+{
+    int c;
+    memset(out, 0, sizeof *out);
+    switch (l->type) {
+    case PDS_LIGHT_POINT:
+    case PDS_LIGHT_SPOT: {
+        pds__v3 d = pds__sub(l->position, p);
+        double dist = pds__length(d), s = 1.0, ci = 1.0, co = 1.0, any = 0.0;
+        if (!(dist > 0.0)) return 0;
+        out->wi = pds__scale(d, 1.0 / dist);
+        out->dist = dist;
+        out->pdf = 1.0;
+        out->delta = 1;
+        if (l->type == PDS_LIGHT_SPOT) {
+            pds__v3 axis = pds__normalize(l->direction);
+            pds__light_spot_cones(l, &ci, &co);
+            s = pds__light_spot_falloff(-pds__dot(out->wi, axis), ci, co);
+        }
+        for (c = 0; c < 3; c++) {
+            double I = l->type == PDS_LIGHT_POINT ? l->power[c] / (4.0 * PDS__PI)
+                                                  : pds__light_spot_i0(l, c, ci, co) * s;
+            out->li[c] = I / (dist * dist);
+            any += fabs(out->li[c]);
+        }
+        return any > 0.0;
+    }
+    case PDS_LIGHT_DIRECTIONAL: {
+        double t;
+        if (!pds__light_beam_hit(l, p, &t)) return 0;
+        out->wi = pds__scale(pds__normalize(l->direction), -1.0);
+        out->dist = t;
+        out->pdf = 1.0;
+        out->delta = 1;
+        for (c = 0; c < 3; c++) out->li[c] = l->irradiance[c];
+        return 1;
+    }
+    case PDS_LIGHT_DISK:
+    case PDS_LIGHT_QUAD:
+    case PDS_LIGHT_MESH: {
+        pds__v3 x, n, d;
+        double area, dist2, dist, cosl;
+        if (!pds__light_sample_surface(lt, l, light_index, mesh, u1, u2, &x, &n, &area)) return 0;
+        d = pds__sub(x, p);
+        dist2 = pds__dot(d, d);
+        dist = sqrt(dist2);
+        if (!(dist > 0.0)) return 0;
+        out->wi = pds__scale(d, 1.0 / dist);
+        out->dist = dist;
+        cosl = -pds__dot(n, out->wi); /* > 0 when p is on the emitting side */
+        if (!(cosl > 0.0)) return 0;
+        out->pdf = dist2 / (area * cosl);
+        for (c = 0; c < 3; c++) out->li[c] = l->radiance[c];
+        return out->pdf > 0.0 && out->pdf <= DBL_MAX;
+    }
+    }
+    return 0;
+}
+
+/* Solid-angle pdf with which pds__light_sample_li(p) produces the point x
+   (geometric normal nx) on area light l: dist^2 / (A |cos theta_x|), for
+   MIS when a BSDF ray hits the light. 0 for delta lights. */
+static double pds__light_pdf_li(const pds__light_table *lt, const pds_light *l, int light_index,
+                                const pds__mesh *mesh, pds__v3 p, pds__v3 x, pds__v3 nx)
+{
+    pds__v3 d = pds__sub(x, p);
+    double area, dist2 = pds__dot(d, d), cosl;
+    if (!pds__light_is_area(l->type)) return 0.0;
+    if (l->type == PDS_LIGHT_MESH) {
+        if (!pds__light_table_ok(lt, l, light_index, mesh)) return 0.0;
+        area = lt->area[light_index];
+    } else {
+        area = pds__light_geom_area(l);
+    }
+    if (!(area > 0.0) || !(dist2 > 0.0)) return 0.0;
+    cosl = fabs(pds__dot(pds__normalize(nx), d)) / sqrt(dist2);
+    if (!(cosl > 0.0)) return 0.0;
+    return dist2 / (area * cosl);
+}
+
+/* Ray against a disk or quad light (the analytic emitters that are not in
+   the BVH), from either side, t in the open interval (tmin, tmax) in units
+   of |dir|. Fills *t and the emitter's unit normal *nx (never flipped).
+   0 for a miss and for every other light type. */
+static int pds__light_intersect(const pds_light *l, pds__v3 org, pds__v3 dir, double tmin, double tmax,
+                                double *t, pds__v3 *nx)
+{
+    pds__v3 n, r;
+    double denom, tt;
+    if (l->type != PDS_LIGHT_DISK && l->type != PDS_LIGHT_QUAD) return 0;
+    n = pds__light_plane_normal(l);
+    denom = pds__dot(dir, n);
+    if (!(fabs(denom) > 0.0)) return 0;
+    tt = pds__dot(pds__sub(l->position, org), n) / denom;
+    if (!(tt > tmin && tt < tmax)) return 0;
+    r = pds__sub(pds__add(org, pds__scale(dir, tt)), l->position);
+    if (l->type == PDS_LIGHT_DISK) {
+        /* r lies in the plane (up to rounding), so |r| is the radius */
+        if (!(pds__dot(r, r) <= l->radius * l->radius)) return 0;
+    } else {
+        pds__v3 m = pds__cross(l->edge1, l->edge2);
+        double mm = pds__dot(m, m);
+        double a = pds__dot(pds__cross(r, l->edge2), m) / mm;
+        double b = pds__dot(pds__cross(l->edge1, r), m) / mm;
+        if (!(fabs(a) <= 0.5 && fabs(b) <= 0.5)) return 0;
+    }
+    *t = tt;
+    *nx = n;
+    return 1;
+}
+
+/* Radiance leaving an area light's surface of normal nx in direction w:
+   L on the emitting side (dot(nx, w) > 0), else 0; 0 for delta lights. */
+static void pds__light_le(const pds_light *l, pds__v3 nx, pds__v3 w, double le[3])
+{
+    int c, lit = pds__light_is_area(l->type) && pds__dot(nx, w) > 0.0;
+    for (c = 0; c < 3; c++) le[c] = lit ? l->radiance[c] : 0.0;
+}
+
+/* --- photon emission ----------------------------------------------------- */
+
+/* One photon from light l with uniforms u[0..3] in [0,1):
+   point: uniform sphere (u0, u1); spot: uniform over the outer cone's solid
+   angle (u0, u1); area lights: uniform position (u0, u1), cosine-weighted
+   direction about the normal (u2, u3); directional: uniform position on
+   the emitter (u0, u1), dir = d. Returns 0 when the photon carries no flux
+   (e.g. the rim of a spot cone) or the call is invalid; the caller still
+   counts such a photon. */
+static int pds__light_emit_sample(const pds__light_table *lt, const pds_light *l, int light_index,
+                                  const pds__mesh *mesh, const double u[4], pds__light_emit *out)
+{
+    int c;
+    double any = 0.0;
+    memset(out, 0, sizeof *out);
+    switch (l->type) {
+    case PDS_LIGHT_POINT: {
+        double z = 1.0 - 2.0 * u[0], s = sqrt(fmax(0.0, 1.0 - z * z)), phi = 2.0 * PDS__PI * u[1];
+        out->pos = l->position;
+        out->dir = pds__v(s * cos(phi), s * sin(phi), z);
+        out->pdf_pos = 1.0;
+        out->pdf_dir = 1.0 / (4.0 * PDS__PI);
+        for (c = 0; c < 3; c++) out->flux[c] = l->power[c]; /* (P / 4 pi) / pdf_dir */
+        break;
+    }
+    case PDS_LIGHT_SPOT: {
+        pds__v3 axis = pds__normalize(l->direction), b1, b2;
+        double ci, co, ct, st, phi, s;
+        pds__light_spot_cones(l, &ci, &co);
+        if (!(1.0 - co > 0.0) || !(pds__length(axis) > 0.0)) return 0;
+        /* uniform in solid angle: cos theta uniform on [co, 1] */
+        ct = 1.0 - u[0] * (1.0 - co);
+        st = sqrt(fmax(0.0, 1.0 - ct * ct));
+        phi = 2.0 * PDS__PI * u[1];
+        pds__onb(axis, &b1, &b2);
+        out->pos = l->position;
+        out->dir = pds__normalize(pds__add(pds__scale(axis, ct),
+                                           pds__add(pds__scale(b1, st * cos(phi)), pds__scale(b2, st * sin(phi)))));
+        out->pdf_pos = 1.0;
+        out->pdf_dir = 1.0 / (2.0 * PDS__PI * (1.0 - co));
+        s = pds__light_spot_falloff(ct, ci, co);
+        for (c = 0; c < 3; c++) out->flux[c] = pds__light_spot_i0(l, c, ci, co) * s / out->pdf_dir;
+        break;
+    }
+    case PDS_LIGHT_DIRECTIONAL: {
+        pds__v3 d = pds__normalize(l->direction);
+        double area = pds__light_geom_area(l);
+        if (!(area > 0.0) || !(pds__length(d) > 0.0)) return 0;
+        if (l->emitter_shape == 0) {
+            pds__v3 b1, b2;
+            double dx, dy;
+            pds__onb(d, &b1, &b2);
+            pds__lights_concentric(u[0], u[1], &dx, &dy);
+            out->pos = pds__add(l->position, pds__add(pds__scale(b1, dx * l->radius), pds__scale(b2, dy * l->radius)));
+        } else {
+            out->pos = pds__add(l->position, pds__add(pds__scale(l->edge1, u[0] - 0.5), pds__scale(l->edge2, u[1] - 0.5)));
+        }
+        out->dir = d;
+        out->normal = d;
+        out->pdf_pos = 1.0 / area;
+        out->pdf_dir = 1.0;
+        for (c = 0; c < 3; c++) out->flux[c] = l->irradiance[c] * area;
+        break;
+    }
+    case PDS_LIGHT_DISK:
+    case PDS_LIGHT_QUAD:
+    case PDS_LIGHT_MESH: {
+        pds__v3 x, n, b1, b2;
+        double area, r, phi, z;
+        if (!pds__light_sample_surface(lt, l, light_index, mesh, u[0], u[1], &x, &n, &area)) return 0;
+        /* cosine-weighted hemisphere (Malley): uniform disk point lifted */
+        r = sqrt(u[2]);
+        phi = 2.0 * PDS__PI * u[3];
+        z = sqrt(fmax(0.0, 1.0 - u[2]));
+        if (!(z > 0.0)) return 0;
+        pds__onb(n, &b1, &b2);
+        out->pos = x;
+        out->normal = n;
+        out->dir = pds__normalize(pds__add(pds__scale(n, z),
+                                           pds__add(pds__scale(b1, r * cos(phi)), pds__scale(b2, r * sin(phi)))));
+        out->pdf_pos = 1.0 / area;
+        out->pdf_dir = z / PDS__PI;
+        /* L cos / (pdf_pos pdf_dir) = pi L A, whatever the direction */
+        for (c = 0; c < 3; c++) out->flux[c] = PDS__PI * l->radiance[c] * area;
+        break;
+    }
+    default:
+        return 0;
+    }
+    for (c = 0; c < 3; c++) any += fabs(out->flux[c]);
+    return any > 0.0;
+}
+
+/* Emitting area Ae and emission solid angle omega_e of a light, for the
+   initial photon differentials (Frisvad et al. 2014, eqs 5-6). Area
+   lights use the hemisphere, 2 pi (the paper gives no value for them). */
+static void pds__light_emission_extent(const pds_light *l, double *area, double *solid_angle)
+{
+    double ci, co;
+    switch (l->type) {
+    case PDS_LIGHT_POINT:
+        *area = 0.0;
+        *solid_angle = 4.0 * PDS__PI;
+        return;
+    case PDS_LIGHT_SPOT:
+        pds__light_spot_cones(l, &ci, &co);
+        *area = 0.0;
+        *solid_angle = 2.0 * PDS__PI * (1.0 - co);
+        return;
+    case PDS_LIGHT_DIRECTIONAL:
+        *area = pds__light_geom_area(l);
+        *solid_angle = 0.0;
+        return;
+    case PDS_LIGHT_DISK:
+    case PDS_LIGHT_QUAD:
+        *area = pds__light_geom_area(l);
+        *solid_angle = 2.0 * PDS__PI;
+        return;
+    case PDS_LIGHT_MESH:
+        *area = l->area;
+        *solid_angle = 2.0 * PDS__PI;
+        return;
+    }
+    *area = 0.0;
+    *solid_angle = 0.0;
+}
+
+/* ===================================================================== */
+/* >>scene                                                               */
+/* ===================================================================== */
+/* The pds_scene value and the text format that describes it (README.md,
+   "Scene format", is the user's reference; keep the two in step).
+
+   A scene file is a sequence of statements, each a keyword, maybe a name,
+   and a block in braces holding `key value...` properties:
+
+       camera { position 0 1 5  look_at 0 0 0  fov 40  resolution 512 512 }
+       material glass dielectric { ior 1.5 }
+       light point { position 0 4 0  power 100 }
+       sphere { material glass  radius 1  translate 0 1 0 }
+       mesh "bunny.obj" { material glass  scale 10 }
+
+   Line breaks are white space like any other; `#` starts a comment that
+   runs to the end of the line. Numbers take any C form (decimal, exponent,
+   hexadecimal, hexadecimal float, a leading-zero integer is octal, and an
+   f/F/l/L/u/U suffix is ignored). NaN and infinity are refused. Every error
+   carries FILE:LINE:COLUMN of the token at fault.
+
+   Invariants after a successful load: every triangle's material index is
+   valid, every light has finite positive extent where it needs one, the
+   BVH is built, and nothing in the scene changes again (queries are
+   thread-safe). */
+
+struct pds_scene {
+    char path[512];
+    pds__mesh mesh;
+    pds__materials materials;
+    pds_light *lights;
+    size_t nlights, cap_lights;
+    pds_camera camera;
+    pds__bvh bvh;
+    pds__light_table light_table; /* light selection and sampling tables */
+    double bvh_build_s;      /* seconds the BVH build took (one thread) */
+    int shapes;
+    char (*warnings)[256];
+    size_t nwarnings, cap_warnings;
+    pds__v3 bounds_min, bounds_max;
+};
+
+/* Record a warning; warnings that do not fit in memory are dropped (they
+   are advice, never needed for correctness). */
+static void pds__scene_warn(pds_scene *s, const char *fmt, ...)
+{
+    va_list ap;
+    if (pds__grow((void **)&s->warnings, &s->cap_warnings, s->nwarnings + 1, sizeof *s->warnings))
+        return;
+    va_start(ap, fmt);
+    vsnprintf(s->warnings[s->nwarnings], sizeof s->warnings[0], fmt, ap);
+    va_end(ap);
+    s->nwarnings++;
+}
+
+/* What an OBJ load found worth telling the user. */
+static void pds__scene_warn_obj(pds_scene *s, const char *path, const pds__obj_stats *st)
+{
+    if (st->degenerate_dropped)
+        pds__scene_warn(s, "%s: %ld degenerate (zero-area) triangles dropped", path, st->degenerate_dropped);
+    if (st->ignored_statements)
+        pds__scene_warn(s, "%s: %ld unknown statements ignored (first: %s)", path, st->ignored_statements,
+                        st->ignored_example);
+    if (st->unknown_materials)
+        pds__scene_warn(s, "%s: %ld material names not found in its MTL files; they use the default material", path,
+                        st->unknown_materials);
+}
+
+static pds_camera pds__camera_default(void)
+{
+    pds_camera c;
+    c.position = pds__v(0.0, 0.0, 5.0);
+    c.look_at = pds__v(0.0, 0.0, 0.0);
+    c.up = pds__v(0.0, 1.0, 0.0);
+    c.fov_deg = 40.0;
+    c.width = 256;
+    c.height = 256;
+    c.spp = 4;
+    c.filter = PDS_FILTER_BOX;
+    return c;
+}
+
+static pds_scene *pds__scene_new(const char *path)
+{
+    pds_scene *s = (pds_scene *)calloc(1, sizeof *s);
+    if (!s) return NULL;
+    pds__strlcpy(s->path, path, sizeof s->path);
+    s->camera = pds__camera_default();
+    return s;
+}
+
+void pds_scene_free(pds_scene *s)
+{
+    if (!s) return;
+    pds__mesh_free(&s->mesh);
+    free(s->materials.items);
+    free(s->lights);
+    free(s->warnings);
+    pds__bvh_free(&s->bvh);
+    pds__lights_free(&s->light_table);
+    free(s);
+}
+
+/* Index of the material "default" (white diffuse), created on first use. */
+static int pds__scene_default_material(pds_scene *s)
+{
+    int i = pds__materials_find(&s->materials, "default");
+    pds_material m;
+    if (i >= 0) return i;
+    m = pds__material_default("default");
+    return pds__materials_add(&s->materials, &m);
+}
+
+static int pds__scene_add_light(pds_scene *s, const pds_light *l)
+{
+    if (s->nlights >= (size_t)PDS_MAX_LIGHTS) return -1;
+    if (pds__grow((void **)&s->lights, &s->cap_lights, s->nlights + 1, sizeof *s->lights)) return -1;
+    s->lights[s->nlights++] = *l;
+    return 0;
+}
+
+/* --- lexer -------------------------------------------------------------- */
+
+typedef enum pds__tok_kind {
+    PDS__TOK_END = 0, PDS__TOK_WORD, PDS__TOK_NUMBER, PDS__TOK_STRING, PDS__TOK_LBRACE, PDS__TOK_RBRACE
+} pds__tok_kind;
+
+typedef struct pds__token {
+    pds__tok_kind kind;
+    char text[512];
+    int line, col;
+} pds__token;
+
+typedef struct pds__parser {
+    const char *file;     /* scene path as given, for messages */
+    char dir[512];        /* its directory, for relative mesh paths */
+    const char *p;        /* read position */
+    int line, col;        /* of *p */
+    pds__token tok;       /* current token */
+    pds_scene *scene;
+    pds_error *err;
+} pds__parser;
+
+static pds_status pds__perr(pds__parser *P, const pds__token *at, pds_status st, const char *fmt, ...)
+{
+    char msg[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    return pds__fail(P->err, st, P->file, at->line, at->col, "%s", msg);
+}
+
+static void pds__lex_advance(pds__parser *P)
+{
+    if (*P->p == '\n') {
+        P->line++;
+        P->col = 1;
+    } else {
+        P->col++;
+    }
+    P->p++;
+}
+
+static int pds__is_word_char(int c)
+{
+    return isalnum(c) || c == '_' || c == '-' || c == '.' || c == '/' || c == '+';
+}
+
+/* Read the next token into P->tok. */
+static pds_status pds__lex_next(pds__parser *P)
+{
+    pds__token *t = &P->tok;
+    size_t n = 0;
+    for (;;) {
+        while (*P->p && isspace((unsigned char)*P->p)) pds__lex_advance(P);
+        if (*P->p != '#') break;
+        while (*P->p && *P->p != '\n') pds__lex_advance(P);
+    }
+    t->line = P->line;
+    t->col = P->col;
+    t->text[0] = '\0';
+    if (!*P->p) {
+        t->kind = PDS__TOK_END;
+        pds__strlcpy(t->text, "end of file", sizeof t->text);
+        return PDS_OK;
+    }
+    if (*P->p == '{' || *P->p == '}') {
+        t->kind = *P->p == '{' ? PDS__TOK_LBRACE : PDS__TOK_RBRACE;
+        t->text[0] = *P->p;
+        t->text[1] = '\0';
+        pds__lex_advance(P);
+        return PDS_OK;
+    }
+    if (*P->p == '"') {
+        t->kind = PDS__TOK_STRING;
+        pds__lex_advance(P);
+        while (*P->p && *P->p != '"' && *P->p != '\n') {
+            if (n + 1 >= sizeof t->text)
+                return pds__perr(P, t, PDS_ERR_LIMIT, "string longer than %d characters", (int)sizeof t->text - 1);
+            t->text[n++] = *P->p;
+            pds__lex_advance(P);
+        }
+        t->text[n] = '\0';
+        if (*P->p != '"') return pds__perr(P, t, PDS_ERR_PARSE, "unterminated string");
+        pds__lex_advance(P);
+        return PDS_OK;
+    }
+    if (!pds__is_word_char((unsigned char)*P->p))
+        return pds__perr(P, t, PDS_ERR_PARSE, "unexpected character '%c'", *P->p);
+    while (*P->p && pds__is_word_char((unsigned char)*P->p)) {
+        if (n + 1 >= sizeof t->text)
+            return pds__perr(P, t, PDS_ERR_LIMIT, "word longer than %d characters", (int)sizeof t->text - 1);
+        t->text[n++] = *P->p;
+        pds__lex_advance(P);
+    }
+    t->text[n] = '\0';
+    {
+        char c0 = t->text[0], c1 = t->text[1];
+        int numeric = isdigit((unsigned char)c0) || (c0 == '.' && isdigit((unsigned char)c1)) ||
+                      ((c0 == '-' || c0 == '+') && (isdigit((unsigned char)c1) || c1 == '.'));
+        t->kind = numeric ? PDS__TOK_NUMBER : PDS__TOK_WORD;
+    }
+    return PDS_OK;
+}
+
+/* Convert a C number literal. Returns 0 and sets *out, or -1 if the text
+   is not one number. NaN and infinities are refused by the callers. */
+static int pds__parse_c_number(const char *text, double *out)
+{
+    char buf[512];
+    size_t len = strlen(text);
+    const char *s = buf;
+    char *end;
+    int neg = 0, is_float;
+    if (len == 0 || len >= sizeof buf) return -1;
+    memcpy(buf, text, len + 1);
+    /* Hexadecimal literals contain 'f' as a digit, so only a decimal
+       literal loses an f/F suffix. */
+    is_float = strchr(buf, '.') || ((buf[0] != '0' || (buf[1] != 'x' && buf[1] != 'X')) &&
+                                    (strchr(buf, 'e') || strchr(buf, 'E')));
+    while (len > 1 && strchr("uUlL", buf[len - 1])) buf[--len] = '\0';
+    if (len > 1 && strchr("fF", buf[len - 1]) && !strstr(buf, "0x") && !strstr(buf, "0X"))
+        buf[--len] = '\0';
+    if (*s == '+' || *s == '-') {
+        neg = *s == '-';
+        s++;
+    }
+    if (!isdigit((unsigned char)*s) && *s != '.') return -1;
+    if (!is_float && s[0] == '0' && isdigit((unsigned char)s[1])) {
+        /* C octal integer */
+        unsigned long long v;
+        errno = 0;
+        v = strtoull(s, &end, 8);
+        if (*end || errno) return -1;
+        *out = neg ? -(double)v : (double)v;
+        return 0;
+    }
+    errno = 0;
+    *out = strtod(s, &end);
+    if (*end || end == s) return -1;
+    if (neg) *out = -*out;
+    return 0;
+}
+
+/* --- property readers --------------------------------------------------- */
+/* Each reads the value(s) after a key; P->tok is the key on entry and the
+   token after the value(s) on return. */
+
+static pds_status pds__p_number(pds__parser *P, const char *key, double *out)
+{
+    pds_status st = pds__lex_next(P);
+    if (st) return st;
+    if (P->tok.kind != PDS__TOK_NUMBER || pds__parse_c_number(P->tok.text, out) != 0)
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "expected a number after '%s', got '%s'", key, P->tok.text);
+    if (!isfinite(*out))
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' must be finite, got '%s'", key, P->tok.text);
+    if (fabs(*out) > PDS_MAX_COORD)
+        return pds__perr(P, &P->tok, PDS_ERR_LIMIT, "'%s' value %s is beyond the limit of %g", key,
+                         P->tok.text, PDS_MAX_COORD);
+    return PDS_OK;
+}
+
+/* A number in [lo, hi]; what says what the number is for messages. */
+static pds_status pds__p_range(pds__parser *P, const char *key, double lo, double hi, double *out)
+{
+    pds_status st = pds__p_number(P, key, out);
+    if (st) return st;
+    if (*out < lo || *out > hi)
+        return pds__perr(P, &P->tok, *out > hi && hi >= 1e3 ? PDS_ERR_LIMIT : PDS_ERR_PARSE,
+                         "'%s' must be between %g and %g, got %s", key, lo, hi, P->tok.text);
+    return PDS_OK;
+}
+
+static pds_status pds__p_positive(pds__parser *P, const char *key, double *out)
+{
+    pds_status st = pds__p_number(P, key, out);
+    if (st) return st;
+    if (!(*out > 0.0)) return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' must be positive, got %s", key, P->tok.text);
+    return PDS_OK;
+}
+
+static pds_status pds__p_int(pds__parser *P, const char *key, int lo, int hi, int *out)
+{
+    double v;
+    pds_status st = pds__p_number(P, key, &v);
+    if (st) return st;
+    if (v != floor(v)) return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' must be a whole number, got %s", key, P->tok.text);
+    if (v < lo) return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' must be at least %d, got %s", key, lo, P->tok.text);
+    if (v > hi) return pds__perr(P, &P->tok, PDS_ERR_LIMIT, "'%s' must be at most %d, got %s", key, hi, P->tok.text);
+    *out = (int)v;
+    return PDS_OK;
+}
+
+static pds_status pds__p_vec3(pds__parser *P, const char *key, pds__v3 *out)
+{
+    double v[3];
+    int i;
+    for (i = 0; i < 3; i++) {
+        pds_status st = pds__p_number(P, key, &v[i]);
+        if (st) return st;
+    }
+    *out = pds__v(v[0], v[1], v[2]);
+    return PDS_OK;
+}
+
+/* A direction: three numbers, not all zero; normalised. */
+static pds_status pds__p_dir(pds__parser *P, const char *key, pds__v3 *out)
+{
+    pds_status st = pds__p_vec3(P, key, out);
+    if (st) return st;
+    if (!(pds__length(*out) > 0.0))
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' must not be a zero-length vector", key);
+    *out = pds__normalize(*out);
+    return PDS_OK;
+}
+
+/* An edge vector: three numbers, not all zero, kept as given. */
+static pds_status pds__p_edge(pds__parser *P, const char *key, pds__v3 *out)
+{
+    pds_status st = pds__p_vec3(P, key, out);
+    if (st) return st;
+    if (!(pds__length(*out) > 0.0))
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' must not be a zero-length vector", key);
+    return PDS_OK;
+}
+
+/* RGB: one number (grey) or three, each >= 0. */
+static pds_status pds__p_rgb(pds__parser *P, const char *key, double rgb[3])
+{
+    pds_status st = pds__p_number(P, key, &rgb[0]);
+    int i;
+    if (st) return st;
+    rgb[1] = rgb[2] = rgb[0];
+    /* peek: two more numbers make a colour */
+    {
+        pds__parser save = *P;
+        st = pds__lex_next(P);
+        if (st) return st;
+        if (P->tok.kind == PDS__TOK_NUMBER) {
+            *P = save;
+            if ((st = pds__p_number(P, key, &rgb[1])) || (st = pds__p_number(P, key, &rgb[2]))) return st;
+        } else {
+            *P = save;
+        }
+    }
+    for (i = 0; i < 3; i++)
+        if (rgb[i] < 0.0)
+            return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' must not be negative, got %g", key, rgb[i]);
+    return PDS_OK;
+}
+
+static pds_status pds__p_word(pds__parser *P, const char *key, char *out, size_t n)
+{
+    pds_status st = pds__lex_next(P);
+    if (st) return st;
+    if (P->tok.kind != PDS__TOK_WORD && P->tok.kind != PDS__TOK_STRING)
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "expected a name after '%s', got '%s'", key, P->tok.text);
+    pds__strlcpy(out, P->tok.text, n);
+    return PDS_OK;
+}
+
+/* Material by name; unknown names are errors at the name's position. */
+static pds_status pds__p_material_ref(pds__parser *P, const char *key, int *out)
+{
+    char name[64];
+    pds_status st = pds__p_word(P, key, name, sizeof name);
+    if (st) return st;
+    *out = pds__materials_find(&P->scene->materials, P->tok.text);
+    if (*out < 0) return pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown material '%s'", P->tok.text);
+    return PDS_OK;
+}
+
+static pds_status pds__expect_lbrace(pds__parser *P, const char *what)
+{
+    pds_status st = pds__lex_next(P);
+    if (st) return st;
+    if (P->tok.kind != PDS__TOK_LBRACE)
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "expected '{' after %s, got '%s'", what, P->tok.text);
+    return PDS_OK;
+}
+
+/* Block loop: advances to the next key; returns 1 for a key, 0 at '}'. */
+static int pds__block_next(pds__parser *P, const char *what, pds_status *st)
+{
+    *st = pds__lex_next(P);
+    if (*st) return 0;
+    if (P->tok.kind == PDS__TOK_RBRACE) return 0;
+    if (P->tok.kind == PDS__TOK_WORD) return 1;
+    if (P->tok.kind == PDS__TOK_END)
+        *st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "missing '}' at the end of %s", what);
+    else
+        *st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "expected a keyword in %s, got '%s'", what, P->tok.text);
+    return 0;
+}
+
+static pds_status pds__unknown_key(pds__parser *P, const char *what)
+{
+    return pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown keyword '%s' in %s", P->tok.text, what);
+}
+
+/* --- camera ------------------------------------------------------------- */
+
+static pds_status pds__parse_camera(pds__parser *P)
+{
+    pds_camera *c = &P->scene->camera;
+    pds__token start = P->tok;
+    pds_status st = pds__expect_lbrace(P, "'camera'");
+    double v;
+    if (st) return st;
+    while (pds__block_next(P, "the camera block", &st)) {
+        const char *k = P->tok.text;
+        char key[64];
+        pds__strlcpy(key, k, sizeof key);
+        if (!strcmp(key, "position")) st = pds__p_vec3(P, key, &c->position);
+        else if (!strcmp(key, "look_at")) st = pds__p_vec3(P, key, &c->look_at);
+        else if (!strcmp(key, "up")) st = pds__p_dir(P, key, &c->up);
+        else if (!strcmp(key, "fov")) st = pds__p_number(P, key, &v), c->fov_deg = v;
+        else if (!strcmp(key, "resolution")) {
+            if (!(st = pds__p_int(P, key, 1, PDS_MAX_RESOLUTION, &c->width)))
+                st = pds__p_int(P, key, 1, PDS_MAX_RESOLUTION, &c->height);
+        } else if (!strcmp(key, "spp")) st = pds__p_int(P, key, 1, PDS_MAX_SPP, &c->spp);
+        else if (!strcmp(key, "filter")) {
+            char f[32];
+            if (!(st = pds__p_word(P, key, f, sizeof f))) {
+                if (!strcmp(f, "box")) c->filter = PDS_FILTER_BOX;
+                else if (!strcmp(f, "tent")) c->filter = PDS_FILTER_TENT;
+                else st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown filter '%s' (box or tent)", f);
+            }
+        } else st = pds__unknown_key(P, "the camera block");
+        if (st) return st;
+        if (!strcmp(key, "fov") && !(c->fov_deg > 0.0 && c->fov_deg < 180.0))
+            return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'fov' must be between 0 and 180 degrees, got %s", P->tok.text);
+    }
+    if (st) return st;
+    {
+        pds__v3 view = pds__sub(c->look_at, c->position);
+        if (!(pds__length(view) > 0.0))
+            return pds__perr(P, &start, PDS_ERR_PARSE, "camera position and look_at are the same point");
+        if (!(pds__length(pds__cross(pds__normalize(view), pds__normalize(c->up))) > 1e-9))
+            return pds__perr(P, &start, PDS_ERR_PARSE, "camera up is parallel to the viewing direction");
+    }
+    return PDS_OK;
+}
+
+/* --- materials ---------------------------------------------------------- */
+
+/* Complex indices of refraction (n + ik) at about 650, 550 and 450 nm, for
+   conductor presets. Gold and silver: Johnson & Christy 1972 (659.5,
+   548.6, 450.9 nm); aluminium: the RGB values OSPRay uses. */
+static const struct { const char *name; double eta[3], k[3]; } pds__metal_presets[] = {
+    {"gold", {0.14, 0.43, 1.38}, {3.697, 2.455, 1.914}},
+    {"silver", {0.05, 0.237, 0.226}, {4.483, 3.09, 2.28}},
+    {"aluminium", {1.47, 0.984, 0.602}, {7.64, 6.55, 5.36}},
+};
+
+static pds_status pds__parse_material(pds__parser *P)
+{
+    pds_material m;
+    pds__token name_tok, type_tok;
+    char type[32], what[128];
+    pds_status st;
+    int have_ior = 0;
+    if ((st = pds__p_word(P, "material", m.name, sizeof m.name))) return st;
+    name_tok = P->tok;
+    if (strlen(P->tok.text) >= sizeof m.name)
+        return pds__perr(P, &name_tok, PDS_ERR_LIMIT, "material name longer than %d characters", (int)sizeof m.name - 1);
+    if (pds__materials_find(&P->scene->materials, m.name) >= 0)
+        return pds__perr(P, &name_tok, PDS_ERR_PARSE, "material '%s' is defined twice", m.name);
+    {
+        char keep[64];
+        pds__strlcpy(keep, m.name, sizeof keep);
+        m = pds__material_default(keep);
+    }
+    if ((st = pds__p_word(P, "the material name", type, sizeof type))) return st;
+    type_tok = P->tok;
+    if (!strcmp(type, "diffuse")) m.type = PDS_MAT_DIFFUSE;
+    else if (!strcmp(type, "mirror")) {
+        m.type = PDS_MAT_MIRROR;
+        m.reflectance[0] = m.reflectance[1] = m.reflectance[2] = 1.0;
+    } else if (!strcmp(type, "conductor")) {
+        m.type = PDS_MAT_CONDUCTOR;
+        memcpy(m.eta, pds__metal_presets[0].eta, sizeof m.eta);
+        memcpy(m.k, pds__metal_presets[0].k, sizeof m.k);
+    } else if (!strcmp(type, "dielectric")) m.type = PDS_MAT_DIELECTRIC;
+    else if (!strcmp(type, "emissive")) {
+        m.type = PDS_MAT_EMISSIVE;
+        m.radiance[0] = m.radiance[1] = m.radiance[2] = 1.0;
+    } else
+        return pds__perr(P, &type_tok, PDS_ERR_PARSE,
+                         "unknown material type '%s' (diffuse, mirror, conductor, dielectric or emissive)", type);
+    snprintf(what, sizeof what, "the %s material block", type);
+    if ((st = pds__expect_lbrace(P, "the material type"))) return st;
+    while (pds__block_next(P, what, &st)) {
+        char key[64];
+        pds__strlcpy(key, P->tok.text, sizeof key);
+        if (m.type == PDS_MAT_DIFFUSE && !strcmp(key, "albedo")) {
+            if (!(st = pds__p_rgb(P, key, m.albedo)) && (m.albedo[0] > 1 || m.albedo[1] > 1 || m.albedo[2] > 1))
+                st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'albedo' must be at most 1 (energy conservation)");
+        } else if (m.type == PDS_MAT_MIRROR && !strcmp(key, "reflectance")) {
+            if (!(st = pds__p_rgb(P, key, m.reflectance)) &&
+                (m.reflectance[0] > 1 || m.reflectance[1] > 1 || m.reflectance[2] > 1))
+                st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'reflectance' must be at most 1 (energy conservation)");
+        } else if (m.type == PDS_MAT_CONDUCTOR && !strcmp(key, "eta")) st = pds__p_rgb(P, key, m.eta);
+        else if (m.type == PDS_MAT_CONDUCTOR && !strcmp(key, "k")) st = pds__p_rgb(P, key, m.k);
+        else if (m.type == PDS_MAT_CONDUCTOR && !strcmp(key, "preset")) {
+            char pre[32];
+            size_t i, n = sizeof pds__metal_presets / sizeof pds__metal_presets[0];
+            if (!(st = pds__p_word(P, key, pre, sizeof pre))) {
+                for (i = 0; i < n && strcmp(pre, pds__metal_presets[i].name); i++) {}
+                if (i == n) st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown conductor preset '%s' (gold, silver or aluminium)", pre);
+                else {
+                    memcpy(m.eta, pds__metal_presets[i].eta, sizeof m.eta);
+                    memcpy(m.k, pds__metal_presets[i].k, sizeof m.k);
+                }
+            }
+        } else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "ior")) {
+            st = pds__p_range(P, key, 1.0, 10.0, &m.ior);
+            have_ior = 1;
+        } else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "absorption")) st = pds__p_rgb(P, key, m.absorption);
+        else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "outside_ior")) st = pds__p_range(P, key, 1.0, 10.0, &m.outside_ior);
+        else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "outside_absorption")) st = pds__p_rgb(P, key, m.outside_absorption);
+        else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "cauchy")) {
+            m.dispersion = PDS_DISPERSION_CAUCHY;
+            if (!(st = pds__p_range(P, key, 1.0, 10.0, &m.dispersion_coef[0])))
+                st = pds__p_range(P, key, 0.0, 1.0, &m.dispersion_coef[1]);
+            /* n at 587.6 nm stands in for ior when none is given */
+            if (!st && !have_ior) m.ior = m.dispersion_coef[0] + m.dispersion_coef[1] / (0.5876 * 0.5876);
+        } else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "sellmeier")) {
+            int i;
+            m.dispersion = PDS_DISPERSION_SELLMEIER;
+            for (i = 0; i < 6 && !st; i++) st = pds__p_range(P, key, 0.0, 1e6, &m.dispersion_coef[i]);
+            if (!st && !have_ior) {
+                double l2 = 0.5876 * 0.5876, n2 = 1.0;
+                for (i = 0; i < 3; i++) n2 += m.dispersion_coef[i] * l2 / (l2 - m.dispersion_coef[3 + i]);
+                if (n2 > 1.0) m.ior = sqrt(n2);
+            }
+        } else if (m.type == PDS_MAT_EMISSIVE && !strcmp(key, "radiance")) st = pds__p_rgb(P, key, m.radiance);
+        else st = pds__unknown_key(P, what);
+        if (st) return st;
+    }
+    if (st) return st;
+    if (pds__materials_add(&P->scene->materials, &m) < 0)
+        return pds__perr(P, &name_tok, PDS_ERR_LIMIT, "more than %d materials", PDS_MAX_MATERIALS);
+    return PDS_OK;
+}
+
+/* --- lights ------------------------------------------------------------- */
+
+static pds_status pds__parse_light(pds__parser *P)
+{
+    pds_light l;
+    char type[32], what[96];
+    pds__token type_tok;
+    pds_status st;
+    int have_power = 0, have_radiance = 0, have_emitter = 0, have_dir = 0;
+    memset(&l, 0, sizeof l);
+    l.material = -1;
+    if ((st = pds__p_word(P, "light", type, sizeof type))) return st;
+    type_tok = P->tok;
+    if (!strcmp(type, "point")) l.type = PDS_LIGHT_POINT;
+    else if (!strcmp(type, "spot")) l.type = PDS_LIGHT_SPOT;
+    else if (!strcmp(type, "directional")) l.type = PDS_LIGHT_DIRECTIONAL;
+    else if (!strcmp(type, "disk")) l.type = PDS_LIGHT_DISK;
+    else if (!strcmp(type, "quad")) l.type = PDS_LIGHT_QUAD;
+    else
+        return pds__perr(P, &type_tok, PDS_ERR_PARSE,
+                         "unknown light type '%s' (point, spot, directional, disk or quad)", type);
+    /* defaults */
+    l.direction = pds__v(0.0, -1.0, 0.0);
+    l.cone_inner_deg = 20.0;
+    l.cone_outer_deg = 30.0;
+    l.radius = 1.0;
+    l.edge1 = pds__v(1.0, 0.0, 0.0);
+    l.edge2 = pds__v(0.0, 0.0, 1.0);
+    snprintf(what, sizeof what, "the %s light block", type);
+    if ((st = pds__expect_lbrace(P, "the light type"))) return st;
+    while (pds__block_next(P, what, &st)) {
+        char key[64];
+        int T = l.type;
+        pds__strlcpy(key, P->tok.text, sizeof key);
+        if ((T == PDS_LIGHT_POINT || T == PDS_LIGHT_SPOT) && !strcmp(key, "position")) st = pds__p_vec3(P, key, &l.position);
+        else if ((T == PDS_LIGHT_DISK || T == PDS_LIGHT_QUAD) && !strcmp(key, "center")) st = pds__p_vec3(P, key, &l.position);
+        else if ((T == PDS_LIGHT_SPOT || T == PDS_LIGHT_DIRECTIONAL) && !strcmp(key, "direction")) {
+            st = pds__p_dir(P, key, &l.direction);
+            have_dir = 1;
+        } else if (T == PDS_LIGHT_SPOT && !strcmp(key, "look_at")) {
+            pds__v3 at;
+            if (!(st = pds__p_vec3(P, key, &at))) {
+                if (!(pds__length(pds__sub(at, l.position)) > 0.0))
+                    st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "spot light 'look_at' equals its position (give 'position' first)");
+                else l.direction = pds__normalize(pds__sub(at, l.position));
+            }
+            have_dir = 1;
+        } else if (T == PDS_LIGHT_SPOT && !strcmp(key, "cone")) {
+            if (!(st = pds__p_range(P, key, 0.0, 90.0, &l.cone_inner_deg)))
+                st = pds__p_range(P, key, 0.0, 90.0, &l.cone_outer_deg);
+            if (!st && !(l.cone_outer_deg > 0.0 && l.cone_inner_deg <= l.cone_outer_deg))
+                st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'cone' needs 0 <= inner <= outer and outer > 0 (degrees)");
+        } else if (T == PDS_LIGHT_DISK && !strcmp(key, "normal")) st = pds__p_dir(P, key, &l.direction);
+        else if (T == PDS_LIGHT_DISK && !strcmp(key, "radius")) st = pds__p_positive(P, key, &l.radius);
+        else if (T == PDS_LIGHT_QUAD && !strcmp(key, "edge1")) st = pds__p_edge(P, key, &l.edge1);
+        else if (T == PDS_LIGHT_QUAD && !strcmp(key, "edge2")) st = pds__p_edge(P, key, &l.edge2);
+        else if (T == PDS_LIGHT_DIRECTIONAL && !strcmp(key, "irradiance")) {
+            st = pds__p_rgb(P, key, l.irradiance);
+            have_power = 1;
+        } else if (T == PDS_LIGHT_DIRECTIONAL && !strcmp(key, "disk")) {
+            l.emitter_shape = 0;
+            if (!(st = pds__p_vec3(P, key, &l.position))) st = pds__p_positive(P, key, &l.radius);
+            have_emitter = 1;
+        } else if (T == PDS_LIGHT_DIRECTIONAL && !strcmp(key, "rect")) {
+            l.emitter_shape = 1;
+            if (!(st = pds__p_vec3(P, key, &l.position)) && !(st = pds__p_edge(P, key, &l.edge1)))
+                st = pds__p_edge(P, key, &l.edge2);
+            have_emitter = 1;
+        } else if (T != PDS_LIGHT_DIRECTIONAL && !strcmp(key, "power")) {
+            st = pds__p_rgb(P, key, l.power);
+            have_power = 1;
+        } else if ((T == PDS_LIGHT_DISK || T == PDS_LIGHT_QUAD) && !strcmp(key, "radiance")) {
+            st = pds__p_rgb(P, key, l.radiance);
+            have_radiance = 1;
+        } else st = pds__unknown_key(P, what);
+        if (st) return st;
+    }
+    if (st) return st;
+    if (have_power && have_radiance)
+        return pds__perr(P, &type_tok, PDS_ERR_PARSE, "give either 'power' or 'radiance' for a %s light, not both", type);
+    if (!have_power && !have_radiance)
+        return pds__perr(P, &type_tok, PDS_ERR_PARSE, "%s light needs '%s'", type,
+                         l.type == PDS_LIGHT_DIRECTIONAL ? "irradiance" : "power");
+    if (l.type == PDS_LIGHT_DIRECTIONAL && !have_emitter)
+        return pds__perr(P, &type_tok, PDS_ERR_PARSE,
+                         "directional light needs an emitter: 'disk CENTER RADIUS' or 'rect CENTER EDGE1 EDGE2'");
+    if (l.type == PDS_LIGHT_SPOT && !have_dir)
+        return pds__perr(P, &type_tok, PDS_ERR_PARSE, "spot light needs 'direction' or 'look_at'");
+    /* Emitting areas; one-sided Lambertian emitters have P = pi L A. */
+    if (l.type == PDS_LIGHT_DISK) l.area = PDS__PI * l.radius * l.radius;
+    if (l.type == PDS_LIGHT_QUAD) {
+        pds__v3 n = pds__cross(l.edge1, l.edge2);
+        l.area = pds__length(n);
+        if (!(l.area > 0.0)) return pds__perr(P, &type_tok, PDS_ERR_PARSE, "quad light edges are parallel");
+        l.direction = pds__normalize(n);
+    }
+    if (l.type == PDS_LIGHT_DIRECTIONAL) {
+        /* cross-section of the beam: the emitter projected along direction */
+        if (l.emitter_shape == 0) l.area = PDS__PI * l.radius * l.radius;
+        else l.area = fabs(pds__dot(pds__cross(l.edge1, l.edge2), l.direction));
+        if (!(l.area > 0.0))
+            return pds__perr(P, &type_tok, PDS_ERR_PARSE, "directional light's rectangle has no area across the beam");
+    }
+    if (l.type == PDS_LIGHT_DISK || l.type == PDS_LIGHT_QUAD) {
+        int c;
+        for (c = 0; c < 3; c++) {
+            if (have_radiance) l.power[c] = PDS__PI * l.radiance[c] * l.area;
+            else l.radiance[c] = l.power[c] / (PDS__PI * l.area);
+        }
+    }
+    if (l.type == PDS_LIGHT_DIRECTIONAL) {
+        int c;
+        for (c = 0; c < 3; c++) l.power[c] = l.irradiance[c] * l.area;
+    }
+    if (pds__scene_add_light(P->scene, &l) < 0)
+        return pds__perr(P, &type_tok, PDS_ERR_LIMIT, "more than %d lights", PDS_MAX_LIGHTS);
+    return PDS_OK;
+}
+
+/* --- shapes ------------------------------------------------------------- */
+
+/* Everything a shape block can say; each generator reads its part. */
+typedef struct pds__shape_desc {
+    int material;
+    pds__xform xf;
+    double radius, inner_radius, height, major, minor, sweep_deg, crease_deg;
+    pds__v3 size;
+    int segments, rings, res_x, res_z, closed;
+    double *profile;        /* revolve: r y pairs */
+    int nprofile;
+    pds__wave waves[16];
+    int nwaves;
+    char *override_names;   /* mesh: 64 bytes per entry */
+    int *override_mats;
+    int noverrides;
+    char file[512];         /* mesh: resolved path */
+    int material_given;
+} pds__shape_desc;
+
+/* Rotation by angle_deg about axis (Rodrigues), as a transform. */
+static pds__xform pds__xform_rotate(double angle_deg, pds__v3 axis)
+{
+    pds__xform r = pds__xform_identity();
+    double a = angle_deg * PDS__PI / 180.0, c = cos(a), s = sin(a), t = 1.0 - c;
+    pds__v3 u = pds__normalize(axis);
+    r.m[0][0] = t * u.x * u.x + c;
+    r.m[0][1] = t * u.x * u.y - s * u.z;
+    r.m[0][2] = t * u.x * u.z + s * u.y;
+    r.m[1][0] = t * u.x * u.y + s * u.z;
+    r.m[1][1] = t * u.y * u.y + c;
+    r.m[1][2] = t * u.y * u.z - s * u.x;
+    r.m[2][0] = t * u.x * u.z - s * u.y;
+    r.m[2][1] = t * u.y * u.z + s * u.x;
+    r.m[2][2] = t * u.z * u.z + c;
+    return r;
+}
+
+/* Transform keys shared by all shapes: each applies after the ones
+   written before it. Returns 1 if the key was a transform. */
+static int pds__parse_transform_key(pds__parser *P, const char *key, pds__xform *xf, pds_status *st)
+{
+    pds__xform op = pds__xform_identity();
+    if (!strcmp(key, "translate")) {
+        pds__v3 t;
+        if ((*st = pds__p_vec3(P, key, &t))) return 1;
+        op.m[0][3] = t.x;
+        op.m[1][3] = t.y;
+        op.m[2][3] = t.z;
+    } else if (!strcmp(key, "rotate")) {
+        double angle;
+        pds__v3 axis;
+        if ((*st = pds__p_number(P, key, &angle)) || (*st = pds__p_dir(P, key, &axis))) return 1;
+        op = pds__xform_rotate(angle, axis);
+    } else if (!strcmp(key, "scale")) {
+        double s[3];
+        int i;
+        if ((*st = pds__p_rgb(P, key, s))) return 1; /* one or three numbers */
+        for (i = 0; i < 3; i++) {
+            if (!(s[i] > 0.0)) {
+                *st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'scale' factors must be positive (use 'rotate' to turn a shape over)");
+                return 1;
+            }
+            op.m[i][i] = s[i];
+        }
+    } else {
+        return 0;
+    }
+    *xf = pds__xform_mul(&op, xf);
+    *st = PDS_OK;
+    return 1;
+}
+
+static void pds__shape_desc_free(pds__shape_desc *d)
+{
+    free(d->profile);
+    free(d->override_names);
+    free(d->override_mats);
+}
+
+/* Parse the block of a shape statement (P->tok is the shape keyword). */
+static pds_status pds__parse_shape_block(pds__parser *P, const char *kind, pds__shape_desc *d)
+{
+    char what[96];
+    pds_status st;
+    size_t cap_prof = 0, cap_names = 0, cap_mats = 0;
+    snprintf(what, sizeof what, "the %s block", kind);
+    if ((st = pds__expect_lbrace(P, kind[0] == 'm' ? "the mesh file name" : what + 4))) return st;
+    while (pds__block_next(P, what, &st)) {
+        char key[64];
+        int sweep = !strcmp(kind, "cylinder") || !strcmp(kind, "torus") || !strcmp(kind, "revolve");
+        pds__strlcpy(key, P->tok.text, sizeof key);
+        if (pds__parse_transform_key(P, key, &d->xf, &st)) {
+        } else if (!strcmp(key, "material")) {
+            st = pds__p_material_ref(P, key, &d->material);
+            d->material_given = 1;
+        } else if (!strcmp(kind, "mesh") && !strcmp(key, "replace")) {
+            char from[64];
+            int to;
+            if ((st = pds__p_word(P, key, from, sizeof from)) || (st = pds__p_material_ref(P, key, &to))) break;
+            if (pds__grow((void **)&d->override_names, &cap_names, 64 * (size_t)(d->noverrides + 1), 1) ||
+                pds__grow((void **)&d->override_mats, &cap_mats, (size_t)d->noverrides + 1, sizeof(int)))
+                return pds__nomem(P->err);
+            pds__strlcpy(d->override_names + 64 * d->noverrides, from, 64);
+            d->override_mats[d->noverrides++] = to;
+        } else if ((!strcmp(kind, "sphere") || !strcmp(kind, "disk") || !strcmp(kind, "cylinder")) && !strcmp(key, "radius"))
+            st = pds__p_positive(P, key, &d->radius);
+        else if ((!strcmp(kind, "disk") || !strcmp(kind, "cylinder")) && !strcmp(key, "inner_radius"))
+            st = pds__p_range(P, key, 0.0, PDS_MAX_COORD, &d->inner_radius);
+        else if (!strcmp(kind, "cylinder") && !strcmp(key, "height")) st = pds__p_positive(P, key, &d->height);
+        else if (!strcmp(kind, "cylinder") && (!strcmp(key, "open") || !strcmp(key, "closed")))
+            d->closed = key[0] == 'c';
+        else if (!strcmp(kind, "torus") && !strcmp(key, "major")) st = pds__p_positive(P, key, &d->major);
+        else if (!strcmp(kind, "torus") && !strcmp(key, "minor")) st = pds__p_positive(P, key, &d->minor);
+        else if (sweep && !strcmp(key, "sweep")) {
+            st = pds__p_range(P, key, 0.0, 360.0, &d->sweep_deg);
+            if (!st && !(d->sweep_deg > 0.0)) st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'sweep' must be positive");
+        } else if (!strcmp(kind, "revolve") && !strcmp(key, "crease")) st = pds__p_range(P, key, 0.0, 180.0, &d->crease_deg);
+        else if (!strcmp(kind, "revolve") && !strcmp(key, "profile")) {
+            /* pairs of numbers until the next keyword */
+            pds__token key_tok = P->tok;
+            d->nprofile = 0;
+            for (;;) {
+                pds__parser save = *P;
+                if ((st = pds__lex_next(P))) return st;
+                if (P->tok.kind != PDS__TOK_NUMBER) {
+                    *P = save;
+                    break;
+                }
+                *P = save;
+                if (d->nprofile >= PDS_MAX_PROFILE_POINTS)
+                    return pds__perr(P, &key_tok, PDS_ERR_LIMIT, "profile has more than %d points", PDS_MAX_PROFILE_POINTS);
+                if (pds__grow((void **)&d->profile, &cap_prof, 2 * (size_t)(d->nprofile + 1), sizeof(double)))
+                    return pds__nomem(P->err);
+                if ((st = pds__p_range(P, "profile", 0.0, PDS_MAX_COORD, &d->profile[2 * d->nprofile]))) return st;
+                if ((st = pds__p_number(P, "profile", &d->profile[2 * d->nprofile + 1]))) return st;
+                d->nprofile++;
+            }
+            if (d->nprofile < 2)
+                return pds__perr(P, &key_tok, PDS_ERR_PARSE, "'profile' needs at least two points (r y pairs)");
+        } else if (!strcmp(kind, "box") && !strcmp(key, "size")) {
+            double s[3];
+            if (!(st = pds__p_rgb(P, key, s))) {
+                if (!(s[0] > 0.0 && s[1] > 0.0 && s[2] > 0.0))
+                    st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "box 'size' must be positive");
+                d->size = pds__v(s[0], s[1], s[2]);
+            }
+        } else if (!strcmp(kind, "quad") && !strcmp(key, "size")) {
+            if (!(st = pds__p_positive(P, key, &d->size.x))) st = pds__p_positive(P, key, &d->size.z);
+        } else if (!strcmp(kind, "heightfield") && !strcmp(key, "size")) {
+            if (!(st = pds__p_positive(P, key, &d->size.x))) st = pds__p_positive(P, key, &d->size.z);
+        } else if (!strcmp(kind, "heightfield") && !strcmp(key, "resolution")) {
+            if (!(st = pds__p_int(P, key, 1, PDS_MAX_TESSELLATION, &d->res_x)))
+                st = pds__p_int(P, key, 1, PDS_MAX_TESSELLATION, &d->res_z);
+        } else if (!strcmp(kind, "heightfield") && !strcmp(key, "wave")) {
+            /* wave AMPLITUDE WAVELENGTH DX DZ [PHASE_DEG] */
+            pds__wave *w = &d->waves[d->nwaves];
+            pds__token key_tok = P->tok;
+            double dx, dz, len;
+            if (d->nwaves >= 16) return pds__perr(P, &key_tok, PDS_ERR_LIMIT, "more than 16 waves");
+            if ((st = pds__p_number(P, key, &w->amplitude)) || (st = pds__p_positive(P, key, &w->wavelength)) ||
+                (st = pds__p_number(P, key, &dx)) || (st = pds__p_number(P, key, &dz)))
+                return st;
+            len = sqrt(dx * dx + dz * dz);
+            if (!(len > 0.0)) return pds__perr(P, &P->tok, PDS_ERR_PARSE, "wave direction must not be zero");
+            w->dx = dx / len;
+            w->dz = dz / len;
+            w->phase = 0.0;
+            {
+                pds__parser save = *P;
+                if ((st = pds__lex_next(P))) return st;
+                if (P->tok.kind == PDS__TOK_NUMBER) {
+                    *P = save;
+                    if ((st = pds__p_number(P, key, &w->phase))) return st;
+                    w->phase *= PDS__PI / 180.0;
+                } else {
+                    *P = save;
+                }
+            }
+            d->nwaves++;
+        } else if (!strcmp(key, "segments") && strcmp(kind, "mesh") && strcmp(kind, "box") && strcmp(kind, "heightfield"))
+            st = pds__p_int(P, key, !strcmp(kind, "quad") ? 1 : 3, PDS_MAX_TESSELLATION, &d->segments);
+        else if (!strcmp(key, "rings") && (!strcmp(kind, "sphere") || !strcmp(kind, "torus")))
+            st = pds__p_int(P, key, !strcmp(kind, "sphere") ? 2 : 3, PDS_MAX_TESSELLATION, &d->rings);
+        else
+            st = pds__unknown_key(P, what);
+        if (st) return st;
+    }
+    return st;
+}
+
+/* Defaults for a shape of the given kind (tessellation chosen so the
+   default looks smooth at 512x512). */
+static void pds__shape_desc_init(pds__shape_desc *d, int material)
+{
+    memset(d, 0, sizeof *d);
+    d->material = material;
+    d->xf = pds__xform_identity();
+    d->radius = 1.0;
+    d->height = 1.0;
+    d->major = 1.0;
+    d->minor = 0.25;
+    d->sweep_deg = 360.0;
+    d->crease_deg = 30.0;
+    d->size = pds__v(1.0, 1.0, 1.0);
+    d->segments = 64;
+    d->rings = 32;
+    d->res_x = d->res_z = 128;
+    d->closed = 1;
+}
+
+/* Generate (or load) the described shape into the scene's mesh. at is the
+   statement's first token, for messages. */
+static pds_status pds__shape_emit(pds__parser *P, const char *kind, pds__shape_desc *d, const pds__token *at)
+{
+    pds_scene *s = P->scene;
+    pds__emitter e;
+    double sweep = d->sweep_deg * PDS__PI / 180.0;
+    int r = 0;
+    e.mesh = &s->mesh;
+    e.xf = &d->xf;
+    e.material = d->material;
+    if (!strcmp(kind, "mesh")) {
+        pds__obj_options o;
+        pds__obj_stats stats;
+        const char **names = NULL;
+        int i;
+        pds_status st;
+        memset(&o, 0, sizeof o);
+        o.xform = &d->xf;
+        o.material_override = d->material_given ? d->material : -1;
+        o.default_material = d->material;
+        if (d->noverrides) {
+            names = (const char **)malloc(sizeof *names * (size_t)d->noverrides);
+            if (!names) return pds__nomem(P->err);
+            for (i = 0; i < d->noverrides; i++) names[i] = d->override_names + 64 * i;
+        }
+        o.override_names = names;
+        o.override_materials = d->override_mats;
+        o.override_count = d->noverrides;
+        st = pds__obj_load(d->file, &s->mesh, &s->materials, &o, &stats, P->err);
+        free((void *)names);
+        if (st) return st;
+        pds__scene_warn_obj(s, d->file, &stats);
+        return PDS_OK;
+    }
+    if (!strcmp(kind, "sphere")) r = pds__gen_sphere(&e, d->radius, d->segments, d->rings);
+    else if (!strcmp(kind, "disk")) {
+        if (d->inner_radius >= d->radius)
+            return pds__perr(P, at, PDS_ERR_PARSE, "disk 'inner_radius' must be smaller than 'radius'");
+        r = pds__gen_annulus(&e, d->inner_radius, d->radius, 0.0, 1.0, d->segments, 2.0 * PDS__PI);
+    } else if (!strcmp(kind, "quad")) r = pds__gen_quad(&e, d->size.x, d->size.z, d->segments == 64 ? 1 : d->segments);
+    else if (!strcmp(kind, "box")) r = pds__gen_box(&e, d->size);
+    else if (!strcmp(kind, "cylinder")) {
+        if (d->inner_radius >= d->radius)
+            return pds__perr(P, at, PDS_ERR_PARSE, "cylinder 'inner_radius' must be smaller than 'radius'");
+        r = pds__gen_cylinder(&e, d->radius, d->inner_radius, d->height, d->segments, d->closed, sweep);
+    } else if (!strcmp(kind, "torus")) {
+        if (d->minor >= d->major)
+            return pds__perr(P, at, PDS_ERR_PARSE, "torus 'minor' must be smaller than 'major'");
+        r = pds__gen_torus(&e, d->major, d->minor, d->segments, d->rings, sweep);
+    } else if (!strcmp(kind, "revolve")) {
+        if (d->nprofile < 2) return pds__perr(P, at, PDS_ERR_PARSE, "revolve needs a 'profile' of r y pairs");
+        r = pds__gen_revolve(&e, d->profile, d->nprofile, d->segments, sweep, d->crease_deg);
+    } else if (!strcmp(kind, "heightfield")) {
+        if (d->nwaves == 0) return pds__perr(P, at, PDS_ERR_PARSE, "heightfield needs at least one 'wave'");
+        r = pds__gen_heightfield(&e, d->size.x, d->size.z, d->res_x, d->res_z, d->waves, d->nwaves);
+    }
+    if (r < 0) {
+        if (s->mesh.ntris >= (size_t)PDS_MAX_TRIANGLES)
+            return pds__perr(P, at, PDS_ERR_LIMIT, "scene has more than %d triangles", PDS_MAX_TRIANGLES);
+        return pds__nomem(P->err);
+    }
+    return PDS_OK;
+}
+
+static int pds__is_shape_kind(const char *w)
+{
+    static const char *const kinds[] = {"mesh", "sphere", "disk", "quad", "box", "cylinder", "torus", "revolve", "heightfield"};
+    size_t i;
+    for (i = 0; i < sizeof kinds / sizeof kinds[0]; i++)
+        if (!strcmp(w, kinds[i])) return 1;
+    return 0;
+}
+
+static pds_status pds__parse_shape(pds__parser *P)
+{
+    pds__shape_desc d;
+    pds__token at = P->tok;
+    char kind[32];
+    pds_status st;
+    long tris_before = (long)P->scene->mesh.ntris;
+    pds__strlcpy(kind, P->tok.text, sizeof kind);
+    pds__shape_desc_init(&d, -1);
+    if (!strcmp(kind, "mesh")) {
+        FILE *f;
+        if ((st = pds__lex_next(P))) return st;
+        if (P->tok.kind != PDS__TOK_STRING && P->tok.kind != PDS__TOK_WORD)
+            return pds__perr(P, &P->tok, PDS_ERR_PARSE, "expected a file name after 'mesh', got '%s'", P->tok.text);
+        if (pds__join_path(P->dir, P->tok.text, d.file, sizeof d.file))
+            return pds__perr(P, &P->tok, PDS_ERR_LIMIT, "mesh path too long");
+        f = fopen(d.file, "rb");
+        if (!f) return pds__perr(P, &P->tok, PDS_ERR_IO, "cannot open mesh '%s': %s", d.file, strerror(errno));
+        fclose(f);
+    }
+    st = pds__parse_shape_block(P, kind, &d);
+    if (!st && d.material < 0) {
+        d.material = pds__scene_default_material(P->scene);
+        if (d.material < 0) st = pds__nomem(P->err);
+    }
+    if (!st) st = pds__shape_emit(P, kind, &d, &at);
+    pds__shape_desc_free(&d);
+    if (st) return st;
+    P->scene->shapes++;
+    if ((long)P->scene->mesh.ntris == tris_before)
+        pds__scene_warn(P->scene, "%s:%d:%d: %s produced no triangles", P->file, at.line, at.col, kind);
+    return PDS_OK;
+}
+
+/* Triangles of emissive materials become mesh lights: each run of
+   consecutive triangles sharing one emissive material is one light. Power
+   of a one-sided Lambertian emitter: P = pi L A. */
+static pds_status pds__scene_collect_mesh_lights(pds_scene *s, pds_error *err)
+{
+    size_t t = 0;
+    while (t < s->mesh.ntris) {
+        int m = s->mesh.mat[t];
+        size_t end = t;
+        pds_light l;
+        int c;
+        if (s->materials.items[m].type != PDS_MAT_EMISSIVE) {
+            t++;
+            continue;
+        }
+        memset(&l, 0, sizeof l);
+        l.type = PDS_LIGHT_MESH;
+        l.material = m;
+        l.first_triangle = (int)t;
+        while (end < s->mesh.ntris && s->mesh.mat[end] == m) {
+            const int *v = &s->mesh.idx[3 * end];
+            l.area += 0.5 * pds__mesh_tri_area2(&s->mesh, v[0], v[1], v[2]);
+            end++;
+        }
+        l.triangle_count = (int)(end - t);
+        for (c = 0; c < 3; c++) {
+            l.radiance[c] = s->materials.items[m].radiance[c];
+            l.power[c] = PDS__PI * l.radiance[c] * l.area;
+        }
+        if (pds__scene_add_light(s, &l) < 0)
+            return pds__fail(err, PDS_ERR_LIMIT, s->path, 0, 0, "more than %d lights", PDS_MAX_LIGHTS);
+        t = end;
+    }
+    return PDS_OK;
+}
+
+/* Bounds, mesh lights, BVH: everything after parsing. */
+static pds_status pds__scene_finish(pds_scene *s, pds_error *err)
+{
+    size_t i;
+    double t0;
+    pds_status st;
+    s->bounds_min = pds__v(0, 0, 0);
+    s->bounds_max = pds__v(0, 0, 0);
+    for (i = 0; i < s->mesh.nverts; i++) {
+        pds__v3 p = pds__mesh_pos(&s->mesh, (long)i);
+        s->bounds_min = i ? pds__vmin(s->bounds_min, p) : p;
+        s->bounds_max = i ? pds__vmax(s->bounds_max, p) : p;
+    }
+    if ((st = pds__scene_collect_mesh_lights(s, err))) return st;
+    if ((st = pds__lights_prepare(&s->light_table, s->lights, s->nlights, &s->mesh, err))) return st;
+    t0 = pds_time_now();
+    st = pds__bvh_build(&s->bvh, s->mesh.pos, s->mesh.idx, s->mesh.ntris, err);
+    s->bvh_build_s = pds_time_now() - t0;
+    return st;
+}
+
+/* Parse scene text src (from path) into s. */
+static pds_status pds__scene_parse(pds_scene *s, const char *path, const char *src, pds_error *err)
+{
+    pds__parser P;
+    pds_status st;
+    int camera_seen = 0;
+    memset(&P, 0, sizeof P);
+    P.file = path;
+    pds__dirname(path, P.dir, sizeof P.dir);
+    P.p = src;
+    P.line = 1;
+    P.col = 1;
+    P.scene = s;
+    P.err = err;
+    /* A UTF-8 byte order mark is allowed and skipped. */
+    if ((unsigned char)P.p[0] == 0xEF && (unsigned char)P.p[1] == 0xBB && (unsigned char)P.p[2] == 0xBF) P.p += 3;
+    for (;;) {
+        const char *w;
+        if ((st = pds__lex_next(&P))) return st;
+        if (P.tok.kind == PDS__TOK_END) break;
+        if (P.tok.kind != PDS__TOK_WORD)
+            return pds__perr(&P, &P.tok, PDS_ERR_PARSE, "expected a statement (camera, material, light or a shape), got '%s'", P.tok.text);
+        w = P.tok.text;
+        if (!strcmp(w, "camera")) {
+            if (camera_seen) return pds__perr(&P, &P.tok, PDS_ERR_PARSE, "the scene has two cameras");
+            camera_seen = 1;
+            st = pds__parse_camera(&P);
+        } else if (!strcmp(w, "material")) st = pds__parse_material(&P);
+        else if (!strcmp(w, "light")) st = pds__parse_light(&P);
+        else if (pds__is_shape_kind(w)) st = pds__parse_shape(&P);
+        else
+            st = pds__perr(&P, &P.tok, PDS_ERR_PARSE, "unknown keyword '%s' (expected camera, material, light, mesh, sphere, "
+                           "disk, quad, box, cylinder, torus, revolve or heightfield)", w);
+        if (st) return st;
+    }
+    if (!camera_seen) pds__scene_warn(s, "%s: no camera given; using the default camera", path);
+    if (s->nlights == 0) {
+        size_t i;
+        int emissive = 0;
+        for (i = 0; i < s->mesh.ntris && !emissive; i++)
+            emissive = s->materials.items[s->mesh.mat[i]].type == PDS_MAT_EMISSIVE;
+        if (!emissive) pds__scene_warn(s, "%s: the scene has no light", path);
+    }
+    return PDS_OK;
+}
+
+pds_status pds_scene_load(const char *path, pds_scene **out, pds_error *err)
+{
+    char *src = NULL;
+    size_t size = 0;
+    pds_scene *s;
+    pds_status st;
+    if (!path || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_scene_load: NULL argument");
+    *out = NULL;
+    if ((st = pds__read_file(path, &src, &size, err))) return st;
+    if (memchr(src, '\0', size))
+        st = pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "not a text file (contains a NUL byte)");
+    s = pds__scene_new(path);
+    if (!s) {
+        free(src);
+        return pds__nomem(err);
+    }
+    if (!st) st = pds__scene_parse(s, path, src, err);
+    free(src);
+    if (!st) st = pds__scene_finish(s, err);
+    if (st) {
+        pds_scene_free(s);
+        return st;
+    }
+    *out = s;
+    return PDS_OK;
+}
+
+/* A camera that sees the whole box from +z (and a little above), at the
+   default 40 degree field of view. */
+static void pds__camera_frame_bounds(pds_camera *c, pds__v3 lo, pds__v3 hi)
+{
+    pds__v3 centre = pds__scale(pds__add(lo, hi), 0.5);
+    double radius = 0.5 * pds__length(pds__sub(hi, lo));
+    double dist = (radius > 0.0 ? radius : 1.0) / sin(0.5 * c->fov_deg * PDS__PI / 180.0) * 1.05;
+    c->look_at = centre;
+    c->position = pds__add(centre, pds__scale(pds__normalize(pds__v(0.0, 0.35, 1.0)), dist));
+}
+
+pds_status pds_scene_load_obj(const char *path, pds_scene **out, pds_error *err)
+{
+    pds_scene *s;
+    pds_status st;
+    pds__obj_options o;
+    pds__obj_stats stats;
+    pds__xform id = pds__xform_identity();
+    if (!path || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_scene_load_obj: NULL argument");
+    *out = NULL;
+    s = pds__scene_new(path);
+    if (!s) return pds__nomem(err);
+    memset(&o, 0, sizeof o);
+    o.xform = &id;
+    o.material_override = -1;
+    o.default_material = pds__scene_default_material(s);
+    if (o.default_material < 0) {
+        pds_scene_free(s);
+        return pds__nomem(err);
+    }
+    st = pds__obj_load(path, &s->mesh, &s->materials, &o, &stats, err);
+    if (!st) {
+        s->shapes = 1;
+        pds__scene_warn_obj(s, path, &stats);
+        st = pds__scene_finish(s, err);
+    }
+    if (st) {
+        pds_scene_free(s);
+        return st;
+    }
+    pds__camera_frame_bounds(&s->camera, s->bounds_min, s->bounds_max);
+    *out = s;
+    return PDS_OK;
+}
+
+void pds_scene_get_info(const pds_scene *s, pds_scene_info *info)
+{
+    size_t i;
+    memset(info, 0, sizeof *info);
+    info->triangles = (long)s->mesh.ntris;
+    info->vertices = (long)s->mesh.nverts;
+    info->materials = (int)s->materials.count;
+    info->lights = (int)s->nlights;
+    for (i = 0; i < s->nlights; i++) info->mesh_lights += s->lights[i].type == PDS_LIGHT_MESH;
+    info->shapes = s->shapes;
+    info->degenerate_dropped = s->mesh.degenerate_dropped;
+    info->bounds_min = s->bounds_min;
+    info->bounds_max = s->bounds_max;
+    info->warnings = (int)s->nwarnings;
+    info->memory_bytes = sizeof *s + pds__bvh_memory(&s->bvh) + s->mesh.cap_pos * sizeof(float) +
+                         s->mesh.cap_nrm * sizeof(float) + (s->mesh.cap_idx + s->mesh.cap_mat) * sizeof(int) +
+                         s->materials.cap * sizeof(pds_material) + s->cap_lights * sizeof(pds_light) +
+                         pds__lights_memory(&s->light_table);
+}
+
+double pds_material_ior(const pds_material *m, double wavelength_nm)
+{
+    return pds__ior_at(m, wavelength_nm);
+}
+
+int pds_scene_emit(const pds_scene *s, int index, const double u[4], pds_emission *out)
+{
+    pds__light_emit e;
+    const pds_light *l;
+    if (!s || !out || index < 0 || (size_t)index >= s->nlights) return 0;
+    l = &s->lights[index];
+    memset(out, 0, sizeof *out);
+    pds__light_emission_extent(l, &out->area, &out->solid_angle);
+    if (!pds__light_emit_sample(&s->light_table, l, index, &s->mesh, u, &e)) return 0;
+    out->position = e.pos;
+    out->direction = e.dir;
+    out->normal = e.normal;
+    memcpy(out->flux, e.flux, sizeof out->flux);
+    out->pdf_position = e.pdf_pos;
+    out->pdf_direction = e.pdf_dir;
+    return 1;
+}
+
+const char *pds_scene_warning(const pds_scene *s, int i)
+{
+    return (i >= 0 && (size_t)i < s->nwarnings) ? s->warnings[i] : NULL;
+}
+
+const pds_camera *pds_scene_camera(const pds_scene *s) { return &s->camera; }
+
+const pds_material *pds_scene_material(const pds_scene *s, int i)
+{
+    return (i >= 0 && (size_t)i < s->materials.count) ? &s->materials.items[i] : NULL;
+}
+
+const pds_light *pds_scene_light(const pds_scene *s, int i)
+{
+    return (i >= 0 && (size_t)i < s->nlights) ? &s->lights[i] : NULL;
+}
+
+/* Fill the public hit from a BVH hit: position, unit geometric normal in
+   the winding's direction, interpolated unit shading normal. */
+static void pds__scene_fill_hit(const pds_scene *s, const pds__tri_hit *th, pds__v3 org, pds__v3 dir, pds_hit *hit)
+{
+    const int *v = &s->mesh.idx[3 * th->tri];
+    pds__v3 p0 = pds__mesh_pos(&s->mesh, v[0]), p1 = pds__mesh_pos(&s->mesh, v[1]), p2 = pds__mesh_pos(&s->mesh, v[2]);
+    pds__v3 n0 = pds__mesh_nrm(&s->mesh, v[0]), n1 = pds__mesh_nrm(&s->mesh, v[1]), n2 = pds__mesh_nrm(&s->mesh, v[2]);
+    double w = 1.0 - th->u - th->v;
+    pds__v3 ns = pds__add(pds__add(pds__scale(n0, w), pds__scale(n1, th->u)), pds__scale(n2, th->v));
+    hit->t = th->t;
+    hit->triangle = th->tri;
+    hit->u = th->u;
+    hit->v = th->v;
+    hit->position = pds__add(org, pds__scale(dir, th->t));
+    hit->ng = pds__normalize(pds__cross(pds__sub(p1, p0), pds__sub(p2, p0)));
+    hit->ns = pds__length(ns) > 0.0 ? pds__normalize(ns) : hit->ng;
+    hit->material = s->mesh.mat[th->tri];
+}
+
+int pds_scene_intersect(const pds_scene *s, const pds_ray *ray, pds_hit *hit)
+{
+    pds__tri_hit th;
+    if (!pds__bvh_intersect(&s->bvh, ray->origin, ray->dir, ray->tmin, ray->tmax, &th)) return 0;
+    pds__scene_fill_hit(s, &th, ray->origin, ray->dir, hit);
+    return 1;
+}
+
+int pds_scene_occluded(const pds_scene *s, const pds_ray *ray)
+{
+    return pds__bvh_occluded(&s->bvh, ray->origin, ray->dir, ray->tmin, ray->tmax);
+}
+
+/* ===================================================================== */
+/* >>image                                                               */
+/* ===================================================================== */
+/* Images in memory are linear RGB floats, rows top to bottom (pds_image).
+   Two file formats go out, one comes in:
+
+   PFM (netpbm "portable float map"): three ASCII header tokens, each ended
+   by whitespace: "PF" (RGB) or "Pf" (grey), "W H", and a non-zero decimal
+   scale whose sign gives the byte order of the raster (negative = little-
+   endian, positive = big-endian; its magnitude is ignored here, as most
+   readers do). Exactly one whitespace byte follows the scale, then the
+   raster: IEEE-754 binary32 samples, pixels left to right, rows BOTTOM TO
+   TOP. We write "PF\nW H\n-1.0\n" and a little-endian raster; we read
+   either byte order and either channel count (grey is copied to R, G, B).
+   Bytes are assembled with shifts from a uint32_t that shares the float's
+   bits (memcpy), so the code does not depend on the host's byte order.
+
+   PNG (ISO/IEC 15948), written without zlib: signature, IHDR (8-bit RGB),
+   one IDAT holding a zlib stream (RFC 1950: header 0x78 0x01, Adler-32
+   trailer, big-endian) whose deflate data (RFC 1951) is only "stored"
+   blocks of at most 65535 bytes, then IEND. Each chunk ends with the
+   CRC-32 (reflected polynomial 0xEDB88320) of its type and data. The
+   raw stream is, per row, filter byte 0 followed by R G B bytes.
+   Tone mapping: linear * 2^exposure_stops, clamp to [0,1], sRGB transfer
+   curve (IEC 61966-2-1), round to the nearest 8-bit value; NaN gives 0.
+
+   Every writer builds the whole file in memory and hands it to
+   pds__write_file_atomic, so a failure never leaves a partial file. */
+
+pds_status pds_image_alloc(pds_image *img, int width, int height)
+{
+    size_t n;
+    if (!img) return PDS_ERR_INVALID_ARG;
+    img->width = 0;
+    img->height = 0;
+    img->rgb = NULL;
+    if (width <= 0 || height <= 0) return PDS_ERR_INVALID_ARG;
+    if (width > PDS_MAX_RESOLUTION || height > PDS_MAX_RESOLUTION) return PDS_ERR_LIMIT;
+    n = (size_t)width * (size_t)height;
+    if (n > ((size_t)-1) / (3 * sizeof(float))) return PDS_ERR_NOMEM;
+    img->rgb = (float *)calloc(n * 3, sizeof(float));
+    if (!img->rgb) return PDS_ERR_NOMEM;
+    img->width = width;
+    img->height = height;
+    return PDS_OK;
+}
+
+void pds_image_free(pds_image *img)
+{
+    if (!img) return;
+    free(img->rgb);
+    img->rgb = NULL;
+    img->width = 0;
+    img->height = 0;
+}
+
+/* Checks an image handed to a writer: non-empty and within the limits. */
+static pds_status pds__image_check(const pds_image *img, const char *path, pds_error *err)
+{
+    if (!path || !path[0])
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "no output file name given");
+    if (!img || !img->rgb || img->width <= 0 || img->height <= 0)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "cannot write an empty image");
+    if (img->width > PDS_MAX_RESOLUTION || img->height > PDS_MAX_RESOLUTION)
+        return pds__fail(err, PDS_ERR_LIMIT, path, 0, 0,
+                         "image size %dx%d exceeds the limit of %d pixels per side",
+                         img->width, img->height, PDS_MAX_RESOLUTION);
+    return PDS_OK;
+}
+
+/* ------------------------------------------------------------------ PFM */
+
+/* Bits of a float as an unsigned 32-bit integer, and back. The float and
+   the integer share their byte order on every platform we care about, so
+   shifting the integer gives a host-independent byte sequence. */
+static uint32_t pds__float_bits(float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    return u;
+}
+
+static float pds__bits_float(uint32_t u)
+{
+    float f;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+
+/* PFM header whitespace (netpbm: blanks, TABs, CRs, LFs; plus VT, FF). Not
+   isspace(): the locale must not change what a file means. */
+static int pds__pfm_is_space(unsigned char c)
+{
+    return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f';
+}
+
+/* 1-based line and column of byte offset pos in buf. */
+static void pds__pfm_where(const unsigned char *buf, size_t pos, int *line, int *column)
+{
+    size_t i;
+    int l = 1, c = 1;
+    for (i = 0; i < pos; i++) {
+        if (buf[i] == '\n') {
+            l++;
+            c = 1;
+        } else {
+            c++;
+        }
+    }
+    *line = l;
+    *column = c;
+}
+
+/* Copy a header token into a printable, NUL-terminated buffer (truncated
+   with "..." if long; non-printable bytes become '?'). */
+static void pds__pfm_token_text(const unsigned char *tok, size_t len, char *out, size_t n)
+{
+    size_t i, k = 0;
+    for (i = 0; i < len && k + 4 < n; i++)
+        out[k++] = (tok[i] >= 0x20 && tok[i] < 0x7f) ? (char)tok[i] : '?';
+    if (i < len) {
+        out[k++] = '.';
+        out[k++] = '.';
+        out[k++] = '.';
+    }
+    out[k] = '\0';
+}
+
+/* Header parser state: the file bytes, where we are, and the file name
+   for messages. */
+typedef struct pds__pfm_reader {
+    const unsigned char *buf;
+    size_t size, pos;
+    const char *path;
+    pds_error *err;
+} pds__pfm_reader;
+
+/* Fail with the location of byte offset pos. */
+static pds_status pds__pfm_fail_at(pds__pfm_reader *r, pds_status status, size_t pos,
+                                   const char *msg)
+{
+    int line, column;
+    pds__pfm_where(r->buf, pos, &line, &column);
+    return pds__fail(r->err, status, r->path, line, column, "%s", msg);
+}
+
+/* Skip whitespace and return the next token's start and length; returns 0
+   if the file ends first (then *start is the end of the file). */
+static int pds__pfm_token(pds__pfm_reader *r, size_t *start, size_t *len)
+{
+    while (r->pos < r->size && pds__pfm_is_space(r->buf[r->pos])) r->pos++;
+    *start = r->pos;
+    while (r->pos < r->size && !pds__pfm_is_space(r->buf[r->pos])) r->pos++;
+    *len = r->pos - *start;
+    return *len > 0;
+}
+
+/* Read one header dimension ("width" or "height"): a positive decimal
+   integer no larger than PDS_MAX_RESOLUTION. */
+static pds_status pds__pfm_dimension(pds__pfm_reader *r, const char *name, int *out)
+{
+    size_t start, len, i;
+    long value = 0;
+    char text[48], msg[160];
+    if (!pds__pfm_token(r, &start, &len)) {
+        snprintf(msg, sizeof msg, "the file ends inside the header (expected the image %s)", name);
+        return pds__pfm_fail_at(r, PDS_ERR_PARSE, start, msg);
+    }
+    pds__pfm_token_text(r->buf + start, len, text, sizeof text);
+    i = (r->buf[start] == '+' || r->buf[start] == '-') ? 1 : 0;
+    if (i == len) {
+        snprintf(msg, sizeof msg, "expected the image %s (a positive integer), got '%s'", name, text);
+        return pds__pfm_fail_at(r, PDS_ERR_PARSE, start, msg);
+    }
+    for (; i < len; i++) {
+        unsigned char c = r->buf[start + i];
+        if (c < '0' || c > '9') {
+            snprintf(msg, sizeof msg, "expected the image %s (a positive integer), got '%s'", name, text);
+            return pds__pfm_fail_at(r, PDS_ERR_PARSE, start, msg);
+        }
+        /* Saturate instead of overflowing: anything past the limit is
+           reported as too large. */
+        if (value <= PDS_MAX_RESOLUTION) value = value * 10 + (c - '0');
+    }
+    if (r->buf[start] == '-' || value == 0) {
+        snprintf(msg, sizeof msg, "the image %s must be positive, got '%s'", name, text);
+        return pds__pfm_fail_at(r, PDS_ERR_PARSE, start, msg);
+    }
+    if (value > PDS_MAX_RESOLUTION) {
+        snprintf(msg, sizeof msg, "the image %s %s exceeds the limit of %d pixels", name, text,
+                 PDS_MAX_RESOLUTION);
+        return pds__pfm_fail_at(r, PDS_ERR_LIMIT, start, msg);
+    }
+    *out = (int)value;
+    return PDS_OK;
+}
+
+/* Read the scale token: a decimal number [+-]digits[.digits][(e|E)[+-]digits]
+   with at least one mantissa digit, not zero. Only its sign is used:
+   *little_endian = (scale < 0). Parsed by hand so the C locale's decimal
+   point does not matter. */
+static pds_status pds__pfm_scale(pds__pfm_reader *r, int *little_endian)
+{
+    size_t start, len, i = 0;
+    int negative = 0, digits = 0, nonzero = 0;
+    char text[48], msg[160];
+    const unsigned char *t;
+    if (!pds__pfm_token(r, &start, &len))
+        return pds__pfm_fail_at(r, PDS_ERR_PARSE, start,
+                                "the file ends inside the header (expected the scale)");
+    t = r->buf + start;
+    pds__pfm_token_text(t, len, text, sizeof text);
+    if (t[i] == '+' || t[i] == '-') negative = t[i++] == '-';
+    for (; i < len && t[i] >= '0' && t[i] <= '9'; i++, digits++) nonzero |= t[i] != '0';
+    if (i < len && t[i] == '.') {
+        for (i++; i < len && t[i] >= '0' && t[i] <= '9'; i++, digits++) nonzero |= t[i] != '0';
+    }
+    if (digits > 0 && i < len && (t[i] == 'e' || t[i] == 'E')) {
+        int exp_digits = 0;
+        i++;
+        if (i < len && (t[i] == '+' || t[i] == '-')) i++;
+        for (; i < len && t[i] >= '0' && t[i] <= '9'; i++) exp_digits++;
+        if (exp_digits == 0) digits = 0;
+    }
+    if (digits == 0 || i != len) {
+        snprintf(msg, sizeof msg, "expected the scale (a non-zero number, negative for "
+                                  "little-endian data), got '%s'", text);
+        return pds__pfm_fail_at(r, PDS_ERR_PARSE, start, msg);
+    }
+    if (!nonzero)
+        return pds__pfm_fail_at(r, PDS_ERR_PARSE, start,
+                                "the scale must not be zero (its sign gives the byte order: "
+                                "negative = little-endian, positive = big-endian)");
+    *little_endian = negative;
+    return PDS_OK;
+}
+
+/* Read a PFM file into *img (allocated here; the caller frees it with
+   pds_image_free). "PF" gives RGB, "Pf" grey copied into all three
+   channels. Rows are flipped from the file's bottom-to-top order. On
+   failure *img is left empty. */
+pds_status pds_image_read_pfm(const char *path, pds_image *img, pds_error *err)
+{
+    char *data = NULL;
+    size_t size = 0, raster, need, per_row, x, y;
+    int width = 0, height = 0, channels, little_endian = 1;
+    pds__pfm_reader r;
+    pds_status st;
+
+    if (!img) return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "no image to read into");
+    img->width = img->height = 0;
+    img->rgb = NULL;
+    if (!path || !path[0])
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "no input file name given");
+    st = pds__read_file(path, &data, &size, err);
+    if (st != PDS_OK) return st;
+
+    r.buf = (const unsigned char *)data;
+    r.size = size;
+    r.pos = 0;
+    r.path = path;
+    r.err = err;
+
+    if (size < 2 || r.buf[0] != 'P' || (r.buf[1] != 'F' && r.buf[1] != 'f')) {
+        free(data);
+        return pds__fail(err, PDS_ERR_PARSE, path, 1, 1,
+                         "not a PFM file (it must start with 'PF' or 'Pf')");
+    }
+    channels = r.buf[1] == 'F' ? 3 : 1;
+    if (size < 3 || !pds__pfm_is_space(r.buf[2])) {
+        st = pds__pfm_fail_at(&r, PDS_ERR_PARSE, 2,
+                              "not a PFM file (expected whitespace after the 'PF' or 'Pf' magic)");
+        free(data);
+        return st;
+    }
+    r.pos = 2;
+    st = pds__pfm_dimension(&r, "width", &width);
+    if (st == PDS_OK) st = pds__pfm_dimension(&r, "height", &height);
+    if (st == PDS_OK) st = pds__pfm_scale(&r, &little_endian);
+    if (st != PDS_OK) {
+        free(data);
+        return st;
+    }
+    /* Exactly one whitespace byte separates the scale from the raster (the
+       raster's first byte may itself look like whitespace). */
+    if (r.pos >= size) {
+        free(data);
+        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0,
+                         "the file is truncated: it ends right after the header, "
+                         "before the raster");
+    }
+    raster = r.pos + 1;
+    per_row = (size_t)width * (size_t)channels * 4;
+    need = per_row * (size_t)height; /* <= 16384^2 * 12: checked below for 32-bit size_t */
+    if ((size_t)height > ((size_t)-1) / per_row || size - raster < need) {
+        pds__fail(err, PDS_ERR_PARSE, path, 0, 0,
+                  "the file is truncated: a %dx%d %s raster needs %llu bytes, "
+                  "but only %llu follow the header",
+                  width, height, channels == 3 ? "RGB" : "grey", (unsigned long long)need,
+                  (unsigned long long)(size - raster));
+        free(data);
+        return PDS_ERR_PARSE;
+    }
+    st = pds_image_alloc(img, width, height);
+    if (st != PDS_OK) {
+        free(data);
+        return st == PDS_ERR_NOMEM ? pds__nomem(err)
+                                   : pds__fail(err, st, path, 0, 0, "bad image size %dx%d", width, height);
+    }
+    /* File row y (0 = bottom) is image row height-1-y. */
+    for (y = 0; y < (size_t)height; y++) {
+        const unsigned char *src = r.buf + raster + y * per_row;
+        float *dst = img->rgb + ((size_t)height - 1 - y) * (size_t)width * 3;
+        for (x = 0; x < (size_t)width * (size_t)channels; x++) {
+            const unsigned char *b = src + 4 * x;
+            uint32_t u;
+            float f;
+            if (little_endian)
+                u = (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
+            else
+                u = (uint32_t)b[3] | (uint32_t)b[2] << 8 | (uint32_t)b[1] << 16 | (uint32_t)b[0] << 24;
+            f = pds__bits_float(u);
+            if (channels == 3) {
+                dst[x] = f;
+            } else {
+                dst[3 * x + 0] = f;
+                dst[3 * x + 1] = f;
+                dst[3 * x + 2] = f;
+            }
+        }
+    }
+    free(data);
+    return PDS_OK;
+}
+
+/* Write *img as a little-endian RGB PFM ("PF", scale -1.0), rows bottom to
+   top. The float bits are stored unchanged, so a read gives them back bit
+   for bit (NaN payloads and negative zero included). */
+pds_status pds_image_write_pfm(const char *path, const pds_image *img, pds_error *err)
+{
+    char header[64];
+    int hlen;
+    size_t per_row, total, x, y;
+    unsigned char *buf, *p;
+    pds_status st = pds__image_check(img, path, err);
+    if (st != PDS_OK) return st;
+    hlen = snprintf(header, sizeof header, "PF\n%d %d\n-1.0\n", img->width, img->height);
+    per_row = (size_t)img->width * 12;
+    if ((size_t)img->height > (((size_t)-1) - (size_t)hlen) / per_row) return pds__nomem(err);
+    total = (size_t)hlen + per_row * (size_t)img->height;
+    buf = (unsigned char *)malloc(total);
+    if (!buf) return pds__nomem(err);
+    memcpy(buf, header, (size_t)hlen);
+    p = buf + hlen;
+    for (y = 0; y < (size_t)img->height; y++) {
+        const float *src = img->rgb + ((size_t)img->height - 1 - y) * (size_t)img->width * 3;
+        for (x = 0; x < (size_t)img->width * 3; x++) {
+            uint32_t u = pds__float_bits(src[x]);
+            p[0] = (unsigned char)(u & 0xffu);
+            p[1] = (unsigned char)((u >> 8) & 0xffu);
+            p[2] = (unsigned char)((u >> 16) & 0xffu);
+            p[3] = (unsigned char)((u >> 24) & 0xffu);
+            p += 4;
+        }
+    }
+    st = pds__write_file_atomic(path, buf, total, err);
+    free(buf);
+    return st;
+}
+
+/* ------------------------------------------------------------------ PNG */
+
+/* sRGB transfer curve (IEC 61966-2-1) of a linear value: clamp to [0,1]
+   (NaN counts as 0), then 12.92 c below 0.0031308 and 1.055 c^(1/2.4) -
+   0.055 above. Returns the encoded value in [0,1]. Shared by the PNG
+   writer and SSIM. */
+static double pds__srgb_encode(double linear)
+{
+    double c = linear;
+    if (!(c > 0.0)) return 0.0; /* also catches NaN */
+    if (c >= 1.0) return 1.0;
+    if (c <= 0.0031308) return 12.92 * c;
+    return 1.055 * pow(c, 1.0 / 2.4) - 0.055;
+}
+
+/* CRC-32 as used by PNG and zlib (ISO 3309 / ITU-T V.42): reflected
+   polynomial 0xEDB88320, register preset to all ones and inverted at the
+   end. Continue a running CRC by passing the previous result; start with 0.
+   The 1 KiB table is rebuilt per call (a PNG needs four calls), which keeps
+   the library free of mutable globals and of a 256-entry literal. */
+static uint32_t pds__crc32_update(uint32_t crc, const void *data, size_t n)
+{
+    uint32_t table[256];
+    const unsigned char *p = (const unsigned char *)data;
+    uint32_t i, k;
+    for (i = 0; i < 256; i++) {
+        uint32_t c = i;
+        for (k = 0; k < 8; k++) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+        table[i] = c;
+    }
+    crc ^= 0xFFFFFFFFu;
+    while (n--) crc = table[(crc ^ *p++) & 0xffu] ^ (crc >> 8);
+    return crc ^ 0xFFFFFFFFu;
+}
+
+/* Adler-32 (RFC 1950): a = 1 + sum of bytes, b = sum of the successive a,
+   both mod 65521; value b << 16 | a. Start with 1. The modulo is taken
+   every 5552 bytes, the most that cannot overflow 32 bits (as in zlib). */
+static uint32_t pds__adler32_update(uint32_t adler, const void *data, size_t n)
+{
+    const unsigned char *p = (const unsigned char *)data;
+    uint32_t a = adler & 0xffffu, b = (adler >> 16) & 0xffffu;
+    while (n > 0) {
+        size_t k = n < 5552 ? n : 5552;
+        n -= k;
+        while (k--) {
+            a += *p++;
+            b += a;
+        }
+        a %= 65521u;
+        b %= 65521u;
+    }
+    return (b << 16) | a;
+}
+
+static void pds__put_u32_be(unsigned char *p, uint32_t v)
+{
+    p[0] = (unsigned char)((v >> 24) & 0xffu);
+    p[1] = (unsigned char)((v >> 16) & 0xffu);
+    p[2] = (unsigned char)((v >> 8) & 0xffu);
+    p[3] = (unsigned char)(v & 0xffu);
+}
+
+/* A deflate stream of stored blocks being written into a buffer sized in
+   advance: the raw bytes still to come decide each block's length (65535
+   at most) and which block is the last (BFINAL). The Adler-32 of the raw
+   bytes is kept on the way. */
+typedef struct pds__zstore {
+    unsigned char *out; /* next byte of the stream */
+    size_t left_total;  /* raw bytes not yet written */
+    size_t left_block;  /* raw bytes still to go in the open block */
+    uint32_t adler;
+} pds__zstore;
+
+/* Bytes of output a stored-block deflate stream of raw_len bytes takes:
+   each block adds a 5-byte header (BFINAL/BTYPE byte, LEN, NLEN). */
+static size_t pds__zstore_size(size_t raw_len)
+{
+    size_t blocks = raw_len == 0 ? 1 : (raw_len + 65534) / 65535;
+    return raw_len + 5 * blocks;
+}
+
+static void pds__zstore_put(pds__zstore *z, const unsigned char *data, size_t n)
+{
+    while (n > 0) {
+        size_t k;
+        if (z->left_block == 0) {
+            size_t len = z->left_total < 65535 ? z->left_total : 65535;
+            unsigned nlen = ~(unsigned)len & 0xffffu;
+            z->out[0] = (unsigned char)(len == z->left_total ? 1 : 0); /* BFINAL, BTYPE 00 */
+            z->out[1] = (unsigned char)(len & 0xffu);
+            z->out[2] = (unsigned char)((len >> 8) & 0xffu);
+            z->out[3] = (unsigned char)(nlen & 0xffu);
+            z->out[4] = (unsigned char)((nlen >> 8) & 0xffu);
+            z->out += 5;
+            z->left_block = len;
+        }
+        k = n < z->left_block ? n : z->left_block;
+        memcpy(z->out, data, k);
+        z->adler = pds__adler32_update(z->adler, data, k);
+        z->out += k;
+        data += k;
+        n -= k;
+        z->left_block -= k;
+        z->left_total -= k;
+    }
+}
+
+/* Write *img as an 8-bit RGB PNG, tone-mapped: value * 2^exposure_stops,
+   clamped, sRGB-encoded, rounded. File layout (all integers big-endian):
+     8  signature 89 50 4E 47 0D 0A 1A 0A
+     25 IHDR: len 13 | "IHDR" | W, H, depth 8, colour 2, 0, 0, 0 | CRC
+     IDAT: len | "IDAT" | 78 01 | stored blocks | Adler-32 | CRC
+     12 IEND: len 0 | "IEND" | CRC */
+pds_status pds_image_write_png(const char *path, const pds_image *img,
+                               double exposure_stops, pds_error *err)
+{
+    static const unsigned char signature[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
+    size_t row_len, raw_len, idat_len, total, x, y;
+    unsigned char *buf, *row, *p, *idat_type;
+    double gain;
+    pds__zstore z;
+    pds_status st = pds__image_check(img, path, err);
+    if (st != PDS_OK) return st;
+    if (!(exposure_stops > -1e300 && exposure_stops < 1e300))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "the exposure must be a finite number");
+    gain = pow(2.0, exposure_stops);
+
+    /* Sizes: W, H <= 16384 keep raw_len under 2^30, so the IDAT length
+       fits its 31 bits and nothing here overflows a 32-bit size_t. */
+    row_len = 1 + 3 * (size_t)img->width;
+    raw_len = row_len * (size_t)img->height;
+    idat_len = 2 + pds__zstore_size(raw_len) + 4;
+    total = 8 + (12 + 13) + (12 + idat_len) + 12;
+    buf = (unsigned char *)malloc(total);
+    row = (unsigned char *)malloc(row_len);
+    if (!buf || !row) {
+        free(buf);
+        free(row);
+        return pds__nomem(err);
+    }
+    p = buf;
+    memcpy(p, signature, 8);
+    p += 8;
+
+    pds__put_u32_be(p, 13);
+    memcpy(p + 4, "IHDR", 4);
+    pds__put_u32_be(p + 8, (uint32_t)img->width);
+    pds__put_u32_be(p + 12, (uint32_t)img->height);
+    p[16] = 8; /* bit depth */
+    p[17] = 2; /* colour type: RGB */
+    p[18] = 0; /* compression: deflate */
+    p[19] = 0; /* filter method 0 */
+    p[20] = 0; /* no interlace */
+    pds__put_u32_be(p + 21, pds__crc32_update(0, p + 4, 4 + 13));
+    p += 25;
+
+    pds__put_u32_be(p, (uint32_t)idat_len);
+    idat_type = p + 4;
+    memcpy(idat_type, "IDAT", 4);
+    p += 8;
+    p[0] = 0x78; /* CM 8 (deflate), CINFO 7 (32 KiB window) */
+    p[1] = 0x01; /* FLEVEL 0, no dictionary; 0x7801 is a multiple of 31 */
+    z.out = p + 2;
+    z.left_total = raw_len;
+    z.left_block = 0;
+    z.adler = 1;
+    row[0] = 0; /* filter type None for every row */
+    for (y = 0; y < (size_t)img->height; y++) {
+        const float *src = img->rgb + y * (size_t)img->width * 3;
+        for (x = 0; x < (size_t)img->width * 3; x++) {
+            double e = pds__srgb_encode((double)src[x] * gain);
+            row[1 + x] = (unsigned char)(e * 255.0 + 0.5);
+        }
+        pds__zstore_put(&z, row, row_len);
+    }
+    pds__put_u32_be(z.out, z.adler);
+    p = z.out + 4;
+    pds__put_u32_be(p, pds__crc32_update(0, idat_type, 4 + idat_len));
+    p += 4;
+
+    pds__put_u32_be(p, 0);
+    memcpy(p + 4, "IEND", 4);
+    pds__put_u32_be(p + 8, pds__crc32_update(0, p + 4, 4));
+    p += 12;
+
+    free(row);
+    st = (size_t)(p - buf) == total
+             ? pds__write_file_atomic(path, buf, total, err)
+             : pds__fail(err, PDS_ERR_IO, path, 0, 0, "internal error: PNG size mismatch");
+    free(buf);
+    return st;
+}
+
+/* ASCII-only lower case, independent of the locale. */
+static int pds__ascii_lower(int c)
+{
+    return (c >= 'A' && c <= 'Z') ? c - 'A' + 'a' : c;
+}
+
+/* 1 if the file name's extension (after the last '.' of the last path
+   component) is ext, ignoring ASCII case. */
+static int pds__has_extension(const char *path, const char *ext)
+{
+    const char *base = strrchr(path, '/');
+    const char *dot;
+    base = base ? base + 1 : path;
+    dot = strrchr(base, '.');
+    if (!dot) return 0;
+    for (dot++; *dot && *ext; dot++, ext++)
+        if (pds__ascii_lower((unsigned char)*dot) != *ext) return 0;
+    return *dot == '\0' && *ext == '\0';
+}
+
+pds_status pds_image_write(const char *path, const pds_image *img,
+                           double exposure_stops, pds_error *err)
+{
+    if (!path || !path[0])
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "no output file name given");
+    if (pds__has_extension(path, "pfm")) return pds_image_write_pfm(path, img, err);
+    if (pds__has_extension(path, "png")) return pds_image_write_png(path, img, exposure_stops, err);
+    return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0,
+                     "cannot tell the image format from the file name: "
+                     "it must end in .pfm or .png");
+}
+
+/* ===================================================================== */
+/* >>metrics                                                             */
+/* ===================================================================== */
+/* RMSE on the linear values, and SSIM as in Wang, Bovik, Sheikh and
+   Simoncelli, "Image Quality Assessment: From Error Visibility to
+   Structural Similarity", IEEE TIP 13(4), 2004, eq. 13 with their
+   reference settings:
+
+       SSIM(x, y) = (2 mu_x mu_y + C1)(2 sigma_xy + C2)
+                    / ((mu_x^2 + mu_y^2 + C1)(sigma_x^2 + sigma_y^2 + C2)),
+       C1 = (K1 L)^2, C2 = (K2 L)^2, K1 = 0.01, K2 = 0.03, L = 1,
+
+   with local statistics under an 11x11 Gaussian window (sigma 1.5, weights
+   summing to 1): mu = w*x, sigma_x^2 = w*x^2 - mu_x^2, sigma_xy = w*(xy) -
+   mu_x mu_y (biased, as in Wang's code), at the 'valid' positions only,
+   and the score is the mean of that map. No downsampling (that step came
+   later than the paper).
+
+   Colour: the comparison is on the luminance Y = 0.299 R + 0.587 G +
+   0.114 B of the sRGB-encoded channels (pds__srgb_encode: clamped to [0,1],
+   exposure 0, not quantised to 8 bits), i.e. on what a viewer sees.
+   Images smaller than 11 pixels on a side use an n x n window, n =
+   min(11, W, H) rounded down to odd, with the sigma-1.5 Gaussian
+   renormalised over it.
+
+   The Gaussian is separable, so each statistic is filtered along rows,
+   then along columns. Rows are filtered as they are needed and kept in a
+   ring of n rows, so memory is O(n W) whatever the image height. */
+
+/* RMSE: sqrt of the mean over pixels and channels of (a - ref)^2, in
+   double. -1 if the sizes differ or either image is empty. */
+double pds_image_rmse(const pds_image *a, const pds_image *ref)
+{
+    size_t i, n;
+    double sum = 0.0;
+    if (!a || !ref || !a->rgb || !ref->rgb || a->width <= 0 || a->height <= 0) return -1.0;
+    if (a->width != ref->width || a->height != ref->height) return -1.0;
+    n = (size_t)a->width * (size_t)a->height * 3;
+    for (i = 0; i < n; i++) {
+        double d = (double)a->rgb[i] - (double)ref->rgb[i];
+        sum += d * d;
+    }
+    return sqrt(sum / (double)n);
+}
+
+/* Luminance of one sRGB-encoded pixel (BT.601 weights, as Wang's ports). */
+static double pds__ssim_luma(const float *rgb)
+{
+    return 0.299 * pds__srgb_encode(rgb[0]) + 0.587 * pds__srgb_encode(rgb[1])
+         + 0.114 * pds__srgb_encode(rgb[2]);
+}
+
+/* The five statistics of one horizontally filtered row, wv values each. */
+typedef struct pds__ssim_row {
+    double *mx, *my, *xx, *yy, *xy;
+} pds__ssim_row;
+
+/* Horizontal pass for image row y: luminance of both images into lx, ly
+   (W values each), then the n-tap weighted sums of x, y, x^2, y^2, xy at
+   the wv = W - n + 1 valid column positions. */
+static void pds__ssim_hfilter(const pds_image *a, const pds_image *b, int y, const double *w,
+                              int n, int wv, double *lx, double *ly, pds__ssim_row *out)
+{
+    int x, k;
+    const float *ra = a->rgb + (size_t)y * (size_t)a->width * 3;
+    const float *rb = b->rgb + (size_t)y * (size_t)b->width * 3;
+    for (x = 0; x < a->width; x++) {
+        lx[x] = pds__ssim_luma(ra + 3 * x);
+        ly[x] = pds__ssim_luma(rb + 3 * x);
+    }
+    for (x = 0; x < wv; x++) {
+        double mx = 0.0, my = 0.0, xx = 0.0, yy = 0.0, xy = 0.0;
+        for (k = 0; k < n; k++) {
+            double vx = lx[x + k], vy = ly[x + k], wk = w[k];
+            mx += wk * vx;
+            my += wk * vy;
+            xx += wk * vx * vx;
+            yy += wk * vy * vy;
+            xy += wk * (vx * vy); /* grouped so that swapping the images changes nothing */
+        }
+        out->mx[x] = mx;
+        out->my[x] = my;
+        out->xx[x] = xx;
+        out->yy[x] = yy;
+        out->xy[x] = xy;
+    }
+}
+
+/* SSIM of a against ref into *out. Returns PDS_ERR_INVALID_ARG for empty
+   or differently sized images, PDS_ERR_NOMEM if scratch memory fails. */
+static pds_status pds__ssim(const pds_image *a, const pds_image *ref, double *out)
+{
+    const double K1 = 0.01, K2 = 0.03, L = 1.0, sigma = 1.5;
+    const double C1 = (K1 * L) * (K1 * L), C2 = (K2 * L) * (K2 * L);
+    double w[11], wsum = 0.0, total = 0.0;
+    int n = 11, wv, hv, W, H, i, y, x, k;
+    double *scratch;
+    pds__ssim_row *ring;
+    size_t per_row;
+
+    if (!a || !ref || !a->rgb || !ref->rgb || a->width <= 0 || a->height <= 0)
+        return PDS_ERR_INVALID_ARG;
+    if (a->width != ref->width || a->height != ref->height) return PDS_ERR_INVALID_ARG;
+    W = a->width;
+    H = a->height;
+    if (W < n) n = W;
+    if (H < n) n = H;
+    if (n % 2 == 0) n--;
+    wv = W - n + 1;
+    hv = H - n + 1;
+
+    /* 1-D Gaussian taps normalised to sum 1; their outer product is the
+       2-D window, which then sums to 1 too. */
+    for (i = 0; i < n; i++) {
+        double d = i - (n - 1) / 2;
+        w[i] = exp(-d * d / (2.0 * sigma * sigma));
+        wsum += w[i];
+    }
+    for (i = 0; i < n; i++) w[i] /= wsum;
+
+    /* Scratch: two luminance rows of W, then n ring rows of 5 x wv. */
+    per_row = 5 * (size_t)wv;
+    ring = (pds__ssim_row *)malloc((size_t)n * sizeof *ring);
+    scratch = (double *)malloc((2 * (size_t)W + (size_t)n * per_row) * sizeof(double));
+    if (!ring || !scratch) {
+        free(ring);
+        free(scratch);
+        return PDS_ERR_NOMEM;
+    }
+    for (i = 0; i < n; i++) {
+        double *base = scratch + 2 * (size_t)W + (size_t)i * per_row;
+        ring[i].mx = base;
+        ring[i].my = base + wv;
+        ring[i].xx = base + 2 * (size_t)wv;
+        ring[i].yy = base + 3 * (size_t)wv;
+        ring[i].xy = base + 4 * (size_t)wv;
+    }
+
+    for (y = 0; y < H; y++) {
+        int oy = y - n + 1; /* the output row completed by input row y */
+        double row_sum = 0.0;
+        pds__ssim_hfilter(a, ref, y, w, n, wv, scratch, scratch + W, &ring[y % n]);
+        if (oy < 0) continue;
+        for (x = 0; x < wv; x++) {
+            double mx = 0.0, my = 0.0, xx = 0.0, yy = 0.0, xy = 0.0;
+            double vx, vy, cxy, num, den;
+            for (k = 0; k < n; k++) {
+                const pds__ssim_row *r = &ring[(oy + k) % n];
+                mx += w[k] * r->mx[x];
+                my += w[k] * r->my[x];
+                xx += w[k] * r->xx[x];
+                yy += w[k] * r->yy[x];
+                xy += w[k] * r->xy[x];
+            }
+            vx = xx - mx * mx;
+            vy = yy - my * my;
+            cxy = xy - mx * my;
+            num = (2.0 * mx * my + C1) * (2.0 * cxy + C2);
+            den = (mx * mx + my * my + C1) * (vx + vy + C2);
+            row_sum += num / den;
+        }
+        total += row_sum;
+    }
+    free(ring);
+    free(scratch);
+    *out = total / ((double)wv * (double)hv);
+    return PDS_OK;
+}
+
+double pds_image_ssim(const pds_image *a, const pds_image *ref)
+{
+    double s;
+    return pds__ssim(a, ref, &s) == PDS_OK ? s : -1.0;
+}
+
+pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
+                             pds_metrics *out, pds_error *err)
+{
+    pds_status st;
+    if (!a || !ref || !out)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "compare needs two images and a result");
+    if (!a->rgb || !ref->rgb || a->width <= 0 || a->height <= 0 || ref->width <= 0 || ref->height <= 0)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "cannot compare an empty image");
+    if (a->width != ref->width || a->height != ref->height)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "image sizes differ: %dx%d vs %dx%d",
+                         a->width, a->height, ref->width, ref->height);
+    out->rmse = pds_image_rmse(a, ref);
+    st = pds__ssim(a, ref, &out->ssim);
+    if (st == PDS_ERR_NOMEM) return pds__nomem(err);
+    if (st != PDS_OK) return pds__fail(err, st, NULL, 0, 0, "cannot compute SSIM");
+    return PDS_OK;
+}
+
+/* ===================================================================== */
+/* >>render                                                              */
+/* ===================================================================== */
+/* Camera rays, the preview integrator and the thread pool.
+
+   The pinhole camera maps pixel coordinates (x right, y down, in pixels)
+   to a ray through the image plane at distance 1 whose half-height is
+   tan(fov/2). Sample positions inside a pixel come from the counter-based
+   generator keyed by (seed, pixel, sample), so an image never depends on
+   the thread count: each pixel is computed by one thread, from its own
+   numbers, and written once.
+
+   Preview: "eye light" shading, a light at the eye: the surface colour
+   times |cos| between the shading normal and the ray. It shows geometry,
+   materials and normals end to end before the real integrators exist. */
+
+typedef struct pds__camera_frame {
+    pds__v3 origin, forward, right, up;
+    double tan_half_fov, aspect;
+    int width, height;
+} pds__camera_frame;
+
+static pds__camera_frame pds__camera_setup(const pds_camera *c, int width, int height)
+{
+    pds__camera_frame f;
+    f.origin = c->position;
+    f.forward = pds__normalize(pds__sub(c->look_at, c->position));
+    f.right = pds__normalize(pds__cross(f.forward, c->up));
+    f.up = pds__cross(f.right, f.forward);
+    f.tan_half_fov = tan(0.5 * c->fov_deg * PDS__PI / 180.0);
+    f.width = width;
+    f.height = height;
+    f.aspect = (double)width / (double)height;
+    return f;
+}
+
+/* Unit direction through image point (px, py) in pixels, (0,0) = top left
+   corner of the image. */
+static pds__v3 pds__camera_dir(const pds__camera_frame *f, double px, double py)
+{
+    double sx = (2.0 * px / f->width - 1.0) * f->tan_half_fov * f->aspect;
+    double sy = (1.0 - 2.0 * py / f->height) * f->tan_half_fov;
+    return pds__normalize(pds__add(f->forward, pds__add(pds__scale(f->right, sx), pds__scale(f->up, sy))));
+}
+
+/* Offset in [-1, 1] with the tent density 1 - |x| (inverse CDF). */
+static double pds__tent_sample(double u)
+{
+    return u < 0.5 ? sqrt(2.0 * u) - 1.0 : 1.0 - sqrt(2.0 - 2.0 * u);
+}
+
+/* A colour that stands for the material in the preview. */
+static void pds__material_preview_colour(const pds_material *m, double rgb[3])
+{
+    int c;
+    for (c = 0; c < 3; c++) {
+        switch (m->type) {
+        case PDS_MAT_DIFFUSE: rgb[c] = m->albedo[c]; break;
+        case PDS_MAT_MIRROR: rgb[c] = m->reflectance[c]; break;
+        case PDS_MAT_CONDUCTOR:
+            /* normal-incidence reflectance ((n-1)^2 + k^2) / ((n+1)^2 + k^2) */
+            rgb[c] = ((m->eta[c] - 1) * (m->eta[c] - 1) + m->k[c] * m->k[c]) /
+                     ((m->eta[c] + 1) * (m->eta[c] + 1) + m->k[c] * m->k[c]);
+            break;
+        case PDS_MAT_DIELECTRIC: rgb[c] = 0.9 * exp(-m->absorption[c]); break;
+        case PDS_MAT_EMISSIVE: rgb[c] = m->radiance[c]; break;
+        }
+    }
+}
+
+/* --- path tracing ------------------------------------------------------- */
+/* Unidirectional path tracing (Kajiya 1986) with next-event estimation at
+   non-specular vertices and multiple importance sampling (Veach 1997,
+   power heuristic) between light sampling and BSDF sampling for area and
+   mesh lights. Delta lights (point, spot, directional) are reached only by
+   next-event estimation from non-specular vertices, so a path tracer cannot
+   render their caustics: a diffuse surface lit through glass by a point
+   light stays dark, and the photon methods supply that light.
+
+   The caustic split: a contribution belongs to a caustic path (L S+ D ...)
+   when the light reaches the most recent non-specular vertex through one
+   or more specular bounces. Next-event estimation connects a non-specular
+   vertex straight to a light, so it is never caustic; an emitter found by
+   BSDF sampling is caustic exactly when the path has a non-specular vertex
+   and the vertices since the last one are all specular. The two classes
+   partition every path, so ALL = NO_CAUSTICS + CAUSTICS_ONLY sample by
+   sample (the same random numbers drive all three).
+
+   Random numbers per camera sample (index = pixel * total_spp + sample):
+   dimensions 0, 1 the position in the pixel; then 8 per bounce: light
+   pick, light point (2), BSDF (3), Russian roulette, spare. */
+
+#define PDS__DIMS_PER_BOUNCE 8
+
+typedef struct pds__tracer {
+    const pds_scene *scene;
+    pds_paths paths;
+    int max_depth, rr_depth;
+    uint64_t seed;
+    double eps;  /* ray offset, relative to the scene's size */
+} pds__tracer;
+
+/* Power heuristic with exponent 2. */
+static double pds__mis_power(double a, double b)
+{
+    return a * a / (a * a + b * b);
+}
+
+/* Add w * c to acc when the contribution's class is wanted. */
+static void pds__accumulate(const pds__tracer *tr, int caustic, const double w[3], double scale, double acc[3])
+{
+    int c;
+    if (tr->paths == PDS_PATHS_NO_CAUSTICS && caustic) return;
+    if (tr->paths == PDS_PATHS_CAUSTICS_ONLY && !caustic) return;
+    for (c = 0; c < 3; c++) acc[c] += w[c] * scale;
+}
+
+/* Offset a ray origin off the surface, to the side of ng that dir leaves on. */
+static pds__v3 pds__offset(const pds__tracer *tr, pds__v3 p, pds__v3 ng, pds__v3 dir)
+{
+    double s = pds__dot(ng, dir) >= 0.0 ? tr->eps : -tr->eps;
+    return pds__add(p, pds__scale(ng, s));
+}
+
+/* The nearest analytic (disk or quad) light along the ray before tmax. */
+static int pds__hit_analytic_light(const pds_scene *s, pds__v3 org, pds__v3 dir, double tmax, double *t, pds__v3 *nx)
+{
+    size_t i;
+    int found = -1;
+    for (i = 0; i < s->nlights; i++) {
+        double ti;
+        pds__v3 ni;
+        if (s->lights[i].type != PDS_LIGHT_DISK && s->lights[i].type != PDS_LIGHT_QUAD) continue;
+        /* seen from behind, an analytic light is not there at all: it
+           neither emits nor blocks, on camera rays as on shadow rays */
+        if (pds__light_intersect(&s->lights[i], org, dir, 0.0, tmax, &ti, &ni) && pds__dot(ni, dir) < 0.0) {
+            tmax = ti;
+            *t = ti;
+            *nx = ni;
+            found = (int)i;
+        }
+    }
+    return found;
+}
+
+/* Next-event estimation at a non-specular vertex: one light picked by
+   power, one point on it, shadow ray, MIS against BSDF sampling. */
+static void pds__direct_light(const pds__tracer *tr, const pds_material *m, pds__v3 p, pds__v3 wo, pds__v3 ns,
+                              pds__v3 ng, const double beta[3], uint64_t idx, uint64_t dim, double acc[3])
+{
+    const pds_scene *s = tr->scene;
+    double pmf, f[3], pdf_bsdf, cosine, w[3], mis = 1.0;
+    pds__light_li li;
+    pds__v3 n, ngw, org;
+    int side, k, c;
+    double u0 = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim);
+    double u1 = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 1);
+    double u2 = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 2);
+    if (tr->paths == PDS_PATHS_CAUSTICS_ONLY) return; /* a direct connection is never caustic */
+    k = pds__lights_pick(&s->light_table, u0, &pmf);
+    if (k < 0 || !(pmf > 0.0)) return;
+    if (!pds__light_sample_li(&s->light_table, &s->lights[k], k, &s->mesh, p, u1, u2, &li)) return;
+    if (!pds__bsdf_frame(wo, ns, ng, &n, &ngw, &side)) return;
+    pds__bsdf_eval(m, wo, li.wi, ns, ng, f, &pdf_bsdf);
+    cosine = pds__dot(li.wi, n);
+    if (!(cosine > 0.0) || !(f[0] + f[1] + f[2] > 0.0)) return;
+    org = pds__offset(tr, p, ng, li.wi);
+    if (pds__bvh_occluded(&s->bvh, org, li.wi, 0.0, li.dist * (1.0 - 1e-4))) return;
+    if (!li.delta) mis = pds__mis_power(pmf * li.pdf, pdf_bsdf);
+    for (c = 0; c < 3; c++) w[c] = beta[c] * f[c] * li.li[c] * cosine / (pmf * li.pdf);
+    pds__accumulate(tr, 0, w, mis, acc);
+}
+
+/* One camera sample: radiance along the ray (org, dir), split by class. */
+static void pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double acc[3])
+{
+    const pds_scene *s = tr->scene;
+    double beta[3] = {1.0, 1.0, 1.0};
+    const double *sigma = NULL;   /* Beer coefficients of the medium the ray is in */
+    int depth, had_diffuse = 0, specular_since = 0;
+    double prev_pdf = 0.0;        /* solid-angle pdf of the last non-specular BSDF sample */
+    pds__v3 prev_p = org;
+    for (depth = 0; depth <= tr->max_depth; depth++) {
+        uint64_t dim = 2 + (uint64_t)depth * PDS__DIMS_PER_BOUNCE;
+        pds__tri_hit th;
+        pds_hit hit;
+        double tmax = DBL_MAX, tl = 0.0, le[3];
+        pds__v3 nl = pds__v(0.0, 0.0, 0.0);
+        int found = pds__bvh_intersect(&s->bvh, org, dir, 0.0, tmax, &th);
+        int light_hit = pds__hit_analytic_light(s, org, dir, found ? th.t : DBL_MAX, &tl, &nl);
+        const pds_material *m;
+        pds__bsdf_result bs;
+        double u[3], q;
+        int c, caustic = had_diffuse && specular_since > 0;
+        if (light_hit >= 0 || (found && s->materials.items[s->mesh.mat[th.tri]].type == PDS_MAT_EMISSIVE)) {
+            /* An emitter ends the path; emitters do not reflect. */
+            pds__v3 x, nx;
+            int k;
+            double mis = 1.0;
+            if (light_hit >= 0) {
+                k = light_hit;
+                x = pds__add(org, pds__scale(dir, tl));
+                nx = nl;
+                pds__light_le(&s->lights[k], nx, pds__scale(dir, -1.0), le);
+            } else {
+                pds__scene_fill_hit(s, &th, org, dir, &hit);
+                k = pds__light_of_triangle(&s->light_table, th.tri);
+                x = hit.position;
+                nx = hit.ng;
+                pds__light_le(&s->lights[k], nx, pds__scale(dir, -1.0), le);
+            }
+            pds__beer(sigma, light_hit >= 0 ? tl : th.t, beta);
+            if (had_diffuse && specular_since == 0) {
+                /* next-event estimation could have found this point too */
+                double pdf_light = pds__lights_pmf(&s->light_table, k) *
+                                   pds__light_pdf_li(&s->light_table, &s->lights[k], k, &s->mesh, prev_p, x, nx);
+                mis = pds__mis_power(prev_pdf, pdf_light);
+            }
+            for (c = 0; c < 3; c++) le[c] *= beta[c];
+            pds__accumulate(tr, caustic, le, mis, acc);
+            return;
+        }
+        if (!found) return; /* black background */
+        pds__scene_fill_hit(s, &th, org, dir, &hit);
+        pds__beer(sigma, th.t, beta);
+        m = &s->materials.items[hit.material];
+        if (!pds__material_is_specular(m)) {
+            pds__direct_light(tr, m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, beta, idx, dim, acc);
+            had_diffuse = 1;
+            specular_since = 0;
+        }
+        if (depth == tr->max_depth) return;
+        for (c = 0; c < 3; c++) u[c] = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 3 + (uint64_t)c);
+        if (!pds__bsdf_sample(m, pds__scale(dir, -1.0), hit.ns, hit.ng, u, PDS__RADIANCE, &bs)) return;
+        for (c = 0; c < 3; c++) beta[c] *= bs.weight[c];
+        if (bs.delta) {
+            specular_since++;
+        } else {
+            prev_pdf = bs.pdf;
+            prev_p = hit.position;
+        }
+        if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        /* Russian roulette: survive with probability min(1, max(beta)). */
+        if (depth + 1 >= tr->rr_depth) {
+            double b = beta[0] > beta[1] ? (beta[0] > beta[2] ? beta[0] : beta[2]) : (beta[1] > beta[2] ? beta[1] : beta[2]);
+            q = b < 1.0 ? b : 1.0;
+            if (!(q > 0.0) || pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 6) >= q) return;
+            for (c = 0; c < 3; c++) beta[c] /= q;
+        }
+        org = pds__offset(tr, hit.position, hit.ng, bs.wi);
+        dir = bs.wi;
+    }
+}
+
+/* --- the render scheduler ----------------------------------------------- */
+/* Rows are handed out to threads one at a time under a mutex; each pixel's
+   samples are accumulated by the one thread that owns its row, in sample
+   order, into a double-precision sum. So the image is the same whatever
+   the thread count. A progressive render (time budget) runs whole passes
+   of spp samples per pixel; pass p uses sample indices p*spp .. p*spp+spp-1. */
+
+typedef struct pds__render_job {
+    const pds_scene *scene;
+    pds__camera_frame frame;
+    pds__tracer tracer;
+    pds_method method;
+    double *sum;           /* 3 doubles per pixel, all passes */
+    int spp, pass, total_spp_max;
+    pds_filter filter;
+    uint64_t seed;
+    pthread_mutex_t lock;
+    int next_row;          /* guarded by lock */
+    int rows_done;         /* guarded by lock */
+    pthread_t caller;
+    pds_progress_fn progress;
+    void *progress_user;
+    double t0, progress_scale, progress_base;
+} pds__render_job;
+
+static void pds__render_pixel(const pds__render_job *job, int x, int y, double *out)
+{
+    uint64_t pixel = (uint64_t)y * (uint64_t)job->frame.width + (uint64_t)x;
+    int k, c;
+    for (k = 0; k < job->spp; k++) {
+        uint64_t sample = (uint64_t)job->pass * (uint64_t)job->spp + (uint64_t)k;
+        uint64_t idx = pixel * (uint64_t)job->total_spp_max + sample;
+        double u1 = pds__rng_uniform(job->seed, PDS__RNG_PIXEL, idx, 0);
+        double u2 = pds__rng_uniform(job->seed, PDS__RNG_PIXEL, idx, 1);
+        double ox = job->filter == PDS_FILTER_TENT ? 0.5 + pds__tent_sample(u1) : u1;
+        double oy = job->filter == PDS_FILTER_TENT ? 0.5 + pds__tent_sample(u2) : u2;
+        pds__v3 dir = pds__camera_dir(&job->frame, x + ox, y + oy);
+        double acc[3] = {0.0, 0.0, 0.0};
+        if (job->method == PDS_METHOD_PT) {
+            pds__trace_path(&job->tracer, job->frame.origin, dir, idx, acc);
+        } else {
+            pds__tri_hit th;
+            if (pds__bvh_intersect(&job->scene->bvh, job->frame.origin, dir, 0.0, DBL_MAX, &th)) {
+                pds_hit hit;
+                double rgb[3], cosine;
+                pds__scene_fill_hit(job->scene, &th, job->frame.origin, dir, &hit);
+                pds__material_preview_colour(&job->scene->materials.items[hit.material], rgb);
+                cosine = fabs(pds__dot(hit.ns, dir));
+                for (c = 0; c < 3; c++) acc[c] = rgb[c] * cosine;
+            }
+        }
+        for (c = 0; c < 3; c++) out[c] += acc[c];
+    }
+}
+
+static void *pds__render_worker(void *arg)
+{
+    pds__render_job *job = (pds__render_job *)arg;
+    int is_caller = pthread_equal(pthread_self(), job->caller);
+    for (;;) {
+        int y, x, done;
+        pthread_mutex_lock(&job->lock);
+        y = job->next_row++;
+        pthread_mutex_unlock(&job->lock);
+        if (y >= job->frame.height) break;
+        for (x = 0; x < job->frame.width; x++)
+            pds__render_pixel(job, x, y, &job->sum[3 * ((size_t)y * job->frame.width + x)]);
+        pthread_mutex_lock(&job->lock);
+        done = ++job->rows_done;
+        pthread_mutex_unlock(&job->lock);
+        if (is_caller && job->progress)
+            job->progress(job->progress_user, job->progress_base + job->progress_scale * done / job->frame.height,
+                          pds_time_now() - job->t0);
+    }
+    return NULL;
+}
+
+/* Run fn(arg) on n threads (the caller's thread is one of them). Returns
+   the number of threads that ran. */
+static int pds__run_threads(int n, void *(*fn)(void *), void *arg)
+{
+    pthread_t tid[256];
+    int started = 0, i;
+    if (n > 256) n = 256;
+    for (i = 1; i < n; i++) {
+        if (pthread_create(&tid[started], NULL, fn, arg) != 0) break;
+        started++;
+    }
+    fn(arg);
+    for (i = 0; i < started; i++) pthread_join(tid[i], NULL);
+    return started + 1;
+}
+
+/* ===================================================================== */
+/* >>api                                                                 */
+/* ===================================================================== */
+
+void pds_options_default(pds_options *opt)
+{
+    memset(opt, 0, sizeof *opt);
+    opt->method = PDS_METHOD_PT;
+    opt->paths = PDS_PATHS_ALL;
+    opt->width = 0;
+    opt->height = 0;
+    opt->spp = 0;
+    opt->threads = 0;
+    opt->seed = 0;
+    opt->max_depth = 32;
+    opt->rr_depth = 3;
+    opt->time_s = 0.0;
+    opt->progress = NULL;
+    opt->progress_user = NULL;
+}
+
+const char *pds_method_name(pds_method method)
+{
+    switch (method) {
+    case PDS_METHOD_PT: return "pt";
+    case PDS_METHOD_PREVIEW: return "preview";
+    }
+    return "unknown";
+}
+
+/* Check the options against the documented ranges. */
+static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_error *err)
+{
+    if (w < 1 || h < 1 || w > PDS_MAX_RESOLUTION || h > PDS_MAX_RESOLUTION || opt->width < 0 || opt->height < 0)
+        return pds__fail(err, PDS_ERR_LIMIT, NULL, 0, 0, "resolution %dx%d is outside 1..%d", w, h, PDS_MAX_RESOLUTION);
+    if (opt->spp < 0 || opt->spp > PDS_MAX_SPP)
+        return pds__fail(err, PDS_ERR_LIMIT, NULL, 0, 0, "spp %d is outside 1..%d", opt->spp, PDS_MAX_SPP);
+    if (opt->threads < 0) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "threads must not be negative");
+    if (opt->max_depth < 0 || opt->max_depth > 1000)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "max depth %d is outside 0..1000", opt->max_depth);
+    if (opt->rr_depth < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "Russian roulette depth must be at least 1");
+    if (!(opt->time_s >= 0.0) || opt->time_s > 1e7)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "time budget must be between 0 and 1e7 seconds");
+    if (opt->method != PDS_METHOD_PT && opt->method != PDS_METHOD_PREVIEW)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown rendering method %d", (int)opt->method);
+    if ((unsigned)opt->paths > (unsigned)PDS_PATHS_CAUSTICS_ONLY)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown light path selection %d", (int)opt->paths);
+    return PDS_OK;
+}
+
+/* Largest extent of the scene's bounds (at least 1), for ray offsets. */
+static double pds__scene_scale(const pds_scene *s)
+{
+    pds__v3 e = pds__sub(s->bounds_max, s->bounds_min);
+    double m = fabs(s->bounds_max.x) + fabs(s->bounds_max.y) + fabs(s->bounds_max.z) + e.x + e.y + e.z;
+    return m > 1.0 ? m : 1.0;
+}
+
+pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image *out,
+                      pds_render_stats *stats, pds_error *err)
+{
+    pds__render_job job;
+    const pds_camera *cam;
+    int w, h, threads, max_passes;
+    size_t i, npix;
+    pds_status st;
+    if (!scene || !opt || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render: NULL argument");
+    cam = &scene->camera;
+    w = opt->width > 0 ? opt->width : cam->width;
+    h = opt->height > 0 ? opt->height : cam->height;
+    if ((st = pds__options_check(opt, w, h, err))) return st;
+    memset(&job, 0, sizeof job);
+    job.t0 = pds_time_now();
+    job.scene = scene;
+    job.frame = pds__camera_setup(cam, w, h);
+    job.method = opt->method;
+    job.spp = opt->spp > 0 ? opt->spp : cam->spp;
+    job.filter = cam->filter;
+    job.seed = opt->seed;
+    job.tracer.scene = scene;
+    job.tracer.paths = opt->paths;
+    job.tracer.max_depth = opt->max_depth;
+    job.tracer.rr_depth = opt->rr_depth;
+    job.tracer.seed = opt->seed;
+    job.tracer.eps = 1e-6 * pds__scene_scale(scene);
+    job.progress = opt->progress;
+    job.progress_user = opt->progress_user;
+    /* Sample indices must not overlap between pixels: reserve room for the
+       most passes a time budget could ever take. */
+    max_passes = opt->time_s > 0.0 ? PDS_MAX_SPP / job.spp : 1;
+    if (max_passes < 1) max_passes = 1;
+    job.total_spp_max = job.spp * max_passes;
+    npix = (size_t)w * (size_t)h;
+    job.sum = (double *)calloc(npix * 3, sizeof(double));
+    if (!job.sum || pds_image_alloc(out, w, h) != PDS_OK) {
+        free(job.sum);
+        return pds__nomem(err);
+    }
+    pthread_mutex_init(&job.lock, NULL);
+    job.caller = pthread_self();
+    threads = opt->threads > 0 ? opt->threads : pds_cpu_count();
+    if (threads > h) threads = h;
+    for (job.pass = 0; job.pass < max_passes; job.pass++) {
+        double elapsed;
+        job.next_row = 0;
+        job.rows_done = 0;
+        if (opt->time_s > 0.0) {
+            /* progress in time: this pass covers the time fraction so far */
+            elapsed = pds_time_now() - job.t0;
+            job.progress_base = elapsed / opt->time_s < 1.0 ? elapsed / opt->time_s : 1.0;
+            job.progress_scale = 0.0;
+        } else {
+            job.progress_base = 0.0;
+            job.progress_scale = 1.0;
+        }
+        threads = pds__run_threads(threads, pds__render_worker, &job);
+        elapsed = pds_time_now() - job.t0;
+        if (opt->time_s <= 0.0 || elapsed >= opt->time_s) {
+            job.pass++;
+            break;
+        }
+    }
+    pthread_mutex_destroy(&job.lock);
+    for (i = 0; i < npix * 3; i++) out->rgb[i] = (float)(job.sum[i] / ((double)job.spp * job.pass));
+    free(job.sum);
+    if (job.progress) job.progress(job.progress_user, 1.0, pds_time_now() - job.t0);
+    if (stats) {
+        stats->time_total_s = pds_time_now() - job.t0;
+        stats->threads = threads;
+        stats->width = w;
+        stats->height = h;
+        stats->spp = job.spp * job.pass;
+        stats->passes = job.pass;
+    }
+    return PDS_OK;
+}
+
+/* `pds bench rays`: the rays are made before the clock starts, so only
+   traversal is timed. Primary: an n x n grid from the bounding box centre
+   + (0, 0, 1.5 x largest extent), looking down -z, 60 degree square field
+   of view. Random: origins uniform in the box, directions uniform on the
+   sphere. One thread. */
+pds_status pds_bench_rays(const char *path, long rays, pds_bench_rays_result *out, pds_error *err)
+{
+    pds_scene *s = NULL;
+    pds_status st;
+    pds__v3 *org = NULL, *dir = NULL, lo, hi, ext, centre;
+    long n, i, side, hits;
+    int kind;
+    double largest;
+    if (!path || !out || rays < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_bench_rays: bad argument");
+    memset(out, 0, sizeof *out);
+    st = pds__has_extension(path, "obj") ? pds_scene_load_obj(path, &s, err) : pds_scene_load(path, &s, err);
+    if (st) return st;
+    side = (long)floor(sqrt((double)rays));
+    if (side < 1) side = 1;
+    n = side * side;
+    org = (pds__v3 *)malloc(sizeof *org * (size_t)n);
+    dir = (pds__v3 *)malloc(sizeof *dir * (size_t)n);
+    if (!org || !dir) {
+        free(org);
+        free(dir);
+        pds_scene_free(s);
+        return pds__nomem(err);
+    }
+    lo = s->bounds_min;
+    hi = s->bounds_max;
+    ext = pds__sub(hi, lo);
+    centre = pds__scale(pds__add(lo, hi), 0.5);
+    largest = ext.x > ext.y ? (ext.x > ext.z ? ext.x : ext.z) : (ext.y > ext.z ? ext.y : ext.z);
+    out->triangles = (long)s->mesh.ntris;
+    out->build_s = s->bvh_build_s;
+    out->rays = n;
+    for (kind = 0; kind < 2; kind++) {
+        double t0, dt;
+        for (i = 0; i < n; i++) {
+            if (kind == 0) {
+                double t = tan(30.0 * PDS__PI / 180.0);
+                double sx = (2.0 * ((double)(i % side) + 0.5) / side - 1.0) * t;
+                double sy = (2.0 * ((double)(i / side) + 0.5) / side - 1.0) * t;
+                org[i] = pds__add(centre, pds__v(0.0, 0.0, 1.5 * largest));
+                dir[i] = pds__normalize(pds__v(sx, sy, -1.0));
+            } else {
+                double u[5], z, r, phi;
+                int k;
+                for (k = 0; k < 5; k++) u[k] = pds__rng_uniform(0, PDS__RNG_BENCH, (uint64_t)i, (uint64_t)k);
+                org[i] = pds__add(lo, pds__mul(ext, pds__v(u[0], u[1], u[2])));
+                z = 1.0 - 2.0 * u[3];
+                r = sqrt(1.0 - z * z > 0.0 ? 1.0 - z * z : 0.0);
+                phi = 2.0 * PDS__PI * u[4];
+                dir[i] = pds__v(r * cos(phi), r * sin(phi), z);
+            }
+        }
+        hits = 0;
+        t0 = pds_time_now();
+        for (i = 0; i < n; i++) {
+            pds__tri_hit th;
+            hits += pds__bvh_intersect(&s->bvh, org[i], dir[i], 0.0, DBL_MAX, &th);
+        }
+        dt = pds_time_now() - t0;
+        if (dt <= 0.0) dt = 1e-9;
+        if (kind == 0) {
+            out->primary_mrays = (double)n / dt * 1e-6;
+            out->primary_hits = hits;
+        } else {
+            out->random_mrays = (double)n / dt * 1e-6;
+            out->random_hits = hits;
+        }
+    }
+    free(org);
+    free(dir);
+    pds_scene_free(s);
+    return PDS_OK;
+}

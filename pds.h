@@ -1,0 +1,342 @@
+/* pds.h - PDS, a photon differential splatting renderer for caustics. v0.1.0
+
+   PDS renders caustics with photon differential splatting (Frisvad, Schjoth,
+   Erleben, Sporring, "Photon Differential Splatting for Rendering Caustics",
+   Computer Graphics Forum 33(6), 2014), next to the methods that paper is
+   measured against. This header is the whole public contract: scenes, ray
+   queries, images and metrics. The library lives in pds.c; the `pds` tool in
+   main.c is built only on what is declared here.
+
+   Quick start (renders nothing yet: loads a scene and shoots one ray):
+
+       #include "pds.h"
+       #include <stdio.h>
+       int main(void) {
+           pds_error err;
+           pds_scene *scene = NULL;
+           if (pds_scene_load("scenes/demo.scene", &scene, &err) != PDS_OK) {
+               fprintf(stderr, "%s\n", pds_error_string(&err));
+               return 1;
+           }
+           pds_ray ray = {{0, 1, 5}, {0, 0, -1}, 0.0, 1e30};
+           pds_hit hit;
+           if (pds_scene_intersect(scene, &ray, &hit)) printf("t = %g\n", hit.t);
+           pds_scene_free(scene);
+           return 0;
+       }
+
+   Build:   cc -std=c99 -O2 -o pds main.c pds.c -lm -lpthread
+
+   Thread safety: a loaded pds_scene is immutable; any number of threads may
+   call the query functions on it at once. Loading, freeing and writing images
+   touch only the objects passed in. The library has no global mutable state.
+
+   Determinism: every random number is a pure function of (seed, purpose,
+   index); the same inputs give the same output bit for bit, whatever the
+   thread count.
+
+   Errors: functions that can fail return a pds_status and fill an optional
+   pds_error (pass NULL if you do not want it). Input-file errors carry the
+   file, line and column; pds_error_string() formats them the way compilers
+   do ("scenes/ring.scene:12:7: expected a number after 'ior', got 'glass'").
+   The library never prints and never exits. Output files are written to a
+   temporary name and renamed, so a failure never leaves a half-written file.
+
+   License: MIT (see LICENSE).
+*/
+#ifndef PDS_H
+#define PDS_H
+
+#include <stddef.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define PDS_VERSION_MAJOR 0
+#define PDS_VERSION_MINOR 1
+#define PDS_VERSION_PATCH 0
+#define PDS_VERSION_STRING "0.1.0"
+
+/* ------------------------------------------------------------------ errors */
+
+typedef enum pds_status {
+    PDS_OK = 0,
+    PDS_ERR_IO,          /* a file could not be opened, read or written */
+    PDS_ERR_PARSE,       /* malformed scene, OBJ, MTL or image file */
+    PDS_ERR_NOMEM,       /* an allocation failed */
+    PDS_ERR_INVALID_ARG, /* a caller passed a value outside the contract */
+    PDS_ERR_LIMIT        /* an input exceeds a documented limit */
+} pds_status;
+
+typedef struct pds_error {
+    pds_status status;
+    char file[512];   /* input file the error is in, "" if none */
+    int line, column; /* 1-based; 0 when not known */
+    char message[512]; /* what is wrong, without the location */
+    char text[1100];   /* "FILE:LINE:COLUMN: message", ready to print */
+} pds_error;
+
+const char *pds_status_string(pds_status status);
+/* err->text: "FILE:LINE:COLUMN: message" (unknown parts left out). */
+const char *pds_error_string(const pds_error *err);
+
+/* ------------------------------------------------------------- documented limits */
+
+#define PDS_MAX_RESOLUTION 16384     /* pixels per image side */
+#define PDS_MAX_SPP 65536            /* samples per pixel */
+#define PDS_MAX_TESSELLATION 4096    /* segments/rings/grid cells per direction */
+#define PDS_MAX_TRIANGLES 50000000   /* triangles in one scene */
+#define PDS_MAX_MATERIALS 65536      /* materials in one scene */
+#define PDS_MAX_LIGHTS 65536         /* explicit lights in one scene */
+#define PDS_MAX_PROFILE_POINTS 4096  /* points in a revolve profile */
+#define PDS_MAX_COORD 1e12           /* |coordinate| and any length */
+
+/* ------------------------------------------------------------------- math */
+
+typedef struct pds_vec3 { double x, y, z; } pds_vec3;
+
+/* ------------------------------------------------------------------ scene */
+
+typedef enum pds_material_type {
+    PDS_MAT_DIFFUSE = 0, /* Lambertian: albedo */
+    PDS_MAT_MIRROR,      /* perfect mirror: reflectance */
+    PDS_MAT_CONDUCTOR,   /* exact conductor Fresnel: eta + i k per RGB */
+    PDS_MAT_DIELECTRIC,  /* exact dielectric Fresnel: ior, Beer absorption */
+    PDS_MAT_EMISSIVE     /* area emitter: radiance (W / m^2 / sr) */
+} pds_material_type;
+
+typedef enum pds_dispersion {
+    PDS_DISPERSION_NONE = 0,
+    PDS_DISPERSION_CAUCHY,   /* n = A + B / lambda^2, lambda in micrometres */
+    PDS_DISPERSION_SELLMEIER /* n^2 = 1 + sum B_i l^2 / (l^2 - C_i), l in um */
+} pds_dispersion;
+
+typedef struct pds_material {
+    char name[64];
+    pds_material_type type;
+    double albedo[3];      /* diffuse */
+    double reflectance[3]; /* mirror */
+    double eta[3], k[3];   /* conductor: complex index of refraction per RGB */
+    double ior;            /* dielectric: index of the medium behind the surface
+                              (the side its normals point away from), at 587.6 nm */
+    double absorption[3];  /* dielectric: Beer coefficient of that medium, per scene unit */
+    double outside_ior;    /* dielectric: index of the medium in front (default 1: air) */
+    double outside_absorption[3]; /* dielectric: Beer coefficient in front (default 0) */
+    pds_dispersion dispersion;
+    double dispersion_coef[6]; /* Cauchy A,B or Sellmeier B1..B3,C1..C3 */
+    double radiance[3];    /* emissive */
+} pds_material;
+
+typedef enum pds_light_type {
+    PDS_LIGHT_POINT = 0, /* position, power (W) */
+    PDS_LIGHT_SPOT,      /* position, direction, power (W), cone angles */
+    PDS_LIGHT_DIRECTIONAL, /* direction, irradiance (W/m^2), emitter disk or rectangle */
+    PDS_LIGHT_DISK,      /* one-sided disk: centre, normal, radius */
+    PDS_LIGHT_QUAD,      /* one-sided parallelogram: centre, edge1, edge2 */
+    PDS_LIGHT_MESH       /* triangles of an emissive material */
+} pds_light_type;
+
+typedef struct pds_light {
+    pds_light_type type;
+    pds_vec3 position;   /* point, spot; centre of disk, quad, directional emitter */
+    pds_vec3 direction;  /* spot axis, directional travel direction, disk normal */
+    pds_vec3 edge1, edge2; /* quad and rectangular directional emitter edges */
+    double radius;       /* disk light, disk-shaped directional emitter */
+    double cone_inner_deg, cone_outer_deg; /* spot: full power inside inner,
+                                             smooth falloff to zero at outer */
+    double power[3];     /* W per channel (point, spot, disk, quad, mesh) */
+    double irradiance[3];/* W/m^2 per channel perpendicular to direction */
+    double radiance[3];  /* W/m^2/sr (disk, quad, mesh) */
+    int emitter_shape;   /* directional: 0 = disk, 1 = rectangle */
+    int material;        /* mesh light: its emissive material */
+    int first_triangle, triangle_count; /* mesh light: its triangles */
+    double area;         /* emitting area (m^2) */
+} pds_light;
+
+typedef enum pds_filter { PDS_FILTER_BOX = 0, PDS_FILTER_TENT } pds_filter;
+
+typedef struct pds_camera {
+    pds_vec3 position, look_at, up;
+    double fov_deg;      /* vertical field of view */
+    int width, height;   /* resolution in pixels */
+    int spp;             /* samples per pixel */
+    pds_filter filter;
+} pds_camera;
+
+typedef struct pds_scene pds_scene; /* opaque; immutable once loaded */
+
+/* Load a scene file (format in README.md) and build its BVH. */
+pds_status pds_scene_load(const char *path, pds_scene **out, pds_error *err);
+/* Load a bare Wavefront OBJ (with its MTL files) as a scene with a default
+   camera looking at its bounds, and build its BVH. */
+pds_status pds_scene_load_obj(const char *path, pds_scene **out, pds_error *err);
+void pds_scene_free(pds_scene *scene);
+
+typedef struct pds_scene_info {
+    long triangles, vertices;
+    int materials, lights, mesh_lights, shapes;
+    long degenerate_dropped; /* zero-area triangles removed while loading */
+    pds_vec3 bounds_min, bounds_max;
+    int warnings;            /* number of warnings (see pds_scene_warning) */
+    size_t memory_bytes;     /* geometry, BVH and light tables */
+} pds_scene_info;
+
+void pds_scene_get_info(const pds_scene *scene, pds_scene_info *info);
+const char *pds_scene_warning(const pds_scene *scene, int index);
+const pds_camera *pds_scene_camera(const pds_scene *scene);
+const pds_material *pds_scene_material(const pds_scene *scene, int index);
+const pds_light *pds_scene_light(const pds_scene *scene, int index);
+
+/* Index of refraction of a dielectric at a wavelength (nm): its Cauchy or
+   Sellmeier law if it has one, else its ior. */
+double pds_material_ior(const pds_material *m, double wavelength_nm);
+
+/* One photon as the photon methods emit it from light `index`, driven by
+   four uniform numbers in [0,1): where it starts, where it goes, the flux it
+   would carry as the only photon of that light (W; divide by the photon
+   count), the densities it was sampled with, and the light's emitting area
+   and solid angle (the Ae and omega_e of the PDS paper's eqs. 5-6; point
+   lights have no area, directional lights no solid angle). Returns 0 if the
+   sample carries no flux. */
+typedef struct pds_emission {
+    pds_vec3 position, direction;
+    pds_vec3 normal;        /* emitter surface normal; zero for point and spot lights */
+    double flux[3];
+    double pdf_position;    /* area density (1 for point and spot lights) */
+    double pdf_direction;   /* solid-angle density (1 for directional lights) */
+    double area, solid_angle;
+} pds_emission;
+int pds_scene_emit(const pds_scene *scene, int index, const double u[4], pds_emission *out);
+
+/* ---------------------------------------------------------------- ray queries */
+
+typedef struct pds_ray {
+    pds_vec3 origin;
+    pds_vec3 dir;     /* need not be unit length; t is in units of |dir| */
+    double tmin, tmax;
+} pds_ray;
+
+typedef struct pds_hit {
+    double t;           /* distance along the ray, in units of |dir| */
+    long triangle;      /* index of the triangle hit */
+    double u, v;        /* barycentrics: P = (1-u-v) P0 + u P1 + v P2 */
+    pds_vec3 position;
+    pds_vec3 ng;        /* unit geometric normal, (P1-P0) x (P2-P0) side */
+    pds_vec3 ns;        /* unit interpolated shading normal */
+    int material;
+} pds_hit;
+
+/* Closest hit in (tmin, tmax); returns 1 and fills *hit, or 0. */
+int pds_scene_intersect(const pds_scene *scene, const pds_ray *ray, pds_hit *hit);
+/* Any hit in (tmin, tmax): 1 if the segment is blocked. */
+int pds_scene_occluded(const pds_scene *scene, const pds_ray *ray);
+
+/* ------------------------------------------------------------------ images */
+
+/* Linear RGB, float per channel, rows top to bottom, pixels left to right. */
+typedef struct pds_image {
+    int width, height;
+    float *rgb; /* width * height * 3 floats */
+} pds_image;
+
+pds_status pds_image_alloc(pds_image *img, int width, int height);
+void pds_image_free(pds_image *img);
+/* Portable float map: "PF", little-endian (negative scale), rows bottom to top. */
+pds_status pds_image_read_pfm(const char *path, pds_image *img, pds_error *err);
+pds_status pds_image_write_pfm(const char *path, const pds_image *img, pds_error *err);
+/* 8-bit sRGB PNG: value * 2^exposure_stops, clamped, sRGB transfer curve. */
+pds_status pds_image_write_png(const char *path, const pds_image *img,
+                               double exposure_stops, pds_error *err);
+/* Chooses PFM or PNG by the file name's extension (.pfm / .png). */
+pds_status pds_image_write(const char *path, const pds_image *img,
+                           double exposure_stops, pds_error *err);
+
+/* RMSE over all pixels and channels of the linear values. */
+double pds_image_rmse(const pds_image *a, const pds_image *ref);
+/* SSIM (Wang et al. 2004: 11x11 Gaussian window, sigma 1.5, K1 0.01,
+   K2 0.03, L 1) of the luminance Y = 0.299 R + 0.587 G + 0.114 B of the
+   sRGB-encoded values clamped to [0,1]; mean over the valid window
+   positions. Images smaller than 11 pixels on a side use a window clipped
+   to the image. Sizes must match (else -1 is returned by the helpers below). */
+double pds_image_ssim(const pds_image *a, const pds_image *ref);
+
+typedef struct pds_metrics { double rmse, ssim; } pds_metrics;
+pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
+                             pds_metrics *out, pds_error *err);
+
+/* --------------------------------------------------------------- rendering */
+
+typedef enum pds_method {
+    PDS_METHOD_PT = 0,     /* unidirectional path tracing, the unbiased reference */
+    PDS_METHOD_PREVIEW     /* eye-light shading: geometry and materials at a glance */
+} pds_method;
+
+/* Which light paths a render computes. Caustic paths are L S+ D ...: light
+   that reaches a non-specular vertex through one or more specular bounces.
+   The photon methods compute those; the eye pass computes the rest. For
+   every method, ALL = NO_CAUSTICS + CAUSTICS_ONLY. */
+typedef enum pds_paths {
+    PDS_PATHS_ALL = 0,
+    PDS_PATHS_NO_CAUSTICS,
+    PDS_PATHS_CAUSTICS_ONLY
+} pds_paths;
+
+/* Progress report: fraction of the work done in [0,1] and seconds since the
+   render started. Called from the thread that called pds_render only. */
+typedef void (*pds_progress_fn)(void *user, double fraction, double elapsed_s);
+
+typedef struct pds_options {
+    pds_method method;  /* default PDS_METHOD_PT */
+    pds_paths paths;    /* default PDS_PATHS_ALL */
+    int width, height;  /* 0 = the scene camera's resolution (default 0) */
+    int spp;            /* samples per pixel per pass; 0 = the scene camera's (default 0) */
+    int threads;        /* 0 = all cores (default 0) */
+    unsigned long long seed; /* default 0 */
+    int max_depth;      /* longest eye path, in bounces (default 32) */
+    int rr_depth;       /* Russian roulette from this bounce on (default 3) */
+    double time_s;      /* > 0: render whole passes of spp samples until this
+                           many seconds are spent (at least one pass); 0 = one
+                           pass (default 0) */
+    pds_progress_fn progress; /* default NULL */
+    void *progress_user;      /* default NULL */
+} pds_options;
+
+void pds_options_default(pds_options *opt);
+const char *pds_method_name(pds_method method);
+
+typedef struct pds_render_stats {
+    double time_total_s;
+    int threads;        /* threads actually used */
+    int width, height;
+    int spp;            /* samples per pixel actually taken (passes x spp) */
+    int passes;
+} pds_render_stats;
+
+/* Render the scene into *out (allocated here; the caller frees it). */
+pds_status pds_render(const pds_scene *scene, const pds_options *opt,
+                      pds_image *out, pds_render_stats *stats, pds_error *err);
+
+/* -------------------------------------------------------------- benchmarks */
+
+typedef struct pds_bench_rays_result {
+    long triangles;
+    double build_s;       /* BVH build time, one thread */
+    long rays;            /* rays of each kind */
+    double primary_mrays; /* million rays per second, one thread */
+    double random_mrays;
+    long primary_hits, random_hits;
+} pds_bench_rays_result;
+
+/* Ray throughput of a scene's BVH (see README: `pds bench rays`). */
+pds_status pds_bench_rays(const char *obj_or_scene_path, long rays,
+                          pds_bench_rays_result *out, pds_error *err);
+
+/* Seconds from a monotonic clock (for callers that time their own work). */
+double pds_time_now(void);
+int pds_cpu_count(void);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* PDS_H */

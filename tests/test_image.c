@@ -1,0 +1,913 @@
+/* tests/test_image.c - PFM and PNG files, tone mapping, RMSE and SSIM.
+
+   The PNG tests decode the writer's output with a small independent reader
+   (bitwise CRC-32, byte-at-a-time Adler-32, stored-block inflate), so a
+   file that a real decoder would reject fails here too. The SSIM tests
+   compare against a direct, non-separable evaluation of Wang et al.'s
+   formula and against numbers computed once with scikit-image. */
+
+#include <dirent.h>
+#include <sys/stat.h>
+
+/* ------------------------------------------------------------ helpers */
+
+/* A per-process scratch path under /tmp. */
+static void timg_path(char *out, size_t n, const char *name)
+{
+    snprintf(out, n, "/tmp/pds_test_image_%ld_%s", (long)getpid(), name);
+}
+
+static int timg_write_bytes(const char *path, const void *data, size_t n)
+{
+    FILE *f = fopen(path, "wb");
+    int ok;
+    if (!f) return 0;
+    ok = fwrite(data, 1, n, f) == n;
+    return (fclose(f) == 0) && ok;
+}
+
+/* Whole file, or NULL. */
+static unsigned char *timg_read_bytes(const char *path, size_t *n)
+{
+    char *data = NULL;
+    if (pds__read_file(path, &data, n, NULL) != PDS_OK) return NULL;
+    return (unsigned char *)data;
+}
+
+static int timg_file_exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+/* Entries in a directory other than "." and "..", or -1. */
+static int timg_dir_count(const char *dir)
+{
+    DIR *d = opendir(dir);
+    struct dirent *e;
+    int n = 0;
+    if (!d) return -1;
+    while ((e = readdir(d)) != NULL)
+        if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0) n++;
+    closedir(d);
+    return n;
+}
+
+/* Little-endian float bytes of a bit pattern (independent of the host). */
+static void timg_put_le(unsigned char *p, uint32_t u)
+{
+    p[0] = (unsigned char)(u & 0xff);
+    p[1] = (unsigned char)((u >> 8) & 0xff);
+    p[2] = (unsigned char)((u >> 16) & 0xff);
+    p[3] = (unsigned char)(u >> 24);
+}
+
+static void timg_put_be(unsigned char *p, uint32_t u)
+{
+    p[0] = (unsigned char)(u >> 24);
+    p[1] = (unsigned char)((u >> 16) & 0xff);
+    p[2] = (unsigned char)((u >> 8) & 0xff);
+    p[3] = (unsigned char)(u & 0xff);
+}
+
+static uint32_t timg_get_be(const unsigned char *p)
+{
+    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | (uint32_t)p[3];
+}
+
+static uint32_t timg_bits(float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, 4);
+    return u;
+}
+
+/* Bit-by-bit CRC-32 (no table), to check the library's table version. */
+static uint32_t timg_crc_bitwise(const unsigned char *p, size_t n)
+{
+    uint32_t c = 0xFFFFFFFFu;
+    size_t i;
+    int k;
+    for (i = 0; i < n; i++) {
+        c ^= p[i];
+        for (k = 0; k < 8; k++) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+    }
+    return c ^ 0xFFFFFFFFu;
+}
+
+/* Adler-32 with the modulo after every byte. */
+static uint32_t timg_adler_naive(const unsigned char *p, size_t n)
+{
+    uint32_t a = 1, b = 0;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        a = (a + p[i]) % 65521u;
+        b = (b + a) % 65521u;
+    }
+    return b << 16 | a;
+}
+
+/* Independent sRGB curve for expected values. */
+static double timg_srgb(double c)
+{
+    if (c != c || c <= 0.0) return 0.0;
+    if (c >= 1.0) return 1.0;
+    return c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055;
+}
+
+/* A decoded PNG: 8-bit RGB pixels, top row first, and how the deflate
+   stream was cut into stored blocks. */
+typedef struct timg_png {
+    int width, height;
+    unsigned char *rgb;
+    int blocks;
+} timg_png;
+
+/* Decode a PNG as written by pds_image_write_png: checks the signature,
+   every chunk's CRC, IHDR, the zlib header, each stored block's LEN/NLEN
+   and BFINAL, the Adler-32 and the row filter bytes. Returns NULL on
+   success, else what was wrong. */
+static const char *timg_png_decode(const unsigned char *f, size_t n, timg_png *out)
+{
+    static const unsigned char sig[8] = {0x89, 0x50, 0x4E, 0x47, 0x0D, 0x0A, 0x1A, 0x0A};
+    unsigned char *z = NULL, *raw = NULL;
+    size_t zlen = 0, pos = 8, zp, rawlen = 0, expect, y;
+    int seen_ihdr = 0, seen_iend = 0, final = 0;
+    memset(out, 0, sizeof *out);
+    if (n < 8 || memcmp(f, sig, 8) != 0) return "bad signature";
+    while (pos < n && !seen_iend) {
+        uint32_t len, crc;
+        const unsigned char *type, *data;
+        if (n - pos < 12) return "chunk header runs past the end";
+        len = timg_get_be(f + pos);
+        type = f + pos + 4;
+        data = f + pos + 8;
+        if (len > n - pos - 12) return "chunk data runs past the end";
+        crc = timg_get_be(data + len);
+        if (crc != timg_crc_bitwise(type, 4 + (size_t)len)) return "bad chunk CRC";
+        if (memcmp(type, "IHDR", 4) == 0) {
+            if (pos != 8 || len != 13) return "IHDR not first or wrong length";
+            out->width = (int)timg_get_be(data);
+            out->height = (int)timg_get_be(data + 4);
+            if (data[8] != 8 || data[9] != 2 || data[10] || data[11] || data[12])
+                return "IHDR is not 8-bit RGB, deflate, filter 0, no interlace";
+            seen_ihdr = 1;
+        } else if (memcmp(type, "IDAT", 4) == 0) {
+            unsigned char *nz = (unsigned char *)realloc(z, zlen + len + 1);
+            if (!seen_ihdr) return "IDAT before IHDR";
+            if (!nz) return "out of memory";
+            z = nz;
+            memcpy(z + zlen, data, len);
+            zlen += len;
+        } else if (memcmp(type, "IEND", 4) == 0) {
+            if (len != 0) return "IEND has data";
+            seen_iend = 1;
+        } else {
+            return "unexpected chunk type";
+        }
+        pos += 12 + (size_t)len;
+    }
+    if (!seen_iend || pos != n) {
+        free(z);
+        return "missing IEND or bytes after it";
+    }
+    if (zlen < 6 || z[0] != 0x78 || z[1] != 0x01 || ((z[0] << 8) | z[1]) % 31 != 0) {
+        free(z);
+        return "bad zlib header";
+    }
+    expect = (size_t)out->height * (1 + 3 * (size_t)out->width);
+    raw = (unsigned char *)malloc(expect + 1);
+    if (!raw) {
+        free(z);
+        return "out of memory";
+    }
+    zp = 2;
+    while (!final) {
+        unsigned len, nlen;
+        if (zlen - zp < 5) goto bad_blocks;
+        if (z[zp] > 1) goto bad_blocks; /* only BTYPE 00 with BFINAL 0/1 */
+        final = z[zp] & 1;
+        len = z[zp + 1] | (unsigned)z[zp + 2] << 8;
+        nlen = z[zp + 3] | (unsigned)z[zp + 4] << 8;
+        if ((len ^ 0xffffu) != nlen) goto bad_blocks;
+        zp += 5;
+        if (zlen - zp < len || rawlen + len > expect) goto bad_blocks;
+        memcpy(raw + rawlen, z + zp, len);
+        rawlen += len;
+        zp += len;
+        out->blocks++;
+    }
+    if (zlen - zp != 4 || rawlen != expect) goto bad_blocks;
+    if (timg_get_be(z + zp) != timg_adler_naive(raw, rawlen)) {
+        free(z);
+        free(raw);
+        return "bad Adler-32";
+    }
+    free(z);
+    out->rgb = (unsigned char *)malloc((size_t)out->width * out->height * 3 + 1);
+    if (!out->rgb) {
+        free(raw);
+        return "out of memory";
+    }
+    for (y = 0; y < (size_t)out->height; y++) {
+        const unsigned char *row = raw + y * (1 + 3 * (size_t)out->width);
+        if (row[0] != 0) {
+            free(raw);
+            return "row filter byte is not 0";
+        }
+        memcpy(out->rgb + y * 3 * (size_t)out->width, row + 1, 3 * (size_t)out->width);
+    }
+    free(raw);
+    return NULL;
+bad_blocks:
+    free(z);
+    free(raw);
+    return "bad stored-block structure";
+}
+
+/* Deterministic test pattern: dyadic values (exact in float), some out
+   of [0,1] so clamping is exercised. which selects one of two images. */
+static void timg_pattern(pds_image *img, int which)
+{
+    int x, y;
+    for (y = 0; y < img->height; y++) {
+        for (x = 0; x < img->width; x++) {
+            float *p = img->rgb + 3 * ((size_t)y * img->width + x);
+            if (which == 0) {
+                p[0] = (float)((x * 7 + y * 13) % 17) / 16.0f;
+                p[1] = (float)((x * x + 3 * y) % 11) / 8.0f;
+                p[2] = (float)((x + y * y * 5) % 9) / 32.0f;
+            } else {
+                p[0] = (float)((x * 5 + y * 3 + 1) % 17) / 16.0f;
+                p[1] = (float)((x * x + 3 * y + (x * y) % 3) % 11) / 8.0f;
+                p[2] = (float)((x * 3 + y) % 13) / 64.0f - 1.0f / 32.0f;
+            }
+        }
+    }
+}
+
+/* SSIM straight from the definition: at every valid position, a 2-D
+   Gaussian window built and normalised in 2-D, the five weighted sums
+   taken directly, no separability, no ring buffer. */
+static double timg_ssim_direct(const pds_image *a, const pds_image *b)
+{
+    int W = a->width, H = a->height, n = 11, r, ox, oy, i, j;
+    double C1 = 0.0001, C2 = 0.0009, total = 0.0, wsum = 0.0;
+    double win[11][11];
+    double *ya = (double *)malloc(sizeof(double) * W * H);
+    double *yb = (double *)malloc(sizeof(double) * W * H);
+    if (!ya || !yb) {
+        free(ya);
+        free(yb);
+        return -2.0;
+    }
+    if (W < n) n = W;
+    if (H < n) n = H;
+    if (n % 2 == 0) n--;
+    r = n / 2;
+    for (i = 0; i < W * H; i++) {
+        const float *pa = a->rgb + 3 * i, *pb = b->rgb + 3 * i;
+        ya[i] = 0.299 * timg_srgb(pa[0]) + 0.587 * timg_srgb(pa[1]) + 0.114 * timg_srgb(pa[2]);
+        yb[i] = 0.299 * timg_srgb(pb[0]) + 0.587 * timg_srgb(pb[1]) + 0.114 * timg_srgb(pb[2]);
+    }
+    for (j = 0; j < n; j++)
+        for (i = 0; i < n; i++) {
+            win[j][i] = exp(-((i - r) * (i - r) + (j - r) * (j - r)) / (2.0 * 1.5 * 1.5));
+            wsum += win[j][i];
+        }
+    for (oy = 0; oy + n <= H; oy++)
+        for (ox = 0; ox + n <= W; ox++) {
+            double mx = 0, my = 0, sxx = 0, syy = 0, sxy = 0, vx, vy, cxy;
+            for (j = 0; j < n; j++)
+                for (i = 0; i < n; i++) {
+                    double w = win[j][i] / wsum;
+                    double x = ya[(oy + j) * W + ox + i], y = yb[(oy + j) * W + ox + i];
+                    mx += w * x;
+                    my += w * y;
+                    sxx += w * x * x;
+                    syy += w * y * y;
+                    sxy += w * x * y;
+                }
+            vx = sxx - mx * mx;
+            vy = syy - my * my;
+            cxy = sxy - mx * my;
+            total += (2 * mx * my + C1) * (2 * cxy + C2) / ((mx * mx + my * my + C1) * (vx + vy + C2));
+        }
+    free(ya);
+    free(yb);
+    return total / ((double)(W - n + 1) * (H - n + 1));
+}
+
+/* ---------------------------------------------------------------- PFM */
+
+static void test_pfm_round_trip(pds_test_ctx *t)
+{
+    char path[256];
+    pds_image img, back;
+    pds_error err;
+    unsigned char *file;
+    size_t size, i;
+    static const char header[] = "PF\n5 3\n-1.0\n";
+    const size_t hlen = sizeof header - 1;
+    float special[6];
+    special[0] = -0.0f;
+    special[1] = 1e-40f; /* subnormal */
+    special[2] = (float)HUGE_VAL;
+    special[3] = -(float)HUGE_VAL;
+    special[4] = 3.4028235e38f;
+    special[5] = -123.456f;
+
+    timg_path(path, sizeof path, "roundtrip.pfm");
+    REQUIRE(t, pds_image_alloc(&img, 5, 3) == PDS_OK, "alloc 5x3");
+    for (i = 0; i < 45; i++) img.rgb[i] = (float)i * 0.25f - 3.0f;
+    for (i = 0; i < 6; i++) img.rgb[20 + i] = special[i];
+    {
+        uint32_t nan_bits = 0x7fc01234u; /* a quiet NaN with a payload */
+        memcpy(&img.rgb[44], &nan_bits, 4);
+    }
+    REQUIRE(t, pds_image_write_pfm(path, &img, &err) == PDS_OK, "write: %s", err.text);
+    REQUIRE(t, pds_image_read_pfm(path, &back, &err) == PDS_OK, "read: %s", err.text);
+    CHECK(t, back.width == 5 && back.height == 3, "size %dx%d", back.width, back.height);
+    CHECK(t, memcmp(back.rgb, img.rgb, 45 * sizeof(float)) == 0, "pixels not bit-exact");
+
+    /* The file itself: exact header, then the BOTTOM row (image row 2)
+       first, little-endian. */
+    file = timg_read_bytes(path, &size);
+    REQUIRE(t, file != NULL, "cannot read back %s", path);
+    CHECK(t, size == hlen + 45 * 4, "file size %lu", (unsigned long)size);
+    CHECK(t, memcmp(file, header, hlen) == 0, "header is not '%s'", "PF\\n5 3\\n-1.0\\n");
+    if (size == hlen + 45 * 4) {
+        for (i = 0; i < 45; i++) {
+            size_t row = i / 15, col = i % 15; /* file row 0 = image row 2 */
+            unsigned char want[4];
+            timg_put_le(want, timg_bits(img.rgb[(2 - row) * 15 + col]));
+            CHECK(t, memcmp(file + hlen + 4 * i, want, 4) == 0, "raster float %lu is wrong",
+                  (unsigned long)i);
+        }
+    }
+    free(file);
+    pds_image_free(&back);
+    pds_image_free(&img);
+    remove(path);
+}
+
+static void test_pfm_big_endian(pds_test_ctx *t)
+{
+    /* 2x2 big-endian PFM (positive scale), rows bottom to top. Bit patterns:
+       1.0 = 3F800000, -2.5 = C0200000, 0.5 = 3F000000, 3.0 = 40400000,
+       0.25 = 3E800000, 100 = 42C80000. The header also uses odd but legal
+       whitespace between tokens. */
+    static const uint32_t bottom[6] = {0x3F800000u, 0xC0200000u, 0x3F000000u,
+                                       0x40400000u, 0x3E800000u, 0x42C80000u};
+    static const char header[] = "PF\r\n2 \t 2\n\n+2.5e0\n";
+    static const float want_bottom[6] = {1.0f, -2.5f, 0.5f, 3.0f, 0.25f, 100.0f};
+    unsigned char buf[64 + 48];
+    size_t hlen = sizeof header - 1, i;
+    char path[256];
+    pds_image img;
+    pds_error err;
+
+    memcpy(buf, header, hlen);
+    for (i = 0; i < 6; i++) timg_put_be(buf + hlen + 4 * i, bottom[i]);
+    for (i = 0; i < 6; i++) timg_put_be(buf + hlen + 24 + 4 * i, bottom[5 - i]); /* top row reversed */
+    timg_path(path, sizeof path, "be.pfm");
+    REQUIRE(t, timg_write_bytes(path, buf, hlen + 48), "cannot write %s", path);
+    REQUIRE(t, pds_image_read_pfm(path, &img, &err) == PDS_OK, "read: %s", err.text);
+    REQUIRE(t, img.width == 2 && img.height == 2, "size %dx%d", img.width, img.height);
+    for (i = 0; i < 6; i++) {
+        CHECK(t, img.rgb[6 + i] == want_bottom[i], "bottom row value %lu = %g, want %g",
+              (unsigned long)i, img.rgb[6 + i], want_bottom[i]);
+        CHECK(t, img.rgb[i] == want_bottom[5 - i], "top row value %lu = %g, want %g",
+              (unsigned long)i, img.rgb[i], want_bottom[5 - i]);
+    }
+    pds_image_free(&img);
+
+    /* The same values little-endian with scale -0.5 read identically. */
+    memcpy(buf, "PF\n2 2\n-0.5\n", 12);
+    for (i = 0; i < 6; i++) timg_put_le(buf + 12 + 4 * i, bottom[i]);
+    for (i = 0; i < 6; i++) timg_put_le(buf + 12 + 24 + 4 * i, bottom[5 - i]);
+    REQUIRE(t, timg_write_bytes(path, buf, 12 + 48), "cannot write %s", path);
+    REQUIRE(t, pds_image_read_pfm(path, &img, &err) == PDS_OK, "read LE: %s", err.text);
+    for (i = 0; i < 6; i++) CHECK(t, img.rgb[6 + i] == want_bottom[i], "LE bottom value %lu", (unsigned long)i);
+    pds_image_free(&img);
+    remove(path);
+}
+
+static void test_pfm_greyscale(pds_test_ctx *t)
+{
+    /* "Pf" 3x2 little-endian: bottom row 1, 2, 3; top row 10, 20, 30. */
+    static const float bottom[3] = {1.0f, 2.0f, 3.0f}, top[3] = {10.0f, 20.0f, 30.0f};
+    unsigned char buf[16 + 24];
+    char path[256];
+    pds_image img;
+    pds_error err;
+    int i, c;
+    memcpy(buf, "Pf\n3 2\n-1\n", 10);
+    for (i = 0; i < 3; i++) timg_put_le(buf + 10 + 4 * i, timg_bits(bottom[i]));
+    for (i = 0; i < 3; i++) timg_put_le(buf + 22 + 4 * i, timg_bits(top[i]));
+    timg_path(path, sizeof path, "grey.pfm");
+    REQUIRE(t, timg_write_bytes(path, buf, 34), "cannot write %s", path);
+    REQUIRE(t, pds_image_read_pfm(path, &img, &err) == PDS_OK, "read: %s", err.text);
+    REQUIRE(t, img.width == 3 && img.height == 2, "size %dx%d", img.width, img.height);
+    for (i = 0; i < 3; i++)
+        for (c = 0; c < 3; c++) {
+            CHECK(t, img.rgb[3 * i + c] == top[i], "top pixel %d channel %d = %g", i, c, img.rgb[3 * i + c]);
+            CHECK(t, img.rgb[9 + 3 * i + c] == bottom[i], "bottom pixel %d channel %d", i, c);
+        }
+    pds_image_free(&img);
+    remove(path);
+}
+
+/* Writes bytes to a scratch file, reads it as PFM and checks the status,
+   that err names the file, that the image stays empty, and (if given) a
+   word of the message. */
+static void timg_expect_bad_pfm(pds_test_ctx *t, const char *what, const void *bytes, size_t n,
+                                pds_status want, const char *word)
+{
+    char path[256];
+    pds_image img;
+    pds_error err;
+    pds_status st;
+    timg_path(path, sizeof path, "bad.pfm");
+    if (!timg_write_bytes(path, bytes, n)) {
+        CHECK(t, 0, "%s: cannot write scratch file", what);
+        return;
+    }
+    img.width = 7;
+    img.rgb = (float *)&img; /* must be overwritten with an empty image */
+    memset(&err, 0, sizeof err);
+    st = pds_image_read_pfm(path, &img, &err);
+    CHECK(t, st == want, "%s: status %s, want %s (%s)", what, pds_status_string(st),
+          pds_status_string(want), err.text);
+    CHECK(t, err.status == want, "%s: err.status not filled", what);
+    CHECK(t, strcmp(err.file, path) == 0, "%s: err.file '%s'", what, err.file);
+    CHECK(t, strncmp(err.text, path, strlen(path)) == 0, "%s: text does not start with the file: %s",
+          what, err.text);
+    CHECK(t, img.rgb == NULL && img.width == 0, "%s: image not left empty", what);
+    if (word) CHECK(t, strstr(err.message, word) != NULL, "%s: message '%s' lacks '%s'", what, err.message, word);
+    remove(path);
+}
+
+/* A bad file given as a string literal (its length without the NUL). */
+#define TIMG_BAD(t, what, lit, want, word) timg_expect_bad_pfm((t), (what), (lit), sizeof(lit) - 1, (want), (word))
+
+static void test_pfm_rejects_bad_files(pds_test_ctx *t)
+{
+    unsigned char buf[64];
+    char path[256];
+    pds_image img;
+    pds_error err;
+    pds_status st;
+    memset(buf, 0, sizeof buf);
+    memcpy(buf, "PF\n2 2\n-1.0\n", 12);
+    /* 2x2 RGB needs 48 raster bytes: give 47. */
+    timg_expect_bad_pfm(t, "truncated raster", buf, 12 + 47, PDS_ERR_PARSE, "truncated");
+    TIMG_BAD(t, "header only", "PF\n2 2\n-1.0", PDS_ERR_PARSE, "truncated");
+    TIMG_BAD(t, "header cut", "PF\n2 ", PDS_ERR_PARSE, "height");
+    TIMG_BAD(t, "empty file", "", PDS_ERR_PARSE, "PF");
+    TIMG_BAD(t, "bad magic P6", "P6\n2 2\n255\n", PDS_ERR_PARSE, "not a PFM file");
+    TIMG_BAD(t, "magic glued", "PFX2 2\n-1\n", PDS_ERR_PARSE, "not a PFM file");
+    TIMG_BAD(t, "zero scale", "PF\n1 1\n0.000\n123456789012", PDS_ERR_PARSE, "zero");
+    TIMG_BAD(t, "minus zero scale", "PF\n1 1\n-0e5\n123456789012", PDS_ERR_PARSE, "zero");
+    TIMG_BAD(t, "scale not a number", "PF\n1 1\n-1.0x\n123456789012", PDS_ERR_PARSE, "scale");
+    TIMG_BAD(t, "zero width", "PF\n0 1\n-1\n", PDS_ERR_PARSE, "width");
+    TIMG_BAD(t, "negative height", "PF\n1 -4\n-1\n", PDS_ERR_PARSE, "height");
+    TIMG_BAD(t, "width not a number", "PF\nab 1\n-1\n", PDS_ERR_PARSE, "width");
+    TIMG_BAD(t, "huge width", "PF\n16385 1\n-1\n", PDS_ERR_LIMIT, "16384");
+    TIMG_BAD(t, "overflowing height", "PF\n1 99999999999999999999999\n-1\n", PDS_ERR_LIMIT, "height");
+
+    /* The location of a header error: line 2, column 3 for the height. */
+    timg_path(path, sizeof path, "loc.pfm");
+    REQUIRE(t, timg_write_bytes(path, "PF\n4 x\n-1\n", 10), "write");
+    st = pds_image_read_pfm(path, &img, &err);
+    CHECK(t, st == PDS_ERR_PARSE && err.line == 2 && err.column == 3, "status %d at %d:%d (%s)", (int)st,
+          err.line, err.column, err.text);
+    remove(path);
+
+    /* A missing file is an I/O error naming the file. */
+    st = pds_image_read_pfm(path, &img, &err);
+    CHECK(t, st == PDS_ERR_IO && strcmp(err.file, path) == 0, "missing file: %s", err.text);
+}
+
+/* ---------------------------------------------------------------- PNG */
+
+static void test_crc_adler_known_values(pds_test_ctx *t)
+{
+    unsigned char *big;
+    size_t i, n = 1u << 20;
+    CHECK(t, pds__crc32_update(0, "IEND", 4) == 0xAE426082u, "CRC(IEND) = %08lx",
+          (unsigned long)pds__crc32_update(0, "IEND", 4));
+    CHECK(t, pds__crc32_update(0, "123456789", 9) == 0xCBF43926u, "CRC check value");
+    /* Running CRC: two halves give the whole. */
+    CHECK(t, pds__crc32_update(pds__crc32_update(0, "1234", 4), "56789", 5) == 0xCBF43926u,
+          "CRC continued over two calls");
+    CHECK(t, pds__adler32_update(1, "Wikipedia", 9) == 0x11E60398u, "Adler(Wikipedia) = %08lx",
+          (unsigned long)pds__adler32_update(1, "Wikipedia", 9));
+    /* 1 MiB of 0xFF stresses the deferred modulo; compare with the naive sum. */
+    big = (unsigned char *)malloc(n);
+    REQUIRE(t, big != NULL, "malloc");
+    for (i = 0; i < n; i++) big[i] = (unsigned char)(i % 7 == 0 ? 0x00 : 0xFF);
+    CHECK(t, pds__adler32_update(1, big, n) == timg_adler_naive(big, n), "Adler on 1 MiB");
+    CHECK(t, pds__crc32_update(0, big, n) == timg_crc_bitwise(big, n), "CRC on 1 MiB");
+    free(big);
+}
+
+static void test_srgb_encode_key_points(pds_test_ctx *t)
+{
+    CHECK(t, pds__srgb_encode(0.0) == 0.0, "encode(0)");
+    CHECK_NEAR(t, pds__srgb_encode(0.0031308), 0.040449936, 1e-15);
+    CHECK_NEAR(t, pds__srgb_encode(0.5), 0.7353569830524495, 1e-15);
+    CHECK_NEAR(t, pds__srgb_encode(1.0), 1.0, 1e-15);
+    /* Both branches meet at the threshold (to 1e-7: the standard's
+       constants are rounded). */
+    CHECK_NEAR(t, 1.055 * pow(0.0031308, 1.0 / 2.4) - 0.055, pds__srgb_encode(0.0031308), 1e-7);
+    CHECK(t, pds__srgb_encode(-1.0) == 0.0, "negative clamps to 0");
+    CHECK(t, pds__srgb_encode(7.0) == 1.0, "above 1 clamps to 1");
+    CHECK(t, pds__srgb_encode(nan("")) == 0.0, "NaN gives 0");
+}
+
+static void test_png_small_image_decodes_to_tone_mapped_bytes(pds_test_ctx *t)
+{
+    /* 4x2 image written with exposure +1 stop (x2). Expected bytes computed
+       by hand: 255 * srgb(2 v), rounded: 0.25 -> 0.5 -> 188; 0.09 -> 0.18
+       -> 118; 0.0005 -> 0.001 -> 3 (linear segment); 0.125 -> 0.25 -> 137;
+       0.375 -> 0.75 -> 225; 0.005 -> 0.01 -> 25; >= 0.5 -> 255; negative,
+       -inf and NaN -> 0. */
+    static const float in[24] = {0.25f, 0.09f, 0.0005f, 0.125f, 0.375f, 0.005f, 0.5f, 3.0f, 0.0f,
+                                 -1.0f, 0.0f, 0.0f, /* NaN, +inf, -inf patched below */
+                                 0.0f, 0.0f, 0.0f, 0.25f, 0.25f, 0.25f, 0.09f, 0.005f, 0.375f,
+                                 0.0f, 0.5f, 0.125f};
+    static const unsigned char want[24] = {188, 118, 3, 137, 225, 25, 255, 255, 0, 0, 0, 255,
+                                           0, 0, 0, 188, 188, 188, 118, 25, 225, 0, 255, 137};
+    static const unsigned char sig[8] = {0x89, 0x50, 0x4E, 0x47, 0x0D, 0x0A, 0x1A, 0x0A};
+    char path[256];
+    pds_image img;
+    pds_error err;
+    unsigned char *file;
+    size_t size;
+    timg_png png;
+    const char *why;
+    int i;
+
+    REQUIRE(t, pds_image_alloc(&img, 4, 2) == PDS_OK, "alloc");
+    memcpy(img.rgb, in, sizeof in);
+    img.rgb[10] = (float)nan("");
+    img.rgb[11] = (float)HUGE_VAL;
+    img.rgb[12] = -(float)HUGE_VAL;
+    timg_path(path, sizeof path, "small.png");
+    REQUIRE(t, pds_image_write_png(path, &img, 1.0, &err) == PDS_OK, "write: %s", err.text);
+    file = timg_read_bytes(path, &size);
+    REQUIRE(t, file != NULL, "read back");
+    CHECK(t, size >= 8 && memcmp(file, sig, 8) == 0, "PNG signature");
+    why = timg_png_decode(file, size, &png);
+    CHECK(t, why == NULL, "decode: %s", why ? why : "");
+    if (!why) {
+        CHECK(t, png.width == 4 && png.height == 2, "size %dx%d", png.width, png.height);
+        CHECK(t, png.blocks == 1, "%d stored blocks", png.blocks);
+        for (i = 0; i < 24; i++) CHECK(t, png.rgb[i] == want[i], "byte %d = %d, want %d", i, png.rgb[i], want[i]);
+    }
+    /* The byte layout is fixed: 8 + 25 + 12 + (2 + 5 + 26 + 4) + 12. */
+    CHECK(t, size == 8 + 25 + 12 + 37 + 12, "file size %lu", (unsigned long)size);
+    free(png.rgb);
+    free(file);
+    pds_image_free(&img);
+    remove(path);
+}
+
+/* Writes a W x H pattern with exposure 0 and checks the decoded bytes and
+   the number of stored blocks against ceil(raw / 65535). */
+static void timg_png_size_case(pds_test_ctx *t, int W, int H)
+{
+    char path[256];
+    pds_image img;
+    pds_error err;
+    unsigned char *file;
+    size_t size, i, raw = (size_t)H * (1 + 3 * (size_t)W);
+    timg_png png;
+    const char *why;
+    int bad = 0;
+
+    REQUIRE(t, pds_image_alloc(&img, W, H) == PDS_OK, "alloc %dx%d", W, H);
+    for (i = 0; i < (size_t)W * H * 3; i++) img.rgb[i] = (float)(i % 251) / 200.0f;
+    timg_path(path, sizeof path, "wide.png");
+    REQUIRE(t, pds_image_write(path, &img, 0.0, &err) == PDS_OK, "write: %s", err.text);
+    file = timg_read_bytes(path, &size);
+    REQUIRE(t, file != NULL, "read back");
+    why = timg_png_decode(file, size, &png);
+    CHECK(t, why == NULL, "%dx%d decode: %s", W, H, why ? why : "");
+    if (!why) {
+        CHECK(t, png.width == W && png.height == H, "size %dx%d", png.width, png.height);
+        CHECK(t, png.blocks == (int)((raw + 65534) / 65535), "%dx%d: %d blocks for %lu raw bytes", W, H,
+              png.blocks, (unsigned long)raw);
+        for (i = 0; i < (size_t)W * H * 3 && bad < 5; i++) {
+            int want = (int)floor(timg_srgb(img.rgb[i]) * 255.0 + 0.5);
+            if (png.rgb[i] != want) {
+                CHECK(t, 0, "%dx%d byte %lu = %d, want %d", W, H, (unsigned long)i, png.rgb[i], want);
+                bad++;
+            }
+        }
+        CHECK(t, bad == 0, "%dx%d pixels differ", W, H);
+    }
+    free(png.rgb);
+    free(file);
+    pds_image_free(&img);
+    remove(path);
+}
+
+static void test_png_stored_blocks_split_rows(pds_test_ctx *t)
+{
+    /* 16000x3: rows of 48001 bytes, 144003 raw bytes -> 3 blocks whose
+       boundaries fall inside rows. */
+    timg_png_size_case(t, 16000, 3);
+    /* 1456x15: exactly 65535 raw bytes -> one full block; 1456x30: exactly
+       two full blocks (no empty final block). */
+    timg_png_size_case(t, 1456, 15);
+    timg_png_size_case(t, 1456, 30);
+    /* 1x1: the smallest image. */
+    timg_png_size_case(t, 1, 1);
+    /* Widest allowed image, one row: 49153 bytes in one block. */
+    timg_png_size_case(t, PDS_MAX_RESOLUTION, 1);
+}
+
+/* --------------------------------------------------------- writing files */
+
+static void test_image_write_picks_format_by_extension(pds_test_ctx *t)
+{
+    char path[256];
+    pds_image img;
+    pds_error err;
+    unsigned char *file;
+    size_t size;
+    pds_status st;
+    REQUIRE(t, pds_image_alloc(&img, 2, 2) == PDS_OK, "alloc");
+
+    timg_path(path, sizeof path, "upper.PNG");
+    REQUIRE(t, pds_image_write(path, &img, 0.0, &err) == PDS_OK, ".PNG: %s", err.text);
+    file = timg_read_bytes(path, &size);
+    CHECK(t, file && size > 8 && file[1] == 'P' && file[2] == 'N' && file[3] == 'G', ".PNG gives a PNG");
+    free(file);
+    remove(path);
+
+    timg_path(path, sizeof path, "mixed.Pfm");
+    REQUIRE(t, pds_image_write(path, &img, 0.0, &err) == PDS_OK, ".Pfm: %s", err.text);
+    file = timg_read_bytes(path, &size);
+    CHECK(t, file && size == 12 + 48 && memcmp(file, "PF\n2 2\n-1.0\n", 12) == 0, ".Pfm gives a PFM");
+    free(file);
+    remove(path);
+
+    timg_path(path, sizeof path, "picture.jpg");
+    st = pds_image_write(path, &img, 0.0, &err);
+    CHECK(t, st == PDS_ERR_INVALID_ARG, ".jpg: status %d", (int)st);
+    CHECK(t, strstr(err.message, ".pfm") && strstr(err.message, ".png"), ".jpg message: %s", err.message);
+    CHECK(t, strcmp(err.file, path) == 0, ".jpg: err names the file");
+    CHECK(t, !timg_file_exists(path), ".jpg: a file was created");
+
+    /* The extension is the last component's: "x.png/out" has none. */
+    st = pds_image_write("/tmp/x.png/out", &img, 0.0, &err);
+    CHECK(t, st == PDS_ERR_INVALID_ARG, "no extension: status %d", (int)st);
+    st = pds_image_write("/tmp/out.pngx", &img, 0.0, &err);
+    CHECK(t, st == PDS_ERR_INVALID_ARG, ".pngx: status %d", (int)st);
+    pds_image_free(&img);
+}
+
+static void test_image_failed_write_leaves_no_file(pds_test_ctx *t)
+{
+    char dir[256], path[512], sub[512];
+    pds_image img;
+    pds_error err;
+    pds_status st;
+    REQUIRE(t, pds_image_alloc(&img, 3, 2) == PDS_OK, "alloc");
+
+    /* Into a directory that does not exist: I/O error, nothing created. */
+    timg_path(dir, sizeof dir, "no_such_dir");
+    snprintf(path, sizeof path, "%s/out.pfm", dir);
+    st = pds_image_write(path, &img, 0.0, &err);
+    CHECK(t, st == PDS_ERR_IO && strcmp(err.file, path) == 0, "pfm: status %d (%s)", (int)st, err.text);
+    snprintf(path, sizeof path, "%s/out.png", dir);
+    st = pds_image_write(path, &img, 0.0, &err);
+    CHECK(t, st == PDS_ERR_IO, "png: status %d (%s)", (int)st, err.text);
+    CHECK(t, !timg_file_exists(dir), "the directory appeared");
+
+    /* Onto an existing directory: the temporary file is written, the
+       rename fails, and the temporary must be gone afterwards. */
+    timg_path(dir, sizeof dir, "dir");
+    REQUIRE(t, mkdir(dir, 0700) == 0, "mkdir %s", dir);
+    snprintf(sub, sizeof sub, "%s/sub.png", dir);
+    REQUIRE(t, mkdir(sub, 0700) == 0, "mkdir %s", sub);
+    st = pds_image_write(sub, &img, 0.0, &err);
+    CHECK(t, st == PDS_ERR_IO, "onto a directory: status %d", (int)st);
+    CHECK(t, timg_dir_count(dir) == 1, "%d entries left in %s", timg_dir_count(dir), dir);
+
+    /* A good write leaves exactly the one file. */
+    snprintf(path, sizeof path, "%s/good.pfm", dir);
+    CHECK(t, pds_image_write(path, &img, 0.0, &err) == PDS_OK, "good write: %s", err.text);
+    CHECK(t, timg_dir_count(dir) == 2, "%d entries after a good write", timg_dir_count(dir));
+    remove(path);
+    rmdir(sub);
+    rmdir(dir);
+    pds_image_free(&img);
+}
+
+static void test_image_alloc_and_writers_check_arguments(pds_test_ctx *t)
+{
+    pds_image img, empty = {0, 0, NULL};
+    pds_error err;
+    char path[256];
+    int i, zero = 1;
+    CHECK(t, pds_image_alloc(&img, 0, 4) == PDS_ERR_INVALID_ARG && img.rgb == NULL, "0 width");
+    CHECK(t, pds_image_alloc(&img, 4, -1) == PDS_ERR_INVALID_ARG && img.rgb == NULL, "negative height");
+    CHECK(t, pds_image_alloc(&img, PDS_MAX_RESOLUTION + 1, 1) == PDS_ERR_LIMIT, "over the limit");
+    REQUIRE(t, pds_image_alloc(&img, 3, 5) == PDS_OK, "alloc 3x5");
+    CHECK(t, img.width == 3 && img.height == 5, "size");
+    for (i = 0; i < 45; i++) zero &= img.rgb[i] == 0.0f;
+    CHECK(t, zero, "pixels start at zero");
+    pds_image_free(&img);
+    CHECK(t, img.rgb == NULL && img.width == 0, "free empties the image");
+    pds_image_free(&img); /* twice is harmless */
+    pds_image_free(NULL);
+
+    timg_path(path, sizeof path, "empty.pfm");
+    CHECK(t, pds_image_write_pfm(path, &empty, &err) == PDS_ERR_INVALID_ARG, "empty pfm");
+    CHECK(t, pds_image_write_png(path, &empty, 0.0, &err) == PDS_ERR_INVALID_ARG, "empty png");
+    CHECK(t, !timg_file_exists(path), "nothing written for an empty image");
+    REQUIRE(t, pds_image_alloc(&img, 1, 1) == PDS_OK, "alloc");
+    CHECK(t, pds_image_write_png(path, &img, nan(""), &err) == PDS_ERR_INVALID_ARG, "NaN exposure");
+    pds_image_free(&img);
+}
+
+/* ------------------------------------------------------------- metrics */
+
+static void test_rmse_hand_computed(pds_test_ctx *t)
+{
+    /* 2x2: 12 channel values; two differ, by 0.5 and 1.5 (exact in
+       float): sum of squares 0.25 + 2.25 = 2.5, mean 2.5/12, RMSE
+       sqrt(5/24) = 0.45643546458763842. */
+    pds_image a, b, c;
+    int i;
+    REQUIRE(t, pds_image_alloc(&a, 2, 2) == PDS_OK && pds_image_alloc(&b, 2, 2) == PDS_OK, "alloc");
+    for (i = 0; i < 12; i++) a.rgb[i] = b.rgb[i] = (float)i * 0.125f;
+    b.rgb[4] += 0.5f;
+    b.rgb[11] -= 1.5f;
+    CHECK_NEAR(t, pds_image_rmse(&a, &b), 0.45643546458763842, 1e-15);
+    CHECK_NEAR(t, pds_image_rmse(&b, &a), 0.45643546458763842, 1e-15);
+    CHECK(t, pds_image_rmse(&a, &a) == 0.0, "RMSE of an image with itself");
+    REQUIRE(t, pds_image_alloc(&c, 4, 1) == PDS_OK, "alloc");
+    CHECK(t, pds_image_rmse(&a, &c) == -1.0, "sizes differ -> -1");
+    CHECK(t, pds_image_ssim(&a, &c) == -1.0, "SSIM sizes differ -> -1");
+    pds_image_free(&c);
+    CHECK(t, pds_image_rmse(&a, &c) == -1.0, "empty -> -1");
+    CHECK(t, pds_image_ssim(&c, &c) == -1.0, "SSIM empty -> -1");
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+
+static void test_ssim_identical_is_one(pds_test_ctx *t)
+{
+    static const int sizes[4][2] = {{40, 30}, {11, 11}, {5, 8}, {1, 1}};
+    int k;
+    for (k = 0; k < 4; k++) {
+        pds_image a;
+        double s;
+        REQUIRE(t, pds_image_alloc(&a, sizes[k][0], sizes[k][1]) == PDS_OK, "alloc");
+        timg_pattern(&a, 0);
+        s = pds_image_ssim(&a, &a);
+        CHECK(t, fabs(s - 1.0) <= 1e-12, "%dx%d: SSIM(a, a) = %.17g", a.width, a.height, s);
+        pds_image_free(&a);
+    }
+}
+
+static void test_ssim_matches_direct_and_scikit_image(pds_test_ctx *t)
+{
+    /* Reference values, computed once (Debian bookworm python3-skimage 0.19.3,
+       numpy 1.24.2) on the same two patterns (timg_pattern), luminance Y as in
+       pds.h:
+         24x19: skimage.metrics.structural_similarity(Ya, Yb,
+                gaussian_weights=True, sigma=1.5, use_sample_covariance=False,
+                data_range=1.0) = 0.57082689650189122
+         7x9 and 8x12 (window clipped to 7): scipy.ndimage.gaussian_filter
+                (sigma 1.5, truncate 2.0 -> 7 taps) of x, y, x^2, y^2, xy,
+                the SSIM map cropped by 3 on each side, mean =
+                0.42520299132850653 and 0.47927628504959757. */
+    static const struct { int w, h; double ref; } cases[3] = {
+        {24, 19, 0.57082689650189122}, {7, 9, 0.42520299132850653}, {8, 12, 0.47927628504959757}};
+    int k;
+    for (k = 0; k < 3; k++) {
+        pds_image a, b;
+        double s, direct;
+        REQUIRE(t, pds_image_alloc(&a, cases[k].w, cases[k].h) == PDS_OK, "alloc");
+        REQUIRE(t, pds_image_alloc(&b, cases[k].w, cases[k].h) == PDS_OK, "alloc");
+        timg_pattern(&a, 0);
+        timg_pattern(&b, 1);
+        s = pds_image_ssim(&a, &b);
+        direct = timg_ssim_direct(&a, &b);
+        CHECK(t, fabs(s - direct) <= 1e-12, "%dx%d: SSIM %.17g, direct %.17g", a.width, a.height, s, direct);
+        CHECK(t, fabs(s - cases[k].ref) <= 1e-9, "%dx%d: SSIM %.17g, scikit-image %.17g", a.width,
+              a.height, s, cases[k].ref);
+        pds_image_free(&a);
+        pds_image_free(&b);
+    }
+}
+
+static void test_ssim_constant_images_closed_form(pds_test_ctx *t)
+{
+    /* Constant images: all variances vanish, so SSIM = (2 ya yb + C1) /
+       (ya^2 + yb^2 + C1) with C1 = 1e-4 and Y the encoded grey level. */
+    static const float levels[3][2] = {{0.5f, 0.25f}, {0.0f, 1.0f}, {0.001f, 0.002f}};
+    static const int sizes[2][2] = {{20, 16}, {3, 3}};
+    int k, s, i;
+    for (k = 0; k < 3; k++)
+        for (s = 0; s < 2; s++) {
+            pds_image a, b;
+            double ya = timg_srgb(levels[k][0]), yb = timg_srgb(levels[k][1]), want, got;
+            REQUIRE(t, pds_image_alloc(&a, sizes[s][0], sizes[s][1]) == PDS_OK, "alloc");
+            REQUIRE(t, pds_image_alloc(&b, sizes[s][0], sizes[s][1]) == PDS_OK, "alloc");
+            for (i = 0; i < a.width * a.height * 3; i++) {
+                a.rgb[i] = levels[k][0];
+                b.rgb[i] = levels[k][1];
+            }
+            want = (2 * ya * yb + 1e-4) / (ya * ya + yb * yb + 1e-4);
+            got = pds_image_ssim(&a, &b);
+            CHECK(t, fabs(got - want) <= 1e-12, "levels %g/%g on %dx%d: %.17g, want %.17g", levels[k][0],
+                  levels[k][1], a.width, a.height, got, want);
+            pds_image_free(&a);
+            pds_image_free(&b);
+        }
+}
+
+static void test_ssim_is_symmetric(pds_test_ctx *t)
+{
+    pds_image a, b;
+    double ab, ba;
+    REQUIRE(t, pds_image_alloc(&a, 33, 21) == PDS_OK && pds_image_alloc(&b, 33, 21) == PDS_OK, "alloc");
+    timg_pattern(&a, 0);
+    timg_pattern(&b, 1);
+    ab = pds_image_ssim(&a, &b);
+    ba = pds_image_ssim(&b, &a);
+    CHECK(t, ab == ba, "SSIM(a,b) = %.17g, SSIM(b,a) = %.17g", ab, ba);
+    CHECK(t, ab > 0.0 && ab < 0.99, "different images score below 1: %.17g", ab);
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+
+static void test_compare_fills_metrics_and_rejects_size_mismatch(pds_test_ctx *t)
+{
+    pds_image a, b, c;
+    pds_metrics m;
+    pds_error err;
+    pds_status st;
+    REQUIRE(t, pds_image_alloc(&a, 64, 64) == PDS_OK && pds_image_alloc(&b, 64, 64) == PDS_OK
+                   && pds_image_alloc(&c, 32, 32) == PDS_OK,
+            "alloc");
+    timg_pattern(&a, 0);
+    timg_pattern(&b, 1);
+    REQUIRE(t, pds_image_compare(&a, &b, &m, &err) == PDS_OK, "compare: %s", err.text);
+    CHECK(t, m.rmse == pds_image_rmse(&a, &b), "rmse %.17g", m.rmse);
+    CHECK(t, m.ssim == pds_image_ssim(&a, &b), "ssim %.17g", m.ssim);
+    CHECK(t, m.rmse > 0.0 && m.ssim < 1.0, "the images differ");
+    st = pds_image_compare(&a, &c, &m, &err);
+    CHECK(t, st == PDS_ERR_INVALID_ARG, "mismatch status %d", (int)st);
+    CHECK(t, strcmp(err.message, "image sizes differ: 64x64 vs 32x32") == 0, "message '%s'", err.message);
+    CHECK(t, strcmp(err.text, "image sizes differ: 64x64 vs 32x32") == 0, "text '%s'", err.text);
+    CHECK(t, pds_image_compare(&a, &c, &m, NULL) == PDS_ERR_INVALID_ARG, "NULL err is allowed");
+    pds_image_free(&c);
+    CHECK(t, pds_image_compare(&c, &c, &m, &err) == PDS_ERR_INVALID_ARG, "empty images");
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+
+static void test_ssim_ring_buffer_matches_direct_on_larger_image(pds_test_ctx *t)
+{
+    /* 131x97: the ring of filtered rows wraps many times and neither side
+       is a multiple of 11. */
+    pds_image a, b;
+    double s, direct;
+    REQUIRE(t, pds_image_alloc(&a, 131, 97) == PDS_OK && pds_image_alloc(&b, 131, 97) == PDS_OK, "alloc");
+    timg_pattern(&a, 0);
+    timg_pattern(&b, 1);
+    s = pds_image_ssim(&a, &b);
+    direct = timg_ssim_direct(&a, &b);
+    CHECK(t, fabs(s - direct) <= 1e-12, "SSIM %.17g, direct %.17g", s, direct);
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+
+static const pds_test_case tests_image[] = {
+    {"pfm_round_trip_is_bit_exact_and_stores_bottom_row_first", test_pfm_round_trip},
+    {"pfm_reads_big_endian_raster_when_scale_is_positive", test_pfm_big_endian},
+    {"pfm_reads_greyscale_pf_into_all_three_channels", test_pfm_greyscale},
+    {"pfm_rejects_truncated_bad_magic_zero_scale_and_bad_sizes_naming_the_file", test_pfm_rejects_bad_files},
+    {"crc32_and_adler32_match_known_check_values", test_crc_adler_known_values},
+    {"srgb_encode_matches_the_curve_at_key_points", test_srgb_encode_key_points},
+    {"png_decodes_to_hand_computed_tone_mapped_bytes", test_png_small_image_decodes_to_tone_mapped_bytes},
+    {"png_stored_blocks_split_long_rows_and_count_is_exact", test_png_stored_blocks_split_rows},
+    {"image_write_picks_format_by_extension_case_insensitively", test_image_write_picks_format_by_extension},
+    {"image_failed_write_leaves_no_file_behind", test_image_failed_write_leaves_no_file},
+    {"image_alloc_and_writers_check_arguments", test_image_alloc_and_writers_check_arguments},
+    {"rmse_matches_hand_computed_value_on_2x2", test_rmse_hand_computed},
+    {"ssim_of_identical_images_is_one", test_ssim_identical_is_one},
+    {"ssim_matches_direct_formula_and_scikit_image", test_ssim_matches_direct_and_scikit_image},
+    {"ssim_of_constant_images_matches_closed_form", test_ssim_constant_images_closed_form},
+    {"ssim_is_symmetric", test_ssim_is_symmetric},
+    {"compare_fills_metrics_and_rejects_size_mismatch", test_compare_fills_metrics_and_rejects_size_mismatch},
+    {"ssim_ring_buffer_matches_direct_formula_on_larger_image", test_ssim_ring_buffer_matches_direct_on_larger_image},
+};

@@ -1,0 +1,31 @@
+/* tests/test_main.c - the PDS test program. It includes the library itself,
+   so static functions are testable, then every test file; each file
+   contributes one table of tests. Usage: test_pds [NAME-SUBSTRING...]. */
+#include "pds.c"
+#include "runner.h"
+
+#include "test_scene.c"
+#include "test_cli.c"
+#include "test_image.c"
+#include "test_obj.c"
+#include "test_bvh.c"
+#include "test_materials.c"
+#include "test_lights.c"
+#include "test_render.c"
+#include "test_golden.c"
+
+int main(int argc, char **argv)
+{
+    static const pds_test_suite suites[] = {
+        PDS_SUITE(tests_scene),
+        PDS_SUITE(tests_cli),
+        PDS_SUITE(tests_image),
+        PDS_SUITE(tests_obj),
+        PDS_SUITE(tests_bvh),
+        PDS_SUITE(tests_materials),
+        PDS_SUITE(tests_lights),
+        PDS_SUITE(tests_render),
+        PDS_SUITE(tests_golden),
+    };
+    return pds_test_run(suites, sizeof suites / sizeof suites[0], argc, argv);
+}

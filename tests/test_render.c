@@ -1,0 +1,247 @@
+/* tests/test_render.c - the path tracer against known answers, the caustic
+   split, determinism across thread counts, and golden images. */
+
+/* Render scene text with the given options; returns 1 on success. */
+static int render_text(const char *text, const pds_options *opt, pds_image *img, pds_render_stats *stats)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text(text, &err);
+    int ok;
+    if (!s) {
+        printf("  scene: %s\n", err.text);
+        return 0;
+    }
+    ok = pds_render(s, opt, img, stats, &err) == PDS_OK;
+    if (!ok) printf("  render: %s\n", err.text);
+    pds_scene_free(s);
+    return ok;
+}
+
+static double image_mean(const pds_image *img, int channel)
+{
+    double sum = 0.0;
+    size_t i, n = (size_t)img->width * img->height;
+    for (i = 0; i < n; i++) sum += img->rgb[3 * i + channel];
+    return sum / (double)n;
+}
+
+/* A glass sphere on a diffuse floor under a small quad light: every kind
+   of path (direct, caustic through the sphere, indirect). */
+static const char glass_sphere_scene[] =
+    "camera { position 0 2 4 look_at 0 0.4 0 fov 40 resolution 24 18 spp 8 }\n"
+    "material floor diffuse { albedo 0.8 }\n"
+    "material glass dielectric { ior 1.5 }\n"
+    "material lamp emissive { radiance 30 }\n"
+    "quad { material floor size 6 6 }\n"
+    "sphere { material glass radius 0.5 segments 48 rings 24 translate 0 0.6 0 }\n"
+    "quad { material lamp size 0.5 0.5 rotate 180 1 0 0 translate 0.3 2.5 0 }\n";
+
+static void test_pt_full_image_is_no_caustics_plus_caustics_only(pds_test_ctx *t)
+{
+    pds_options opt;
+    pds_image all = {0, 0, NULL}, nc = {0, 0, NULL}, co = {0, 0, NULL};
+    size_t i, n;
+    double worst = 0.0, caustic_energy = 0.0;
+    pds_options_default(&opt);
+    opt.threads = 2;
+    REQUIRE(t, render_text(glass_sphere_scene, &opt, &all, NULL), "render all");
+    opt.paths = PDS_PATHS_NO_CAUSTICS;
+    REQUIRE(t, render_text(glass_sphere_scene, &opt, &nc, NULL), "render no-caustics");
+    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    REQUIRE(t, render_text(glass_sphere_scene, &opt, &co, NULL), "render caustics-only");
+    n = (size_t)all.width * all.height * 3;
+    for (i = 0; i < n; i++) {
+        double d = fabs((double)all.rgb[i] - ((double)nc.rgb[i] + (double)co.rgb[i]));
+        double rel = d / (1e-6 + fabs(all.rgb[i]));
+        if (rel > worst) worst = rel;
+        caustic_energy += co.rgb[i];
+    }
+    /* the same random numbers drive all three: equal up to rounding */
+    CHECK(t, worst < 1e-5, "worst relative difference %g", worst);
+    CHECK(t, caustic_energy > 0.0, "the scene has a caustic under the sphere");
+    CHECK(t, image_mean(&nc, 0) > image_mean(&co, 0), "direct light dominates");
+    pds_image_free(&all);
+    pds_image_free(&nc);
+    pds_image_free(&co);
+}
+
+static void test_pt_image_is_identical_for_any_thread_count(pds_test_ctx *t)
+{
+    pds_options opt;
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    pds_options_default(&opt);
+    opt.threads = 1;
+    REQUIRE(t, render_text(glass_sphere_scene, &opt, &a, NULL), "1 thread");
+    opt.threads = 3;
+    REQUIRE(t, render_text(glass_sphere_scene, &opt, &b, NULL), "3 threads");
+    CHECK(t, memcmp(a.rgb, b.rgb, sizeof(float) * 3 * (size_t)a.width * a.height) == 0, "bitwise equal");
+    pds_image_free(&b);
+    opt.seed = 7;
+    REQUIRE(t, render_text(glass_sphere_scene, &opt, &b, NULL), "seed 7");
+    CHECK(t, memcmp(a.rgb, b.rgb, sizeof(float) * 3 * (size_t)a.width * a.height) != 0, "another seed, another image");
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+
+/* Furnace: inside a closed diffuse sphere of albedo a with a point light
+   of power P at its centre, the direct irradiance is E0 = P / (4 pi R^2)
+   everywhere, and the radiance after all bounces is the geometric series
+   L = a E0 / (pi (1 - a)) (the inside of a sphere of uniform radiance L
+   receives E = pi L). */
+static void test_pt_furnace_converges_to_the_analytic_radiance(pds_test_ctx *t)
+{
+    static const char text[] =
+        "camera { position 0 0 0 look_at 0 0 -1 fov 60 resolution 8 8 spp 256 }\n"
+        "material wall diffuse { albedo 0.5 }\n"
+        "sphere { material wall radius 2 segments 512 rings 256 }\n"
+        "light point { position 0 0 0 power 100 }\n";
+    pds_options opt;
+    pds_image img = {0, 0, NULL};
+    double a = 0.5, R = 2.0, E0 = 100.0 / (4.0 * PDS__PI * R * R), expect = a * E0 / (PDS__PI * (1.0 - a));
+    pds_options_default(&opt);
+    opt.max_depth = 200;
+    REQUIRE(t, render_text(text, &opt, &img, NULL), "render");
+    CHECK(t, fabs(image_mean(&img, 1) / expect - 1.0) < 0.02, "mean radiance %g, expected %g", image_mean(&img, 1), expect);
+    pds_image_free(&img);
+}
+
+/* A diffuse plane under a point light: radiance albedo/pi * P cos / (4 pi r^2)
+   at the point each pixel sees (the centre ray; pixels are small enough
+   that the variation inside one is far below the tolerance). */
+static void test_pt_point_light_on_a_plane_matches_inverse_square_law(pds_test_ctx *t)
+{
+    static const char text[] =
+        "camera { position 0 3 0.001 look_at 0 0 0 up 0 0 -1 fov 30 resolution 16 16 spp 256 }\n"
+        "material white diffuse { albedo 0.6 }\n"
+        "quad { material white size 20 20 }\n"
+        "light point { position 0.4 1 0.2 power 50 }\n";
+    pds_options opt;
+    pds_image img = {0, 0, NULL};
+    pds_error err;
+    pds_scene *s = scene_from_text(text, &err);
+    pds__camera_frame f;
+    int x, y, bad = 0;
+    double worst = 0.0;
+    REQUIRE(t, s != NULL, "%s", err.text);
+    pds_options_default(&opt);
+    REQUIRE(t, pds_render(s, &opt, &img, NULL, &err) == PDS_OK, "%s", err.text);
+    f = pds__camera_setup(&s->camera, 16, 16);
+    for (y = 2; y < 14; y++) {
+        for (x = 2; x < 14; x++) {
+            pds__v3 d = pds__camera_dir(&f, x + 0.5, y + 0.5);
+            pds__v3 p = pds__add(f.origin, pds__scale(d, -f.origin.y / d.y));
+            pds__v3 l = pds__sub(pds__v(0.4, 1, 0.2), p);
+            double r2 = pds__dot(l, l), cosine = l.y / sqrt(r2);
+            double expect = 0.6 / PDS__PI * 50.0 * cosine / (4.0 * PDS__PI * r2);
+            double rel = fabs(img.rgb[3 * (y * 16 + x)] / expect - 1.0);
+            if (rel > worst) worst = rel;
+            bad += rel > 0.01;
+        }
+    }
+    CHECK(t, bad == 0, "%d pixels off by more than 1%%, worst %g", bad, worst);
+    pds_image_free(&img);
+    pds_scene_free(s);
+}
+
+/* A disk light of radiance L and radius R at height h above a diffuse
+   plane gives irradiance E = pi L R^2 / (h^2 + R^2) right below its
+   centre (and the same disk as a mesh light, found by BSDF sampling as well
+   as light sampling, must agree: MIS weights sum to one). */
+static void test_pt_area_lights_give_the_analytic_irradiance(pds_test_ctx *t)
+{
+    static const char *const texts[] = {
+        "camera { position 2 0.6 0 look_at 0 0 0 fov 0.5 resolution 3 3 spp 4096 }\n"
+        "material white diffuse { albedo 0.5 }\n"
+        "quad { material white size 20 20 }\n"
+        "light disk { center 0 1 0 normal 0 -1 0 radius 0.5 radiance 2 }\n",
+        "camera { position 2 0.6 0 look_at 0 0 0 fov 0.5 resolution 3 3 spp 4096 }\n"
+        "material white diffuse { albedo 0.5 }\n"
+        "material lamp emissive { radiance 2 }\n"
+        "quad { material white size 20 20 }\n"
+        "disk { material lamp radius 0.5 segments 1024 rotate 180 1 0 0 translate 0 1 0 }\n",
+    };
+    int k;
+    for (k = 0; k < 2; k++) {
+        pds_options opt;
+        pds_image img = {0, 0, NULL};
+        double E = PDS__PI * 2.0 * 0.25 / (1.0 + 0.25), expect = 0.5 / PDS__PI * E;
+        pds_options_default(&opt);
+        REQUIRE(t, render_text(texts[k], &opt, &img, NULL), "render %d", k);
+        /* the centre pixel sees the plane point right below the light */
+        CHECK(t, fabs(img.rgb[3 * 4 + 1] / expect - 1.0) < 0.03, "case %d: radiance %g, expected %g", k,
+              img.rgb[3 * 4 + 1], expect);
+        pds_image_free(&img);
+    }
+}
+
+static void test_pt_delta_light_caustics_are_left_to_photons(pds_test_ctx *t)
+{
+    static const char text[] =
+        "camera { position 0 2 3 look_at 0 0 0 fov 40 resolution 16 12 spp 4 }\n"
+        "material floor diffuse { albedo 0.8 }\n"
+        "material glass dielectric { ior 1.5 }\n"
+        "quad { material floor size 6 6 }\n"
+        "sphere { material glass radius 0.5 translate 0 0.6 0 }\n"
+        "light point { position 0 3 0 power 100 }\n";
+    pds_options opt;
+    pds_image img = {0, 0, NULL};
+    pds_options_default(&opt);
+    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    REQUIRE(t, render_text(text, &opt, &img, NULL), "render");
+    CHECK(t, image_mean(&img, 0) == 0.0 && image_mean(&img, 2) == 0.0, "a path tracer finds no point-light caustic");
+    pds_image_free(&img);
+}
+
+static void test_pt_time_budget_renders_whole_passes(pds_test_ctx *t)
+{
+    pds_options opt;
+    pds_image img = {0, 0, NULL}, ref = {0, 0, NULL};
+    pds_render_stats st;
+    pds_options_default(&opt);
+    opt.spp = 1;
+    opt.time_s = 0.3;
+    REQUIRE(t, render_text(glass_sphere_scene, &opt, &img, &st), "timed render");
+    CHECK(t, st.passes >= 1 && st.spp == st.passes, "passes %d spp %d", st.passes, st.spp);
+    CHECK(t, st.time_total_s >= 0.3, "time used %g", st.time_total_s);
+    pds_image_free(&img);
+    /* a 0-second budget still renders one whole pass */
+    opt.time_s = 1e-9;
+    REQUIRE(t, render_text(glass_sphere_scene, &opt, &img, &st), "tiny budget");
+    CHECK(t, st.passes == 1, "passes %d", st.passes);
+    /* same passes, same image: pass 0 of a timed render is deterministic */
+    REQUIRE(t, render_text(glass_sphere_scene, &opt, &ref, &st), "again");
+    CHECK(t, memcmp(img.rgb, ref.rgb, sizeof(float) * 3 * (size_t)img.width * img.height) == 0, "deterministic");
+    pds_image_free(&img);
+    pds_image_free(&ref);
+}
+
+static void test_render_rejects_bad_options(pds_test_ctx *t)
+{
+    pds_options opt;
+    pds_image img = {0, 0, NULL};
+    pds_error err;
+    pds_scene *s = scene_from_text("sphere { }\n", &err);
+    REQUIRE(t, s != NULL, "%s", err.text);
+    pds_options_default(&opt);
+    opt.max_depth = -1;
+    CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_ERR_INVALID_ARG && strstr(err.text, "max depth"), "%s", err.text);
+    pds_options_default(&opt);
+    opt.width = 20000;
+    CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_ERR_LIMIT, "resolution limit");
+    pds_options_default(&opt);
+    opt.time_s = -1;
+    CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_ERR_INVALID_ARG, "negative time");
+    CHECK(t, img.rgb == NULL, "nothing allocated on failure");
+    pds_scene_free(s);
+}
+
+static const pds_test_case tests_render[] = {
+    {"pt_full_image_is_no_caustics_plus_caustics_only", test_pt_full_image_is_no_caustics_plus_caustics_only},
+    {"pt_image_is_identical_for_any_thread_count", test_pt_image_is_identical_for_any_thread_count},
+    {"pt_furnace_converges_to_the_analytic_radiance", test_pt_furnace_converges_to_the_analytic_radiance},
+    {"pt_point_light_on_a_plane_matches_inverse_square_law", test_pt_point_light_on_a_plane_matches_inverse_square_law},
+    {"pt_area_lights_give_the_analytic_irradiance", test_pt_area_lights_give_the_analytic_irradiance},
+    {"pt_delta_light_caustics_are_left_to_photons", test_pt_delta_light_caustics_are_left_to_photons},
+    {"pt_time_budget_renders_whole_passes", test_pt_time_budget_renders_whole_passes},
+    {"render_rejects_bad_options", test_render_rejects_bad_options},
+};
