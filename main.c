@@ -13,6 +13,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #define EXIT_USAGE 2
@@ -24,13 +25,21 @@ static const char usage_text[] =
     "  render SCENE [options]      render a scene file (or a bare .obj) to an image\n"
     "      -o, --output FILE       output image, .png (tone-mapped sRGB) or .pfm (linear)\n"
     "                              (default: the scene's name with .png, in the current folder)\n"
-    "      --method NAME           pt (path tracing, default) or preview (eye-light shading)\n"
+    "      --method NAME           pds (photon differential splatting, default), pt (path tracing)\n"
+    "                              or preview (eye-light shading)\n"
+    "      --photons N             pds: caustic photons to emit (default 100000)\n"
+    "      --smoothing S           pds: smoothing parameter s of the footprints (default 12; 5..40 typical)\n"
+    "      --plane-tolerance F     pds: ignore eye vertices farther than F x the footprint's major\n"
+    "                              semi-axis from the photon's tangent plane (default 0.25)\n"
+    "      --debug footprint       pds: also write OUT.footprint.png, footprint anisotropy (red = needle)\n"
     "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
     "      --res WxH               resolution (default: the scene camera's)\n"
     "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
     "      --seed N                random seed (default 0); same seed, same image\n"
-    "      --max-depth N           longest eye path in bounces (default 32)\n"
-    "      --time SECONDS          render whole passes of --spp samples until the time is spent\n"
+    "      --max-depth N           longest eye path in bounces (default 32) and, if given, longest\n"
+    "                              photon path in specular bounces (default 16)\n"
+    "      --time SECONDS          pt: passes of --spp samples until the time is spent;\n"
+    "                              pds: one eye pass, then photon batches until the time is spent\n"
     "      --no-caustics           leave out caustic paths L S+ D... (what the photon methods add)\n"
     "      --caustics-only         only caustic paths (pt: the reference for photon methods)\n"
     "      --exposure STOPS        PNG exposure in stops (default 0)\n"
@@ -39,6 +48,10 @@ static const char usage_text[] =
     "  info FILE                   what a scene or OBJ file holds\n"
     "  bench rays MESH [N]         BVH build and ray throughput, one thread (N rays, default 1000000)\n"
     "  bench pt [SCENE]            path-traced samples per second, 1 thread and all threads\n"
+    "  bench photons [SCENE]       PDS caustic photons per second, 1 thread and all threads\n"
+    "  bench memory [SCENE]        PDS working memory at 1e5 and at 1e7 photons\n"
+    "  bench filter                eq. 12 filter matrices per second against a general 3x3 inverse\n"
+    "  bench kdtree                eye-path map build, range and nearest-neighbour queries per second\n"
     "  --help                      this text\n"
     "  --version                   the version\n";
 
@@ -118,7 +131,10 @@ static void show_progress(void *user, double fraction, double elapsed)
 
 static int cmd_render(int argc, char **argv)
 {
-    const char *scene_path = NULL, *output = NULL, *method = "pt";
+    const char *scene_path = NULL, *output = NULL, *method = "pds";
+    int debug_footprint = 0;
+    pds_image footprint = {0, 0, NULL};
+    char footprint_path[1100];
     int progress = -1; /* -1: when stderr is a terminal */
     char default_out[1024];
     double exposure = 0.0;
@@ -140,7 +156,8 @@ static int cmd_render(int argc, char **argv)
         }
         if (!strcmp(a, "-o") || !strcmp(a, "--output") || !strcmp(a, "--method") || !strcmp(a, "--spp") ||
             !strcmp(a, "--res") || !strcmp(a, "--threads") || !strcmp(a, "--seed") || !strcmp(a, "--exposure") ||
-            !strcmp(a, "--max-depth") || !strcmp(a, "--time")) {
+            !strcmp(a, "--max-depth") || !strcmp(a, "--time") || !strcmp(a, "--photons") ||
+            !strcmp(a, "--smoothing") || !strcmp(a, "--plane-tolerance") || !strcmp(a, "--debug")) {
             if (!v) return usage_error("%s needs a value", a);
             i++;
         } else if (!strcmp(a, "--no-caustics") || !strcmp(a, "--caustics-only")) {
@@ -183,6 +200,19 @@ static int cmd_render(int argc, char **argv)
         } else if (!strcmp(a, "--max-depth")) {
             if (parse_int(v, 0, 1000, &n)) return usage_error("--max-depth needs a whole number from 0 to 1000, got '%s'", v);
             opt.max_depth = (int)n;
+            opt.photon_depth = n > 0 ? (int)n : 1;
+        } else if (!strcmp(a, "--photons")) {
+            if (parse_int(v, 0, LONG_MAX, &n)) return usage_error("--photons needs a whole number of 0 or more, got '%s'", v);
+            opt.photons = n;
+        } else if (!strcmp(a, "--smoothing")) {
+            if (parse_double(v, &opt.smoothing) || !(opt.smoothing > 0.0) || opt.smoothing > 1e6)
+                return usage_error("--smoothing needs a positive number, got '%s'", v);
+        } else if (!strcmp(a, "--plane-tolerance")) {
+            if (parse_double(v, &opt.plane_tolerance) || !(opt.plane_tolerance > 0.0) || opt.plane_tolerance > 1e6)
+                return usage_error("--plane-tolerance needs a positive number, got '%s'", v);
+        } else if (!strcmp(a, "--debug")) {
+            if (strcmp(v, "footprint") != 0) return usage_error("--debug knows 'footprint', got '%s'", v);
+            debug_footprint = 1;
         } else if (!strcmp(a, "--time")) {
             if (parse_double(v, &opt.time_s) || !(opt.time_s > 0.0) || opt.time_s > 1e7)
                 return usage_error("--time needs a number of seconds above 0, got '%s'", v);
@@ -192,9 +222,11 @@ static int cmd_render(int argc, char **argv)
         }
     }
     if (!scene_path) return usage_error("%s", "render needs a scene file");
-    if (!strcmp(method, "pt")) opt.method = PDS_METHOD_PT;
+    if (!strcmp(method, "pds")) opt.method = PDS_METHOD_PDS;
+    else if (!strcmp(method, "pt")) opt.method = PDS_METHOD_PT;
     else if (!strcmp(method, "preview")) opt.method = PDS_METHOD_PREVIEW;
-    else return usage_error("unknown method '%s' (this version has: pt, preview)", method);
+    else return usage_error("unknown method '%s' (this version has: pds, pt, preview)", method);
+    if (debug_footprint && opt.method != PDS_METHOD_PDS) return usage_error("%s", "--debug footprint needs --method pds");
     if (progress < 0) progress = isatty(fileno(stderr));
     if (progress) opt.progress = show_progress;
     if (!output) {
@@ -207,17 +239,33 @@ static int cmd_render(int argc, char **argv)
         fprintf(stderr, "%s\n", pds_error_string(&err));
         return 1;
     }
+    if (debug_footprint) {
+        /* OUT.png -> OUT.footprint.png */
+        const char *dot = strrchr(output, '.');
+        snprintf(footprint_path, sizeof footprint_path, "%.*s.footprint%s", (int)(dot - output), output, dot);
+        opt.footprint = &footprint;
+    }
     if (pds_render(scene, &opt, &img, &stats, &err) != PDS_OK ||
-        pds_image_write(output, &img, exposure, &err) != PDS_OK) {
+        pds_image_write(output, &img, exposure, &err) != PDS_OK ||
+        (debug_footprint && pds_image_write(footprint_path, &footprint, 0.0, &err) != PDS_OK)) {
         fprintf(stderr, "%s\n", pds_error_string(&err));
         pds_image_free(&img);
+        pds_image_free(&footprint);
         pds_scene_free(scene);
         return 1;
     }
+    pds_image_free(&footprint);
     if (progress) fputc('\n', stderr);
-    printf("render method=%s paths=%s width=%d height=%d spp=%d passes=%d time_total=%.3f threads=%d output=%s\n",
-           method, opt.paths == PDS_PATHS_ALL ? "all" : opt.paths == PDS_PATHS_NO_CAUSTICS ? "no-caustics" : "caustics-only",
-           stats.width, stats.height, stats.spp, stats.passes, stats.time_total_s, stats.threads, output);
+    printf("render method=%s paths=%s width=%d height=%d spp=%d", method,
+           opt.paths == PDS_PATHS_ALL ? "all" : opt.paths == PDS_PATHS_NO_CAUSTICS ? "no-caustics" : "caustics-only",
+           stats.width, stats.height, stats.spp);
+    if (opt.method == PDS_METHOD_PDS)
+        printf(" photons=%ld splatted=%ld dropped_degenerate=%ld eye_vertices=%ld smoothing=%g time_eye=%.3f "
+               "time_photons=%.3f", stats.photons, stats.splatted, stats.dropped_degenerate, stats.eye_vertices,
+               opt.smoothing, stats.time_eye_s, stats.time_photons_s);
+    else
+        printf(" passes=%d", stats.passes);
+    printf(" time_total=%.3f threads=%d output=%s\n", stats.time_total_s, stats.threads, output);
     pds_image_free(&img);
     pds_scene_free(scene);
     return 0;
@@ -344,6 +392,92 @@ static int bench_pt(int argc, char **argv)
     return 0;
 }
 
+/* Render a scene with PDS; returns 0 and fills *st, or prints the error. */
+static int render_pds(pds_scene *scene, long photons, int threads, int width, pds_render_stats *st)
+{
+    pds_options opt;
+    pds_image img = {0, 0, NULL};
+    pds_error err;
+    pds_options_default(&opt);
+    opt.method = PDS_METHOD_PDS;
+    opt.photons = photons;
+    opt.threads = threads;
+    opt.width = width;
+    opt.height = width;
+    opt.spp = 1;
+    if (pds_render(scene, &opt, &img, st, &err) != PDS_OK) {
+        fprintf(stderr, "%s\n", pds_error_string(&err));
+        return 1;
+    }
+    pds_image_free(&img);
+    return 0;
+}
+
+/* Caustic photons emitted, traced and splatted per second (photon pass
+   only), one thread and all threads. */
+static int bench_photons(int argc, char **argv)
+{
+    const char *path = argc >= 1 ? argv[0] : "scenes/refraction.scene";
+    pds_scene *scene = NULL;
+    pds_error err;
+    pds_render_stats st[2];
+    int k, threads[2];
+    if (argc > 1) return usage_error("%s", "bench photons takes at most one scene");
+    if (load_any(path, &scene, &err) != PDS_OK) {
+        fprintf(stderr, "%s\n", pds_error_string(&err));
+        return 1;
+    }
+    threads[0] = 1;
+    threads[1] = pds_cpu_count();
+    for (k = 0; k < 2; k++) {
+        if (render_pds(scene, 400000, threads[k], 256, &st[k])) {
+            pds_scene_free(scene);
+            return 1;
+        }
+    }
+    pds_scene_free(scene);
+    printf("bench photons scene=%s photons=%ld splatted=%ld photons_per_s_1=%.0f photons_per_s_%d=%.0f speedup=%.2f\n",
+           path, st[0].photons, st[0].splatted, st[0].photons / st[0].time_photons_s, st[1].threads,
+           st[1].photons / st[1].time_photons_s, st[0].time_photons_s / st[1].time_photons_s);
+    return 0;
+}
+
+/* Peak memory of a PDS render at 1e5 and at 1e7 photons. */
+static int bench_memory(int argc, char **argv)
+{
+    const char *path = argc >= 1 ? argv[0] : "scenes/refraction.scene";
+    pds_scene *scene = NULL;
+    pds_error err;
+    pds_render_stats a, b;
+    if (argc > 1) return usage_error("%s", "bench memory takes at most one scene");
+    if (load_any(path, &scene, &err) != PDS_OK) {
+        fprintf(stderr, "%s\n", pds_error_string(&err));
+        return 1;
+    }
+    struct rusage ru;
+    long rss_a, rss_b;
+    if (render_pds(scene, 100000, 0, 256, &a)) {
+        pds_scene_free(scene);
+        return 1;
+    }
+    getrusage(RUSAGE_SELF, &ru);
+    rss_a = ru.ru_maxrss;
+    if (render_pds(scene, 10000000, 0, 256, &b)) {
+        pds_scene_free(scene);
+        return 1;
+    }
+    getrusage(RUSAGE_SELF, &ru);
+    rss_b = ru.ru_maxrss;
+    pds_scene_free(scene);
+    /* ru_maxrss is the process's peak so far (KiB on Linux): if the second,
+       100 times larger render needed more, the peak would have grown */
+    printf("bench memory scene=%s render_bytes_1e5=%lu render_bytes_1e7=%lu peak_rss_kib_after_1e5=%ld "
+           "peak_rss_kib_after_1e7=%ld growth=%.2f%% time_1e7=%.1f\n",
+           path, (unsigned long)a.memory_bytes, (unsigned long)b.memory_bytes, rss_a, rss_b,
+           100.0 * ((double)rss_b / (double)rss_a - 1.0), b.time_total_s);
+    return 0;
+}
+
 static int cmd_bench(int argc, char **argv)
 {
     pds_error err;
@@ -365,7 +499,29 @@ static int cmd_bench(int argc, char **argv)
         return 0;
     }
     if (!strcmp(argv[0], "pt")) return bench_pt(argc - 1, argv + 1);
-    return usage_error("unknown benchmark '%s' (rays, pt)", argv[0]);
+    if (!strcmp(argv[0], "photons")) return bench_photons(argc - 1, argv + 1);
+    if (!strcmp(argv[0], "memory")) return bench_memory(argc - 1, argv + 1);
+    if (!strcmp(argv[0], "filter")) {
+        pds_bench_filter_result r;
+        if (pds_bench_filter(2000000, &r, &err) != PDS_OK) {
+            fprintf(stderr, "%s\n", pds_error_string(&err));
+            return 1;
+        }
+        printf("bench filter filters=%ld eq12_mps=%.2f general_mps=%.2f speedup=%.2f max_rel_diff=%.1e\n", r.filters,
+               r.eq12_mps, r.general_mps, r.eq12_mps / r.general_mps, r.max_rel_diff);
+        return 0;
+    }
+    if (!strcmp(argv[0], "kdtree")) {
+        pds_bench_kdtree_result r;
+        if (pds_bench_kdtree(1000000, &r, &err) != PDS_OK) {
+            fprintf(stderr, "%s\n", pds_error_string(&err));
+            return 1;
+        }
+        printf("bench kdtree points=%ld build_s=%.3f range_mqps=%.3f found_per_query=%.1f knn32_mqps=%.3f\n", r.points,
+               r.build_s, r.range_mqps, r.found_per_query, r.knn_mqps);
+        return 0;
+    }
+    return usage_error("unknown benchmark '%s' (rays, pt, photons, memory, filter, kdtree)", argv[0]);
 }
 
 int main(int argc, char **argv)

@@ -15,10 +15,15 @@
      >>bvh        binned-SAH BVH, watertight triangle test, traversal
      >>materials  Fresnel (dielectric, conductor), BSDF sampling, Beer
      >>lights     light selection, next-event sampling, photon emission
+     >>kdtree     balanced kd-tree: range and k-nearest queries (eye-path map)
      >>scene      the pds_scene value and its text format parser
+     >>differentials  photon differentials: emission (eqs. 2-6), transfer,
+                  reflection, refraction (Igehy 1999), footprint, eq. 12
      >>image      PFM read/write, PNG write, tone mapping
      >>metrics    RMSE and SSIM
-     >>render     camera, path tracer, preview, the thread scheduler
+     >>render     camera, path tracer and eye pass, preview, row scheduler
+     >>pds        photon differential splatting: aimed caustic photons,
+                  tracing with differentials, splatting into the eye-path map
      >>api        public entry points: render, options, benchmarks
 */
 
@@ -481,7 +486,8 @@ static int pds__materials_add(pds__materials *ms, const pds_material *m)
 enum pds__rng_purpose {
     PDS__RNG_PIXEL = 1,   /* index = pixel * spp + sample, dim = 0.. */
     PDS__RNG_BENCH = 2,   /* benchmark rays */
-    PDS__RNG_TEST = 3     /* test programs */
+    PDS__RNG_TEST = 3,    /* test programs */
+    PDS__RNG_PHOTON = 4   /* index = photon number, dim = 0.. */
 };
 
 static uint64_t pds__mix64(uint64_t z)
@@ -504,6 +510,28 @@ static uint64_t pds__rng_bits(uint64_t seed, uint64_t purpose, uint64_t index, u
 static double pds__rng_uniform(uint64_t seed, uint64_t purpose, uint64_t index, uint64_t dim)
 {
     return (double)(pds__rng_bits(seed, purpose, index, dim) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+/* Low-discrepancy numbers for photon emission: the Halton sequence (radical
+   inverse of the index in the dim-th prime base), shifted modulo 1 by a
+   per-(seed, dim) offset (Cranley-Patterson rotation) so that different
+   seeds give different, equally well spread point sets. Still a pure
+   function of (seed, index, dim). Spreading the photons evenly over the
+   lights' area and directions removes most of the low-frequency noise of
+   smooth caustics at no cost. dim < 8. */
+static double pds__halton(uint64_t seed, uint64_t index, int dim)
+{
+    static const unsigned primes[8] = {2, 3, 5, 7, 11, 13, 17, 19};
+    unsigned base = primes[dim & 7];
+    double inv = 1.0 / base, f = inv, r = 0.0, u;
+    uint64_t i = index + 1; /* index 0 would give 0 in every dimension */
+    while (i > 0) {
+        r += f * (double)(i % base);
+        i /= base;
+        f *= inv;
+    }
+    u = r + pds__rng_uniform(seed, 5, 0, (uint64_t)dim);
+    return u >= 1.0 ? u - 1.0 : u;
 }
 
 /* ===================================================================== */
@@ -4234,6 +4262,480 @@ static void pds__light_emission_extent(const pds_light *l, double *area, double 
 }
 
 /* ===================================================================== */
+/* >>kdtree                                                              */
+/* ===================================================================== */
+/* A balanced 3-d tree over points, for the two neighbour searches of the
+   renderer: the range query of photon differential splatting (every
+   eye-path vertex within r of a photon) and the k-nearest-neighbour
+   query of standard photon mapping (Jensen 1996; k nearest photons,
+   optionally within a maximum radius).
+
+   Layout (implicit, no pointers): the points are stored in tree order.
+   A node is a range [lo, hi) of that order; its own point is the median
+   element m = lo + (hi - lo) / 2, its children are [lo, m) and
+   [m + 1, hi). A range of at most PDS__KD_LEAF points is a leaf and is
+   scanned linearly (a bucket: one test per point is cheaper than the
+   branchy descent for a handful of points). axis[m] is the split axis of
+   the inner node whose median is m; every point in [lo, m) has that
+   coordinate <= pts[3m + axis], every point in [m + 1, hi) has it >=.
+   Subtrees are contiguous in memory, so the few subtrees a small query
+   touches share cache lines.
+
+     pts   float x, y, z per point, in tree order (12 bytes each)
+     perm  size_t: perm[i] = the caller's index of the point at slot i
+     axis  unsigned char per slot: split axis 0..2 (meaningful only at
+           inner-node medians; 0 elsewhere)
+
+   Build: each node takes the axis of largest extent of its points'
+   bounding box and places its median by quickselect (three-way
+   partition, so duplicates cost nothing; pivot = median of three samples
+   at positions drawn from a counter hash, so the tree is a pure function
+   of the input). Each level costs O(n), the depth is log2(n), so the
+   build is O(n log n). Coordinates are compared in a total order with
+   NaN above everything: a NaN point can never be found (its distance is
+   NaN) but cannot corrupt the partition invariant for the others.
+
+   Queries: squared distances are computed in double from the float
+   point, d2 = dx*dx + dy*dy + dz*dz with dx = p.x - c.x (pds__kd_dist2,
+   the only formula used). A subtree on the far side of a split plane at
+   distance d is skipped when d*d > r2. This never loses a point: for a
+   point p beyond the plane, rounding is monotone, so fl(c - p) is at
+   least fl(c - s) in magnitude and the rounded sum of non-negative
+   squares is at least each rounded square; hence d2(p) >= fl(d*d) > r2.
+   Traversal is iterative with an explicit stack; each level pushes at
+   most one range and the depth is below 64, so PDS__KD_STACK entries
+   always suffice.
+
+   k-NN keeps a bounded max-heap of (dist2, index) pairs in the caller's
+   output arrays, ordered lexicographically, so equal distances are
+   ranked by smaller original index exactly as a brute-force sort would;
+   a subtree is skipped only if its plane distance squared exceeds the
+   current k-th distance (strictly: an equal distance with a smaller
+   index could still enter). The heap is finally heap-sorted in place.
+
+   Invariants: read-only after the build, so concurrent queries are safe;
+   results (sets, order, ties) depend only on the points and the query. */
+
+#ifndef PDS__KD_LEAF
+#define PDS__KD_LEAF 6     /* ranges of at most this many points are leaves */
+#endif
+#define PDS__KD_STACK 72   /* > 64 >= tree depth for any size_t count */
+
+typedef struct pds__kdtree {
+    float *pts;           /* 3 per point, tree order */
+    size_t *perm;         /* tree slot -> caller's index */
+    unsigned char *axis;  /* split axis at inner-node medians */
+    size_t n;
+} pds__kdtree;
+
+typedef void (*pds__kd_visit)(void *ctx, size_t index, double dist2);
+
+/* Squared length in double, and the squared distance from float point p
+   to (qx, qy, qz). Every distance and every cell bound goes through
+   pds__kd_len2, the same expression in the same order, so they agree bit
+   for bit (also with the tests' brute force), and the rounding argument
+   in the prologue holds even if the compiler fuses it into FMAs. */
+static double pds__kd_len2(double x, double y, double z)
+{
+    return x * x + y * y + z * z;
+}
+
+static double pds__kd_dist2(const float *p, double qx, double qy, double qz)
+{
+    return pds__kd_len2((double)p[0] - qx, (double)p[1] - qy, (double)p[2] - qz);
+}
+
+/* Total order on floats for partitioning: the usual one, NaN last. */
+static int pds__kd_less(float a, float b)
+{
+    return a < b || (b != b && a == a);
+}
+
+/* The middle one of three values in that order. */
+static float pds__kd_median3(float a, float b, float c)
+{
+    if (pds__kd_less(b, a)) {
+        float t = a;
+        a = b;
+        b = t;
+    }
+    /* now a <= b: the median is b, unless c is below it */
+    if (pds__kd_less(c, b)) return pds__kd_less(c, a) ? a : c;
+    return b;
+}
+
+static void pds__kd_swap(pds__kdtree *kd, size_t i, size_t j)
+{
+    float *a = kd->pts + 3 * i, *b = kd->pts + 3 * j;
+    float t0 = a[0], t1 = a[1], t2 = a[2];
+    size_t ti = kd->perm[i];
+    a[0] = b[0];
+    a[1] = b[1];
+    a[2] = b[2];
+    b[0] = t0;
+    b[1] = t1;
+    b[2] = t2;
+    kd->perm[i] = kd->perm[j];
+    kd->perm[j] = ti;
+}
+
+/* Rearrange slots [lo, hi) so that slot m holds the element that would be
+   there if the range were sorted on coordinate a (total order above),
+   with no larger element before it and no smaller one after it.
+   *counter feeds the pivot hash; it advances by 3 per partition step. */
+static void pds__kd_select(pds__kdtree *kd, size_t lo, size_t hi, size_t m, int a,
+                           uint64_t *counter)
+{
+    const float *p = kd->pts;
+    while (hi - lo > 1) {
+        size_t len = hi - lo, lt, i, gt;
+        float v, s0, s1, s2;
+        /* Median of three samples at hashed positions: expected linear
+           time on any input not built against this hash, and the same
+           positions on every run. */
+        s0 = p[3 * (lo + (size_t)(pds__mix64(*counter) % len)) + a];
+        s1 = p[3 * (lo + (size_t)(pds__mix64(*counter + 1) % len)) + a];
+        s2 = p[3 * (lo + (size_t)(pds__mix64(*counter + 2) % len)) + a];
+        *counter += 3;
+        v = pds__kd_median3(s0, s1, s2);
+        /* Dijkstra's three-way partition: [lo, lt) < v, [lt, i) == v,
+           [gt, hi) > v, [i, gt) not yet seen. */
+        lt = lo;
+        i = lo;
+        gt = hi;
+        while (i < gt) {
+            float x = p[3 * i + a];
+            if (pds__kd_less(x, v)) {
+                if (lt != i) pds__kd_swap(kd, lt, i);
+                lt++;
+                i++;
+            } else if (pds__kd_less(v, x)) {
+                gt--;
+                pds__kd_swap(kd, i, gt);
+            } else {
+                i++;
+            }
+        }
+        if (m < lt) hi = lt;
+        else if (m >= gt) lo = gt;
+        else return;
+    }
+}
+
+/* Build the subtree over slots [lo, hi): split axis from the bounding box
+   of its points, median into place, then both halves. Recursion depth is
+   the tree depth (< 64: each level at least halves the range). */
+static void pds__kd_build_node(pds__kdtree *kd, size_t lo, size_t hi, uint64_t *counter)
+{
+    while (hi - lo > PDS__KD_LEAF) {
+        float bmin[3], bmax[3];
+        double ext, best = -1.0;
+        size_t i, m = lo + (hi - lo) / 2;
+        int k, a = 0;
+        for (k = 0; k < 3; k++) {
+            bmin[k] = FLT_MAX;
+            bmax[k] = -FLT_MAX;
+        }
+        for (i = lo; i < hi; i++) {
+            const float *p = kd->pts + 3 * i;
+            for (k = 0; k < 3; k++) {
+                if (p[k] < bmin[k]) bmin[k] = p[k];
+                if (p[k] > bmax[k]) bmax[k] = p[k];
+            }
+        }
+        /* Ties (and degenerate boxes) keep the lowest axis; extents are
+           taken in double so huge coordinates cannot overflow to inf. */
+        for (k = 0; k < 3; k++) {
+            ext = (double)bmax[k] - (double)bmin[k];
+            if (ext > best) {
+                best = ext;
+                a = k;
+            }
+        }
+        pds__kd_select(kd, lo, hi, m, a, counter);
+        kd->axis[m] = (unsigned char)a;
+        /* Recurse into the left half, loop on the right one. */
+        pds__kd_build_node(kd, lo, m, counter);
+        lo = m + 1;
+    }
+}
+
+static void pds__kdtree_free(pds__kdtree *kd)
+{
+    if (!kd) return;
+    free(kd->pts);
+    free(kd->perm);
+    free(kd->axis);
+    memset(kd, 0, sizeof *kd);
+}
+
+/* Build a tree over n points pos[i*stride + 0..2] (stride in floats,
+   >= 3). *kd is overwritten (not freed first); on failure it is left
+   empty and safe to free. n = 0 gives an empty tree. */
+static pds_status pds__kdtree_build(pds__kdtree *kd, const float *pos, size_t stride, size_t n,
+                                    pds_error *err)
+{
+    size_t i;
+    uint64_t counter = 0;
+    memset(kd, 0, sizeof *kd);
+    if (n == 0) return PDS_OK;
+    if (!pos || stride < 3)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                         "kd-tree: point stride must be at least 3 floats (got %lu)",
+                         (unsigned long)stride);
+    if (n > ((size_t)-1) / (3 * sizeof(float)) || n > ((size_t)-1) / sizeof(size_t))
+        return pds__nomem(err);
+    kd->pts = (float *)malloc(3 * n * sizeof(float));
+    kd->perm = (size_t *)malloc(n * sizeof(size_t));
+    kd->axis = (unsigned char *)calloc(n, 1);
+    if (!kd->pts || !kd->perm || !kd->axis) {
+        pds__kdtree_free(kd);
+        return pds__nomem(err);
+    }
+    for (i = 0; i < n; i++) {
+        const float *p = pos + i * stride;
+        kd->pts[3 * i + 0] = p[0];
+        kd->pts[3 * i + 1] = p[1];
+        kd->pts[3 * i + 2] = p[2];
+        kd->perm[i] = i;
+    }
+    kd->n = n;
+    pds__kd_build_node(kd, 0, n, &counter);
+    return PDS_OK;
+}
+
+/* Bytes of heap memory the tree owns. */
+static size_t pds__kdtree_memory(const pds__kdtree *kd)
+{
+    return kd->n * (3 * sizeof(float) + sizeof(size_t) + 1);
+}
+
+static int pds__kd_query_ok(pds__v3 c)
+{
+    return c.x == c.x && c.y == c.y && c.z == c.z;
+}
+
+/* A subtree waiting on a query's stack: its slot range and the cell
+   offsets o[] (per axis, the signed distance from the query to the
+   nearest split plane bounding the cell on that side, 0 if none), with
+   rd = pds__kd_len2(o), the lower bound on any of its points' dist2. */
+typedef struct pds__kd_entry {
+    size_t lo, hi;
+    double o[3];
+    double rd;
+} pds__kd_entry;
+
+/* Call fn(ctx, caller's index, dist2) for every point with dist2 <= r*r
+   (dist2 as pds__kd_dist2). Each point is reported exactly once; the
+   order is that of the traversal (nearer child first), a function of the
+   tree and c only. r < 0, NaN r or a NaN query report nothing; r =
+   DBL_MAX reports every point with finite coordinates.
+
+   Cells are pruned by their full offset vector (Arya and Mount's
+   incremental distance), not only by the distance to the last split
+   plane: in 3-d that skips about a fifth of the work for small radii.
+   The inner loops avoid unpredictable branches: the far child is always
+   written to the stack and kept only if it is within reach, and a leaf's
+   hits are collected first and reported afterwards. */
+static void pds__kdtree_range(const pds__kdtree *kd, pds__v3 c, double r, pds__kd_visit fn,
+                              void *ctx)
+{
+    pds__kd_entry stk[PDS__KD_STACK];
+    size_t lo = 0, hi;
+    int sp = 0;
+    double q[3], ox = 0.0, oy = 0.0, oz = 0.0, r2;
+    const float *pts;
+    const unsigned char *axis;
+    if (!kd || kd->n == 0 || !(r >= 0.0) || !pds__kd_query_ok(c)) return;
+    pts = kd->pts;
+    axis = kd->axis;
+    hi = kd->n;
+    q[0] = c.x;
+    q[1] = c.y;
+    q[2] = c.z;
+    r2 = r * r;
+    for (;;) {
+        /* Descend to a leaf, testing each median on the way. */
+        while (hi - lo > PDS__KD_LEAF) {
+            size_t m = lo + (hi - lo) / 2;
+            const float *p = pts + 3 * m;
+            int a = axis[m];
+            /* d: signed distance to the split plane; d <= 0 means the
+               query is on the low side, so [lo, m) is the near child
+               (a NaN split, from NaN points, sends it high and never
+               prunes) */
+            double d = q[a] - (double)p[a];
+            double d2 = pds__kd_dist2(p, q[0], q[1], q[2]);
+            double tx = a == 0 ? d : ox;
+            double ty = a == 1 ? d : oy;
+            double tz = a == 2 ? d : oz;
+            double rd = pds__kd_len2(tx, ty, tz);
+            int high = !(d <= 0.0);
+            if (d2 <= r2) fn(ctx, kd->perm[m], d2);
+            stk[sp].lo = high ? lo : m + 1;
+            stk[sp].hi = high ? m : hi;
+            stk[sp].o[0] = tx;
+            stk[sp].o[1] = ty;
+            stk[sp].o[2] = tz;
+            sp += !(rd > r2);
+            lo = high ? m + 1 : lo;
+            hi = high ? hi : m;
+        }
+        {
+            size_t hit[PDS__KD_LEAF], i;
+            double hd[PDS__KD_LEAF];
+            int nh = 0, j;
+            for (i = lo; i < hi; i++) {
+                double d2 = pds__kd_dist2(pts + 3 * i, q[0], q[1], q[2]);
+                hit[nh] = i;
+                hd[nh] = d2;
+                nh += d2 <= r2;
+            }
+            for (j = 0; j < nh; j++) fn(ctx, kd->perm[hit[j]], hd[j]);
+        }
+        if (sp == 0) break;
+        sp--;
+        lo = stk[sp].lo;
+        hi = stk[sp].hi;
+        ox = stk[sp].o[0];
+        oy = stk[sp].o[1];
+        oz = stk[sp].o[2];
+    }
+}
+
+/* Heap order on (dist2, index): 1 if a ranks after b. */
+static int pds__kd_after(double da, size_t ia, double db, size_t ib)
+{
+    return da > db || (da == db && ia > ib);
+}
+
+/* Restore the max-heap below slot i of a heap of cnt entries. */
+static void pds__kd_sift_down(size_t *idx, double *dist2, size_t i, size_t cnt)
+{
+    double d = dist2[i];
+    size_t id = idx[i];
+    for (;;) {
+        size_t ch = 2 * i + 1;
+        if (ch >= cnt) break;
+        if (ch + 1 < cnt && pds__kd_after(dist2[ch + 1], idx[ch + 1], dist2[ch], idx[ch])) ch++;
+        if (!pds__kd_after(dist2[ch], idx[ch], d, id)) break;
+        dist2[i] = dist2[ch];
+        idx[i] = idx[ch];
+        i = ch;
+    }
+    dist2[i] = d;
+    idx[i] = id;
+}
+
+/* Offer a candidate to the bounded heap (cnt entries, capacity k); it has
+   already passed dist2 <= rmax^2. */
+static void pds__kd_offer(size_t *idx, double *dist2, size_t *cnt, size_t k, double d, size_t id)
+{
+    size_t i = *cnt;
+    if (i < k) {
+        /* room left: sift up from the end */
+        while (i > 0) {
+            size_t parent = (i - 1) / 2;
+            if (!pds__kd_after(d, id, dist2[parent], idx[parent])) break;
+            dist2[i] = dist2[parent];
+            idx[i] = idx[parent];
+            i = parent;
+        }
+        dist2[i] = d;
+        idx[i] = id;
+        *cnt += 1;
+    } else if (pds__kd_after(dist2[0], idx[0], d, id)) {
+        /* better than the worst kept: replace the root */
+        dist2[0] = d;
+        idx[0] = id;
+        pds__kd_sift_down(idx, dist2, 0, k);
+    }
+}
+
+/* Up to k nearest points with dist2 <= rmax^2 (rmax may be DBL_MAX), into
+   idx[] (caller's indices) and dist2[] sorted by increasing distance,
+   ties by smaller index; the caller gives room for k. Returns the count.
+   No allocation: the heap lives in idx[]/dist2[]. */
+static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double rmax,
+                              size_t *idx, double *dist2)
+{
+    pds__kd_entry stk[PDS__KD_STACK];
+    size_t lo = 0, hi, i, cnt = 0;
+    int sp = 0;
+    double q[3], ox = 0.0, oy = 0.0, oz = 0.0, bound;
+    const float *pts;
+    const unsigned char *axis;
+    if (!kd || kd->n == 0 || k == 0 || !(rmax >= 0.0) || !pds__kd_query_ok(c)) return 0;
+    pts = kd->pts;
+    axis = kd->axis;
+    hi = kd->n;
+    q[0] = c.x;
+    q[1] = c.y;
+    q[2] = c.z;
+    /* bound: the pruning distance, rmax^2 until the heap is full, then
+       the k-th best so far (which is <= rmax^2) */
+    bound = rmax * rmax;
+    for (;;) {
+        /* Nearer child first; the far one waits on the stack with its
+           cell bound rd, re-checked against the (shrinking) bound when
+           popped. Strict comparisons: a point at exactly the bound with
+           a smaller index than the worst kept must still be seen. */
+        while (hi - lo > PDS__KD_LEAF) {
+            size_t m = lo + (hi - lo) / 2;
+            const float *p = pts + 3 * m;
+            int a = axis[m];
+            double d = q[a] - (double)p[a];
+            double d2 = pds__kd_dist2(p, q[0], q[1], q[2]);
+            double tx = a == 0 ? d : ox;
+            double ty = a == 1 ? d : oy;
+            double tz = a == 2 ? d : oz;
+            double rd = pds__kd_len2(tx, ty, tz);
+            int high = !(d <= 0.0);
+            if (d2 <= bound) {
+                pds__kd_offer(idx, dist2, &cnt, k, d2, kd->perm[m]);
+                if (cnt == k) bound = dist2[0];
+            }
+            stk[sp].lo = high ? lo : m + 1;
+            stk[sp].hi = high ? m : hi;
+            stk[sp].o[0] = tx;
+            stk[sp].o[1] = ty;
+            stk[sp].o[2] = tz;
+            stk[sp].rd = rd;
+            sp += !(rd > bound);
+            lo = high ? m + 1 : lo;
+            hi = high ? hi : m;
+        }
+        for (i = lo; i < hi; i++) {
+            double d2 = pds__kd_dist2(pts + 3 * i, q[0], q[1], q[2]);
+            if (d2 <= bound) {
+                pds__kd_offer(idx, dist2, &cnt, k, d2, kd->perm[i]);
+                if (cnt == k) bound = dist2[0];
+            }
+        }
+        /* the next waiting subtree still within reach */
+        while (sp > 0 && stk[sp - 1].rd > bound) sp--;
+        if (sp == 0) break;
+        sp--;
+        lo = stk[sp].lo;
+        hi = stk[sp].hi;
+        ox = stk[sp].o[0];
+        oy = stk[sp].o[1];
+        oz = stk[sp].o[2];
+    }
+    /* Heap sort in place: move the worst to the end, shrink, repeat. */
+    for (i = cnt; i > 1; i--) {
+        double td = dist2[0];
+        size_t ti = idx[0];
+        dist2[0] = dist2[i - 1];
+        idx[0] = idx[i - 1];
+        dist2[i - 1] = td;
+        idx[i - 1] = ti;
+        pds__kd_sift_down(idx, dist2, 0, i - 1);
+    }
+    return cnt;
+}
+
+/* ===================================================================== */
 /* >>scene                                                               */
 /* ===================================================================== */
 /* The pds_scene value and the text format that describes it (README.md,
@@ -5473,6 +5975,14 @@ const pds_light *pds_scene_light(const pds_scene *s, int i)
     return (i >= 0 && (size_t)i < s->nlights) ? &s->lights[i] : NULL;
 }
 
+/* Largest extent of the scene's bounds (at least 1), for ray offsets. */
+static double pds__scene_scale(const pds_scene *s)
+{
+    pds__v3 e = pds__sub(s->bounds_max, s->bounds_min);
+    double m = fabs(s->bounds_max.x) + fabs(s->bounds_max.y) + fabs(s->bounds_max.z) + e.x + e.y + e.z;
+    return m > 1.0 ? m : 1.0;
+}
+
 /* Fill the public hit from a BVH hit: position, unit geometric normal in
    the winding's direction, interpolated unit shading normal. */
 static void pds__scene_fill_hit(const pds_scene *s, const pds__tri_hit *th, pds__v3 org, pds__v3 dir, pds_hit *hit)
@@ -5503,6 +6013,343 @@ int pds_scene_intersect(const pds_scene *s, const pds_ray *ray, pds_hit *hit)
 int pds_scene_occluded(const pds_scene *s, const pds_ray *ray)
 {
     return pds__bvh_occluded(&s->bvh, ray->origin, ray->dir, ray->tmin, ray->tmax);
+}
+
+/* ===================================================================== */
+/* >>differentials                                                       */
+/* ===================================================================== */
+/* Photon differentials (Frisvad, Schjoth, Erleben, Sporring, "Photon
+   Differential Splatting for Rendering Caustics", CGF 2014, sections
+   3.1-3.3 and appendices A-B) on top of Igehy's ray differentials
+   ("Tracing Ray Differentials", SIGGRAPH 1999). REFERENCE.md sections 1-2
+   hold every formula used here.
+
+   A photon carries two ray differentials, one per footprint axis:
+       pair u = (Du x + Dtheta x, Dtheta omega),  pair v = (Dv x + Dphi x, Dphi omega).
+   Emission (eqs 2-3) chooses the four vectors so that after the first
+   transfer Dtheta x' is parallel to Du x' and Dphi x' to Dv x' (appendix
+   A); the pairs then add (eq 7) and each is an ordinary ray differential
+   (DP, DD) that Igehy's transfer, reflection and refraction carry along.
+
+   Conventions and invariants:
+   - Directions are unit vectors; every directional differential DD stays
+     perpendicular to its direction (D.DD = 0) through reflect/refract.
+   - Transfer uses the plane the hit really lies in: for a triangle, its
+     GEOMETRIC normal (either orientation). Reflection and refraction use
+     the interpolated SHADING normal and its differential DN, which for a
+     smooth-shaded triangle comes from pds__mesh_normal_diff.
+   - Whoever flips a normal flips its differentials too: DN is the
+     derivative of the normal actually used. If the scattering code falls
+     back to the geometric normal (pds__bsdf_frame does when wo lies below
+     the shading hemisphere), the normal is constant and DN = 0.
+   - Footprint (eq 4): the ellipse with conjugate semi-diameters Du x / 2
+     and Dv x / 2, area pi/4 |Du x X Dv x|. The filter matrix (eq 12) maps it
+     to the unit disc; the Silverman kernel (eq 11) has unit mass on the
+     unit disc, so pi K(|M y|) E_p integrates to the photon's flux. */
+
+/* A photon (or ray) with two differentials, one per footprint axis. */
+typedef struct pds__ray_diff {
+    pds__v3 p, d;       /* position (origin or current hit point), unit direction */
+    pds__v3 dpdu, dddu; /* positional and directional differential, axis u */
+    pds__v3 dpdv, dddv; /* axis v */
+} pds__ray_diff;
+
+static int pds__diff_finite(pds__v3 a)
+{
+    return isfinite(a.x) && isfinite(a.y) && isfinite(a.z);
+}
+
+/* Initial length of the differential vectors, eqs 5-6:
+   2 s sqrt(extent / (pi N)). extent is the emitting area Ae (positional
+   vectors) or the emission solid angle omega_e (directional vectors), s
+   the smoothing parameter, n_photons the photons emitted from this light.
+   0 when the extent is 0 (point lights have no area, directional lights no
+   solid angle) or an argument is not positive and finite. */
+static double pds__photon_diff_length(double s, double extent, double n_photons)
+{
+    double l;
+    if (!(extent > 0.0) || !(n_photons > 0.0) || !(s > 0.0)) return 0.0;
+    l = 2.0 * s * sqrt(extent / (PDS__PI * n_photons));
+    return isfinite(l) ? l : 0.0;
+}
+
+/* Emit a photon differential at x travelling along unit omega (eqs 2-3).
+   n is the emitter's unit surface normal, or the zero vector when the
+   light has none (point and spot lights). Output directions:
+       u = theta = (n x omega)/|n x omega|,  v = u x n,  phi = theta x omega.
+   n is first turned onto omega's side (n.omega >= 0): for a two-sided
+   emitter this keeps Dv x' and Dphi x' pointing the same way after the
+   first transfer (appendix A) instead of cancelling in pair v.
+   When omega ~ n (|n x omega| < 1e-6) or there is no normal, u comes from
+   the orthonormal basis of n (or of omega; Frisvad 2012, pds__onb), v = u
+   x n (or u x omega), theta = u re-orthogonalised against omega, phi =
+   theta x omega, which keeps the same pairing. Lengths: pos_len for both
+   positional vectors (0 for point lights), dir_len for both directional
+   ones (0 for directional lights); see pds__photon_diff_length. */
+static void pds__photon_diff_init(pds__ray_diff *r, pds__v3 x, pds__v3 omega, pds__v3 n, double pos_len,
+                                  double dir_len)
+{
+    pds__v3 u, v, th, ph, b2;
+    int has_normal = pds__length(n) > 0.0;
+    omega = pds__normalize(omega);
+    if (has_normal) {
+        n = pds__normalize(n);
+        if (pds__dot(n, omega) < 0.0) n = pds__scale(n, -1.0);
+        u = pds__cross(n, omega);
+    } else {
+        n = omega; /* the positional plane is then the one across the beam */
+        u = pds__v(0.0, 0.0, 0.0);
+    }
+    if (pds__length(u) >= 1e-6) {
+        u = pds__normalize(u);
+        v = pds__cross(u, n);
+        th = u;
+    } else {
+        pds__onb(n, &u, &b2);
+        v = pds__cross(u, n);
+        th = pds__normalize(pds__sub(u, pds__scale(omega, pds__dot(u, omega))));
+        if (!(pds__length(th) > 0.0)) pds__onb(omega, &th, &b2);
+    }
+    ph = pds__cross(th, omega);
+    r->p = x;
+    r->d = omega;
+    r->dpdu = pds__scale(u, pos_len);
+    r->dpdv = pds__scale(pds__normalize(v), pos_len);
+    r->dddu = pds__scale(th, dir_len);
+    r->dddv = pds__scale(pds__normalize(ph), dir_len);
+}
+
+/* Igehy's transfer of one differential to the plane with normal ng at
+   distance t along unit d: DP' = DP + t DD + Dt d with
+   Dt = -((DP + t DD).ng) / (d.ng), so that DP'.ng = 0. */
+static pds__v3 pds__diff_transfer_one(pds__v3 dp, pds__v3 dd, pds__v3 d, double t, pds__v3 ng, double dng)
+{
+    pds__v3 q = pds__add(dp, pds__scale(dd, t));
+    double dt = -pds__dot(q, ng) / dng;
+    return pds__add(q, pds__scale(d, dt));
+}
+
+/* Move the photon to its hit p + t d on the plane with normal ng (the
+   triangle's geometric normal, either orientation, need not be unit) and
+   transfer both positional differentials; directional ones are unchanged.
+   Returns 0 and leaves r untouched when d is parallel to the plane
+   (grazing: the caller drops the photon) or the result is not finite;
+   1 otherwise. */
+static int pds__diff_transfer(pds__ray_diff *r, double t, pds__v3 ng)
+{
+    double dng = pds__dot(r->d, ng);
+    pds__v3 p, du, dv;
+    if (dng == 0.0 || !isfinite(dng) || !isfinite(t)) return 0;
+    p = pds__add(r->p, pds__scale(r->d, t));
+    du = pds__diff_transfer_one(r->dpdu, r->dddu, r->d, t, ng, dng);
+    dv = pds__diff_transfer_one(r->dpdv, r->dddv, r->d, t, ng, dng);
+    if (!pds__diff_finite(p) || !pds__diff_finite(du) || !pds__diff_finite(dv)) return 0;
+    r->p = p;
+    r->dpdu = du;
+    r->dpdv = dv;
+    return 1;
+}
+
+/* Differential of the unit interpolated shading normal of triangle tri at
+   barycentrics (u, v) (P = (1-u-v) P0 + u P1 + v P2) for a positional
+   differential dp lying in the triangle's plane (a transferred DP').
+   Igehy's normal-interpolated triangle: with e1 = P1-P0, e2 = P2-P0,
+   g = e1 x e2, Lu = (e2 x g)/((e2 x g).e1), Lv = (e1 x g)/((e1 x g).e2)
+   the barycentric differentials are Du = Lu.dp, Dv = Lv.dp; the
+   unnormalised n = (1-u-v) N0 + u N1 + v N2 has Dn = Du (N1-N0) +
+   Dv (N2-N0), and the unit normal DN = ((n.n) Dn - (n.Dn) n)/(n.n)^(3/2).
+   Flat triangles (equal vertex normals) and degenerate data give 0. The
+   result is for the normal as stored (pds__scene_fill_hit's ns): negate it
+   wherever that normal is negated. */
+static void pds__mesh_normal_diff(const pds__mesh *m, long tri, double u, double v, pds__v3 dp, pds__v3 *dn)
+{
+    const int *ix = &m->idx[3 * tri];
+    pds__v3 p0 = pds__mesh_pos(m, ix[0]), p1 = pds__mesh_pos(m, ix[1]), p2 = pds__mesh_pos(m, ix[2]);
+    pds__v3 n0 = pds__mesh_nrm(m, ix[0]), n1 = pds__mesh_nrm(m, ix[1]), n2 = pds__mesh_nrm(m, ix[2]);
+    pds__v3 e1 = pds__sub(p1, p0), e2 = pds__sub(p2, p0), g = pds__cross(e1, e2);
+    pds__v3 a = pds__cross(e2, g), b = pds__cross(e1, g), n, dnu;
+    double ae = pds__dot(a, e1), be = pds__dot(b, e2), du, dv, nn, ndn, inv;
+    *dn = pds__v(0.0, 0.0, 0.0);
+    if (ae == 0.0 || be == 0.0) return;
+    du = pds__dot(a, dp) / ae;
+    dv = pds__dot(b, dp) / be;
+    n = pds__add(pds__add(pds__scale(n0, 1.0 - u - v), pds__scale(n1, u)), pds__scale(n2, v));
+    dnu = pds__add(pds__scale(pds__sub(n1, n0), du), pds__scale(pds__sub(n2, n0), dv));
+    nn = pds__dot(n, n);
+    if (!(nn > 0.0)) return; /* the hit then uses the geometric normal: constant */
+    ndn = pds__dot(n, dnu);
+    inv = 1.0 / (nn * sqrt(nn));
+    *dn = pds__scale(pds__sub(pds__scale(dnu, nn), pds__scale(n, ndn)), inv);
+    if (!pds__diff_finite(*dn)) *dn = pds__v(0.0, 0.0, 0.0);
+}
+
+/* Igehy's reflected directional differential for incident unit d, unit
+   normal n with differential dn, incident differential dd:
+   DR = DD - 2 [ (d.n) DN + D(d.n) n ],  D(d.n) = DD.n + d.DN. */
+static pds__v3 pds__diff_reflect_one(pds__v3 d, pds__v3 dd, pds__v3 n, pds__v3 dn)
+{
+    double dnn = pds__dot(d, n);
+    double ddn = pds__dot(dd, n) + pds__dot(d, dn);
+    return pds__sub(dd, pds__scale(pds__add(pds__scale(dn, dnn), pds__scale(n, ddn)), 2.0));
+}
+
+/* Mirror reflection of the photon: r->d (incident) becomes
+   R = d - 2 (d.n) n (pds__reflect, the eye paths' formula) and the
+   directional differentials become DR. n is the unit shading normal (either
+   orientation; the formula is even in (n, DN)), dndu and dndv its
+   differentials along the two axes. Positional differentials unchanged. */
+static void pds__diff_reflect(pds__ray_diff *r, pds__v3 n, pds__v3 dndu, pds__v3 dndv)
+{
+    pds__v3 du = pds__diff_reflect_one(r->d, r->dddu, n, dndu);
+    pds__v3 dv = pds__diff_reflect_one(r->d, r->dddv, n, dndv);
+    r->d = pds__reflect(r->d, n);
+    r->dddu = du;
+    r->dddv = dv;
+}
+
+/* Igehy's refracted directional differential: DT = eta DD - (mu DN + Dmu n),
+   Dmu = [eta - eta^2 (d.n)/(T.n)] D(d.n), D(d.n) = DD.n + d.DN. */
+static pds__v3 pds__diff_refract_one(pds__v3 d, pds__v3 dd, pds__v3 n, pds__v3 dn, double eta, double mu,
+                                     double dnn, double tn)
+{
+    double ddn = pds__dot(dd, n) + pds__dot(d, dn);
+    double dmu = (eta - eta * eta * dnn / tn) * ddn;
+    return pds__sub(pds__scale(dd, eta), pds__add(pds__scale(dn, mu), pds__scale(n, dmu)));
+}
+
+/* Refraction of the photon through the unit shading normal n, which must
+   face AGAINST r->d (d.n < 0): a caller whose normal faces the other way
+   (a photon leaving a dielectric) negates n AND dndu, dndv first.
+   eta = n_incident / n_transmitted. The direction is pds__refract's, bit
+   for bit, so photon and eye paths agree; the directional differentials
+   become Igehy's DT. Returns 0 and leaves r untouched on total internal
+   reflection, at exactly the critical angle (T.n = 0, where DT is
+   infinite) and when the result is not finite; 1 otherwise. */
+static int pds__diff_refract(pds__ray_diff *r, pds__v3 n, pds__v3 dndu, pds__v3 dndv, double eta)
+{
+    pds__v3 t, du, dv;
+    double dnn = pds__dot(r->d, n), rad, tn, mu;
+    if (!pds__refract(r->d, n, eta, &t)) return 0;
+    /* the same T.n and mu as pds__refract computed */
+    rad = 1.0 - eta * eta * (1.0 - dnn * dnn);
+    tn = -sqrt(rad);
+    mu = eta * dnn - tn;
+    if (!(tn < 0.0)) return 0;
+    du = pds__diff_refract_one(r->d, r->dddu, n, dndu, eta, mu, dnn, tn);
+    dv = pds__diff_refract_one(r->d, r->dddv, n, dndv, eta, mu, dnn, tn);
+    if (!pds__diff_finite(t) || !pds__diff_finite(du) || !pds__diff_finite(dv)) return 0;
+    r->d = t;
+    r->dddu = du;
+    r->dddv = dv;
+    return 1;
+}
+
+/* Photon footprint area, eq 4: pi/4 |Du x X Dv x| (the ellipse inscribed
+   in the parallelogram spanned by the positional differentials). */
+static double pds__footprint_area(pds__v3 dpdu, pds__v3 dpdv)
+{
+    return 0.25 * PDS__PI * pds__length(pds__cross(dpdu, dpdv));
+}
+
+/* Filter matrix, eq 12: the top two rows of the inverse of the change of
+   basis [Du x / 2, Dv x / 2, np] (columns), i.e.
+       M = 2 / (Du.(Dv x np)) [ (Dv x np)^T ; (np x Du)^T ].
+   M maps Du/2 to (1,0), Dv/2 to (0,1) and np to (0,0), so the footprint
+   ellipse becomes the unit circle. np: unit surface normal at the photon.
+   Returns 0 and leaves M untouched when the footprint has collapsed (the
+   denominator is 0 or not finite): the caller discards the photon. */
+static int pds__filter_matrix(pds__v3 dpdu, pds__v3 dpdv, pds__v3 np, double M[2][3])
+{
+    pds__v3 a = pds__cross(dpdv, np), b = pds__cross(np, dpdu);
+    double den = pds__dot(dpdu, a), s;
+    if (den == 0.0 || !isfinite(den)) return 0;
+    s = 2.0 / den;
+    if (!isfinite(s) || !pds__diff_finite(pds__scale(a, s)) || !pds__diff_finite(pds__scale(b, s))) return 0;
+    M[0][0] = s * a.x;
+    M[0][1] = s * a.y;
+    M[0][2] = s * a.z;
+    M[1][0] = s * b.x;
+    M[1][1] = s * b.y;
+    M[1][2] = s * b.z;
+    return 1;
+}
+
+/* The slow reference for eq 12: the general 3x3 inverse of
+   B = [Du/2, Dv/2, np] (columns) by cofactors, B^-1 = adj(B) / det(B),
+   keeping its top two rows. Same contract as pds__filter_matrix; used by
+   the tests and `pds bench filter` (the paper: 35.1 vs 2.59 M/s). */
+static int pds__filter_matrix_general(pds__v3 dpdu, pds__v3 dpdv, pds__v3 np, double M[2][3])
+{
+    double B[3][3], C[3][3], det, inv;
+    int i, j;
+    for (i = 0; i < 3; i++) {
+        B[i][0] = 0.5 * pds__v3_get(dpdu, i);
+        B[i][1] = 0.5 * pds__v3_get(dpdv, i);
+        B[i][2] = pds__v3_get(np, i);
+    }
+    /* C[i][j] = cofactor of B[i][j] = (-1)^(i+j) minor(i, j) */
+    for (i = 0; i < 3; i++) {
+        for (j = 0; j < 3; j++) {
+            int r0 = (i + 1) % 3, r1 = (i + 2) % 3, c0 = (j + 1) % 3, c1 = (j + 2) % 3;
+            /* cyclic index order builds the sign in */
+            C[i][j] = B[r0][c0] * B[r1][c1] - B[r0][c1] * B[r1][c0];
+        }
+    }
+    det = B[0][0] * C[0][0] + B[0][1] * C[0][1] + B[0][2] * C[0][2];
+    if (det == 0.0 || !isfinite(det)) return 0;
+    inv = 1.0 / det;
+    if (!isfinite(inv)) return 0;
+    /* (B^-1)[i][j] = C[j][i] / det */
+    for (i = 0; i < 2; i++)
+        for (j = 0; j < 3; j++)
+            if (!isfinite(C[j][i] * inv)) return 0;
+    for (i = 0; i < 2; i++)
+        for (j = 0; j < 3; j++) M[i][j] = C[j][i] * inv;
+    return 1;
+}
+
+/* Silverman's second-order kernel, eq 11, as a function of r^2 >= 0:
+   3/pi (1 - r^2)^2 inside the unit disc, 0 outside (and for NaN). Its
+   integral over the unit disc is 1. */
+static double pds__kernel_silverman(double r2)
+{
+    double w;
+    if (!(r2 < 1.0)) return 0.0;
+    w = 1.0 - r2;
+    return (3.0 / PDS__PI) * w * w;
+}
+
+/* True major semi-axis A of the footprint ellipse with conjugate
+   semi-diameters a = Du/2, b = Dv/2 (the ellipse c + a cos s + b sin s):
+   A^2 = (|a|^2+|b|^2)/2 + sqrt(((|a|^2-|b|^2)/2)^2 + (a.b)^2), the larger
+   eigenvalue of a a^T + b b^T. max(|a|,|b|) <= A <= sqrt(|a|^2+|b|^2); the
+   paper's r_max = max(|a|,|b|) under-covers skewed footprints. */
+static double pds__footprint_major_axis(pds__v3 dpdu, pds__v3 dpdv)
+{
+    pds__v3 a = pds__scale(dpdu, 0.5), b = pds__scale(dpdv, 0.5);
+    double aa = pds__dot(a, a), bb = pds__dot(b, b), ab = pds__dot(a, b);
+    double h = 0.5 * (aa - bb);
+    return sqrt(0.5 * (aa + bb) + sqrt(h * h + ab * ab));
+}
+
+/* Anisotropy metric m_a of appendix B: with Dmax / Dmin the longer /
+   shorter positional vector, the part of Dmin perpendicular to Dmax over
+   |Dmax|. In [0,1]; 1 = isotropic (equal orthogonal vectors), < 0.1
+   "highly anisotropic"; 0 for a degenerate footprint. */
+static double pds__footprint_anisotropy(pds__v3 dpdu, pds__v3 dpdv)
+{
+    pds__v3 mx = dpdu, mn = dpdv, perp;
+    double l2, m;
+    if (pds__dot(dpdv, dpdv) > pds__dot(dpdu, dpdu)) {
+        mx = dpdv;
+        mn = dpdu;
+    }
+    l2 = pds__dot(mx, mx);
+    if (!(l2 > 0.0) || !isfinite(l2)) return 0.0;
+    perp = pds__sub(mn, pds__scale(mx, pds__dot(mx, mn) / l2));
+    m = pds__length(perp) / sqrt(l2);
+    if (!isfinite(m)) return 0.0;
+    return m > 1.0 ? 1.0 : m;
 }
 
 /* ===================================================================== */
@@ -6389,6 +7236,36 @@ static void pds__material_preview_colour(const pds_material *m, double rgb[3])
 
 #define PDS__DIMS_PER_BOUNCE 8
 
+/* An eye-path vertex: where a camera path first meets a non-specular
+   surface, after any number of specular bounces. The photon methods add
+   their caustic light at these points (PDS paper section 3.3: position,
+   ray direction, BRDF, importance, pixel). 76 bytes:
+     pos, ns, ng, wo   position, shading and geometric normal, direction
+                       back along the eye path (unit), as floats
+     importance        path throughput from the camera to here (Fresnel,
+                       mirror and Beer factors) divided by the pixel's
+                       samples, so a pixel's value is the sum over its
+                       vertices of importance x reflected radiance
+     material, pixel   indices */
+typedef struct pds__eye_vertex {
+    float pos[3], ns[3], ng[3], wo[3];
+    float importance[3];
+    int material;
+    int pixel;
+} pds__eye_vertex;
+
+static void pds__f3_set(float f[3], pds__v3 v)
+{
+    f[0] = (float)v.x;
+    f[1] = (float)v.y;
+    f[2] = (float)v.z;
+}
+
+static pds__v3 pds__f3_get(const float f[3])
+{
+    return pds__v(f[0], f[1], f[2]);
+}
+
 typedef struct pds__tracer {
     const pds_scene *scene;
     pds_paths paths;
@@ -6468,9 +7345,14 @@ static void pds__direct_light(const pds__tracer *tr, const pds_material *m, pds_
     pds__accumulate(tr, 0, w, mis, acc);
 }
 
-/* One camera sample: radiance along the ray (org, dir), split by class. */
-static void pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double acc[3])
+/* One camera sample: radiance along the ray (org, dir), split by class.
+   If rec is not NULL, the path's first non-specular vertex is written to it
+   (importance not yet divided by the samples per pixel) and 1 returned;
+   otherwise, or if the path has no such vertex, 0. */
+static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double acc[3],
+                           pds__eye_vertex *rec)
 {
+    int recorded = 0;
     const pds_scene *s = tr->scene;
     double beta[3] = {1.0, 1.0, 1.0};
     const double *sigma = NULL;   /* Beer coefficients of the medium the ray is in */
@@ -6515,20 +7397,29 @@ static void pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uin
             }
             for (c = 0; c < 3; c++) le[c] *= beta[c];
             pds__accumulate(tr, caustic, le, mis, acc);
-            return;
+            return recorded;
         }
-        if (!found) return; /* black background */
+        if (!found) return recorded; /* black background */
         pds__scene_fill_hit(s, &th, org, dir, &hit);
         pds__beer(sigma, th.t, beta);
         m = &s->materials.items[hit.material];
         if (!pds__material_is_specular(m)) {
+            if (rec && !had_diffuse) {
+                pds__f3_set(rec->pos, hit.position);
+                pds__f3_set(rec->ns, hit.ns);
+                pds__f3_set(rec->ng, hit.ng);
+                pds__f3_set(rec->wo, pds__scale(dir, -1.0));
+                for (c = 0; c < 3; c++) rec->importance[c] = (float)beta[c];
+                rec->material = hit.material;
+                recorded = 1;
+            }
             pds__direct_light(tr, m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, beta, idx, dim, acc);
             had_diffuse = 1;
             specular_since = 0;
         }
-        if (depth == tr->max_depth) return;
+        if (depth == tr->max_depth) return recorded;
         for (c = 0; c < 3; c++) u[c] = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 3 + (uint64_t)c);
-        if (!pds__bsdf_sample(m, pds__scale(dir, -1.0), hit.ns, hit.ng, u, PDS__RADIANCE, &bs)) return;
+        if (!pds__bsdf_sample(m, pds__scale(dir, -1.0), hit.ns, hit.ng, u, PDS__RADIANCE, &bs)) return recorded;
         for (c = 0; c < 3; c++) beta[c] *= bs.weight[c];
         if (bs.delta) {
             specular_since++;
@@ -6541,12 +7432,13 @@ static void pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uin
         if (depth + 1 >= tr->rr_depth) {
             double b = beta[0] > beta[1] ? (beta[0] > beta[2] ? beta[0] : beta[2]) : (beta[1] > beta[2] ? beta[1] : beta[2]);
             q = b < 1.0 ? b : 1.0;
-            if (!(q > 0.0) || pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 6) >= q) return;
+            if (!(q > 0.0) || pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 6) >= q) return recorded;
             for (c = 0; c < 3; c++) beta[c] /= q;
         }
         org = pds__offset(tr, hit.position, hit.ng, bs.wi);
         dir = bs.wi;
     }
+    return recorded;
 }
 
 /* --- the render scheduler ----------------------------------------------- */
@@ -6572,9 +7464,16 @@ typedef struct pds__render_job {
     pds_progress_fn progress;
     void *progress_user;
     double t0, progress_scale, progress_base;
+    /* Eye-path vertices, when a photon method asked for them: one growable
+       array per image row, filled by the thread that renders the row, so
+       the concatenation in row order is the same for any thread count. */
+    int record_eye;
+    pds__eye_vertex **row_vertices;
+    size_t *row_count, *row_cap;
+    int out_of_memory;     /* guarded by lock */
 } pds__render_job;
 
-static void pds__render_pixel(const pds__render_job *job, int x, int y, double *out)
+static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
 {
     uint64_t pixel = (uint64_t)y * (uint64_t)job->frame.width + (uint64_t)x;
     int k, c;
@@ -6587,8 +7486,20 @@ static void pds__render_pixel(const pds__render_job *job, int x, int y, double *
         double oy = job->filter == PDS_FILTER_TENT ? 0.5 + pds__tent_sample(u2) : u2;
         pds__v3 dir = pds__camera_dir(&job->frame, x + ox, y + oy);
         double acc[3] = {0.0, 0.0, 0.0};
-        if (job->method == PDS_METHOD_PT) {
-            pds__trace_path(&job->tracer, job->frame.origin, dir, idx, acc);
+        if (job->method != PDS_METHOD_PREVIEW) {
+            pds__eye_vertex v;
+            if (pds__trace_path(&job->tracer, job->frame.origin, dir, idx, acc, job->record_eye ? &v : NULL)) {
+                pds__eye_vertex **arr = &job->row_vertices[y];
+                if (pds__grow((void **)arr, &job->row_cap[y], job->row_count[y] + 1, sizeof **arr) == 0) {
+                    for (c = 0; c < 3; c++) v.importance[c] /= (float)job->spp;
+                    v.pixel = (int)pixel;
+                    (*arr)[job->row_count[y]++] = v;
+                } else {
+                    pthread_mutex_lock(&job->lock);
+                    job->out_of_memory = 1;
+                    pthread_mutex_unlock(&job->lock);
+                }
+            }
         } else {
             pds__tri_hit th;
             if (pds__bvh_intersect(&job->scene->bvh, job->frame.origin, dir, 0.0, DBL_MAX, &th)) {
@@ -6642,6 +7553,536 @@ static int pds__run_threads(int n, void *(*fn)(void *), void *arg)
     return started + 1;
 }
 
+
+/* ===================================================================== */
+/* >>pds                                                                 */
+/* ===================================================================== */
+/* Photon differential splatting (Frisvad, Schjoth, Erleben, Sporring,
+   "Photon Differential Splatting for Rendering Caustics", CGF 2014).
+
+   1. The eye pass (>>render) traces every pixel sample through specular
+      surfaces and records its first non-specular vertex; the vertices go
+      into a kd-tree, the eye-path map. The same pass computes every light
+      path except the caustic ones (L S+ D ...).
+   2. Caustic photons leave the lights aimed at the bounding sphere of the
+      specular triangles, each carrying a photon differential (eqs. 2-6),
+      and are traced through specular surfaces, the differential transferred
+      (eqs. 7-9) and reflected or refracted with it (Igehy 1999).
+   3. At the first non-specular surface after at least one specular bounce,
+      the photon is splatted: its footprint (eq. 4) gives the irradiance
+      Ep = flux / Ap, the filter matrix Mp (eq. 12) maps the footprint
+      ellipse to the unit disc, and every eye vertex inside the ellipse
+      (found by a range query of radius = the ellipse's true major
+      semi-axis) gets pi K(|Mp (x - xp)|) fr Ep (eqs. 10, 11) times its
+      importance, added to its pixel.
+
+   No photon is stored: memory holds the eye-path map and one image per
+   thread, whatever the photon count.
+
+   Determinism: photon i is a pure function of (seed, i); photons go to
+   threads in fixed batches, and each thread adds its splats into its own
+   image in 64-bit fixed point (2^-32 resolution), whose sums do not depend
+   on order, so the image is bit for bit the same for any thread count.
+
+   Aiming: a photon whose first hit is not specular would be dropped, so
+   photons are only sent where specular geometry is: towards the bounding
+   sphere of the specular triangles, and the flux is weighted by the solid
+   angle (or beam area) actually sampled. For eqs. 5-6 the emitting extent
+   is the one sampled: the cone's solid angle for point, spot and area
+   lights, the sphere's cross-section for directional lights. */
+
+#define PDS__PHOTON_BATCH 1024
+#define PDS__FIXED_SCALE 4294967296.0 /* 2^32 */
+
+/* Bounding sphere of the specular triangles (the photons' target). */
+typedef struct pds__target {
+    int any;
+    pds__v3 centre;
+    double radius;
+} pds__target;
+
+static pds__target pds__specular_target(const pds_scene *s)
+{
+    pds__target tg;
+    pds__v3 lo = pds__v(0, 0, 0), hi = pds__v(0, 0, 0);
+    size_t t;
+    int k;
+    memset(&tg, 0, sizeof tg);
+    for (t = 0; t < s->mesh.ntris; t++) {
+        if (!pds__material_is_specular(&s->materials.items[s->mesh.mat[t]])) continue;
+        for (k = 0; k < 3; k++) {
+            pds__v3 p = pds__mesh_pos(&s->mesh, s->mesh.idx[3 * t + k]);
+            lo = tg.any ? pds__vmin(lo, p) : p;
+            hi = tg.any ? pds__vmax(hi, p) : p;
+            tg.any = 1;
+        }
+    }
+    if (tg.any) {
+        tg.centre = pds__scale(pds__add(lo, hi), 0.5);
+        tg.radius = 0.5 * pds__length(pds__sub(hi, lo)) * 1.0001 + 1e-9;
+    }
+    return tg;
+}
+
+/* Uniform direction in the cone of half-angle acos(cos_max) about axis. */
+static pds__v3 pds__cone_sample(pds__v3 axis, double cos_max, double u1, double u2)
+{
+    pds__v3 b1, b2;
+    double ct = 1.0 - u1 * (1.0 - cos_max), st = sqrt(fmax(0.0, 1.0 - ct * ct)), phi = 2.0 * PDS__PI * u2;
+    pds__onb(axis, &b1, &b2);
+    return pds__normalize(pds__add(pds__scale(axis, ct),
+                                   pds__add(pds__scale(b1, st * cos(phi)), pds__scale(b2, st * sin(phi)))));
+}
+
+/* The cone from x that holds the target sphere: axis and cos of the
+   half-angle; 0 if x is inside the sphere (no aiming possible). */
+static int pds__target_cone(const pds__target *tg, pds__v3 x, pds__v3 *axis, double *cos_max)
+{
+    pds__v3 d = pds__sub(tg->centre, x);
+    double dist2 = pds__dot(d, d), r2 = tg->radius * tg->radius;
+    if (dist2 <= r2 * 1.0001) return 0;
+    *axis = pds__scale(d, 1.0 / sqrt(dist2));
+    *cos_max = sqrt(1.0 - r2 / dist2);
+    return 1;
+}
+
+/* A caustic photon as it leaves a light. */
+typedef struct pds__photon_start {
+    pds__v3 pos, dir, normal;  /* normal: emitter's, zero for point and spot lights */
+    double flux[3];            /* as if it were the light's only photon (W) */
+    double area, solid_angle;  /* emitting extent sampled (eqs. 5-6) */
+} pds__photon_start;
+
+/* Emit one photon from light k aimed at the specular target; u holds five
+   uniforms. Returns 0 when the photon carries nothing (it still counts as
+   emitted). */
+static int pds__emit_caustic_photon(const pds_scene *s, const pds__target *tg, int k, const double u[5],
+                                    pds__photon_start *ph)
+{
+    const pds_light *l = &s->lights[k];
+    pds__light_emit e;
+    pds__v3 axis;
+    double cos_max, omega;
+    int c;
+    memset(ph, 0, sizeof *ph);
+    if (l->type == PDS_LIGHT_DIRECTIONAL) {
+        /* A disk across the beam, the target's shadow, sampled uniformly;
+           traced back to the emitter, which must be there. */
+        pds__v3 d = pds__normalize(l->direction), b1, b2;
+        double r, t, disk_area = PDS__PI * tg->radius * tg->radius;
+        if (l->area <= disk_area) {
+            /* emitter smaller than the target's shadow: emit from all of it */
+            if (!pds__light_emit_sample(&s->light_table, l, k, &s->mesh, u, &e)) return 0;
+            ph->pos = e.pos;
+            ph->dir = e.dir;
+            memcpy(ph->flux, e.flux, sizeof ph->flux);
+            ph->area = l->area;
+        } else {
+            pds__v3 q;
+            pds__onb(d, &b1, &b2);
+            r = tg->radius * sqrt(u[0]);
+            q = pds__add(tg->centre, pds__add(pds__scale(b1, r * cos(2.0 * PDS__PI * u[1])),
+                                              pds__scale(b2, r * sin(2.0 * PDS__PI * u[1]))));
+            if (!pds__light_beam_hit(l, q, &t)) return 0;
+            ph->pos = pds__sub(q, pds__scale(d, t));
+            ph->dir = d;
+            for (c = 0; c < 3; c++) ph->flux[c] = l->irradiance[c] * disk_area;
+            ph->area = disk_area;
+        }
+        ph->normal = d;
+        ph->solid_angle = 0.0;
+        return ph->flux[0] + ph->flux[1] + ph->flux[2] > 0.0;
+    }
+    if (l->type == PDS_LIGHT_POINT || l->type == PDS_LIGHT_SPOT) {
+        if (!pds__target_cone(tg, l->position, &axis, &cos_max)) {
+            if (!pds__light_emit_sample(&s->light_table, l, k, &s->mesh, u, &e)) return 0;
+            ph->pos = e.pos;
+            ph->dir = e.dir;
+            memcpy(ph->flux, e.flux, sizeof ph->flux);
+            pds__light_emission_extent(l, &ph->area, &ph->solid_angle);
+            return 1;
+        }
+        omega = 2.0 * PDS__PI * (1.0 - cos_max);
+        ph->pos = l->position;
+        ph->dir = pds__cone_sample(axis, cos_max, u[0], u[1]);
+        ph->solid_angle = omega;
+        for (c = 0; c < 3; c++) {
+            double intensity = l->power[c] / (4.0 * PDS__PI);
+            if (l->type == PDS_LIGHT_SPOT) {
+                double ci, co;
+                pds__light_spot_cones(l, &ci, &co);
+                intensity = pds__light_spot_i0(l, c, ci, co) *
+                            pds__light_spot_falloff(pds__dot(ph->dir, pds__normalize(l->direction)), ci, co);
+            }
+            ph->flux[c] = intensity * omega; /* I / pdf, pdf = 1 / omega */
+        }
+        return ph->flux[0] + ph->flux[1] + ph->flux[2] > 0.0;
+    }
+    /* Area and mesh lights: a uniform point, then a direction in the cone
+       towards the target; Le cos / (pdf_pos pdf_dir). */
+    if (!pds__light_emit_sample(&s->light_table, l, k, &s->mesh, u, &e)) return 0;
+    ph->pos = e.pos;
+    ph->normal = e.normal;
+    ph->area = pds__light_geom_area(l);
+    if (l->type == PDS_LIGHT_MESH) ph->area = l->area;
+    if (!pds__target_cone(tg, e.pos, &axis, &cos_max)) {
+        ph->dir = e.dir;
+        memcpy(ph->flux, e.flux, sizeof ph->flux);
+        ph->solid_angle = 2.0 * PDS__PI;
+        return 1;
+    }
+    omega = 2.0 * PDS__PI * (1.0 - cos_max);
+    ph->dir = pds__cone_sample(axis, cos_max, u[2], u[3]);
+    ph->solid_angle = omega;
+    {
+        double cosl = pds__dot(ph->dir, e.normal);
+        if (!(cosl > 0.0)) return 0;
+        for (c = 0; c < 3; c++) ph->flux[c] = l->radiance[c] * cosl * omega / e.pdf_pos;
+    }
+    return 1;
+}
+
+/* --- the eye-path map ---------------------------------------------------- */
+
+typedef struct pds__eye_map {
+    pds__eye_vertex *v;
+    size_t n;
+    pds__kdtree tree;
+} pds__eye_map;
+
+/* --- splatting ------------------------------------------------------------ */
+
+/* One thread's share of the photon pass. */
+typedef struct pds__splat_buf {
+    long long *fixed;      /* 3 per pixel: radiance x 2^32 */
+    double *aniso;         /* footprint debug: 2 per pixel (sum w m_a, sum w); NULL if off */
+    long splatted, degenerate, saturated;
+} pds__splat_buf;
+
+typedef struct pds__photon_job {
+    const pds_scene *scene;
+    const pds__eye_map *map;
+    pds__target target;
+    uint64_t seed;
+    double smoothing, plane_tolerance, eps;
+    int max_depth;
+    double n_planned;          /* photon count for eqs. 5-6 */
+    long n_total;              /* photons to emit (upper bound in time mode) */
+    double deadline;           /* pds_time_now() limit, 0 = none */
+    pthread_mutex_t lock;
+    long next_batch, batches_done;   /* guarded by lock */
+    int stop;                        /* guarded by lock */
+    pds__splat_buf *bufs;
+    int nbufs, next_buf;             /* guarded by lock */
+    pthread_t caller;
+    pds_progress_fn progress;
+    void *progress_user;
+    double t0;
+} pds__photon_job;
+
+/* What a splat needs while it walks the eye vertices in range. */
+typedef struct pds__splat_ctx {
+    const pds__photon_job *job;
+    pds__splat_buf *buf;
+    pds__v3 xp, np, wi;        /* photon position, surface normal (facing the
+                                  photon's arrival side), direction back to
+                                  where it came from */
+    double M[2][3];            /* eq. 12 */
+    double ep[3];              /* Ep = flux / Ap, W / m^2 */
+    double plane_max;          /* topological-bias guard distance */
+    double aniso;              /* m_a of this footprint (debug image) */
+} pds__splat_ctx;
+
+static void pds__fixed_add(pds__splat_buf *b, size_t i, double v)
+{
+    double f = v * PDS__FIXED_SCALE;
+    if (!(f >= 0.0)) return; /* NaN or negative: nothing physical */
+    if (f > 9.0e18) {
+        b->saturated++;
+        f = 9.0e18;
+    }
+    b->fixed[i] += (long long)(f + 0.5);
+}
+
+/* eq. 10 for one eye vertex: pi K(|Mp (x - xp)|) fr(x, wi, wo) Ep. */
+static void pds__splat_visit(void *vctx, size_t index, double dist2)
+{
+    pds__splat_ctx *sc = (pds__splat_ctx *)vctx;
+    const pds__eye_vertex *v = &sc->job->map->v[index];
+    const pds_scene *s = sc->job->scene;
+    pds__v3 x = pds__f3_get(v->pos), d = pds__sub(x, sc->xp), ns = pds__f3_get(v->ns), ng = pds__f3_get(v->ng);
+    double y0, y1, r2, k, f[3], pdf;
+    int c;
+    (void)dist2;
+    /* topological bias: far from the photon's tangent plane, or a surface
+       facing the other way (the back of a thin wall) */
+    if (fabs(pds__dot(sc->np, d)) > sc->plane_max) return;
+    if (pds__dot(ng, sc->np) <= 0.0) return;
+    y0 = sc->M[0][0] * d.x + sc->M[0][1] * d.y + sc->M[0][2] * d.z;
+    y1 = sc->M[1][0] * d.x + sc->M[1][1] * d.y + sc->M[1][2] * d.z;
+    r2 = y0 * y0 + y1 * y1;
+    if (r2 >= 1.0) return;
+    k = pds__kernel_silverman(r2);
+    pds__bsdf_eval(&s->materials.items[v->material], pds__f3_get(v->wo), sc->wi, ns, ng, f, &pdf);
+    for (c = 0; c < 3; c++) {
+        double val = PDS__PI * k * f[c] * sc->ep[c] * v->importance[c];
+        if (val > 0.0) pds__fixed_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
+    }
+    if (sc->buf->aniso) {
+        sc->buf->aniso[2 * (size_t)v->pixel] += k * sc->aniso;
+        sc->buf->aniso[2 * (size_t)v->pixel + 1] += k;
+    }
+}
+
+/* Splat the photon r (already transferred to its hit on a non-specular
+   surface with geometric normal ng) carrying flux. */
+static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
+                       const double flux[3])
+{
+    pds__splat_ctx sc;
+    double ap = pds__footprint_area(r->dpdu, r->dpdv), major;
+    int c;
+    sc.np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
+    if (!(ap > 0.0) || !isfinite(ap) || !pds__filter_matrix(r->dpdu, r->dpdv, sc.np, sc.M)) {
+        buf->degenerate++;
+        return;
+    }
+    major = pds__footprint_major_axis(r->dpdu, r->dpdv);
+    if (!(major > 0.0) || !isfinite(major)) {
+        buf->degenerate++;
+        return;
+    }
+    sc.job = job;
+    sc.buf = buf;
+    sc.xp = r->p;
+    sc.wi = pds__scale(r->d, -1.0);
+    for (c = 0; c < 3; c++) sc.ep[c] = flux[c] / ap;
+    sc.plane_max = job->plane_tolerance * major;
+    sc.aniso = buf->aniso ? pds__footprint_anisotropy(r->dpdu, r->dpdv) : 0.0;
+    buf->splatted++;
+    pds__kdtree_range(&job->map->tree, r->p, major, pds__splat_visit, &sc);
+}
+
+/* Trace photon number i: emission, specular bounces with the differential,
+   splat at the first non-specular surface after >= 1 specular bounce. */
+static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, long i)
+{
+    const pds_scene *s = job->scene;
+    double u[5], pmf, flux[3], pos_len, dir_len, n_light;
+    const double *sigma = NULL;
+    pds__photon_start ph;
+    pds__ray_diff r;
+    int k, c, depth;
+    /* emission from a low-discrepancy sequence (>>rng): photon i's place in
+       the light's area and directions is spread evenly with the others' */
+    for (c = 0; c < 5; c++) u[c] = pds__halton(job->seed, (uint64_t)i, c);
+    k = pds__lights_pick(&s->light_table, pds__halton(job->seed, (uint64_t)i, 5), &pmf);
+    if (k < 0 || !(pmf > 0.0)) return;
+    if (!pds__emit_caustic_photon(s, &job->target, k, u, &ph)) return;
+    n_light = job->n_planned * pmf;
+    for (c = 0; c < 3; c++) flux[c] = ph.flux[c] / (job->n_planned * pmf);
+    pos_len = pds__photon_diff_length(job->smoothing, ph.area, n_light);
+    dir_len = pds__photon_diff_length(job->smoothing, ph.solid_angle, n_light);
+    pds__photon_diff_init(&r, ph.pos, ph.dir, ph.normal, pos_len, dir_len);
+    for (depth = 0; depth <= job->max_depth; depth++) {
+        pds__tri_hit th;
+        pds_hit hit;
+        const pds_material *m;
+        pds__bsdf_result bs;
+        pds__v3 n, ngw, dndu, dndv;
+        double uu[3];
+        int side;
+        if (!pds__bvh_intersect(&s->bvh, r.p, r.d, 0.0, DBL_MAX, &th)) return;
+        pds__scene_fill_hit(s, &th, r.p, r.d, &hit);
+        if (!pds__diff_transfer(&r, th.t, hit.ng)) return;
+        r.p = hit.position;
+        pds__beer(sigma, th.t, flux);
+        m = &s->materials.items[hit.material];
+        if (!pds__material_is_specular(m)) {
+            if (depth > 0 && m->type != PDS_MAT_EMISSIVE) pds__splat(job, buf, &r, hit.ng, flux);
+            return;
+        }
+        if (depth == job->max_depth) return;
+        for (c = 0; c < 3; c++)
+            uu[c] = pds__rng_uniform(job->seed, PDS__RNG_PHOTON, (uint64_t)i, 8 + 4 * (uint64_t)depth + (uint64_t)c);
+        if (!pds__bsdf_sample(m, pds__scale(r.d, -1.0), hit.ns, hit.ng, uu, PDS__IMPORTANCE, &bs)) return;
+        if (!pds__bsdf_frame(pds__scale(r.d, -1.0), hit.ns, hit.ng, &n, &ngw, &side)) return;
+        /* the normal's differentials, oriented like the normal the BSDF
+           used; where it fell back to the geometric normal, that one is
+           flat (no differential) */
+        {
+            pds__v3 nsu = pds__normalize(hit.ns);
+            double agree = pds__dot(n, nsu);
+            pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdu, &dndu);
+            pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdv, &dndv);
+            if (agree < -0.999999) {
+                dndu = pds__scale(dndu, -1.0);
+                dndv = pds__scale(dndv, -1.0);
+            } else if (agree <= 0.999999) {
+                dndu = dndv = pds__v(0.0, 0.0, 0.0);
+            }
+        }
+        if (bs.transmitted) {
+            double eta_i = side > 0 ? m->outside_ior : m->ior, eta_t = side > 0 ? m->ior : m->outside_ior;
+            if (!pds__diff_refract(&r, n, dndu, dndv, eta_i / eta_t)) return;
+        } else {
+            pds__diff_reflect(&r, n, dndu, dndv);
+        }
+        for (c = 0; c < 3; c++) flux[c] *= bs.weight[c];
+        if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        r.p = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, r.d) >= 0.0 ? job->eps : -job->eps));
+    }
+}
+
+static void *pds__photon_worker(void *arg)
+{
+    pds__photon_job *job = (pds__photon_job *)arg;
+    int is_caller = pthread_equal(pthread_self(), job->caller);
+    pds__splat_buf *buf;
+    pthread_mutex_lock(&job->lock);
+    buf = &job->bufs[job->next_buf++];
+    pthread_mutex_unlock(&job->lock);
+    for (;;) {
+        long b, i, first, last, done;
+        pthread_mutex_lock(&job->lock);
+        if (job->deadline > 0.0 && pds_time_now() >= job->deadline) job->stop = 1;
+        b = job->stop ? -1 : job->next_batch++;
+        if (b >= 0 && b * (long)PDS__PHOTON_BATCH >= job->n_total) b = -1;
+        pthread_mutex_unlock(&job->lock);
+        if (b < 0) break;
+        first = b * (long)PDS__PHOTON_BATCH;
+        last = first + PDS__PHOTON_BATCH < job->n_total ? first + PDS__PHOTON_BATCH : job->n_total;
+        for (i = first; i < last; i++) pds__trace_photon(job, buf, i);
+        pthread_mutex_lock(&job->lock);
+        done = ++job->batches_done;
+        pthread_mutex_unlock(&job->lock);
+        if (is_caller && job->progress) {
+            double frac = job->deadline > 0.0 ? (pds_time_now() - job->t0) / (job->deadline - job->t0)
+                                              : (double)done * PDS__PHOTON_BATCH / (double)job->n_total;
+            job->progress(job->progress_user, frac > 1.0 ? 1.0 : frac, pds_time_now() - job->t0);
+        }
+    }
+    return NULL;
+}
+
+/* The photon pass of PDS after the eye pass: builds the eye-path map from
+   the vertices, splats the photons, and adds the caustic image (divided by
+   nothing: importance already carries 1/spp) into rgb. footprint, if not
+   NULL, receives the anisotropy image. */
+static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, pds__eye_vertex *vertices,
+                                   size_t nvertices, int width, int height, int threads, double *rgb,
+                                   pds_image *footprint, pds_render_stats *stats, pds_error *err)
+{
+    pds__eye_map map;
+    pds__photon_job job;
+    size_t npix = (size_t)width * (size_t)height, i;
+    long emitted;
+    int t;
+    pds_status st;
+    double t0 = pds_time_now();
+    memset(&map, 0, sizeof map);
+    memset(&job, 0, sizeof job);
+    map.v = vertices;
+    map.n = nvertices;
+    st = pds__kdtree_build(&map.tree, nvertices ? &vertices[0].pos[0] : NULL, sizeof *vertices / sizeof(float),
+                           nvertices, err);
+    if (st) return st;
+    job.scene = s;
+    job.map = &map;
+    job.target = pds__specular_target(s);
+    job.seed = opt->seed;
+    job.smoothing = opt->smoothing;
+    job.plane_tolerance = opt->plane_tolerance;
+    job.eps = 1e-6 * pds__scene_scale(s);
+    job.max_depth = opt->photon_depth;
+    job.n_total = opt->photons;
+    job.n_planned = (double)opt->photons;
+    job.caller = pthread_self();
+    job.progress = opt->progress;
+    job.progress_user = opt->progress_user;
+    job.t0 = t0;
+    job.nbufs = threads;
+    job.bufs = (pds__splat_buf *)calloc((size_t)threads, sizeof *job.bufs);
+    if (!job.bufs) {
+        pds__kdtree_free(&map.tree);
+        return pds__nomem(err);
+    }
+    for (t = 0; t < threads; t++) {
+        job.bufs[t].fixed = (long long *)calloc(npix * 3, sizeof(long long));
+        if (footprint) job.bufs[t].aniso = (double *)calloc(npix * 2, sizeof(double));
+        if (!job.bufs[t].fixed || (footprint && !job.bufs[t].aniso)) st = PDS_ERR_NOMEM;
+    }
+    if (!st && opt->time_s > 0.0) {
+        /* The photon count enters eqs. 5-6, so it must be fixed before the
+           first photon: time a calibration run of two batches (thrown
+           away), then plan for the rate it shows over the remaining time. */
+        double rate, tc = pds_time_now(), remaining;
+        pthread_mutex_init(&job.lock, NULL);
+        job.n_total = 2 * PDS__PHOTON_BATCH;
+        job.next_buf = 0;
+        pds__run_threads(1, pds__photon_worker, &job);
+        pthread_mutex_destroy(&job.lock);
+        rate = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6) * threads;
+        for (t = 0; t < threads; t++) {
+            memset(job.bufs[t].fixed, 0, npix * 3 * sizeof(long long));
+            if (job.bufs[t].aniso) memset(job.bufs[t].aniso, 0, npix * 2 * sizeof(double));
+            job.bufs[t].splatted = job.bufs[t].degenerate = job.bufs[t].saturated = 0;
+        }
+        remaining = opt->time_s - (pds_time_now() - t0);
+        job.n_planned = fmax(rate * fmax(remaining, 0.0), (double)PDS__PHOTON_BATCH);
+        job.n_total = LONG_MAX - PDS__PHOTON_BATCH;
+        job.deadline = t0 + opt->time_s;
+        job.next_batch = job.batches_done = 0;
+        job.stop = 0;
+    }
+    if (!st) {
+        pthread_mutex_init(&job.lock, NULL);
+        job.next_buf = 0;
+        threads = pds__run_threads(threads, pds__photon_worker, &job);
+        pthread_mutex_destroy(&job.lock);
+        emitted = job.batches_done * (long)PDS__PHOTON_BATCH;
+        if (emitted > job.n_total) emitted = job.n_total;
+        /* Fixed-point sums are exact and order-free; the photons were
+           weighted for n_planned, the count actually emitted corrects it. */
+        for (i = 0; i < npix * 3; i++) {
+            long long sum = 0;
+            for (t = 0; t < job.nbufs; t++) sum += job.bufs[t].fixed[i];
+            if (emitted > 0) rgb[i] += (double)sum / PDS__FIXED_SCALE * (job.n_planned / (double)emitted);
+        }
+        if (footprint && pds_image_alloc(footprint, width, height) == PDS_OK) {
+            for (i = 0; i < npix; i++) {
+                double wm = 0.0, w = 0.0;
+                for (t = 0; t < job.nbufs; t++) {
+                    wm += job.bufs[t].aniso[2 * i];
+                    w += job.bufs[t].aniso[2 * i + 1];
+                }
+                if (w > 0.0) {
+                    footprint->rgb[3 * i] = (float)(1.0 - wm / w);
+                    footprint->rgb[3 * i + 1] = (float)(wm / w);
+                }
+            }
+        }
+        if (stats) {
+            stats->photons = emitted;
+            stats->eye_vertices = (long)nvertices;
+            for (t = 0; t < job.nbufs; t++) {
+                stats->splatted += job.bufs[t].splatted;
+                stats->dropped_degenerate += job.bufs[t].degenerate;
+            }
+            stats->time_photons_s = pds_time_now() - t0;
+            stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) +
+                                   (size_t)job.nbufs * npix * (3 * sizeof(long long) + (footprint ? 2 * sizeof(double) : 0));
+        }
+    }
+    for (t = 0; t < job.nbufs; t++) {
+        free(job.bufs[t].fixed);
+        free(job.bufs[t].aniso);
+    }
+    free(job.bufs);
+    pds__kdtree_free(&map.tree);
+    return st ? pds__nomem(err) : PDS_OK;
+}
+
 /* ===================================================================== */
 /* >>api                                                                 */
 /* ===================================================================== */
@@ -6661,6 +8102,11 @@ void pds_options_default(pds_options *opt)
     opt->time_s = 0.0;
     opt->progress = NULL;
     opt->progress_user = NULL;
+    opt->photons = 100000;
+    opt->smoothing = 12.0;
+    opt->plane_tolerance = 0.25;
+    opt->photon_depth = 16;
+    opt->footprint = NULL;
 }
 
 const char *pds_method_name(pds_method method)
@@ -6668,6 +8114,7 @@ const char *pds_method_name(pds_method method)
     switch (method) {
     case PDS_METHOD_PT: return "pt";
     case PDS_METHOD_PREVIEW: return "preview";
+    case PDS_METHOD_PDS: return "pds";
     }
     return "unknown";
 }
@@ -6685,34 +8132,55 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
     if (opt->rr_depth < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "Russian roulette depth must be at least 1");
     if (!(opt->time_s >= 0.0) || opt->time_s > 1e7)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "time budget must be between 0 and 1e7 seconds");
-    if (opt->method != PDS_METHOD_PT && opt->method != PDS_METHOD_PREVIEW)
+    if (opt->photons < 0)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photon count must not be negative, got %ld", opt->photons);
+    if (!(opt->smoothing > 0.0) || opt->smoothing > 1e6)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "smoothing must be positive");
+    if (!(opt->plane_tolerance > 0.0) || opt->plane_tolerance > 1e6)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "plane tolerance must be positive");
+    if (opt->photon_depth < 1 || opt->photon_depth > 1000)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photon depth %d is outside 1..1000", opt->photon_depth);
+    if (opt->method != PDS_METHOD_PT && opt->method != PDS_METHOD_PREVIEW && opt->method != PDS_METHOD_PDS)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown rendering method %d", (int)opt->method);
     if ((unsigned)opt->paths > (unsigned)PDS_PATHS_CAUSTICS_ONLY)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown light path selection %d", (int)opt->paths);
     return PDS_OK;
 }
 
-/* Largest extent of the scene's bounds (at least 1), for ray offsets. */
-static double pds__scene_scale(const pds_scene *s)
+/* Join the per-row eye vertices in row order (then free the rows). */
+static pds__eye_vertex *pds__join_rows(pds__render_job *job, size_t *count)
 {
-    pds__v3 e = pds__sub(s->bounds_max, s->bounds_min);
-    double m = fabs(s->bounds_max.x) + fabs(s->bounds_max.y) + fabs(s->bounds_max.z) + e.x + e.y + e.z;
-    return m > 1.0 ? m : 1.0;
+    size_t total = 0, at = 0;
+    int y;
+    pds__eye_vertex *all;
+    for (y = 0; y < job->frame.height; y++) total += job->row_count[y];
+    all = (pds__eye_vertex *)malloc(sizeof *all * (total ? total : 1));
+    for (y = 0; all && y < job->frame.height; y++) {
+        if (job->row_count[y]) memcpy(all + at, job->row_vertices[y], sizeof *all * job->row_count[y]);
+        at += job->row_count[y];
+    }
+    for (y = 0; y < job->frame.height; y++) free(job->row_vertices[y]);
+    *count = total;
+    return all;
 }
 
 pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image *out,
                       pds_render_stats *stats, pds_error *err)
 {
     pds__render_job job;
+    pds_render_stats local;
     const pds_camera *cam;
-    int w, h, threads, max_passes;
+    int w, h, threads, max_passes, photons = 0;
     size_t i, npix;
-    pds_status st;
+    pds_status st = PDS_OK;
+    double *rgb;
     if (!scene || !opt || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render: NULL argument");
     cam = &scene->camera;
     w = opt->width > 0 ? opt->width : cam->width;
     h = opt->height > 0 ? opt->height : cam->height;
     if ((st = pds__options_check(opt, w, h, err))) return st;
+    if (!stats) stats = &local;
+    memset(stats, 0, sizeof *stats);
     memset(&job, 0, sizeof job);
     job.t0 = pds_time_now();
     job.scene = scene;
@@ -6729,15 +8197,32 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     job.tracer.eps = 1e-6 * pds__scene_scale(scene);
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
+    if (opt->method == PDS_METHOD_PDS) {
+        /* The eye pass computes everything but the caustics and records the
+           eye-path vertices; the photon pass adds the caustics. */
+        photons = opt->paths != PDS_PATHS_NO_CAUSTICS;
+        job.tracer.paths = PDS_PATHS_NO_CAUSTICS;
+        job.record_eye = photons;
+    }
     /* Sample indices must not overlap between pixels: reserve room for the
-       most passes a time budget could ever take. */
-    max_passes = opt->time_s > 0.0 ? PDS_MAX_SPP / job.spp : 1;
+       most passes a time budget could ever take (the photon methods spend
+       their time budget on photons, after one eye pass). */
+    max_passes = opt->time_s > 0.0 && opt->method != PDS_METHOD_PDS ? PDS_MAX_SPP / job.spp : 1;
     if (max_passes < 1) max_passes = 1;
     job.total_spp_max = job.spp * max_passes;
     npix = (size_t)w * (size_t)h;
     job.sum = (double *)calloc(npix * 3, sizeof(double));
-    if (!job.sum || pds_image_alloc(out, w, h) != PDS_OK) {
+    if (job.record_eye) {
+        job.row_vertices = (pds__eye_vertex **)calloc((size_t)h, sizeof *job.row_vertices);
+        job.row_count = (size_t *)calloc((size_t)h, sizeof *job.row_count);
+        job.row_cap = (size_t *)calloc((size_t)h, sizeof *job.row_cap);
+    }
+    if (!job.sum || (job.record_eye && (!job.row_vertices || !job.row_count || !job.row_cap)) ||
+        pds_image_alloc(out, w, h) != PDS_OK) {
         free(job.sum);
+        free(job.row_vertices);
+        free(job.row_count);
+        free(job.row_cap);
         return pds__nomem(err);
     }
     pthread_mutex_init(&job.lock, NULL);
@@ -6748,34 +8233,58 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
         double elapsed;
         job.next_row = 0;
         job.rows_done = 0;
-        if (opt->time_s > 0.0) {
+        if (max_passes > 1) {
             /* progress in time: this pass covers the time fraction so far */
             elapsed = pds_time_now() - job.t0;
             job.progress_base = elapsed / opt->time_s < 1.0 ? elapsed / opt->time_s : 1.0;
             job.progress_scale = 0.0;
         } else {
             job.progress_base = 0.0;
-            job.progress_scale = 1.0;
+            job.progress_scale = photons ? 0.0 : 1.0;
         }
         threads = pds__run_threads(threads, pds__render_worker, &job);
         elapsed = pds_time_now() - job.t0;
-        if (opt->time_s <= 0.0 || elapsed >= opt->time_s) {
+        if (max_passes == 1 || elapsed >= opt->time_s) {
             job.pass++;
             break;
         }
     }
     pthread_mutex_destroy(&job.lock);
-    for (i = 0; i < npix * 3; i++) out->rgb[i] = (float)(job.sum[i] / ((double)job.spp * job.pass));
+    stats->time_eye_s = pds_time_now() - job.t0;
+    stats->memory_bytes = npix * 3 * sizeof(double);
+    /* the average of the passes, in place */
+    rgb = job.sum;
+    for (i = 0; i < npix * 3; i++) rgb[i] /= (double)job.spp * job.pass;
+    if (opt->method == PDS_METHOD_PDS && opt->paths == PDS_PATHS_CAUSTICS_ONLY)
+        memset(rgb, 0, npix * 3 * sizeof *rgb);
+    if (job.record_eye) {
+        size_t nv = 0;
+        pds__eye_vertex *verts = job.out_of_memory ? NULL : pds__join_rows(&job, &nv);
+        if (job.out_of_memory) {
+            int y;
+            for (y = 0; y < h; y++) free(job.row_vertices[y]);
+        }
+        if (!verts) st = pds__nomem(err);
+        else st = pds__photon_pass(scene, opt, verts, nv, w, h, threads, rgb, opt->footprint, stats, err);
+        free(verts);
+        free(job.row_vertices);
+        free(job.row_count);
+        free(job.row_cap);
+    }
+    if (st) {
+        free(job.sum);
+        pds_image_free(out);
+        return st;
+    }
+    for (i = 0; i < npix * 3; i++) out->rgb[i] = (float)rgb[i];
     free(job.sum);
     if (job.progress) job.progress(job.progress_user, 1.0, pds_time_now() - job.t0);
-    if (stats) {
-        stats->time_total_s = pds_time_now() - job.t0;
-        stats->threads = threads;
-        stats->width = w;
-        stats->height = h;
-        stats->spp = job.spp * job.pass;
-        stats->passes = job.pass;
-    }
+    stats->time_total_s = pds_time_now() - job.t0;
+    stats->threads = threads;
+    stats->width = w;
+    stats->height = h;
+    stats->spp = job.spp * job.pass;
+    stats->passes = job.pass;
     return PDS_OK;
 }
 
@@ -6861,5 +8370,126 @@ pds_status pds_bench_rays(const char *path, long rays, pds_bench_rays_result *ou
     free(org);
     free(dir);
     pds_scene_free(s);
+    return PDS_OK;
+}
+
+pds_status pds_bench_filter(long filters, pds_bench_filter_result *out, pds_error *err)
+{
+    pds__v3 *fp;
+    long i;
+    int rep;
+    double t0, sink = 0.0, best[2] = {DBL_MAX, DBL_MAX};
+    if (!out || filters < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_bench_filter: bad argument");
+    memset(out, 0, sizeof *out);
+    fp = (pds__v3 *)malloc(sizeof *fp * 3 * (size_t)filters);
+    if (!fp) return pds__nomem(err);
+    for (i = 0; i < filters; i++) {
+        /* random footprint: two vectors in the plane of a random normal */
+        double u[6];
+        pds__v3 n, b1, b2;
+        int k;
+        for (k = 0; k < 6; k++) u[k] = pds__rng_uniform(0, PDS__RNG_BENCH, (uint64_t)i, (uint64_t)k);
+        n = pds__normalize(pds__v(u[0] - 0.5, u[1] - 0.5, u[2] - 0.5 + 1e-3));
+        pds__onb(n, &b1, &b2);
+        fp[3 * i] = pds__add(pds__scale(b1, 0.1 + u[3]), pds__scale(b2, u[4] - 0.5));
+        fp[3 * i + 1] = pds__add(pds__scale(b1, u[5] - 0.5), pds__scale(b2, 0.1 + u[3] * u[4]));
+        fp[3 * i + 2] = n;
+    }
+    for (rep = 0; rep < 4; rep++) {
+        int method;
+        for (method = 0; method < 2; method++) {
+            double d;
+            t0 = pds_time_now();
+            for (i = 0; i < filters; i++) {
+                double M[2][3] = {{0, 0, 0}, {0, 0, 0}};
+                if (method == 0) pds__filter_matrix(fp[3 * i], fp[3 * i + 1], fp[3 * i + 2], M);
+                else pds__filter_matrix_general(fp[3 * i], fp[3 * i + 1], fp[3 * i + 2], M);
+                sink += M[0][0] + M[1][2];
+            }
+            d = pds_time_now() - t0;
+            if (rep > 0 && d < best[method]) best[method] = d;
+        }
+    }
+    for (i = 0; i < filters; i++) {
+        double A[2][3], B[2][3];
+        int r, k;
+        if (!pds__filter_matrix(fp[3 * i], fp[3 * i + 1], fp[3 * i + 2], A) ||
+            !pds__filter_matrix_general(fp[3 * i], fp[3 * i + 1], fp[3 * i + 2], B))
+            continue;
+        for (r = 0; r < 2; r++)
+            for (k = 0; k < 3; k++) {
+                double rel = fabs(A[r][k] - B[r][k]) / (fabs(B[r][k]) + 1e-12);
+                if (rel > out->max_rel_diff) out->max_rel_diff = rel;
+            }
+    }
+    free(fp);
+    out->filters = filters;
+    out->eq12_mps = (double)filters / fmax(best[0], 1e-9) * 1e-6;
+    out->general_mps = (double)filters / fmax(best[1], 1e-9) * 1e-6;
+    /* the sink keeps the timed loops from being optimised away */
+    if (sink == 12345.678) out->max_rel_diff += 0.0;
+    return PDS_OK;
+}
+
+/* Range-query visitor of the benchmark: counts. */
+static void pds__bench_count(void *ctx, size_t index, double dist2)
+{
+    (void)index;
+    (void)dist2;
+    (*(long *)ctx)++;
+}
+
+pds_status pds_bench_kdtree(long points, pds_bench_kdtree_result *out, pds_error *err)
+{
+    pds__kdtree kd;
+    float *pos;
+    size_t *idx;
+    double *d2, t0, r;
+    long i, queries = 200000, found = 0;
+    pds_status st;
+    if (!out || points < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_bench_kdtree: bad argument");
+    memset(out, 0, sizeof *out);
+    pos = (float *)malloc(sizeof *pos * 3 * (size_t)points);
+    idx = (size_t *)malloc(sizeof *idx * 32);
+    d2 = (double *)malloc(sizeof *d2 * 32);
+    if (!pos || !idx || !d2) {
+        free(pos);
+        free(idx);
+        free(d2);
+        return pds__nomem(err);
+    }
+    for (i = 0; i < 3 * points; i++) pos[i] = (float)pds__rng_uniform(1, PDS__RNG_BENCH, (uint64_t)i, 0);
+    t0 = pds_time_now();
+    st = pds__kdtree_build(&kd, pos, 3, (size_t)points, err);
+    out->build_s = pds_time_now() - t0;
+    if (st) {
+        free(pos);
+        free(idx);
+        free(d2);
+        return st;
+    }
+    /* radius holding about 32 points of the unit cube: 4/3 pi r^3 n = 32 */
+    r = cbrt(32.0 * 3.0 / (4.0 * PDS__PI * (double)points));
+    t0 = pds_time_now();
+    for (i = 0; i < queries; i++) {
+        pds__v3 c = pds__v(pds__rng_uniform(2, PDS__RNG_BENCH, (uint64_t)i, 0), pds__rng_uniform(2, PDS__RNG_BENCH, (uint64_t)i, 1),
+                           pds__rng_uniform(2, PDS__RNG_BENCH, (uint64_t)i, 2));
+        pds__kdtree_range(&kd, c, r, pds__bench_count, &found);
+    }
+    out->range_mqps = (double)queries / fmax(pds_time_now() - t0, 1e-9) * 1e-6;
+    out->found_per_query = (double)found / (double)queries;
+    t0 = pds_time_now();
+    for (i = 0; i < queries; i++) {
+        pds__v3 c = pds__v(pds__rng_uniform(2, PDS__RNG_BENCH, (uint64_t)i, 0), pds__rng_uniform(2, PDS__RNG_BENCH, (uint64_t)i, 1),
+                           pds__rng_uniform(2, PDS__RNG_BENCH, (uint64_t)i, 2));
+        pds__kdtree_knn(&kd, c, 32, DBL_MAX, idx, d2);
+    }
+    out->knn_mqps = (double)queries / fmax(pds_time_now() - t0, 1e-9) * 1e-6;
+    out->points = points;
+    out->queries = queries;
+    pds__kdtree_free(&kd);
+    free(pos);
+    free(idx);
+    free(d2);
     return PDS_OK;
 }

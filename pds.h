@@ -269,7 +269,8 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
 
 typedef enum pds_method {
     PDS_METHOD_PT = 0,     /* unidirectional path tracing, the unbiased reference */
-    PDS_METHOD_PREVIEW     /* eye-light shading: geometry and materials at a glance */
+    PDS_METHOD_PREVIEW,    /* eye-light shading: geometry and materials at a glance */
+    PDS_METHOD_PDS         /* photon differential splatting (Frisvad et al. 2014) */
 } pds_method;
 
 /* Which light paths a render computes. Caustic paths are L S+ D ...: light
@@ -300,6 +301,21 @@ typedef struct pds_options {
                            pass (default 0) */
     pds_progress_fn progress; /* default NULL */
     void *progress_user;      /* default NULL */
+    /* photon methods */
+    long photons;       /* caustic photons to emit (default 100000); with
+                           time_s > 0, the photon pass emits batches until the
+                           time is spent instead */
+    double smoothing;   /* PDS smoothing parameter s of eqs. 5-6 (default 12;
+                           the paper used 5 to 40) */
+    double plane_tolerance; /* PDS topological-bias guard: eye vertices farther
+                           than this times the footprint's major semi-axis from
+                           the photon's tangent plane get nothing (default 0.25) */
+    int photon_depth;   /* most specular bounces a photon follows (default 16) */
+    pds_image *footprint; /* if not NULL, PDS writes here an image of photon
+                           footprint anisotropy (paper appendix B): red where
+                           footprints are needle-like (m_a -> 0), green where
+                           round (m_a -> 1), weighted by the splats' kernels;
+                           black where no photon landed (default NULL) */
 } pds_options;
 
 void pds_options_default(pds_options *opt);
@@ -311,6 +327,16 @@ typedef struct pds_render_stats {
     int width, height;
     int spp;            /* samples per pixel actually taken (passes x spp) */
     int passes;
+    /* photon methods */
+    long photons;           /* photons emitted (including those that missed) */
+    long splatted;          /* photons that reached a non-specular surface
+                               after >= 1 specular bounce and were splatted */
+    long dropped_degenerate;/* photons whose footprint had collapsed */
+    long eye_vertices;      /* vertices in the eye-path map */
+    double time_eye_s, time_photons_s;
+    size_t memory_bytes;    /* largest working memory the render held at once
+                               (image sums, eye-path map, per-thread images);
+                               does not grow with the photon count */
 } pds_render_stats;
 
 /* Render the scene into *out (allocated here; the caller frees it). */
@@ -331,6 +357,28 @@ typedef struct pds_bench_rays_result {
 /* Ray throughput of a scene's BVH (see README: `pds bench rays`). */
 pds_status pds_bench_rays(const char *obj_or_scene_path, long rays,
                           pds_bench_rays_result *out, pds_error *err);
+
+typedef struct pds_bench_filter_result {
+    long filters;          /* footprints per method */
+    double eq12_mps;       /* million filter matrices per second, eq. 12 */
+    double general_mps;    /* the same from the full 3x3 inverse */
+    double max_rel_diff;   /* largest relative difference between the two */
+} pds_bench_filter_result;
+
+/* PDS paper section 4.2: the 2x3 filter matrix of eq. 12 against the top
+   rows of a general 3x3 inverse, on random footprints, one thread. */
+pds_status pds_bench_filter(long filters, pds_bench_filter_result *out, pds_error *err);
+
+typedef struct pds_bench_kdtree_result {
+    long points, queries;
+    double build_s;
+    double range_mqps;     /* million range queries per second (about 32 found each) */
+    double knn_mqps;       /* million 32-nearest-neighbour queries per second */
+    double found_per_query;
+} pds_bench_kdtree_result;
+
+/* The eye-path map's kd-tree on uniform random points, one thread. */
+pds_status pds_bench_kdtree(long points, pds_bench_kdtree_result *out, pds_error *err);
 
 /* Seconds from a monotonic clock (for callers that time their own work). */
 double pds_time_now(void);

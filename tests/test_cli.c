@@ -63,7 +63,7 @@ static void test_cli_render_writes_the_image_and_a_final_line(pds_test_ctx *t)
     char out[8192], path[256], args[512];
     const char *last;
     snprintf(path, sizeof path, "/tmp/pds_cli_%ld.png", (long)getpid());
-    snprintf(args, sizeof args, "render scenes/demo.scene --res 64x48 --spp 1 --threads 2 -o %s", path);
+    snprintf(args, sizeof args, "render scenes/demo.scene --method pt --res 64x48 --spp 1 --threads 2 -o %s", path);
     CHECK(t, cli_run(args, out, sizeof out) == 0, "render failed: %s", out);
     last = cli_last_line(out);
     {
@@ -99,9 +99,38 @@ static void test_cli_info_describes_the_scene(pds_test_ctx *t)
     CHECK(t, strncmp(last, "info triangles=", 15) == 0 && strstr(last, " lights=1 mesh_lights=1 "), "final line: %s", last);
 }
 
+
+static void test_cli_pds_reports_photons_and_writes_the_footprint_image(pds_test_ctx *t)
+{
+    char out[8192], path[256], fp[256], args[600];
+    const char *last;
+    snprintf(path, sizeof path, "/tmp/pds_cli_pds_%ld.png", (long)getpid());
+    snprintf(fp, sizeof fp, "/tmp/pds_cli_pds_%ld.footprint.png", (long)getpid());
+    snprintf(args, sizeof args, "render scenes/refraction.scene --res 32x32 --spp 1 --photons 5000 --debug footprint -o %s",
+             path);
+    CHECK(t, cli_run(args, out, sizeof out) == 0, "render failed: %s", out);
+    last = cli_last_line(out);
+    {
+        static const char prefix[] = "render method=pds paths=all width=32 height=32 spp=1 photons=5000 splatted=";
+        CHECK(t, strncmp(last, prefix, strlen(prefix)) == 0, "final line: %s", last);
+    }
+    CHECK(t, strstr(last, " dropped_degenerate=") && strstr(last, " eye_vertices=1024 ") && strstr(last, " time_eye=") &&
+                 strstr(last, " time_photons="), "final line: %s", last);
+    CHECK(t, cli_file_exists(path) && cli_file_exists(fp), "image and footprint image written");
+    remove(path);
+    remove(fp);
+    /* a time budget: photons are counted, not given */
+    snprintf(args, sizeof args, "render scenes/refraction.scene --res 16x16 --spp 1 --time 0.5 -o %s", path);
+    CHECK(t, cli_run(args, out, sizeof out) == 0, "timed render failed: %s", out);
+    last = cli_last_line(out);
+    CHECK(t, strstr(last, " photons=") && !strstr(last, " photons=100000 "), "final line: %s", last);
+    remove(path);
+}
+
 static const pds_test_case tests_cli[] = {
     {"cli_exit_codes_follow_the_contract", test_cli_exit_codes_follow_the_contract},
     {"cli_render_writes_the_image_and_a_final_line", test_cli_render_writes_the_image_and_a_final_line},
     {"cli_bad_scene_reports_location_and_writes_nothing", test_cli_bad_scene_reports_location_and_writes_nothing},
     {"cli_info_describes_the_scene", test_cli_info_describes_the_scene},
+    {"cli_pds_reports_photons_and_writes_the_footprint_image", test_cli_pds_reports_photons_and_writes_the_footprint_image},
 };

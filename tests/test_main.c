@@ -13,6 +13,9 @@
 #include "test_lights.c"
 #include "test_render.c"
 #include "test_golden.c"
+#include "test_kdtree.c"
+#include "test_differentials.c"
+#include "test_pds.c"
 
 int main(int argc, char **argv)
 {
@@ -26,6 +29,9 @@ int main(int argc, char **argv)
         PDS_SUITE(tests_lights),
         PDS_SUITE(tests_render),
         PDS_SUITE(tests_golden),
+        PDS_SUITE(tests_kdtree),
+        PDS_SUITE(tests_differentials),
+        PDS_SUITE(tests_pds),
     };
     return pds_test_run(suites, sizeof suites / sizeof suites[0], argc, argv);
 }
