@@ -4,34 +4,66 @@
 
    Exit status: 0 success, 1 failure (bad input, I/O), 2 usage error.
    Every command ends with one machine-readable line of key=value pairs on
-   stdout; errors go to stderr as FILE:LINE:COLUMN: message. */
-#define _POSIX_C_SOURCE 200809L /* isatty, fileno */
+   stdout; errors go to stderr as FILE:LINE:COLUMN: message.
+
+   The options of render, sweep and race come from one table
+   (option_table): option name -> setter, with the methods whose image the
+   option changes and the commands that take it. sweep and race (the
+   comparison harness) keep every image in memory and create their output
+   folder only after all renders have succeeded; each file in it is written
+   under a temporary name and renamed into place, so a failure never leaves
+   a half-written file. */
+#define _POSIX_C_SOURCE 200809L /* isatty, fileno, mkdir, access, strdup */
 #include "pds.h"
 
 #include <errno.h>
 #include <limits.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/types.h>
 #include <unistd.h>
 
 #define EXIT_USAGE 2
 
-static const char usage_text[] =
+#if defined(__GNUC__)
+#define PRINTF_LIKE(f, a) __attribute__((format(printf, f, a)))
+#else
+#define PRINTF_LIKE(f, a)
+#endif
+
+/* --help, in three parts (C99 guarantees string literals of 4095 bytes only) */
+static const char *const usage_text[] = {
     "usage: pds COMMAND [ARGS]\n"
     "\n"
     "commands:\n"
     "  render SCENE [options]      render a scene file (or a bare .obj) to an image\n"
     "      -o, --output FILE       output image, .png (tone-mapped sRGB) or .pfm (linear)\n"
     "                              (default: the scene's name with .png, in the current folder)\n"
-    "      --method NAME           pds (photon differential splatting, default), pt (path tracing)\n"
-    "                              or preview (eye-light shading)\n"
-    "      --photons N             pds: caustic photons to emit (default 100000)\n"
-    "      --smoothing S           pds: smoothing parameter s of the footprints (default 12; 5..40 typical)\n"
-    "      --plane-tolerance F     pds: ignore eye vertices farther than F x the footprint's major\n"
-    "                              semi-axis from the photon's tangent plane (default 0.25)\n"
+    "      --method NAME           pds (photon differential splatting, default), pt (path tracing),\n"
+    "                              preview (eye-light shading), or a baseline: pm (photon mapping),\n"
+    "                              pdm (photon differential mapping), splat (fixed-radius photon\n"
+    "                              splatting), ppm (progressive photon mapping)\n"
+    "      --photons N             photon methods: caustic photons (default 100000; ppm: per pass)\n"
+    "      --smoothing S           pds, pdm: the footprints' smoothing parameter s (default 12; 5..40)\n"
+    "      --plane-tolerance F     pds, pdm, splat: ignore eye vertices farther than F x the footprint's\n"
+    "                              major semi-axis from the photon's tangent plane (default 0.25)\n"
     "      --debug footprint       pds: also write OUT.footprint.png, footprint anisotropy (red = needle)\n"
+    "      --k N                   pm: photons per density estimate (default 50)\n"
+    "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
+    "      --max-radius R          pm: largest gather radius in scene units (default: no limit)\n"
+    "      --max-photons N         pdm: most photons gathered per estimate (default 500)\n"
+    "      --radius R              splat: splat radius; ppm: initial radius (default: from the scene)\n"
+    "      --alpha A               ppm: radius reduction, 0 < A <= 1 (default 0.7)\n"
+    "      --passes N              ppm: photon passes (default 10; with --time, until the time is spent)\n"
+    "                              memory: pm and pdm store every photon, so their memory grows with\n"
+    "                              --photons (the final line reports map_bytes); ppm keeps one pass's\n"
+    "                              photons, pds and splat none\n"
     "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
     "      --res WxH               resolution (default: the scene camera's)\n"
     "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
@@ -39,11 +71,29 @@ static const char usage_text[] =
     "      --max-depth N           longest eye path in bounces (default 32) and, if given, longest\n"
     "                              photon path in specular bounces (default 16)\n"
     "      --time SECONDS          pt: passes of --spp samples until the time is spent;\n"
-    "                              pds: one eye pass, then photon batches until the time is spent\n"
+    "                              photon methods: one eye pass, then photons until the time is spent\n"
     "      --no-caustics           leave out caustic paths L S+ D... (what the photon methods add)\n"
     "      --caustics-only         only caustic paths (pt: the reference for photon methods)\n"
     "      --exposure STOPS        PNG exposure in stops (default 0)\n"
-    "      --progress / --quiet    force the progress bar on stderr on / off (default: on if a terminal)\n"
+    "      --progress / --quiet    force the progress bar on stderr on / off (default: on if a terminal)\n",
+    "  sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]\n"
+    "                              render once per value of one parameter and compare each with REF\n"
+    "      --method NAME           the method swept (default pds)\n"
+    "      --param NAME            smoothing, k, radius, alpha, photons, spp, max-photons or passes\n"
+    "      --values A,B,...        the values, comma-separated\n"
+    "      --ref REF.pfm           the reference (linear PFM, the renders' resolution)\n"
+    "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
+    "                              (RMSE and SSIM against the parameter), one PNG per value\n"
+    "      and any render option, e.g. --photons N, --res WxH, --caustics-only\n"
+    "  race SCENE --ref REF.pfm (--time T | --photons N) --methods LIST [options]\n"
+    "                              every method on the same budget, side by side against REF\n"
+    "      --methods LIST          e.g. pds,pm:k=50,pdm,splat:radius=0.05,ppm; options for one\n"
+    "                              method follow it as :NAME=VALUE (k, kernel, radius, spp, ...)\n"
+    "      --time T, --photons N   the budget of every method (ppm: N photons over all its passes)\n"
+    "      --roi X,Y,W,H           region to crop (default: the 64x64 window of REF with the\n"
+    "                              largest luminance variance)\n"
+    "      -o DIR                  output folder (default race-SCENE): index.html, race.csv, images\n"
+    "      and any render option; it applies to every method it concerns\n",
     "  compare A.pfm REF.pfm       RMSE and SSIM of A against the reference REF\n"
     "  info FILE                   what a scene or OBJ file holds\n"
     "  bench rays MESH [N]         BVH build and ray throughput, one thread (N rays, default 1000000)\n"
@@ -53,14 +103,37 @@ static const char usage_text[] =
     "  bench filter                eq. 12 filter matrices per second against a general 3x3 inverse\n"
     "  bench kdtree                eye-path map build, range and nearest-neighbour queries per second\n"
     "  --help                      this text\n"
-    "  --version                   the version\n";
+    "  --version                   the version\n",
+};
 
-static int usage_error(const char *fmt, const char *arg)
+static void print_usage(FILE *f)
 {
+    size_t i;
+    for (i = 0; i < sizeof usage_text / sizeof usage_text[0]; i++) fputs(usage_text[i], f);
+}
+
+static int usage_error(const char *fmt, ...) PRINTF_LIKE(1, 2);
+static int usage_error(const char *fmt, ...)
+{
+    va_list ap;
     fprintf(stderr, "pds: ");
-    fprintf(stderr, fmt, arg);
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
     fprintf(stderr, "\n(run 'pds --help' for usage)\n");
     return EXIT_USAGE;
+}
+
+/* A failure that is not a usage error ("FILE: what is wrong"): status 1. */
+static int fail(const char *fmt, ...) PRINTF_LIKE(1, 2);
+static int fail(const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+    return 1;
 }
 
 static int has_ext(const char *path, const char *ext)
@@ -75,7 +148,7 @@ static int has_ext(const char *path, const char *ext)
     return 1;
 }
 
-/* Parse a whole non-negative integer in [lo, hi]; -1 on error. */
+/* Parse a whole number in [lo, hi]; -1 on error. */
 static int parse_int(const char *s, long lo, long hi, long *out)
 {
     char *end;
@@ -101,8 +174,9 @@ static pds_status load_any(const char *path, pds_scene **scene, pds_error *err)
     return has_ext(path, ".obj") ? pds_scene_load_obj(path, scene, err) : pds_scene_load(path, scene, err);
 }
 
-/* The scene's file name without folder and extension, + ".png". */
-static void default_output(const char *scene, char *out, size_t n)
+/* The scene's file name without folder and extension ("scenes/ring.scene"
+   -> "ring"), cut to fit n bytes. */
+static void scene_stem(const char *scene, char *out, size_t n)
 {
     const char *base = strrchr(scene, '/');
     const char *dot;
@@ -110,9 +184,16 @@ static void default_output(const char *scene, char *out, size_t n)
     base = base ? base + 1 : scene;
     dot = strrchr(base, '.');
     len = dot && dot != base ? (size_t)(dot - base) : strlen(base);
-    if (len > n - 5) len = n - 5;
+    if (len > n - 1) len = n - 1;
     memcpy(out, base, len);
-    strcpy(out + len, ".png");
+    out[len] = '\0';
+}
+
+/* The scene's file name without folder and extension, + ".png". */
+static void default_output(const char *scene, char *out, size_t n)
+{
+    scene_stem(scene, out, n - 4);
+    strcat(out, ".png");
 }
 
 /* Progress bar on stderr: [#####.....]  42%  elapsed 3.1 s  ETA 4.2 s */
@@ -129,125 +210,478 @@ static void show_progress(void *user, double fraction, double elapsed)
     fflush(stderr);
 }
 
+/* ------------------------------------------------------------------ methods */
+
+typedef struct method_info {
+    const char *name; /* as pds_method_name() returns it */
+    pds_method method;
+} method_info;
+
+static const method_info method_table[] = {
+    {"pds", PDS_METHOD_PDS}, {"pt", PDS_METHOD_PT},   {"preview", PDS_METHOD_PREVIEW}, {"pm", PDS_METHOD_PM},
+    {"pdm", PDS_METHOD_PDM}, {"splat", PDS_METHOD_SPLAT}, {"ppm", PDS_METHOD_PPM},
+};
+#define N_METHODS (sizeof method_table / sizeof method_table[0])
+
+#define MBIT(m) (1u << (unsigned)(m))
+#define M_PHOTON                                                                                                     \
+    (MBIT(PDS_METHOD_PDS) | MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_SPLAT) |                    \
+     MBIT(PDS_METHOD_PPM))
+#define M_ALL (M_PHOTON | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW))
+/* methods that keep a photon map, whose size stats.map_bytes reports */
+#define M_MAP (MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_PPM))
+
+static const char *method_name(pds_method m)
+{
+    size_t i;
+    for (i = 0; i < N_METHODS; i++)
+        if (method_table[i].method == m) return method_table[i].name;
+    return "?";
+}
+
+static int method_lookup(const char *name, pds_method *out)
+{
+    size_t i;
+    for (i = 0; i < N_METHODS; i++)
+        if (!strcmp(method_table[i].name, name)) {
+            *out = method_table[i].method;
+            return 0;
+        }
+    return -1;
+}
+
+static int is_photon_method(pds_method m)
+{
+    return (MBIT(m) & M_PHOTON) != 0;
+}
+
+/* The names of the methods in mask, in table order: "pm", "splat and ppm";
+   with and_word NULL, all joined by ", ". */
+static void method_join(unsigned mask, const char *and_word, char *out, size_t n)
+{
+    size_t i, count = 0, done = 0;
+    out[0] = '\0';
+    for (i = 0; i < N_METHODS; i++)
+        if (mask & MBIT(method_table[i].method)) count++;
+    for (i = 0; i < N_METHODS; i++) {
+        size_t len = strlen(out);
+        if (!(mask & MBIT(method_table[i].method))) continue;
+        done++;
+        snprintf(out + len, n - len, "%s%s", done == 1 ? "" : (done == count && and_word) ? and_word : ", ",
+                 method_table[i].name);
+    }
+}
+
+static int unknown_method(const char *name)
+{
+    char list[128];
+    method_join(M_ALL, NULL, list, sizeof list);
+    return usage_error("unknown method '%s' (this version has: %s)", name, list);
+}
+
+static const char *const kernel_names[] = {"cone", "gaussian", "none"}; /* by pds_kernel */
+
+static const char *kernel_name(pds_kernel k)
+{
+    return (unsigned)k < 3 ? kernel_names[k] : "?";
+}
+
+/* ------------------------------------------------------------------ options */
+
+/* Everything the options of render, sweep and race set. */
+typedef struct run_cfg {
+    pds_options opt;
+    double exposure;     /* PNG exposure in stops */
+    const char *output;  /* render: the image file, NULL for the default */
+    int progress;        /* 1 on, 0 off, -1 when stderr is a terminal */
+    int debug_footprint; /* render --debug footprint */
+    unsigned long given; /* bit i: option_table[i] was on the command line */
+} run_cfg;
+
+typedef struct opt_spec opt_spec;
+/* Set the option from its value v (NULL for flags); shown is the name the
+   user wrote ("--k", "-o", "pm:k"), for messages. 0, or EXIT_USAGE after
+   printing why. */
+typedef int (*opt_setter)(const opt_spec *s, run_cfg *c, const char *shown, const char *v);
+
+enum {
+    F_VALUE = 1,      /* takes a value */
+    F_PER_METHOD = 2, /* race: may be set for one method, pm:k=50 */
+    F_SWEEP = 4,      /* sweep: may be the --param swept */
+    F_LO_OPEN = 8     /* numbers: the lower bound itself is not allowed */
+};
+enum { C_RENDER = 1, C_SWEEP = 2, C_RACE = 4, C_ALL = 7 };
+
+struct opt_spec {
+    const char *name;  /* "--max-photons" */
+    const char *alias; /* "-o", or NULL */
+    const char *key;   /* its key in output lines and CSV files: "max_photons" */
+    opt_setter set;
+    size_t field;      /* generic setters: offset of the field in run_cfg */
+    double lo, hi;     /* generic setters: the allowed range (whole numbers: hi < 0 = no limit) */
+    const char *what;  /* what the value must be, for messages */
+    unsigned methods;  /* methods whose image the option changes (MBIT) */
+    unsigned commands; /* commands that take it (C_...) */
+    unsigned flags;    /* F_... */
+};
+
+#define OPTF(member) (offsetof(run_cfg, opt) + offsetof(pds_options, member))
+#define FIELD(c, s, type) ((type *)(void *)((char *)(c) + (s)->field))
+
+static int set_whole(const opt_spec *s, const char *shown, const char *v, long *n)
+{
+    if (parse_int(v, (long)s->lo, s->hi < 0 ? LONG_MAX : (long)s->hi, n))
+        return usage_error("%s needs %s, got '%s'", shown, s->what, v);
+    return 0;
+}
+
+static int set_int(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    long n = 0;
+    if (set_whole(s, shown, v, &n)) return EXIT_USAGE;
+    *FIELD(c, s, int) = (int)n; /* the table keeps int ranges within int */
+    return 0;
+}
+
+static int set_long(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    long n = 0;
+    if (set_whole(s, shown, v, &n)) return EXIT_USAGE;
+    *FIELD(c, s, long) = n;
+    return 0;
+}
+
+static int set_double(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    double d;
+    if (parse_double(v, &d) || ((s->flags & F_LO_OPEN) ? !(d > s->lo) : !(d >= s->lo)) || d > s->hi)
+        return usage_error("%s needs %s, got '%s'", shown, s->what, v);
+    *FIELD(c, s, double) = d;
+    return 0;
+}
+
+static int set_output(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    (void)s;
+    (void)shown;
+    c->output = v;
+    return 0;
+}
+
+static int set_method(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    (void)s;
+    (void)shown;
+    return method_lookup(v, &c->opt.method) ? unknown_method(v) : 0;
+}
+
+static int set_kernel(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    int k;
+    (void)s;
+    for (k = 0; k < 3; k++)
+        if (!strcmp(v, kernel_names[k])) {
+            c->opt.kernel = (pds_kernel)k;
+            return 0;
+        }
+    return usage_error("%s knows cone, gaussian and none, got '%s'", shown, v);
+}
+
+static int set_res(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    long w, h;
+    char buf[64], *x;
+    (void)s;
+    if (strlen(v) >= sizeof buf) return usage_error("%s needs WIDTHxHEIGHT, got '%s'", shown, v);
+    strcpy(buf, v);
+    x = strchr(buf, 'x');
+    if (!x) return usage_error("%s needs WIDTHxHEIGHT, got '%s'", shown, v);
+    *x = '\0';
+    if (parse_int(buf, 1, PDS_MAX_RESOLUTION, &w) || parse_int(x + 1, 1, PDS_MAX_RESOLUTION, &h))
+        return usage_error("%s needs WIDTHxHEIGHT with sides from 1 to 16384, got '%s'", shown, v);
+    c->opt.width = (int)w;
+    c->opt.height = (int)h;
+    return 0;
+}
+
+static int set_seed(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    char *end;
+    (void)s;
+    errno = 0;
+    c->opt.seed = strtoull(v, &end, 10);
+    if (end == v || *end || errno || v[0] == '-')
+        return usage_error("%s needs a non-negative whole number, got '%s'", shown, v);
+    return 0;
+}
+
+/* --max-depth bounds eye paths and, when given, photon paths too. */
+static int set_max_depth(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    long n = 0;
+    if (set_whole(s, shown, v, &n)) return EXIT_USAGE;
+    c->opt.max_depth = (int)n;
+    c->opt.photon_depth = n > 0 ? (int)n : 1;
+    return 0;
+}
+
+static int set_debug(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    (void)s;
+    if (strcmp(v, "footprint") != 0) return usage_error("%s knows 'footprint', got '%s'", shown, v);
+    c->debug_footprint = 1;
+    return 0;
+}
+
+static int set_paths(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    pds_paths p = s->name[2] == 'n' ? PDS_PATHS_NO_CAUSTICS : PDS_PATHS_CAUSTICS_ONLY;
+    (void)shown;
+    (void)v;
+    if (c->opt.paths != PDS_PATHS_ALL && c->opt.paths != p)
+        return usage_error("%s", "--no-caustics and --caustics-only exclude each other");
+    c->opt.paths = p;
+    return 0;
+}
+
+static int set_progress(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    (void)shown;
+    (void)v;
+    c->progress = s->name[2] == 'p';
+    return 0;
+}
+
+#define M_PDS MBIT(PDS_METHOD_PDS)
+#define M_PM MBIT(PDS_METHOD_PM)
+#define M_PDM MBIT(PDS_METHOD_PDM)
+#define M_SPLAT MBIT(PDS_METHOD_SPLAT)
+#define M_PPM MBIT(PDS_METHOD_PPM)
+
+/* Every option of render, sweep and race. */
+static const opt_spec option_table[] = {
+    {"--output", "-o", "output", set_output, 0, 0, 0, "a file name", M_ALL, C_RENDER, F_VALUE},
+    {"--method", NULL, "method", set_method, 0, 0, 0, "a method name", M_ALL, C_RENDER | C_SWEEP, F_VALUE},
+    {"--photons", NULL, "photons", set_long, OPTF(photons), 0, -1, "a whole number of 0 or more", M_PHOTON, C_ALL,
+     F_VALUE | F_SWEEP},
+    {"--smoothing", NULL, "smoothing", set_double, OPTF(smoothing), 0, 1e6, "a positive number", M_PDS | M_PDM, C_ALL,
+     F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
+    {"--plane-tolerance", NULL, "plane_tolerance", set_double, OPTF(plane_tolerance), 0, 1e6, "a positive number",
+     M_PDS | M_PDM | M_SPLAT, C_ALL, F_VALUE | F_LO_OPEN | F_PER_METHOD},
+    {"--debug", NULL, "debug", set_debug, 0, 0, 0, "footprint", M_PDS, C_RENDER, F_VALUE},
+    {"--k", NULL, "k", set_int, OPTF(k), 1, 1000000, "a whole number from 1 to 1000000", M_PM, C_ALL,
+     F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--kernel", NULL, "kernel", set_kernel, 0, 0, 0, "cone, gaussian or none", M_PM, C_ALL, F_VALUE | F_PER_METHOD},
+    {"--max-radius", NULL, "max_radius", set_double, OPTF(max_radius), 0, PDS_MAX_COORD,
+     "a positive distance in scene units", M_PM, C_ALL, F_VALUE | F_LO_OPEN | F_PER_METHOD},
+    {"--max-photons", NULL, "max_photons", set_long, OPTF(max_photons), 1, 100000000,
+     "a whole number from 1 to 100000000", M_PDM, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--radius", NULL, "radius", set_double, OPTF(radius), 0, PDS_MAX_COORD, "a positive distance in scene units",
+     M_SPLAT | M_PPM, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
+    {"--alpha", NULL, "alpha", set_double, OPTF(alpha), 0, 1, "a number above 0 and at most 1", M_PPM, C_ALL,
+     F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
+    {"--passes", NULL, "passes", set_int, OPTF(passes), 1, 1000000, "a whole number from 1 to 1000000", M_PPM, C_ALL,
+     F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--spp", NULL, "spp", set_int, OPTF(spp), 1, PDS_MAX_SPP, "a whole number from 1 to 65536", M_ALL, C_ALL,
+     F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--res", NULL, "res", set_res, 0, 0, 0, "WIDTHxHEIGHT", M_ALL, C_ALL, F_VALUE},
+    {"--threads", NULL, "threads", set_int, OPTF(threads), 1, 256, "a whole number from 1 to 256", M_ALL, C_ALL,
+     F_VALUE},
+    {"--seed", NULL, "seed", set_seed, 0, 0, 0, "a non-negative whole number", M_ALL, C_ALL, F_VALUE | F_PER_METHOD},
+    {"--max-depth", NULL, "max_depth", set_max_depth, 0, 0, 1000, "a whole number from 0 to 1000", M_ALL, C_ALL,
+     F_VALUE | F_PER_METHOD},
+    {"--time", NULL, "time", set_double, OPTF(time_s), 0, 1e7, "a number of seconds above 0", M_ALL, C_ALL,
+     F_VALUE | F_LO_OPEN},
+    {"--no-caustics", NULL, "paths", set_paths, 0, 0, 0, "", M_ALL, C_ALL, 0},
+    {"--caustics-only", NULL, "paths", set_paths, 0, 0, 0, "", M_ALL, C_ALL, 0},
+    {"--exposure", NULL, "exposure", set_double, offsetof(run_cfg, exposure), -64, 64,
+     "a number of stops from -64 to 64", M_ALL, C_ALL, F_VALUE},
+    {"--progress", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
+    {"--quiet", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
+};
+#define N_OPTIONS (sizeof option_table / sizeof option_table[0])
+/* run_cfg.given has a bit per option: the table must fit in 32 bits */
+typedef char option_table_fits_in_given[N_OPTIONS <= 32 ? 1 : -1];
+
+static int option_index(const char *name)
+{
+    size_t i;
+    for (i = 0; i < N_OPTIONS; i++)
+        if (!strcmp(option_table[i].name, name) || (option_table[i].alias && !strcmp(option_table[i].alias, name)))
+            return (int)i;
+    return -1;
+}
+
+static int option_given(const run_cfg *c, const char *name)
+{
+    int i = option_index(name);
+    return i >= 0 && (c->given & (1ul << i)) != 0;
+}
+
+static void cfg_init(run_cfg *c)
+{
+    memset(c, 0, sizeof *c);
+    pds_options_default(&c->opt);
+    c->opt.method = PDS_METHOD_PDS;
+    c->progress = -1;
+}
+
+/* argv[*i] as an option of the table for command cmd (C_RENDER, ...):
+   0 when taken (and *i moved past its value), -1 when it is not in the
+   table, EXIT_USAGE after printing why it is wrong. */
+static int parse_option(run_cfg *c, unsigned cmd, const char *cmd_name, int argc, char **argv, int *i)
+{
+    const char *a = argv[*i], *v = NULL;
+    int idx = option_index(a);
+    const opt_spec *s;
+    if (idx < 0) return -1;
+    s = &option_table[idx];
+    if (!(s->commands & cmd)) {
+        if (cmd == C_RACE && !strcmp(s->name, "--method"))
+            return usage_error("%s", "race takes a list of methods: --methods M1,M2,...");
+        return usage_error("%s is not a %s option", a, cmd_name);
+    }
+    if (s->flags & F_VALUE) {
+        if (*i + 1 >= argc) return usage_error("%s needs a value", a);
+        v = argv[++*i];
+    }
+    c->given |= 1ul << idx;
+    return s->set(s, c, a, v);
+}
+
+/* Options given that change nothing for the methods in mask get a note on
+   stderr; not an error, since scripts hand one set of options to several
+   methods. where: "with --method pt", "for any method raced". */
+static void note_idle_options(const run_cfg *c, unsigned mask, const char *where)
+{
+    size_t i;
+    for (i = 0; i < N_OPTIONS; i++) {
+        char list[128];
+        if (!(c->given & (1ul << i)) || (option_table[i].methods & mask)) continue;
+        method_join(option_table[i].methods, " and ", list, sizeof list);
+        fprintf(stderr, "pds: note: %s has no effect %s (it is for %s)\n", option_table[i].name, where, list);
+    }
+}
+
+static void cfg_apply_progress(run_cfg *c)
+{
+    if (c->progress < 0) c->progress = isatty(fileno(stderr));
+    c->opt.progress = c->progress ? show_progress : NULL;
+}
+
+/* A distance option for output: 0 means "chosen by the renderer". */
+static const char *distance_text(double d, const char *zero, char *buf, size_t n)
+{
+    if (d == 0.0) return zero;
+    snprintf(buf, n, "%g", d);
+    return buf;
+}
+
+/* The options of the method that shape its image, as " key=value" pairs
+   (none for pt and preview): what a reader needs to reproduce a result. */
+static void format_params(const pds_options *o, char *buf, size_t n)
+{
+    char d[32];
+    buf[0] = '\0';
+    switch (o->method) {
+    case PDS_METHOD_PDS: snprintf(buf, n, " smoothing=%g", o->smoothing); break;
+    case PDS_METHOD_PM:
+        snprintf(buf, n, " k=%d kernel=%s max_radius=%s", o->k, kernel_name(o->kernel),
+                 distance_text(o->max_radius, "none", d, sizeof d));
+        break;
+    case PDS_METHOD_PDM: snprintf(buf, n, " max_photons=%ld smoothing=%g", o->max_photons, o->smoothing); break;
+    case PDS_METHOD_SPLAT: snprintf(buf, n, " radius=%s", distance_text(o->radius, "auto", d, sizeof d)); break;
+    case PDS_METHOD_PPM:
+        snprintf(buf, n, " radius=%s alpha=%g", distance_text(o->radius, "auto", d, sizeof d), o->alpha);
+        break;
+    default: break;
+    }
+}
+
+static const char *paths_name(pds_paths p)
+{
+    return p == PDS_PATHS_ALL ? "all" : p == PDS_PATHS_NO_CAUSTICS ? "no-caustics" : "caustics-only";
+}
+
+/* The final line of render. */
+static void print_render_line(const run_cfg *c, const pds_render_stats *st, const char *output)
+{
+    pds_method m = c->opt.method;
+    printf("render method=%s paths=%s width=%d height=%d spp=%d", method_name(m), paths_name(c->opt.paths),
+           st->width, st->height, st->spp);
+    if (is_photon_method(m)) {
+        char params[256];
+        format_params(&c->opt, params, sizeof params);
+        /* stats.splatted counts the photons splatted (pds, splat) or stored
+           in the map (pm, pdm); ppm keeps no count of its own */
+        printf(" photons=%ld", st->photons);
+        if (m == PDS_METHOD_PDS)
+            printf(" splatted=%ld dropped_degenerate=%ld", st->splatted, st->dropped_degenerate);
+        else if (m == PDS_METHOD_SPLAT)
+            printf(" splatted=%ld", st->splatted);
+        else if (m != PDS_METHOD_PPM)
+            printf(" stored=%ld", st->splatted);
+        printf(" eye_vertices=%ld", st->eye_vertices);
+        if (m == PDS_METHOD_PPM) printf(" passes=%d", st->passes);
+        printf("%s", params);
+        if (MBIT(m) & M_MAP) printf(" map_bytes=%lu", (unsigned long)st->map_bytes);
+        printf(" time_eye=%.3f time_photons=%.3f", st->time_eye_s, st->time_photons_s);
+    } else {
+        printf(" passes=%d", st->passes);
+    }
+    printf(" time_total=%.3f threads=%d output=%s\n", st->time_total_s, st->threads, output);
+}
+
 static int cmd_render(int argc, char **argv)
 {
-    const char *scene_path = NULL, *output = NULL, *method = "pds";
-    int debug_footprint = 0;
+    const char *scene_path = NULL, *output;
     pds_image footprint = {0, 0, NULL};
-    char footprint_path[1100];
-    int progress = -1; /* -1: when stderr is a terminal */
-    char default_out[1024];
-    double exposure = 0.0;
-    pds_options opt;
+    char footprint_path[1100], default_out[1024], where[64];
+    run_cfg c;
     pds_scene *scene = NULL;
     pds_image img = {0, 0, NULL};
     pds_render_stats stats;
     pds_error err;
-    int i;
-    pds_options_default(&opt);
+    int i, r;
+    cfg_init(&c);
     for (i = 0; i < argc; i++) {
         const char *a = argv[i];
-        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
-        long n;
         if (a[0] != '-' || a[1] == '\0') {
             if (scene_path) return usage_error("render takes one scene, got another: '%s'", a);
             scene_path = a;
             continue;
         }
-        if (!strcmp(a, "-o") || !strcmp(a, "--output") || !strcmp(a, "--method") || !strcmp(a, "--spp") ||
-            !strcmp(a, "--res") || !strcmp(a, "--threads") || !strcmp(a, "--seed") || !strcmp(a, "--exposure") ||
-            !strcmp(a, "--max-depth") || !strcmp(a, "--time") || !strcmp(a, "--photons") ||
-            !strcmp(a, "--smoothing") || !strcmp(a, "--plane-tolerance") || !strcmp(a, "--debug")) {
-            if (!v) return usage_error("%s needs a value", a);
-            i++;
-        } else if (!strcmp(a, "--no-caustics") || !strcmp(a, "--caustics-only")) {
-            pds_paths p = a[2] == 'n' ? PDS_PATHS_NO_CAUSTICS : PDS_PATHS_CAUSTICS_ONLY;
-            if (opt.paths != PDS_PATHS_ALL && opt.paths != p)
-                return usage_error("%s", "--no-caustics and --caustics-only exclude each other");
-            opt.paths = p;
-            continue;
-        } else if (!strcmp(a, "--progress") || !strcmp(a, "--quiet")) {
-            progress = a[2] == 'p';
-            continue;
-        } else {
-            return usage_error("unknown render option '%s'", a);
-        }
-        if (!strcmp(a, "-o") || !strcmp(a, "--output")) output = v;
-        else if (!strcmp(a, "--method")) method = v;
-        else if (!strcmp(a, "--spp")) {
-            if (parse_int(v, 1, PDS_MAX_SPP, &n)) return usage_error("--spp needs a whole number from 1 to 65536, got '%s'", v);
-            opt.spp = (int)n;
-        } else if (!strcmp(a, "--threads")) {
-            if (parse_int(v, 1, 256, &n)) return usage_error("--threads needs a whole number from 1 to 256, got '%s'", v);
-            opt.threads = (int)n;
-        } else if (!strcmp(a, "--seed")) {
-            char *end;
-            errno = 0;
-            opt.seed = strtoull(v, &end, 10);
-            if (end == v || *end || errno || v[0] == '-') return usage_error("--seed needs a non-negative whole number, got '%s'", v);
-        } else if (!strcmp(a, "--res")) {
-            long w, h;
-            char buf[64], *x;
-            if (strlen(v) >= sizeof buf) return usage_error("--res needs WIDTHxHEIGHT, got '%s'", v);
-            strcpy(buf, v);
-            x = strchr(buf, 'x');
-            if (!x) return usage_error("--res needs WIDTHxHEIGHT, got '%s'", v);
-            *x = '\0';
-            if (parse_int(buf, 1, PDS_MAX_RESOLUTION, &w) || parse_int(x + 1, 1, PDS_MAX_RESOLUTION, &h))
-                return usage_error("--res needs WIDTHxHEIGHT with sides from 1 to 16384, got '%s'", v);
-            opt.width = (int)w;
-            opt.height = (int)h;
-        } else if (!strcmp(a, "--max-depth")) {
-            if (parse_int(v, 0, 1000, &n)) return usage_error("--max-depth needs a whole number from 0 to 1000, got '%s'", v);
-            opt.max_depth = (int)n;
-            opt.photon_depth = n > 0 ? (int)n : 1;
-        } else if (!strcmp(a, "--photons")) {
-            if (parse_int(v, 0, LONG_MAX, &n)) return usage_error("--photons needs a whole number of 0 or more, got '%s'", v);
-            opt.photons = n;
-        } else if (!strcmp(a, "--smoothing")) {
-            if (parse_double(v, &opt.smoothing) || !(opt.smoothing > 0.0) || opt.smoothing > 1e6)
-                return usage_error("--smoothing needs a positive number, got '%s'", v);
-        } else if (!strcmp(a, "--plane-tolerance")) {
-            if (parse_double(v, &opt.plane_tolerance) || !(opt.plane_tolerance > 0.0) || opt.plane_tolerance > 1e6)
-                return usage_error("--plane-tolerance needs a positive number, got '%s'", v);
-        } else if (!strcmp(a, "--debug")) {
-            if (strcmp(v, "footprint") != 0) return usage_error("--debug knows 'footprint', got '%s'", v);
-            debug_footprint = 1;
-        } else if (!strcmp(a, "--time")) {
-            if (parse_double(v, &opt.time_s) || !(opt.time_s > 0.0) || opt.time_s > 1e7)
-                return usage_error("--time needs a number of seconds above 0, got '%s'", v);
-        } else if (!strcmp(a, "--exposure")) {
-            if (parse_double(v, &exposure) || exposure < -64 || exposure > 64)
-                return usage_error("--exposure needs a number of stops from -64 to 64, got '%s'", v);
-        }
+        r = parse_option(&c, C_RENDER, "render", argc, argv, &i);
+        if (r < 0) return usage_error("unknown render option '%s'", a);
+        if (r) return r;
     }
     if (!scene_path) return usage_error("%s", "render needs a scene file");
-    if (!strcmp(method, "pds")) opt.method = PDS_METHOD_PDS;
-    else if (!strcmp(method, "pt")) opt.method = PDS_METHOD_PT;
-    else if (!strcmp(method, "preview")) opt.method = PDS_METHOD_PREVIEW;
-    else return usage_error("unknown method '%s' (this version has: pds, pt, preview)", method);
-    if (debug_footprint && opt.method != PDS_METHOD_PDS) return usage_error("%s", "--debug footprint needs --method pds");
-    if (progress < 0) progress = isatty(fileno(stderr));
-    if (progress) opt.progress = show_progress;
+    if (c.debug_footprint && c.opt.method != PDS_METHOD_PDS)
+        return usage_error("%s", "--debug footprint needs --method pds");
+    output = c.output;
     if (!output) {
         default_output(scene_path, default_out, sizeof default_out);
         output = default_out;
     }
     if (!has_ext(output, ".png") && !has_ext(output, ".pfm"))
         return usage_error("output must end in .png or .pfm, got '%s'", output);
+    snprintf(where, sizeof where, "with --method %s", method_name(c.opt.method));
+    note_idle_options(&c, MBIT(c.opt.method), where);
+    cfg_apply_progress(&c);
     if (load_any(scene_path, &scene, &err) != PDS_OK) {
         fprintf(stderr, "%s\n", pds_error_string(&err));
         return 1;
     }
-    if (debug_footprint) {
+    if (c.debug_footprint) {
         /* OUT.png -> OUT.footprint.png */
         const char *dot = strrchr(output, '.');
         snprintf(footprint_path, sizeof footprint_path, "%.*s.footprint%s", (int)(dot - output), output, dot);
-        opt.footprint = &footprint;
+        c.opt.footprint = &footprint;
     }
-    if (pds_render(scene, &opt, &img, &stats, &err) != PDS_OK ||
-        pds_image_write(output, &img, exposure, &err) != PDS_OK ||
-        (debug_footprint && pds_image_write(footprint_path, &footprint, 0.0, &err) != PDS_OK)) {
+    if (pds_render(scene, &c.opt, &img, &stats, &err) != PDS_OK ||
+        pds_image_write(output, &img, c.exposure, &err) != PDS_OK ||
+        (c.debug_footprint && pds_image_write(footprint_path, &footprint, 0.0, &err) != PDS_OK)) {
+        if (c.progress) fputc('\n', stderr);
         fprintf(stderr, "%s\n", pds_error_string(&err));
         pds_image_free(&img);
         pds_image_free(&footprint);
@@ -255,17 +689,8 @@ static int cmd_render(int argc, char **argv)
         return 1;
     }
     pds_image_free(&footprint);
-    if (progress) fputc('\n', stderr);
-    printf("render method=%s paths=%s width=%d height=%d spp=%d", method,
-           opt.paths == PDS_PATHS_ALL ? "all" : opt.paths == PDS_PATHS_NO_CAUSTICS ? "no-caustics" : "caustics-only",
-           stats.width, stats.height, stats.spp);
-    if (opt.method == PDS_METHOD_PDS)
-        printf(" photons=%ld splatted=%ld dropped_degenerate=%ld eye_vertices=%ld smoothing=%g time_eye=%.3f "
-               "time_photons=%.3f", stats.photons, stats.splatted, stats.dropped_degenerate, stats.eye_vertices,
-               opt.smoothing, stats.time_eye_s, stats.time_photons_s);
-    else
-        printf(" passes=%d", stats.passes);
-    printf(" time_total=%.3f threads=%d output=%s\n", stats.time_total_s, stats.threads, output);
+    if (c.progress) fputc('\n', stderr);
+    print_render_line(&c, &stats, output);
     pds_image_free(&img);
     pds_scene_free(scene);
     return 0;
@@ -371,19 +796,27 @@ static int bench_pt(int argc, char **argv)
     }
     threads[0] = 1;
     threads[1] = pds_cpu_count();
+    /* best of three runs each: the figure describes the code, not what
+       else the machine was doing */
     for (k = 0; k < 2; k++) {
-        pds_options_default(&opt);
-        opt.threads = threads[k];
-        opt.width = 256;
-        opt.height = 192;
-        opt.spp = 32;
-        if (pds_render(scene, &opt, &img, &st, &err) != PDS_OK) {
-            fprintf(stderr, "%s\n", pds_error_string(&err));
-            pds_scene_free(scene);
-            return 1;
+        int rep;
+        rate[k] = 0.0;
+        for (rep = 0; rep < 3; rep++) {
+            pds_options_default(&opt);
+            opt.method = PDS_METHOD_PT;
+            opt.threads = threads[k];
+            opt.width = 256;
+            opt.height = 192;
+            opt.spp = 32;
+            if (pds_render(scene, &opt, &img, &st, &err) != PDS_OK) {
+                fprintf(stderr, "%s\n", pds_error_string(&err));
+                pds_scene_free(scene);
+                return 1;
+            }
+            pds_image_free(&img);
+            if ((double)st.width * st.height * st.spp / st.time_total_s > rate[k])
+                rate[k] = (double)st.width * st.height * st.spp / st.time_total_s;
         }
-        pds_image_free(&img);
-        rate[k] = (double)st.width * st.height * st.spp / st.time_total_s;
         threads[k] = st.threads;
     }
     pds_scene_free(scene);
@@ -430,9 +863,14 @@ static int bench_photons(int argc, char **argv)
     threads[0] = 1;
     threads[1] = pds_cpu_count();
     for (k = 0; k < 2; k++) {
-        if (render_pds(scene, 400000, threads[k], 256, &st[k])) {
-            pds_scene_free(scene);
-            return 1;
+        int rep;
+        for (rep = 0; rep < 3; rep++) {
+            pds_render_stats run;
+            if (render_pds(scene, 400000, threads[k], 256, &run)) {
+                pds_scene_free(scene);
+                return 1;
+            }
+            if (rep == 0 || run.time_photons_s < st[k].time_photons_s) st[k] = run;
         }
     }
     pds_scene_free(scene);
@@ -524,16 +962,1208 @@ static int cmd_bench(int argc, char **argv)
     return usage_error("unknown benchmark '%s' (rays, pt, photons, memory, filter, kdtree)", argv[0]);
 }
 
+
+/* ===================================================================== */
+/* The comparison harness: pds sweep and pds race                        */
+/* ===================================================================== */
+/* Both render a scene several times with the same options but one, compare
+   every image with a reference (RMSE of the linear values, SSIM of the
+   sRGB luminance: pds_image_compare) and write a folder of results. The
+   images are kept in memory until every render has succeeded; only then is
+   the folder created and filled, each file written under a temporary name
+   and renamed into place. */
+
+#define MAX_SWEEP_VALUES 256
+#define MAX_RACE_METHODS 32
+#define PATH_MAX_LEN 4096
+
+/* A growing text buffer for the CSV, SVG and HTML files. */
+typedef struct sbuf {
+    char *s;
+    size_t len, cap;
+    int nomem;
+} sbuf;
+
+static void sb_printf(sbuf *b, const char *fmt, ...) PRINTF_LIKE(2, 3);
+static void sb_printf(sbuf *b, const char *fmt, ...)
+{
+    va_list ap;
+    int n;
+    if (b->nomem) return;
+    va_start(ap, fmt);
+    n = vsnprintf(NULL, 0, fmt, ap);
+    va_end(ap);
+    if (n < 0) {
+        b->nomem = 1;
+        return;
+    }
+    if (b->len + (size_t)n + 1 > b->cap) {
+        size_t cap = b->cap ? b->cap : 4096;
+        char *p;
+        while (cap < b->len + (size_t)n + 1) cap *= 2;
+        p = (char *)realloc(b->s, cap);
+        if (!p) {
+            b->nomem = 1;
+            return;
+        }
+        b->s = p;
+        b->cap = cap;
+    }
+    va_start(ap, fmt);
+    vsnprintf(b->s + b->len, b->cap - b->len, fmt, ap);
+    va_end(ap);
+    b->len += (size_t)n;
+}
+
+/* Text for HTML and SVG: & < > " ' escaped. */
+static void sb_xml(sbuf *b, const char *s)
+{
+    for (; *s; s++) {
+        switch (*s) {
+        case '&': sb_printf(b, "&amp;"); break;
+        case '<': sb_printf(b, "&lt;"); break;
+        case '>': sb_printf(b, "&gt;"); break;
+        case '"': sb_printf(b, "&quot;"); break;
+        case '\'': sb_printf(b, "&#39;"); break;
+        default: sb_printf(b, "%c", *s); break;
+        }
+    }
+}
+
+/* A CSV field (RFC 4180): quoted when it holds a comma, quote or newline. */
+static void sb_csv(sbuf *b, const char *s)
+{
+    if (!strpbrk(s, ",\"\r\n")) {
+        sb_printf(b, "%s", s);
+        return;
+    }
+    sb_printf(b, "\"");
+    for (; *s; s++) sb_printf(b, *s == '"' ? "\"\"" : "%c", *s);
+    sb_printf(b, "\"");
+}
+
+static int join_path(char *out, size_t n, const char *dir, const char *name)
+{
+    int len = snprintf(out, n, "%s/%s", dir, name);
+    if (len < 0 || (size_t)len >= n) return fail("%s/%s: path too long", dir, name);
+    return 0;
+}
+
+/* Write the buffer to dir/name under a temporary name, then rename it. */
+static int write_text(const char *dir, const char *name, const sbuf *b)
+{
+    char path[PATH_MAX_LEN], tmp[PATH_MAX_LEN + 32];
+    FILE *f;
+    int ok, e;
+    if (join_path(path, sizeof path, dir, name)) return 1;
+    if (b->nomem) return fail("%s: out of memory", path);
+    snprintf(tmp, sizeof tmp, "%s.tmp-%ld", path, (long)getpid());
+    f = fopen(tmp, "wb");
+    if (!f) return fail("%s: cannot write: %s", path, strerror(errno));
+    ok = fwrite(b->s ? b->s : "", 1, b->len, f) == b->len;
+    ok = (fclose(f) == 0) && ok;
+    if (ok && rename(tmp, path) == 0) return 0;
+    e = errno;
+    remove(tmp);
+    return fail("%s: cannot write: %s", path, strerror(e));
+}
+
+static int write_image(const char *dir, const char *name, const pds_image *img, double exposure)
+{
+    char path[PATH_MAX_LEN];
+    pds_error err;
+    if (join_path(path, sizeof path, dir, name)) return 1;
+    if (pds_image_write(path, img, exposure, &err) != PDS_OK) return fail("%s", pds_error_string(&err));
+    return 0;
+}
+
+/* Before any render: fail now if the folder could not be made or written
+   later. The folder, or its nearest existing ancestor, must be a folder we
+   may write in. 0, or 1 after printing "DIR: why". */
+static int check_out_dir(const char *dir)
+{
+    char path[PATH_MAX_LEN];
+    struct stat sb;
+    if (!dir[0]) return fail("%s", "the output folder name is empty");
+    if (strlen(dir) >= sizeof path) return fail("%s: path too long", dir);
+    strcpy(path, dir);
+    for (;;) {
+        char *slash;
+        size_t n;
+        if (stat(path, &sb) == 0) {
+            if (!S_ISDIR(sb.st_mode)) {
+                if (!strcmp(path, dir)) return fail("%s: exists and is not a folder", dir);
+                return fail("%s: cannot create it: %s is not a folder", dir, path);
+            }
+            if (access(path, W_OK | X_OK) != 0) return fail("%s: cannot write in %s: %s", dir, path, strerror(errno));
+            return 0;
+        }
+        if (errno != ENOENT && errno != ENOTDIR) return fail("%s: %s", dir, strerror(errno));
+        n = strlen(path);
+        while (n > 1 && path[n - 1] == '/') path[--n] = '\0';
+        slash = strrchr(path, '/');
+        if (!slash) strcpy(path, ".");
+        else if (slash == path) path[1] = '\0';
+        else *slash = '\0';
+    }
+}
+
+/* mkdir -p */
+static int make_dirs(const char *dir)
+{
+    char path[PATH_MAX_LEN];
+    size_t i, n = strlen(dir);
+    struct stat sb;
+    if (n >= sizeof path) return fail("%s: path too long", dir);
+    strcpy(path, dir);
+    for (i = 1; i <= n; i++) {
+        char c = path[i];
+        if (c != '/' && c != '\0') continue;
+        path[i] = '\0';
+        if (mkdir(path, 0777) != 0 && errno != EEXIST) return fail("%s: cannot create %s: %s", dir, path, strerror(errno));
+        path[i] = c;
+    }
+    if (stat(dir, &sb) != 0 || !S_ISDIR(sb.st_mode)) return fail("%s: cannot create the folder", dir);
+    return 0;
+}
+
+/* A value as part of a file name: letters, digits, '.', '+' and '-' kept,
+   anything else '_'. */
+static void file_safe(const char *s, char *out, size_t n)
+{
+    size_t i;
+    for (i = 0; s[i] && i + 1 < n; i++) {
+        char ch = s[i];
+        int ok = (ch >= 'a' && ch <= 'z') || (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '.' ||
+                 ch == '+' || ch == '-';
+        out[i] = ok ? ch : '_';
+    }
+    out[i] = '\0';
+}
+
+/* Load the scene and the reference, whose size must be the renders' size.
+   0, or 1 after printing the error (nothing left to free). */
+static int load_scene_and_ref(const char *scene_path, const char *ref_path, const pds_options *opt,
+                              pds_scene **scene, pds_image *ref)
+{
+    pds_error err;
+    const pds_camera *cam;
+    int w, h;
+    if (load_any(scene_path, scene, &err) != PDS_OK) return fail("%s", pds_error_string(&err));
+    if (pds_image_read_pfm(ref_path, ref, &err) != PDS_OK) {
+        pds_scene_free(*scene);
+        *scene = NULL;
+        return fail("%s", pds_error_string(&err));
+    }
+    cam = pds_scene_camera(*scene);
+    w = opt->width > 0 ? opt->width : cam->width;
+    h = opt->height > 0 ? opt->height : cam->height;
+    if (ref->width != w || ref->height != h) {
+        fail("%s: the reference is %dx%d but the renders are %dx%d (give --res %dx%d or a reference of that size)",
+             ref_path, ref->width, ref->height, w, h, ref->width, ref->height);
+        pds_image_free(ref);
+        pds_scene_free(*scene);
+        *scene = NULL;
+        return 1;
+    }
+    return 0;
+}
+
+/* Render with c and compare with ref; 0, or 1 after printing the error
+   followed by context ("(sweep k=50)"). */
+static int render_and_compare(const pds_scene *scene, const run_cfg *c, const pds_image *ref, pds_image *img,
+                              pds_render_stats *st, pds_metrics *m, const char *context)
+{
+    pds_error err;
+    pds_status s = pds_render(scene, &c->opt, img, st, &err);
+    if (c->progress) fputc('\n', stderr);
+    if (s == PDS_OK) s = pds_image_compare(img, ref, m, &err);
+    if (s != PDS_OK) return fail("%s (%s)", pds_error_string(&err), context);
+    return 0;
+}
+
+/* ------------------------------------------------------------- sweep plot */
+
+/* A round step (1, 2 or 5 x 10^n) for about `target` intervals over span. */
+static double nice_step(double span, int target)
+{
+    double raw = span / target, mag, f;
+    if (!(raw > 0.0) || !isfinite(raw)) return 1.0;
+    mag = pow(10.0, floor(log10(raw)));
+    f = raw / mag;
+    return (f < 1.5 ? 1.0 : f < 3.0 ? 2.0 : f < 7.0 ? 5.0 : 10.0) * mag;
+}
+
+/* An axis [lo, hi] on multiples of a round step that holds [mn, mx]; a
+   single value gets room around it; nonneg keeps lo at 0 or above. */
+static void nice_range(double mn, double mx, int nonneg, double *lo, double *hi, double *step)
+{
+    if (!(mx - mn > 1e-9 * (fabs(mx) + fabs(mn)))) {
+        double pad = mx != 0.0 ? fabs(mx) * 0.1 : 0.1;
+        mn -= pad;
+        mx += pad;
+    }
+    *step = nice_step(mx - mn, 5);
+    *lo = floor(mn / *step) * *step;
+    *hi = ceil(mx / *step) * *step;
+    if (nonneg && *lo < 0.0) *lo = 0.0;
+}
+
+/* A tick label with as many decimals as the step needs. */
+static void tick_text(double v, double step, char *buf, size_t n)
+{
+    int decimals = step >= 1.0 ? 0 : (int)ceil(-log10(step) - 1e-9);
+    if (fabs(v) < step * 1e-6) v = 0.0; /* no "-0.00" */
+    snprintf(buf, n, "%.*f", decimals, v);
+}
+
+typedef struct sweep_row {
+    const char *value; /* as given on the command line */
+    double x;
+    pds_image img;
+    pds_render_stats st;
+    pds_metrics m;
+} sweep_row;
+
+typedef struct plot_frame {
+    double left, right, top, bottom, pad;
+    int logx;
+    double xmin, xmax;
+} plot_frame;
+
+static double plot_x(const plot_frame *f, double x)
+{
+    double a = f->logx ? log10(x) : x, lo = f->logx ? log10(f->xmin) : f->xmin, hi = f->logx ? log10(f->xmax) : f->xmax;
+    if (!(hi > lo)) return 0.5 * (f->left + f->right);
+    return f->left + f->pad + (a - lo) / (hi - lo) * (f->right - f->left - 2.0 * f->pad);
+}
+
+static double plot_y(const plot_frame *f, double v, double lo, double hi)
+{
+    return f->bottom - (v - lo) / (hi - lo) * (f->bottom - f->top);
+}
+
+/* The sweep's figure, after the PDS paper's Figure 6: RMSE (left axis,
+   circles) and SSIM (right axis, squares) against the parameter, the
+   optimum of each ringed. x is logarithmic when every value is positive and
+   the largest is at least 10 times the smallest. rows with a non-finite
+   metric are left out. */
+static void sweep_svg(sbuf *b, const char *title, const char *subtitle, const char *xname, const sweep_row *rows,
+                      int n, int best_r, int best_s)
+{
+    static const char rmse_col[] = "#c0392b", ssim_col[] = "#1f5fa8";
+    plot_frame f;
+    int order[MAX_SWEEP_VALUES], m = 0, i, j, first;
+    double rmin = 0, rmax = 0, smin = 0, smax = 0, mid, rlo, rhi, rstep, slo, shi, sstep, last_label = -1e9;
+    char t[64];
+    f.left = 80;
+    f.right = 640;
+    f.top = 80;
+    f.bottom = 370;
+    f.pad = 20;
+    /* finite points, sorted by x */
+    for (i = 0; i < n; i++) {
+        if (!isfinite(rows[i].m.rmse) || !isfinite(rows[i].m.ssim) || !isfinite(rows[i].x)) continue;
+        for (j = m; j > 0 && rows[order[j - 1]].x > rows[i].x; j--) order[j] = order[j - 1];
+        order[j] = i;
+        m++;
+    }
+    f.xmin = m ? rows[order[0]].x : 0.0;
+    f.xmax = m ? rows[order[m - 1]].x : 1.0;
+    f.logx = m > 1 && f.xmin > 0.0 && f.xmax >= 10.0 * f.xmin;
+    for (i = 0; i < m; i++) {
+        const pds_metrics *q = &rows[order[i]].m;
+        if (i == 0 || q->rmse < rmin) rmin = q->rmse;
+        if (i == 0 || q->rmse > rmax) rmax = q->rmse;
+        if (i == 0 || q->ssim < smin) smin = q->ssim;
+        if (i == 0 || q->ssim > smax) smax = q->ssim;
+    }
+    nice_range(rmin, rmax, 1, &rlo, &rhi, &rstep);
+    nice_range(smin, smax, 0, &slo, &shi, &sstep);
+
+    sb_printf(b, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"720\" height=\"440\" viewBox=\"0 0 720 440\" "
+                 "font-family=\"Helvetica, Arial, sans-serif\" font-size=\"12\">\n<title>");
+    sb_xml(b, title);
+    sb_printf(b, "</title>\n<rect width=\"720\" height=\"440\" fill=\"white\"/>\n");
+    sb_printf(b, "<text x=\"360\" y=\"26\" text-anchor=\"middle\" font-size=\"16\" font-weight=\"bold\">");
+    sb_xml(b, title);
+    sb_printf(b, "</text>\n<text x=\"360\" y=\"46\" text-anchor=\"middle\" fill=\"#444\">");
+    sb_xml(b, subtitle);
+    sb_printf(b, "</text>\n");
+    /* legend */
+    sb_printf(b,
+              "<g class=\"legend\"><line x1=\"250\" y1=\"64\" x2=\"280\" y2=\"64\" stroke=\"%s\" stroke-width=\"2\"/>"
+              "<circle cx=\"265\" cy=\"64\" r=\"4\" fill=\"%s\"/><text x=\"286\" y=\"68\">RMSE (left axis)</text>"
+              "<line x1=\"400\" y1=\"64\" x2=\"430\" y2=\"64\" stroke=\"%s\" stroke-width=\"2\" "
+              "stroke-dasharray=\"6 3\"/><rect x=\"411\" y=\"60\" width=\"8\" height=\"8\" fill=\"%s\"/>"
+              "<text x=\"436\" y=\"68\">SSIM (right axis)</text></g>\n",
+              rmse_col, rmse_col, ssim_col, ssim_col);
+    /* x ticks and vertical grid */
+    sb_printf(b, "<g class=\"x-axis\" font-size=\"11\">\n");
+    if (m > 0) {
+        double cand[MAX_SWEEP_VALUES], xstep = 0.0;
+        const char *cand_text[MAX_SWEEP_VALUES];
+        int nc = 0;
+        int distinct = 0;
+        for (i = 0; i < m; i++)
+            if (i == 0 || rows[order[i]].x != rows[order[i - 1]].x) distinct++;
+        if (distinct <= 12) {
+            /* few values: tick exactly the values swept */
+            for (i = 0; i < m; i++)
+                if (i == 0 || rows[order[i]].x != rows[order[i - 1]].x) {
+                    cand_text[nc] = rows[order[i]].value;
+                    cand[nc++] = rows[order[i]].x;
+                }
+        } else if (f.logx) {
+            int e, e0 = (int)floor(log10(f.xmin)), e1 = (int)ceil(log10(f.xmax)), pass;
+            static const double mult[3] = {1, 2, 5};
+            /* 1-2-5 ticks per decade, or decades only when that is too many */
+            for (pass = 0; pass < 2; pass++) {
+                nc = 0;
+                for (e = e0; e <= e1 && nc < 64; e++) {
+                    int k;
+                    for (k = 0; k < (pass ? 1 : 3) && nc < 64; k++) {
+                        double v = mult[k] * pow(10.0, e);
+                        if (v >= f.xmin * (1 - 1e-9) && v <= f.xmax * (1 + 1e-9)) {
+                            cand_text[nc] = NULL;
+                            cand[nc++] = v;
+                        }
+                    }
+                }
+                if (nc <= 10) break;
+            }
+        } else if (f.xmax > f.xmin) {
+            double v;
+            xstep = nice_step(f.xmax - f.xmin, 6);
+            for (v = ceil(f.xmin / xstep - 1e-9) * xstep; v <= f.xmax + xstep * 1e-9 && nc < 64; v += xstep) {
+                cand_text[nc] = NULL;
+                cand[nc++] = v;
+            }
+        }
+        for (i = 0; i < nc; i++) {
+            double px = plot_x(&f, cand[i]), v = cand[i];
+            if (cand_text[i]) snprintf(t, sizeof t, "%s", cand_text[i]);
+            else if (xstep > 0.0) tick_text(v, xstep, t, sizeof t);
+            else snprintf(t, sizeof t, "%g", v);
+            sb_printf(b, "<line x1=\"%.1f\" y1=\"%.0f\" x2=\"%.1f\" y2=\"%.0f\" stroke=\"#e5e5e5\"/>", px, f.top, px,
+                      f.bottom);
+            sb_printf(b, "<line x1=\"%.1f\" y1=\"%.0f\" x2=\"%.1f\" y2=\"%.0f\" stroke=\"#444\"/>", px, f.bottom, px,
+                      f.bottom + 5);
+            if (px - last_label >= 40.0) {
+                sb_printf(b, "<text x=\"%.1f\" y=\"%.0f\" text-anchor=\"middle\">", px, f.bottom + 18);
+                sb_xml(b, t);
+                sb_printf(b, "</text>");
+                last_label = px;
+            }
+            sb_printf(b, "\n");
+        }
+    }
+    sb_printf(b, "<text x=\"%.0f\" y=\"%.0f\" text-anchor=\"middle\" font-size=\"13\">", 0.5 * (f.left + f.right),
+              f.bottom + 42);
+    sb_xml(b, xname);
+    sb_printf(b, "%s</text>\n</g>\n", f.logx ? " (log scale)" : "");
+    /* left axis: RMSE */
+    sb_printf(b, "<g class=\"rmse-axis\" font-size=\"11\" fill=\"%s\">\n", rmse_col);
+    for (i = 0; i <= 100; i++) {
+        double v = rlo + i * rstep, py;
+        if (v > rhi + rstep * 1e-6) break;
+        py = plot_y(&f, v, rlo, rhi);
+        tick_text(v, rstep, t, sizeof t);
+        sb_printf(b,
+                  "<line x1=\"%.0f\" y1=\"%.1f\" x2=\"%.0f\" y2=\"%.1f\" stroke=\"#eeeeee\"/>"
+                  "<line x1=\"%.0f\" y1=\"%.1f\" x2=\"%.0f\" y2=\"%.1f\" stroke=\"%s\"/>"
+                  "<text x=\"%.0f\" y=\"%.1f\" text-anchor=\"end\">%s</text>\n",
+                  f.left, py, f.right, py, f.left - 5, py, f.left, py, rmse_col, f.left - 8, py + 4, t);
+    }
+    sb_printf(b,
+              "<text transform=\"translate(24 %.0f) rotate(-90)\" text-anchor=\"middle\" font-size=\"13\">RMSE "
+              "(linear RGB)</text>\n</g>\n",
+              0.5 * (f.top + f.bottom));
+    /* right axis: SSIM */
+    sb_printf(b, "<g class=\"ssim-axis\" font-size=\"11\" fill=\"%s\">\n", ssim_col);
+    for (i = 0; i <= 100; i++) {
+        double v = slo + i * sstep, py;
+        if (v > shi + sstep * 1e-6) break;
+        py = plot_y(&f, v, slo, shi);
+        tick_text(v, sstep, t, sizeof t);
+        sb_printf(b,
+                  "<line x1=\"%.0f\" y1=\"%.1f\" x2=\"%.0f\" y2=\"%.1f\" stroke=\"%s\"/>"
+                  "<text x=\"%.0f\" y=\"%.1f\">%s</text>\n",
+                  f.right, py, f.right + 5, py, ssim_col, f.right + 8, py + 4, t);
+    }
+    sb_printf(b,
+              "<text transform=\"translate(%.0f %.0f) rotate(90)\" text-anchor=\"middle\" font-size=\"13\">SSIM "
+              "(sRGB luminance)</text>\n</g>\n",
+              696.0, 0.5 * (f.top + f.bottom));
+    sb_printf(b, "<rect x=\"%.0f\" y=\"%.0f\" width=\"%.0f\" height=\"%.0f\" fill=\"none\" stroke=\"#444\"/>\n", f.left,
+              f.top, f.right - f.left, f.bottom - f.top);
+    /* the two series */
+    sb_printf(b, "<polyline class=\"rmse-line\" fill=\"none\" stroke=\"%s\" stroke-width=\"2\" points=\"", rmse_col);
+    for (i = 0, first = 1; i < m; i++, first = 0)
+        sb_printf(b, "%s%.1f,%.1f", first ? "" : " ", plot_x(&f, rows[order[i]].x),
+                  plot_y(&f, rows[order[i]].m.rmse, rlo, rhi));
+    sb_printf(b, "\"/>\n<polyline class=\"ssim-line\" fill=\"none\" stroke=\"%s\" stroke-width=\"2\" "
+                 "stroke-dasharray=\"6 3\" points=\"", ssim_col);
+    for (i = 0, first = 1; i < m; i++, first = 0)
+        sb_printf(b, "%s%.1f,%.1f", first ? "" : " ", plot_x(&f, rows[order[i]].x),
+                  plot_y(&f, rows[order[i]].m.ssim, slo, shi));
+    sb_printf(b, "\"/>\n");
+    for (i = 0; i < m; i++) {
+        const sweep_row *r = &rows[order[i]];
+        double px = plot_x(&f, r->x);
+        sb_printf(b, "<circle class=\"rmse-marker\" cx=\"%.1f\" cy=\"%.1f\" r=\"4\" fill=\"%s\"><title>", px,
+                  plot_y(&f, r->m.rmse, rlo, rhi), rmse_col);
+        sb_xml(b, xname);
+        sb_printf(b, "=");
+        sb_xml(b, r->value);
+        sb_printf(b, ": RMSE %.6f</title></circle>\n", r->m.rmse);
+        sb_printf(b, "<rect class=\"ssim-marker\" x=\"%.1f\" y=\"%.1f\" width=\"8\" height=\"8\" fill=\"%s\"><title>",
+                  px - 4, plot_y(&f, r->m.ssim, slo, shi) - 4, ssim_col);
+        sb_xml(b, xname);
+        sb_printf(b, "=");
+        sb_xml(b, r->value);
+        sb_printf(b, ": SSIM %.6f</title></rect>\n", r->m.ssim);
+    }
+    /* the optima, on top:  a dashed vertical line, a ring and a label */
+    mid = 0.5 * (f.left + f.right);
+    if (best_r >= 0 && isfinite(rows[best_r].m.rmse)) {
+        double px = plot_x(&f, rows[best_r].x), py = plot_y(&f, rows[best_r].m.rmse, rlo, rhi);
+        sb_printf(b,
+                  "<g class=\"rmse-optimum\"><line x1=\"%.1f\" y1=\"%.0f\" x2=\"%.1f\" y2=\"%.0f\" stroke=\"%s\" "
+                  "stroke-opacity=\"0.5\" stroke-dasharray=\"2 3\"/><circle cx=\"%.1f\" cy=\"%.1f\" r=\"9\" "
+                  "fill=\"none\" stroke=\"%s\" stroke-width=\"2\"/><text x=\"%.1f\" y=\"%.1f\" text-anchor=\"%s\" "
+                  "fill=\"%s\" font-size=\"11\" stroke=\"white\" stroke-width=\"3\" "
+                  "paint-order=\"stroke\">min RMSE</text></g>\n",
+                  px, f.top, px, f.bottom, rmse_col, px, py, rmse_col, px > mid ? px - 13 : px + 13, py - 10,
+                  px > mid ? "end" : "start", rmse_col);
+    }
+    if (best_s >= 0 && isfinite(rows[best_s].m.ssim)) {
+        double px = plot_x(&f, rows[best_s].x), py = plot_y(&f, rows[best_s].m.ssim, slo, shi);
+        sb_printf(b,
+                  "<g class=\"ssim-optimum\"><line x1=\"%.1f\" y1=\"%.0f\" x2=\"%.1f\" y2=\"%.0f\" stroke=\"%s\" "
+                  "stroke-opacity=\"0.5\" stroke-dasharray=\"2 3\"/><rect x=\"%.1f\" y=\"%.1f\" width=\"18\" "
+                  "height=\"18\" fill=\"none\" stroke=\"%s\" stroke-width=\"2\"/><text x=\"%.1f\" y=\"%.1f\" "
+                  "text-anchor=\"%s\" fill=\"%s\" font-size=\"11\" stroke=\"white\" stroke-width=\"3\" "
+                  "paint-order=\"stroke\">max SSIM</text></g>\n",
+                  px, f.top, px, f.bottom, ssim_col, px - 9, py - 9, ssim_col, px > mid ? px - 13 : px + 13, py + 18,
+                  px > mid ? "end" : "start", ssim_col);
+    }
+    sb_printf(b, "</svg>\n");
+}
+
+/* ------------------------------------------------------------------ sweep */
+
+static int cmd_sweep(int argc, char **argv)
+{
+    const char *scene_path = NULL, *param = NULL, *values = NULL, *ref_path = NULL, *dir = NULL;
+    char dir_buf[1024], stem[256], where[64], name[64], list[256];
+    run_cfg base;
+    const opt_spec *ps;
+    sweep_row *rows = NULL;
+    pds_scene *scene = NULL;
+    pds_image ref = {0, 0, NULL};
+    char *vbuf = NULL, *p;
+    int i, r, n = 0, rc = 1, best_r = -1, best_s = -1, idx, photon;
+    pds_method method;
+    cfg_init(&base);
+    for (i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        if (a[0] != '-' || a[1] == '\0') {
+            if (scene_path) return usage_error("sweep takes one scene, got another: '%s'", a);
+            scene_path = a;
+            continue;
+        }
+        if (!strcmp(a, "--param") || !strcmp(a, "--values") || !strcmp(a, "--ref") || !strcmp(a, "-o") ||
+            !strcmp(a, "--output")) {
+            if (i + 1 >= argc) return usage_error("%s needs a value", a);
+            i++;
+            if (a[2] == 'p') param = argv[i];
+            else if (a[2] == 'v') values = argv[i];
+            else if (a[2] == 'r') ref_path = argv[i];
+            else dir = argv[i];
+            continue;
+        }
+        r = parse_option(&base, C_SWEEP, "sweep", argc, argv, &i);
+        if (r < 0) return usage_error("unknown sweep option '%s'", a);
+        if (r) return r;
+    }
+    if (!scene_path) return usage_error("%s", "sweep needs a scene file");
+    if (!param) return usage_error("%s", "sweep needs --param NAME");
+    if (!values) return usage_error("%s", "sweep needs --values A,B,...");
+    if (!ref_path) return usage_error("%s", "sweep needs --ref REFERENCE.pfm");
+    method = base.opt.method;
+    photon = is_photon_method(method);
+    snprintf(name, sizeof name, "--%s", param);
+    idx = strlen(param) < 40 && param[0] != '-' ? option_index(name) : -1;
+    if (idx < 0 || !(option_table[idx].flags & F_SWEEP)) {
+        size_t k, count = 0, done = 0;
+        list[0] = '\0';
+        for (k = 0; k < N_OPTIONS; k++) count += (option_table[k].flags & F_SWEEP) != 0;
+        for (k = 0; k < N_OPTIONS; k++)
+            if (option_table[k].flags & F_SWEEP) {
+                done++;
+                snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s",
+                         done == 1 ? "" : done == count ? " and " : ", ", option_table[k].name + 2);
+            }
+        return usage_error("--param knows %s, got '%s'", list, param);
+    }
+    ps = &option_table[idx];
+    if (base.given & (1ul << idx))
+        return usage_error("%s is the parameter swept: give its values with --values, not %s", param, ps->name);
+    if (!(ps->methods & MBIT(method))) {
+        method_join(ps->methods, " and ", list, sizeof list);
+        return usage_error("--param %s has no effect with --method %s (%s is for %s)", param, method_name(method),
+                           param, list);
+    }
+    if (!strcmp(param, "photons") && option_given(&base, "--time"))
+        return usage_error("%s", "--param photons and --time exclude each other (the time decides the photon count)");
+    /* the values: validated all before anything is rendered */
+    vbuf = strdup(values);
+    rows = (sweep_row *)calloc(MAX_SWEEP_VALUES, sizeof *rows);
+    if (!vbuf || !rows) {
+        free(vbuf);
+        free(rows);
+        return fail("%s", "out of memory");
+    }
+    for (p = vbuf;; p++) {
+        char *comma = strchr(p, ',');
+        run_cfg probe = base;
+        if (comma) *comma = '\0';
+        if (!*p) {
+            rc = usage_error("--values needs a comma-separated list of values, got '%s'", values);
+            goto done;
+        }
+        if (n == MAX_SWEEP_VALUES) {
+            rc = usage_error("--values takes at most %d values", MAX_SWEEP_VALUES);
+            goto done;
+        }
+        if (ps->set(ps, &probe, param, p)) {
+            rc = EXIT_USAGE;
+            goto done;
+        }
+        rows[n].value = p;
+        rows[n].x = strtod(p, NULL);
+        n++;
+        if (!comma) break;
+        p = comma;
+    }
+    snprintf(where, sizeof where, "with --method %s", method_name(method));
+    note_idle_options(&base, MBIT(method), where);
+    scene_stem(scene_path, stem, sizeof stem);
+    if (!dir) {
+        snprintf(dir_buf, sizeof dir_buf, "sweep-%s-%s", stem, method_name(method));
+        dir = dir_buf;
+    }
+    if (check_out_dir(dir)) goto done;
+    if (load_scene_and_ref(scene_path, ref_path, &base.opt, &scene, &ref)) goto done;
+    cfg_apply_progress(&base);
+
+    for (i = 0; i < n; i++) {
+        run_cfg c = base;
+        char context[128];
+        ps->set(ps, &c, param, rows[i].value);
+        snprintf(context, sizeof context, "sweep %s=%s", ps->key, rows[i].value);
+        if (render_and_compare(scene, &c, &ref, &rows[i].img, &rows[i].st, &rows[i].m, context)) goto done;
+        printf("sweep method=%s %s=%s", method_name(method), ps->key, rows[i].value);
+        if (photon && strcmp(ps->key, "photons")) printf(" photons=%ld", rows[i].st.photons);
+        if (!photon && strcmp(ps->key, "spp")) printf(" spp=%d", rows[i].st.spp);
+        printf(" rmse=%.6f ssim=%.6f time=%.3f\n", rows[i].m.rmse, rows[i].m.ssim, rows[i].st.time_total_s);
+        fflush(stdout);
+        /* first best wins a tie; NaN never wins */
+        if (isfinite(rows[i].m.rmse) && (best_r < 0 || rows[i].m.rmse < rows[best_r].m.rmse)) best_r = i;
+        if (isfinite(rows[i].m.ssim) && (best_s < 0 || rows[i].m.ssim > rows[best_s].m.ssim)) best_s = i;
+    }
+
+    /* every render succeeded: now the folder */
+    if (make_dirs(dir)) goto done;
+    {
+        sbuf csv = {NULL, 0, 0, 0}, svg = {NULL, 0, 0, 0};
+        char title[512], subtitle[512], file[128], safe[64];
+        int bad = 0;
+        sb_printf(&csv, "method,param,value,photons,spp,passes,map_bytes,rmse,ssim,time_s,image\n");
+        for (i = 0; i < n && !bad; i++) {
+            const sweep_row *w = &rows[i];
+            file_safe(w->value, safe, sizeof safe);
+            snprintf(file, sizeof file, "%s-%s.png", ps->key, safe);
+            bad = write_image(dir, file, &w->img, base.exposure);
+            sb_printf(&csv, "%s,%s,", method_name(method), ps->key);
+            sb_csv(&csv, w->value);
+            sb_printf(&csv, ",%ld,%d,%d,%lu,%.6f,%.6f,%.3f,", w->st.photons, w->st.spp, w->st.passes,
+                      (unsigned long)w->st.map_bytes, w->m.rmse, w->m.ssim, w->st.time_total_s);
+            sb_csv(&csv, file);
+            sb_printf(&csv, "\n");
+        }
+        snprintf(title, sizeof title, "%s on %s: RMSE and SSIM against %s", method_name(method), stem, ps->key);
+        {
+            char ph[64] = "";
+            if (photon && strcmp(ps->key, "photons") && !option_given(&base, "--time"))
+                snprintf(ph, sizeof ph, "%ld photons; ", base.opt.photons);
+            snprintf(subtitle, sizeof subtitle, "%s%dx%d; lowest RMSE %.4g at %s=%s; highest SSIM %.4g at %s=%s", ph,
+                     ref.width, ref.height, best_r >= 0 ? rows[best_r].m.rmse : 0.0, ps->key,
+                     best_r >= 0 ? rows[best_r].value : "-", best_s >= 0 ? rows[best_s].m.ssim : 0.0, ps->key,
+                     best_s >= 0 ? rows[best_s].value : "-");
+        }
+        sweep_svg(&svg, title, subtitle, ps->key, rows, n, best_r, best_s);
+        if (!bad) bad = write_text(dir, "sweep.csv", &csv);
+        if (!bad) bad = write_text(dir, "sweep.svg", &svg);
+        free(csv.s);
+        free(svg.s);
+        if (bad) goto done;
+    }
+    printf("sweep best method=%s rmse_optimal_%s=%s rmse=%.6f ssim_optimal_%s=%s ssim=%.6f dir=%s\n",
+           method_name(method), ps->key, best_r >= 0 ? rows[best_r].value : "none",
+           best_r >= 0 ? rows[best_r].m.rmse : 0.0, ps->key, best_s >= 0 ? rows[best_s].value : "none",
+           best_s >= 0 ? rows[best_s].m.ssim : 0.0, dir);
+    rc = 0;
+done:
+    for (i = 0; rows && i < n; i++) pds_image_free(&rows[i].img);
+    free(rows);
+    free(vbuf);
+    pds_image_free(&ref);
+    pds_scene_free(scene);
+    return rc;
+}
+
+/* ------------------------------------------------------------------- race */
+
+typedef struct roi_box {
+    int x, y, w, h;
+} roi_box;
+
+typedef struct race_entry {
+    char label[96];   /* file stem, unique: "pm-k50" */
+    char params[256]; /* " k=50 kernel=cone max_radius=none" */
+    run_cfg cfg;
+    pds_image img;
+    pds_render_stats st;
+    pds_metrics m;
+    double diff_scale; /* |luminance error| shown at full colour */
+} race_entry;
+
+/* sRGB transfer curve of a value clamped to [0, 1]. */
+static double srgb_encode(double c)
+{
+    if (!(c > 0.0)) return 0.0;
+    if (c >= 1.0) return 1.0;
+    return c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055;
+}
+
+/* The default region of interest: among the w x h windows (w, h = the
+   image's sides, at most 64) at every multiple of min(w, h) / 8 pixels
+   across and down, plus the windows flush with the right and bottom edges,
+   the one where the reference's displayed luminance varies most. That
+   luminance is what SSIM sees: Y = 0.299 R' + 0.587 G' + 0.114 B' of the
+   sRGB-encoded values clamped to [0, 1], here rounded to 8 bits so the sums
+   are exact and ties are decided by position alone: the top-most, then
+   left-most window wins. Cost: one pass over the image, memory O(width). */
+static int choose_roi(const pds_image *ref, roi_box *out)
+{
+    int W = ref->width, H = ref->height, w = W < 64 ? W : 64, h = H < 64 ? H : 64;
+    int step = (w < h ? w : h) / 8, x, y, cy, found = 0;
+    long long *col, *col2, *pre, *pre2, best = -1, cells = (long long)w * h;
+    unsigned char *lum;
+    size_t i, npix = (size_t)W * (size_t)H;
+    if (step < 1) step = 1;
+    col = (long long *)calloc((size_t)W * 4 + 2, sizeof *col);
+    lum = (unsigned char *)malloc(npix);
+    if (!col || !lum) {
+        free(col);
+        free(lum);
+        return fail("%s", "out of memory");
+    }
+    col2 = col + W;
+    pre = col2 + W;
+    pre2 = pre + W + 1;
+    for (i = 0; i < npix; i++) {
+        const float *p = ref->rgb + 3 * i;
+        double yv = 0.299 * srgb_encode(p[0]) + 0.587 * srgb_encode(p[1]) + 0.114 * srgb_encode(p[2]);
+        lum[i] = (unsigned char)(yv * 255.0 + 0.5);
+    }
+    /* col[x], col2[x]: sums of Y and Y^2 over rows cy .. cy+h-1 of column x */
+    for (y = 0; y < h; y++)
+        for (x = 0; x < W; x++) {
+            long long v = lum[(size_t)y * W + x];
+            col[x] += v;
+            col2[x] += v * v;
+        }
+    cy = 0;
+    for (y = 0;;) {
+        for (; cy < y; cy++)
+            for (x = 0; x < W; x++) {
+                long long a = lum[(size_t)cy * W + x], b = lum[(size_t)(cy + h) * W + x];
+                col[x] += b - a;
+                col2[x] += b * b - a * a;
+            }
+        pre[0] = pre2[0] = 0;
+        for (x = 0; x < W; x++) {
+            pre[x + 1] = pre[x] + col[x];
+            pre2[x + 1] = pre2[x] + col2[x];
+        }
+        for (x = 0;;) {
+            long long s = pre[x + w] - pre[x], s2 = pre2[x + w] - pre2[x];
+            long long var = cells * s2 - s * s; /* cells^2 x the variance */
+            if (var > best) {
+                best = var;
+                out->x = x;
+                out->y = y;
+                found = 1;
+            }
+            if (x == W - w) break;
+            x = x + step < W - w ? x + step : W - w;
+        }
+        if (y == H - h) break;
+        y = y + step < H - h ? y + step : H - h;
+    }
+    out->w = w;
+    out->h = h;
+    free(col);
+    free(lum);
+    return found ? 0 : fail("%s", "no region of interest found");
+}
+
+/* The region of img, scaled up by `scale` with nearest neighbour. */
+static int make_crop(const pds_image *img, roi_box roi, int scale, pds_image *out)
+{
+    int x, y;
+    if (pds_image_alloc(out, roi.w * scale, roi.h * scale) != PDS_OK) return fail("%s", "out of memory");
+    for (y = 0; y < out->height; y++)
+        for (x = 0; x < out->width; x++) {
+            const float *s = img->rgb + 3 * ((size_t)(roi.y + y / scale) * img->width + (size_t)(roi.x + x / scale));
+            float *d = out->rgb + 3 * ((size_t)y * out->width + x);
+            d[0] = s[0];
+            d[1] = s[1];
+            d[2] = s[2];
+        }
+    return 0;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* The signed luminance error e = Y(img) - Y(ref), Y = 0.299 R + 0.587 G +
+   0.114 B of the linear values, as colour (the PDS paper's Fig. 14): green
+   where e > 0 (too bright), red where e < 0 (too dark), with intensity
+   |e| / s clamped to 1, s = the 99th percentile of |e| (so 1% of the pixels
+   saturate); blue where e is not a number. *scale = s (0: no error). */
+static int make_diff(const pds_image *img, const pds_image *ref, pds_image *out, double *scale)
+{
+    size_t i, n = (size_t)ref->width * ref->height, nf = 0;
+    double *err, *mag, s = 0.0;
+    if (pds_image_alloc(out, ref->width, ref->height) != PDS_OK) return fail("%s", "out of memory");
+    err = (double *)malloc(2 * n * sizeof *err);
+    if (!err) {
+        pds_image_free(out);
+        return fail("%s", "out of memory");
+    }
+    mag = err + n;
+    for (i = 0; i < n; i++) {
+        const float *a = img->rgb + 3 * i, *b = ref->rgb + 3 * i;
+        err[i] = 0.299 * ((double)a[0] - b[0]) + 0.587 * ((double)a[1] - b[1]) + 0.114 * ((double)a[2] - b[2]);
+        if (isfinite(err[i])) mag[nf++] = fabs(err[i]);
+    }
+    if (nf > 0) {
+        qsort(mag, nf, sizeof *mag, cmp_double);
+        s = mag[(size_t)(0.99 * (double)(nf - 1))];
+        if (!(s > 0.0)) s = mag[nf - 1]; /* fewer than 1% of the pixels differ */
+    }
+    for (i = 0; i < n; i++) {
+        float *d = out->rgb + 3 * i;
+        double e = err[i];
+        double v = s > 0.0 ? fabs(e) / s : 0.0;
+        if (v > 1.0) v = 1.0;
+        d[0] = d[1] = d[2] = 0.0f;
+        if (!isfinite(e)) d[2] = 1.0f;
+        else if (e < 0.0) d[0] = (float)v;
+        else d[1] = (float)v;
+    }
+    free(err);
+    *scale = s;
+    return 0;
+}
+
+/* "pm:k=50:kernel=gaussian,pds,..." -> entries (each a copy of base with
+   its method and options set) and unique labels. 0 or EXIT_USAGE. */
+static int parse_race_methods(const char *list, const run_cfg *base, race_entry *e, int *count)
+{
+    char *buf = strdup(list), *item, *next;
+    int n = 0, rc = 0, i, j, dup[MAX_RACE_METHODS];
+    if (!buf) return fail("%s", "out of memory");
+    for (item = buf; item && !rc; item = next) {
+        char *colon, *param, *nextp;
+        race_entry *r = &e[n];
+        next = strchr(item, ',');
+        if (next) *next++ = '\0';
+        if (!*item) {
+            rc = usage_error("--methods needs a comma-separated list of methods, got '%s'", list);
+            break;
+        }
+        if (n == MAX_RACE_METHODS) {
+            rc = usage_error("--methods takes at most %d methods", MAX_RACE_METHODS);
+            break;
+        }
+        r->cfg = *base;
+        colon = strchr(item, ':');
+        if (colon) *colon = '\0';
+        if (method_lookup(item, &r->cfg.opt.method)) {
+            rc = unknown_method(item);
+            break;
+        }
+        snprintf(r->label, sizeof r->label, "%s", item);
+        for (param = colon ? colon + 1 : NULL; param && !rc; param = nextp) {
+            char *eq, oname[64], shown[128], safe[32], methods[128];
+            const opt_spec *s;
+            int idx = -1;
+            size_t k;
+            nextp = strchr(param, ':');
+            if (nextp) *nextp++ = '\0';
+            eq = strchr(param, '=');
+            if (!eq || eq == param || !eq[1]) {
+                rc = usage_error("--methods: '%s' after %s needs NAME=VALUE", param, item);
+                break;
+            }
+            *eq = '\0';
+            if (strlen(param) < 40 && param[0] != '-') {
+                snprintf(oname, sizeof oname, "--%s", param);
+                for (k = 2; oname[k]; k++)
+                    if (oname[k] == '_') oname[k] = '-';
+                idx = option_index(oname);
+            }
+            if (idx < 0) {
+                rc = usage_error("--methods: unknown option '%s' for %s", param, item);
+                break;
+            }
+            s = &option_table[idx];
+            if (!(s->flags & F_PER_METHOD)) {
+                rc = usage_error("--methods: %s cannot be set for one method; give it to all with %s", param, s->name);
+                break;
+            }
+            if (!(s->methods & MBIT(r->cfg.opt.method))) {
+                method_join(s->methods, " and ", methods, sizeof methods);
+                rc = usage_error("--methods: %s has no effect with %s (%s is for %s)", param, item, param, methods);
+                break;
+            }
+            snprintf(shown, sizeof shown, "%s:%s", item, param);
+            if (s->set(s, &r->cfg, shown, eq + 1)) {
+                rc = EXIT_USAGE;
+                break;
+            }
+            file_safe(eq + 1, safe, sizeof safe);
+            snprintf(r->label + strlen(r->label), sizeof r->label - strlen(r->label), "-%s%s", s->key, safe);
+        }
+        if (!rc) n++;
+    }
+    free(buf);
+    /* the same method twice with the same options: pt, pt-2, ... */
+    for (i = 0; i < n; i++) {
+        dup[i] = 1;
+        for (j = 0; j < i; j++)
+            if (!strcmp(e[j].label, e[i].label)) dup[i]++;
+    }
+    for (i = 0; i < n; i++)
+        if (dup[i] > 1) snprintf(e[i].label + strlen(e[i].label), sizeof e[i].label - strlen(e[i].label), "-%d", dup[i]);
+    *count = n;
+    return rc;
+}
+
+/* One figure of index.html: the image at display width dw (CSS scales it,
+   nearest neighbour), the region of interest framed if roi is not NULL. */
+static void html_figure(sbuf *b, const char *src, const char *alt, const char *caption, int w, int h, int dw,
+                        const roi_box *roi)
+{
+    sb_printf(b, "<figure><div class=\"frame\" style=\"width:%dpx\"><img src=\"", dw);
+    sb_xml(b, src);
+    sb_printf(b, "\" alt=\"");
+    sb_xml(b, alt);
+    sb_printf(b, "\" width=\"%d\" height=\"%d\">", dw, (int)((double)dw * h / w + 0.5));
+    if (roi)
+        sb_printf(b, "<div class=\"roi\" style=\"left:%.3f%%;top:%.3f%%;width:%.3f%%;height:%.3f%%\"></div>",
+                  100.0 * roi->x / w, 100.0 * roi->y / h, 100.0 * roi->w / w, 100.0 * roi->h / h);
+    sb_printf(b, "</div><figcaption>%s</figcaption></figure>\n", caption);
+}
+
+/* index.html: the table, then rows of full images, crops and differences,
+   reference first. Plain HTML and CSS, image paths relative to the folder. */
+static void race_html(sbuf *b, const char *scene_path, const char *ref_path, const char *budget, const run_cfg *base,
+                      const pds_image *ref, roi_box roi, int roi_given, int scale, const race_entry *e, int n)
+{
+    int i, best_r = -1, best_s = -1, W = ref->width, H = ref->height;
+    int dw = W < 256 ? W * ((256 + W - 1) / W) : W > 640 ? 640 : W;
+    char src[160], alt[160];
+    sbuf c = {NULL, 0, 0, 0};
+    for (i = 0; i < n; i++) {
+        if (isfinite(e[i].m.rmse) && (best_r < 0 || e[i].m.rmse < e[best_r].m.rmse)) best_r = i;
+        if (isfinite(e[i].m.ssim) && (best_s < 0 || e[i].m.ssim > e[best_s].m.ssim)) best_s = i;
+    }
+    sb_printf(b, "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>pds race: ");
+    sb_xml(b, scene_path);
+    sb_printf(b,
+              "</title>\n<style>\n"
+              "body { font-family: Helvetica, Arial, sans-serif; margin: 24px; color: #222; background: #fafafa; }\n"
+              "h1 { font-size: 22px; } h2 { font-size: 17px; margin-top: 28px; }\n"
+              "p.meta { color: #444; max-width: 980px; line-height: 1.5; }\n"
+              "table { border-collapse: collapse; font-size: 14px; }\n"
+              "th, td { border: 1px solid #ccc; padding: 4px 10px; text-align: right; }\n"
+              "th { background: #eee; } .l { text-align: left; }\n"
+              "td.best { font-weight: bold; background: #e3f2e6; }\n"
+              ".row { display: flex; flex-wrap: wrap; gap: 18px; align-items: flex-start; }\n"
+              "figure { margin: 0; }\n"
+              "figcaption { font-size: 13px; margin-top: 4px; max-width: 320px; }\n"
+              ".frame { position: relative; line-height: 0; }\n"
+              ".frame img { width: 100%%; height: auto; image-rendering: pixelated; "
+              "image-rendering: crisp-edges; border: 1px solid #888; box-sizing: border-box; }\n"
+              ".roi { position: absolute; border: 2px solid #ffd400; box-sizing: border-box; }\n"
+              ".key span { display: inline-block; width: 12px; height: 12px; vertical-align: middle; }\n"
+              "</style>\n</head>\n<body>\n<h1>pds race: ");
+    sb_xml(b, scene_path);
+    sb_printf(b, "</h1>\n<p class=\"meta\">Reference <code>");
+    sb_xml(b, ref_path);
+    sb_printf(b, "</code>, %dx%d, light paths: %s. Budget: %s for every method. ", W, H, paths_name(base->opt.paths),
+              budget);
+    sb_printf(b, "RMSE over all pixels and channels of the linear values; SSIM (11x11 Gaussian window, "
+                 "&sigma; 1.5) of the luminance of the sRGB-encoded values clamped to [0, 1]. ");
+    sb_printf(b, "Region of interest: x %d, y %d, %dx%d pixels (%s), framed in yellow; crops enlarged %dx with "
+                 "nearest neighbour. Data: <a href=\"race.csv\">race.csv</a>.</p>\n",
+              roi.x, roi.y, roi.w, roi.h,
+              roi_given ? "given with --roi"
+                        : "chosen: the window of at most 64x64 where the reference's luminance varies most",
+              scale);
+    /* the table */
+    sb_printf(b, "<h2>Results</h2>\n<table>\n<tr><th class=\"l\">image</th><th class=\"l\">method</th><th>photons</th>"
+                 "<th>spp</th><th class=\"l\">parameters</th><th>RMSE</th><th>SSIM</th><th>time (s)</th>"
+                 "<th>photon map (MB)</th></tr>\n");
+    for (i = 0; i < n; i++) {
+        const race_entry *r = &e[i];
+        sb_printf(b, "<tr><td class=\"l\"><a href=\"");
+        sb_xml(b, r->label);
+        sb_printf(b, ".pfm\">");
+        sb_xml(b, r->label);
+        sb_printf(b, "</a></td><td class=\"l\">%s</td><td>%ld</td><td>%d</td><td class=\"l\">",
+                  method_name(r->cfg.opt.method), r->st.photons, r->st.spp);
+        sb_xml(b, r->params[0] ? r->params + 1 : "");
+        sb_printf(b, "</td><td%s>%.6f</td><td%s>%.6f</td><td>%.3f</td><td>", i == best_r ? " class=\"best\"" : "",
+                  r->m.rmse, i == best_s ? " class=\"best\"" : "", r->m.ssim, r->st.time_total_s);
+        if (MBIT(r->cfg.opt.method) & M_MAP) sb_printf(b, "%.3f", (double)r->st.map_bytes / 1048576.0);
+        else sb_printf(b, "&ndash;");
+        sb_printf(b, "</td></tr>\n");
+    }
+    sb_printf(b, "</table>\n");
+    /* full images */
+    sb_printf(b, "<h2>Images</h2>\n<div class=\"row\">\n");
+    html_figure(b, "ref.png", "reference", "reference", W, H, dw, &roi);
+    for (i = 0; i < n; i++) {
+        c.len = 0;
+        sb_xml(&c, e[i].label);
+        sb_printf(&c, "<br>RMSE %.5f, SSIM %.4f, %.2f s", e[i].m.rmse, e[i].m.ssim, e[i].st.time_total_s);
+        snprintf(src, sizeof src, "%s.png", e[i].label);
+        if (!c.nomem) html_figure(b, src, e[i].label, c.s, W, H, dw, &roi);
+    }
+    sb_printf(b, "</div>\n<h2>Region of interest</h2>\n<div class=\"row\">\n");
+    html_figure(b, "ref-crop.png", "reference, region of interest", "reference", roi.w * scale, roi.h * scale,
+                roi.w * scale, NULL);
+    for (i = 0; i < n; i++) {
+        c.len = 0;
+        sb_xml(&c, e[i].label);
+        snprintf(src, sizeof src, "%s-crop.png", e[i].label);
+        snprintf(alt, sizeof alt, "%s, region of interest", e[i].label);
+        if (!c.nomem) html_figure(b, src, alt, c.s, roi.w * scale, roi.h * scale, roi.w * scale, NULL);
+    }
+    sb_printf(b, "</div>\n<h2>Difference from the reference</h2>\n<p class=\"meta key\">Luminance of image minus "
+                 "reference (linear): <span style=\"background:#0f0\"></span> green where the image is too bright, "
+                 "<span style=\"background:#f00\"></span> red where it is too dark; full colour at the 99th "
+                 "percentile of |error| of that image (given under it), blue where the value is not a number.</p>\n"
+                 "<div class=\"row\">\n");
+    for (i = 0; i < n; i++) {
+        c.len = 0;
+        sb_xml(&c, e[i].label);
+        sb_printf(&c, "<br>full colour at |error| %.4g", e[i].diff_scale);
+        snprintf(src, sizeof src, "%s-diff.png", e[i].label);
+        snprintf(alt, sizeof alt, "%s, difference from the reference", e[i].label);
+        if (!c.nomem) html_figure(b, src, alt, c.s, W, H, dw, &roi);
+    }
+    sb_printf(b, "</div>\n<p class=\"meta\">Made by <code>pds race</code> (pds %s).</p>\n</body>\n</html>\n",
+              PDS_VERSION_STRING);
+    if (c.nomem) b->nomem = 1;
+    free(c.s);
+}
+
+/* Parse "X,Y,W,H"; 0 or -1. */
+static int parse_roi(const char *s, roi_box *r)
+{
+    long v[4];
+    char buf[128], *p = buf;
+    int k;
+    if (strlen(s) >= sizeof buf) return -1;
+    strcpy(buf, s);
+    for (k = 0; k < 4; k++) {
+        char *comma = strchr(p, ',');
+        if ((comma != NULL) != (k < 3)) return -1;
+        if (comma) *comma = '\0';
+        if (parse_int(p, k < 2 ? 0 : 1, PDS_MAX_RESOLUTION, &v[k])) return -1;
+        p = comma ? comma + 1 : p;
+    }
+    r->x = (int)v[0];
+    r->y = (int)v[1];
+    r->w = (int)v[2];
+    r->h = (int)v[3];
+    return 0;
+}
+
+static int cmd_race(int argc, char **argv)
+{
+    const char *scene_path = NULL, *ref_path = NULL, *methods = NULL, *dir = NULL, *roi_text = NULL;
+    char dir_buf[1024], stem[256], budget[96];
+    run_cfg base;
+    race_entry *e = NULL;
+    pds_scene *scene = NULL;
+    pds_image ref = {0, 0, NULL};
+    roi_box roi = {0, 0, 0, 0};
+    int i, r, n = 0, rc = 1, by_time, by_photons, scale;
+    unsigned mask = 0;
+    cfg_init(&base);
+    for (i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        if (a[0] != '-' || a[1] == '\0') {
+            if (scene_path) return usage_error("race takes one scene, got another: '%s'", a);
+            scene_path = a;
+            continue;
+        }
+        if (!strcmp(a, "--ref") || !strcmp(a, "--methods") || !strcmp(a, "--roi") || !strcmp(a, "-o") ||
+            !strcmp(a, "--output")) {
+            if (i + 1 >= argc) return usage_error("%s needs a value", a);
+            i++;
+            if (!strcmp(a, "--ref")) ref_path = argv[i];
+            else if (!strcmp(a, "--methods")) methods = argv[i];
+            else if (!strcmp(a, "--roi")) roi_text = argv[i];
+            else dir = argv[i];
+            continue;
+        }
+        r = parse_option(&base, C_RACE, "race", argc, argv, &i);
+        if (r < 0) return usage_error("unknown race option '%s'", a);
+        if (r) return r;
+    }
+    if (!scene_path) return usage_error("%s", "race needs a scene file");
+    if (!ref_path) return usage_error("%s", "race needs --ref REFERENCE.pfm");
+    if (!methods) return usage_error("%s", "race needs --methods M1,M2,... (for example pds,pm:k=50,ppm)");
+    by_time = option_given(&base, "--time");
+    by_photons = option_given(&base, "--photons");
+    if (by_time && by_photons) return usage_error("%s", "race takes one budget: --time or --photons, not both");
+    if (!by_time && !by_photons) return usage_error("%s", "race needs a budget: --time SECONDS or --photons N");
+    if (roi_text && parse_roi(roi_text, &roi))
+        return usage_error("--roi needs X,Y,WIDTH,HEIGHT in pixels, got '%s'", roi_text);
+    cfg_apply_progress(&base);
+    e = (race_entry *)calloc(MAX_RACE_METHODS, sizeof *e);
+    if (!e) return fail("%s", "out of memory");
+    if ((rc = parse_race_methods(methods, &base, e, &n)) != 0) goto done;
+    rc = 1;
+    for (i = 0; i < n; i++) {
+        run_cfg *c = &e[i].cfg;
+        /* a photon budget is the total: ppm spreads it over its passes */
+        if (by_photons && c->opt.method == PDS_METHOD_PPM) {
+            long passes = c->opt.passes > 0 ? c->opt.passes : 1;
+            c->opt.photons = base.opt.photons / passes;
+            if (c->opt.photons < 1 && base.opt.photons > 0) c->opt.photons = 1;
+        }
+        format_params(&c->opt, e[i].params, sizeof e[i].params);
+        mask |= MBIT(c->opt.method);
+    }
+    note_idle_options(&base, mask, "for any method raced");
+    if (by_time) snprintf(budget, sizeof budget, "%g s", base.opt.time_s);
+    else snprintf(budget, sizeof budget, "%ld photons", base.opt.photons);
+    scene_stem(scene_path, stem, sizeof stem);
+    if (!dir) {
+        snprintf(dir_buf, sizeof dir_buf, "race-%s", stem);
+        dir = dir_buf;
+    }
+    if (check_out_dir(dir)) goto done;
+    if (load_scene_and_ref(scene_path, ref_path, &base.opt, &scene, &ref)) goto done;
+    if (roi_text) {
+        if (roi.x + roi.w > ref.width || roi.y + roi.h > ref.height) {
+            rc = usage_error("--roi %s does not fit the %dx%d image", roi_text, ref.width, ref.height);
+            goto done;
+        }
+    } else if (choose_roi(&ref, &roi)) {
+        goto done;
+    }
+    /* crops at least 256 pixels wide, within the image size limit */
+    scale = (256 + roi.w - 1) / roi.w;
+    if (scale > PDS_MAX_RESOLUTION / roi.h) scale = PDS_MAX_RESOLUTION / roi.h;
+
+    for (i = 0; i < n; i++) {
+        race_entry *t = &e[i];
+        char context[160];
+        snprintf(context, sizeof context, "race %s", t->label);
+        if (render_and_compare(scene, &t->cfg, &ref, &t->img, &t->st, &t->m, context)) goto done;
+        printf("race method=%s label=%s photons=%ld spp=%d%s", method_name(t->cfg.opt.method), t->label,
+               t->st.photons, t->st.spp, t->params);
+        if (t->cfg.opt.method == PDS_METHOD_PPM) printf(" passes=%d", t->st.passes);
+        if (MBIT(t->cfg.opt.method) & M_MAP) printf(" map_bytes=%lu", (unsigned long)t->st.map_bytes);
+        printf(" rmse=%.6f ssim=%.6f time=%.3f\n", t->m.rmse, t->m.ssim, t->st.time_total_s);
+        fflush(stdout);
+    }
+
+    /* every render succeeded: now the folder */
+    if (make_dirs(dir)) goto done;
+    {
+        pds_image crop = {0, 0, NULL}, diff = {0, 0, NULL};
+        sbuf csv = {NULL, 0, 0, 0}, html = {NULL, 0, 0, 0};
+        char file[160];
+        int bad = write_image(dir, "ref.png", &ref, base.exposure) || make_crop(&ref, roi, scale, &crop) ||
+                  write_image(dir, "ref-crop.png", &crop, base.exposure);
+        pds_image_free(&crop);
+        for (i = 0; i < n && !bad; i++) {
+            race_entry *t = &e[i];
+            snprintf(file, sizeof file, "%s.pfm", t->label);
+            bad = write_image(dir, file, &t->img, 0.0);
+            snprintf(file, sizeof file, "%s.png", t->label);
+            bad = bad || write_image(dir, file, &t->img, base.exposure);
+            snprintf(file, sizeof file, "%s-crop.png", t->label);
+            bad = bad || make_crop(&t->img, roi, scale, &crop) || write_image(dir, file, &crop, base.exposure);
+            snprintf(file, sizeof file, "%s-diff.png", t->label);
+            bad = bad || make_diff(&t->img, &ref, &diff, &t->diff_scale) || write_image(dir, file, &diff, 0.0);
+            pds_image_free(&crop);
+            pds_image_free(&diff);
+        }
+        if (!bad) {
+            sb_printf(&csv, "method,label,photons,spp,passes,parameters,rmse,ssim,time_s,map_bytes,diff_scale\n");
+            for (i = 0; i < n; i++) {
+                const race_entry *t = &e[i];
+                sb_printf(&csv, "%s,", method_name(t->cfg.opt.method));
+                sb_csv(&csv, t->label);
+                sb_printf(&csv, ",%ld,%d,%d,", t->st.photons, t->st.spp, t->st.passes);
+                sb_csv(&csv, t->params[0] ? t->params + 1 : "");
+                sb_printf(&csv, ",%.6f,%.6f,%.3f,%lu,%.6g\n", t->m.rmse, t->m.ssim, t->st.time_total_s,
+                          (unsigned long)t->st.map_bytes, t->diff_scale);
+            }
+            race_html(&html, scene_path, ref_path, budget, &base, &ref, roi, roi_text != NULL, scale, e, n);
+            bad = write_text(dir, "race.csv", &csv) || write_text(dir, "index.html", &html);
+        }
+        free(csv.s);
+        free(html.s);
+        if (bad) goto done;
+    }
+    printf("race dir=%s methods=%d roi=%d,%d,%d,%d\n", dir, n, roi.x, roi.y, roi.w, roi.h);
+    rc = 0;
+done:
+    for (i = 0; e && i < n; i++) pds_image_free(&e[i].img);
+    free(e);
+    pds_image_free(&ref);
+    pds_scene_free(scene);
+    return rc;
+}
+
 int main(int argc, char **argv)
 {
     const char *cmd;
     if (argc < 2) {
-        fputs(usage_text, stderr);
+        print_usage(stderr);
         return EXIT_USAGE;
     }
     cmd = argv[1];
     if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "help")) {
-        fputs(usage_text, stdout);
+        print_usage(stdout);
         return 0;
     }
     if (!strcmp(cmd, "--version")) {
@@ -541,6 +2171,8 @@ int main(int argc, char **argv)
         return 0;
     }
     if (!strcmp(cmd, "render")) return cmd_render(argc - 2, argv + 2);
+    if (!strcmp(cmd, "sweep")) return cmd_sweep(argc - 2, argv + 2);
+    if (!strcmp(cmd, "race")) return cmd_race(argc - 2, argv + 2);
     if (!strcmp(cmd, "compare")) return cmd_compare(argc - 2, argv + 2);
     if (!strcmp(cmd, "info")) return cmd_info(argc - 2, argv + 2);
     if (!strcmp(cmd, "bench")) return cmd_bench(argc - 2, argv + 2);

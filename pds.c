@@ -2276,86 +2276,39 @@ static int pds__gen_heightfield(const pds__emitter *e, double sx, double sz, int
 /* ===================================================================== */
 /* >>bvh                                                                 */
 /* ===================================================================== */
-/* A 4-wide bounding volume hierarchy over the scene's triangles: built as
-   a binary tree with the binned surface area heuristic, collapsed to four
-   children per node, traversed closest-child-first with an explicit stack;
-   watertight ray/triangle test.
-
-   Build (Wald, "On fast construction of SAH-based bounding volume
-   hierarchies", 2007): each node bins its triangles' centroids into
-   PDS__BVH_BINS equal bins along each axis, sweeps the bin boundaries, and
-   takes the plane of least SAH cost
-       C = C_trav + (A_L N_L + A_R N_R) / A_P         (C_isect = 1)
-   against the leaf cost N. Nodes with more than PDS__BVH_MAX_LEAF triangles
-   are always split; when every centroid sits at one spot the node is split
-   by count. From depth PDS__BVH_SAH_DEPTH on, the builder uses object
-   median splits, so no leaf is deeper than 56 (PDS_MAX_TRIANGLES < 2^26):
-   that bounds the traversal stack. The binary tree is then collapsed into
-   4-wide nodes by repeatedly opening the child of largest area, which
-   halves the levels a ray walks through and lets the compiler test four
-   boxes with one vector operation.
-
-   Memory layout (what the hot loop reads):
-     nodes  pds__bvh_node, 128 bytes = two cache lines, array aligned to 64:
-            bytes   0..95  float b[24]: b[4 row + k], rows 0..2 = child
-                           k's box minimum x y z, rows 3..5 its maximum
-                           (SoA, so the four slab tests are one loop over k)
-            bytes  96..111 uint32 child[4]: inner child: its node index;
-                           leaf child: its first triangle (leaf order)
-            bytes 112..127 uint32 count[4]: 0 = inner child, n = leaf of n
-                           triangles. Unused slots have an inverted box
-                           (min = FLT_MAX, max = -FLT_MAX) that no ray hits.
-            Node 0 is the root. Boxes are padded outward by an ulp (see
-            pds__bvh_collapse).
-     tri    9 floats (36 bytes) per triangle, in leaf order: the three
-            vertices in their original order, copied from the mesh, so a
-            leaf's triangles are contiguous in memory.
-     tri_id int per triangle in leaf order: the original triangle index.
-
-   Queries convert the ray to float once. Box test: slabs with precomputed
-   reciprocal directions, and the near plane of each axis known from the
-   direction's sign. A zero direction component gets the reciprocal FLT_MAX
-   (not infinity), so (plane - origin) * rcp is never 0 * inf = NaN. The far
-   distance is scaled by 1 + 2 gamma(3) (Ize, "Robust BVH ray traversal",
-   JCGT 2013) so rounding never rejects a box the exact ray touches.
-   Triangle test: Woop, Benthin, Wald, "Watertight ray/triangle
-   intersection", JCGT 2013, as in pbrt-v3: shear the triangle into the
-   ray's frame and evaluate the three 2D edge functions, here in double
-   where the products of the float coordinates are exact; neighbouring
-   triangles then never both miss a ray through their shared edge or
-   vertex, even under FMA contraction. The closest hit's t and
-   barycentrics are finally recomputed in double (Moller-Trumbore on the
-   same float vertices) for precision; the hit/miss decision stays the float
-   one.
-
-   Invariants: queries never modify the bvh (thread-safe, deterministic);
-   t is in units of |dir|; the float interval the loop uses lies inside
-   the caller's (tmin, tmax), so a hit within about 1e-7 (relative) of
-   tmin or tmax may be dropped, but none outside is ever reported.
-   Limits: vertex coordinates and ray origins within 1e30 in magnitude,
-   |dir| components above 1e-300 (any larger length is fine: it is scaled
-   by a power of two internally). */
+/* PROLOGUE */
 
 #define PDS__BVH_BINS 16       /* bins per axis (fewer in small nodes) */
-#define PDS__BVH_MAX_LEAF 4    /* triangles per leaf at most */
-#define PDS__BVH_C_TRAV 1.0f   /* SAH cost of a traversal step, C_isect = 1 */
+#define PDS__BVH_MAX_LEAF 4    /* triangles per leaf at most: one block */
+#define PDS__BVH_C_TRAV 1.0f   /* SAH cost of a binary traversal step, in
+                                  units of one 4-triangle block test */
 #define PDS__BVH_SAH_DEPTH 32
 #define PDS__BVH_MAX_DEPTH 64   /* > 56, the deepest leaf possible */
 #define PDS__BVH_STACK (3 * PDS__BVH_MAX_DEPTH + 4)
+#define PDS__BVH_LEAF 0x80000000u /* child reference flag: a triangle block */
+/* SAH cost of n triangles: the blocks of 4 they fill */
+#define PDS__BVH_BLOCKS(n) (((n) + 3) >> 2)
 
 typedef struct pds__bvh_node {
     float b[24];        /* SoA child boxes: b[4 row + k], rows min x y z,
                            max x y z */
-    uint32_t child[4];  /* node index (inner) or first triangle (leaf) */
-    uint32_t count[4];  /* 0 = inner child, else triangles in the leaf */
+    uint32_t child[4];  /* node index (inner) or PDS__BVH_LEAF | block */
+    uint32_t count[4];  /* triangles in a leaf child, 0 for an inner or
+                           unused one (the queries do not read it) */
 } pds__bvh_node;
+
+/* Four triangles, SoA: v[vertex][axis][lane]. */
+typedef struct pds__bvh_tri4 {
+    float v[3][3][4];
+} pds__bvh_tri4;
 
 typedef struct pds__bvh {
     pds__bvh_node *nodes; /* 64-byte aligned view into nodes_mem */
     void *nodes_mem;
     size_t nnodes;
-    float *tri;           /* 9 floats per triangle, leaf order */
-    int *tri_id;          /* original triangle index, leaf order */
+    pds__bvh_tri4 *tri4;  /* one block per leaf */
+    int *tri_id;          /* 4 per block: each lane's original triangle */
+    size_t nblocks;
     size_t ntris;
     int depth;            /* deepest leaf of the binary tree (root = 0) */
     long leaves;
@@ -2483,7 +2436,7 @@ static uint32_t pds__bvh_median_split(pds__bvh_prim *p, uint32_t b, uint32_t e, 
 /* Best binned SAH split of prims [b, e) with centroid bounds clo/chi and
    box area parent_area. Returns 1 and the axis and split bin (prims in bins
    <= split go left) if some plane separates the centroids, with *cost the
-   SAH cost in units of C_isect. */
+   SAH cost in units of one block test. */
 static int pds__bvh_find_split(const pds__bvh_prim *p, uint32_t b, uint32_t e,
                                const float clo[3], const float chi[3], float parent_area,
                                int *axis_out, int *split_out, float scale_out[3], float *cost)
@@ -2552,7 +2505,8 @@ static int pds__bvh_find_split(const pds__bvh_prim *p, uint32_t b, uint32_t e,
             if (right_count[k + 1] == 0) break;
             n += bins[axis][k].count;
             pds__bvh_box_grow(lo, hi, bins[axis][k].lo, bins[axis][k].hi);
-            c = pds__bvh_half_area(lo, hi) * (float)n + right_area[k + 1] * (float)right_count[k + 1];
+            c = pds__bvh_half_area(lo, hi) * (float)PDS__BVH_BLOCKS(n) +
+                right_area[k + 1] * (float)PDS__BVH_BLOCKS(right_count[k + 1]);
             if (c < best) {
                 best = c;
                 *axis_out = axis;
@@ -2587,7 +2541,7 @@ static uint32_t pds__bvh_partition(pds__bvh_prim *p, uint32_t b, uint32_t e, int
 static void pds__bvh_free(pds__bvh *bvh)
 {
     free(bvh->nodes_mem);
-    free(bvh->tri);
+    free(bvh->tri4);
     free(bvh->tri_id);
     memset(bvh, 0, sizeof *bvh);
 }
@@ -2627,7 +2581,7 @@ static size_t pds__bvh_build_binary(pds__bvh_prim *prims, uint32_t n, pds__bvh2_
                 pds__bvh_find_split(prims, task.begin, task.end, task.clo, task.chi,
                                     pds__bvh_half_area(node->lo, node->hi),
                                     &axis, &split, scale, &cost) &&
-                (cnt > PDS__BVH_MAX_LEAF || cost < (float)cnt)) {
+                (cnt > PDS__BVH_MAX_LEAF || cost < 1.0f)) {
                 mid = pds__bvh_partition(prims, task.begin, task.end, axis, split,
                                          task.clo[axis], scale[axis]);
                 do_split = mid > task.begin && mid < task.end;
@@ -2676,12 +2630,16 @@ static size_t pds__bvh_build_binary(pds__bvh_prim *prims, uint32_t n, pds__bvh2_
 }
 
 /* Collapses the binary tree bin into 4-wide nodes (room for as many as
-   bin has inner nodes, at least one). Returns the number of nodes. */
-static size_t pds__bvh_collapse(const pds__bvh2_node *bin, pds__bvh_node *nodes)
+   bin has inner nodes, at least one). Leaf children become triangle
+   blocks, numbered in the order they are met (so a subtree's blocks lie
+   close together); block_src[b] gets the binary leaf of block b. Returns
+   the number of nodes; *nblocks gets the number of blocks. */
+static size_t pds__bvh_collapse(const pds__bvh2_node *bin, pds__bvh_node *nodes, uint32_t *block_src,
+                                size_t *nblocks)
 {
     uint32_t jobs_bin[PDS__BVH_STACK], jobs_node[PDS__BVH_STACK];
     int sp = 0;
-    size_t next = 1;
+    size_t next = 1, nb = 0;
 
     jobs_bin[0] = 0;
     jobs_node[0] = 0;
@@ -2735,8 +2693,10 @@ static size_t pds__bvh_collapse(const pds__bvh2_node *bin, pds__bvh_node *nodes)
                 q->b[4 * (3 + c) + k] = hi + (fabsf(hi) * (1.0f / 8388608.0f) + FLT_MIN);
             }
             if (bin[slot[k]].count) {
-                q->child[k] = bin[slot[k]].first;
+                block_src[nb] = slot[k];
+                q->child[k] = PDS__BVH_LEAF | (uint32_t)nb;
                 q->count[k] = bin[slot[k]].count;
+                nb++;
             } else {
                 q->child[k] = (uint32_t)next;
                 q->count[k] = 0;
@@ -2747,6 +2707,7 @@ static size_t pds__bvh_collapse(const pds__bvh2_node *bin, pds__bvh_node *nodes)
             }
         }
     }
+    *nblocks = nb;
     return next;
 }
 
@@ -2761,6 +2722,7 @@ static pds_status pds__bvh_build(pds__bvh *bvh, const float *pos, const int *idx
 {
     pds__bvh_prim *prims = NULL;
     pds__bvh2_node *bin = NULL;
+    uint32_t *block_src = NULL;
     size_t i, nbin, ninner;
     uintptr_t a;
 
@@ -2803,17 +2765,17 @@ static pds_status pds__bvh_build(pds__bvh *bvh, const float *pos, const int *idx
 
     nbin = pds__bvh_build_binary(prims, (uint32_t)ntris, bin, &bvh->leaves, &bvh->depth);
 
-    /* 4-wide nodes: at most one per binary inner node, at least one */
+    /* 4-wide nodes: at most one per binary inner node, at least one; one
+       block per binary leaf */
     ninner = nbin / 2;
     bvh->nodes_mem = malloc(ninner * sizeof(pds__bvh_node) + 64);
-    bvh->tri = (float *)malloc(ntris * 9 * sizeof(float));
-    bvh->tri_id = (int *)malloc(ntris * sizeof(int));
-    if (!bvh->nodes_mem || !bvh->tri || !bvh->tri_id) goto nomem;
+    bvh->tri4 = (pds__bvh_tri4 *)malloc((size_t)bvh->leaves * sizeof(pds__bvh_tri4));
+    bvh->tri_id = (int *)malloc((size_t)bvh->leaves * 4 * sizeof(int));
+    block_src = (uint32_t *)malloc((size_t)bvh->leaves * sizeof(uint32_t));
+    if (!bvh->nodes_mem || !bvh->tri4 || !bvh->tri_id || !block_src) goto nomem;
     a = ((uintptr_t)bvh->nodes_mem + 63) & ~(uintptr_t)63;
     bvh->nodes = (pds__bvh_node *)a;
-    bvh->nnodes = pds__bvh_collapse(bin, bvh->nodes);
-    free(bin);
-    bin = NULL;
+    bvh->nnodes = pds__bvh_collapse(bin, bvh->nodes, block_src, &bvh->nblocks);
     if (bvh->nnodes < ninner) {
         /* give back the unused tail; realloc may move the block, and with
            it the 64-byte alignment offset, so the nodes are moved to the
@@ -2829,24 +2791,31 @@ static pds_status pds__bvh_build(pds__bvh *bvh, const float *pos, const int *idx
         }
     }
 
-    /* triangles in leaf order */
+    /* the blocks: a leaf of n < 4 triangles repeats its last one in the
+       spare lanes (a repeated triangle never gives a closer hit) */
     bvh->ntris = ntris;
-    for (i = 0; i < ntris; i++) {
-        int id = prims[i].id, c;
-        bvh->tri_id[i] = id;
-        for (c = 0; c < 3; c++) {
-            const float *v = pos + 3 * (size_t)idx[3 * (size_t)id + c];
-            bvh->tri[9 * i + 3 * c + 0] = v[0];
-            bvh->tri[9 * i + 3 * c + 1] = v[1];
-            bvh->tri[9 * i + 3 * c + 2] = v[2];
+    for (i = 0; i < bvh->nblocks; i++) {
+        const pds__bvh2_node *leaf = &bin[block_src[i]];
+        int l, c, k;
+        for (l = 0; l < 4; l++) {
+            uint32_t p = leaf->first + ((uint32_t)l < leaf->count ? (uint32_t)l : leaf->count - 1);
+            int id = prims[p].id;
+            bvh->tri_id[4 * i + l] = id;
+            for (c = 0; c < 3; c++) {
+                const float *v = pos + 3 * (size_t)idx[3 * (size_t)id + c];
+                for (k = 0; k < 3; k++) bvh->tri4[i].v[c][k][l] = v[k];
+            }
         }
     }
+    free(block_src);
+    free(bin);
     free(prims);
     return PDS_OK;
 
 nomem:
     free(prims);
     free(bin);
+    free(block_src);
     pds__bvh_free(bvh);
     return pds__nomem(err);
 }
@@ -2855,24 +2824,35 @@ nomem:
 static size_t pds__bvh_memory(const pds__bvh *bvh)
 {
     if (!bvh->nodes_mem) return 0;
-    return bvh->nnodes * sizeof(pds__bvh_node) + 64 + bvh->ntris * (9 * sizeof(float) + sizeof(int));
+    return bvh->nnodes * sizeof(pds__bvh_node) + 64 + bvh->nblocks * (sizeof(pds__bvh_tri4) + 4 * sizeof(int));
 }
 
 /* -------------------------------------------------------------- queries */
 
-/* The ray as the hot loop sees it, all float. */
+/* The ray as the hot loop sees it, all float. The box test reads four
+   copies of each per-axis value so that it runs as vector operations. */
 typedef struct pds__bvh_ray {
-    float o[3];         /* origin */
-    float rd[3];        /* 1 / dir, +-FLT_MAX for (near) zero components */
-    float o4[3][4], rd4[3][4]; /* the same, four copies each, for the
-                           vectorised slab test */
+    float o4[3][4];     /* origin */
+    float rn4[3][4];    /* 1 / dir (+-FLT_MAX for a (near) zero component),
+                           for the near slab planes */
+    float rf4[3][4];    /* the same scaled up by PDS__BVH_FAR_SCALE, for
+                           the far planes */
+    float tmin4[4];     /* tmin */
     int nr[3], fr[3];   /* offset in node->b of the row holding the near /
                            far slab plane per axis: 4 axis (min) or
                            4 (3 + axis) (max) */
-    int kx, ky, kz;     /* watertight frame: kz = largest |dir| axis */
+    int kx, ky, kz;     /* watertight frame: kz = largest |dir| axis, kx,
+                           ky the next two cyclically */
+    float ox, oy, oz;   /* origin components kx, ky, kz */
     float sx, sy, sz;   /* shear: -d_kx / d_kz, -d_ky / d_kz, 1 / d_kz */
     float tmin, tmax;   /* inside the caller's (tmin, tmax) */
 } pds__bvh_ray;
+
+/* Slack on the far slab distances, applied to the reciprocal: 1 + 2^-20,
+   above the 1 + 2 gamma(4) that covers the four roundings in each of the
+   near and far distances (Ize, "Robust BVH ray traversal", JCGT 2013), so
+   a box the exact ray touches is never missed. */
+#define PDS__BVH_FAR_SCALE 1.00000095367431640625
 
 /* Float just above x (|x| <= FLT_MAX): at least one ulp past (float)x when
    that rounded down, so the float interval never leaves (tmin, tmax). */
@@ -2890,6 +2870,27 @@ static float pds__bvh_float_below(double x)
     return f;
 }
 
+/* One axis of pds__bvh_ray_setup: origin o, direction d (|d| = ad). */
+static void pds__bvh_setup_axis(pds__bvh_ray *r, int k, double o, double d, double ad)
+{
+    /* reciprocal; a (nearly) zero component gets FLT_MAX, never inf, so
+       (plane - origin) * rcp is never 0 * inf = NaN; such a slab needs no
+       far slack */
+    float rn = FLT_MAX, rf = FLT_MAX, of = (float)o;
+    int neg = 0;
+    if (ad > 2.0 / FLT_MAX) {
+        double rk = 1.0 / d;
+        rn = (float)rk;
+        rf = (float)(rk * PDS__BVH_FAR_SCALE);
+        neg = rk < 0.0;
+    }
+    r->nr[k] = 4 * (k + 3 * neg);
+    r->fr[k] = 4 * (k + 3 - 3 * neg);
+    r->o4[k][0] = r->o4[k][1] = r->o4[k][2] = r->o4[k][3] = of;
+    r->rn4[k][0] = r->rn4[k][1] = r->rn4[k][2] = r->rn4[k][3] = rn;
+    r->rf4[k][0] = r->rf4[k][1] = r->rf4[k][2] = r->rf4[k][3] = rf;
+}
+
 /* Prepares the float ray. A direction whose largest component is outside
    [2^-60, 2^60] is first scaled by a power of two s (exact), so every
    float below stays finite; then t_caller = s t_internal, returned in
@@ -2899,28 +2900,31 @@ static float pds__bvh_float_below(double x)
 static int pds__bvh_ray_setup(pds__bvh_ray *r, pds__v3 org, pds__v3 dir, double tmin, double tmax,
                               double *tscale)
 {
+    static const int next[3] = {1, 2, 0};
     double o[3], d[3], ad[3], m, inv;
-    int k;
-    o[0] = org.x; o[1] = org.y; o[2] = org.z;
-    d[0] = dir.x; d[1] = dir.y; d[2] = dir.z;
-    for (k = 0; k < 3; k++) {
-        if (!(fabs(o[k]) <= 1e30)) return 0;
-        r->o[k] = (float)o[k];
-        ad[k] = fabs(d[k]);
-    }
-    {
-        /* kz = argmax |d|, without branches (random rays mispredict them) */
-        int c01 = ad[1] > ad[0], c2;
-        double m01 = c01 ? ad[1] : ad[0];
-        c2 = ad[2] > m01;
-        r->kz = c2 * 2 + (1 - c2) * c01;
-        m = c2 ? ad[2] : m01;
-    }
-    if (!(m >= 1e-300 && m <= DBL_MAX) || !(ad[0] == ad[0] && ad[1] == ad[1] && ad[2] == ad[2])) return 0;
+    int kx, ky, kz;
+    o[0] = org.x;
+    o[1] = org.y;
+    o[2] = org.z;
+    d[0] = dir.x;
+    d[1] = dir.y;
+    d[2] = dir.z;
+    ad[0] = fabs(d[0]);
+    ad[1] = fabs(d[1]);
+    ad[2] = fabs(d[2]);
+    if (!(fabs(o[0]) <= 1e30 && fabs(o[1]) <= 1e30 && fabs(o[2]) <= 1e30)) return 0;
+    if (!(ad[0] <= DBL_MAX && ad[1] <= DBL_MAX && ad[2] <= DBL_MAX)) return 0; /* inf, NaN */
+    /* kz = argmax |d|; kx, ky follow cyclically (keeps the winding) */
+    m = ad[1] > ad[0] ? ad[1] : ad[0];
+    kz = ad[2] > m ? 2 : ad[1] > ad[0];
+    m = ad[2] > m ? ad[2] : m;
+    kx = next[kz];
+    ky = next[kx];
     *tscale = 1.0;
-    if (m < 0x1p-60 || m > 0x1p60) {
-        int e;
+    if (!(m >= 0x1p-60 && m <= 0x1p60)) {
+        int e, k;
         double s;
+        if (!(m >= 1e-300)) return 0;
         (void)frexp(m, &e);
         s = ldexp(1.0, -e);
         for (k = 0; k < 3; k++) {
@@ -2931,54 +2935,42 @@ static int pds__bvh_ray_setup(pds__bvh_ray *r, pds__v3 org, pds__v3 dir, double 
         tmax /= s;
         *tscale = s;
     }
-    for (k = 0; k < 3; k++) {
-        /* reciprocal; a (nearly) zero component gets FLT_MAX, never inf */
-        double rk = ad[k] > 1.0 / FLT_MAX ? 1.0 / d[k] : FLT_MAX;
-        int neg = rk < 0.0;
-        r->rd[k] = (float)rk;
-        r->nr[k] = 4 * (k + 3 * neg);
-        r->fr[k] = 4 * (k + 3 - 3 * neg);
-    }
-    for (k = 0; k < 3; k++) {
-        r->o4[k][0] = r->o4[k][1] = r->o4[k][2] = r->o4[k][3] = r->o[k];
-        r->rd4[k][0] = r->rd4[k][1] = r->rd4[k][2] = r->rd4[k][3] = r->rd[k];
-    }
-    r->kx = (r->kz + 1) % 3;
-    r->ky = (r->kz + 2) % 3;
-    inv = 1.0 / d[r->kz];
-    r->sx = (float)(-d[r->kx] * inv);
-    r->sy = (float)(-d[r->ky] * inv);
-    r->sz = (float)inv;
-    /* float interval inside the double one */
     if (!(tmin < tmax) || tmin >= FLT_MAX || tmax <= -FLT_MAX) return 0;
     r->tmin = tmin < -FLT_MAX ? -FLT_MAX : pds__bvh_float_above(tmin);
     r->tmax = tmax > FLT_MAX ? FLT_MAX : pds__bvh_float_below(tmax);
+    r->tmin4[0] = r->tmin4[1] = r->tmin4[2] = r->tmin4[3] = r->tmin;
+    pds__bvh_setup_axis(r, 0, o[0], d[0], ad[0]);
+    pds__bvh_setup_axis(r, 1, o[1], d[1], ad[1]);
+    pds__bvh_setup_axis(r, 2, o[2], d[2], ad[2]);
+    r->kx = kx;
+    r->ky = ky;
+    r->kz = kz;
+    r->ox = (float)o[kx];
+    r->oy = (float)o[ky];
+    r->oz = (float)o[kz];
+    inv = 1.0 / d[kz];
+    r->sx = (float)(-d[kx] * inv);
+    r->sy = (float)(-d[ky] * inv);
+    r->sz = (float)inv;
     return r->tmin < r->tmax;
 }
 
-/* Watertight test of the ray against triangle v (9 floats: v0 v1 v2).
-   Returns 1 with *t in (tmin, tmax) and barycentrics *u (of v1), *w (of
-   v2) on a hit. Woop, Benthin, Wald 2013: the vertices are translated to
-   the origin, permuted (kz = dominant axis) and sheared so the ray runs
-   along +z; then the 2D edge functions decide. They are evaluated in
-   double: products of floats are exact there, so each edge function has
-   the exact sign of its float inputs, and the value for an edge shared by
-   two triangles is exactly the negated one, whatever FP contraction (FMA)
-   the compiler applies. That is what makes the test watertight; it also
-   replaces pbrt's "recompute in double when zero" fallback. */
-static inline int pds__bvh_tri_test(const pds__bvh_ray *r, const float *v, float tmin, float tmax,
-                                    float *t, float *u, float *w)
+/* Bound on the rounding error of a float 2x2 determinant p - q (p, q the
+   rounded products; with or without FMA contraction) relative to |p| +
+   |q|: 2 u is enough, 4 u = 2^-22 leaves room for rounding the bound
+   itself. */
+#define PDS__BVH_EDGE_EPS 2.384185791e-7f
+
+/* The exact-sign fallback of pds__bvh_tri4_test for lane l: the edge
+   functions from the same float sheared coordinates, in double, where the
+   products of floats are exact, so each has the exact sign and an edge
+   shared by two triangles gets exactly the negated value. Returns 1 with
+   *t in (tmin, tmax) and barycentrics *u (of v1), *w (of v2) on a hit. */
+static int pds__bvh_tri_exact(const pds__bvh_ray *r, const float X[3][4], const float Y[3][4],
+                              const float Z[3][4], int l, float tmin, float tmax, float *t, float *u,
+                              float *w)
 {
-    const int kx = r->kx, ky = r->ky, kz = r->kz;
-    /* vertices relative to the origin, in the ray's permuted, sheared frame */
-    const float az = v[kz] - r->o[kz], bz = v[3 + kz] - r->o[kz], cz = v[6 + kz] - r->o[kz];
-    const double ax = (v[kx] - r->o[kx]) + r->sx * az;
-    const double ay = (v[ky] - r->o[ky]) + r->sy * az;
-    const double bx = (v[3 + kx] - r->o[kx]) + r->sx * bz;
-    const double by = (v[3 + ky] - r->o[ky]) + r->sy * bz;
-    const double cx = (v[6 + kx] - r->o[kx]) + r->sx * cz;
-    const double cy = (v[6 + ky] - r->o[ky]) + r->sy * cz;
-    /* 2D edge functions: e0 weights v0, e1 v1, e2 v2 */
+    const double ax = X[0][l], ay = Y[0][l], bx = X[1][l], by = Y[1][l], cx = X[2][l], cy = Y[2][l];
     const double e0 = bx * cy - by * cx;
     const double e1 = cx * ay - cy * ax;
     const double e2 = ax * by - ay * bx;
@@ -2988,7 +2980,7 @@ static inline int pds__bvh_tri_test(const pds__bvh_ray *r, const float *v, float
     det = e0 + e1 + e2;
     if (det == 0.0) return 0;
     inv = 1.0 / det;
-    td = (e0 * az + e1 * bz + e2 * cz) * r->sz * inv;
+    td = (e0 * Z[0][l] + e1 * Z[1][l] + e2 * Z[2][l]) * r->sz * inv;
     if (!(td > -FLT_MAX && td < FLT_MAX)) return 0; /* (float) of it must be defined */
     tt = (float)td;
     if (!(tt > tmin && tt < tmax)) return 0;
@@ -2998,133 +2990,235 @@ static inline int pds__bvh_tri_test(const pds__bvh_ray *r, const float *v, float
     return 1;
 }
 
-/* 1 + 2 gamma(3) for float (Ize 2013): slack on a box's far distance. */
-#define PDS__BVH_FAR_SCALE 1.0000003576f
-/* A box is culled only when its entry distance exceeds the closest hit
-   so far by this factor (2^-20 relative): entry distances and triangle
-   distances are rounded differently, and a triangle lying in its box's
-   face (a flat leaf, coplanar geometry) must not be culled by a box entry
-   computed a few ulps too far. */
-#define PDS__BVH_CULL_SCALE 1.00000095f
+/* Watertight test of the ray against the four triangles of block q.
+   Returns the lane of the closest hit with t in (tmin, tmax), its t and
+   barycentrics *u (of v1) and *w (of v2), or -1. Woop, Benthin, Wald
+   2013: the vertices are translated to the origin, permuted (kz = dominant
+   axis) and sheared so the ray runs along +z; then the signs of the three
+   2D edge functions decide. They are computed in float with a bound on
+   their rounding error; a lane where some edge function is within that
+   bound of 0 (the ray passes within rounding of an edge's line) is redone
+   exactly by pds__bvh_tri_exact. Either way the decision is that of the
+   exact signs, so two triangles sharing an edge or vertex never both miss
+   a ray through it, whatever FP contraction (FMA) the compiler applies.
+   The loop runs over the four lanes with masks, not branches, so the
+   compiler turns it into vector operations. */
+static inline int pds__bvh_tri4_test(const pds__bvh_ray *r, const pds__bvh_tri4 *q, float tmin,
+                                     float tmax, float *t_out, float *u_out, float *w_out)
+{
+    const float *vx0 = q->v[0][r->kx], *vy0 = q->v[0][r->ky], *vz0 = q->v[0][r->kz];
+    const float *vx1 = q->v[1][r->kx], *vy1 = q->v[1][r->ky], *vz1 = q->v[1][r->kz];
+    const float *vx2 = q->v[2][r->kx], *vy2 = q->v[2][r->ky], *vz2 = q->v[2][r->kz];
+    const float ox = r->ox, oy = r->oy, oz = r->oz, sx = r->sx, sy = r->sy, sz = r->sz;
+    float X[3][4], Y[3][4], Z[3][4], T[4], U[4], W[4], m;
+    int l, best;
+    for (l = 0; l < 4; l++) {
+        /* vertices relative to the origin, sheared */
+        const float z0 = vz0[l] - oz, z1 = vz1[l] - oz, z2 = vz2[l] - oz;
+        const float x0 = (vx0[l] - ox) + sx * z0, y0 = (vy0[l] - oy) + sy * z0;
+        const float x1 = (vx1[l] - ox) + sx * z1, y1 = (vy1[l] - oy) + sy * z1;
+        const float x2 = (vx2[l] - ox) + sx * z2, y2 = (vy2[l] - oy) + sy * z2;
+        /* e_i = 2D cross product of the other two vertices; weights v_i */
+        const float p0 = x1 * y2, q0 = y1 * x2;
+        const float p1 = x2 * y0, q1 = y2 * x0;
+        const float p2 = x0 * y1, q2 = y0 * x1;
+        const float e0 = p0 - q0, e1 = p1 - q1, e2 = p2 - q2;
+        const float b0 = PDS__BVH_EDGE_EPS * (fabsf(p0) + fabsf(q0)) + FLT_MIN;
+        const float b1 = PDS__BVH_EDGE_EPS * (fabsf(p1) + fabsf(q1)) + FLT_MIN;
+        const float b2 = PDS__BVH_EDGE_EPS * (fabsf(p2) + fabsf(q2)) + FLT_MIN;
+        /* masks (0 or -1): every sign sure; the three signs agree */
+        const int sure = -(fabsf(e0) > b0) & -(fabsf(e1) > b1) & -(fabsf(e2) > b2);
+        const int n0 = -(e0 < 0.0f), n1 = -(e1 < 0.0f), n2 = -(e2 < 0.0f);
+        int hit = sure & ~((n0 ^ n1) | (n1 ^ n2));
+        float det = e0 + e1 + e2, adet = fabsf(det), inv, t;
+        /* a hit has |det| > FLT_MIN (all three e_i are, with one sign):
+           the clamp only keeps the other lanes from dividing by 0 */
+        adet = adet > FLT_MIN ? adet : FLT_MIN;
+        inv = 1.0f / copysignf(adet, det);
+        t = (e0 * z0 + e1 * z1 + e2 * z2) * sz * inv;
+        hit &= -(t > tmin) & -(t < tmax);
+        /* T: t of a hit, tmax for a miss, -FLT_MAX (below any t) for a
+           lane needing the exact signs (two statements: gcc vectorises
+           those, not the nested conditional) */
+        t = hit ? t : tmax;
+        T[l] = sure ? t : -FLT_MAX;
+        U[l] = e1 * inv;
+        W[l] = e2 * inv;
+        X[0][l] = x0;
+        X[1][l] = x1;
+        X[2][l] = x2;
+        Y[0][l] = y0;
+        Y[1][l] = y1;
+        Y[2][l] = y2;
+        Z[0][l] = z0;
+        Z[1][l] = z1;
+        Z[2][l] = z2;
+    }
+    m = T[0] < T[1] ? T[0] : T[1];
+    m = T[2] < m ? T[2] : m;
+    m = T[3] < m ? T[3] : m;
+    if (!(m < tmax)) return -1;
+    if (m == -FLT_MAX) {
+        /* rare: some lane needs the exact signs */
+        for (l = 0; l < 4; l++) {
+            float t, u, w;
+            if (T[l] != -FLT_MAX) continue;
+            T[l] = tmax;
+            if (pds__bvh_tri_exact(r, (const float(*)[4])X, (const float(*)[4])Y,
+                                   (const float(*)[4])Z, l, tmin, tmax, &t, &u, &w)) {
+                T[l] = t;
+                U[l] = u;
+                W[l] = w;
+            }
+        }
+        m = T[0] < T[1] ? T[0] : T[1];
+        m = T[2] < m ? T[2] : m;
+        m = T[3] < m ? T[3] : m;
+        if (!(m < tmax)) return -1;
+    }
+    /* the first lane at the minimum (every T[l] >= m) */
+    best = T[2] > m ? 3 : 2;
+    best = T[1] > m ? best : 1;
+    best = T[0] > m ? best : 0;
+    *t_out = m;
+    *u_out = U[best];
+    *w_out = W[best];
+    return best;
+}
 
-/* Distance pds__bvh_box4 gives a child the ray misses. */
-#define PDS__BVH_MISS FLT_MAX
+/* A box is culled only when its entry distance exceeds the closest hit t
+   so far by 2^-20 |t|: entry distances and triangle distances are rounded
+   differently, and a triangle lying in its box's face (a flat leaf,
+   coplanar geometry) must not be culled by a box entry computed a few ulps
+   too far. */
+static float pds__bvh_cull(float t)
+{
+    return t + fabsf(t) * (1.0f / 1048576.0f);
+}
 
 /* Slab test of the ray against node n's four child boxes: d[k] = entry
-   distance into child k (at least r->tmin), or PDS__BVH_MISS if the box is
-   missed or entered beyond tlimit. Written as a branch-free loop over the
-   SoA rows so compilers can run the four tests as one vector operation. */
-static inline void pds__bvh_box4(const pds__bvh_ray *r, const pds__bvh_node *n, float tlimit,
-                                 float d[4])
+   distance into child k (at least tmin); returns the mask of children hit
+   (bit k) with entry no later than tlim[k] (four copies of one limit).
+   Written as a branch-free loop over the SoA rows, results in locals, so
+   compilers run the four tests as vector operations. */
+static inline int pds__bvh_box4(const pds__bvh_ray *r, const pds__bvh_node *n, const float tlim[4],
+                                float d[4])
 {
     const float *nx = n->b + r->nr[0], *ny = n->b + r->nr[1], *nz = n->b + r->nr[2];
     const float *fx = n->b + r->fr[0], *fy = n->b + r->fr[1], *fz = n->b + r->fr[2];
-    const float tmin = r->tmin;
     float dd[4];
-    int k;
+    int h[4], k;
     for (k = 0; k < 4; k++) {
-        float tnx = (nx[k] - r->o4[0][k]) * r->rd4[0][k];
-        float tny = (ny[k] - r->o4[1][k]) * r->rd4[1][k];
-        float tnz = (nz[k] - r->o4[2][k]) * r->rd4[2][k];
-        float tfx = (fx[k] - r->o4[0][k]) * r->rd4[0][k];
-        float tfy = (fy[k] - r->o4[1][k]) * r->rd4[1][k];
-        float tfz = (fz[k] - r->o4[2][k]) * r->rd4[2][k];
-        float tn0 = tnx > tny ? tnx : tny, tn1 = tnz > tmin ? tnz : tmin;
-        float tf0 = tfx < tfy ? tfx : tfy, tn, tf;
-        tn = tn0 > tn1 ? tn0 : tn1;
-        tf = (tfz < tf0 ? tfz : tf0) * PDS__BVH_FAR_SCALE;
-        tf = tlimit < tf ? tlimit : tf;
-        dd[k] = tn <= tf ? tn : PDS__BVH_MISS;
+        const float tnx = (nx[k] - r->o4[0][k]) * r->rn4[0][k];
+        const float tny = (ny[k] - r->o4[1][k]) * r->rn4[1][k];
+        const float tnz = (nz[k] - r->o4[2][k]) * r->rn4[2][k];
+        const float tfx = (fx[k] - r->o4[0][k]) * r->rf4[0][k];
+        const float tfy = (fy[k] - r->o4[1][k]) * r->rf4[1][k];
+        const float tfz = (fz[k] - r->o4[2][k]) * r->rf4[2][k];
+        const float tn0 = tnx > tny ? tnx : tny, tn1 = tnz > r->tmin4[k] ? tnz : r->tmin4[k];
+        const float tf0 = tfx < tfy ? tfx : tfy, tf1 = tfz < tlim[k] ? tfz : tlim[k];
+        const float tn = tn0 > tn1 ? tn0 : tn1, tf = tf0 < tf1 ? tf0 : tf1;
+        dd[k] = tn;
+        h[k] = -(tn <= tf);
     }
     for (k = 0; k < 4; k++) d[k] = dd[k];
+    return (h[0] & 1) | (h[1] & 2) | (h[2] & 4) | (h[3] & 8);
 }
 
-/* Core traversal. any = 1 stops at the first hit (occlusion). Returns the
-   leaf-order index of the closest hit triangle or -1, with its float t, u,
-   v. At each node the four child boxes are tested at once; leaf children
-   hit are intersected on the spot (they are cheap, and a hit shrinks tcur
-   for everything after), inner children hit are visited nearest first with
-   the others pushed far first. The stack holds node indices and entry
-   distances in two arrays; popped entries beyond the closest hit so far
-   (with the PDS__BVH_CULL_SCALE slack) are skipped. */
+/* Core traversal. any = 1 stops at the first hit (occlusion). Returns
+   4 block + lane of the closest hit or -1, with its float t, u, v. At each
+   node the four child boxes are tested at once; of the children hit
+   (inner nodes and leaves alike) the nearest is visited next and the
+   others pushed, farthest first. One hit, the common case, just descends;
+   two need one comparison; three or four are sorted on the stack. The
+   stack holds references and entry distances in two arrays; popped
+   entries beyond the closest hit so far are skipped. */
 static long pds__bvh_traverse(const pds__bvh *bvh, const pds__bvh_ray *r, int any,
                               float *t_out, float *u_out, float *v_out)
 {
+    /* lowest set bit of a 4-bit mask */
+    static const signed char first_bit[16] = {0, 0, 1, 0, 2, 0, 1, 0, 3, 0, 1, 0, 2, 0, 1, 0};
     uint32_t st_ref[PDS__BVH_STACK];
     float st_t[PDS__BVH_STACK];
     int sp = 0;
     const pds__bvh_node *nodes = bvh->nodes;
     uint32_t ref = 0;
-    float tcur = r->tmax, tcull = r->tmax * PDS__BVH_CULL_SCALE, hu = 0.0f, hv = 0.0f;
+    float tcur = r->tmax, tcull = pds__bvh_cull(r->tmax), hu = 0.0f, hv = 0.0f, tl4[4];
     long best = -1;
 
+    tl4[0] = tl4[1] = tl4[2] = tl4[3] = tcull;
     for (;;) {
-        const pds__bvh_node *n = nodes + ref;
-        uint32_t e_ref[4];
-        float d[4], e_t[4];
-        int nh = 0, k, j;
-        pds__bvh_box4(r, n, tcull, d);
-        for (k = 0; k < 4; k++) {
-            if (d[k] == PDS__BVH_MISS) continue;
-            if (n->count[k]) {
-                uint32_t i = n->child[k], end = i + n->count[k];
-                for (; i < end; i++) {
-                    float t, u, v;
-                    if (pds__bvh_tri_test(r, bvh->tri + 9 * (size_t)i, r->tmin, tcur, &t, &u, &v)) {
-                        tcur = t;
-                        tcull = t * PDS__BVH_CULL_SCALE;
-                        hu = u;
-                        hv = v;
-                        best = (long)i;
-                        if (any) goto done;
-                    }
-                }
+        while (!(ref & PDS__BVH_LEAF)) {
+            const pds__bvh_node *n = nodes + ref;
+            float d[4];
+            int m = pds__bvh_box4(r, n, tl4, d), k0, k1;
+            if (m == 0) goto pop;
+            k0 = first_bit[m];
+            m &= m - 1;
+            if (m == 0) {
+                ref = n->child[k0];
                 continue;
             }
-            e_ref[nh] = n->child[k];
-            e_t[nh] = d[k];
-            nh++;
-        }
-        /* inner children hit: 1 (the common case) just descends, 2 push
-           the farther, 3-4 are sorted (insertion) and all but the nearest
-           pushed far first; a child already beyond a hit found in this
-           node's leaves is not entered */
-        if (nh == 1) {
-            if (e_t[0] < tcull) {
-                ref = e_ref[0];
-                continue;
-            }
-        } else if (nh == 2) {
-            int f = e_t[1] < e_t[0];
-            st_ref[sp] = e_ref[1 - f];
-            st_t[sp] = e_t[1 - f];
-            sp++;
-            ref = e_ref[f];
-            if (e_t[f] < tcull) continue;
-        } else if (nh > 2) {
-            for (k = 1; k < nh; k++) {
-                uint32_t xr = e_ref[k];
-                float xt = e_t[k];
-                for (j = k; j > 0 && e_t[j - 1] > xt; j--) {
-                    e_ref[j] = e_ref[j - 1];
-                    e_t[j] = e_t[j - 1];
-                }
-                e_ref[j] = xr;
-                e_t[j] = xt;
-            }
-            for (k = nh - 1; k > 0; k--) {
-                st_ref[sp] = e_ref[k];
-                st_t[sp] = e_t[k];
+            k1 = first_bit[m];
+            m &= m - 1;
+            if (m == 0) {
+                /* two: visit the nearer, push the farther */
+                int f = d[k1] < d[k0];
+                int kn = f ? k1 : k0, kf = f ? k0 : k1;
+                st_ref[sp] = n->child[kf];
+                st_t[sp] = d[kf];
                 sp++;
+                ref = n->child[kn];
+                continue;
             }
-            ref = e_ref[0];
-            if (e_t[0] < tcull) continue;
+            {
+                /* three or four: push all, insertion-sort the pushed run
+                   far to near, and take the nearest off the top */
+                int base = sp, j, k;
+                st_ref[sp] = n->child[k0];
+                st_t[sp++] = d[k0];
+                st_ref[sp] = n->child[k1];
+                st_t[sp++] = d[k1];
+                while (m) {
+                    k = first_bit[m];
+                    m &= m - 1;
+                    st_ref[sp] = n->child[k];
+                    st_t[sp++] = d[k];
+                }
+                for (k = base + 1; k < sp; k++) {
+                    uint32_t xr = st_ref[k];
+                    float xt = st_t[k];
+                    for (j = k; j > base && st_t[j - 1] < xt; j--) {
+                        st_ref[j] = st_ref[j - 1];
+                        st_t[j] = st_t[j - 1];
+                    }
+                    st_ref[j] = xr;
+                    st_t[j] = xt;
+                }
+                ref = st_ref[--sp];
+            }
         }
-        /* pop the nearest pending node that can still hold a closer hit */
+        {
+            /* a leaf: its block of four triangles */
+            uint32_t b = ref & ~PDS__BVH_LEAF;
+            float t, u, v;
+            int lane = pds__bvh_tri4_test(r, bvh->tri4 + b, r->tmin, tcur, &t, &u, &v);
+            if (lane >= 0) {
+                tcur = t;
+                tcull = pds__bvh_cull(t);
+                tl4[0] = tl4[1] = tl4[2] = tl4[3] = tcull;
+                hu = u;
+                hv = v;
+                best = 4 * (long)b + lane;
+                if (any) goto done;
+            }
+        }
+    pop:
+        /* the nearest pending entry that can still hold a closer hit */
         for (;;) {
             if (sp == 0) goto done;
             sp--;
-            if (st_t[sp] < tcull) break;
+            if (st_t[sp] <= tcull) break;
         }
         ref = st_ref[sp];
     }
@@ -3135,24 +3229,24 @@ done:
     return best;
 }
 
-/* Recomputes t, u, v of a hit on triangle v (float vertices) in double with
-   Moller-Trumbore on the caller's double ray; keeps the float values if the
-   double ones are unusable or leave (tmin, tmax). */
-static void pds__bvh_refine(const float *v, pds__v3 org, pds__v3 dir, double tmin, double tmax,
-                            pds__tri_hit *hit)
+/* Recomputes t, u, v of a hit on lane l of block q in double with
+   Moller-Trumbore on the caller's double ray; keeps the float values if
+   the double ones are unusable or leave (tmin, tmax). */
+static void pds__bvh_refine(const pds__bvh_tri4 *q, int l, pds__v3 org, pds__v3 dir, double tmin,
+                            double tmax, pds__tri_hit *hit)
 {
-    pds__v3 p0 = pds__v(v[0], v[1], v[2]);
-    pds__v3 e1 = pds__sub(pds__v(v[3], v[4], v[5]), p0);
-    pds__v3 e2 = pds__sub(pds__v(v[6], v[7], v[8]), p0);
-    pds__v3 p = pds__cross(dir, e2), s, q;
+    pds__v3 p0 = pds__v(q->v[0][0][l], q->v[0][1][l], q->v[0][2][l]);
+    pds__v3 e1 = pds__sub(pds__v(q->v[1][0][l], q->v[1][1][l], q->v[1][2][l]), p0);
+    pds__v3 e2 = pds__sub(pds__v(q->v[2][0][l], q->v[2][1][l], q->v[2][2][l]), p0);
+    pds__v3 p = pds__cross(dir, e2), s, qv;
     double det = pds__dot(e1, p), inv, u, w, t;
     if (det == 0.0) return;
     inv = 1.0 / det;
     s = pds__sub(org, p0);
-    q = pds__cross(s, e1);
+    qv = pds__cross(s, e1);
     u = pds__dot(s, p) * inv;
-    w = pds__dot(dir, q) * inv;
-    t = pds__dot(e2, q) * inv;
+    w = pds__dot(dir, qv) * inv;
+    t = pds__dot(e2, qv) * inv;
     if (!(t > tmin && t < tmax)) return;
     /* the float test decided the hit; clamp rounding just outside an edge */
     if (u < 0.0) u = 0.0;
@@ -3183,7 +3277,7 @@ static int pds__bvh_intersect(const pds__bvh *bvh, pds__v3 org, pds__v3 dir, dou
     hit->u = u;
     hit->v = v;
     hit->tri = bvh->tri_id[i];
-    pds__bvh_refine(bvh->tri + 9 * (size_t)i, org, dir, tmin, tmax, hit);
+    pds__bvh_refine(bvh->tri4 + i / 4, (int)(i % 4), org, dir, tmin, tmax, hit);
     return 1;
 }
 
@@ -4273,11 +4367,10 @@ static void pds__light_emission_extent(const pds_light *l, double *area, double 
    Layout (implicit, no pointers): the points are stored in tree order.
    A node is a range [lo, hi) of that order; its own point is the median
    element m = lo + (hi - lo) / 2, its children are [lo, m) and
-   [m + 1, hi). A range of at most PDS__KD_LEAF points is a leaf and is
-   scanned linearly (a bucket: one test per point is cheaper than the
-   branchy descent for a handful of points). axis[m] is the split axis of
-   the inner node whose median is m; every point in [lo, m) has that
-   coordinate <= pts[3m + axis], every point in [m + 1, hi) has it >=.
+   [m + 1, hi). A range of at most PDS__KD_LEAF points is a leaf (a
+   bucket, scanned linearly). axis[m] is the split axis of the inner node
+   whose median is m; every point in [lo, m) has that coordinate
+   <= s = pts[3m + axis[m]], every point in [m + 1, hi) has it >= s.
    Subtrees are contiguous in memory, so the few subtrees a small query
    touches share cache lines.
 
@@ -4285,41 +4378,53 @@ static void pds__light_emission_extent(const pds_light *l, double *area, double 
      perm  size_t: perm[i] = the caller's index of the point at slot i
      axis  unsigned char per slot: split axis 0..2 (meaningful only at
            inner-node medians; 0 elsewhere)
+   21 bytes per point in all.
 
    Build: each node takes the axis of largest extent of its points'
-   bounding box and places its median by quickselect (three-way
-   partition, so duplicates cost nothing; pivot = median of three samples
-   at positions drawn from a counter hash, so the tree is a pure function
-   of the input). Each level costs O(n), the depth is log2(n), so the
-   build is O(n log n). Coordinates are compared in a total order with
-   NaN above everything: a NaN point can never be found (its distance is
-   NaN) but cannot corrupt the partition invariant for the others.
+   bounding box (the lowest axis on ties) and places its median by
+   quickselect (three-way partition, so duplicates cost nothing; pivot =
+   median of three samples at positions drawn from a counter hash, so the
+   tree is a pure function of the input). Each level costs O(n), there
+   are log2(n) levels: O(n log n). Coordinates are compared in a total
+   order with NaN above everything: a NaN point can never be found (its
+   distance is NaN) but cannot break the partition for the others.
 
    Queries: squared distances are computed in double from the float
-   point, d2 = dx*dx + dy*dy + dz*dz with dx = p.x - c.x (pds__kd_dist2,
-   the only formula used). A subtree on the far side of a split plane at
-   distance d is skipped when d*d > r2. This never loses a point: for a
-   point p beyond the plane, rounding is monotone, so fl(c - p) is at
-   least fl(c - s) in magnitude and the rounded sum of non-negative
-   squares is at least each rounded square; hence d2(p) >= fl(d*d) > r2.
-   Traversal is iterative with an explicit stack; each level pushes at
-   most one range and the depth is below 64, so PDS__KD_STACK entries
-   always suffice.
+   point, d2 = dx*dx + dy*dy + dz*dz with dx = p.x - c.x, and a point is
+   in if d2 <= r*r. Traversal is iterative (explicit stack; each level
+   pushes at most one entry and there are fewer than 64 levels), nearer
+   child first. Each cell carries its offset vector o: per axis, the
+   signed distance fl(c - s) from the query to the split plane that
+   bounds the cell on that axis (0 if none); a cell is skipped when
+   |o|^2 > r^2 (incremental distance, Arya and Mount 1993; in 3-d this
+   prunes about a fifth more than the last plane alone). This never loses
+   a point: for p in the cell, |fl(p_k - c_k)| >= |o_k| on every axis
+   since rounding is monotone, so d2(p), the same rounded expression of
+   larger arguments, is >= |o|^2. (With -ffp-contract=fast the compiler
+   may fuse the two copies of the expression differently; then only a
+   point within an ulp or two of the radius can be misjudged.)
+
+   The median of a node is tested together with its far child, not on
+   the way down: it lies on the split plane inside the parent cell, so
+   the far cell's bound covers it too, and the medians above a small
+   query are mostly far away. Per node the loops avoid unpredictable
+   branches (the far entry is always written and kept only if within
+   reach; a leaf's hits are collected, then reported). Leaves of up to
+   16 points (so 8 to 16 in practice) measured best for radii holding 10
+   to 100 points, on a par with 32 and about 1.5 times faster than 6.
 
    k-NN keeps a bounded max-heap of (dist2, index) pairs in the caller's
    output arrays, ordered lexicographically, so equal distances are
    ranked by smaller original index exactly as a brute-force sort would;
-   a subtree is skipped only if its plane distance squared exceeds the
-   current k-th distance (strictly: an equal distance with a smaller
-   index could still enter). The heap is finally heap-sorted in place.
+   a cell is skipped only if its bound exceeds the current k-th distance
+   (strictly: an equal distance with a smaller index could still enter).
+   The heap is finally heap-sorted in place.
 
    Invariants: read-only after the build, so concurrent queries are safe;
    results (sets, order, ties) depend only on the points and the query. */
 
-#ifndef PDS__KD_LEAF
-#define PDS__KD_LEAF 6     /* ranges of at most this many points are leaves */
-#endif
-#define PDS__KD_STACK 72   /* > 64 >= tree depth for any size_t count */
+#define PDS__KD_LEAF 16    /* ranges of at most this many points are leaves */
+#define PDS__KD_STACK 72   /* > 64 > tree depth for any size_t count */
 
 typedef struct pds__kdtree {
     float *pts;           /* 3 per point, tree order */
@@ -4331,10 +4436,9 @@ typedef struct pds__kdtree {
 typedef void (*pds__kd_visit)(void *ctx, size_t index, double dist2);
 
 /* Squared length in double, and the squared distance from float point p
-   to (qx, qy, qz). Every distance and every cell bound goes through
-   pds__kd_len2, the same expression in the same order, so they agree bit
-   for bit (also with the tests' brute force), and the rounding argument
-   in the prologue holds even if the compiler fuses it into FMAs. */
+   to (qx, qy, qz). Every point distance and every cell bound goes
+   through pds__kd_len2, one expression in one order, as the rounding
+   argument in the prologue needs (the tests' brute force uses it too). */
 static double pds__kd_len2(double x, double y, double z)
 {
     return x * x + y * y + z * z;
@@ -4507,20 +4611,23 @@ static pds_status pds__kdtree_build(pds__kdtree *kd, const float *pos, size_t st
 /* Bytes of heap memory the tree owns. */
 static size_t pds__kdtree_memory(const pds__kdtree *kd)
 {
-    return kd->n * (3 * sizeof(float) + sizeof(size_t) + 1);
+    return kd ? kd->n * (3 * sizeof(float) + sizeof(size_t) + 1) : 0;
 }
 
+/* A query point with a NaN coordinate matches nothing. */
 static int pds__kd_query_ok(pds__v3 c)
 {
     return c.x == c.x && c.y == c.y && c.z == c.z;
 }
 
-/* A subtree waiting on a query's stack: its slot range and the cell
-   offsets o[] (per axis, the signed distance from the query to the
-   nearest split plane bounding the cell on that side, 0 if none), with
-   rd = pds__kd_len2(o), the lower bound on any of its points' dist2. */
+/* A node waiting on a query's stack: its median slot m and its far
+   child's slot range [lo, hi), with o[] the far cell's offsets (per
+   axis, the signed distance from the query to the nearest split plane
+   bounding the cell on that axis, 0 if none) and rd = pds__kd_len2(o),
+   a lower bound on dist2 for every point in the far cell and for the
+   median itself (which lies on the far cell's boundary plane). */
 typedef struct pds__kd_entry {
-    size_t lo, hi;
+    size_t m, lo, hi;
     double o[3];
     double rd;
 } pds__kd_entry;
@@ -4531,12 +4638,14 @@ typedef struct pds__kd_entry {
    tree and c only. r < 0, NaN r or a NaN query report nothing; r =
    DBL_MAX reports every point with finite coordinates.
 
-   Cells are pruned by their full offset vector (Arya and Mount's
-   incremental distance), not only by the distance to the last split
-   plane: in 3-d that skips about a fifth of the work for small radii.
-   The inner loops avoid unpredictable branches: the far child is always
-   written to the stack and kept only if it is within reach, and a leaf's
-   hits are collected first and reported afterwards. */
+   Descent goes to the near child without testing the node's median; the
+   median and the far child are pushed together and dropped together when
+   their common bound rd exceeds r^2 (Arya and Mount's incremental
+   distance: the full offset vector of the cell, not only the distance to
+   the last plane). Most medians on a query's path are far away, so this
+   skips their tests. The far child is always written to the stack and
+   kept only if within reach, and a leaf's hits are collected before they
+   are reported: both avoid unpredictable branches. */
 static void pds__kdtree_range(const pds__kdtree *kd, pds__v3 c, double r, pds__kd_visit fn,
                               void *ctx)
 {
@@ -4555,23 +4664,20 @@ static void pds__kdtree_range(const pds__kdtree *kd, pds__v3 c, double r, pds__k
     q[2] = c.z;
     r2 = r * r;
     for (;;) {
-        /* Descend to a leaf, testing each median on the way. */
         while (hi - lo > PDS__KD_LEAF) {
             size_t m = lo + (hi - lo) / 2;
-            const float *p = pts + 3 * m;
             int a = axis[m];
             /* d: signed distance to the split plane; d <= 0 means the
-               query is on the low side, so [lo, m) is the near child
-               (a NaN split, from NaN points, sends it high and never
-               prunes) */
-            double d = q[a] - (double)p[a];
-            double d2 = pds__kd_dist2(p, q[0], q[1], q[2]);
+               query is on the low side, so [lo, m) is the near child (a
+               NaN split, from NaN points, sends it high and never
+               prunes, as every comparison with NaN fails) */
+            double d = q[a] - (double)pts[3 * m + a];
             double tx = a == 0 ? d : ox;
             double ty = a == 1 ? d : oy;
             double tz = a == 2 ? d : oz;
             double rd = pds__kd_len2(tx, ty, tz);
             int high = !(d <= 0.0);
-            if (d2 <= r2) fn(ctx, kd->perm[m], d2);
+            stk[sp].m = m;
             stk[sp].lo = high ? lo : m + 1;
             stk[sp].hi = high ? m : hi;
             stk[sp].o[0] = tx;
@@ -4595,6 +4701,11 @@ static void pds__kdtree_range(const pds__kdtree *kd, pds__v3 c, double r, pds__k
         }
         if (sp == 0) break;
         sp--;
+        {
+            size_t m = stk[sp].m;
+            double d2 = pds__kd_dist2(pts + 3 * m, q[0], q[1], q[2]);
+            if (d2 <= r2) fn(ctx, kd->perm[m], d2);
+        }
         lo = stk[sp].lo;
         hi = stk[sp].hi;
         ox = stk[sp].o[0];
@@ -4603,25 +4714,53 @@ static void pds__kdtree_range(const pds__kdtree *kd, pds__v3 c, double r, pds__k
     }
 }
 
-/* Heap order on (dist2, index): 1 if a ranks after b. */
+/* Heap order on (dist2, index): 1 if a ranks after b. Written with &
+   and | so that it compiles to flag arithmetic, not two branches: the
+   outcome is unpredictable, so branches would mostly mispredict. */
 static int pds__kd_after(double da, size_t ia, double db, size_t ib)
 {
-    return da > db || (da == db && ia > ib);
+    return (da > db) | ((da == db) & (ia > ib));
 }
 
-/* Restore the max-heap below slot i of a heap of cnt entries. */
-static void pds__kd_sift_down(size_t *idx, double *dist2, size_t i, size_t cnt)
+/* Move the element at the root of a heap of cnt entries down to its
+   place (after it replaced the worst candidate). */
+static void pds__kd_sift_down(size_t *idx, double *dist2, size_t cnt)
 {
-    double d = dist2[i];
-    size_t id = idx[i];
-    for (;;) {
-        size_t ch = 2 * i + 1;
-        if (ch >= cnt) break;
+    double d = dist2[0];
+    size_t id = idx[0], i = 0, ch;
+    while ((ch = 2 * i + 1) < cnt) {
+        /* the larger child: the right one if it exists and ranks after */
         if (ch + 1 < cnt && pds__kd_after(dist2[ch + 1], idx[ch + 1], dist2[ch], idx[ch])) ch++;
         if (!pds__kd_after(dist2[ch], idx[ch], d, id)) break;
         dist2[i] = dist2[ch];
         idx[i] = idx[ch];
         i = ch;
+    }
+    dist2[i] = d;
+    idx[i] = id;
+}
+
+/* The same, bottom-up (Floyd's variant), for the final heap sort: walk
+   the hole down to a leaf along the larger children, one comparison per
+   level, then move the element up from there. The element moved to the
+   root in a heap sort step is a leaf, small, and belongs near the
+   bottom, so the walk up is short. */
+static void pds__kd_sift_down_bottom_up(size_t *idx, double *dist2, size_t cnt)
+{
+    double d = dist2[0];
+    size_t id = idx[0], i = 0, ch;
+    while ((ch = 2 * i + 1) < cnt) {
+        if (ch + 1 < cnt && pds__kd_after(dist2[ch + 1], idx[ch + 1], dist2[ch], idx[ch])) ch++;
+        dist2[i] = dist2[ch];
+        idx[i] = idx[ch];
+        i = ch;
+    }
+    while (i > 0) {
+        size_t parent = (i - 1) / 2;
+        if (!pds__kd_after(d, id, dist2[parent], idx[parent])) break;
+        dist2[i] = dist2[parent];
+        idx[i] = idx[parent];
+        i = parent;
     }
     dist2[i] = d;
     idx[i] = id;
@@ -4648,7 +4787,7 @@ static void pds__kd_offer(size_t *idx, double *dist2, size_t *cnt, size_t k, dou
         /* better than the worst kept: replace the root */
         dist2[0] = d;
         idx[0] = id;
-        pds__kd_sift_down(idx, dist2, 0, k);
+        pds__kd_sift_down(idx, dist2, k);
     }
 }
 
@@ -4676,25 +4815,21 @@ static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double
        the k-th best so far (which is <= rmax^2) */
     bound = rmax * rmax;
     for (;;) {
-        /* Nearer child first; the far one waits on the stack with its
-           cell bound rd, re-checked against the (shrinking) bound when
-           popped. Strict comparisons: a point at exactly the bound with
-           a smaller index than the worst kept must still be seen. */
+        /* Down to the leaf holding the query, medians deferred as in the
+           range query; each waiting node is re-checked against the
+           (shrinking) bound when popped. Strict comparisons: a point at
+           exactly the bound with a smaller index than the worst kept
+           must still be seen. */
         while (hi - lo > PDS__KD_LEAF) {
             size_t m = lo + (hi - lo) / 2;
-            const float *p = pts + 3 * m;
             int a = axis[m];
-            double d = q[a] - (double)p[a];
-            double d2 = pds__kd_dist2(p, q[0], q[1], q[2]);
+            double d = q[a] - (double)pts[3 * m + a];
             double tx = a == 0 ? d : ox;
             double ty = a == 1 ? d : oy;
             double tz = a == 2 ? d : oz;
             double rd = pds__kd_len2(tx, ty, tz);
             int high = !(d <= 0.0);
-            if (d2 <= bound) {
-                pds__kd_offer(idx, dist2, &cnt, k, d2, kd->perm[m]);
-                if (cnt == k) bound = dist2[0];
-            }
+            stk[sp].m = m;
             stk[sp].lo = high ? lo : m + 1;
             stk[sp].hi = high ? m : hi;
             stk[sp].o[0] = tx;
@@ -4712,10 +4847,18 @@ static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double
                 if (cnt == k) bound = dist2[0];
             }
         }
-        /* the next waiting subtree still within reach */
+        /* the next waiting node still within reach */
         while (sp > 0 && stk[sp - 1].rd > bound) sp--;
         if (sp == 0) break;
         sp--;
+        {
+            size_t m = stk[sp].m;
+            double d2 = pds__kd_dist2(pts + 3 * m, q[0], q[1], q[2]);
+            if (d2 <= bound) {
+                pds__kd_offer(idx, dist2, &cnt, k, d2, kd->perm[m]);
+                if (cnt == k) bound = dist2[0];
+            }
+        }
         lo = stk[sp].lo;
         hi = stk[sp].hi;
         ox = stk[sp].o[0];
@@ -4730,7 +4873,7 @@ static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double
         idx[0] = idx[i - 1];
         dist2[i - 1] = td;
         idx[i - 1] = ti;
-        pds__kd_sift_down(idx, dist2, 0, i - 1);
+        pds__kd_sift_down_bottom_up(idx, dist2, i - 1);
     }
     return cnt;
 }
@@ -5061,17 +5204,6 @@ static pds_status pds__p_vec3(pds__parser *P, const char *key, pds__v3 *out)
     return PDS_OK;
 }
 
-/* A direction: three numbers, not all zero; normalised. */
-static pds_status pds__p_dir(pds__parser *P, const char *key, pds__v3 *out)
-{
-    pds_status st = pds__p_vec3(P, key, out);
-    if (st) return st;
-    if (!(pds__length(*out) > 0.0))
-        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' must not be a zero-length vector", key);
-    *out = pds__normalize(*out);
-    return PDS_OK;
-}
-
 /* An edge vector: three numbers, not all zero, kept as given. */
 static pds_status pds__p_edge(pds__parser *P, const char *key, pds__v3 *out)
 {
@@ -5080,6 +5212,14 @@ static pds_status pds__p_edge(pds__parser *P, const char *key, pds__v3 *out)
     if (!(pds__length(*out) > 0.0))
         return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' must not be a zero-length vector", key);
     return PDS_OK;
+}
+
+/* A direction: an edge vector, normalised. */
+static pds_status pds__p_dir(pds__parser *P, const char *key, pds__v3 *out)
+{
+    pds_status st = pds__p_edge(P, key, out);
+    if (!st) *out = pds__normalize(*out);
+    return st;
 }
 
 /* RGB: one number (grey) or three, each >= 0. */
@@ -7752,12 +7892,42 @@ typedef struct pds__eye_map {
 
 /* --- splatting ------------------------------------------------------------ */
 
+/* A photon where it landed, for the methods that store photons (>>baselines):
+   position, travel direction, geometric normal of the surface (facing the
+   photon), flux, and its number (the store is sorted by it, so the map
+   does not depend on which thread traced what). 56 bytes. */
+typedef struct pds__stored_photon {
+    float pos[3], dir[3], ng[3], flux[3];
+    long index;
+} pds__stored_photon;
+
+/* A photon with its footprint, for photon differential mapping: Ep =
+   flux / Ap, the eq. 12 filter matrix (rows M[0..2], M[3..5]) and the
+   footprint's major semi-axis. 88 bytes. */
+typedef struct pds__diff_photon {
+    float pos[3], dir[3], np[3], ep[3];
+    float M[6];
+    float major;
+    long index;
+} pds__diff_photon;
+
 /* One thread's share of the photon pass. */
 typedef struct pds__splat_buf {
     long long *fixed;      /* 3 per pixel: radiance x 2^32 */
     double *aniso;         /* footprint debug: 2 per pixel (sum w m_a, sum w); NULL if off */
     long splatted, degenerate, saturated;
+    pds__stored_photon *stored;   /* photon-map methods: landed photons */
+    size_t nstored, cap_stored;
+    pds__diff_photon *dstored;    /* pdm: landed photons with footprints */
+    size_t ndstored, cap_dstored;
+    int out_of_memory;
 } pds__splat_buf;
+
+struct pds__photon_job;
+/* What happens where a caustic photon lands: on a non-specular surface,
+   after >= 1 specular bounce; r is transferred to the hit point. */
+typedef void (*pds__land_fn)(const struct pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r,
+                             pds__v3 ng, const double flux[3], long photon);
 
 typedef struct pds__photon_job {
     const pds_scene *scene;
@@ -7778,6 +7948,10 @@ typedef struct pds__photon_job {
     pds_progress_fn progress;
     void *progress_user;
     double t0;
+    pds__land_fn land;         /* splat (pds, splat) or store (pm, ...) */
+    int differentials;         /* trace photon differentials (pds) or not */
+    double fixed_radius;       /* splat: the isotropic footprint's radius */
+    long index_offset;         /* ppm: the first photon number of this pass */
 } pds__photon_job;
 
 /* What a splat needs while it walks the eye vertices in range. */
@@ -7837,20 +8011,36 @@ static void pds__splat_visit(void *vctx, size_t index, double dist2)
 /* Splat the photon r (already transferred to its hit on a non-specular
    surface with geometric normal ng) carrying flux. */
 static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
-                       const double flux[3])
+                       const double flux[3], long photon)
 {
     pds__splat_ctx sc;
-    double ap = pds__footprint_area(r->dpdu, r->dpdv), major;
+    double ap, major;
     int c;
+    (void)photon;
     sc.np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
-    if (!(ap > 0.0) || !isfinite(ap) || !pds__filter_matrix(r->dpdu, r->dpdv, sc.np, sc.M)) {
-        buf->degenerate++;
-        return;
-    }
-    major = pds__footprint_major_axis(r->dpdu, r->dpdv);
-    if (!(major > 0.0) || !isfinite(major)) {
-        buf->degenerate++;
-        return;
+    if (job->fixed_radius > 0.0) {
+        /* fixed-bandwidth splatting: a disc of radius R in the tangent
+           plane, M = [t1; t2] / R */
+        pds__v3 t1, t2;
+        int k;
+        pds__onb(sc.np, &t1, &t2);
+        major = job->fixed_radius;
+        ap = PDS__PI * major * major;
+        for (k = 0; k < 3; k++) {
+            sc.M[0][k] = pds__v3_get(t1, k) / major;
+            sc.M[1][k] = pds__v3_get(t2, k) / major;
+        }
+    } else {
+        ap = pds__footprint_area(r->dpdu, r->dpdv);
+        if (!(ap > 0.0) || !isfinite(ap) || !pds__filter_matrix(r->dpdu, r->dpdv, sc.np, sc.M)) {
+            buf->degenerate++;
+            return;
+        }
+        major = pds__footprint_major_axis(r->dpdu, r->dpdv);
+        if (!(major > 0.0) || !isfinite(major)) {
+            buf->degenerate++;
+            return;
+        }
     }
     sc.job = job;
     sc.buf = buf;
@@ -7858,7 +8048,7 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
     sc.wi = pds__scale(r->d, -1.0);
     for (c = 0; c < 3; c++) sc.ep[c] = flux[c] / ap;
     sc.plane_max = job->plane_tolerance * major;
-    sc.aniso = buf->aniso ? pds__footprint_anisotropy(r->dpdu, r->dpdv) : 0.0;
+    sc.aniso = !buf->aniso ? 0.0 : job->fixed_radius > 0.0 ? 1.0 : pds__footprint_anisotropy(r->dpdu, r->dpdv);
     buf->splatted++;
     pds__kdtree_range(&job->map->tree, r->p, major, pds__splat_visit, &sc);
 }
@@ -7894,12 +8084,12 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
         int side;
         if (!pds__bvh_intersect(&s->bvh, r.p, r.d, 0.0, DBL_MAX, &th)) return;
         pds__scene_fill_hit(s, &th, r.p, r.d, &hit);
-        if (!pds__diff_transfer(&r, th.t, hit.ng)) return;
+        if (job->differentials && !pds__diff_transfer(&r, th.t, hit.ng)) return;
         r.p = hit.position;
         pds__beer(sigma, th.t, flux);
         m = &s->materials.items[hit.material];
         if (!pds__material_is_specular(m)) {
-            if (depth > 0 && m->type != PDS_MAT_EMISSIVE) pds__splat(job, buf, &r, hit.ng, flux);
+            if (depth > 0 && m->type != PDS_MAT_EMISSIVE) job->land(job, buf, &r, hit.ng, flux, i);
             return;
         }
         if (depth == job->max_depth) return;
@@ -7907,6 +8097,14 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
             uu[c] = pds__rng_uniform(job->seed, PDS__RNG_PHOTON, (uint64_t)i, 8 + 4 * (uint64_t)depth + (uint64_t)c);
         if (!pds__bsdf_sample(m, pds__scale(r.d, -1.0), hit.ns, hit.ng, uu, PDS__IMPORTANCE, &bs)) return;
         if (!pds__bsdf_frame(pds__scale(r.d, -1.0), hit.ns, hit.ng, &n, &ngw, &side)) return;
+        if (!job->differentials) {
+            /* the baselines trace bare photons */
+            for (c = 0; c < 3; c++) flux[c] *= bs.weight[c];
+            if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+            r.d = bs.wi;
+            r.p = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, r.d) >= 0.0 ? job->eps : -job->eps));
+            continue;
+        }
         /* the normal's differentials, oriented like the normal the BSDF
            used; where it fell back to the geometric normal, that one is
            flat (no differential) */
@@ -7952,7 +8150,7 @@ static void *pds__photon_worker(void *arg)
         if (b < 0) break;
         first = b * (long)PDS__PHOTON_BATCH;
         last = first + PDS__PHOTON_BATCH < job->n_total ? first + PDS__PHOTON_BATCH : job->n_total;
-        for (i = first; i < last; i++) pds__trace_photon(job, buf, i);
+        for (i = first; i < last; i++) pds__trace_photon(job, buf, job->index_offset + i);
         pthread_mutex_lock(&job->lock);
         done = ++job->batches_done;
         pthread_mutex_unlock(&job->lock);
@@ -7965,10 +8163,550 @@ static void *pds__photon_worker(void *arg)
     return NULL;
 }
 
-/* The photon pass of PDS after the eye pass: builds the eye-path map from
-   the vertices, splats the photons, and adds the caustic image (divided by
-   nothing: importance already carries 1/spp) into rgb. footprint, if not
-   NULL, receives the anisotropy image. */
+
+/* ===================================================================== */
+/* >>baselines                                                           */
+/* ===================================================================== */
+/* The methods PDS is measured against, on the same eye pass, the same
+   aimed caustic photons and the same fixed-point images:
+
+   splat  fixed-bandwidth photon splatting into the eye-path map
+          (Lavignotte & Paulin 2003 splat with one bandwidth; Herzog et al.
+          2007 splat into a map of eye vertices): the PDS splat with the
+          footprint replaced by a disc of radius R in the tangent plane.
+   pm     standard photon mapping of the caustic map (Jensen 1996): the
+          landed photons are stored, sorted by photon number (so the map is
+          the same for any thread count), put in a kd-tree, and each eye
+          vertex gathers its k nearest photons within the maximum radius:
+          L = sum fr Phi_p w_p / (c pi r^2), r the k-th distance, with the
+          cone filter w = 1 - d / r (c = 1 - 2/3 for k_cone = 1), Jensen's
+          Gaussian w = a [1 - (1 - e^(-b d^2 / (2 r^2))) / (1 - e^(-b))]
+          (a = 0.918, b = 1.953; c = its exact integral over the disc, 0.531)
+          or none (w = 1, c = 1). As in Jensen's code, fewer than
+          min(8, k) photons give no estimate, and only photons that arrived
+          on the vertex's side of a surface facing the same way count.
+   pdm    photon differential mapping (Schjoth et al. 2007): photons are
+          traced with differentials like PDS's and stored with their
+          footprints; each eye vertex gathers every photon whose footprint
+          covers it (eqs. 10-12), searching the largest footprint radius of
+          all photons and keeping at most max_photons nearest (the cap the
+          PDS paper used to make it competitive). Same image as PDS in the
+          limit; slower, and its memory grows with the photon count.
+   ppm    progressive photon mapping (Hachisuka, Ogaki, Jensen 2008): each
+          eye vertex keeps a radius R, a photon count N and a flux tau; after
+          each pass of photons, with M photons found within R carrying
+          Phi_M = sum fr Phi_p: N' = N + alpha M, R'^2 = R^2 (N + alpha M) /
+          (N + M), tau' = (tau + Phi_M)(N + alpha M)/(N + M); the radiance is
+          tau / (pi R^2 N_emitted). It converges to the right answer, so it is
+          the reference where a path tracer cannot go (point and directional
+          lights).
+
+   At the end, the photon pass every photon method shares. */
+
+/* Exact integral of Jensen's Gaussian filter over the disc, over pi r^2:
+   a [1 - (1 - (2/b)(1 - e^(-b/2))) / (1 - e^(-b))]. */
+static double pds__gauss_filter_norm(void)
+{
+    const double a = 0.918, b = 1.953;
+    return a * (1.0 - (1.0 - (2.0 / b) * (1.0 - exp(-0.5 * b))) / (1.0 - exp(-b)));
+}
+
+/* Filter weight of a photon at squared distance d2 in a gather of radius
+   r (r2 = r^2), and the normalisation c of the estimate's c pi r^2. */
+static double pds__pm_weight(pds_kernel kernel, double d2, double r2)
+{
+    const double a = 0.918, b = 1.953;
+    switch (kernel) {
+    case PDS_KERNEL_CONE: return r2 > 0.0 ? 1.0 - sqrt(d2 / r2) : 1.0;
+    case PDS_KERNEL_GAUSSIAN: return a * (1.0 - (1.0 - exp(-b * d2 / (2.0 * r2))) / (1.0 - exp(-b)));
+    case PDS_KERNEL_NONE: return 1.0;
+    }
+    return 1.0;
+}
+
+static double pds__pm_norm(pds_kernel kernel)
+{
+    switch (kernel) {
+    case PDS_KERNEL_CONE: return 1.0 - 2.0 / 3.0;
+    case PDS_KERNEL_GAUSSIAN: return pds__gauss_filter_norm();
+    case PDS_KERNEL_NONE: return 1.0;
+    }
+    return 1.0;
+}
+
+/* Landing: store the photon (photon-map methods). */
+static void pds__store_photon(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
+                              const double flux[3], long photon)
+{
+    pds__stored_photon *p;
+    (void)job;
+    if (pds__grow((void **)&buf->stored, &buf->cap_stored, buf->nstored + 1, sizeof *buf->stored)) {
+        buf->out_of_memory = 1;
+        return;
+    }
+    p = &buf->stored[buf->nstored++];
+    pds__f3_set(p->pos, r->p);
+    pds__f3_set(p->dir, r->d);
+    pds__f3_set(p->ng, pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0));
+    p->flux[0] = (float)flux[0];
+    p->flux[1] = (float)flux[1];
+    p->flux[2] = (float)flux[2];
+    p->index = photon;
+    buf->splatted++;
+}
+
+static int pds__photon_index_cmp(const void *a, const void *b)
+{
+    long x = ((const pds__stored_photon *)a)->index, y = ((const pds__stored_photon *)b)->index;
+    return (x > y) - (x < y);
+}
+
+/* The gather of standard photon mapping, over chunks of eye vertices. */
+typedef struct pds__pm_job {
+    const pds_scene *scene;
+    const pds__eye_vertex *v;
+    size_t nv;
+    const pds__stored_photon *photons;
+    const pds__kdtree *tree;
+    int k;
+    pds_kernel kernel;
+    double max_radius;
+    pds__splat_buf *bufs;
+    pthread_mutex_t lock;
+    size_t next;          /* guarded by lock: next vertex chunk */
+    int next_buf;         /* guarded by lock */
+    int out_of_memory;    /* guarded by lock */
+} pds__pm_job;
+
+#define PDS__GATHER_CHUNK 1024
+
+static void *pds__pm_worker(void *arg)
+{
+    pds__pm_job *job = (pds__pm_job *)arg;
+    pds__splat_buf *buf;
+    size_t *idx = (size_t *)malloc(sizeof *idx * (size_t)job->k);
+    double *d2 = (double *)malloc(sizeof *d2 * (size_t)job->k);
+    double norm = pds__pm_norm(job->kernel);
+    int min_found = job->k < 8 ? job->k : 8;
+    pthread_mutex_lock(&job->lock);
+    buf = &job->bufs[job->next_buf++];
+    if (!idx || !d2) job->out_of_memory = 1;
+    pthread_mutex_unlock(&job->lock);
+    for (;;) {
+        size_t first, last, i;
+        pthread_mutex_lock(&job->lock);
+        first = job->out_of_memory || !idx || !d2 ? job->nv : job->next;
+        job->next = first + PDS__GATHER_CHUNK;
+        pthread_mutex_unlock(&job->lock);
+        if (first >= job->nv) break;
+        last = first + PDS__GATHER_CHUNK < job->nv ? first + PDS__GATHER_CHUNK : job->nv;
+        for (i = first; i < last; i++) {
+            const pds__eye_vertex *v = &job->v[i];
+            const pds_material *m = &job->scene->materials.items[v->material];
+            pds__v3 x = pds__f3_get(v->pos), ng = pds__f3_get(v->ng), ns = pds__f3_get(v->ns), wo = pds__f3_get(v->wo);
+            double sum[3] = {0, 0, 0}, r2, area;
+            size_t n = pds__kdtree_knn(job->tree, x, (size_t)job->k, job->max_radius, idx, d2), j;
+            int c;
+            if ((int)n < min_found || n == 0) continue;
+            r2 = d2[n - 1];
+            if (!(r2 > 0.0)) continue;
+            for (j = 0; j < n; j++) {
+                const pds__stored_photon *p = &job->photons[idx[j]];
+                double f[3], pdf, w;
+                if (pds__dot(pds__f3_get(p->ng), ng) <= 0.0) continue; /* another surface orientation */
+                pds__bsdf_eval(m, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
+                w = pds__pm_weight(job->kernel, d2[j], r2);
+                for (c = 0; c < 3; c++) sum[c] += f[c] * p->flux[c] * w;
+            }
+            area = norm * PDS__PI * r2;
+            for (c = 0; c < 3; c++)
+                if (sum[c] > 0.0) pds__fixed_add(buf, 3 * (size_t)v->pixel + (size_t)c, v->importance[c] * sum[c] / area);
+        }
+    }
+    free(idx);
+    free(d2);
+    return NULL;
+}
+
+/* Merge the threads' stored photons into one array sorted by photon
+   number; frees the per-thread arrays. */
+static pds__stored_photon *pds__merge_photons(pds__splat_buf *bufs, int nbufs, size_t *count)
+{
+    size_t total = 0, at = 0;
+    pds__stored_photon *all;
+    int t;
+    for (t = 0; t < nbufs; t++) total += bufs[t].nstored;
+    all = (pds__stored_photon *)malloc(sizeof *all * (total ? total : 1));
+    for (t = 0; t < nbufs; t++) {
+        if (all && bufs[t].nstored) memcpy(all + at, bufs[t].stored, sizeof *all * bufs[t].nstored);
+        at += bufs[t].nstored;
+        free(bufs[t].stored);
+        bufs[t].stored = NULL;
+        bufs[t].nstored = bufs[t].cap_stored = 0;
+    }
+    if (all) qsort(all, total, sizeof *all, pds__photon_index_cmp);
+    *count = total;
+    return all;
+}
+
+/* Photon mapping's second half: the caustic map and the gather into the
+   threads' fixed-point images. */
+static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
+                                 int threads, pds_render_stats *stats, pds_error *err)
+{
+    pds__pm_job pj;
+    pds__kdtree tree;
+    size_t np;
+    pds_status st;
+    int t;
+    pds__stored_photon *photons = pds__merge_photons(job->bufs, job->nbufs, &np);
+    if (!photons) return pds__nomem(err);
+    st = pds__kdtree_build(&tree, np ? &photons[0].pos[0] : NULL, sizeof *photons / sizeof(float), np, err);
+    if (st) {
+        free(photons);
+        return st;
+    }
+    if (stats) stats->map_bytes = np * sizeof *photons + pds__kdtree_memory(&tree);
+    memset(&pj, 0, sizeof pj);
+    pj.scene = job->scene;
+    pj.v = v;
+    pj.nv = nv;
+    pj.photons = photons;
+    pj.tree = &tree;
+    pj.k = opt->k;
+    pj.kernel = opt->kernel;
+    pj.max_radius = opt->max_radius > 0.0 ? opt->max_radius : DBL_MAX;
+    pj.bufs = job->bufs;
+    for (t = 0; t < job->nbufs; t++) job->bufs[t].splatted = 0;
+    pthread_mutex_init(&pj.lock, NULL);
+    pds__run_threads(threads < job->nbufs ? threads : job->nbufs, pds__pm_worker, &pj);
+    pthread_mutex_destroy(&pj.lock);
+    if (stats) stats->splatted = (long)np;
+    pds__kdtree_free(&tree);
+    free(photons);
+    return pj.out_of_memory ? pds__nomem(err) : PDS_OK;
+}
+
+/* --- photon differential mapping --------------------------------------- */
+
+/* Landing: store the photon with its footprint (pdm). */
+static void pds__store_diff_photon(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r,
+                                   pds__v3 ng, const double flux[3], long photon)
+{
+    pds__diff_photon *p;
+    pds__v3 np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
+    double M[2][3], ap = pds__footprint_area(r->dpdu, r->dpdv), major = pds__footprint_major_axis(r->dpdu, r->dpdv);
+    int k;
+    (void)job;
+    if (!(ap > 0.0) || !isfinite(ap) || !(major > 0.0) || !isfinite(major) ||
+        !pds__filter_matrix(r->dpdu, r->dpdv, np, M)) {
+        buf->degenerate++;
+        return;
+    }
+    if (pds__grow((void **)&buf->dstored, &buf->cap_dstored, buf->ndstored + 1, sizeof *buf->dstored)) {
+        buf->out_of_memory = 1;
+        return;
+    }
+    p = &buf->dstored[buf->ndstored++];
+    pds__f3_set(p->pos, r->p);
+    pds__f3_set(p->dir, r->d);
+    pds__f3_set(p->np, np);
+    for (k = 0; k < 3; k++) {
+        p->ep[k] = (float)(flux[k] / ap);
+        p->M[k] = (float)M[0][k];
+        p->M[3 + k] = (float)M[1][k];
+    }
+    p->major = (float)major;
+    p->index = photon;
+    buf->splatted++;
+}
+
+static int pds__diff_photon_cmp(const void *a, const void *b)
+{
+    long x = ((const pds__diff_photon *)a)->index, y = ((const pds__diff_photon *)b)->index;
+    return (x > y) - (x < y);
+}
+
+typedef struct pds__pdm_job {
+    const pds_scene *scene;
+    const pds__eye_vertex *v;
+    size_t nv;
+    const pds__diff_photon *photons;
+    const pds__kdtree *tree;
+    long cap;
+    double radius, plane_tolerance;
+    pds__splat_buf *bufs;
+    pthread_mutex_t lock;
+    size_t next;          /* guarded by lock */
+    int next_buf;         /* guarded by lock */
+    int out_of_memory;    /* guarded by lock */
+} pds__pdm_job;
+
+static void *pds__pdm_worker(void *arg)
+{
+    pds__pdm_job *job = (pds__pdm_job *)arg;
+    pds__splat_buf *buf;
+    size_t *idx = (size_t *)malloc(sizeof *idx * (size_t)job->cap);
+    double *d2 = (double *)malloc(sizeof *d2 * (size_t)job->cap);
+    pthread_mutex_lock(&job->lock);
+    buf = &job->bufs[job->next_buf++];
+    if (!idx || !d2) job->out_of_memory = 1;
+    pthread_mutex_unlock(&job->lock);
+    for (;;) {
+        size_t first, last, i;
+        pthread_mutex_lock(&job->lock);
+        first = job->out_of_memory ? job->nv : job->next;
+        job->next = first + PDS__GATHER_CHUNK;
+        pthread_mutex_unlock(&job->lock);
+        if (first >= job->nv) break;
+        last = first + PDS__GATHER_CHUNK < job->nv ? first + PDS__GATHER_CHUNK : job->nv;
+        for (i = first; i < last; i++) {
+            const pds__eye_vertex *v = &job->v[i];
+            const pds_material *m = &job->scene->materials.items[v->material];
+            pds__v3 x = pds__f3_get(v->pos), ng = pds__f3_get(v->ng), ns = pds__f3_get(v->ns), wo = pds__f3_get(v->wo);
+            size_t n = pds__kdtree_knn(job->tree, x, (size_t)job->cap, job->radius, idx, d2), j;
+            double sum[3] = {0, 0, 0};
+            int c;
+            for (j = 0; j < n; j++) {
+                const pds__diff_photon *p = &job->photons[idx[j]];
+                pds__v3 np = pds__f3_get(p->np), d = pds__sub(x, pds__f3_get(p->pos));
+                double y0 = p->M[0] * d.x + p->M[1] * d.y + p->M[2] * d.z;
+                double y1 = p->M[3] * d.x + p->M[4] * d.y + p->M[5] * d.z, r2 = y0 * y0 + y1 * y1, f[3], pdf, k;
+                /* the same guards as the PDS splat */
+                if (r2 >= 1.0 || fabs(pds__dot(np, d)) > job->plane_tolerance * p->major || pds__dot(ng, np) <= 0.0)
+                    continue;
+                k = pds__kernel_silverman(r2);
+                pds__bsdf_eval(m, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
+                for (c = 0; c < 3; c++) sum[c] += PDS__PI * k * f[c] * p->ep[c];
+            }
+            for (c = 0; c < 3; c++)
+                if (sum[c] > 0.0) pds__fixed_add(buf, 3 * (size_t)v->pixel + (size_t)c, v->importance[c] * sum[c]);
+        }
+    }
+    free(idx);
+    free(d2);
+    return NULL;
+}
+
+/* Photon differential mapping's second half: the map of photons with their
+   footprints, and the gather. */
+static pds_status pds__pdm_gather(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
+                                  int threads, pds_render_stats *stats, pds_error *err)
+{
+    pds__pdm_job pj;
+    pds__kdtree tree;
+    pds__diff_photon *all;
+    size_t total = 0, at = 0, i;
+    pds_status st;
+    int t;
+    for (t = 0; t < job->nbufs; t++) total += job->bufs[t].ndstored;
+    all = (pds__diff_photon *)malloc(sizeof *all * (total ? total : 1));
+    for (t = 0; t < job->nbufs; t++) {
+        if (all && job->bufs[t].ndstored) memcpy(all + at, job->bufs[t].dstored, sizeof *all * job->bufs[t].ndstored);
+        at += job->bufs[t].ndstored;
+    }
+    if (!all) return pds__nomem(err);
+    qsort(all, total, sizeof *all, pds__diff_photon_cmp);
+    st = pds__kdtree_build(&tree, total ? &all[0].pos[0] : NULL, sizeof *all / sizeof(float), total, err);
+    if (st) {
+        free(all);
+        return st;
+    }
+    if (stats) stats->map_bytes = total * sizeof *all + pds__kdtree_memory(&tree);
+    memset(&pj, 0, sizeof pj);
+    pj.scene = job->scene;
+    pj.v = v;
+    pj.nv = nv;
+    pj.photons = all;
+    pj.tree = &tree;
+    pj.cap = opt->max_photons;
+    pj.plane_tolerance = opt->plane_tolerance;
+    for (i = 0; i < total; i++)
+        if (all[i].major > pj.radius) pj.radius = all[i].major;
+    pj.bufs = job->bufs;
+    pthread_mutex_init(&pj.lock, NULL);
+    pds__run_threads(threads < job->nbufs ? threads : job->nbufs, pds__pdm_worker, &pj);
+    pthread_mutex_destroy(&pj.lock);
+    pds__kdtree_free(&tree);
+    free(all);
+    return pj.out_of_memory ? pds__nomem(err) : PDS_OK;
+}
+
+/* --- progressive photon mapping ----------------------------------------- */
+
+/* Per eye vertex: R^2, N, tau (RGB, in the flux of one photon emitted
+   alone, so the radiance is tau / (pi R^2 N_emitted)). */
+typedef struct pds__ppm_state {
+    double r2, n, tau[3];
+} pds__ppm_state;
+
+typedef struct pds__ppm_job {
+    const pds_scene *scene;
+    const pds__eye_vertex *v;
+    pds__ppm_state *state;
+    size_t nv;
+    const pds__stored_photon *photons;
+    const pds__kdtree *tree;
+    double alpha, photon_scale; /* photon_scale: stored flux -> flux alone */
+    pthread_mutex_t lock;
+    size_t next;                /* guarded by lock */
+} pds__ppm_job;
+
+/* What one vertex gathers in one pass. */
+typedef struct pds__ppm_gather {
+    const pds__ppm_job *job;
+    const pds__eye_vertex *v;
+    const pds_material *m;
+    long found;
+    double phi[3];
+} pds__ppm_gather;
+
+static void pds__ppm_visit(void *ctx, size_t index, double dist2)
+{
+    pds__ppm_gather *g = (pds__ppm_gather *)ctx;
+    const pds__stored_photon *p = &g->job->photons[index];
+    pds__v3 ng = pds__f3_get(g->v->ng);
+    double f[3], pdf;
+    int c;
+    (void)dist2;
+    if (pds__dot(pds__f3_get(p->ng), ng) <= 0.0) return;
+    g->found++;
+    pds__bsdf_eval(g->m, pds__f3_get(g->v->wo), pds__scale(pds__f3_get(p->dir), -1.0), pds__f3_get(g->v->ns), ng, f,
+                   &pdf);
+    for (c = 0; c < 3; c++) g->phi[c] += f[c] * p->flux[c] * g->job->photon_scale;
+}
+
+static void *pds__ppm_worker(void *arg)
+{
+    pds__ppm_job *job = (pds__ppm_job *)arg;
+    for (;;) {
+        size_t first, last, i;
+        pthread_mutex_lock(&job->lock);
+        first = job->next;
+        job->next = first + PDS__GATHER_CHUNK;
+        pthread_mutex_unlock(&job->lock);
+        if (first >= job->nv) break;
+        last = first + PDS__GATHER_CHUNK < job->nv ? first + PDS__GATHER_CHUNK : job->nv;
+        for (i = first; i < last; i++) {
+            pds__ppm_state *s = &job->state[i];
+            pds__ppm_gather g;
+            double grow;
+            int c;
+            g.job = job;
+            g.v = &job->v[i];
+            g.m = &job->scene->materials.items[g.v->material];
+            g.found = 0;
+            g.phi[0] = g.phi[1] = g.phi[2] = 0.0;
+            pds__kdtree_range(job->tree, pds__f3_get(g.v->pos), sqrt(s->r2), pds__ppm_visit, &g);
+            if (g.found == 0) continue;
+            /* Hachisuka et al. 2008, eqs. 6-11 */
+            grow = (s->n + job->alpha * g.found) / (s->n + g.found);
+            s->r2 *= grow;
+            for (c = 0; c < 3; c++) s->tau[c] = (s->tau[c] + g.phi[c]) * grow;
+            s->n += job->alpha * g.found;
+        }
+    }
+    return NULL;
+}
+
+/* One progressive pass: the photons just traced update every vertex. */
+static pds_status pds__ppm_update(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v,
+                                  pds__ppm_state *state, size_t nv, int threads, pds_render_stats *stats,
+                                  pds_error *err)
+{
+    pds__ppm_job pj;
+    pds__kdtree tree;
+    size_t np;
+    pds_status st;
+    pds__stored_photon *photons = pds__merge_photons(job->bufs, job->nbufs, &np);
+    if (!photons) return pds__nomem(err);
+    st = pds__kdtree_build(&tree, np ? &photons[0].pos[0] : NULL, sizeof *photons / sizeof(float), np, err);
+    if (st) {
+        free(photons);
+        return st;
+    }
+    if (stats && np * sizeof *photons + pds__kdtree_memory(&tree) > stats->map_bytes)
+        stats->map_bytes = np * sizeof *photons + pds__kdtree_memory(&tree);
+    memset(&pj, 0, sizeof pj);
+    pj.scene = job->scene;
+    pj.v = v;
+    pj.state = state;
+    pj.nv = nv;
+    pj.photons = photons;
+    pj.tree = &tree;
+    pj.alpha = opt->alpha;
+    pj.photon_scale = job->n_planned;
+    pthread_mutex_init(&pj.lock, NULL);
+    pds__run_threads(threads, pds__ppm_worker, &pj);
+    pthread_mutex_destroy(&pj.lock);
+    pds__kdtree_free(&tree);
+    free(photons);
+    return PDS_OK;
+}
+
+/* Default splat radius: 1/200 of the scene's bounding-box diagonal. */
+static double pds__default_radius(const pds_scene *s)
+{
+    double d = pds__length(pds__sub(s->bounds_max, s->bounds_min));
+    return d > 0.0 ? d / 200.0 : 0.01;
+}
+
+/* Progressive photon mapping: passes of opt->photons photons, each
+   updating every eye vertex, until opt->passes (or, with a time budget,
+   until the time is spent; at least one pass). Adds the image into rgb. */
+static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
+                                  int threads, double *rgb, pds_render_stats *stats, pds_error *err)
+{
+    pds__ppm_state *state = (pds__ppm_state *)calloc(nv ? nv : 1, sizeof *state);
+    double r0 = opt->radius > 0.0 ? opt->radius : pds__default_radius(job->scene);
+    long emitted = 0, pass;
+    size_t i;
+    pds_status st = PDS_OK;
+    int t;
+    if (!state) return pds__nomem(err);
+    for (i = 0; i < nv; i++) state[i].r2 = r0 * r0;
+    for (pass = 0; !st; pass++) {
+        long this_pass;
+        job->index_offset = pass * (long)opt->photons;
+        job->next_batch = job->batches_done = 0;
+        job->stop = 0;
+        job->next_buf = 0;
+        pthread_mutex_init(&job->lock, NULL);
+        pds__run_threads(threads, pds__photon_worker, job);
+        pthread_mutex_destroy(&job->lock);
+        this_pass = job->batches_done * (long)PDS__PHOTON_BATCH;
+        emitted += this_pass < job->n_total ? this_pass : job->n_total;
+        for (t = 0; t < job->nbufs; t++)
+            if (job->bufs[t].out_of_memory) st = PDS_ERR_NOMEM;
+        if (!st) st = pds__ppm_update(job, opt, v, state, nv, threads, stats, err);
+        if (opt->time_s > 0.0 ? pds_time_now() - job->t0 >= opt->time_s : pass + 1 >= opt->passes) {
+            pass++;
+            break;
+        }
+    }
+    if (!st && emitted > 0) {
+        /* L = tau / (pi R^2 N_emitted), times the vertex's importance */
+        for (i = 0; i < nv; i++) {
+            int c;
+            if (!(state[i].r2 > 0.0)) continue;
+            for (c = 0; c < 3; c++)
+                rgb[3 * (size_t)v[i].pixel + (size_t)c] +=
+                    v[i].importance[c] * state[i].tau[c] / (PDS__PI * state[i].r2 * (double)emitted);
+        }
+    }
+    if (stats) {
+        stats->photons = emitted;
+        stats->passes = (int)pass;
+    }
+    free(state);
+    return st == PDS_ERR_NOMEM ? pds__nomem(err) : st;
+}
+
+/* --- the photon pass --------------------------------------------------- */
+
+/* After the eye pass: emit and trace the caustic photons for method m and
+   add the caustic image into rgb (importance already carries 1/spp).
+   footprint, if not NULL, receives PDS's anisotropy image. */
 static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, pds__eye_vertex *vertices,
                                    size_t nvertices, int width, int height, int threads, double *rgb,
                                    pds_image *footprint, pds_render_stats *stats, pds_error *err)
@@ -7976,17 +8714,20 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     pds__eye_map map;
     pds__photon_job job;
     size_t npix = (size_t)width * (size_t)height, i;
-    long emitted;
-    int t;
-    pds_status st;
+    long emitted = 0;
+    int t, splats = opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_SPLAT;
+    pds_status st = PDS_OK;
     double t0 = pds_time_now();
+    if (opt->method != PDS_METHOD_PDS) footprint = NULL;
     memset(&map, 0, sizeof map);
     memset(&job, 0, sizeof job);
     map.v = vertices;
     map.n = nvertices;
-    st = pds__kdtree_build(&map.tree, nvertices ? &vertices[0].pos[0] : NULL, sizeof *vertices / sizeof(float),
-                           nvertices, err);
-    if (st) return st;
+    if (splats) {
+        st = pds__kdtree_build(&map.tree, nvertices ? &vertices[0].pos[0] : NULL, sizeof *vertices / sizeof(float),
+                               nvertices, err);
+        if (st) return st;
+    }
     job.scene = s;
     job.map = &map;
     job.target = pds__specular_target(s);
@@ -8001,6 +8742,9 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
     job.t0 = t0;
+    job.land = splats ? pds__splat : opt->method == PDS_METHOD_PDM ? pds__store_diff_photon : pds__store_photon;
+    job.differentials = opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_PDM;
+    if (opt->method == PDS_METHOD_SPLAT) job.fixed_radius = opt->radius > 0.0 ? opt->radius : pds__default_radius(s);
     job.nbufs = threads;
     job.bufs = (pds__splat_buf *)calloc((size_t)threads, sizeof *job.bufs);
     if (!job.bufs) {
@@ -8012,10 +8756,15 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         if (footprint) job.bufs[t].aniso = (double *)calloc(npix * 2, sizeof(double));
         if (!job.bufs[t].fixed || (footprint && !job.bufs[t].aniso)) st = PDS_ERR_NOMEM;
     }
-    if (!st && opt->time_s > 0.0) {
-        /* The photon count enters eqs. 5-6, so it must be fixed before the
-           first photon: time a calibration run of two batches (thrown
-           away), then plan for the rate it shows over the remaining time. */
+    if (!st && opt->method == PDS_METHOD_PPM) {
+        st = pds__ppm_passes(&job, opt, vertices, nvertices, threads, rgb, stats, err);
+        emitted = 0; /* the passes added their image themselves */
+    } else if (!st && opt->time_s > 0.0) {
+        /* PDS: the photon count enters eqs. 5-6, so it must be fixed before
+           the first photon: time a calibration run of two batches (thrown
+           away) and plan for the rate it shows over the remaining time.
+           For every method the image is normalised by the photons actually
+           emitted before the deadline. */
         double rate, tc = pds_time_now(), remaining;
         pthread_mutex_init(&job.lock, NULL);
         job.n_total = 2 * PDS__PHOTON_BATCH;
@@ -8027,6 +8776,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             memset(job.bufs[t].fixed, 0, npix * 3 * sizeof(long long));
             if (job.bufs[t].aniso) memset(job.bufs[t].aniso, 0, npix * 2 * sizeof(double));
             job.bufs[t].splatted = job.bufs[t].degenerate = job.bufs[t].saturated = 0;
+            job.bufs[t].nstored = 0;
         }
         remaining = opt->time_s - (pds_time_now() - t0);
         job.n_planned = fmax(rate * fmax(remaining, 0.0), (double)PDS__PHOTON_BATCH);
@@ -8035,13 +8785,19 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.next_batch = job.batches_done = 0;
         job.stop = 0;
     }
-    if (!st) {
+    if (!st && opt->method != PDS_METHOD_PPM) {
         pthread_mutex_init(&job.lock, NULL);
         job.next_buf = 0;
         threads = pds__run_threads(threads, pds__photon_worker, &job);
         pthread_mutex_destroy(&job.lock);
         emitted = job.batches_done * (long)PDS__PHOTON_BATCH;
         if (emitted > job.n_total) emitted = job.n_total;
+        for (t = 0; t < job.nbufs; t++)
+            if (job.bufs[t].out_of_memory) st = PDS_ERR_NOMEM;
+    }
+    if (!st && opt->method == PDS_METHOD_PM) st = pds__pm_gather(&job, opt, vertices, nvertices, threads, stats, err);
+    if (!st && opt->method == PDS_METHOD_PDM) st = pds__pdm_gather(&job, opt, vertices, nvertices, threads, stats, err);
+    if (!st) {
         /* Fixed-point sums are exact and order-free; the photons were
            weighted for n_planned, the count actually emitted corrects it. */
         for (i = 0; i < npix * 3; i++) {
@@ -8063,24 +8819,27 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             }
         }
         if (stats) {
-            stats->photons = emitted;
+            if (opt->method != PDS_METHOD_PPM) stats->photons = emitted;
             stats->eye_vertices = (long)nvertices;
             for (t = 0; t < job.nbufs; t++) {
-                stats->splatted += job.bufs[t].splatted;
+                if (opt->method != PDS_METHOD_PM && opt->method != PDS_METHOD_PPM) stats->splatted += job.bufs[t].splatted;
                 stats->dropped_degenerate += job.bufs[t].degenerate;
             }
             stats->time_photons_s = pds_time_now() - t0;
-            stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) +
+            stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + stats->map_bytes +
                                    (size_t)job.nbufs * npix * (3 * sizeof(long long) + (footprint ? 2 * sizeof(double) : 0));
         }
     }
     for (t = 0; t < job.nbufs; t++) {
         free(job.bufs[t].fixed);
         free(job.bufs[t].aniso);
+        free(job.bufs[t].stored);
+        free(job.bufs[t].dstored);
     }
     free(job.bufs);
     pds__kdtree_free(&map.tree);
-    return st ? pds__nomem(err) : PDS_OK;
+    if (st == PDS_ERR_NOMEM) return pds__nomem(err);
+    return st;
 }
 
 /* ===================================================================== */
@@ -8107,6 +8866,20 @@ void pds_options_default(pds_options *opt)
     opt->plane_tolerance = 0.25;
     opt->photon_depth = 16;
     opt->footprint = NULL;
+    opt->k = 50;
+    opt->kernel = PDS_KERNEL_CONE;
+    opt->max_radius = 0.0;
+    opt->radius = 0.0;
+    opt->alpha = 0.7;
+    opt->passes = 10;
+    opt->max_photons = 500;
+}
+
+/* Methods that add caustics with photons after an eye pass. */
+static int pds__is_photon_method(pds_method m)
+{
+    return m == PDS_METHOD_PDS || m == PDS_METHOD_PM || m == PDS_METHOD_PDM || m == PDS_METHOD_SPLAT ||
+           m == PDS_METHOD_PPM;
 }
 
 const char *pds_method_name(pds_method method)
@@ -8115,6 +8888,10 @@ const char *pds_method_name(pds_method method)
     case PDS_METHOD_PT: return "pt";
     case PDS_METHOD_PREVIEW: return "preview";
     case PDS_METHOD_PDS: return "pds";
+    case PDS_METHOD_PM: return "pm";
+    case PDS_METHOD_SPLAT: return "splat";
+    case PDS_METHOD_PDM: return "pdm";
+    case PDS_METHOD_PPM: return "ppm";
     }
     return "unknown";
 }
@@ -8140,7 +8917,17 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "plane tolerance must be positive");
     if (opt->photon_depth < 1 || opt->photon_depth > 1000)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photon depth %d is outside 1..1000", opt->photon_depth);
-    if (opt->method != PDS_METHOD_PT && opt->method != PDS_METHOD_PREVIEW && opt->method != PDS_METHOD_PDS)
+    if (opt->k < 1 || opt->k > 100000)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "k %d is outside 1..100000", opt->k);
+    if ((unsigned)opt->kernel > (unsigned)PDS_KERNEL_NONE)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown photon-mapping kernel %d", (int)opt->kernel);
+    if (!(opt->alpha > 0.0 && opt->alpha <= 1.0))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "alpha must be above 0 and at most 1");
+    if (opt->passes < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "passes must be at least 1");
+    if (opt->max_photons < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "max photons must be at least 1");
+    if (!(opt->max_radius >= 0.0) || !(opt->radius >= 0.0) || opt->max_radius > 1e12 || opt->radius > 1e12)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "radii must be between 0 and 1e12");
+    if (opt->method != PDS_METHOD_PT && opt->method != PDS_METHOD_PREVIEW && !pds__is_photon_method(opt->method))
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown rendering method %d", (int)opt->method);
     if ((unsigned)opt->paths > (unsigned)PDS_PATHS_CAUSTICS_ONLY)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown light path selection %d", (int)opt->paths);
@@ -8197,7 +8984,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     job.tracer.eps = 1e-6 * pds__scene_scale(scene);
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
-    if (opt->method == PDS_METHOD_PDS) {
+    if (pds__is_photon_method(opt->method)) {
         /* The eye pass computes everything but the caustics and records the
            eye-path vertices; the photon pass adds the caustics. */
         photons = opt->paths != PDS_PATHS_NO_CAUSTICS;
@@ -8207,7 +8994,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     /* Sample indices must not overlap between pixels: reserve room for the
        most passes a time budget could ever take (the photon methods spend
        their time budget on photons, after one eye pass). */
-    max_passes = opt->time_s > 0.0 && opt->method != PDS_METHOD_PDS ? PDS_MAX_SPP / job.spp : 1;
+    max_passes = opt->time_s > 0.0 && !pds__is_photon_method(opt->method) ? PDS_MAX_SPP / job.spp : 1;
     if (max_passes < 1) max_passes = 1;
     job.total_spp_max = job.spp * max_passes;
     npix = (size_t)w * (size_t)h;
@@ -8255,7 +9042,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     /* the average of the passes, in place */
     rgb = job.sum;
     for (i = 0; i < npix * 3; i++) rgb[i] /= (double)job.spp * job.pass;
-    if (opt->method == PDS_METHOD_PDS && opt->paths == PDS_PATHS_CAUSTICS_ONLY)
+    if (pds__is_photon_method(opt->method) && opt->paths == PDS_PATHS_CAUSTICS_ONLY)
         memset(rgb, 0, npix * 3 * sizeof *rgb);
     if (job.record_eye) {
         size_t nv = 0;
@@ -8284,7 +9071,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     stats->width = w;
     stats->height = h;
     stats->spp = job.spp * job.pass;
-    stats->passes = job.pass;
+    if (opt->method != PDS_METHOD_PPM) stats->passes = job.pass; /* ppm: its photon passes */
     return PDS_OK;
 }
 

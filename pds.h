@@ -270,8 +270,20 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
 typedef enum pds_method {
     PDS_METHOD_PT = 0,     /* unidirectional path tracing, the unbiased reference */
     PDS_METHOD_PREVIEW,    /* eye-light shading: geometry and materials at a glance */
-    PDS_METHOD_PDS         /* photon differential splatting (Frisvad et al. 2014) */
+    PDS_METHOD_PDS,        /* photon differential splatting (Frisvad et al. 2014) */
+    PDS_METHOD_PM,         /* photon mapping: caustic map, k nearest (Jensen 1996) */
+    PDS_METHOD_PDM,        /* photon differential mapping (Schjoth et al. 2007) */
+    PDS_METHOD_SPLAT,      /* fixed-radius photon splatting into the eye-path map
+                              (Lavignotte & Paulin 2003; Herzog et al. 2007) */
+    PDS_METHOD_PPM         /* progressive photon mapping (Hachisuka et al. 2008) */
 } pds_method;
+
+/* Density-estimation kernel of photon mapping (Jensen 1996). */
+typedef enum pds_kernel {
+    PDS_KERNEL_CONE = 0,   /* w = 1 - d/(k r), k = 1, normalised by 1 - 2/(3k) */
+    PDS_KERNEL_GAUSSIAN,   /* Jensen's Gaussian (alpha 0.918, beta 1.953) */
+    PDS_KERNEL_NONE        /* uniform disc */
+} pds_kernel;
 
 /* Which light paths a render computes. Caustic paths are L S+ D ...: light
    that reaches a non-specular vertex through one or more specular bounces.
@@ -311,6 +323,16 @@ typedef struct pds_options {
                            than this times the footprint's major semi-axis from
                            the photon's tangent plane get nothing (default 0.25) */
     int photon_depth;   /* most specular bounces a photon follows (default 16) */
+    /* baselines */
+    int k;              /* pm: photons per estimate (default 50) */
+    pds_kernel kernel;  /* pm: filter (default PDS_KERNEL_CONE) */
+    double max_radius;  /* pm: largest gather radius, 0 = none (default 0) */
+    double radius;      /* splat: splat radius; ppm: initial radius; 0 = from
+                           the scene and the eye-path map (default 0) */
+    double alpha;       /* ppm: radius reduction parameter in (0, 1] (default 0.7) */
+    int passes;         /* ppm: photon passes of `photons` each; with time_s > 0
+                           passes run until the time is spent (default 10) */
+    long max_photons;   /* pdm: most photons gathered per estimate (default 500) */
     pds_image *footprint; /* if not NULL, PDS writes here an image of photon
                            footprint anisotropy (paper appendix B): red where
                            footprints are needle-like (m_a -> 0), green where
@@ -334,6 +356,7 @@ typedef struct pds_render_stats {
     long dropped_degenerate;/* photons whose footprint had collapsed */
     long eye_vertices;      /* vertices in the eye-path map */
     double time_eye_s, time_photons_s;
+    size_t map_bytes;       /* pm, pdm, ppm: peak size of the photon map */
     size_t memory_bytes;    /* largest working memory the render held at once
                                (image sums, eye-path map, per-thread images);
                                does not grow with the photon count */

@@ -92,6 +92,20 @@ static const float *tbvh_vert(const float *pos, const int *idx, size_t tri, int 
     return pos + 3 * (size_t)idx[3 * tri + c];
 }
 
+/* The BVH's own watertight test on one triangle v (9 floats), through a
+   block holding it in all four lanes: 1 with *t, *u, *w on a hit in (tmin,
+   tmax). */
+static int tbvh_tri_test(const pds__bvh_ray *r, const float v[9], float tmin, float tmax, float *t,
+                         float *u, float *w)
+{
+    pds__bvh_tri4 q;
+    int c, k, l;
+    for (c = 0; c < 3; c++)
+        for (k = 0; k < 3; k++)
+            for (l = 0; l < 4; l++) q.v[c][k][l] = v[3 * c + k];
+    return pds__bvh_tri4_test(r, &q, tmin, tmax, t, u, w) >= 0;
+}
+
 /* Brute force with the BVH's own watertight float test over every
    triangle in original order: the closest float t and its triangle (-1 if
    none). */
@@ -109,7 +123,7 @@ static long tbvh_brute_watertight(const float *pos, const int *idx, size_t ntris
     for (i = 0; i < ntris; i++) {
         float t, u, w;
         for (c = 0; c < 3; c++) memcpy(v + 3 * c, tbvh_vert(pos, idx, i, c), 3 * sizeof(float));
-        if (pds__bvh_tri_test(&r, v, r.tmin, best, &t, &u, &w)) {
+        if (tbvh_tri_test(&r, v, r.tmin, best, &t, &u, &w)) {
             best = t;
             bi = (long)i;
         }
@@ -128,7 +142,7 @@ static float tbvh_watertight_t(const float *pos, const int *idx, long tri, pds__
     int c;
     if (!pds__bvh_ray_setup(&r, o, d, tmin, tmax, &tscale)) return -1.0f;
     for (c = 0; c < 3; c++) memcpy(v + 3 * c, tbvh_vert(pos, idx, (size_t)tri, c), 3 * sizeof(float));
-    return pds__bvh_tri_test(&r, v, r.tmin, r.tmax, &t, &u, &w) ? t : -1.0f;
+    return tbvh_tri_test(&r, v, r.tmin, r.tmax, &t, &u, &w) ? t : -1.0f;
 }
 
 /* Independent reference: plain Moller-Trumbore in double, closest hit in
@@ -241,24 +255,27 @@ static void tbvh_random_rays(pds_test_ctx *t, const pds__bvh *bvh, const float *
     }
 }
 
-/* Walks the 4-wide tree: every leaf holds 1..PDS__BVH_MAX_LEAF triangles,
-   leaves cover every triangle exactly once, boxes contain what is below
-   them, tri_id is a permutation. Returns 1 if all holds; *sah gets the
-   SAH cost (expected box tests + triangle tests of a random ray through
-   the root box, in units of one triangle test). */
+/* Walks the 4-wide tree: every leaf is one block of its own holding
+   1..PDS__BVH_MAX_LEAF triangles (spare lanes repeat the last), leaves
+   cover every triangle exactly once, boxes contain what is below them,
+   every node and block is reachable. Returns 1 if all holds; *sah gets
+   the SAH cost (expected child boxes entered, inner nodes and leaf blocks
+   alike, by a random ray through the root box). */
 static int tbvh_validate(pds_test_ctx *t, const pds__bvh *bvh, const float *pos, const int *idx,
                          double *sah)
 {
     unsigned char *seen_tri = (unsigned char *)calloc(bvh->ntris + 1, 1);
     unsigned char *seen_node = (unsigned char *)calloc(bvh->nnodes + 1, 1);
+    unsigned char *seen_block = (unsigned char *)calloc(bvh->nblocks + 1, 1);
     size_t *stack = (size_t *)malloc((bvh->nnodes + 1) * sizeof(size_t));
     size_t sp = 0, i, covered = 0;
     int ok = 1, k, c;
     float rlo[3], rhi[3];
     double root_area;
-    if (!seen_tri || !seen_node || !stack) {
+    if (!seen_tri || !seen_node || !seen_block || !stack) {
         free(seen_tri);
         free(seen_node);
+        free(seen_block);
         free(stack);
         CHECK(t, 0, "out of memory in the test");
         return 0;
@@ -285,27 +302,37 @@ static int tbvh_validate(pds_test_ctx *t, const pds__bvh *bvh, const float *pos,
                 hi[c] = n->b[4 * (3 + c) + k];
             }
             if (lo[0] > hi[0]) continue; /* unused slot */
-            *sah += pds__bvh_half_area(lo, hi) / root_area * (n->count[k] ? n->count[k] : 1.0);
-            if (n->count[k]) {
-                size_t first = n->child[k], j;
-                if (n->count[k] > PDS__BVH_MAX_LEAF || first + n->count[k] > bvh->ntris) {
-                    CHECK(t, 0, "leaf [%lu, +%u) out of range or too big", (unsigned long)first,
-                          (unsigned)n->count[k]);
+            *sah += pds__bvh_half_area(lo, hi) / root_area;
+            if (n->child[k] & PDS__BVH_LEAF) {
+                size_t b = n->child[k] & ~PDS__BVH_LEAF, cnt = n->count[k];
+                int l;
+                if (cnt < 1 || cnt > PDS__BVH_MAX_LEAF || b >= bvh->nblocks || seen_block[b]++) {
+                    CHECK(t, 0, "leaf block %lu of %lu triangles out of range, too big or shared",
+                          (unsigned long)b, (unsigned long)cnt);
                     ok = 0;
                     break;
                 }
-                for (j = first; j < first + n->count[k]; j++) {
-                    int v;
-                    if (seen_tri[j]++) {
-                        CHECK(t, 0, "triangle slot %lu in two leaves", (unsigned long)j);
+                for (l = 0; l < 4; l++) {
+                    /* lanes past the count repeat the last triangle */
+                    int id = bvh->tri_id[4 * b + l], v;
+                    if (id < 0 || (size_t)id >= bvh->ntris ||
+                        ((size_t)l >= cnt && id != bvh->tri_id[4 * b + cnt - 1])) {
+                        CHECK(t, 0, "block %lu lane %d holds triangle %d", (unsigned long)b, l, id);
                         ok = 0;
+                        break;
                     }
-                    covered++;
+                    if ((size_t)l < cnt) {
+                        if (seen_tri[id]++) {
+                            CHECK(t, 0, "triangle %d in two leaves", id);
+                            ok = 0;
+                        }
+                        covered++;
+                    }
                     for (v = 0; v < 3; v++) {
-                        const float *p = tbvh_vert(pos, idx, (size_t)bvh->tri_id[j], v);
+                        const float *p = tbvh_vert(pos, idx, (size_t)id, v);
                         for (c = 0; c < 3; c++) {
-                            if (p[c] < lo[c] || p[c] > hi[c] || p[c] != bvh->tri[9 * j + 3 * v + c]) {
-                                CHECK(t, 0, "triangle %d not inside its leaf box or not copied", bvh->tri_id[j]);
+                            if (p[c] < lo[c] || p[c] > hi[c] || p[c] != bvh->tri4[b].v[v][c][l]) {
+                                CHECK(t, 0, "triangle %d not inside its leaf box or not copied", id);
                                 ok = 0;
                             }
                         }
@@ -344,20 +371,19 @@ static int tbvh_validate(pds_test_ctx *t, const pds__bvh *bvh, const float *pos,
             ok = 0;
         }
     }
-    if (ok) {
-        /* tri_id is a permutation */
-        memset(seen_tri, 0, bvh->ntris);
-        for (i = 0; i < bvh->ntris; i++) {
-            int id = bvh->tri_id[i];
-            if (id < 0 || (size_t)id >= bvh->ntris || seen_tri[id]++) {
-                CHECK(t, 0, "tri_id is not a permutation (slot %lu holds %d)", (unsigned long)i, id);
-                ok = 0;
-                break;
-            }
+    for (i = 0; ok && i < bvh->nblocks; i++) {
+        if (!seen_block[i]) {
+            CHECK(t, 0, "block %lu is unreachable", (unsigned long)i);
+            ok = 0;
         }
+    }
+    if (ok && bvh->nblocks != (size_t)bvh->leaves) {
+        CHECK(t, 0, "%lu blocks for %ld leaves", (unsigned long)bvh->nblocks, bvh->leaves);
+        ok = 0;
     }
     free(seen_tri);
     free(seen_node);
+    free(seen_block);
     free(stack);
     CHECK(t, ok, "tree structure is invalid");
     return ok;
@@ -522,6 +548,80 @@ static void test_bvh_closed_mesh_is_watertight_at_edges_and_vertices(pds_test_ct
     CHECK(t, shots > 100 && misses == 0, "%ld of %ld outside rays at vertices missed", misses, shots);
     pds__bvh_free(&bvh);
     pds__mesh_free(&m);
+}
+
+/* A flat grid of n x n unit squares at z = 0, each split into two
+   triangles along a diagonal that alternates, stored in a scrambled order
+   (so neighbours land in different leaves and lanes). */
+static int tbvh_grid(tbvh_soup *s, int n)
+{
+    int i, j, q = 0;
+    size_t k;
+    if (!tbvh_soup_alloc(s, (size_t)(2 * n * n))) return 0;
+    for (j = 0; j < n; j++) {
+        for (i = 0; i < n; i++) {
+            const float x0 = (float)i, y0 = (float)j, x1 = x0 + 1.0f, y1 = y0 + 1.0f;
+            const float a[18] = {x0, y0, 0, x1, y0, 0, x1, y1, 0, x0, y0, 0, x1, y1, 0, x0, y1, 0};
+            const float b[18] = {x0, y0, 0, x1, y0, 0, x0, y1, 0, x1, y0, 0, x1, y1, 0, x0, y1, 0};
+            memcpy(s->pos + 18 * q, (i + j) % 2 ? a : b, sizeof a);
+            q++;
+        }
+    }
+    /* scramble: swap triangle k with triangle 7k mod ntris */
+    for (k = 0; k < s->ntris; k++) {
+        size_t m = (7 * k) % s->ntris;
+        float tmp[9];
+        memcpy(tmp, s->pos + 9 * k, sizeof tmp);
+        memcpy(s->pos + 9 * k, s->pos + 9 * m, sizeof tmp);
+        memcpy(s->pos + 9 * m, tmp, sizeof tmp);
+    }
+    return 1;
+}
+
+static void test_bvh_grid_vertices_and_edges_never_leak(pds_test_ctx *t)
+{
+    /* Rays aimed exactly at interior grid vertices and edge midpoints:
+       there the float edge functions are within rounding of 0 (exactly 0
+       for the axis-parallel rays), so the exact-sign fallback decides;
+       some triangle must report the hit, at the aimed point. */
+    static const double origins[5][3] = {
+        {4.5, 4.5, 3.0}, {4.0, 4.0, 1.0}, {-3.25, 2.5, 0.7}, {11.0, -5.0, 2.5}, {7.0, 3.0, -2.0}};
+    const int n = 8;
+    tbvh_soup soup;
+    pds__bvh bvh;
+    pds_error err;
+    pds__tri_hit h;
+    long shots = 0, misses = 0, far_off = 0;
+    int o, i, j, e;
+    REQUIRE(t, tbvh_grid(&soup, n), "out of memory");
+    REQUIRE(t, pds__bvh_build(&bvh, soup.pos, soup.idx, soup.ntris, &err) == PDS_OK, "%s", err.text);
+    for (o = 0; o < 6; o++) {
+        for (j = 1; j < 2 * n; j++) {
+            for (i = 1; i < 2 * n; i++) {
+                /* (i/2, j/2): a vertex, an edge midpoint or a diagonal's */
+                pds__v3 aim = pds__v(0.5 * i, 0.5 * j, 0.0), org, dir;
+                if (o < 5) {
+                    org = pds__v(origins[o][0], origins[o][1], origins[o][2]);
+                } else {
+                    org = pds__v(aim.x, aim.y, 2.0); /* straight down */
+                }
+                dir = pds__sub(aim, org);
+                for (e = 0; e < 2; e++) {
+                    shots++;
+                    if (e == 0 ? !pds__bvh_intersect(&bvh, org, dir, 0.0, 1e30, &h)
+                               : !pds__bvh_occluded(&bvh, org, dir, 0.0, 1e30)) {
+                        misses++;
+                        continue;
+                    }
+                    if (e == 0 && fabs(h.t - 1.0) > 1e-6) far_off++;
+                }
+            }
+        }
+    }
+    CHECK(t, misses == 0, "%ld of %ld rays at grid vertices and edges slipped through", misses, shots);
+    CHECK(t, far_off == 0, "%ld of %ld rays hit away from the aimed point", far_off, shots);
+    pds__bvh_free(&bvh);
+    tbvh_soup_free(&soup);
 }
 
 static void test_bvh_axis_parallel_rays_match_brute_force(pds_test_ctx *t)
@@ -708,6 +808,7 @@ static const pds_test_case tests_bvh[] = {
     {"bvh_matches_brute_force_on_random_soups", test_bvh_matches_brute_force_on_random_soups},
     {"bvh_handles_degenerate_centroids", test_bvh_handles_degenerate_centroids},
     {"bvh_closed_mesh_is_watertight_at_edges_and_vertices", test_bvh_closed_mesh_is_watertight_at_edges_and_vertices},
+    {"bvh_grid_vertices_and_edges_never_leak", test_bvh_grid_vertices_and_edges_never_leak},
     {"bvh_axis_parallel_rays_match_brute_force", test_bvh_axis_parallel_rays_match_brute_force},
     {"bvh_respects_tmin_and_tmax", test_bvh_respects_tmin_and_tmax},
     {"bvh_barycentrics_reproduce_hit_point", test_bvh_barycentrics_reproduce_hit_point},

@@ -222,8 +222,8 @@ static void test_kdtree_range_degenerate(pds_test_ctx *t)
     }
 }
 
-/* Brute-force k-NN: all points with d2 <= rmax^2 sorted by (d2, index),
-   first k kept. */
+/* Brute-force k-NN: every point sorted by (d2, index); the answer for
+   (k, rmax) is the first min(k, #{d2 <= rmax^2}) of that list. */
 typedef struct tkd_pair { double d2; size_t i; } tkd_pair;
 
 static int tkd_pair_cmp(const void *a, const void *b)
@@ -234,21 +234,23 @@ static int tkd_pair_cmp(const void *a, const void *b)
     return x->i < y->i ? -1 : x->i > y->i ? 1 : 0;
 }
 
-static size_t tkd_knn_brute(const float *pos, size_t stride, size_t n, pds__v3 c, size_t k,
-                            double rmax, tkd_pair *all)
+static void tkd_knn_sort(const float *pos, size_t stride, size_t n, pds__v3 c, tkd_pair *all)
 {
-    size_t i, m = 0;
-    double r2 = rmax * rmax;
+    size_t i;
     for (i = 0; i < n; i++) {
-        double d2 = pds__kd_dist2(pos + i * stride, c.x, c.y, c.z);
-        if (d2 <= r2) {
-            all[m].d2 = d2;
-            all[m].i = i;
-            m++;
-        }
+        all[i].d2 = pds__kd_dist2(pos + i * stride, c.x, c.y, c.z);
+        all[i].i = i;
     }
-    qsort(all, m, sizeof *all, tkd_pair_cmp);
-    return m < k ? m : k;
+    qsort(all, n, sizeof *all, tkd_pair_cmp);
+}
+
+/* How many of the sorted list the brute force keeps for (k, rmax). */
+static size_t tkd_knn_count(const tkd_pair *all, size_t n, size_t k, double rmax)
+{
+    size_t m = 0;
+    double r2 = rmax * rmax;
+    while (m < n && m < k && all[m].d2 <= r2) m++;
+    return m;
 }
 
 /* Compare a k-NN answer (idx, d2, got) with the sorted brute force (all,
@@ -304,9 +306,10 @@ static void test_kdtree_knn(pds_test_ctx *t)
             ks[3] = n + 3; /* more than there are */
             for (q = 0; q < 30; q++) {
                 pds__v3 c = tkd_query(pos, 3, n, 77, q);
+                tkd_knn_sort(pos, 3, n, c, all);
                 for (ki = 0; ki < 4; ki++) {
                     for (mi = 0; mi < sizeof rmaxes / sizeof rmaxes[0]; mi++) {
-                        size_t want = tkd_knn_brute(pos, 3, n, c, ks[ki], rmaxes[mi], all);
+                        size_t want = tkd_knn_count(all, n, ks[ki], rmaxes[mi]);
                         size_t got = pds__kdtree_knn(&kd, c, ks[ki], rmaxes[mi], idx, d2);
                         found += got;
                         bad += tkd_knn_compare(pos, 3, n, c, all, want, idx, d2, got, seen);
@@ -449,8 +452,15 @@ static void test_kdtree_structure(pds_test_ctx *t)
     CHECK(t, bad == 0, "%lu slots are not a permutation of the input", (unsigned long)bad);
     bad = tkd_check_node(&kd, 0, n, 0, &maxdepth);
     CHECK(t, bad == 0, "%lu points on the wrong side of a split plane", (unsigned long)bad);
-    /* 50000 / 6 < 2^13: 14 levels at most for a balanced tree */
-    CHECK(t, maxdepth <= 14, "depth %d", maxdepth);
+    /* a child holds at most half its parent's points, so depth d holds
+       at most n >> d: every node at depth D with n >> D <= the leaf size
+       is a leaf */
+    {
+        int bound = 0;
+        while ((n >> bound) > PDS__KD_LEAF) bound++;
+        CHECK(t, maxdepth <= bound && maxdepth >= bound - 1, "depth %d, expected %d", maxdepth,
+              bound);
+    }
     CHECK(t, kd.axis[n / 2] == 1, "root splits axis %d, not the long y axis", kd.axis[n / 2]);
     pds__kdtree_free(&kd);
     free(pos);

@@ -6,6 +6,7 @@
 
 #include "test_scene.c"
 #include "test_cli.c"
+#include "test_harness.c"
 #include "test_image.c"
 #include "test_obj.c"
 #include "test_bvh.c"
@@ -16,12 +17,14 @@
 #include "test_kdtree.c"
 #include "test_differentials.c"
 #include "test_pds.c"
+#include "test_baselines.c"
 
 int main(int argc, char **argv)
 {
     static const pds_test_suite suites[] = {
         PDS_SUITE(tests_scene),
         PDS_SUITE(tests_cli),
+        PDS_SUITE(tests_harness),
         PDS_SUITE(tests_image),
         PDS_SUITE(tests_obj),
         PDS_SUITE(tests_bvh),
@@ -32,6 +35,7 @@ int main(int argc, char **argv)
         PDS_SUITE(tests_kdtree),
         PDS_SUITE(tests_differentials),
         PDS_SUITE(tests_pds),
+        PDS_SUITE(tests_baselines),
     };
     return pds_test_run(suites, sizeof suites / sizeof suites[0], argc, argv);
 }

@@ -1,0 +1,256 @@
+/* tests/test_baselines.c - the methods PDS is measured against: photon
+   mapping and fixed-radius splatting, on the same known answers. Uses the
+   slab scene and helpers of test_pds.c. */
+
+static int baseline_render(const char *text, pds_method method, long photons, int threads, pds_image *img,
+                           pds_render_stats *st, void (*tweak)(pds_options *))
+{
+    pds_options opt;
+    pds_options_default(&opt);
+    opt.method = method;
+    opt.photons = photons;
+    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    opt.threads = threads;
+    if (tweak) tweak(&opt);
+    return render_text(text, &opt, img, st);
+}
+
+/* Under the slab the caustic is uniform, E T^2 a / (1 - R^2 a^2): the
+   k-nearest-neighbour estimate with the cone filter (normalised for a
+   uniform 2-D density) must find it, on average and per pixel. */
+static void baseline_check_slab(pds_test_ctx *t, const pds_image *img, double mean_tol, double pixel_tol,
+                                const char *what)
+{
+    static const double sigma[3] = {0.2, 0.5, 1.0};
+    int x, y, c, n = 0, bad = 0;
+    double sum[3] = {0, 0, 0}, worst = 0.0;
+    for (y = 0; y < 24; y++) {
+        for (x = 0; x < 24; x++) {
+            pds__v3 p = floor_point(1.2, 90.0, 24, x, y);
+            if (fabs(p.x) > 0.3 || fabs(p.z) > 0.3) continue;
+            n++;
+            for (c = 0; c < 3; c++) {
+                double expect = 0.5 / PDS__PI * 3.0 * slab_transmittance(sigma[c]);
+                double rel = fabs(img->rgb[3 * (y * 24 + x) + c] / expect - 1.0);
+                sum[c] += img->rgb[3 * (y * 24 + x) + c] / expect;
+                if (rel > worst) worst = rel;
+                bad += rel > pixel_tol;
+            }
+        }
+    }
+    for (c = 0; c < 3; c++)
+        CHECK(t, fabs(sum[c] / n - 1.0) < mean_tol, "%s: channel %d mean ratio %.4f", what, c, sum[c] / n);
+    CHECK(t, bad == 0, "%s: %d pixel channels off by more than %g, worst %.4f", what, bad, pixel_tol, worst);
+}
+
+static void pm_gaussian(pds_options *o) { o->kernel = PDS_KERNEL_GAUSSIAN; }
+static void pm_uniform(pds_options *o) { o->kernel = PDS_KERNEL_NONE; }
+
+static void test_pm_finds_the_analytic_irradiance_of_a_uniform_caustic(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, 100000, 2, &img, &st, NULL), "pm cone");
+    baseline_check_slab(t, &img, 0.02, 0.05, "cone");
+    CHECK(t, st.map_bytes >= (size_t)st.splatted * sizeof(pds__stored_photon) && st.splatted > 50000,
+          "map %lu bytes for %ld photons", (unsigned long)st.map_bytes, st.splatted);
+    pds_image_free(&img);
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, 100000, 2, &img, NULL, pm_gaussian), "pm gaussian");
+    baseline_check_slab(t, &img, 0.02, 0.05, "gaussian");
+    pds_image_free(&img);
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, 100000, 2, &img, NULL, pm_uniform), "pm none");
+    baseline_check_slab(t, &img, 0.02, 0.05, "none");
+    pds_image_free(&img);
+}
+
+/* The filters' normalisations are their integrals over the unit disc:
+   cone 1/3 (k_cone = 1: 1 - 2/(3k)), Gaussian 0.531 (REFERENCE.md), by
+   midpoint quadrature in r. */
+static void test_pm_filter_normalisations_are_the_filters_integrals(pds_test_ctx *t)
+{
+    pds_kernel k[3] = {PDS_KERNEL_CONE, PDS_KERNEL_GAUSSIAN, PDS_KERNEL_NONE};
+    int i, j;
+    for (i = 0; i < 3; i++) {
+        double integral = 0.0, n = 100000;
+        for (j = 0; j < (int)n; j++) {
+            double r = (j + 0.5) / n;
+            integral += pds__pm_weight(k[i], r * r, 1.0) * 2.0 * r / n; /* 2 pi r dr / pi */
+        }
+        CHECK_NEAR(t, pds__pm_norm(k[i]), integral, 1e-8);
+    }
+    CHECK_NEAR(t, pds__gauss_filter_norm(), 0.5312, 5e-4);
+}
+
+/* Memory of photon mapping grows with the photon count (the map), unlike
+   PDS's. */
+static void test_pm_map_grows_with_the_photon_count(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats a, b;
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, 10000, 2, &img, &a, NULL), "10k");
+    pds_image_free(&img);
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, 40000, 2, &img, &b, NULL), "40k");
+    pds_image_free(&img);
+    CHECK(t, b.map_bytes > 3 * a.map_bytes, "map %lu -> %lu bytes", (unsigned long)a.map_bytes, (unsigned long)b.map_bytes);
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PDS, 10000, 2, &img, &a, NULL), "pds 10k");
+    pds_image_free(&img);
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PDS, 40000, 2, &img, &b, NULL), "pds 40k");
+    pds_image_free(&img);
+    CHECK(t, a.memory_bytes == b.memory_bytes && a.map_bytes == 0, "pds memory %lu vs %lu",
+          (unsigned long)a.memory_bytes, (unsigned long)b.memory_bytes);
+}
+
+static void splat_radius_005(pds_options *o) { o->radius = 0.05; }
+
+/* Fixed-radius splatting conserves the flux like PDS (its kernel is
+   normalised over its disc) and finds the uniform caustic. */
+static void test_splat_conserves_flux_and_finds_the_uniform_caustic(pds_test_ctx *t)
+{
+    static const double sigma[3] = {0.2, 0.5, 1.0};
+    pds_image img = {0, 0, NULL};
+    double total[3] = {0, 0, 0}, area = pixel_area_on_floor(1.2, 90.0, 24);
+    int i, c;
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_SPLAT, 100000, 2, &img, NULL, splat_radius_005), "splat");
+    for (i = 0; i < 24 * 24; i++)
+        for (c = 0; c < 3; c++) total[c] += PDS__PI * img.rgb[3 * i + c] / 0.5 * area;
+    for (c = 0; c < 3; c++) {
+        double expect = 3.0 * slab_transmittance(sigma[c]);
+        CHECK(t, fabs(total[c] / expect - 1.0) < 0.01, "channel %d: flux %.5f W, expected %.5f W", c, total[c], expect);
+    }
+    baseline_check_slab(t, &img, 0.02, 0.05, "splat");
+    pds_image_free(&img);
+}
+
+static void test_baselines_are_identical_for_any_thread_count(pds_test_ctx *t)
+{
+    static const pds_method methods[4] = {PDS_METHOD_PM, PDS_METHOD_SPLAT, PDS_METHOD_PDM, PDS_METHOD_PPM};
+    int m;
+    for (m = 0; m < 4; m++) {
+        pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+        REQUIRE(t, baseline_render(sphere_caustic_scene, methods[m], 20000, 1, &a, NULL, NULL), "1 thread");
+        REQUIRE(t, baseline_render(sphere_caustic_scene, methods[m], 20000, 3, &b, NULL, NULL), "3 threads");
+        CHECK(t, memcmp(a.rgb, b.rgb, sizeof(float) * 3 * (size_t)a.width * a.height) == 0, "%s: bitwise equal",
+              pds_method_name(methods[m]));
+        pds_image_free(&a);
+        pds_image_free(&b);
+    }
+}
+
+
+static void pdm_big_cap(pds_options *o) { o->max_photons = 100000; }
+
+/* Photon differential mapping evaluates eqs. 10-12 by gathering instead of
+   splatting: with a cap that never binds, the image is PDS's (up to the
+   fixed-point rounding of each splat). */
+static void test_pdm_gathers_the_same_image_pds_splats(pds_test_ctx *t)
+{
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    pds_render_stats sa, sb;
+    size_t i, n;
+    double worst = 0.0, peak = 0.0;
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PDS, 20000, 2, &a, &sa, NULL), "pds");
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PDM, 20000, 2, &b, &sb, pdm_big_cap), "pdm");
+    n = (size_t)a.width * a.height * 3;
+    for (i = 0; i < n; i++) {
+        double d = fabs((double)a.rgb[i] - b.rgb[i]);
+        if (d > worst) worst = d;
+        if (a.rgb[i] > peak) peak = a.rgb[i];
+    }
+    CHECK(t, peak > 0.0 && worst <= 1e-5 * peak, "largest difference %g (peak %g)", worst, peak);
+    CHECK(t, sb.splatted == sa.splatted && sb.map_bytes > 0, "stored %ld photons, pds splatted %ld", sb.splatted,
+          sa.splatted);
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+
+/* The progressive update of one vertex against the published recurrence
+   (Hachisuka et al. 2008): 10 photons inside R in pass 1, then the photons
+   inside the shrunken radius in pass 2. */
+static void test_ppm_updates_follow_the_published_recurrence(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text("material white diffuse { albedo 0.5 }\nquad { material white }\n", &err);
+    pds__eye_vertex v;
+    pds__stored_photon ph[12];
+    pds__ppm_state st;
+    pds__ppm_job job;
+    pds__kdtree tree;
+    double alpha = 0.7, r2, n, tau, grow;
+    int i, inside;
+    REQUIRE(t, s != NULL, "%s", err.text);
+    memset(&v, 0, sizeof v);
+    v.ns[1] = v.ng[1] = v.wo[1] = 1.0f;
+    v.importance[0] = v.importance[1] = v.importance[2] = 1.0f;
+    v.material = 0;
+    for (i = 0; i < 12; i++) {
+        /* photons at distances 0.01 .. 0.12 from the vertex, flux 2 each */
+        memset(&ph[i], 0, sizeof ph[i]);
+        ph[i].pos[0] = 0.01f * (float)(i + 1);
+        ph[i].dir[1] = -1.0f;
+        ph[i].ng[1] = 1.0f;
+        ph[i].flux[0] = ph[i].flux[1] = ph[i].flux[2] = 2.0f;
+        ph[i].index = i;
+    }
+    REQUIRE(t, pds__kdtree_build(&tree, &ph[0].pos[0], sizeof ph[0] / sizeof(float), 12, &err) == PDS_OK, "tree");
+    memset(&job, 0, sizeof job);
+    job.scene = s;
+    job.v = &v;
+    job.state = &st;
+    job.nv = 1;
+    job.photons = ph;
+    job.tree = &tree;
+    job.alpha = alpha;
+    job.photon_scale = 1.0;
+    st.r2 = 0.105 * 0.105;
+    st.n = 0.0;
+    st.tau[0] = st.tau[1] = st.tau[2] = 0.0;
+    r2 = st.r2;
+    n = 0.0;
+    tau = 0.0;
+    for (i = 0; i < 2; i++) {
+        int k;
+        pthread_mutex_init(&job.lock, NULL);
+        job.next = 0;
+        pds__ppm_worker(&job);
+        pthread_mutex_destroy(&job.lock);
+        /* by hand: M photons within the radius, Phi_M = M * fr * flux */
+        for (inside = 0, k = 0; k < 12; k++) inside += (0.01 * (k + 1)) * (0.01 * (k + 1)) <= r2 * (1 + 1e-6);
+        grow = (n + alpha * inside) / (n + inside);
+        r2 *= grow;
+        tau = (tau + inside * (0.5 / PDS__PI) * 2.0) * grow;
+        n += alpha * inside;
+        CHECK(t, fabs(st.r2 / r2 - 1.0) < 1e-9 && fabs(st.n - n) < 1e-9 && fabs(st.tau[1] / tau - 1.0) < 1e-6,
+              "pass %d: R^2 %g (expected %g), N %g (%g), tau %g (%g)", i + 1, st.r2, r2, st.n, n, st.tau[1], tau);
+    }
+    CHECK(t, fabs(st.n - (0.7 * 10 + 0.7 * 8)) < 1e-9, "N after two passes %g", st.n);
+    pds__kdtree_free(&tree);
+    pds_scene_free(s);
+}
+
+static void ppm_small_radius(pds_options *o)
+{
+    o->radius = 0.05;
+    o->passes = 6;
+}
+
+/* Progressive photon mapping converges on the uniform caustic. */
+static void test_ppm_converges_on_the_uniform_caustic(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PPM, 20000, 2, &img, &st, ppm_small_radius), "ppm");
+    CHECK(t, st.passes == 6 && st.photons == 6 * 20000, "passes %d photons %ld", st.passes, st.photons);
+    baseline_check_slab(t, &img, 0.02, 0.08, "ppm");
+    pds_image_free(&img);
+}
+
+static const pds_test_case tests_baselines[] = {
+    {"pm_finds_the_analytic_irradiance_of_a_uniform_caustic", test_pm_finds_the_analytic_irradiance_of_a_uniform_caustic},
+    {"pm_filter_normalisations_are_the_filters_integrals", test_pm_filter_normalisations_are_the_filters_integrals},
+    {"pm_map_grows_with_the_photon_count", test_pm_map_grows_with_the_photon_count},
+    {"splat_conserves_flux_and_finds_the_uniform_caustic", test_splat_conserves_flux_and_finds_the_uniform_caustic},
+    {"baselines_are_identical_for_any_thread_count", test_baselines_are_identical_for_any_thread_count},
+    {"pdm_gathers_the_same_image_pds_splats", test_pdm_gathers_the_same_image_pds_splats},
+    {"ppm_updates_follow_the_published_recurrence", test_ppm_updates_follow_the_published_recurrence},
+    {"ppm_converges_on_the_uniform_caustic", test_ppm_converges_on_the_uniform_caustic},
+};

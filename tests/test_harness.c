@@ -1,0 +1,646 @@
+/* tests/test_harness.c - the comparison harness as a user meets it: `pds
+   sweep` (one parameter against a reference: lines, sweep.csv, sweep.svg),
+   `pds race` (methods on one budget: lines, race.csv, index.html, images,
+   crops, difference images, the region of interest) and the baseline
+   options of `pds render`. Runs $PDS_BIN through cli_run (test_cli.c);
+   writes only under /tmp. */
+#include <dirent.h>
+#include <sys/stat.h>
+
+/* text starts with the string literal lit */
+#define HARNESS_STARTS(text, lit) (strncmp((text), (lit), sizeof(lit) - 1) == 0)
+
+/* /tmp/pds_harness_PID_NAME */
+static void harness_path(char *out, size_t n, const char *name)
+{
+    snprintf(out, n, "/tmp/pds_harness_%ld_%s", (long)getpid(), name);
+}
+
+/* Remove a folder of plain files (what sweep and race write). */
+static void harness_rmtree(const char *dir)
+{
+    DIR *d = opendir(dir);
+    struct dirent *e;
+    char path[1024];
+    if (!d) return;
+    while ((e = readdir(d)) != NULL) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, "..")) continue;
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        remove(path);
+    }
+    closedir(d);
+    rmdir(dir);
+}
+
+static int harness_dir_exists(const char *dir)
+{
+    struct stat sb;
+    return stat(dir, &sb) == 0 && S_ISDIR(sb.st_mode);
+}
+
+/* Number of entries of dir whose name contains part (-1: no folder). */
+static int harness_dir_count(const char *dir, const char *part)
+{
+    DIR *d = opendir(dir);
+    struct dirent *e;
+    int n = 0;
+    if (!d) return -1;
+    while ((e = readdir(d)) != NULL)
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..") && strstr(e->d_name, part)) n++;
+    closedir(d);
+    return n;
+}
+
+/* The whole file as a NUL-terminated string (NULL if unreadable). */
+static char *harness_slurp(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    char *buf;
+    long n;
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    buf = (char *)malloc((size_t)n + 1);
+    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
+        free(buf);
+        buf = NULL;
+    }
+    fclose(f);
+    if (buf) buf[n] = '\0';
+    if (size) *size = (size_t)n;
+    return buf;
+}
+
+static int harness_count(const char *text, const char *needle)
+{
+    int n = 0;
+    size_t len = strlen(needle);
+    for (text = strstr(text, needle); text; text = strstr(text + len, needle)) n++;
+    return n;
+}
+
+/* Lines of text that start with prefix, copied (one per row) into lines. */
+static int harness_lines(const char *text, const char *prefix, char lines[][512], int max)
+{
+    int n = 0;
+    const char *p = text;
+    size_t plen = strlen(prefix);
+    while (*p) {
+        const char *end = strchr(p, '\n');
+        size_t len = end ? (size_t)(end - p) : strlen(p);
+        if (len >= plen && !strncmp(p, prefix, plen) && n < max) {
+            if (len > 511) len = 511;
+            memcpy(lines[n], p, len);
+            lines[n][len] = '\0';
+            n++;
+        }
+        if (!end) break;
+        p = end + 1;
+    }
+    return n;
+}
+
+/* The number after " key=" in a key=value line (NAN if missing). */
+static double harness_value(const char *line, const char *key)
+{
+    char pat[64];
+    const char *p;
+    snprintf(pat, sizeof pat, " %s=", key);
+    p = strstr(line, pat);
+    return p ? strtod(p + strlen(pat), NULL) : NAN;
+}
+
+/* Width, height and RGB bytes of a PNG as pds writes it (stored deflate
+   blocks, filter 0 on every row); NULL when the file is not like that. */
+static unsigned char *harness_png(const char *path, int *w, int *h)
+{
+    size_t n, at = 8, zlen = 0, raw_len, got = 0, zi;
+    unsigned char *f = (unsigned char *)harness_slurp(path, &n), *z, *raw, *rgb;
+    int y;
+    if (!f || n < 33 || memcmp(f + 1, "PNG", 3) != 0) {
+        free(f);
+        return NULL;
+    }
+    *w = (int)((unsigned)f[16] << 24 | (unsigned)f[17] << 16 | (unsigned)f[18] << 8 | f[19]);
+    *h = (int)((unsigned)f[20] << 24 | (unsigned)f[21] << 16 | (unsigned)f[22] << 8 | f[23]);
+    z = (unsigned char *)malloc(n);
+    raw_len = (size_t)*h * (1 + 3 * (size_t)*w);
+    raw = (unsigned char *)malloc(raw_len + 1);
+    rgb = (unsigned char *)malloc((size_t)*w * *h * 3 + 1);
+    while (z && at + 12 <= n) {
+        size_t len = (size_t)f[at] << 24 | (size_t)f[at + 1] << 16 | (size_t)f[at + 2] << 8 | f[at + 3];
+        if (at + 12 + len > n) break;
+        if (!memcmp(f + at + 4, "IDAT", 4)) {
+            memcpy(z + zlen, f + at + 8, len);
+            zlen += len;
+        }
+        at += 12 + len;
+    }
+    /* zlib: 2 header bytes, stored blocks (BTYPE 00), Adler-32 */
+    for (zi = 2; z && raw && zi + 5 <= zlen && got < raw_len;) {
+        size_t len = (size_t)z[zi + 1] | (size_t)z[zi + 2] << 8;
+        if ((z[zi] & 6) != 0 || zi + 5 + len > zlen || got + len > raw_len) break;
+        memcpy(raw + got, z + zi + 5, len);
+        got += len;
+        zi += 5 + len;
+    }
+    for (y = 0; got == raw_len && rgb && y < *h; y++) {
+        const unsigned char *row = raw + (size_t)y * (1 + 3 * (size_t)*w);
+        if (row[0] != 0) break;
+        memcpy(rgb + (size_t)y * *w * 3, row + 1, 3 * (size_t)*w);
+    }
+    free(f);
+    free(z);
+    free(raw);
+    if (!rgb || got != raw_len || y != *h) {
+        free(rgb);
+        return NULL;
+    }
+    return rgb;
+}
+
+/* A PFM of w x h pixels, value(x, y) grey. */
+static int harness_write_pfm(const char *path, int w, int h, float (*value)(int x, int y))
+{
+    pds_image img;
+    int x, y, ok;
+    if (pds_image_alloc(&img, w, h) != PDS_OK) return 0;
+    for (y = 0; y < h; y++)
+        for (x = 0; x < w; x++) {
+            float *p = img.rgb + 3 * ((size_t)y * w + x);
+            p[0] = p[1] = p[2] = value(x, y);
+        }
+    ok = pds_image_write_pfm(path, &img, NULL) == PDS_OK;
+    pds_image_free(&img);
+    return ok;
+}
+
+/* The reference both sweep and race tests compare with: the golden glass
+   scene without caustic paths (so path tracing converges without fireflies
+   at these sample counts), 32x24, 1024 spp, another seed than the renders. */
+static int harness_reference(pds_test_ctx *t, char *ref, size_t n)
+{
+    char out[8192], args[1024];
+    harness_path(ref, n, "ref.pfm");
+    snprintf(args, sizeof args,
+             "render tests/golden/glass.scene --method pt --no-caustics --res 32x24 --spp 1024 --seed 1 --quiet -o %s",
+             ref);
+    CHECK(t, cli_run(args, out, sizeof out) == 0, "reference render failed: %s", out);
+    return cli_file_exists(ref);
+}
+
+static void test_harness_sweep_over_spp_lowers_rmse_and_reports_the_best(pds_test_ctx *t)
+{
+    char out[16384], args[1024], ref[256], dir[256], path[512], lines[8][512], one[256];
+    char *csv, *svg;
+    const char *last;
+    double rmse[3];
+    int i, n;
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    REQUIRE(t, harness_reference(t, ref, sizeof ref), "no reference");
+    harness_path(dir, sizeof dir, "sweep");
+    harness_rmtree(dir);
+    snprintf(args, sizeof args,
+             "sweep tests/golden/glass.scene --method pt --param spp --values 1,4,16 --ref %s --res 32x24 "
+             "--no-caustics --quiet -o %s",
+             ref, dir);
+    REQUIRE(t, cli_run(args, out, sizeof out) == 0, "sweep failed: %s", out);
+    n = harness_lines(out, "sweep method=pt spp=", lines, 8);
+    REQUIRE(t, n == 3, "three value lines expected, got %d: %s", n, out);
+    for (i = 0; i < 3; i++) {
+        static const char *const v[3] = {"1", "4", "16"};
+        char prefix[64];
+        snprintf(prefix, sizeof prefix, "sweep method=pt spp=%s rmse=", v[i]);
+        CHECK(t, !strncmp(lines[i], prefix, strlen(prefix)), "line %d: %s", i, lines[i]);
+        rmse[i] = harness_value(lines[i], "rmse");
+        CHECK(t, harness_value(lines[i], "ssim") > 0.0 && harness_value(lines[i], "time") >= 0.0, "%s", lines[i]);
+    }
+    /* Monte Carlo error falls roughly as 1/sqrt(spp): each step quarters
+       the variance, so each RMSE is well below the one before */
+    CHECK(t, rmse[1] < 0.8 * rmse[0] && rmse[2] < 0.8 * rmse[1], "RMSE %g %g %g", rmse[0], rmse[1], rmse[2]);
+    last = cli_last_line(out);
+    CHECK(t, HARNESS_STARTS(last, "sweep best method=pt rmse_optimal_spp=16 rmse="), "best line: %s", last);
+    CHECK(t, strstr(last, " ssim_optimal_spp=16 ssim=") != NULL, "best line: %s", last);
+    CHECK_NEAR(t, harness_value(last, "rmse"), rmse[2], 1e-9);
+
+    /* the metric is pds_image_rmse of the image pds render makes with the
+       same options */
+    harness_path(one, sizeof one, "spp16.pfm");
+    snprintf(args, sizeof args,
+             "render tests/golden/glass.scene --method pt --spp 16 --res 32x24 --no-caustics --quiet -o %s", one);
+    CHECK(t, cli_run(args, out, sizeof out) == 0, "render failed: %s", out);
+    if (pds_image_read_pfm(one, &a, NULL) == PDS_OK && pds_image_read_pfm(ref, &b, NULL) == PDS_OK)
+        CHECK_NEAR(t, pds_image_rmse(&a, &b), rmse[2], 5e-7);
+    else
+        CHECK(t, 0, "could not read %s or %s", one, ref);
+    pds_image_free(&a);
+    pds_image_free(&b);
+    remove(one);
+
+    snprintf(path, sizeof path, "%s/sweep.csv", dir);
+    csv = harness_slurp(path, NULL);
+    REQUIRE(t, csv != NULL, "no %s", path);
+    CHECK(t, harness_count(csv, "\n") == 4, "header and 3 rows: %s", csv);
+    CHECK(t, HARNESS_STARTS(csv, "method,param,value,photons,spp,passes,map_bytes,rmse,ssim,time_s,image\n"), "%s", csv);
+    CHECK(t, strstr(csv, "\npt,spp,1,0,1,1,0,") && strstr(csv, "\npt,spp,4,0,4,1,0,") &&
+                 strstr(csv, "\npt,spp,16,0,16,1,0,"),
+          "rows: %s", csv);
+    free(csv);
+    snprintf(path, sizeof path, "%s/sweep.svg", dir);
+    svg = harness_slurp(path, NULL);
+    REQUIRE(t, svg != NULL, "no %s", path);
+    CHECK(t, HARNESS_STARTS(svg, "<svg xmlns=\"http://www.w3.org/2000/svg\""), "SVG start");
+    CHECK(t, strstr(svg, "</svg>\n") != NULL, "SVG end");
+    CHECK(t, harness_count(svg, "class=\"rmse-marker\"") == 3, "three RMSE markers");
+    CHECK(t, harness_count(svg, "class=\"ssim-marker\"") == 3, "three SSIM markers");
+    CHECK(t, harness_count(svg, "<polyline") == 2, "two polylines");
+    CHECK(t, strstr(svg, "class=\"rmse-optimum\"") && strstr(svg, "class=\"ssim-optimum\""), "optima marked");
+    CHECK(t, strstr(svg, "spp=16: RMSE ") != NULL, "marker titles");
+    CHECK(t, strstr(svg, "RMSE (linear RGB)") && strstr(svg, "SSIM (sRGB luminance)"), "axis labels");
+    CHECK(t, strstr(svg, "spp (log scale)") != NULL, "1..16 spans more than a decade: log x axis");
+    free(svg);
+    for (i = 0; i < 3; i++) {
+        static const char *const f[3] = {"spp-1.png", "spp-4.png", "spp-16.png"};
+        snprintf(path, sizeof path, "%s/%s", dir, f[i]);
+        CHECK(t, cli_file_exists(path), "%s written", path);
+    }
+    CHECK(t, harness_dir_count(dir, ".tmp") == 0, "no temporary files left");
+    harness_rmtree(dir);
+    remove(ref);
+}
+
+static void test_harness_sweep_checks_the_reference_before_writing_anything(pds_test_ctx *t)
+{
+    char out[8192], args[1024], ref[256], dir[256], missing[256], expect[512];
+    REQUIRE(t, harness_reference(t, ref, sizeof ref), "no reference");
+    harness_path(dir, sizeof dir, "sweep_bad");
+    harness_path(missing, sizeof missing, "missing.pfm");
+    harness_rmtree(dir);
+    remove(missing);
+    snprintf(args, sizeof args,
+             "sweep tests/golden/glass.scene --method pt --param spp --values 1,2 --ref %s --res 32x24 -o %s", missing,
+             dir);
+    CHECK(t, cli_run(args, out, sizeof out) == 1, "missing reference: exit 1: %s", out);
+    snprintf(expect, sizeof expect, "%s: cannot open", missing);
+    CHECK(t, !strncmp(out, expect, strlen(expect)), "message: %s", out);
+    CHECK(t, !harness_dir_exists(dir), "no folder after a failure");
+    /* the scene's camera is 64x48, the reference 32x24 */
+    snprintf(args, sizeof args, "sweep tests/golden/glass.scene --method pt --param spp --values 1,2 --ref %s -o %s",
+             ref, dir);
+    CHECK(t, cli_run(args, out, sizeof out) == 1, "size mismatch: exit 1: %s", out);
+    snprintf(expect, sizeof expect,
+             "%s: the reference is 32x24 but the renders are 64x48 (give --res 32x24 or a reference of that size)\n",
+             ref);
+    CHECK(t, !strcmp(out, expect), "message: %s", out);
+    CHECK(t, !harness_dir_exists(dir), "no folder after a failure");
+    /* the same for race */
+    snprintf(args, sizeof args, "race tests/golden/glass.scene --methods pds --photons 10 --ref %s -o %s", ref, dir);
+    CHECK(t, cli_run(args, out, sizeof out) == 1 && !strcmp(out, expect), "race size mismatch: %s", out);
+    CHECK(t, !harness_dir_exists(dir), "no folder after a failure");
+    remove(ref);
+}
+
+static void test_harness_race_writes_every_image_its_index_shows(pds_test_ctx *t)
+{
+    static const char *const labels[3] = {"pt", "pt-spp8", "pds"};
+    char out[16384], args[1024], ref[256], dir[256], path[512], lines[8][512], expect[512];
+    char *html, *csv, *p;
+    const char *last;
+    int i, n, w, h, srcs = 0;
+    unsigned char *png;
+    REQUIRE(t, harness_reference(t, ref, sizeof ref), "no reference");
+    harness_path(dir, sizeof dir, "race");
+    harness_rmtree(dir);
+    snprintf(args, sizeof args,
+             "race tests/golden/glass.scene --ref %s --photons 1000 --methods pt,pt:spp=8,pds --res 32x24 --spp 1 "
+             "--no-caustics --quiet -o %s",
+             ref, dir);
+    REQUIRE(t, cli_run(args, out, sizeof out) == 0, "race failed: %s", out);
+    n = harness_lines(out, "race method=", lines, 8);
+    REQUIRE(t, n == 3, "one line per method, got %d: %s", n, out);
+    CHECK(t, HARNESS_STARTS(lines[0], "race method=pt label=pt photons=0 spp=1 rmse="), "%s", lines[0]);
+    CHECK(t, HARNESS_STARTS(lines[1], "race method=pt label=pt-spp8 photons=0 spp=8 rmse="), "%s", lines[1]);
+    /* without caustic paths the photon methods have nothing to emit */
+    CHECK(t, HARNESS_STARTS(lines[2], "race method=pds label=pds photons=0 spp=1 smoothing=12 rmse="), "%s", lines[2]);
+    CHECK(t, harness_value(lines[1], "rmse") < harness_value(lines[0], "rmse"), "8 spp beat 1 spp: %s / %s",
+          lines[1], lines[0]);
+    last = cli_last_line(out);
+    snprintf(expect, sizeof expect, "race dir=%s methods=3 roi=0,0,32,24", dir);
+    CHECK(t, !strcmp(last, expect), "final line: %s", last);
+
+    snprintf(path, sizeof path, "%s/race.csv", dir);
+    csv = harness_slurp(path, NULL);
+    REQUIRE(t, csv != NULL, "no %s", path);
+    CHECK(t, harness_count(csv, "\n") == 4, "header and 3 rows: %s", csv);
+    CHECK(t, HARNESS_STARTS(csv, "method,label,photons,spp,passes,parameters,rmse,ssim,time_s,map_bytes,diff_scale\n"),
+          "header: %s", csv);
+    CHECK(t, strstr(csv, "\npt,pt,0,1,1,,") && strstr(csv, "\npt,pt-spp8,0,8,1,,") &&
+                 strstr(csv, "\npds,pds,0,1,1,smoothing=12,"),
+          "rows: %s", csv);
+    free(csv);
+
+    snprintf(path, sizeof path, "%s/index.html", dir);
+    html = harness_slurp(path, NULL);
+    REQUIRE(t, html != NULL, "no %s", path);
+    CHECK(t, HARNESS_STARTS(html, "<!DOCTYPE html>") && strstr(html, "</html>\n"), "an HTML document");
+    CHECK(t, strstr(html, "<script") == NULL, "no scripts");
+    /* every image and link it names is in the folder */
+    for (p = html; (p = strstr(p, "src=\"")) != NULL;) {
+        char name[256];
+        size_t len;
+        p += 5;
+        len = strcspn(p, "\"");
+        snprintf(name, sizeof name, "%.*s", (int)len, p);
+        CHECK(t, strchr(name, '/') == NULL, "relative path in the folder: %s", name);
+        snprintf(path, sizeof path, "%s/%s", dir, name);
+        CHECK(t, cli_file_exists(path), "index.html shows %s, which is missing", name);
+        srcs++;
+    }
+    for (p = html; (p = strstr(p, "href=\"")) != NULL;) {
+        char name[256];
+        size_t len;
+        p += 6;
+        len = strcspn(p, "\"");
+        snprintf(name, sizeof name, "%.*s", (int)len, p);
+        snprintf(path, sizeof path, "%s/%s", dir, name);
+        CHECK(t, cli_file_exists(path), "index.html links %s, which is missing", name);
+    }
+    /* reference: full and crop; each method: full, crop, difference */
+    CHECK(t, srcs == 2 + 3 * 3, "images shown: %d", srcs);
+    CHECK(t, strstr(html, "src=\"ref.png\"") && strstr(html, "src=\"ref-crop.png\"") && strstr(html, "href=\"race.csv\""),
+          "reference and table");
+    for (i = 0; i < 3; i++) {
+        const char *kind[3] = {".png", "-crop.png", "-diff.png"};
+        int k;
+        for (k = 0; k < 3; k++) {
+            char needle[128];
+            snprintf(needle, sizeof needle, "src=\"%s%s\"", labels[i], kind[k]);
+            CHECK(t, strstr(html, needle) != NULL, "index shows %s", needle);
+        }
+        snprintf(path, sizeof path, "%s/%s.pfm", dir, labels[i]);
+        CHECK(t, cli_file_exists(path), "%s written", path);
+    }
+    free(html);
+    /* crops: the 32x24 region scaled 8x with nearest neighbour to 256 wide */
+    snprintf(path, sizeof path, "%s/pt-crop.png", dir);
+    png = harness_png(path, &w, &h);
+    CHECK(t, png && w == 256 && h == 192, "crop size %dx%d", png ? w : -1, png ? h : -1);
+    if (png) {
+        int x, y, blocks_ok = 1;
+        for (y = 0; y < h; y++)
+            for (x = 0; x < w; x++)
+                if (memcmp(png + 3 * ((size_t)y * w + x), png + 3 * ((size_t)(y / 8 * 8) * w + x / 8 * 8), 3))
+                    blocks_ok = 0;
+        CHECK(t, blocks_ok, "every 8x8 block of the crop is one source pixel");
+    }
+    free(png);
+    CHECK(t, harness_dir_count(dir, ".tmp") == 0, "no temporary files left");
+    harness_rmtree(dir);
+    remove(ref);
+}
+
+static float harness_black(int x, int y)
+{
+    (void)x;
+    (void)y;
+    return 0.0f;
+}
+
+static float harness_bright(int x, int y)
+{
+    (void)x;
+    (void)y;
+    return 100.0f;
+}
+
+/* 128x96, black but for a 20x20 checkerboard of 1s and 0s at x 80..99,
+   y 40..59. */
+static float harness_patch(int x, int y)
+{
+    return x >= 80 && x < 100 && y >= 40 && y < 60 && (x + y) % 2 == 0 ? 1.0f : 0.0f;
+}
+
+/* Race against a reference PFM; returns the difference image's RGB bytes. */
+static unsigned char *harness_race_diff(pds_test_ctx *t, const char *ref, const char *dir, int *w, int *h)
+{
+    char out[16384], args[1024], path[512];
+    harness_rmtree(dir);
+    snprintf(args, sizeof args,
+             "race tests/golden/glass.scene --ref %s --photons 500 --methods pds --res 32x24 --spp 2 --quiet -o %s", ref,
+             dir);
+    CHECK(t, cli_run(args, out, sizeof out) == 0, "race failed: %s", out);
+    snprintf(path, sizeof path, "%s/pds-diff.png", dir);
+    return harness_png(path, w, h);
+}
+
+static void test_harness_race_difference_is_green_where_too_bright_and_red_where_too_dark(pds_test_ctx *t)
+{
+    char ref[256], dir[256];
+    unsigned char *px;
+    int w, h, i, n, red = 0, green = 0, blue = 0, full = 0;
+    harness_path(ref, sizeof ref, "black.pfm");
+    harness_path(dir, sizeof dir, "race_diff");
+    REQUIRE(t, harness_write_pfm(ref, 32, 24, harness_black), "could not write %s", ref);
+    /* against black every pixel is too bright or right: only green */
+    px = harness_race_diff(t, ref, dir, &w, &h);
+    REQUIRE(t, px && w == 32 && h == 24, "pds-diff.png missing or not 32x24");
+    n = w * h;
+    for (i = 0; i < n; i++) {
+        red += px[3 * i] != 0;
+        green += px[3 * i + 1] != 0;
+        blue += px[3 * i + 2] != 0;
+        full += px[3 * i + 1] == 255;
+    }
+    CHECK(t, red == 0 && blue == 0, "red %d blue %d", red, blue);
+    CHECK(t, green > 0 && full < n, "green %d full %d", green, full);
+    /* the 99th percentile of |error| maps to full colour: at least the top
+       1% of the 768 pixels (indices 759..767 of the sorted errors) */
+    CHECK(t, full >= 9, "saturated pixels: %d", full);
+    free(px);
+    /* against 100 W/m^2/sr everywhere every pixel is too dark: only red */
+    REQUIRE(t, harness_write_pfm(ref, 32, 24, harness_bright), "could not write %s", ref);
+    px = harness_race_diff(t, ref, dir, &w, &h);
+    REQUIRE(t, px && w == 32 && h == 24, "pds-diff.png missing or not 32x24");
+    for (i = 0, red = green = blue = 0; i < n; i++) {
+        red += px[3 * i] != 0;
+        green += px[3 * i + 1] != 0;
+        blue += px[3 * i + 2] != 0;
+    }
+    CHECK(t, red == n && green == 0 && blue == 0, "red %d green %d blue %d", red, green, blue);
+    free(px);
+    harness_rmtree(dir);
+    remove(ref);
+}
+
+static void test_harness_race_region_of_interest_is_the_most_varied_window(pds_test_ctx *t)
+{
+    char out[16384], args[1024], ref[256], dir[256], path[512];
+    unsigned char *px;
+    const char *last;
+    int w, h;
+    harness_path(ref, sizeof ref, "patch.pfm");
+    harness_path(dir, sizeof dir, "race_roi");
+    harness_rmtree(dir);
+    REQUIRE(t, harness_write_pfm(ref, 128, 96, harness_patch), "could not write %s", ref);
+    /* 64x64 windows at multiples of 8 (and flush with the edges): those
+       holding the whole patch have x in 40..64 and any y in 0..32; the
+       variance ties among them, and the top-most, left-most wins */
+    snprintf(args, sizeof args,
+             "race tests/golden/glass.scene --ref %s --photons 200 --methods pds --res 128x96 --spp 1 --quiet -o %s",
+             ref, dir);
+    REQUIRE(t, cli_run(args, out, sizeof out) == 0, "race failed: %s", out);
+    CHECK(t, strstr(out, "race method=pds label=pds photons=200 spp=1 smoothing=12 rmse=") != NULL, "%s", out);
+    last = cli_last_line(out);
+    CHECK(t, strstr(last, " roi=40,0,64,64") != NULL, "final line: %s", last);
+    snprintf(path, sizeof path, "%s/ref-crop.png", dir);
+    px = harness_png(path, &w, &h);
+    REQUIRE(t, px && w == 256 && h == 256, "ref-crop.png: 64x64 scaled 4x");
+    /* crop pixel (160, 160) is reference pixel (40 + 40, 0 + 40): white;
+       (164, 160) is (81, 40): black; (0, 0) is (40, 0): black */
+    CHECK(t, px[3 * (160 * 256 + 160)] == 255 && px[3 * (160 * 256 + 164)] == 0 && px[0] == 0,
+          "crop content %d %d %d", px[3 * (160 * 256 + 160)], px[3 * (160 * 256 + 164)], px[0]);
+    free(px);
+    /* a given region is taken as it is */
+    snprintf(args, sizeof args,
+             "race tests/golden/glass.scene --ref %s --photons 200 --methods pds --res 128x96 --spp 1 --roi 8,4,16,8 "
+             "--quiet -o %s",
+             ref, dir);
+    REQUIRE(t, cli_run(args, out, sizeof out) == 0, "race failed: %s", out);
+    last = cli_last_line(out);
+    CHECK(t, strstr(last, " roi=8,4,16,8") != NULL, "final line: %s", last);
+    snprintf(path, sizeof path, "%s/pds-crop.png", dir);
+    px = harness_png(path, &w, &h);
+    CHECK(t, px && w == 256 && h == 128, "16x8 region scaled 16x: %dx%d", px ? w : -1, px ? h : -1);
+    free(px);
+    harness_rmtree(dir);
+    remove(ref);
+}
+
+static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
+{
+    static const char *const cases[][2] = {
+        {"sweep", "sweep needs a scene file"},
+        {"sweep S", "sweep needs --param NAME"},
+        {"sweep S --param spp", "sweep needs --values A,B,..."},
+        {"sweep S --param spp --values 1,2", "sweep needs --ref REFERENCE.pfm"},
+        {"sweep S --param foo --values 1 --ref R",
+         "--param knows photons, smoothing, k, max-photons, radius, alpha, passes and spp, got 'foo'"},
+        {"sweep S --param k --values 1 --ref R", "--param k has no effect with --method pds (k is for pm)"},
+        {"sweep S --method pt --param spp --values 1,,4 --ref R",
+         "--values needs a comma-separated list of values, got '1,,4'"},
+        {"sweep S --method pt --param spp --values 1,x --ref R", "spp needs a whole number from 1 to 65536, got 'x'"},
+        {"sweep S --method pt --param spp --values 1 --ref R --spp 4",
+         "spp is the parameter swept: give its values with --values, not --spp"},
+        {"sweep S --param photons --values 1 --ref R --time 1",
+         "--param photons and --time exclude each other (the time decides the photon count)"},
+        {"sweep S --method pm --param k --values 10,0 --ref R", "k needs a whole number from 1 to 1000000, got '0'"},
+        {"sweep S --param spp --values 1 --ref R --debug footprint", "--debug is not a sweep option"},
+        {"race", "race needs a scene file"},
+        {"race S", "race needs --ref REFERENCE.pfm"},
+        {"race S --ref R", "race needs --methods M1,M2,... (for example pds,pm:k=50,ppm)"},
+        {"race S --ref R --methods pt", "race needs a budget: --time SECONDS or --photons N"},
+        {"race S --ref R --methods pt --time 1 --photons 3", "race takes one budget: --time or --photons, not both"},
+        {"race S --ref R --methods pt,bogus --photons 3",
+         "unknown method 'bogus' (this version has: pds, pt, preview, pm, pdm, splat, ppm)"},
+        {"race S --ref R --methods pt, --photons 3", "--methods needs a comma-separated list of methods, got 'pt,'"},
+        {"race S --ref R --methods pm:k --photons 3", "--methods: 'k' after pm needs NAME=VALUE"},
+        {"race S --ref R --methods pds:k=5 --photons 3", "--methods: k has no effect with pds (k is for pm)"},
+        {"race S --ref R --methods pt:photons=5 --photons 3",
+         "--methods: photons cannot be set for one method; give it to all with --photons"},
+        {"race S --ref R --methods pt:foo=5 --photons 3", "--methods: unknown option 'foo' for pt"},
+        {"race S --ref R --methods pm:k=0 --photons 3", "pm:k needs a whole number from 1 to 1000000, got '0'"},
+        {"race S --ref R --methods pt --photons 3 --roi 1,2,3", "--roi needs X,Y,WIDTH,HEIGHT in pixels, got '1,2,3'"},
+        {"race S --ref R --methods pt --method pt --photons 3", "race takes a list of methods: --methods M1,M2,..."},
+        {"render S --kernel box", "--kernel knows cone, gaussian and none, got 'box'"},
+        {"render S --alpha 1.5", "--alpha needs a number above 0 and at most 1, got '1.5'"},
+        {"render S --alpha 0", "--alpha needs a number above 0 and at most 1, got '0'"},
+        {"render S --radius 0", "--radius needs a positive distance in scene units, got '0'"},
+        {"render S --max-radius -1", "--max-radius needs a positive distance in scene units, got '-1'"},
+        {"render S --k 0", "--k needs a whole number from 1 to 1000000, got '0'"},
+        {"render S --passes 0", "--passes needs a whole number from 1 to 1000000, got '0'"},
+        {"render S --max-photons 0", "--max-photons needs a whole number from 1 to 100000000, got '0'"},
+        {"render S --method xyz", "unknown method 'xyz' (this version has: pds, pt, preview, pm, pdm, splat, ppm)"},
+    };
+    char out[8192], args[1024], expect[512], ref[256], dir[256];
+    size_t i;
+    REQUIRE(t, harness_reference(t, ref, sizeof ref), "no reference");
+    harness_path(dir, sizeof dir, "usage");
+    harness_rmtree(dir);
+    for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        /* S: the scene, R: the reference */
+        const char *c = cases[i][0];
+        size_t at = 0;
+        for (; *c && at + 300 < sizeof args; c++) {
+            if (*c == 'S' && (c[1] == ' ' || !c[1])) at += (size_t)sprintf(args + at, "tests/golden/glass.scene");
+            else if (*c == 'R' && (c[1] == ' ' || !c[1])) at += (size_t)sprintf(args + at, "%s", ref);
+            else args[at++] = *c;
+        }
+        args[at] = '\0';
+        if (strncmp(args, "render", 6) && strchr(args, ' '))
+            snprintf(args + at, sizeof args - at, " --res 32x24 -o %s", dir);
+        snprintf(expect, sizeof expect, "pds: %s\n(run 'pds --help' for usage)\n", cases[i][1]);
+        CHECK(t, cli_run(args, out, sizeof out) == 2, "exit 2 for: %s", args);
+        CHECK(t, strstr(out, expect) != NULL, "%s\n  expected: %s  got: %s", args, expect, out);
+        CHECK(t, !harness_dir_exists(dir), "no folder after: %s", args);
+    }
+    /* a region that does not fit is a usage error too, found once the
+       image size is known */
+    snprintf(args, sizeof args, "race tests/golden/glass.scene --ref %s --methods pt --time 1 --res 32x24 --roi 0,0,64,64 -o %s",
+             ref, dir);
+    CHECK(t, cli_run(args, out, sizeof out) == 2 && strstr(out, "pds: --roi 0,0,64,64 does not fit the 32x24 image\n"),
+          "%s", out);
+    CHECK(t, !harness_dir_exists(dir), "no folder after a bad --roi");
+    remove(ref);
+}
+
+/* The baseline methods' options reach the final line. */
+static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
+{
+    static const char *const cases[][3] = {
+        {"pm", "--k 40 --kernel gaussian --max-radius 0.5", " k=40 kernel=gaussian max_radius=0.5 map_bytes="},
+        {"pdm", "--max-photons 200 --smoothing 8", " max_photons=200 smoothing=8 map_bytes="},
+        {"splat", "--radius 0.05", " radius=0.05 time_eye="},
+        {"ppm", "--passes 3 --alpha 0.5 --radius 0.1", " passes=3 radius=0.1 alpha=0.5 map_bytes="},
+    };
+    char out[8192], args[1024], png[256], prefix[128];
+    size_t i;
+    harness_path(png, sizeof png, "baseline.png");
+    for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        int rc;
+        snprintf(args, sizeof args,
+                 "render tests/golden/glass.scene --method %s %s --photons 2000 --res 16x12 --spp 1 --quiet -o %s",
+                 cases[i][0], cases[i][1], png);
+        remove(png);
+        rc = cli_run(args, out, sizeof out);
+        CHECK(t, rc == 0, "%s: %s", args, out);
+        snprintf(prefix, sizeof prefix, "render method=%s paths=all width=16 height=12 spp=1 photons=", cases[i][0]);
+        CHECK(t, !strncmp(cli_last_line(out), prefix, strlen(prefix)), "final line: %s", out);
+        CHECK(t, strstr(out, cases[i][2]) != NULL, "final line has '%s': %s", cases[i][2], out);
+        CHECK(t, cli_file_exists(png), "image written");
+    }
+    remove(png);
+    /* options the method does not use: a note, not an error */
+    snprintf(args, sizeof args, "render tests/golden/glass.scene --method pt --k 50 --res 8x6 --spp 1 --quiet -o %s", png);
+    CHECK(t, cli_run(args, out, sizeof out) == 0, "%s", out);
+    CHECK(t, strstr(out, "pds: note: --k has no effect with --method pt (it is for pm)\n") != NULL, "%s", out);
+    remove(png);
+    CHECK(t, cli_run("--help", out, sizeof out) == 0, "--help");
+    CHECK(t, strstr(out, "pm and pdm store every photon, so their memory grows with") && strstr(out, "  sweep SCENE") &&
+                 strstr(out, "  race SCENE") && strstr(out, "--max-photons N"),
+          "--help describes the harness and the baselines");
+}
+
+static const pds_test_case tests_harness[] = {
+    {"harness_sweep_over_spp_lowers_rmse_and_reports_the_best",
+     test_harness_sweep_over_spp_lowers_rmse_and_reports_the_best},
+    {"harness_sweep_checks_the_reference_before_writing_anything",
+     test_harness_sweep_checks_the_reference_before_writing_anything},
+    {"harness_race_writes_every_image_its_index_shows", test_harness_race_writes_every_image_its_index_shows},
+    {"harness_race_difference_is_green_where_too_bright_and_red_where_too_dark",
+     test_harness_race_difference_is_green_where_too_bright_and_red_where_too_dark},
+    {"harness_race_region_of_interest_is_the_most_varied_window",
+     test_harness_race_region_of_interest_is_the_most_varied_window},
+    {"harness_bad_usage_exits_2_with_a_message", test_harness_bad_usage_exits_2_with_a_message},
+    {"harness_render_takes_the_baseline_options", test_harness_render_takes_the_baseline_options},
+};
