@@ -5,6 +5,7 @@
 #   make sanitize   the same tests built with AddressSanitizer + UBSan
 #   make bench      benchmarks (figures, not pass/fail)
 #   make update-golden  re-render tests/golden/*.pfm (review with git diff)
+#   make references     reference images of the shipped scenes (minutes)
 #   make CC=clang   any C99 compiler works
 CC ?= cc
 OPT ?= -O2
@@ -38,6 +39,21 @@ sanitize: pds-san tests/test_pds-san
 update-golden: tests/test_pds
 	PDS_UPDATE_GOLDEN=1 ./tests/test_pds golden_images
 
+# Reference images of the shipped scenes for `pds sweep` and `pds race`,
+# stored next to the scenes (minutes on 2 cores; not part of `make test`).
+# The case studies are lit by collimated light, which a path tracer cannot
+# render through glass or metal: their caustics-only references are
+# progressive photon mapping with 16 x 1M photons, as the paper used 10M-
+# photon photon mapping. The gold ring's come from path tracing.
+references: pds
+	./pds render scenes/refraction.scene --method ppm --caustics-only --photons 1000000 --passes 16 \
+	  --res 256x256 --spp 4 --quiet -o scenes/refraction.ref.pfm
+	./pds render scenes/reflection.scene --method ppm --caustics-only --photons 1000000 --passes 16 \
+	  --res 256x256 --spp 4 --quiet -o scenes/reflection.ref.pfm
+	./pds render scenes/cardioid.scene --method pt --spp 4096 --res 256x192 --quiet -o scenes/cardioid.ref.pfm
+	./pds render scenes/cardioid.scene --method pt --caustics-only --spp 4096 --res 256x192 --quiet \
+	  -o scenes/cardioid.caustics.ref.pfm
+
 render: pds
 	./pds render scenes/demo.scene -o demo.png
 
@@ -60,4 +76,4 @@ clean:
 	rm -f pds pds-san tests/test_pds tests/test_pds-san demo.png
 	rm -rf tests/out
 
-.PHONY: all test sanitize render bench clean update-golden
+.PHONY: all test sanitize render bench clean update-golden references
