@@ -43,13 +43,14 @@ update-golden: tests/test_pds
 # stored next to the scenes (minutes on 2 cores; not part of `make test`).
 # The case studies are lit by collimated light, which a path tracer cannot
 # render through glass or metal: their caustics-only references are
-# progressive photon mapping with 16 x 1M photons, as the paper used 10M-
-# photon photon mapping. The gold ring's come from path tracing.
+# progressive photon mapping with 32 x 1M photons from a small initial
+# radius (0.004, about a pixel on the floor), as the paper used 10M-photon
+# photon mapping. The gold ring's come from path tracing.
 references: pds
-	./pds render scenes/refraction.scene --method ppm --caustics-only --photons 1000000 --passes 16 \
-	  --res 256x256 --spp 4 --quiet -o scenes/refraction.ref.pfm
-	./pds render scenes/reflection.scene --method ppm --caustics-only --photons 1000000 --passes 16 \
-	  --res 256x256 --spp 4 --quiet -o scenes/reflection.ref.pfm
+	./pds render scenes/refraction.scene --method ppm --caustics-only --photons 1000000 --passes 32 \
+	  --radius 0.004 --res 256x256 --spp 4 --quiet -o scenes/refraction.ref.pfm
+	./pds render scenes/reflection.scene --method ppm --caustics-only --photons 1000000 --passes 32 \
+	  --radius 0.004 --res 256x256 --spp 4 --quiet -o scenes/reflection.ref.pfm
 	./pds render scenes/cardioid.scene --method pt --spp 4096 --res 256x192 --quiet -o scenes/cardioid.ref.pfm
 	./pds render scenes/cardioid.scene --method pt --caustics-only --spp 4096 --res 256x192 --quiet \
 	  -o scenes/cardioid.caustics.ref.pfm

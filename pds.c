@@ -2829,15 +2829,22 @@ static size_t pds__bvh_memory(const pds__bvh *bvh)
 
 /* -------------------------------------------------------------- queries */
 
+/* Four floats, aligned as a long double: 16 bytes on the usual 64-bit
+   targets, so vector code may read them as memory operands. */
+typedef union pds__bvh_f4 {
+    float v[4];
+    long double align;
+} pds__bvh_f4;
+
 /* The ray as the hot loop sees it, all float. The box test reads four
    copies of each per-axis value so that it runs as vector operations. */
 typedef struct pds__bvh_ray {
-    float o4[3][4];     /* origin */
-    float rn4[3][4];    /* 1 / dir (+-FLT_MAX for a (near) zero component),
+    pds__bvh_f4 o4[3];     /* origin */
+    pds__bvh_f4 rn4[3];    /* 1 / dir (+-FLT_MAX for a (near) zero component),
                            for the near slab planes */
-    float rf4[3][4];    /* the same scaled up by PDS__BVH_FAR_SCALE, for
+    pds__bvh_f4 rf4[3];    /* the same scaled up by PDS__BVH_FAR_SCALE, for
                            the far planes */
-    float tmin4[4];     /* tmin */
+    pds__bvh_f4 tmin4;     /* tmin */
     int nr[3], fr[3];   /* offset in node->b of the row holding the near /
                            far slab plane per axis: 4 axis (min) or
                            4 (3 + axis) (max) */
@@ -2886,9 +2893,9 @@ static void pds__bvh_setup_axis(pds__bvh_ray *r, int k, double o, double d, doub
     }
     r->nr[k] = 4 * (k + 3 * neg);
     r->fr[k] = 4 * (k + 3 - 3 * neg);
-    r->o4[k][0] = r->o4[k][1] = r->o4[k][2] = r->o4[k][3] = of;
-    r->rn4[k][0] = r->rn4[k][1] = r->rn4[k][2] = r->rn4[k][3] = rn;
-    r->rf4[k][0] = r->rf4[k][1] = r->rf4[k][2] = r->rf4[k][3] = rf;
+    r->o4[k].v[0] = r->o4[k].v[1] = r->o4[k].v[2] = r->o4[k].v[3] = of;
+    r->rn4[k].v[0] = r->rn4[k].v[1] = r->rn4[k].v[2] = r->rn4[k].v[3] = rn;
+    r->rf4[k].v[0] = r->rf4[k].v[1] = r->rf4[k].v[2] = r->rf4[k].v[3] = rf;
 }
 
 /* Prepares the float ray. A direction whose largest component is outside
@@ -2938,7 +2945,7 @@ static int pds__bvh_ray_setup(pds__bvh_ray *r, pds__v3 org, pds__v3 dir, double 
     if (!(tmin < tmax) || tmin >= FLT_MAX || tmax <= -FLT_MAX) return 0;
     r->tmin = tmin < -FLT_MAX ? -FLT_MAX : pds__bvh_float_above(tmin);
     r->tmax = tmax > FLT_MAX ? FLT_MAX : pds__bvh_float_below(tmax);
-    r->tmin4[0] = r->tmin4[1] = r->tmin4[2] = r->tmin4[3] = r->tmin;
+    r->tmin4.v[0] = r->tmin4.v[1] = r->tmin4.v[2] = r->tmin4.v[3] = r->tmin;
     pds__bvh_setup_axis(r, 0, o[0], d[0], ad[0]);
     pds__bvh_setup_axis(r, 1, o[1], d[1], ad[1]);
     pds__bvh_setup_axis(r, 2, o[2], d[2], ad[2]);
@@ -3109,13 +3116,13 @@ static inline int pds__bvh_box4(const pds__bvh_ray *r, const pds__bvh_node *n, c
     float dd[4];
     int h[4], k;
     for (k = 0; k < 4; k++) {
-        const float tnx = (nx[k] - r->o4[0][k]) * r->rn4[0][k];
-        const float tny = (ny[k] - r->o4[1][k]) * r->rn4[1][k];
-        const float tnz = (nz[k] - r->o4[2][k]) * r->rn4[2][k];
-        const float tfx = (fx[k] - r->o4[0][k]) * r->rf4[0][k];
-        const float tfy = (fy[k] - r->o4[1][k]) * r->rf4[1][k];
-        const float tfz = (fz[k] - r->o4[2][k]) * r->rf4[2][k];
-        const float tn0 = tnx > tny ? tnx : tny, tn1 = tnz > r->tmin4[k] ? tnz : r->tmin4[k];
+        const float tnx = (nx[k] - r->o4[0].v[k]) * r->rn4[0].v[k];
+        const float tny = (ny[k] - r->o4[1].v[k]) * r->rn4[1].v[k];
+        const float tnz = (nz[k] - r->o4[2].v[k]) * r->rn4[2].v[k];
+        const float tfx = (fx[k] - r->o4[0].v[k]) * r->rf4[0].v[k];
+        const float tfy = (fy[k] - r->o4[1].v[k]) * r->rf4[1].v[k];
+        const float tfz = (fz[k] - r->o4[2].v[k]) * r->rf4[2].v[k];
+        const float tn0 = tnx > tny ? tnx : tny, tn1 = tnz > r->tmin4.v[k] ? tnz : r->tmin4.v[k];
         const float tf0 = tfx < tfy ? tfx : tfy, tf1 = tfz < tlim[k] ? tfz : tlim[k];
         const float tn = tn0 > tn1 ? tn0 : tn1, tf = tf0 < tf1 ? tf0 : tf1;
         dd[k] = tn;
@@ -8261,71 +8268,98 @@ static int pds__photon_index_cmp(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* The gather of standard photon mapping, over chunks of eye vertices. */
-typedef struct pds__pm_job {
+/* The gather of the photon-map methods (pm, pdm): every eye vertex asks
+   the map for its k nearest photons within a radius, a method-specific
+   estimate turns them into reflected radiance, and the vertex's importance
+   times that goes into its pixel (fixed point, so the chunking of vertices
+   over threads does not matter). */
+typedef struct pds__gather {
     const pds_scene *scene;
     const pds__eye_vertex *v;
     size_t nv;
-    const pds__stored_photon *photons;
     const pds__kdtree *tree;
-    int k;
-    pds_kernel kernel;
-    double max_radius;
+    const void *photons;       /* pds__stored_photon (pm) or pds__diff_photon (pdm) */
+    size_t k;                  /* neighbours asked for */
+    double radius;             /* search radius */
+    pds_kernel kernel;         /* pm's filter */
+    double plane_tolerance;    /* pdm's topological guard */
+    void (*estimate)(const struct pds__gather *g, const pds__eye_vertex *v, const size_t *idx, const double *d2,
+                     size_t n, double sum[3]);
     pds__splat_buf *bufs;
     pthread_mutex_t lock;
-    size_t next;          /* guarded by lock: next vertex chunk */
-    int next_buf;         /* guarded by lock */
-    int out_of_memory;    /* guarded by lock */
-} pds__pm_job;
+    size_t next;               /* guarded by lock: next vertex chunk */
+    int next_buf;              /* guarded by lock */
+    int out_of_memory;         /* guarded by lock */
+} pds__gather;
 
 #define PDS__GATHER_CHUNK 1024
 
-static void *pds__pm_worker(void *arg)
+static void *pds__gather_worker(void *arg)
 {
-    pds__pm_job *job = (pds__pm_job *)arg;
+    pds__gather *g = (pds__gather *)arg;
     pds__splat_buf *buf;
-    size_t *idx = (size_t *)malloc(sizeof *idx * (size_t)job->k);
-    double *d2 = (double *)malloc(sizeof *d2 * (size_t)job->k);
-    double norm = pds__pm_norm(job->kernel);
-    int min_found = job->k < 8 ? job->k : 8;
-    pthread_mutex_lock(&job->lock);
-    buf = &job->bufs[job->next_buf++];
-    if (!idx || !d2) job->out_of_memory = 1;
-    pthread_mutex_unlock(&job->lock);
+    size_t *idx = (size_t *)malloc(sizeof *idx * g->k);
+    double *d2 = (double *)malloc(sizeof *d2 * g->k);
+    pthread_mutex_lock(&g->lock);
+    buf = &g->bufs[g->next_buf++];
+    if (!idx || !d2) g->out_of_memory = 1;
+    pthread_mutex_unlock(&g->lock);
     for (;;) {
         size_t first, last, i;
-        pthread_mutex_lock(&job->lock);
-        first = job->out_of_memory || !idx || !d2 ? job->nv : job->next;
-        job->next = first + PDS__GATHER_CHUNK;
-        pthread_mutex_unlock(&job->lock);
-        if (first >= job->nv) break;
-        last = first + PDS__GATHER_CHUNK < job->nv ? first + PDS__GATHER_CHUNK : job->nv;
+        pthread_mutex_lock(&g->lock);
+        first = g->out_of_memory ? g->nv : g->next;
+        g->next = first + PDS__GATHER_CHUNK;
+        pthread_mutex_unlock(&g->lock);
+        if (first >= g->nv) break;
+        last = first + PDS__GATHER_CHUNK < g->nv ? first + PDS__GATHER_CHUNK : g->nv;
         for (i = first; i < last; i++) {
-            const pds__eye_vertex *v = &job->v[i];
-            const pds_material *m = &job->scene->materials.items[v->material];
-            pds__v3 x = pds__f3_get(v->pos), ng = pds__f3_get(v->ng), ns = pds__f3_get(v->ns), wo = pds__f3_get(v->wo);
-            double sum[3] = {0, 0, 0}, r2, area;
-            size_t n = pds__kdtree_knn(job->tree, x, (size_t)job->k, job->max_radius, idx, d2), j;
+            const pds__eye_vertex *v = &g->v[i];
+            double sum[3] = {0, 0, 0};
+            size_t n = pds__kdtree_knn(g->tree, pds__f3_get(v->pos), g->k, g->radius, idx, d2);
             int c;
-            if ((int)n < min_found || n == 0) continue;
-            r2 = d2[n - 1];
-            if (!(r2 > 0.0)) continue;
-            for (j = 0; j < n; j++) {
-                const pds__stored_photon *p = &job->photons[idx[j]];
-                double f[3], pdf, w;
-                if (pds__dot(pds__f3_get(p->ng), ng) <= 0.0) continue; /* another surface orientation */
-                pds__bsdf_eval(m, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
-                w = pds__pm_weight(job->kernel, d2[j], r2);
-                for (c = 0; c < 3; c++) sum[c] += f[c] * p->flux[c] * w;
-            }
-            area = norm * PDS__PI * r2;
+            if (n == 0) continue;
+            g->estimate(g, v, idx, d2, n, sum);
             for (c = 0; c < 3; c++)
-                if (sum[c] > 0.0) pds__fixed_add(buf, 3 * (size_t)v->pixel + (size_t)c, v->importance[c] * sum[c] / area);
+                if (sum[c] > 0.0) pds__fixed_add(buf, 3 * (size_t)v->pixel + (size_t)c, v->importance[c] * sum[c]);
         }
     }
     free(idx);
     free(d2);
     return NULL;
+}
+
+/* Run the gather on the threads that own the photon pass's images. */
+static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int threads, pds_error *err)
+{
+    g->bufs = job->bufs;
+    pthread_mutex_init(&g->lock, NULL);
+    pds__run_threads(threads < job->nbufs ? threads : job->nbufs, pds__gather_worker, g);
+    pthread_mutex_destroy(&g->lock);
+    return g->out_of_memory ? pds__nomem(err) : PDS_OK;
+}
+
+/* pm: L = sum fr Phi_p w_p / (c pi r^2), r = the k-th distance; nothing
+   from fewer than min(8, k) photons (Jensen's code). */
+static void pds__pm_estimate(const pds__gather *g, const pds__eye_vertex *v, const size_t *idx, const double *d2,
+                             size_t n, double sum[3])
+{
+    const pds__stored_photon *photons = (const pds__stored_photon *)g->photons;
+    const pds_material *m = &g->scene->materials.items[v->material];
+    pds__v3 ng = pds__f3_get(v->ng), ns = pds__f3_get(v->ns), wo = pds__f3_get(v->wo);
+    double r2 = d2[n - 1], area;
+    size_t j;
+    int c;
+    if (n < (g->k < 8 ? g->k : 8) || !(r2 > 0.0)) return;
+    for (j = 0; j < n; j++) {
+        const pds__stored_photon *p = &photons[idx[j]];
+        double f[3], pdf, w;
+        if (pds__dot(pds__f3_get(p->ng), ng) <= 0.0) continue; /* another surface orientation */
+        pds__bsdf_eval(m, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
+        w = pds__pm_weight(g->kernel, d2[j], r2);
+        for (c = 0; c < 3; c++) sum[c] += f[c] * p->flux[c] * w;
+    }
+    area = pds__pm_norm(g->kernel) * PDS__PI * r2;
+    for (c = 0; c < 3; c++) sum[c] /= area;
 }
 
 /* Merge the threads' stored photons into one array sorted by photon
@@ -8354,11 +8388,10 @@ static pds__stored_photon *pds__merge_photons(pds__splat_buf *bufs, int nbufs, s
 static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
                                  int threads, pds_render_stats *stats, pds_error *err)
 {
-    pds__pm_job pj;
+    pds__gather g;
     pds__kdtree tree;
     size_t np;
     pds_status st;
-    int t;
     pds__stored_photon *photons = pds__merge_photons(job->bufs, job->nbufs, &np);
     if (!photons) return pds__nomem(err);
     st = pds__kdtree_build(&tree, np ? &photons[0].pos[0] : NULL, sizeof *photons / sizeof(float), np, err);
@@ -8366,25 +8399,24 @@ static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, c
         free(photons);
         return st;
     }
-    if (stats) stats->map_bytes = np * sizeof *photons + pds__kdtree_memory(&tree);
-    memset(&pj, 0, sizeof pj);
-    pj.scene = job->scene;
-    pj.v = v;
-    pj.nv = nv;
-    pj.photons = photons;
-    pj.tree = &tree;
-    pj.k = opt->k;
-    pj.kernel = opt->kernel;
-    pj.max_radius = opt->max_radius > 0.0 ? opt->max_radius : DBL_MAX;
-    pj.bufs = job->bufs;
-    for (t = 0; t < job->nbufs; t++) job->bufs[t].splatted = 0;
-    pthread_mutex_init(&pj.lock, NULL);
-    pds__run_threads(threads < job->nbufs ? threads : job->nbufs, pds__pm_worker, &pj);
-    pthread_mutex_destroy(&pj.lock);
-    if (stats) stats->splatted = (long)np;
+    if (stats) {
+        stats->map_bytes = np * sizeof *photons + pds__kdtree_memory(&tree);
+        stats->splatted = (long)np;
+    }
+    memset(&g, 0, sizeof g);
+    g.scene = job->scene;
+    g.v = v;
+    g.nv = nv;
+    g.tree = &tree;
+    g.photons = photons;
+    g.k = (size_t)opt->k;
+    g.radius = opt->max_radius > 0.0 ? opt->max_radius : DBL_MAX;
+    g.kernel = opt->kernel;
+    g.estimate = pds__pm_estimate;
+    st = pds__gather_run(&g, job, threads, err);
     pds__kdtree_free(&tree);
     free(photons);
-    return pj.out_of_memory ? pds__nomem(err) : PDS_OK;
+    return st;
 }
 
 /* --- photon differential mapping --------------------------------------- */
@@ -8427,65 +8459,27 @@ static int pds__diff_photon_cmp(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-typedef struct pds__pdm_job {
-    const pds_scene *scene;
-    const pds__eye_vertex *v;
-    size_t nv;
-    const pds__diff_photon *photons;
-    const pds__kdtree *tree;
-    long cap;
-    double radius, plane_tolerance;
-    pds__splat_buf *bufs;
-    pthread_mutex_t lock;
-    size_t next;          /* guarded by lock */
-    int next_buf;         /* guarded by lock */
-    int out_of_memory;    /* guarded by lock */
-} pds__pdm_job;
-
-static void *pds__pdm_worker(void *arg)
+/* pdm: eqs. 10-12 for every gathered photon whose footprint covers v. */
+static void pds__pdm_estimate(const pds__gather *g, const pds__eye_vertex *v, const size_t *idx, const double *d2,
+                              size_t n, double sum[3])
 {
-    pds__pdm_job *job = (pds__pdm_job *)arg;
-    pds__splat_buf *buf;
-    size_t *idx = (size_t *)malloc(sizeof *idx * (size_t)job->cap);
-    double *d2 = (double *)malloc(sizeof *d2 * (size_t)job->cap);
-    pthread_mutex_lock(&job->lock);
-    buf = &job->bufs[job->next_buf++];
-    if (!idx || !d2) job->out_of_memory = 1;
-    pthread_mutex_unlock(&job->lock);
-    for (;;) {
-        size_t first, last, i;
-        pthread_mutex_lock(&job->lock);
-        first = job->out_of_memory ? job->nv : job->next;
-        job->next = first + PDS__GATHER_CHUNK;
-        pthread_mutex_unlock(&job->lock);
-        if (first >= job->nv) break;
-        last = first + PDS__GATHER_CHUNK < job->nv ? first + PDS__GATHER_CHUNK : job->nv;
-        for (i = first; i < last; i++) {
-            const pds__eye_vertex *v = &job->v[i];
-            const pds_material *m = &job->scene->materials.items[v->material];
-            pds__v3 x = pds__f3_get(v->pos), ng = pds__f3_get(v->ng), ns = pds__f3_get(v->ns), wo = pds__f3_get(v->wo);
-            size_t n = pds__kdtree_knn(job->tree, x, (size_t)job->cap, job->radius, idx, d2), j;
-            double sum[3] = {0, 0, 0};
-            int c;
-            for (j = 0; j < n; j++) {
-                const pds__diff_photon *p = &job->photons[idx[j]];
-                pds__v3 np = pds__f3_get(p->np), d = pds__sub(x, pds__f3_get(p->pos));
-                double y0 = p->M[0] * d.x + p->M[1] * d.y + p->M[2] * d.z;
-                double y1 = p->M[3] * d.x + p->M[4] * d.y + p->M[5] * d.z, r2 = y0 * y0 + y1 * y1, f[3], pdf, k;
-                /* the same guards as the PDS splat */
-                if (r2 >= 1.0 || fabs(pds__dot(np, d)) > job->plane_tolerance * p->major || pds__dot(ng, np) <= 0.0)
-                    continue;
-                k = pds__kernel_silverman(r2);
-                pds__bsdf_eval(m, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
-                for (c = 0; c < 3; c++) sum[c] += PDS__PI * k * f[c] * p->ep[c];
-            }
-            for (c = 0; c < 3; c++)
-                if (sum[c] > 0.0) pds__fixed_add(buf, 3 * (size_t)v->pixel + (size_t)c, v->importance[c] * sum[c]);
-        }
+    const pds__diff_photon *photons = (const pds__diff_photon *)g->photons;
+    const pds_material *m = &g->scene->materials.items[v->material];
+    pds__v3 x = pds__f3_get(v->pos), ng = pds__f3_get(v->ng), ns = pds__f3_get(v->ns), wo = pds__f3_get(v->wo);
+    size_t j;
+    int c;
+    (void)d2;
+    for (j = 0; j < n; j++) {
+        const pds__diff_photon *p = &photons[idx[j]];
+        pds__v3 np = pds__f3_get(p->np), d = pds__sub(x, pds__f3_get(p->pos));
+        double y0 = p->M[0] * d.x + p->M[1] * d.y + p->M[2] * d.z;
+        double y1 = p->M[3] * d.x + p->M[4] * d.y + p->M[5] * d.z, r2 = y0 * y0 + y1 * y1, f[3], pdf, k;
+        /* the same guards as the PDS splat */
+        if (r2 >= 1.0 || fabs(pds__dot(np, d)) > g->plane_tolerance * p->major || pds__dot(ng, np) <= 0.0) continue;
+        k = pds__kernel_silverman(r2);
+        pds__bsdf_eval(m, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
+        for (c = 0; c < 3; c++) sum[c] += PDS__PI * k * f[c] * p->ep[c];
     }
-    free(idx);
-    free(d2);
-    return NULL;
 }
 
 /* Photon differential mapping's second half: the map of photons with their
@@ -8493,7 +8487,7 @@ static void *pds__pdm_worker(void *arg)
 static pds_status pds__pdm_gather(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
                                   int threads, pds_render_stats *stats, pds_error *err)
 {
-    pds__pdm_job pj;
+    pds__gather g;
     pds__kdtree tree;
     pds__diff_photon *all;
     size_t total = 0, at = 0, i;
@@ -8513,23 +8507,21 @@ static pds_status pds__pdm_gather(pds__photon_job *job, const pds_options *opt, 
         return st;
     }
     if (stats) stats->map_bytes = total * sizeof *all + pds__kdtree_memory(&tree);
-    memset(&pj, 0, sizeof pj);
-    pj.scene = job->scene;
-    pj.v = v;
-    pj.nv = nv;
-    pj.photons = all;
-    pj.tree = &tree;
-    pj.cap = opt->max_photons;
-    pj.plane_tolerance = opt->plane_tolerance;
+    memset(&g, 0, sizeof g);
+    g.scene = job->scene;
+    g.v = v;
+    g.nv = nv;
+    g.tree = &tree;
+    g.photons = all;
+    g.k = (size_t)opt->max_photons;
+    g.plane_tolerance = opt->plane_tolerance;
     for (i = 0; i < total; i++)
-        if (all[i].major > pj.radius) pj.radius = all[i].major;
-    pj.bufs = job->bufs;
-    pthread_mutex_init(&pj.lock, NULL);
-    pds__run_threads(threads < job->nbufs ? threads : job->nbufs, pds__pdm_worker, &pj);
-    pthread_mutex_destroy(&pj.lock);
+        if (all[i].major > g.radius) g.radius = all[i].major;
+    g.estimate = pds__pdm_estimate;
+    st = pds__gather_run(&g, job, threads, err);
     pds__kdtree_free(&tree);
     free(all);
-    return pj.out_of_memory ? pds__nomem(err) : PDS_OK;
+    return st;
 }
 
 /* --- progressive photon mapping ----------------------------------------- */
