@@ -24,6 +24,8 @@
      >>render     camera, path tracer and eye pass, preview, row scheduler
      >>pds        photon differential splatting: aimed caustic photons,
                   tracing with differentials, splatting into the eye-path map
+     >>baselines  pm, pdm, splat, ppm, and the photon pass all photon
+                  methods share
      >>api        public entry points: render, options, benchmarks
 */
 
@@ -2276,7 +2278,91 @@ static int pds__gen_heightfield(const pds__emitter *e, double sx, double sz, int
 /* ===================================================================== */
 /* >>bvh                                                                 */
 /* ===================================================================== */
-/* PROLOGUE */
+/* A 4-wide bounding volume hierarchy over the scene's triangles, leaves
+   of up to four triangles stored as one SoA block: built as a binary tree
+   with the binned surface area heuristic, collapsed to four children per
+   node, traversed nearest child first with an explicit stack; watertight
+   ray/triangle test, four triangles at a time.
+
+   Build (Wald, "On fast construction of SAH-based bounding volume
+   hierarchies", 2007): each node bins its triangles' centroids into
+   PDS__BVH_BINS equal bins along each axis, sweeps the bin boundaries, and
+   takes the plane of least SAH cost
+       C = C_trav + (A_L B_L + A_R B_R) / A_P,   B = ceil(N / 4),
+   counting the 4-triangle blocks each side fills (a block test costs the
+   same for 1 to 4 triangles; one block test = 1), against the leaf cost
+   B = 1. Nodes with more than PDS__BVH_MAX_LEAF = 4 triangles are always
+   split; when every centroid sits at one spot the node is split by count.
+   From depth PDS__BVH_SAH_DEPTH on, the builder uses object median
+   splits, so no leaf is deeper than 56 (PDS_MAX_TRIANGLES < 2^26): that
+   bounds the traversal stack. The binary tree is then collapsed into
+   4-wide nodes by repeatedly opening the child of largest area, which
+   halves the levels a ray walks through and lets the compiler test four
+   boxes with one vector operation; every binary leaf becomes one block.
+
+   Memory layout (what the hot loop reads):
+     nodes  pds__bvh_node, 128 bytes = two cache lines, array aligned to 64:
+            bytes   0..95  float b[24]: b[4 row + k], rows 0..2 = child
+                           k's box minimum x y z, rows 3..5 its maximum
+                           (SoA, so the four slab tests are one loop over k)
+            bytes  96..111 uint32 child[4]: inner child: its node index;
+                           leaf child: PDS__BVH_LEAF | its block
+            bytes 112..127 uint32 count[4]: a leaf child's triangles (for
+                           checks; the queries do not read it). Unused
+                           slots have an inverted box (min = FLT_MAX, max =
+                           -FLT_MAX) that no ray hits.
+            Node 0 is the root. Boxes are padded outward by an ulp (see
+            pds__bvh_collapse).
+     tri4   pds__bvh_tri4, 144 bytes per leaf: v[vertex][axis][lane], the
+            vertices of four triangles, copied from the mesh in their
+            original order; a leaf of n < 4 triangles repeats its last one
+            in the spare lanes (a repeat never gives a closer hit). Blocks
+            are numbered in the order the collapse meets the leaves, so a
+            subtree's blocks lie together.
+     tri_id int per lane, 4 per block: the original triangle index.
+
+   Queries convert the ray to float once; the per-axis values the box test
+   needs are kept four times over in 16-byte aligned unions, which vector
+   instructions read straight from memory. Box test: slabs with
+   precomputed reciprocal directions, the near and far plane rows picked by
+   the direction's signs (a row of pds__bvh_rows). A zero direction
+   component gets the reciprocal +-FLT_MAX (not infinity), so (plane -
+   origin) * rcp is never 0 * inf = NaN. The far distances use the
+   reciprocal scaled by 1 + 2^-20 > 1 + 2 gamma(4) (Ize, "Robust BVH ray
+   traversal", JCGT 2013), so rounding never rejects a box the exact ray
+   touches. (Precomputing origin * reciprocal, to make each slab one
+   multiply-subtract, is not done: without FMA it is as many operations,
+   and it would lose the relative error bound the slack relies on.) Of the
+   children hit, the nearest is visited next; with exactly one hit (half
+   the node visits) its reference comes from a vector OR over the hit
+   lanes, which keeps the 4-bit hit mask off the chain of dependent loads
+   from one node to the next.
+   Triangle test: Woop, Benthin, Wald, "Watertight ray/triangle
+   intersection", JCGT 2013, as in pbrt-v3: shear the triangles into the
+   ray's frame and take the signs of the three 2D edge functions, in float,
+   four lanes at once. Each edge function comes with a bound on its
+   rounding error (valid with or without FMA contraction); a lane where
+   some edge function is within that bound of 0 is redone in double, where
+   the products of the very same float coordinates are exact. So every
+   decision is that of the exact signs, and neighbouring triangles never
+   both miss a ray through their shared edge or vertex: pbrt's "redo in
+   double when 0" made independent of how the compiler contracts. The
+   float test only decides which triangle is hit and where the search may
+   stop; the closest hit's t and barycentrics are then computed once in
+   double (Moller-Trumbore on the same float vertices) for precision.
+
+   Invariants: queries never modify the bvh (thread-safe, deterministic);
+   t is in units of |dir|; the float interval the loop uses lies inside
+   the caller's (tmin, tmax), so a hit within about 1e-7 (relative) of
+   tmin or tmax may be dropped, but none outside is ever reported. The box
+   slack widens positive far distances: with a negative tmin, a box that
+   ends within about 1e-6 (relative) behind the origin may be missed.
+   Limits: vertex coordinates and ray origins within 1e30 in magnitude,
+   |dir| above 1e-300 (any larger length is fine: it is scaled by a power
+   of two internally). A direction component below 1 / FLT_MAX of |dir|
+   (zero, say) makes a slab end at (plane - origin) * FLT_MAX instead of
+   never: with the ulp padding that is beyond t = 4e31 |plane| + 4, so only
+   a ray running within the padding of a box face at 0 can lose hits. */
 
 #define PDS__BVH_BINS 16       /* bins per axis (fewer in small nodes) */
 #define PDS__BVH_MAX_LEAF 4    /* triangles per leaf at most: one block */
@@ -2845,9 +2931,10 @@ typedef struct pds__bvh_ray {
     pds__bvh_f4 rf4[3];    /* the same scaled up by PDS__BVH_FAR_SCALE, for
                            the far planes */
     pds__bvh_f4 tmin4;     /* tmin */
-    int nr[3], fr[3];   /* offset in node->b of the row holding the near /
-                           far slab plane per axis: 4 axis (min) or
-                           4 (3 + axis) (max) */
+    const int *row;     /* offsets in node->b of the rows holding the near
+                           slab planes x y z, then the far ones: 4 axis
+                           (min) or 4 (3 + axis) (max); a row of
+                           pds__bvh_rows */
     int kx, ky, kz;     /* watertight frame: kz = largest |dir| axis, kx,
                            ky the next two cyclically */
     float ox, oy, oz;   /* origin components kx, ky, kz */
@@ -2877,23 +2964,28 @@ static float pds__bvh_float_below(double x)
     return f;
 }
 
-/* One axis of pds__bvh_ray_setup: origin o, direction d (|d| = ad). */
-static void pds__bvh_setup_axis(pds__bvh_ray *r, int k, double o, double d, double ad)
+/* Row offsets of the near and far slab planes (see pds__bvh_ray.row) for
+   each combination of direction signs: bit k set = axis k negative. */
+static const int pds__bvh_rows[8][6] = {
+    {0, 4, 8, 12, 16, 20}, {12, 4, 8, 0, 16, 20}, {0, 16, 8, 12, 4, 20}, {12, 16, 8, 0, 4, 20},
+    {0, 4, 20, 12, 16, 8}, {12, 4, 20, 0, 16, 8}, {0, 16, 20, 12, 4, 8}, {12, 16, 20, 0, 4, 8}};
+
+/* One axis of pds__bvh_ray_setup: origin o, direction d. */
+static void pds__bvh_setup_axis(pds__bvh_ray *r, int k, double o, double d)
 {
-    /* reciprocal; a (nearly) zero component gets FLT_MAX, never inf, so
-       (plane - origin) * rcp is never 0 * inf = NaN; such a slab needs no
-       far slack */
-    float rn = FLT_MAX, rf = FLT_MAX, of = (float)o;
-    int neg = 0;
-    if (ad > 2.0 / FLT_MAX) {
-        double rk = 1.0 / d;
+    /* A component whose reciprocal (or, for the far planes, the scaled
+       reciprocal) is beyond FLT_MAX gets +-FLT_MAX, never inf, so (plane
+       - origin) * rcp is never 0 * inf = NaN (see the prologue's
+       limits). */
+    float rn = (float)copysign(FLT_MAX, d), rf = rn;
+    if (fabs(d) > 2.0 / FLT_MAX) {
+        const double rk = 1.0 / d;
         rn = (float)rk;
         rf = (float)(rk * PDS__BVH_FAR_SCALE);
-        neg = rk < 0.0;
+    } else if (d != 0.0 && fabs(1.0 / d) <= FLT_MAX) {
+        rn = (float)(1.0 / d);
     }
-    r->nr[k] = 4 * (k + 3 * neg);
-    r->fr[k] = 4 * (k + 3 - 3 * neg);
-    r->o4[k].v[0] = r->o4[k].v[1] = r->o4[k].v[2] = r->o4[k].v[3] = of;
+    r->o4[k].v[0] = r->o4[k].v[1] = r->o4[k].v[2] = r->o4[k].v[3] = (float)o;
     r->rn4[k].v[0] = r->rn4[k].v[1] = r->rn4[k].v[2] = r->rn4[k].v[3] = rn;
     r->rf4[k].v[0] = r->rf4[k].v[1] = r->rf4[k].v[2] = r->rf4[k].v[3] = rf;
 }
@@ -2946,9 +3038,12 @@ static int pds__bvh_ray_setup(pds__bvh_ray *r, pds__v3 org, pds__v3 dir, double 
     r->tmin = tmin < -FLT_MAX ? -FLT_MAX : pds__bvh_float_above(tmin);
     r->tmax = tmax > FLT_MAX ? FLT_MAX : pds__bvh_float_below(tmax);
     r->tmin4.v[0] = r->tmin4.v[1] = r->tmin4.v[2] = r->tmin4.v[3] = r->tmin;
-    pds__bvh_setup_axis(r, 0, o[0], d[0], ad[0]);
-    pds__bvh_setup_axis(r, 1, o[1], d[1], ad[1]);
-    pds__bvh_setup_axis(r, 2, o[2], d[2], ad[2]);
+    pds__bvh_setup_axis(r, 0, o[0], d[0]);
+    pds__bvh_setup_axis(r, 1, o[1], d[1]);
+    pds__bvh_setup_axis(r, 2, o[2], d[2]);
+    /* a negative reciprocal meets the max plane first */
+    r->row = pds__bvh_rows[(r->rn4[0].v[0] < 0.0f) | (r->rn4[1].v[0] < 0.0f) << 1 |
+                           (r->rn4[2].v[0] < 0.0f) << 2];
     r->kx = kx;
     r->ky = ky;
     r->kz = kz;
@@ -2972,37 +3067,33 @@ static int pds__bvh_ray_setup(pds__bvh_ray *r, pds__v3 org, pds__v3 dir, double 
    functions from the same float sheared coordinates, in double, where the
    products of floats are exact, so each has the exact sign and an edge
    shared by two triangles gets exactly the negated value. Returns 1 with
-   *t in (tmin, tmax) and barycentrics *u (of v1), *w (of v2) on a hit. */
+   *t in (tmin, tmax) on a hit. */
 static int pds__bvh_tri_exact(const pds__bvh_ray *r, const float X[3][4], const float Y[3][4],
-                              const float Z[3][4], int l, float tmin, float tmax, float *t, float *u,
-                              float *w)
+                              const float Z[3][4], int l, float tmin, float tmax, float *t)
 {
     const double ax = X[0][l], ay = Y[0][l], bx = X[1][l], by = Y[1][l], cx = X[2][l], cy = Y[2][l];
     const double e0 = bx * cy - by * cx;
     const double e1 = cx * ay - cy * ax;
     const double e2 = ax * by - ay * bx;
-    double det, inv, td;
+    double det, td;
     float tt;
     if ((e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0)) return 0;
     det = e0 + e1 + e2;
     if (det == 0.0) return 0;
-    inv = 1.0 / det;
-    td = (e0 * Z[0][l] + e1 * Z[1][l] + e2 * Z[2][l]) * r->sz * inv;
+    td = (e0 * Z[0][l] + e1 * Z[1][l] + e2 * Z[2][l]) * r->sz / det;
     if (!(td > -FLT_MAX && td < FLT_MAX)) return 0; /* (float) of it must be defined */
     tt = (float)td;
     if (!(tt > tmin && tt < tmax)) return 0;
     *t = tt;
-    *u = (float)(e1 * inv);
-    *w = (float)(e2 * inv);
     return 1;
 }
 
 /* Watertight test of the ray against the four triangles of block q.
-   Returns the lane of the closest hit with t in (tmin, tmax), its t and
-   barycentrics *u (of v1) and *w (of v2), or -1. Woop, Benthin, Wald
-   2013: the vertices are translated to the origin, permuted (kz = dominant
-   axis) and sheared so the ray runs along +z; then the signs of the three
-   2D edge functions decide. They are computed in float with a bound on
+   Returns the lane of the closest hit with t in (tmin, tmax) and its t in
+   *t_out, or -1 (the barycentrics are left to pds__bvh_refine). Woop,
+   Benthin, Wald 2013: the vertices are translated to the origin, permuted
+   (kz = dominant axis) and sheared so the ray runs along +z; then the
+   signs of the three 2D edge functions decide. They are computed in float with a bound on
    their rounding error; a lane where some edge function is within that
    bound of 0 (the ray passes within rounding of an edge's line) is redone
    exactly by pds__bvh_tri_exact. Either way the decision is that of the
@@ -3011,13 +3102,13 @@ static int pds__bvh_tri_exact(const pds__bvh_ray *r, const float X[3][4], const 
    The loop runs over the four lanes with masks, not branches, so the
    compiler turns it into vector operations. */
 static inline int pds__bvh_tri4_test(const pds__bvh_ray *r, const pds__bvh_tri4 *q, float tmin,
-                                     float tmax, float *t_out, float *u_out, float *w_out)
+                                     float tmax, float *t_out)
 {
     const float *vx0 = q->v[0][r->kx], *vy0 = q->v[0][r->ky], *vz0 = q->v[0][r->kz];
     const float *vx1 = q->v[1][r->kx], *vy1 = q->v[1][r->ky], *vz1 = q->v[1][r->kz];
     const float *vx2 = q->v[2][r->kx], *vy2 = q->v[2][r->ky], *vz2 = q->v[2][r->kz];
     const float ox = r->ox, oy = r->oy, oz = r->oz, sx = r->sx, sy = r->sy, sz = r->sz;
-    float X[3][4], Y[3][4], Z[3][4], T[4], U[4], W[4], m;
+    float X[3][4], Y[3][4], Z[3][4], T[4], m;
     int l, best;
     for (l = 0; l < 4; l++) {
         /* vertices relative to the origin, sheared */
@@ -3049,8 +3140,6 @@ static inline int pds__bvh_tri4_test(const pds__bvh_ray *r, const pds__bvh_tri4 
            those, not the nested conditional) */
         t = hit ? t : tmax;
         T[l] = sure ? t : -FLT_MAX;
-        U[l] = e1 * inv;
-        W[l] = e2 * inv;
         X[0][l] = x0;
         X[1][l] = x1;
         X[2][l] = x2;
@@ -3068,15 +3157,12 @@ static inline int pds__bvh_tri4_test(const pds__bvh_ray *r, const pds__bvh_tri4 
     if (m == -FLT_MAX) {
         /* rare: some lane needs the exact signs */
         for (l = 0; l < 4; l++) {
-            float t, u, w;
+            float t;
             if (T[l] != -FLT_MAX) continue;
             T[l] = tmax;
             if (pds__bvh_tri_exact(r, (const float(*)[4])X, (const float(*)[4])Y,
-                                   (const float(*)[4])Z, l, tmin, tmax, &t, &u, &w)) {
+                                   (const float(*)[4])Z, l, tmin, tmax, &t))
                 T[l] = t;
-                U[l] = u;
-                W[l] = w;
-            }
         }
         m = T[0] < T[1] ? T[0] : T[1];
         m = T[2] < m ? T[2] : m;
@@ -3088,8 +3174,6 @@ static inline int pds__bvh_tri4_test(const pds__bvh_ray *r, const pds__bvh_tri4 
     best = T[1] > m ? best : 1;
     best = T[0] > m ? best : 0;
     *t_out = m;
-    *u_out = U[best];
-    *w_out = W[best];
     return best;
 }
 
@@ -3105,15 +3189,21 @@ static float pds__bvh_cull(float t)
 
 /* Slab test of the ray against node n's four child boxes: d[k] = entry
    distance into child k (at least tmin); returns the mask of children hit
-   (bit k) with entry no later than tlim[k] (four copies of one limit).
-   Written as a branch-free loop over the SoA rows, results in locals, so
-   compilers run the four tests as vector operations. */
+   (bit k) with entry no later than tlim[k] (four copies of one limit),
+   and in *one the OR of the hit children's references: the child itself
+   when exactly one is hit (the common case), found without going through
+   the mask, which shortens the chain of dependent operations from one
+   node to the next. Written as a branch-free loop over the SoA rows,
+   results in locals, so compilers run the four tests as vector
+   operations. */
 static inline int pds__bvh_box4(const pds__bvh_ray *r, const pds__bvh_node *n, const float tlim[4],
-                                float d[4])
+                                float d[4], uint32_t *one)
 {
-    const float *nx = n->b + r->nr[0], *ny = n->b + r->nr[1], *nz = n->b + r->nr[2];
-    const float *fx = n->b + r->fr[0], *fy = n->b + r->fr[1], *fz = n->b + r->fr[2];
+    const int *row = r->row;
+    const float *nx = n->b + row[0], *ny = n->b + row[1], *nz = n->b + row[2];
+    const float *fx = n->b + row[3], *fy = n->b + row[4], *fz = n->b + row[5];
     float dd[4];
+    uint32_t hc[4];
     int h[4], k;
     for (k = 0; k < 4; k++) {
         const float tnx = (nx[k] - r->o4[0].v[k]) * r->rn4[0].v[k];
@@ -3127,21 +3217,22 @@ static inline int pds__bvh_box4(const pds__bvh_ray *r, const pds__bvh_node *n, c
         const float tn = tn0 > tn1 ? tn0 : tn1, tf = tf0 < tf1 ? tf0 : tf1;
         dd[k] = tn;
         h[k] = -(tn <= tf);
+        hc[k] = (uint32_t)h[k] & n->child[k];
     }
     for (k = 0; k < 4; k++) d[k] = dd[k];
+    *one = (hc[0] | hc[1]) | (hc[2] | hc[3]);
     return (h[0] & 1) | (h[1] & 2) | (h[2] & 4) | (h[3] & 8);
 }
 
 /* Core traversal. any = 1 stops at the first hit (occlusion). Returns
-   4 block + lane of the closest hit or -1, with its float t, u, v. At each
+   4 block + lane of the closest hit or -1, with its float t. At each
    node the four child boxes are tested at once; of the children hit
    (inner nodes and leaves alike) the nearest is visited next and the
    others pushed, farthest first. One hit, the common case, just descends;
    two need one comparison; three or four are sorted on the stack. The
    stack holds references and entry distances in two arrays; popped
    entries beyond the closest hit so far are skipped. */
-static long pds__bvh_traverse(const pds__bvh *bvh, const pds__bvh_ray *r, int any,
-                              float *t_out, float *u_out, float *v_out)
+static long pds__bvh_traverse(const pds__bvh *bvh, const pds__bvh_ray *r, int any, float *t_out)
 {
     /* lowest set bit of a 4-bit mask */
     static const signed char first_bit[16] = {0, 0, 1, 0, 2, 0, 1, 0, 3, 0, 1, 0, 2, 0, 1, 0};
@@ -3150,7 +3241,7 @@ static long pds__bvh_traverse(const pds__bvh *bvh, const pds__bvh_ray *r, int an
     int sp = 0;
     const pds__bvh_node *nodes = bvh->nodes;
     uint32_t ref = 0;
-    float tcur = r->tmax, tcull = pds__bvh_cull(r->tmax), hu = 0.0f, hv = 0.0f, tl4[4];
+    float tcur = r->tmax, tcull = pds__bvh_cull(r->tmax), tl4[4];
     long best = -1;
 
     tl4[0] = tl4[1] = tl4[2] = tl4[3] = tcull;
@@ -3158,24 +3249,29 @@ static long pds__bvh_traverse(const pds__bvh *bvh, const pds__bvh_ray *r, int an
         while (!(ref & PDS__BVH_LEAF)) {
             const pds__bvh_node *n = nodes + ref;
             float d[4];
-            int m = pds__bvh_box4(r, n, tl4, d), k0, k1;
+            uint32_t one;
+            int m = pds__bvh_box4(r, n, tl4, d, &one), k0, k1;
             if (m == 0) goto pop;
-            k0 = first_bit[m];
-            m &= m - 1;
-            if (m == 0) {
-                ref = n->child[k0];
+            if ((m & (m - 1)) == 0) {
+                ref = one;
                 continue;
             }
+            k0 = first_bit[m];
+            m &= m - 1;
             k1 = first_bit[m];
             m &= m - 1;
             if (m == 0) {
-                /* two: visit the nearer, push the farther */
-                int f = d[k1] < d[k0];
-                int kn = f ? k1 : k0, kf = f ? k0 : k1;
-                st_ref[sp] = n->child[kf];
-                st_t[sp] = d[kf];
+                /* two: visit the nearer, push the farther; the swap is
+                   done with a mask (x = c0 ^ c1 when the second child
+                   is nearer) because compilers turn a conditional here
+                   into a branch, which would mispredict */
+                const float d0 = d[k0], d1 = d[k1];
+                const uint32_t c0 = n->child[k0], c1 = n->child[k1];
+                const uint32_t x = (c0 ^ c1) & (0u - (uint32_t)(d1 < d0));
+                st_ref[sp] = c1 ^ x;
+                st_t[sp] = d1 < d0 ? d0 : d1;
                 sp++;
-                ref = n->child[kn];
+                ref = c0 ^ x;
                 continue;
             }
             {
@@ -3208,14 +3304,12 @@ static long pds__bvh_traverse(const pds__bvh *bvh, const pds__bvh_ray *r, int an
         {
             /* a leaf: its block of four triangles */
             uint32_t b = ref & ~PDS__BVH_LEAF;
-            float t, u, v;
-            int lane = pds__bvh_tri4_test(r, bvh->tri4 + b, r->tmin, tcur, &t, &u, &v);
+            float t;
+            int lane = pds__bvh_tri4_test(r, bvh->tri4 + b, r->tmin, tcur, &t);
             if (lane >= 0) {
                 tcur = t;
                 tcull = pds__bvh_cull(t);
                 tl4[0] = tl4[1] = tl4[2] = tl4[3] = tcull;
-                hu = u;
-                hv = v;
                 best = 4 * (long)b + lane;
                 if (any) goto done;
             }
@@ -3231,14 +3325,15 @@ static long pds__bvh_traverse(const pds__bvh *bvh, const pds__bvh_ray *r, int an
     }
 done:
     *t_out = tcur;
-    *u_out = hu;
-    *v_out = hv;
     return best;
 }
 
-/* Recomputes t, u, v of a hit on lane l of block q in double with
-   Moller-Trumbore on the caller's double ray; keeps the float values if
-   the double ones are unusable or leave (tmin, tmax). */
+/* Completes a hit on lane l of block q whose float t, scaled to the
+   caller's units, is in hit->t: t, u, v in double with Moller-Trumbore on
+   the caller's double ray. Keeps the float t if the double one leaves
+   (tmin, tmax) (rounding at an end of the interval); a ray lying in the
+   triangle's plane in double, which the float test may still have seen
+   hitting, gets the centroid. */
 static void pds__bvh_refine(const pds__bvh_tri4 *q, int l, pds__v3 org, pds__v3 dir, double tmin,
                             double tmax, pds__tri_hit *hit)
 {
@@ -3247,14 +3342,16 @@ static void pds__bvh_refine(const pds__bvh_tri4 *q, int l, pds__v3 org, pds__v3 
     pds__v3 e2 = pds__sub(pds__v(q->v[2][0][l], q->v[2][1][l], q->v[2][2][l]), p0);
     pds__v3 p = pds__cross(dir, e2), s, qv;
     double det = pds__dot(e1, p), inv, u, w, t;
-    if (det == 0.0) return;
+    if (det == 0.0) {
+        hit->u = hit->v = 1.0 / 3.0;
+        return;
+    }
     inv = 1.0 / det;
     s = pds__sub(org, p0);
     qv = pds__cross(s, e1);
     u = pds__dot(s, p) * inv;
     w = pds__dot(dir, qv) * inv;
     t = pds__dot(e2, qv) * inv;
-    if (!(t > tmin && t < tmax)) return;
     /* the float test decided the hit; clamp rounding just outside an edge */
     if (u < 0.0) u = 0.0;
     if (w < 0.0) w = 0.0;
@@ -3263,7 +3360,7 @@ static void pds__bvh_refine(const pds__bvh_tri4 *q, int l, pds__v3 org, pds__v3 
         u /= sum;
         w /= sum;
     }
-    hit->t = t;
+    if (t > tmin && t < tmax) hit->t = t;
     hit->u = u;
     hit->v = w;
 }
@@ -3274,15 +3371,13 @@ static int pds__bvh_intersect(const pds__bvh *bvh, pds__v3 org, pds__v3 dir, dou
                               double tmax, pds__tri_hit *hit)
 {
     pds__bvh_ray r;
-    float t, u, v;
+    float t;
     double tscale;
     long i;
     if (bvh->ntris == 0 || !pds__bvh_ray_setup(&r, org, dir, tmin, tmax, &tscale)) return 0;
-    i = pds__bvh_traverse(bvh, &r, 0, &t, &u, &v);
+    i = pds__bvh_traverse(bvh, &r, 0, &t);
     if (i < 0) return 0;
     hit->t = t * tscale;
-    hit->u = u;
-    hit->v = v;
     hit->tri = bvh->tri_id[i];
     pds__bvh_refine(bvh->tri4 + i / 4, (int)(i % 4), org, dir, tmin, tmax, hit);
     return 1;
@@ -3292,10 +3387,10 @@ static int pds__bvh_intersect(const pds__bvh *bvh, pds__v3 org, pds__v3 dir, dou
 static int pds__bvh_occluded(const pds__bvh *bvh, pds__v3 org, pds__v3 dir, double tmin, double tmax)
 {
     pds__bvh_ray r;
-    float t, u, v;
+    float t;
     double tscale;
     if (bvh->ntris == 0 || !pds__bvh_ray_setup(&r, org, dir, tmin, tmax, &tscale)) return 0;
-    return pds__bvh_traverse(bvh, &r, 1, &t, &u, &v) >= 0;
+    return pds__bvh_traverse(bvh, &r, 1, &t) >= 0;
 }
 
 /* ===================================================================== */

@@ -93,17 +93,16 @@ static const float *tbvh_vert(const float *pos, const int *idx, size_t tri, int 
 }
 
 /* The BVH's own watertight test on one triangle v (9 floats), through a
-   block holding it in all four lanes: 1 with *t, *u, *w on a hit in (tmin,
+   block holding it in all four lanes: 1 with *t on a hit in (tmin,
    tmax). */
-static int tbvh_tri_test(const pds__bvh_ray *r, const float v[9], float tmin, float tmax, float *t,
-                         float *u, float *w)
+static int tbvh_tri_test(const pds__bvh_ray *r, const float v[9], float tmin, float tmax, float *t)
 {
     pds__bvh_tri4 q;
     int c, k, l;
     for (c = 0; c < 3; c++)
         for (k = 0; k < 3; k++)
             for (l = 0; l < 4; l++) q.v[c][k][l] = v[3 * c + k];
-    return pds__bvh_tri4_test(r, &q, tmin, tmax, t, u, w) >= 0;
+    return pds__bvh_tri4_test(r, &q, tmin, tmax, t) >= 0;
 }
 
 /* Brute force with the BVH's own watertight float test over every
@@ -121,9 +120,9 @@ static long tbvh_brute_watertight(const float *pos, const int *idx, size_t ntris
     if (!pds__bvh_ray_setup(&r, o, d, tmin, tmax, &tscale)) return -1;
     best = r.tmax;
     for (i = 0; i < ntris; i++) {
-        float t, u, w;
+        float t;
         for (c = 0; c < 3; c++) memcpy(v + 3 * c, tbvh_vert(pos, idx, i, c), 3 * sizeof(float));
-        if (tbvh_tri_test(&r, v, r.tmin, best, &t, &u, &w)) {
+        if (tbvh_tri_test(&r, v, r.tmin, best, &t)) {
             best = t;
             bi = (long)i;
         }
@@ -138,11 +137,11 @@ static float tbvh_watertight_t(const float *pos, const int *idx, long tri, pds__
 {
     pds__bvh_ray r;
     double tscale;
-    float v[9], t, u, w;
+    float v[9], t;
     int c;
     if (!pds__bvh_ray_setup(&r, o, d, tmin, tmax, &tscale)) return -1.0f;
     for (c = 0; c < 3; c++) memcpy(v + 3 * c, tbvh_vert(pos, idx, (size_t)tri, c), 3 * sizeof(float));
-    return tbvh_tri_test(&r, v, r.tmin, r.tmax, &t, &u, &w) ? t : -1.0f;
+    return tbvh_tri_test(&r, v, r.tmin, r.tmax, &t) ? t : -1.0f;
 }
 
 /* Independent reference: plain Moller-Trumbore in double, closest hit in
