@@ -2358,11 +2358,13 @@ static int pds__gen_heightfield(const pds__emitter *e, double sx, double sz, int
    slack widens positive far distances: with a negative tmin, a box that
    ends within about 1e-6 (relative) behind the origin may be missed.
    Limits: vertex coordinates and ray origins within 1e30 in magnitude,
-   |dir| above 1e-300 (any larger length is fine: it is scaled by a power
-   of two internally). A direction component below 1 / FLT_MAX of |dir|
-   (zero, say) makes a slab end at (plane - origin) * FLT_MAX instead of
-   never: with the ulp padding that is beyond t = 4e31 |plane| + 4, so only
-   a ray running within the padding of a box face at 0 can lose hits. */
+   largest |dir| component above 1e-300 (any larger length is fine: it is
+   scaled by a power of two internally). A direction component below
+   1 / FLT_MAX after that scaling (zero, say) ends its slab at (plane -
+   origin) * FLT_MAX instead of never; thanks to the padding that is past
+   t = 4e31 |plane| + 4 for an origin inside the unpadded box, so only a
+   ray starting within a face's padding, or lying in a face plane at
+   coordinate 0 and reaching past t = 4, can lose hits to it. */
 
 #define PDS__BVH_BINS 16       /* bins per axis (fewer in small nodes) */
 #define PDS__BVH_MAX_LEAF 4    /* triangles per leaf at most: one block */
@@ -2971,7 +2973,7 @@ static const int pds__bvh_rows[8][6] = {
     {0, 4, 20, 12, 16, 8}, {12, 4, 20, 0, 16, 8}, {0, 16, 20, 12, 4, 8}, {12, 16, 20, 0, 4, 8}};
 
 /* One axis of pds__bvh_ray_setup: origin o, direction d. */
-static void pds__bvh_setup_axis(pds__bvh_ray *r, int k, double o, double d)
+static inline void pds__bvh_setup_axis(pds__bvh_ray *r, int k, double o, double d)
 {
     /* A component whose reciprocal (or, for the far planes, the scaled
        reciprocal) is beyond FLT_MAX gets +-FLT_MAX, never inf, so (plane
