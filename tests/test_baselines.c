@@ -5,14 +5,7 @@
 static int baseline_render(const char *text, pds_method method, long photons, int threads, pds_image *img,
                            pds_render_stats *st, void (*tweak)(pds_options *))
 {
-    pds_options opt;
-    pds_options_default(&opt);
-    opt.method = method;
-    opt.photons = photons;
-    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
-    opt.threads = threads;
-    if (tweak) tweak(&opt);
-    return render_text(text, &opt, img, st);
+    return photon_render_text(text, method, photons, 12.0, PDS_PATHS_CAUSTICS_ONLY, threads, img, st, tweak);
 }
 
 /* Under the slab the caustic is uniform, E T^2 a / (1 - R^2 a^2): the

@@ -2,18 +2,26 @@
    the mirrored point light, the glass slab, flux conservation, agreement
    with the path tracer's caustics, and determinism. */
 
-/* Render scene text with PDS (caustics only unless told otherwise). */
-static int pds_render_text(const char *text, long photons, double s, pds_paths paths, int threads, pds_image *img,
-                           pds_render_stats *st)
+/* Render scene text with a photon method; tweak (if any) adjusts the
+   options last. Shared by the PDS and baseline tests. */
+static int photon_render_text(const char *text, pds_method method, long photons, double s, pds_paths paths,
+                              int threads, pds_image *img, pds_render_stats *st, void (*tweak)(pds_options *))
 {
     pds_options opt;
     pds_options_default(&opt);
-    opt.method = PDS_METHOD_PDS;
+    opt.method = method;
     opt.photons = photons;
     opt.smoothing = s;
     opt.paths = paths;
     opt.threads = threads;
+    if (tweak) tweak(&opt);
     return render_text(text, &opt, img, st);
+}
+
+static int pds_render_text(const char *text, long photons, double s, pds_paths paths, int threads, pds_image *img,
+                           pds_render_stats *st)
+{
+    return photon_render_text(text, PDS_METHOD_PDS, photons, s, paths, threads, img, st, NULL);
 }
 
 /* A camera at height h looking straight down at the plane y = 0 sees, in
