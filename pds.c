@@ -8056,6 +8056,9 @@ typedef struct pds__photon_job {
     int differentials;         /* trace photon differentials (pds) or not */
     double fixed_radius;       /* splat: the isotropic footprint's radius */
     long index_offset;         /* ppm: the first photon number of this pass */
+    double build_s, gather_s;  /* pm, pdm: time of the last map build and gather */
+    double gather_found;       /* pm, pdm: photons its queries returned */
+    size_t map_photons;        /* pm, pdm: photons in the last map built */
 } pds__photon_job;
 
 /* What a splat needs while it walks the eye vertices in range. */
@@ -8387,6 +8390,7 @@ typedef struct pds__gather {
     size_t next;               /* guarded by lock: next vertex chunk */
     int next_buf;              /* guarded by lock */
     int out_of_memory;         /* guarded by lock */
+    double found;              /* guarded by lock: photons the queries returned */
 } pds__gather;
 
 #define PDS__GATHER_CHUNK 1024
@@ -8397,6 +8401,7 @@ static void *pds__gather_worker(void *arg)
     pds__splat_buf *buf;
     size_t *idx = (size_t *)malloc(sizeof *idx * g->k);
     double *d2 = (double *)malloc(sizeof *d2 * g->k);
+    size_t found = 0;
     pthread_mutex_lock(&g->lock);
     buf = &g->bufs[g->next_buf++];
     if (!idx || !d2) g->out_of_memory = 1;
@@ -8404,6 +8409,8 @@ static void *pds__gather_worker(void *arg)
     for (;;) {
         size_t first, last, i;
         pthread_mutex_lock(&g->lock);
+        g->found += (double)found;
+        found = 0;
         first = g->out_of_memory ? g->nv : g->next;
         g->next = first + PDS__GATHER_CHUNK;
         pthread_mutex_unlock(&g->lock);
@@ -8414,6 +8421,7 @@ static void *pds__gather_worker(void *arg)
             double sum[3] = {0, 0, 0};
             size_t n = pds__kdtree_knn(g->tree, pds__f3_get(v->pos), g->k, g->radius, idx, d2);
             int c;
+            found += n;
             if (n == 0) continue;
             g->estimate(g, v, idx, d2, n, sum);
             for (c = 0; c < 3; c++)
@@ -8489,6 +8497,7 @@ static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, c
     pds__kdtree tree;
     size_t np;
     pds_status st;
+    double tb = pds_time_now(), tg;
     pds__stored_photon *photons = pds__merge_photons(job->bufs, job->nbufs, &np);
     if (!photons) return pds__nomem(err);
     st = pds__kdtree_build(&tree, np ? &photons[0].pos[0] : NULL, sizeof *photons / sizeof(float), np, err);
@@ -8496,6 +8505,9 @@ static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, c
         free(photons);
         return st;
     }
+    tg = pds_time_now();
+    job->build_s = tg - tb;
+    job->map_photons = np;
     if (stats) {
         stats->map_bytes = np * sizeof *photons + pds__kdtree_memory(&tree);
         stats->splatted = (long)np;
@@ -8511,6 +8523,8 @@ static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, c
     g.kernel = opt->kernel;
     g.estimate = pds__pm_estimate;
     st = pds__gather_run(&g, job, threads, err);
+    job->gather_s = pds_time_now() - tg;
+    job->gather_found = g.found;
     pds__kdtree_free(&tree);
     free(photons);
     return st;
@@ -8590,6 +8604,7 @@ static pds_status pds__pdm_gather(pds__photon_job *job, const pds_options *opt, 
     size_t total = 0, at = 0, i;
     pds_status st;
     int t;
+    double tb = pds_time_now(), tg;
     for (t = 0; t < job->nbufs; t++) total += job->bufs[t].ndstored;
     all = (pds__diff_photon *)malloc(sizeof *all * (total ? total : 1));
     for (t = 0; t < job->nbufs; t++) {
@@ -8603,6 +8618,9 @@ static pds_status pds__pdm_gather(pds__photon_job *job, const pds_options *opt, 
         free(all);
         return st;
     }
+    tg = pds_time_now();
+    job->build_s = tg - tb;
+    job->map_photons = total;
     if (stats) stats->map_bytes = total * sizeof *all + pds__kdtree_memory(&tree);
     memset(&g, 0, sizeof g);
     g.scene = job->scene;
@@ -8616,6 +8634,8 @@ static pds_status pds__pdm_gather(pds__photon_job *job, const pds_options *opt, 
         if (all[i].major > g.radius) g.radius = all[i].major;
     g.estimate = pds__pdm_estimate;
     st = pds__gather_run(&g, job, threads, err);
+    job->gather_s = pds_time_now() - tg;
+    job->gather_found = g.found;
     pds__kdtree_free(&tree);
     free(all);
     return st;
@@ -8791,6 +8811,57 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
     return st == PDS_ERR_NOMEM ? pds__nomem(err) : st;
 }
 
+/* pm and pdm under a time budget: the map build and the gather come after
+   the last photon, so the tracing must stop early enough for them. Probe
+   them on the calibration photons (already stored in job->bufs) with every
+   s-th eye vertex, and model, for a map of m stored photons,
+     build(m)  = build_probe m log m / (m_probe log m_probe)
+     gather(m) = nv c (1 + f) sqrt(max(1, log m / log m_probe)),
+   c = the probe's time per vertex / (1 + its photons found per vertex), and
+   f the photons a query will find: pm min(k, m); pdm the probe's count
+   scaled by the planned / emitted photons of the calibration (footprints
+   shrink as 1/N, so a finished map covers each vertex about as often as
+   the probe map would have with its planned count), at most k. (The
+   square root fits measured k-nearest queries better than log m does:
+   the top of the tree stays in cache.) Returns
+   the seconds left for tracing out of `remaining`, given the photons
+   traced per second (`rate`). The caller throws the probe's images away. */
+static double pds__map_budget(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
+                              int threads, double rate, double remaining)
+{
+    size_t step = nv / 4096 + 1, nsub = 0, i;
+    pds__eye_vertex *sub = (pds__eye_vertex *)malloc(sizeof *sub * (nv / step + 1));
+    double emitted = (double)job->n_total, share, lo, hi, mlog, per_vertex, found, k = (double)(
+        opt->method == PDS_METHOD_PM ? opt->k : opt->max_photons);
+    pds_error ignored;
+    pds_status st;
+    if (!sub) return remaining;
+    for (i = 0; i < nv; i += step) sub[nsub++] = v[i];
+    job->build_s = job->gather_s = job->gather_found = 0.0;
+    job->map_photons = 0;
+    st = opt->method == PDS_METHOD_PM ? pds__pm_gather(job, opt, sub, nsub, threads, NULL, &ignored)
+                                      : pds__pdm_gather(job, opt, sub, nsub, threads, NULL, &ignored);
+    free(sub);
+    if (st || job->map_photons < 2 || nsub == 0) return remaining;
+    share = (double)job->map_photons / emitted;
+    mlog = log((double)job->map_photons);
+    found = job->gather_found / (double)nsub;
+    per_vertex = job->gather_s / (double)nsub / (1.0 + found);
+    if (opt->method == PDS_METHOD_PDM) found = fmin(k, found * job->n_planned / emitted);
+    /* bisect for the photon count n whose tracing and map fill the budget */
+    lo = 0.0;
+    hi = rate * remaining;
+    for (i = 0; i < 60; i++) {
+        double n = 0.5 * (lo + hi), m = fmax(2.0, n * share), lm = log(m) / mlog;
+        double f = opt->method == PDS_METHOD_PM ? fmin(k, m) : found;
+        double cost = n / rate + job->build_s * m / (double)job->map_photons * fmax(1.0, lm) +
+                      per_vertex * (double)nv * (1.0 + f) * sqrt(fmax(1.0, lm));
+        if (cost > remaining) hi = n;
+        else lo = n;
+    }
+    return lo / rate;
+}
+
 /* --- the photon pass --------------------------------------------------- */
 
 /* After the eye pass: emit and trace the caustic photons for method m and
@@ -8861,16 +8932,27 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         pds__run_threads(1, pds__photon_worker, &job);
         pthread_mutex_destroy(&job.lock);
         rate = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6) * threads;
+        remaining = opt->time_s - (pds_time_now() - t0);
+        if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM) {
+            double tp = pds_time_now();
+            remaining = pds__map_budget(&job, opt, vertices, nvertices, threads, rate, fmax(remaining, 0.0));
+            remaining -= pds_time_now() - tp; /* the probe's own time */
+        }
         for (t = 0; t < threads; t++) {
             memset(job.bufs[t].fixed, 0, npix * 3 * sizeof(long long));
             if (job.bufs[t].aniso) memset(job.bufs[t].aniso, 0, npix * 2 * sizeof(double));
             job.bufs[t].splatted = job.bufs[t].degenerate = job.bufs[t].saturated = 0;
-            job.bufs[t].nstored = 0;
+            job.bufs[t].nstored = job.bufs[t].ndstored = 0;
         }
-        remaining = opt->time_s - (pds_time_now() - t0);
         job.n_planned = fmax(rate * fmax(remaining, 0.0), (double)PDS__PHOTON_BATCH);
         job.n_total = LONG_MAX - PDS__PHOTON_BATCH;
-        job.deadline = t0 + opt->time_s;
+        job.deadline = pds_time_now() + fmax(remaining, 0.0);
+        if (job.n_planned <= (double)PDS__PHOTON_BATCH) {
+            /* no time left (pdm's gather alone can fill a small budget):
+               one batch, so the image still has caustics, and say so in time */
+            job.n_total = PDS__PHOTON_BATCH;
+            job.deadline = 0.0;
+        }
         job.next_batch = job.batches_done = 0;
         job.stop = 0;
     }

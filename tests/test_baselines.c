@@ -237,6 +237,97 @@ static void test_ppm_converges_on_the_uniform_caustic(pds_test_ctx *t)
     pds_image_free(&img);
 }
 
+static void budget_quarter_second(pds_options *o) { o->time_s = 0.25; }
+
+/* Under --time, pm's map holds exactly the photons it counts (the
+   calibration photons are thrown away): the image is the fixed-count
+   image of the same number of photons, up to the fixed-point rounding. */
+static void test_pm_under_a_time_budget_maps_only_the_photons_it_counts(pds_test_ctx *t)
+{
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    pds_render_stats sa, sb;
+    size_t i, n;
+    double worst = 0.0, peak = 0.0;
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, 0, 2, &a, &sa, budget_quarter_second), "pm --time");
+    REQUIRE(t, sa.photons > 0, "no photons in time");
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, sa.photons, 2, &b, &sb, NULL), "pm --photons");
+    n = (size_t)a.width * a.height * 3;
+    for (i = 0; i < n; i++) {
+        double d = fabs((double)a.rgb[i] - b.rgb[i]);
+        if (d > worst) worst = d;
+        if (b.rgb[i] > peak) peak = b.rgb[i];
+    }
+    CHECK(t, peak > 0.0 && worst <= 1e-5 * peak, "%ld photons: largest difference %g (peak %g)", sa.photons, worst,
+          peak);
+    CHECK(t, sa.splatted == sb.splatted, "stored %ld vs %ld", sa.splatted, sb.splatted);
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+
+/* The time planner of pm and pdm leaves room for the map: it gives the
+   tracing less than the whole budget, more of it for a larger budget, and
+   pdm less than pm: each footprint here covers ~30 probe photons, so with
+   the map planned 24x denser every pdm query meets max_photons = 500
+   footprints against pm's k = 50 photons. */
+static void test_map_budget_leaves_time_for_the_build_and_gather(pds_test_ctx *t)
+{
+    static const pds_method methods[2] = {PDS_METHOD_PM, PDS_METHOD_PDM};
+    double tracing[2][2];
+    int m, b;
+    for (m = 0; m < 2; m++) {
+        for (b = 0; b < 2; b++) {
+            pds_error err;
+            pds_scene *s = scene_from_text(slab_scene, &err);
+            pds_options opt;
+            pds__photon_job job;
+            pds__eye_vertex *v;
+            size_t i, nv = 20000;
+            REQUIRE(t, s != NULL, "%s", err.text);
+            pds_options_default(&opt);
+            opt.method = methods[m];
+            v = (pds__eye_vertex *)calloc(nv, sizeof *v);
+            REQUIRE(t, v != NULL, "alloc");
+            for (i = 0; i < nv; i++) {
+                /* vertices over the lit floor, facing up */
+                v[i].pos[0] = (float)((double)(i % 141) / 141.0 - 0.5);
+                v[i].pos[2] = (float)((double)(i / 141) / 141.0 - 0.5);
+                v[i].ns[1] = v[i].ng[1] = v[i].wo[1] = 1.0f;
+                v[i].importance[0] = v[i].importance[1] = v[i].importance[2] = 1.0f;
+            }
+            memset(&job, 0, sizeof job);
+            job.nbufs = 1;
+            job.bufs = (pds__splat_buf *)calloc(1, sizeof *job.bufs);
+            REQUIRE(t, job.bufs != NULL, "alloc");
+            job.bufs[0].fixed = (long long *)calloc(3, sizeof(long long));
+            /* a probe map: 4096 photons on the floor, planned for 100000 */
+            for (i = 0; i < 4096; i++) {
+                pds__ray_diff r;
+                double flux[3] = {1e-5, 1e-5, 1e-5};
+                memset(&r, 0, sizeof r);
+                r.p = pds__v((double)(i % 64) / 64.0 - 0.5, 0.0, (double)(i / 64) / 64.0 - 0.5);
+                r.d = pds__v(0.0, -1.0, 0.0);
+                r.dpdu = pds__v(0.05, 0.0, 0.0);
+                r.dpdv = pds__v(0.0, 0.0, 0.05);
+                if (methods[m] == PDS_METHOD_PM) pds__store_photon(&job, &job.bufs[0], &r, pds__v(0, 1, 0), flux, (long)i);
+                else pds__store_diff_photon(&job, &job.bufs[0], &r, pds__v(0, 1, 0), flux, (long)i);
+            }
+            job.scene = s;
+            job.n_total = 4096;
+            job.n_planned = 100000.0;
+            tracing[m][b] = pds__map_budget(&job, &opt, v, nv, 1, 1e6, b ? 2.0 : 0.5);
+            free(job.bufs[0].fixed);
+            free(job.bufs[0].stored);
+            free(job.bufs[0].dstored);
+            free(job.bufs);
+            free(v);
+            pds_scene_free(s);
+        }
+        CHECK(t, tracing[m][0] > 0.0 && tracing[m][0] < 0.5 && tracing[m][1] < 2.0 && tracing[m][1] > tracing[m][0],
+              "%s: %g s of 0.5 s, %g s of 2 s", pds_method_name(methods[m]), tracing[m][0], tracing[m][1]);
+    }
+    CHECK(t, tracing[1][1] < tracing[0][1], "pdm traces %g s, pm %g s", tracing[1][1], tracing[0][1]);
+}
+
 static const pds_test_case tests_baselines[] = {
     {"pm_finds_the_analytic_irradiance_of_a_uniform_caustic", test_pm_finds_the_analytic_irradiance_of_a_uniform_caustic},
     {"pm_filter_normalisations_are_the_filters_integrals", test_pm_filter_normalisations_are_the_filters_integrals},
@@ -246,4 +337,6 @@ static const pds_test_case tests_baselines[] = {
     {"pdm_gathers_the_same_image_pds_splats", test_pdm_gathers_the_same_image_pds_splats},
     {"ppm_updates_follow_the_published_recurrence", test_ppm_updates_follow_the_published_recurrence},
     {"ppm_converges_on_the_uniform_caustic", test_ppm_converges_on_the_uniform_caustic},
+    {"pm_under_a_time_budget_maps_only_the_photons_it_counts", test_pm_under_a_time_budget_maps_only_the_photons_it_counts},
+    {"map_budget_leaves_time_for_the_build_and_gather", test_map_budget_leaves_time_for_the_build_and_gather},
 };
