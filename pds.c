@@ -3575,6 +3575,31 @@ static int pds__bsdf_frame(pds__v3 wo, pds__v3 ns, pds__v3 ng, pds__v3 *n, pds__
     return 1;
 }
 
+/* The albedo of a diffuse material at the point x of a surface with
+   normal ng. Tiled materials (tile_size > 0) draw grout lines of width
+   tile_grout (albedo grout_albedo) every tile_size along the two world
+   axes that lie most nearly in the surface: a floor is tiled in x and z, a
+   wall facing z in x and y. */
+static void pds__albedo_at(const pds_material *m, pds__v3 x, pds__v3 ng, double albedo[3])
+{
+    int c, grout = 0;
+    if (m->tile_size > 0.0) {
+        double a[3], n[3];
+        int skip = 0, i;
+        a[0] = x.x, a[1] = x.y, a[2] = x.z;
+        n[0] = fabs(ng.x), n[1] = fabs(ng.y), n[2] = fabs(ng.z);
+        if (n[1] > n[skip]) skip = 1;
+        if (n[2] > n[skip]) skip = 2;
+        for (i = 0; i < 3; i++) {
+            double f;
+            if (i == skip) continue;
+            f = a[i] / m->tile_size - floor(a[i] / m->tile_size); /* in [0, 1) */
+            if (fmin(f, 1.0 - f) * m->tile_size < 0.5 * m->tile_grout) grout = 1;
+        }
+    }
+    for (c = 0; c < 3; c++) albedo[c] = grout ? m->grout_albedo[c] : m->albedo[c];
+}
+
 /* Sample the BSDF of material m for the outgoing direction wo.
    Inputs: wo (unit, toward the previous vertex), ns (shading normal) and
    ng (geometric normal as stored, defines the front), u = three uniforms
@@ -3583,7 +3608,7 @@ static int pds__bsdf_frame(pds__v3 wo, pds__v3 ns, pds__v3 ng, pds__v3 *n, pds__
    Output *out (see pds__bsdf_result). Returns 0 when nothing scatters:
    emitters absorb, zero albedo/reflectance, wo tangent, or the sample
    fell on the wrong side of ng (absorbed). */
-static int pds__bsdf_sample(const pds_material *m, pds__v3 wo, pds__v3 ns, pds__v3 ng,
+static int pds__bsdf_sample(const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 ns, pds__v3 ng,
                             const double u[3], pds__transport mode, pds__bsdf_result *out)
 {
     pds__v3 n, g, wi;
@@ -3603,7 +3628,9 @@ static int pds__bsdf_sample(const pds_material *m, pds__v3 wo, pds__v3 ns, pds__
         double r = sqrt(u[0]), phi = 2.0 * PDS__PI * u[1];
         double z = sqrt(fmax(0.0, 1.0 - u[0]));
         pds__v3 b1, b2;
-        if (!(m->albedo[0] > 0.0 || m->albedo[1] > 0.0 || m->albedo[2] > 0.0)) return 0;
+        double albedo[3];
+        pds__albedo_at(m, x, ng, albedo);
+        if (!(albedo[0] > 0.0 || albedo[1] > 0.0 || albedo[2] > 0.0)) return 0;
         pds__onb(n, &b1, &b2);
         wi = pds__add(pds__add(pds__scale(b1, r * cos(phi)), pds__scale(b2, r * sin(phi))),
                       pds__scale(n, z));
@@ -3613,7 +3640,7 @@ static int pds__bsdf_sample(const pds_material *m, pds__v3 wo, pds__v3 ns, pds__
         out->wi = wi;
         out->pdf = z / PDS__PI;
         out->delta = 0;
-        for (c = 0; c < 3; c++) out->weight[c] = m->albedo[c];
+        for (c = 0; c < 3; c++) out->weight[c] = albedo[c];
         return 1;
     }
     case PDS_MAT_MIRROR:
@@ -3665,19 +3692,20 @@ static int pds__bsdf_sample(const pds_material *m, pds__v3 wo, pds__v3 ns, pds__
    *pdf = 0. f is symmetric in wo and wi whenever both lie above the
    shading normal (the usual case; shading normals cannot be reciprocal
    everywhere). */
-static void pds__bsdf_eval(const pds_material *m, pds__v3 wo, pds__v3 wi, pds__v3 ns, pds__v3 ng,
+static void pds__bsdf_eval(const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 wi, pds__v3 ns, pds__v3 ng,
                            double f[3], double *pdf)
 {
     pds__v3 n, g;
     int side, c;
-    double cos_i;
+    double cos_i, albedo[3];
     f[0] = f[1] = f[2] = 0.0;
     *pdf = 0.0;
     if (m->type != PDS_MAT_DIFFUSE) return;
     if (!pds__bsdf_frame(wo, ns, ng, &n, &g, &side)) return;
     cos_i = pds__dot(wi, n);
     if (!(cos_i > 0.0) || !(pds__dot(wi, g) > 0.0)) return;
-    for (c = 0; c < 3; c++) f[c] = m->albedo[c] / PDS__PI;
+    pds__albedo_at(m, x, ng, albedo);
+    for (c = 0; c < 3; c++) f[c] = albedo[c] / PDS__PI;
     *pdf = cos_i / PDS__PI;
 }
 
@@ -5498,6 +5526,13 @@ static pds_status pds__parse_material(pds__parser *P)
         if (m.type == PDS_MAT_DIFFUSE && !strcmp(key, "albedo")) {
             if (!(st = pds__p_rgb(P, key, m.albedo)) && (m.albedo[0] > 1 || m.albedo[1] > 1 || m.albedo[2] > 1))
                 st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'albedo' must be at most 1 (energy conservation)");
+        } else if (m.type == PDS_MAT_DIFFUSE && !strcmp(key, "tiles")) {
+            /* tiles SIZE GROUT_WIDTH GROUT_ALBEDO */
+            if (!(st = pds__p_positive(P, key, &m.tile_size)) && !(st = pds__p_range(P, key, 0.0, m.tile_size, &m.tile_grout)) &&
+                !(st = pds__p_rgb(P, key, m.grout_albedo)) &&
+                (m.grout_albedo[0] > 1 || m.grout_albedo[1] > 1 || m.grout_albedo[2] > 1 || m.grout_albedo[0] < 0 ||
+                 m.grout_albedo[1] < 0 || m.grout_albedo[2] < 0))
+                st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "the grout albedo of 'tiles' must be between 0 and 1");
         } else if (m.type == PDS_MAT_MIRROR && !strcmp(key, "reflectance")) {
             if (!(st = pds__p_rgb(P, key, m.reflectance)) &&
                 (m.reflectance[0] > 1 || m.reflectance[1] > 1 || m.reflectance[2] > 1))
@@ -7579,7 +7614,7 @@ static void pds__direct_light(const pds__tracer *tr, const pds_material *m, pds_
     if (k < 0 || !(pmf > 0.0)) return;
     if (!pds__light_sample_li(&s->light_table, &s->lights[k], k, &s->mesh, p, u1, u2, &li)) return;
     if (!pds__bsdf_frame(wo, ns, ng, &n, &ngw, &side)) return;
-    pds__bsdf_eval(m, wo, li.wi, ns, ng, f, &pdf_bsdf);
+    pds__bsdf_eval(m, p, wo, li.wi, ns, ng, f, &pdf_bsdf);
     cosine = pds__dot(li.wi, n);
     if (!(cosine > 0.0) || !(f[0] + f[1] + f[2] > 0.0)) return;
     org = pds__offset(tr, p, ng, li.wi);
@@ -7663,7 +7698,7 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
         }
         if (depth == tr->max_depth) return recorded;
         for (c = 0; c < 3; c++) u[c] = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 3 + (uint64_t)c);
-        if (!pds__bsdf_sample(m, pds__scale(dir, -1.0), hit.ns, hit.ng, u, PDS__RADIANCE, &bs)) return recorded;
+        if (!pds__bsdf_sample(m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, u, PDS__RADIANCE, &bs)) return recorded;
         for (c = 0; c < 3; c++) beta[c] *= bs.weight[c];
         if (bs.delta) {
             specular_since++;
@@ -8104,7 +8139,7 @@ static void pds__splat_visit(void *vctx, size_t index, double dist2)
     r2 = y0 * y0 + y1 * y1;
     if (r2 >= 1.0) return;
     k = pds__kernel_silverman(r2);
-    pds__bsdf_eval(&s->materials.items[v->material], pds__f3_get(v->wo), sc->wi, ns, ng, f, &pdf);
+    pds__bsdf_eval(&s->materials.items[v->material], pds__f3_get(v->pos), pds__f3_get(v->wo), sc->wi, ns, ng, f, &pdf);
     for (c = 0; c < 3; c++) {
         double val = PDS__PI * k * f[c] * sc->ep[c] * v->importance[c];
         if (val > 0.0) pds__fixed_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
@@ -8202,7 +8237,7 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
         if (depth == job->max_depth) return;
         for (c = 0; c < 3; c++)
             uu[c] = pds__rng_uniform(job->seed, PDS__RNG_PHOTON, (uint64_t)i, 8 + 4 * (uint64_t)depth + (uint64_t)c);
-        if (!pds__bsdf_sample(m, pds__scale(r.d, -1.0), hit.ns, hit.ng, uu, PDS__IMPORTANCE, &bs)) return;
+        if (!pds__bsdf_sample(m, hit.position, pds__scale(r.d, -1.0), hit.ns, hit.ng, uu, PDS__IMPORTANCE, &bs)) return;
         if (!pds__bsdf_frame(pds__scale(r.d, -1.0), hit.ns, hit.ng, &n, &ngw, &side)) return;
         if (!job->differentials) {
             /* the baselines trace bare photons */
@@ -8450,7 +8485,7 @@ static void pds__pm_estimate(const pds__gather *g, const pds__eye_vertex *v, con
 {
     const pds__stored_photon *photons = (const pds__stored_photon *)g->photons;
     const pds_material *m = &g->scene->materials.items[v->material];
-    pds__v3 ng = pds__f3_get(v->ng), ns = pds__f3_get(v->ns), wo = pds__f3_get(v->wo);
+    pds__v3 x = pds__f3_get(v->pos), ng = pds__f3_get(v->ng), ns = pds__f3_get(v->ns), wo = pds__f3_get(v->wo);
     double r2 = d2[n - 1], area;
     size_t j;
     int c;
@@ -8459,7 +8494,7 @@ static void pds__pm_estimate(const pds__gather *g, const pds__eye_vertex *v, con
         const pds__stored_photon *p = &photons[idx[j]];
         double f[3], pdf, w;
         if (pds__dot(pds__f3_get(p->ng), ng) <= 0.0) continue; /* another surface orientation */
-        pds__bsdf_eval(m, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
+        pds__bsdf_eval(m, x, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
         w = pds__pm_weight(g->kernel, d2[j], r2);
         for (c = 0; c < 3; c++) sum[c] += f[c] * p->flux[c] * w;
     }
@@ -8588,7 +8623,7 @@ static void pds__pdm_estimate(const pds__gather *g, const pds__eye_vertex *v, co
         /* the same guards as the PDS splat */
         if (r2 >= 1.0 || fabs(pds__dot(np, d)) > g->plane_tolerance * p->major || pds__dot(ng, np) <= 0.0) continue;
         k = pds__kernel_silverman(r2);
-        pds__bsdf_eval(m, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
+        pds__bsdf_eval(m, x, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
         for (c = 0; c < 3; c++) sum[c] += PDS__PI * k * f[c] * p->ep[c];
     }
 }
@@ -8680,8 +8715,8 @@ static void pds__ppm_visit(void *ctx, size_t index, double dist2)
     (void)dist2;
     if (pds__dot(pds__f3_get(p->ng), ng) <= 0.0) return;
     g->found++;
-    pds__bsdf_eval(g->m, pds__f3_get(g->v->wo), pds__scale(pds__f3_get(p->dir), -1.0), pds__f3_get(g->v->ns), ng, f,
-                   &pdf);
+    pds__bsdf_eval(g->m, pds__f3_get(g->v->pos), pds__f3_get(g->v->wo), pds__scale(pds__f3_get(p->dir), -1.0),
+                   pds__f3_get(g->v->ns), ng, f, &pdf);
     for (c = 0; c < 3; c++) g->phi[c] += f[c] * p->flux[c] * g->job->photon_scale;
 }
 

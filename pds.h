@@ -116,6 +116,9 @@ typedef struct pds_material {
     char name[64];
     pds_material_type type;
     double albedo[3];      /* diffuse */
+    double tile_size, tile_grout; /* diffuse, optional: grout lines of width
+                              tile_grout every tile_size (0: untiled) */
+    double grout_albedo[3];/* diffuse: albedo of the grout lines */
     double reflectance[3]; /* mirror */
     double eta[3], k[3];   /* conductor: complex index of refraction per RGB */
     double ior;            /* dielectric: index of the medium behind the surface

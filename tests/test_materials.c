@@ -278,7 +278,7 @@ static void test_dielectric_radiance_weight(pds_test_ctx *t)
     pds__bsdf_result s;
     /* from the front (air) into glass: eye radiance scales by (1/1.5)^2 */
     pds__v3 wo = pds__v(0.6, 0.0, 0.8);
-    REQUIRE(t, pds__bsdf_sample(&m, wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
+    REQUIRE(t, pds__bsdf_sample(&m, pds__v(0, 0, 0), wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
     REQUIRE(t, s.transmitted == 1 && s.delta == 1 && s.side == -1, "expected refraction into the back");
     CHECK_NEAR(t, s.weight[0], 1.0 / 2.25, 1e-15);
     CHECK_NEAR(t, s.weight[2], 1.0 / 2.25, 1e-15);
@@ -287,20 +287,20 @@ static void test_dielectric_radiance_weight(pds_test_ctx *t)
     CHECK_NEAR(t, s.wi.x, -0.4, 1e-12);
     CHECK_NEAR(t, s.wi.y, 0.0, 1e-12);
     CHECK_NEAR(t, s.wi.z, -sqrt(0.84), 1e-12);
-    REQUIRE(t, pds__bsdf_sample(&m, wo, ng, ng, u, PDS__IMPORTANCE, &s), "no sample");
+    REQUIRE(t, pds__bsdf_sample(&m, pds__v(0, 0, 0), wo, ng, ng, u, PDS__IMPORTANCE, &s), "no sample");
     CHECK_NEAR(t, s.weight[1], 1.0, 0.0);
     /* from the back (glass) out to air: x 1.5^2 */
     wo = pds__v(0.4, 0.0, -sqrt(0.84));
-    REQUIRE(t, pds__bsdf_sample(&m, wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
+    REQUIRE(t, pds__bsdf_sample(&m, pds__v(0, 0, 0), wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
     REQUIRE(t, s.transmitted == 1 && s.side == 1, "expected refraction to the front");
     CHECK_NEAR(t, s.weight[0], 2.25, 1e-14);
     CHECK_NEAR(t, s.wi.x, -0.6, 1e-12);
     CHECK_NEAR(t, s.wi.z, 0.8, 1e-12);
-    REQUIRE(t, pds__bsdf_sample(&m, wo, ng, ng, u, PDS__IMPORTANCE, &s), "no sample");
+    REQUIRE(t, pds__bsdf_sample(&m, pds__v(0, 0, 0), wo, ng, ng, u, PDS__IMPORTANCE, &s), "no sample");
     CHECK_NEAR(t, s.weight[0], 1.0, 0.0);
     /* reflection carries no eta factor in either mode */
     u[0] = 0.0;
-    REQUIRE(t, pds__bsdf_sample(&m, wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
+    REQUIRE(t, pds__bsdf_sample(&m, pds__v(0, 0, 0), wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
     CHECK(t, s.transmitted == 0 && s.side == -1, "expected reflection inside");
     CHECK_NEAR(t, s.weight[0], 1.0, 0.0);
     CHECK_NEAR(t, s.pdf, pds__fresnel_dielectric(sqrt(0.84), 1.5, 1.0), 1e-15);
@@ -320,7 +320,7 @@ static void mtest_albedo(const pds_material *m, pds__v3 wo, pds__v3 ns, pds__v3 
         u[0] = mtest_u(seed, (uint64_t)j, 0);
         u[1] = mtest_u(seed, (uint64_t)j, 1);
         u[2] = mtest_u(seed, (uint64_t)j, 2);
-        if (!pds__bsdf_sample(m, wo, ns, ng, u, mode, &s)) {
+        if (!pds__bsdf_sample(m, pds__v(0, 0, 0), wo, ns, ng, u, mode, &s)) {
             (*nfail)++;
             continue;
         }
@@ -414,8 +414,8 @@ static void test_diffuse_reciprocity_and_pdf(pds_test_ctx *t)
         pds__v3 b = mtest_sphere(mtest_u(4, i, 4), mtest_u(4, i, 5));
         double fab[3], fba[3], pab, pba;
         int same_side, above;
-        pds__bsdf_eval(&m, a, b, ns, ng, fab, &pab);
-        pds__bsdf_eval(&m, b, a, ns, ng, fba, &pba);
+        pds__bsdf_eval(&m, pds__v(0, 0, 0), a, b, ns, ng, fab, &pab);
+        pds__bsdf_eval(&m, pds__v(0, 0, 0), b, a, ns, ng, fba, &pba);
         same_side = (pds__dot(a, ng) > 0) == (pds__dot(b, ng) > 0);
         /* both above the shading normal turned to their side */
         above = pds__dot(a, ns) * pds__dot(a, ng) > 0 && pds__dot(b, ns) * pds__dot(b, ng) > 0;
@@ -454,14 +454,14 @@ static void test_diffuse_cosine_distribution(pds_test_ctx *t)
         u[0] = mtest_u(5, i, 0);
         u[1] = mtest_u(5, i, 1);
         u[2] = 0.0;
-        REQUIRE(t, pds__bsdf_sample(&m, wo, n, n, u, PDS__RADIANCE, &s), "no diffuse sample");
+        REQUIRE(t, pds__bsdf_sample(&m, pds__v(0, 0, 0), wo, n, n, u, PDS__RADIANCE, &s), "no diffuse sample");
         REQUIRE(t, s.delta == 0 && s.transmitted == 0 && s.side == 1, "diffuse sample flags");
         cs = pds__dot(s.wi, n);
         sumcos += cs;
         if (i < 1000) {
             CHECK_NEAR(t, pds__length(s.wi), 1.0, 1e-12);
             CHECK_NEAR(t, s.pdf, cs / PDS__PI, 1e-12);
-            pds__bsdf_eval(&m, wo, s.wi, n, n, f, &pdf);
+            pds__bsdf_eval(&m, pds__v(0, 0, 0), wo, s.wi, n, n, f, &pdf);
             CHECK_NEAR(t, pdf, s.pdf, 1e-12);
             /* weight = f cos / pdf */
             CHECK_NEAR(t, s.weight[1], f[1] * cs / pdf, 1e-12);
@@ -499,7 +499,7 @@ static void test_geometric_normal_decides_side(pds_test_ctx *t)
 
     /* shading normal stored flipped: still entering from the front */
     wo = pds__v(0.6, 0.0, 0.8);
-    REQUIRE(t, pds__bsdf_sample(&m, wo, pds__scale(ng, -1.0), ng, u, PDS__RADIANCE, &s), "no sample");
+    REQUIRE(t, pds__bsdf_sample(&m, pds__v(0, 0, 0), wo, pds__scale(ng, -1.0), ng, u, PDS__RADIANCE, &s), "no sample");
     CHECK(t, s.transmitted == 1 && s.side == -1, "expected entering (side %d)", s.side);
     CHECK_NEAR(t, s.weight[0], 1.0 / 2.25, 1e-15);
     CHECK_NEAR(t, s.wi.x, -0.4, 1e-12);
@@ -514,7 +514,7 @@ static void test_geometric_normal_decides_side(pds_test_ctx *t)
     cosn = pds__dot(wo, n);
     f = pds__fresnel_dielectric(cosn, 1.5, 1.0);
     REQUIRE(t, f < 0.5, "test setup: expected no TIR (F %g)", f);
-    REQUIRE(t, pds__bsdf_sample(&m, wo, ns, ng, u, PDS__RADIANCE, &s), "no sample");
+    REQUIRE(t, pds__bsdf_sample(&m, pds__v(0, 0, 0), wo, ns, ng, u, PDS__RADIANCE, &s), "no sample");
     CHECK(t, s.transmitted == 1 && s.side == 1, "expected leaving to the front");
     CHECK_NEAR(t, s.weight[2], 2.25, 1e-14);
     CHECK_NEAR(t, s.pdf, 1.0 - f, 1e-15);
@@ -527,7 +527,7 @@ static void test_geometric_normal_decides_side(pds_test_ctx *t)
     REQUIRE(t, pds__bsdf_frame(wo, ns, ng, &n, &g, &side), "frame");
     CHECK(t, side == 1 && n.z == 1.0, "expected fallback to ng");
     u[0] = 0.0;
-    REQUIRE(t, pds__bsdf_sample(&m, wo, ns, ng, u, PDS__RADIANCE, &s), "no sample");
+    REQUIRE(t, pds__bsdf_sample(&m, pds__v(0, 0, 0), wo, ns, ng, u, PDS__RADIANCE, &s), "no sample");
     wi_ref = pds__v(-wo.x, -wo.y, wo.z);
     CHECK(t, s.transmitted == 0 && s.side == 1, "expected reflection");
     CHECK_NEAR(t, s.wi.x, wi_ref.x, 1e-12);
@@ -545,18 +545,18 @@ static void test_nested_media(pds_test_ctx *t)
     pds__bsdf_result s;
     m.ior = 1.33;
     m.outside_ior = 1.5;
-    REQUIRE(t, pds__bsdf_sample(&m, ng, ng, ng, u, PDS__RADIANCE, &s), "no sample");
+    REQUIRE(t, pds__bsdf_sample(&m, pds__v(0, 0, 0), ng, ng, ng, u, PDS__RADIANCE, &s), "no sample");
     CHECK(t, s.transmitted == 0, "u0 = 0 must reflect");
     CHECK_NEAR(t, s.pdf, r0, 1e-15);
     u[0] = 0.999;
     wo = pds__v(sin_i, 0.0, sqrt(1.0 - sin_i * sin_i));
-    REQUIRE(t, pds__bsdf_sample(&m, wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
+    REQUIRE(t, pds__bsdf_sample(&m, pds__v(0, 0, 0), wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
     CHECK(t, s.transmitted == 1 && s.side == -1, "expected entering the water");
     CHECK_NEAR(t, s.weight[0], (1.5 / 1.33) * (1.5 / 1.33), 1e-14);
     CHECK_NEAR(t, -s.wi.x, 1.5 / 1.33 * sin_i, 1e-12); /* 1.5 sin_i = 1.33 sin_t */
     /* and back out of the water into the glass */
     wo = pds__v(0.3, 0.0, -sqrt(1.0 - 0.09));
-    REQUIRE(t, pds__bsdf_sample(&m, wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
+    REQUIRE(t, pds__bsdf_sample(&m, pds__v(0, 0, 0), wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
     CHECK(t, s.transmitted == 1 && s.side == 1, "expected leaving the water");
     CHECK_NEAR(t, s.weight[0], (1.33 / 1.5) * (1.33 / 1.5), 1e-14);
     CHECK_NEAR(t, -s.wi.x, 1.33 / 1.5 * 0.3, 1e-12);
@@ -574,7 +574,7 @@ static void test_tir_always_reflects(pds_test_ctx *t)
         double u[3];
         pds__bsdf_result s;
         u[0] = us[i]; u[1] = u[2] = 0.5;
-        REQUIRE(t, pds__bsdf_sample(&m, wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
+        REQUIRE(t, pds__bsdf_sample(&m, pds__v(0, 0, 0), wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
         CHECK(t, s.transmitted == 0 && s.side == -1 && s.delta == 1, "TIR must reflect inside");
         CHECK_NEAR(t, s.pdf, 1.0, 0.0);
         CHECK_NEAR(t, s.weight[0], 1.0, 0.0);
@@ -590,13 +590,13 @@ static void test_mirror_and_conductor_reflect(pds_test_ctx *t)
     double u[3] = {0.3, 0.6, 0.9}, c = pds__dot(wo, ng);
     pds__v3 r = pds__sub(pds__scale(ng, 2.0 * c), wo);
     pds__bsdf_result s;
-    REQUIRE(t, pds__bsdf_sample(&mir, wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
+    REQUIRE(t, pds__bsdf_sample(&mir, pds__v(0, 0, 0), wo, ng, ng, u, PDS__RADIANCE, &s), "no sample");
     CHECK(t, s.delta == 1 && s.transmitted == 0 && s.side == 1, "mirror flags");
     CHECK_NEAR(t, s.pdf, 1.0, 0.0);
     CHECK_NEAR(t, s.weight[1], 0.7, 0.0);
     CHECK_NEAR(t, pds__dot(s.wi, r), 1.0, 1e-12);
     /* from behind: reflects behind, same reflectance */
-    REQUIRE(t, pds__bsdf_sample(&con, pds__scale(wo, -1.0), ng, ng, u, PDS__IMPORTANCE, &s), "no sample");
+    REQUIRE(t, pds__bsdf_sample(&con, pds__v(0, 0, 0), pds__scale(wo, -1.0), ng, ng, u, PDS__IMPORTANCE, &s), "no sample");
     CHECK(t, s.side == -1 && s.transmitted == 0, "conductor from behind");
     CHECK_NEAR(t, pds__dot(s.wi, pds__scale(r, -1.0)), 1.0, 1e-12);
     CHECK_NEAR(t, s.weight[0], pds__fresnel_conductor(c, 0.14, 3.697), 1e-15);
@@ -610,13 +610,13 @@ static void test_sample_rejections(pds_test_ctx *t)
     pds__bsdf_result s;
     pds_material em = mtest_material(PDS_MAT_EMISSIVE), dif = mtest_material(PDS_MAT_DIFFUSE);
     pds_material mir = mtest_material(PDS_MAT_MIRROR);
-    CHECK(t, !pds__bsdf_sample(&em, ng, ng, ng, u, PDS__RADIANCE, &s), "emitters absorb");
+    CHECK(t, !pds__bsdf_sample(&em, pds__v(0, 0, 0), ng, ng, ng, u, PDS__RADIANCE, &s), "emitters absorb");
     dif.albedo[0] = dif.albedo[1] = dif.albedo[2] = 0.0;
-    CHECK(t, !pds__bsdf_sample(&dif, ng, ng, ng, u, PDS__RADIANCE, &s), "zero albedo absorbs");
-    CHECK(t, !pds__bsdf_sample(&mir, pds__v(1, 0, 0), ng, ng, u, PDS__RADIANCE, &s), "tangent wo");
+    CHECK(t, !pds__bsdf_sample(&dif, pds__v(0, 0, 0), ng, ng, ng, u, PDS__RADIANCE, &s), "zero albedo absorbs");
+    CHECK(t, !pds__bsdf_sample(&mir, pds__v(0, 0, 0), pds__v(1, 0, 0), ng, ng, u, PDS__RADIANCE, &s), "tangent wo");
     /* wo along ng, mirror about a 60-degree shading normal: wi.z = -0.5 */
-    CHECK(t, !pds__bsdf_sample(&mir, ng, ns, ng, u, PDS__RADIANCE, &s), "reflection under the surface");
-    CHECK(t, pds__bsdf_sample(&mir, ng, ng, ng, u, PDS__RADIANCE, &s), "flat mirror reflects");
+    CHECK(t, !pds__bsdf_sample(&mir, pds__v(0, 0, 0), ng, ns, ng, u, PDS__RADIANCE, &s), "reflection under the surface");
+    CHECK(t, pds__bsdf_sample(&mir, pds__v(0, 0, 0), ng, ng, ng, u, PDS__RADIANCE, &s), "flat mirror reflects");
 }
 
 static void test_eval_nondiffuse_is_zero(pds_test_ctx *t)
@@ -628,7 +628,7 @@ static void test_eval_nondiffuse_is_zero(pds_test_ctx *t)
     for (i = 0; i < 4; i++) {
         pds_material m = mtest_material(types[i]);
         double f[3] = {1, 1, 1}, pdf = 1;
-        pds__bsdf_eval(&m, wo, wi, ng, ng, f, &pdf);
+        pds__bsdf_eval(&m, pds__v(0, 0, 0), wo, wi, ng, ng, f, &pdf);
         CHECK(t, f[0] == 0 && f[1] == 0 && f[2] == 0 && pdf == 0, "type %d: delta BSDFs have no density", (int)types[i]);
         CHECK(t, pds__material_is_specular(&m) == (types[i] != PDS_MAT_EMISSIVE), "is_specular type %d",
               (int)types[i]);
@@ -698,7 +698,44 @@ static void test_ior_cauchy(pds_test_ctx *t)
     CHECK(t, pds__ior_at(&m, 450.0) > pds__ior_at(&m, 650.0), "normal dispersion: blue bends more");
 }
 
+/* Tiled diffuse materials: the albedo at a tile's middle, the grout's on
+   the lines, along the two axes that lie in the surface (a floor: x and
+   z; a wall facing z: x and y); the BSDF sampler and evaluator use it. */
+static void test_tiles_put_grout_lines_along_the_surface_axes(pds_test_ctx *t)
+{
+    pds_material m;
+    double a[3], f[3], pdf, u[3] = {0.3, 0.6, 0.0};
+    pds__bsdf_result s;
+    pds__v3 up = pds__v(0, 1, 0), front = pds__v(0, 0, 1);
+    memset(&m, 0, sizeof m);
+    m.type = PDS_MAT_DIFFUSE;
+    m.albedo[0] = m.albedo[1] = m.albedo[2] = 0.5;
+    m.tile_size = 0.25;
+    m.tile_grout = 0.02;
+    m.grout_albedo[0] = m.grout_albedo[1] = m.grout_albedo[2] = 0.9;
+    pds__albedo_at(&m, pds__v(0.125, 7.0, -0.375), up, a);
+    CHECK_NEAR(t, a[0], 0.5, 0.0);
+    pds__albedo_at(&m, pds__v(0.259, 0.0, 0.125), up, a); /* 0.009 from the line x = 0.25 */
+    CHECK_NEAR(t, a[1], 0.9, 0.0);
+    pds__albedo_at(&m, pds__v(0.262, 0.0, 0.125), up, a); /* 0.012: on the tile */
+    CHECK_NEAR(t, a[1], 0.5, 0.0);
+    pds__albedo_at(&m, pds__v(0.125, 0.0, -0.495), up, a); /* near z = -0.5 */
+    CHECK_NEAR(t, a[2], 0.9, 0.0);
+    pds__albedo_at(&m, pds__v(0.125, 0.0, 0.125), front, a); /* a wall: y = 0 is a line */
+    CHECK_NEAR(t, a[2], 0.9, 0.0);
+    pds__albedo_at(&m, pds__v(0.125, 0.125, 0.0), front, a);
+    CHECK_NEAR(t, a[2], 0.5, 0.0);
+    REQUIRE(t, pds__bsdf_sample(&m, pds__v(0.25, 0, 0.125), up, up, up, u, PDS__RADIANCE, &s), "no sample");
+    CHECK_NEAR(t, s.weight[0], 0.9, 0.0);
+    pds__bsdf_eval(&m, pds__v(0.125, 0, 0.125), up, up, up, up, f, &pdf);
+    CHECK_NEAR(t, f[0], 0.5 / PDS__PI, 1e-15);
+    m.tile_size = 0.0;
+    pds__albedo_at(&m, pds__v(0.25, 0.0, 0.25), up, a);
+    CHECK_NEAR(t, a[0], 0.5, 0.0);
+}
+
 static const pds_test_case tests_materials[] = {
+    {"tiles_put_grout_lines_along_the_surface_axes", test_tiles_put_grout_lines_along_the_surface_axes},
     {"fresnel_dielectric_normal_incidence_is_0_04_for_glass", test_fresnel_normal_incidence},
     {"fresnel_dielectric_at_brewster_angle_is_half_r_perp", test_fresnel_brewster},
     {"fresnel_dielectric_matches_hand_value_at_45_degrees", test_fresnel_45_degrees},
