@@ -145,7 +145,7 @@ static void test_scene_errors_name_file_line_column_word_for_word(pds_test_ctx *
         {"light directional { irradiance 1 }",
          "FILE:1:7: directional light needs an emitter: 'disk CENTER RADIUS' or 'rect CENTER EDGE1 EDGE2'", PDS_ERR_PARSE},
         {"material d diffuse { albedo 1.5 }", "FILE:1:29: 'albedo' must be at most 1 (energy conservation)", PDS_ERR_PARSE},
-        {"material d diffuse { tiles 0.2 0.3 1 }", "FILE:1:33: 'tiles' must be between 0 and 0.2, got 0.3", PDS_ERR_PARSE},
+        {"material d diffuse { tiles 0.2 0.3 1 }", "FILE:1:32: 'tiles' must be between 0 and 0.2, got 0.3", PDS_ERR_PARSE},
         {"material d diffuse { tiles 0.2 0.01 2 }", "FILE:1:37: the grout albedo of 'tiles' must be between 0 and 1", PDS_ERR_PARSE},
         {"torus { major 1 minor 2 }", "FILE:1:1: torus 'minor' must be smaller than 'major'", PDS_ERR_PARSE},
         {"sphere { scale 0 }", "FILE:1:16: 'scale' factors must be positive (use 'rotate' to turn a shape over)", PDS_ERR_PARSE},
