@@ -8861,13 +8861,43 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
    the top of the tree stays in cache.) Returns
    the seconds left for tracing out of `remaining`, given the photons
    traced per second (`rate`). The caller throws the probe's images away. */
+/* What the probe measured (all times in seconds). */
+typedef struct pds__map_probe {
+    double build_s, gather_s;  /* the probe map's build, its gather */
+    double found;              /* photons one probe query returned, on average */
+    double map_photons;        /* photons the probe map held */
+    double emitted;            /* photons emitted to fill it */
+    double planned;            /* the photon count the calibration planned for */
+    double queried;            /* eye vertices the probe gathered at */
+} pds__map_probe;
+
+/* The model above, solved: the seconds of tracing, at `rate` photons per
+   second, after which tracing, build and gather of nv vertices fill
+   `remaining`. pdm: is the method pdm; k: pm's k or pdm's max_photons. */
+static double pds__map_plan(const pds__map_probe *p, int pdm, double k, size_t nv, double rate, double remaining)
+{
+    double share = p->map_photons / p->emitted, mlog = log(p->map_photons), lo = 0.0, hi = rate * remaining;
+    double per_vertex = p->gather_s / p->queried / (1.0 + p->found);
+    double found = fmin(k, p->found * p->planned / p->emitted);
+    int i;
+    /* bisect for the photon count n whose tracing and map fill the budget */
+    for (i = 0; i < 60; i++) {
+        double n = 0.5 * (lo + hi), m = fmax(2.0, n * share), lm = log(m) / mlog;
+        double f = pdm ? found : fmin(k, m);
+        double cost = n / rate + p->build_s * m / p->map_photons * fmax(1.0, lm) +
+                      per_vertex * (double)nv * (1.0 + f) * sqrt(fmax(1.0, lm));
+        if (cost > remaining) hi = n;
+        else lo = n;
+    }
+    return lo / rate;
+}
+
 static double pds__map_budget(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
                               int threads, double rate, double remaining)
 {
     size_t step = nv / 4096 + 1, nsub = 0, i;
     pds__eye_vertex *sub = (pds__eye_vertex *)malloc(sizeof *sub * (nv / step + 1));
-    double emitted = (double)job->n_total, share, lo, hi, mlog, per_vertex, found, k = (double)(
-        opt->method == PDS_METHOD_PM ? opt->k : opt->max_photons);
+    pds__map_probe p;
     pds_error ignored;
     pds_status st;
     if (!sub) return remaining;
@@ -8878,23 +8908,15 @@ static double pds__map_budget(pds__photon_job *job, const pds_options *opt, cons
                                       : pds__pdm_gather(job, opt, sub, nsub, threads, NULL, &ignored);
     free(sub);
     if (st || job->map_photons < 2 || nsub == 0) return remaining;
-    share = (double)job->map_photons / emitted;
-    mlog = log((double)job->map_photons);
-    found = job->gather_found / (double)nsub;
-    per_vertex = job->gather_s / (double)nsub / (1.0 + found);
-    if (opt->method == PDS_METHOD_PDM) found = fmin(k, found * job->n_planned / emitted);
-    /* bisect for the photon count n whose tracing and map fill the budget */
-    lo = 0.0;
-    hi = rate * remaining;
-    for (i = 0; i < 60; i++) {
-        double n = 0.5 * (lo + hi), m = fmax(2.0, n * share), lm = log(m) / mlog;
-        double f = opt->method == PDS_METHOD_PM ? fmin(k, m) : found;
-        double cost = n / rate + job->build_s * m / (double)job->map_photons * fmax(1.0, lm) +
-                      per_vertex * (double)nv * (1.0 + f) * sqrt(fmax(1.0, lm));
-        if (cost > remaining) hi = n;
-        else lo = n;
-    }
-    return lo / rate;
+    p.build_s = job->build_s;
+    p.gather_s = job->gather_s;
+    p.found = job->gather_found / (double)nsub;
+    p.map_photons = (double)job->map_photons;
+    p.emitted = (double)job->n_total;
+    p.planned = job->n_planned;
+    p.queried = (double)nsub;
+    return pds__map_plan(&p, opt->method == PDS_METHOD_PDM, (double)(opt->method == PDS_METHOD_PM ? opt->k : opt->max_photons),
+                         nv, rate, remaining);
 }
 
 /* --- the photon pass --------------------------------------------------- */

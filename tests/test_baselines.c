@@ -264,68 +264,37 @@ static void test_pm_under_a_time_budget_maps_only_the_photons_it_counts(pds_test
     pds_image_free(&b);
 }
 
-/* The time planner of pm and pdm leaves room for the map: it gives the
-   tracing less than the whole budget, more of it for a larger budget, and
-   pdm less than pm: each footprint here covers ~30 probe photons, so with
-   the map planned 24x denser every pdm query meets max_photons = 500
-   footprints against pm's k = 50 photons. */
-static void test_map_budget_leaves_time_for_the_build_and_gather(pds_test_ctx *t)
+/* The time planner of pm and pdm leaves room for the map, on fixed probe
+   figures (no clock involved): a probe of 1024 vertices that took 1 ms to
+   gather 2000 stored photons (of 4000 emitted, planned 100000) and 0.1 ms
+   to build; 100,000 eye vertices; 1e6 photons traced per second. */
+static void test_map_plan_leaves_time_for_the_build_and_gather(pds_test_ctx *t)
 {
-    static const pds_method methods[2] = {PDS_METHOD_PM, PDS_METHOD_PDM};
-    double tracing[2][2];
-    int m, b;
-    for (m = 0; m < 2; m++) {
-        for (b = 0; b < 2; b++) {
-            pds_error err;
-            pds_scene *s = scene_from_text(slab_scene, &err);
-            pds_options opt;
-            pds__photon_job job;
-            pds__eye_vertex *v;
-            size_t i, nv = 20000;
-            REQUIRE(t, s != NULL, "%s", err.text);
-            pds_options_default(&opt);
-            opt.method = methods[m];
-            v = (pds__eye_vertex *)calloc(nv, sizeof *v);
-            REQUIRE(t, v != NULL, "alloc");
-            for (i = 0; i < nv; i++) {
-                /* vertices over the lit floor, facing up */
-                v[i].pos[0] = (float)((double)(i % 141) / 141.0 - 0.5);
-                v[i].pos[2] = (float)((double)(i / 141) / 141.0 - 0.5);
-                v[i].ns[1] = v[i].ng[1] = v[i].wo[1] = 1.0f;
-                v[i].importance[0] = v[i].importance[1] = v[i].importance[2] = 1.0f;
-            }
-            memset(&job, 0, sizeof job);
-            job.nbufs = 1;
-            job.bufs = (pds__splat_buf *)calloc(1, sizeof *job.bufs);
-            REQUIRE(t, job.bufs != NULL, "alloc");
-            job.bufs[0].fixed = (long long *)calloc(3, sizeof(long long));
-            /* a probe map: 4096 photons on the floor, planned for 100000 */
-            for (i = 0; i < 4096; i++) {
-                pds__ray_diff r;
-                double flux[3] = {1e-5, 1e-5, 1e-5};
-                memset(&r, 0, sizeof r);
-                r.p = pds__v((double)(i % 64) / 64.0 - 0.5, 0.0, (double)(i / 64) / 64.0 - 0.5);
-                r.d = pds__v(0.0, -1.0, 0.0);
-                r.dpdu = pds__v(0.05, 0.0, 0.0);
-                r.dpdv = pds__v(0.0, 0.0, 0.05);
-                if (methods[m] == PDS_METHOD_PM) pds__store_photon(&job, &job.bufs[0], &r, pds__v(0, 1, 0), flux, (long)i);
-                else pds__store_diff_photon(&job, &job.bufs[0], &r, pds__v(0, 1, 0), flux, (long)i);
-            }
-            job.scene = s;
-            job.n_total = 4096;
-            job.n_planned = 100000.0;
-            tracing[m][b] = pds__map_budget(&job, &opt, v, nv, 1, 1e6, b ? 2.0 : 0.5);
-            free(job.bufs[0].fixed);
-            free(job.bufs[0].stored);
-            free(job.bufs[0].dstored);
-            free(job.bufs);
-            free(v);
-            pds_scene_free(s);
-        }
-        CHECK(t, tracing[m][0] > 0.0 && tracing[m][0] < 0.5 && tracing[m][1] < 2.0 && tracing[m][1] > tracing[m][0],
-              "%s: %g s of 0.5 s, %g s of 2 s", pds_method_name(methods[m]), tracing[m][0], tracing[m][1]);
-    }
-    CHECK(t, tracing[1][1] < tracing[0][1], "pdm traces %g s, pm %g s", tracing[1][1], tracing[0][1]);
+    pds__map_probe p;
+    double pm_half, pm_two, pdm_two, n, m, cost;
+    p.build_s = 1e-4;
+    p.gather_s = 1e-3;
+    p.found = 50.0;
+    p.map_photons = 2000.0;
+    p.emitted = 4000.0;
+    p.planned = 100000.0;
+    p.queried = 1024.0;
+    pm_half = pds__map_plan(&p, 0, 50.0, 100000, 1e6, 0.5);
+    pm_two = pds__map_plan(&p, 0, 50.0, 100000, 1e6, 2.0);
+    /* pm, 2 s: the tracing plus the modelled build and gather fill the budget */
+    n = pm_two * 1e6;
+    m = 0.5 * n;
+    cost = pm_two + 1e-4 * m / 2000.0 * log(m) / log(2000.0) +
+           1e-3 / 1024.0 / 51.0 * 100000.0 * 51.0 * sqrt(log(m) / log(2000.0));
+    CHECK_NEAR(t, cost, 2.0, 1e-6);
+    CHECK(t, pm_half > 0.0 && pm_half < 0.5 && pm_two > pm_half && pm_two < 2.0, "pm: %g of 0.5 s, %g of 2 s", pm_half,
+          pm_two);
+    /* pdm: each query will meet min(500, 50 * 100000 / 4000) = 500 footprints */
+    p.found = 50.0;
+    pdm_two = pds__map_plan(&p, 1, 500.0, 100000, 1e6, 2.0);
+    CHECK(t, pdm_two < pm_two, "pdm traces %g s, pm %g s", pdm_two, pm_two);
+    /* a budget the gather alone exceeds leaves no tracing */
+    CHECK_NEAR(t, pds__map_plan(&p, 1, 500.0, 100000, 1e6, 0.1), 0.0, 1e-9);
 }
 
 static const pds_test_case tests_baselines[] = {
@@ -338,5 +307,5 @@ static const pds_test_case tests_baselines[] = {
     {"ppm_updates_follow_the_published_recurrence", test_ppm_updates_follow_the_published_recurrence},
     {"ppm_converges_on_the_uniform_caustic", test_ppm_converges_on_the_uniform_caustic},
     {"pm_under_a_time_budget_maps_only_the_photons_it_counts", test_pm_under_a_time_budget_maps_only_the_photons_it_counts},
-    {"map_budget_leaves_time_for_the_build_and_gather", test_map_budget_leaves_time_for_the_build_and_gather},
+    {"map_plan_leaves_time_for_the_build_and_gather", test_map_plan_leaves_time_for_the_build_and_gather},
 };
