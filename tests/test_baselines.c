@@ -129,6 +129,20 @@ static void test_baselines_are_identical_for_any_thread_count(pds_test_ctx *t)
     }
 }
 
+/* The largest per-channel difference of two images of one size, and the
+   largest value of the first (the scale the difference is judged on). */
+static double baseline_worst_difference(const pds_image *a, const pds_image *b, double *peak)
+{
+    size_t i, n = (size_t)a->width * a->height * 3;
+    double worst = 0.0;
+    *peak = 0.0;
+    for (i = 0; i < n; i++) {
+        double d = fabs((double)a->rgb[i] - b->rgb[i]);
+        if (d > worst) worst = d;
+        if (a->rgb[i] > *peak) *peak = a->rgb[i];
+    }
+    return worst;
+}
 
 static void pdm_big_cap(pds_options *o) { o->max_photons = 100000; }
 
@@ -139,16 +153,10 @@ static void test_pdm_gathers_the_same_image_pds_splats(pds_test_ctx *t)
 {
     pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
     pds_render_stats sa, sb;
-    size_t i, n;
-    double worst = 0.0, peak = 0.0;
+    double worst, peak;
     REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PDS, 20000, 2, &a, &sa, NULL), "pds");
     REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PDM, 20000, 2, &b, &sb, pdm_big_cap), "pdm");
-    n = (size_t)a.width * a.height * 3;
-    for (i = 0; i < n; i++) {
-        double d = fabs((double)a.rgb[i] - b.rgb[i]);
-        if (d > worst) worst = d;
-        if (a.rgb[i] > peak) peak = a.rgb[i];
-    }
+    worst = baseline_worst_difference(&a, &b, &peak);
     CHECK(t, peak > 0.0 && worst <= 1e-5 * peak, "largest difference %g (peak %g)", worst, peak);
     CHECK(t, sb.splatted == sa.splatted && sb.map_bytes > 0, "stored %ld photons, pds splatted %ld", sb.splatted,
           sa.splatted);
@@ -246,17 +254,11 @@ static void test_pm_under_a_time_budget_maps_only_the_photons_it_counts(pds_test
 {
     pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
     pds_render_stats sa, sb;
-    size_t i, n;
-    double worst = 0.0, peak = 0.0;
+    double worst, peak;
     REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, 0, 2, &a, &sa, budget_quarter_second), "pm --time");
     REQUIRE(t, sa.photons > 0, "no photons in time");
     REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, sa.photons, 2, &b, &sb, NULL), "pm --photons");
-    n = (size_t)a.width * a.height * 3;
-    for (i = 0; i < n; i++) {
-        double d = fabs((double)a.rgb[i] - b.rgb[i]);
-        if (d > worst) worst = d;
-        if (b.rgb[i] > peak) peak = b.rgb[i];
-    }
+    worst = baseline_worst_difference(&b, &a, &peak);
     CHECK(t, peak > 0.0 && worst <= 1e-5 * peak, "%ld photons: largest difference %g (peak %g)", sa.photons, worst,
           peak);
     CHECK(t, sa.splatted == sb.splatted, "stored %ld vs %ld", sa.splatted, sb.splatted);
