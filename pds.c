@@ -8059,6 +8059,8 @@ typedef struct pds__splat_buf {
     size_t nstored, cap_stored;
     pds__diff_photon *dstored;    /* pdm: landed photons with footprints */
     size_t ndstored, cap_dstored;
+    struct pds__landing *pending; /* pds, splat: this batch's landings */
+    size_t npending, cap_pending;
     int out_of_memory;
 } pds__splat_buf;
 
@@ -8195,6 +8197,82 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
     pds__kdtree_range(&job->map->tree, r->p, major, pds__splat_visit, &sc);
 }
 
+/* Splatting in the order photons land jumps about the eye-path map; each
+   batch's landings are kept and splatted in Morton order of their
+   positions instead, so consecutive range queries walk nearby parts of the
+   kd-tree and the eye vertices (which the photon pass stores in tree
+   order). Refraction case, 256x256, 200k photons, one thread: 6.0 s of CPU
+   before, 4.9 s with this order, 3.65 s with the vertices in tree order
+   too. The images are fixed-point sums, so the order changes nothing in
+   them. */
+typedef struct pds__landing {
+    pds__ray_diff r;
+    pds__v3 ng;
+    double flux[3];
+    long photon;
+    uint64_t key;   /* Morton code of r.p in the scene's bounds */
+} pds__landing;
+
+/* Spread the low 21 bits of v two bits apart (for a 63-bit Morton code). */
+static uint64_t pds__morton_spread(uint64_t v)
+{
+    v &= 0x1fffffu;
+    v = (v | v << 32) & 0x1f00000000ffffULL;
+    v = (v | v << 16) & 0x1f0000ff0000ffULL;
+    v = (v | v << 8) & 0x100f00f00f00f00fULL;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+    v = (v | v << 2) & 0x1249249249249249ULL;
+    return v;
+}
+
+static uint64_t pds__morton_key(const pds_scene *s, pds__v3 p)
+{
+    double q[3];
+    uint64_t key = 0;
+    int k;
+    for (k = 0; k < 3; k++) {
+        double lo = pds__v3_get(s->bounds_min, k), ext = pds__v3_get(s->bounds_max, k) - lo;
+        double t = ext > 0.0 ? (pds__v3_get(p, k) - lo) / ext : 0.0;
+        q[k] = t > 0.0 ? (t < 1.0 ? t * 2097151.0 : 2097151.0) : 0.0; /* NaN -> 0 */
+        key |= pds__morton_spread((uint64_t)q[k]) << k;
+    }
+    return key;
+}
+
+static void pds__defer_splat(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
+                             const double flux[3], long photon)
+{
+    pds__landing *l;
+    if (pds__grow((void **)&buf->pending, &buf->cap_pending, buf->npending + 1, sizeof *buf->pending)) {
+        pds__splat(job, buf, r, ng, flux, photon); /* no room to defer: splat now */
+        return;
+    }
+    l = &buf->pending[buf->npending++];
+    l->r = *r;
+    l->ng = ng;
+    memcpy(l->flux, flux, sizeof l->flux);
+    l->photon = photon;
+    l->key = pds__morton_key(job->scene, r->p);
+}
+
+static int pds__landing_cmp(const void *a, const void *b)
+{
+    const pds__landing *x = (const pds__landing *)a, *y = (const pds__landing *)b;
+    if (x->key != y->key) return x->key < y->key ? -1 : 1;
+    return (x->photon > y->photon) - (x->photon < y->photon);
+}
+
+static void pds__splat_pending(const pds__photon_job *job, pds__splat_buf *buf)
+{
+    size_t i;
+    qsort(buf->pending, buf->npending, sizeof *buf->pending, pds__landing_cmp);
+    for (i = 0; i < buf->npending; i++) {
+        const pds__landing *l = &buf->pending[i];
+        pds__splat(job, buf, &l->r, l->ng, l->flux, l->photon);
+    }
+    buf->npending = 0;
+}
+
 /* Trace photon number i: emission, specular bounces with the differential,
    splat at the first non-specular surface after >= 1 specular bounce. */
 static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, long i)
@@ -8293,6 +8371,7 @@ static void *pds__photon_worker(void *arg)
         first = b * (long)PDS__PHOTON_BATCH;
         last = first + PDS__PHOTON_BATCH < job->n_total ? first + PDS__PHOTON_BATCH : job->n_total;
         for (i = first; i < last; i++) pds__trace_photon(job, buf, job->index_offset + i);
+        if (buf->npending) pds__splat_pending(job, buf);
         pthread_mutex_lock(&job->lock);
         done = ++job->batches_done;
         pthread_mutex_unlock(&job->lock);
@@ -8941,9 +9020,22 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     map.v = vertices;
     map.n = nvertices;
     if (splats) {
+        pds__eye_vertex *ordered;
         st = pds__kdtree_build(&map.tree, nvertices ? &vertices[0].pos[0] : NULL, sizeof *vertices / sizeof(float),
                                nvertices, err);
         if (st) return st;
+        /* put the vertices in the tree's order, so that a splat reads the
+           vertices of one leaf from consecutive memory (half the splat
+           time went to cache misses on vertices scattered in pixel order) */
+        ordered = (pds__eye_vertex *)malloc(sizeof *ordered * (nvertices ? nvertices : 1));
+        if (ordered) {
+            for (i = 0; i < nvertices; i++) {
+                ordered[i] = vertices[map.tree.perm[i]];
+                map.tree.perm[i] = i;
+            }
+            memcpy(vertices, ordered, sizeof *ordered * nvertices);
+            free(ordered);
+        }
     }
     job.scene = s;
     job.map = &map;
@@ -8959,7 +9051,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
     job.t0 = t0;
-    job.land = splats ? pds__splat : opt->method == PDS_METHOD_PDM ? pds__store_diff_photon : pds__store_photon;
+    job.land = splats ? pds__defer_splat : opt->method == PDS_METHOD_PDM ? pds__store_diff_photon : pds__store_photon;
     job.differentials = opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_PDM;
     if (opt->method == PDS_METHOD_SPLAT) job.fixed_radius = opt->radius > 0.0 ? opt->radius : pds__default_radius(s);
     job.nbufs = threads;
@@ -9063,6 +9155,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         free(job.bufs[t].aniso);
         free(job.bufs[t].stored);
         free(job.bufs[t].dstored);
+        free(job.bufs[t].pending);
     }
     free(job.bufs);
     pds__kdtree_free(&map.tree);
