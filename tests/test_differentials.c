@@ -229,86 +229,73 @@ static void test_diff_transfer_onto_sphere_and_plane_matches_traced_neighbours(p
     pds_scene_free(s);
 }
 
-static void test_diff_reflection_off_mirror_sphere_matches_traced_neighbours(pds_test_ctx *t)
+/* A finite-difference case: photons from points spread over a square
+   (centre c, side `spread` in x and z) all along direction d, through the
+   specular events `path`, compared with their traced neighbours. */
+typedef struct dt_fd_case {
+    const char *what, *scene, *path;
+    double spread;
+    double c[3], d[3];
+} dt_fd_case;
+
+static void dt_fd_run(pds_test_ctx *t, const dt_fd_case *c)
 {
     pds_error err;
-    pds_scene *s = scene_from_text("material m mirror { reflectance 1 }\n"
-                                   "sphere { material m radius 1 segments 512 rings 256 rotate 90 1 0 0 }\n"
-                                   "sphere { radius 8 segments 256 rings 128 rotate 90 1 0 0 }\n",
-                                   &err);
+    pds_scene *s = scene_from_text(c->scene, &err);
     dt_fd_stats st;
     unsigned long i;
     REQUIRE(t, s != NULL, "%s", err.text);
     memset(&st, 0, sizeof st);
     for (i = 0; i < 40; i++) {
-        double x = 1.6 * (dt_rand(i, 0) - 0.5), z = 1.6 * (dt_rand(i, 1) - 0.5);
-        pds__ray_diff r = dt_photon(pds__v(x - 0.5, 3.0, z + 0.25), pds__v(0.2, -1.0, -0.1), i, 1.0, 0.3);
-        dt_fd_compare(s, &r, "R.", 2e-5, &st);
+        double x = c->spread * (dt_rand(i, 0) - 0.5), z = c->spread * (dt_rand(i, 1) - 0.5);
+        pds__ray_diff r = dt_photon(pds__v(c->c[0] + x, c->c[1], c->c[2] + z), pds__v(c->d[0], c->d[1], c->d[2]), i,
+                                    1.0, 0.3);
+        dt_fd_compare(s, &r, c->path, 2e-5, &st);
     }
-    dt_fd_check(t, "reflection off mirror sphere", &st, 1);
+    dt_fd_check(t, c->what, &st, 1);
     pds_scene_free(s);
+}
+
+static void test_diff_reflection_off_mirror_sphere_matches_traced_neighbours(pds_test_ctx *t)
+{
+    static const dt_fd_case c = {"reflection off mirror sphere",
+                                 "material m mirror { reflectance 1 }\n"
+                                 "sphere { material m radius 1 segments 512 rings 256 rotate 90 1 0 0 }\n"
+                                 "sphere { radius 8 segments 256 rings 128 rotate 90 1 0 0 }\n",
+                                 "R.", 1.6, {-0.5, 3.0, 0.25}, {0.2, -1.0, -0.1}};
+    dt_fd_run(t, &c);
 }
 
 static void test_diff_reflection_off_sine_heightfield_matches_traced_neighbours(pds_test_ctx *t)
 {
-    pds_error err;
-    pds_scene *s = scene_from_text("material m mirror { reflectance 1 }\n"
-                                   "heightfield { material m size 4 4 resolution 512 512\n"
-                                   "  wave 0.06 0.9 1 0  wave 0.03 0.55 0.6 0.8 40 }\n"
-                                   "sphere { radius 8 segments 256 rings 128 rotate 90 1 0 0 }\n",
-                                   &err);
-    dt_fd_stats st;
-    unsigned long i;
-    REQUIRE(t, s != NULL, "%s", err.text);
-    memset(&st, 0, sizeof st);
-    for (i = 0; i < 40; i++) {
-        double x = 2.0 * (dt_rand(i, 0) - 0.5), z = 2.0 * (dt_rand(i, 1) - 0.5);
-        pds__ray_diff r = dt_photon(pds__v(x, 2.0, z), pds__v(0.3, -1.0, 0.2), i, 1.0, 0.3);
-        dt_fd_compare(s, &r, "R.", 2e-5, &st);
-    }
-    dt_fd_check(t, "reflection off heightfield", &st, 1);
-    pds_scene_free(s);
+    static const dt_fd_case c = {"reflection off heightfield",
+                                 "material m mirror { reflectance 1 }\n"
+                                 "heightfield { material m size 4 4 resolution 512 512\n"
+                                 "  wave 0.06 0.9 1 0  wave 0.03 0.55 0.6 0.8 40 }\n"
+                                 "sphere { radius 8 segments 256 rings 128 rotate 90 1 0 0 }\n",
+                                 "R.", 2.0, {0.0, 2.0, 0.0}, {0.3, -1.0, 0.2}};
+    dt_fd_run(t, &c);
 }
 
 static void test_diff_refraction_through_glass_sphere_matches_traced_neighbours(pds_test_ctx *t)
 {
-    pds_error err;
-    pds_scene *s = scene_from_text("material g dielectric { ior 1.5 }\n"
-                                   "sphere { material g radius 1 segments 512 rings 256 rotate 90 1 0 0 }\n"
-                                   "quad { size 40 40 translate 0 -3 0 }\n",
-                                   &err);
-    dt_fd_stats st;
-    unsigned long i;
-    REQUIRE(t, s != NULL, "%s", err.text);
-    memset(&st, 0, sizeof st);
-    for (i = 0; i < 40; i++) {
-        double x = 1.4 * (dt_rand(i, 0) - 0.5), z = 1.4 * (dt_rand(i, 1) - 0.5);
-        pds__ray_diff r = dt_photon(pds__v(x, 3.0, z), pds__v(0.05, -1.0, 0.1), i, 1.0, 0.3);
-        dt_fd_compare(s, &r, "TT.", 2e-5, &st);
-    }
-    dt_fd_check(t, "refraction in and out of glass sphere", &st, 1);
-    pds_scene_free(s);
+    static const dt_fd_case c = {"refraction in and out of glass sphere",
+                                 "material g dielectric { ior 1.5 }\n"
+                                 "sphere { material g radius 1 segments 512 rings 256 rotate 90 1 0 0 }\n"
+                                 "quad { size 40 40 translate 0 -3 0 }\n",
+                                 "TT.", 1.4, {0.0, 3.0, 0.0}, {0.05, -1.0, 0.1}};
+    dt_fd_run(t, &c);
 }
 
 static void test_diff_refraction_into_water_heightfield_matches_traced_neighbours(pds_test_ctx *t)
 {
-    pds_error err;
-    pds_scene *s = scene_from_text("material w dielectric { ior 1.33 }\n"
-                                   "heightfield { material w size 4 4 resolution 512 512\n"
-                                   "  wave 0.05 0.8 1 0.3  wave 0.02 0.35 -0.2 1 70 }\n"
-                                   "quad { size 20 20 translate 0 -1.5 0 }\n",
-                                   &err);
-    dt_fd_stats st;
-    unsigned long i;
-    REQUIRE(t, s != NULL, "%s", err.text);
-    memset(&st, 0, sizeof st);
-    for (i = 0; i < 40; i++) {
-        double x = 2.0 * (dt_rand(i, 0) - 0.5), z = 2.0 * (dt_rand(i, 1) - 0.5);
-        pds__ray_diff r = dt_photon(pds__v(x, 2.0, z), pds__v(-0.2, -1.0, 0.3), i, 1.0, 0.3);
-        dt_fd_compare(s, &r, "T.", 2e-5, &st);
-    }
-    dt_fd_check(t, "refraction into water heightfield", &st, 1);
-    pds_scene_free(s);
+    static const dt_fd_case c = {"refraction into water heightfield",
+                                 "material w dielectric { ior 1.33 }\n"
+                                 "heightfield { material w size 4 4 resolution 512 512\n"
+                                 "  wave 0.05 0.8 1 0.3  wave 0.02 0.35 -0.2 1 70 }\n"
+                                 "quad { size 20 20 translate 0 -1.5 0 }\n",
+                                 "T.", 2.0, {0.0, 2.0, 0.0}, {-0.2, -1.0, 0.3}};
+    dt_fd_run(t, &c);
 }
 
 static void test_diff_reflection_inside_ring_matches_traced_neighbours(pds_test_ctx *t)
