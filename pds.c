@@ -4764,6 +4764,43 @@ typedef struct pds__kd_entry {
     double rd;
 } pds__kd_entry;
 
+/* Both queries' descent from node [lo, hi) (offset (ox, oy, oz) from the
+   query to the cell) down to the leaf holding the query q: at each median
+   m, the far child [.. ) waits on the stack with m itself and its offset,
+   unless its squared distance rd exceeds `bound`. d is the signed distance
+   to the split plane; d <= 0 means the query is on the low side, so
+   [lo, m) is the near child (a NaN split, from NaN points, sends it high
+   and never prunes, as every comparison with NaN fails). Returns the new
+   stack size. */
+static int pds__kd_descend(const float *pts, const unsigned char *axis, const double q[3], double bound,
+                           pds__kd_entry *stk, int sp, size_t *plo, size_t *phi, double ox, double oy, double oz)
+{
+    size_t lo = *plo, hi = *phi;
+    while (hi - lo > PDS__KD_LEAF) {
+        size_t m = lo + (hi - lo) / 2;
+        int a = axis[m];
+        double d = q[a] - (double)pts[3 * m + a];
+        double tx = a == 0 ? d : ox;
+        double ty = a == 1 ? d : oy;
+        double tz = a == 2 ? d : oz;
+        double rd = pds__kd_len2(tx, ty, tz);
+        int high = !(d <= 0.0);
+        stk[sp].m = m;
+        stk[sp].lo = high ? lo : m + 1;
+        stk[sp].hi = high ? m : hi;
+        stk[sp].o[0] = tx;
+        stk[sp].o[1] = ty;
+        stk[sp].o[2] = tz;
+        stk[sp].rd = rd;
+        sp += !(rd > bound);
+        lo = high ? m + 1 : lo;
+        hi = high ? hi : m;
+    }
+    *plo = lo;
+    *phi = hi;
+    return sp;
+}
+
 /* Call fn(ctx, caller's index, dist2) for every point with dist2 <= r*r
    (dist2 as pds__kd_dist2). Each point is reported exactly once; the
    order is that of the traversal (nearer child first), a function of the
@@ -4796,29 +4833,7 @@ static void pds__kdtree_range(const pds__kdtree *kd, pds__v3 c, double r, pds__k
     q[2] = c.z;
     r2 = r * r;
     for (;;) {
-        while (hi - lo > PDS__KD_LEAF) {
-            size_t m = lo + (hi - lo) / 2;
-            int a = axis[m];
-            /* d: signed distance to the split plane; d <= 0 means the
-               query is on the low side, so [lo, m) is the near child (a
-               NaN split, from NaN points, sends it high and never
-               prunes, as every comparison with NaN fails) */
-            double d = q[a] - (double)pts[3 * m + a];
-            double tx = a == 0 ? d : ox;
-            double ty = a == 1 ? d : oy;
-            double tz = a == 2 ? d : oz;
-            double rd = pds__kd_len2(tx, ty, tz);
-            int high = !(d <= 0.0);
-            stk[sp].m = m;
-            stk[sp].lo = high ? lo : m + 1;
-            stk[sp].hi = high ? m : hi;
-            stk[sp].o[0] = tx;
-            stk[sp].o[1] = ty;
-            stk[sp].o[2] = tz;
-            sp += !(rd > r2);
-            lo = high ? m + 1 : lo;
-            hi = high ? hi : m;
-        }
+        sp = pds__kd_descend(pts, axis, q, r2, stk, sp, &lo, &hi, ox, oy, oz);
         {
             size_t hit[PDS__KD_LEAF], i;
             double hd[PDS__KD_LEAF];
@@ -4952,26 +4967,7 @@ static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double
            (shrinking) bound when popped. Strict comparisons: a point at
            exactly the bound with a smaller index than the worst kept
            must still be seen. */
-        while (hi - lo > PDS__KD_LEAF) {
-            size_t m = lo + (hi - lo) / 2;
-            int a = axis[m];
-            double d = q[a] - (double)pts[3 * m + a];
-            double tx = a == 0 ? d : ox;
-            double ty = a == 1 ? d : oy;
-            double tz = a == 2 ? d : oz;
-            double rd = pds__kd_len2(tx, ty, tz);
-            int high = !(d <= 0.0);
-            stk[sp].m = m;
-            stk[sp].lo = high ? lo : m + 1;
-            stk[sp].hi = high ? m : hi;
-            stk[sp].o[0] = tx;
-            stk[sp].o[1] = ty;
-            stk[sp].o[2] = tz;
-            stk[sp].rd = rd;
-            sp += !(rd > bound);
-            lo = high ? m + 1 : lo;
-            hi = high ? hi : m;
-        }
+        sp = pds__kd_descend(pts, axis, q, bound, stk, sp, &lo, &hi, ox, oy, oz);
         for (i = lo; i < hi; i++) {
             double d2 = pds__kd_dist2(pts + 3 * i, q[0], q[1], q[2]);
             if (d2 <= bound) {
