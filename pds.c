@@ -7562,16 +7562,13 @@ static int pds__png_paeth(int a, int b, int c)
 /* Apply filter type 0-4 (None, Sub, Up, Average, Paeth; ISO/IEC 15948
    sec. 9.2) to one row of n bytes, bpp bytes per pixel: out[i] = cur[i]
    minus the predictor, modulo 256. prior is the row above (zeros above
-   the first row); bytes left of the row count as 0. Returns the sum of
-   |out[i]| with out[i] read as a signed byte, the selection heuristic's
-   score (sec. 12.8). */
-static size_t pds__png_filter(int type, const unsigned char *cur, const unsigned char *prior,
-                              size_t n, size_t bpp, unsigned char *out)
+   the first row); bytes left of the row count as 0. */
+static void pds__png_filter(int type, const unsigned char *cur, const unsigned char *prior,
+                            size_t n, size_t bpp, unsigned char *out)
 {
-    size_t i, sum = 0;
+    size_t i;
     for (i = 0; i < n; i++) {
         int a = i >= bpp ? cur[i - bpp] : 0, b = prior[i], pred;
-        unsigned v;
         switch (type) {
         case 0: pred = 0; break;
         case 1: pred = a; break;
@@ -7579,11 +7576,34 @@ static size_t pds__png_filter(int type, const unsigned char *cur, const unsigned
         case 3: pred = (a + b) / 2; break;
         default: pred = pds__png_paeth(a, b, i >= bpp ? prior[i - bpp] : 0); break;
         }
-        v = (unsigned)(cur[i] - pred) & 0xffu;
-        out[i] = (unsigned char)v;
-        sum += v < 128 ? v : 256 - v;
+        out[i] = (unsigned char)((cur[i] - pred) & 0xff);
     }
-    return sum;
+}
+
+/* The filter type for a row by the heuristic of ISO/IEC 15948 sec. 12.8:
+   the one whose output, each byte read as signed (-128..127), has the
+   least sum of absolute values; ties go to the lower type. All five sums
+   are taken in one pass over the row. */
+static int pds__png_pick_filter(const unsigned char *cur, const unsigned char *prior, size_t n, size_t bpp)
+{
+    size_t sum[5] = {0, 0, 0, 0, 0}, i;
+    int type, best = 0;
+    for (i = 0; i < n; i++) {
+        int a = i >= bpp ? cur[i - bpp] : 0, b = prior[i], c = i >= bpp ? prior[i - bpp] : 0;
+        int pred[5], k;
+        pred[0] = 0;
+        pred[1] = a;
+        pred[2] = b;
+        pred[3] = (a + b) / 2;
+        pred[4] = pds__png_paeth(a, b, c);
+        for (k = 0; k < 5; k++) {
+            unsigned v = (unsigned)(cur[i] - pred[k]) & 0xffu;
+            sum[k] += v < 128 ? v : 256 - v;
+        }
+    }
+    for (type = 1; type < 5; type++)
+        if (sum[type] < sum[best]) best = type;
+    return best;
 }
 
 /* Write *img as an 8-bit RGB PNG, tone-mapped: value * 2^exposure_stops,
@@ -7603,7 +7623,7 @@ pds_status pds_image_write_png(const char *path, const pds_image *img,
         0x9C  /* FLEVEL 2 (default), no dictionary; 0x789C = 31 * 996 */
     };
     size_t row_len, raw_len, idat_at, idat_len, x, y;
-    unsigned char *raw, *rows, *cur, *prior, *trial, chunk[25];
+    unsigned char *raw, *rows, *cur, *prior, chunk[25];
     double gain;
     pds__bitout o;
     pds_status st = pds__image_check(img, path, err);
@@ -7618,7 +7638,7 @@ pds_status pds_image_write_png(const char *path, const pds_image *img,
     row_len = 3 * (size_t)img->width;
     raw_len = (1 + row_len) * (size_t)img->height;
     raw = (unsigned char *)malloc(raw_len);
-    rows = (unsigned char *)calloc(3, row_len); /* prior (zeros above row 0), cur, trial */
+    rows = (unsigned char *)calloc(2, row_len); /* prior (zeros above row 0), cur */
     if (!raw || !rows) {
         free(raw);
         free(rows);
@@ -7626,25 +7646,15 @@ pds_status pds_image_write_png(const char *path, const pds_image *img,
     }
     prior = rows;
     cur = rows + row_len;
-    trial = rows + 2 * row_len;
     for (y = 0; y < (size_t)img->height; y++) {
         const float *src = img->rgb + y * row_len;
         unsigned char *dst = raw + y * (1 + row_len), *swap;
-        size_t best_sum = (size_t)-1;
-        int type, best = 0;
         for (x = 0; x < row_len; x++) {
             double e = pds__srgb_encode((double)src[x] * gain);
             cur[x] = (unsigned char)(e * 255.0 + 0.5);
         }
-        for (type = 0; type < 5; type++) { /* ties go to the lower type */
-            size_t sum = pds__png_filter(type, cur, prior, row_len, 3, trial);
-            if (sum < best_sum) {
-                best_sum = sum;
-                best = type;
-            }
-        }
-        dst[0] = (unsigned char)best;
-        pds__png_filter(best, cur, prior, row_len, 3, dst + 1);
+        dst[0] = (unsigned char)pds__png_pick_filter(cur, prior, row_len, 3);
+        pds__png_filter(dst[0], cur, prior, row_len, 3, dst + 1);
         swap = prior;
         prior = cur;
         cur = swap;
