@@ -7083,7 +7083,7 @@ static void pds__put_u32_be(unsigned char *p, uint32_t v)
    or the fixed codes (sec. 3.2.6), or stored raw (sec. 3.2.4). */
 
 #define PDS__LZ_WINDOW 32768          /* RFC 1951's window; dist < this */
-#define PDS__LZ_HASH_BITS 15          /* hash chains heads: 2^15 of them */
+#define PDS__LZ_HASH_BITS 15          /* 2^15 hash chains */
 #define PDS__LZ_CHAIN 128             /* candidates tried per position, at most */
 #define PDS__LZ_LAZY 32               /* take a match this long without looking one byte on */
 #define PDS__LZ_BLOCK_TOKENS 65536    /* tokens per deflate block, at most */
@@ -7102,7 +7102,7 @@ typedef struct pds__bitout {
 
 static void pds__out_bytes(pds__bitout *o, const void *data, size_t n)
 {
-    if (o->nomem) return;
+    if (o->nomem || n == 0) return;
     if (pds__grow((void **)&o->buf, &o->cap, o->len + n, 1)) {
         o->nomem = 1;
         return;
