@@ -6645,11 +6645,21 @@ static double pds__footprint_anisotropy(pds__v3 dpdu, pds__v3 dpdv)
    bits (memcpy), so the code does not depend on the host's byte order.
 
    PNG (ISO/IEC 15948), written without zlib: signature, IHDR (8-bit RGB),
-   one IDAT holding a zlib stream (RFC 1950: header 0x78 0x01, Adler-32
-   trailer, big-endian) whose deflate data (RFC 1951) is only "stored"
-   blocks of at most 65535 bytes, then IEND. Each chunk ends with the
-   CRC-32 (reflected polynomial 0xEDB88320) of its type and data. The
-   raw stream is, per row, filter byte 0 followed by R G B bytes.
+   one IDAT holding a zlib stream (RFC 1950: header 0x78 0x9C, Adler-32
+   of the raw stream as trailer, big-endian), then IEND. Each chunk ends
+   with the CRC-32 (reflected polynomial 0xEDB88320) of its type and data.
+   The raw stream is, per row, a filter type byte and the filtered R G B
+   bytes; the filter (None, Sub, Up, Average, Paeth; ISO/IEC 15948 sec. 9)
+   is chosen per row as the one whose output, read as signed bytes, has
+   the least sum of absolute values (the heuristic of sec. 12.8).
+   The deflate data (RFC 1951) comes from our own compressor: LZ77 over a
+   32 KiB window (hash of the next 3 bytes, hash chains cut after
+   PDS__LZ_CHAIN candidates, one-step lazy matching, lengths 3-258), its
+   tokens cut into blocks of PDS__LZ_BLOCK_TOKENS; each block is written in
+   whichever of the three encodings is shortest: dynamic Huffman (BTYPE 2;
+   code lengths limited to 15 bits, 7 for the code-length code), fixed
+   Huffman (BTYPE 1) or stored (BTYPE 0, for noise). The output depends
+   only on the pixels and the exposure: same image, same bytes.
    Tone mapping: linear * 2^exposure_stops, clamp to [0,1], sRGB transfer
    curve (IEC 61966-2-1), round to the nearest 8-bit value; NaN gives 0.
 
@@ -7060,65 +7070,558 @@ static void pds__put_u32_be(unsigned char *p, uint32_t v)
     p[3] = (unsigned char)(v & 0xffu);
 }
 
-/* A deflate stream of stored blocks being written into a buffer sized in
-   advance: the raw bytes still to come decide each block's length (65535
-   at most) and which block is the last (BFINAL). The Adler-32 of the raw
-   bytes is kept on the way. */
-typedef struct pds__zstore {
-    unsigned char *out; /* next byte of the stream */
-    size_t left_total;  /* raw bytes not yet written */
-    size_t left_block;  /* raw bytes still to go in the open block */
-    uint32_t adler;
-} pds__zstore;
+/* ------------------------------------------------------------ deflate */
 
-/* Bytes of output a stored-block deflate stream of raw_len bytes takes:
-   each block adds a 5-byte header (BFINAL/BTYPE byte, LEN, NLEN). */
-static size_t pds__zstore_size(size_t raw_len)
+/* The deflate compressor (RFC 1951) behind the PNG writer. Its stages:
+   LZ77 turns the input into tokens (a literal byte, or a copy of len
+   earlier bytes from dist back); each block of tokens is then coded with
+   Huffman codes built from the block's own symbol counts (sec. 3.2.7),
+   or the fixed codes (sec. 3.2.6), or stored raw (sec. 3.2.4). */
+
+#define PDS__LZ_WINDOW 32768          /* RFC 1951's window; dist < this */
+#define PDS__LZ_HASH_BITS 15          /* 2^15 hash chains */
+#define PDS__LZ_CHAIN 128             /* candidates tried per position, at most */
+#define PDS__LZ_LAZY 32               /* take a match this long without looking one byte on */
+#define PDS__LZ_BLOCK_TOKENS 65536    /* tokens per deflate block, at most */
+
+/* Bits are sent least significant first and packed into bytes from the
+   low bit up (RFC 1951 sec. 3.1.1). Huffman codes are kept bit-reversed
+   so that they go out by the same rule. The buffer grows as needed; when
+   memory runs out, nomem is set and later output is dropped. */
+typedef struct pds__bitout {
+    unsigned char *buf;
+    size_t len, cap;
+    uint32_t acc; /* bits not yet in buf, the next to go out lowest */
+    int nbits;    /* how many; below 8 between calls */
+    int nomem;
+} pds__bitout;
+
+static void pds__out_bytes(pds__bitout *o, const void *data, size_t n)
 {
-    size_t blocks = raw_len == 0 ? 1 : (raw_len + 65534) / 65535;
-    return raw_len + 5 * blocks;
+    if (o->nomem || n == 0) return;
+    if (pds__grow((void **)&o->buf, &o->cap, o->len + n, 1)) {
+        o->nomem = 1;
+        return;
+    }
+    memcpy(o->buf + o->len, data, n);
+    o->len += n;
 }
 
-static void pds__zstore_put(pds__zstore *z, const unsigned char *data, size_t n)
+/* Append the low n bits of value (n <= 16). */
+static void pds__out_bits(pds__bitout *o, uint32_t value, int n)
 {
-    while (n > 0) {
-        size_t k;
-        if (z->left_block == 0) {
-            size_t len = z->left_total < 65535 ? z->left_total : 65535;
-            unsigned nlen = ~(unsigned)len & 0xffffu;
-            z->out[0] = (unsigned char)(len == z->left_total ? 1 : 0); /* BFINAL, BTYPE 00 */
-            z->out[1] = (unsigned char)(len & 0xffu);
-            z->out[2] = (unsigned char)((len >> 8) & 0xffu);
-            z->out[3] = (unsigned char)(nlen & 0xffu);
-            z->out[4] = (unsigned char)((nlen >> 8) & 0xffu);
-            z->out += 5;
-            z->left_block = len;
-        }
-        k = n < z->left_block ? n : z->left_block;
-        memcpy(z->out, data, k);
-        z->adler = pds__adler32_update(z->adler, data, k);
-        z->out += k;
-        data += k;
-        n -= k;
-        z->left_block -= k;
-        z->left_total -= k;
+    o->acc |= value << o->nbits;
+    o->nbits += n;
+    while (o->nbits >= 8) {
+        unsigned char b = (unsigned char)(o->acc & 0xffu);
+        pds__out_bytes(o, &b, 1);
+        o->acc >>= 8;
+        o->nbits -= 8;
     }
+}
+
+/* Pad with zero bits to a byte boundary. */
+static void pds__out_align(pds__bitout *o)
+{
+    if (o->nbits > 0) pds__out_bits(o, 0, 8 - o->nbits);
+}
+
+/* Length codes 257-285 and distance codes 0-29: the first value each
+   stands for and its number of extra bits (RFC 1951 sec. 3.2.5). */
+static const uint16_t pds__deflate_len_base[29] = {
+    3, 4, 5, 6, 7, 8, 9, 10, 11, 13, 15, 17, 19, 23, 27, 31,
+    35, 43, 51, 59, 67, 83, 99, 115, 131, 163, 195, 227, 258};
+static const unsigned char pds__deflate_len_extra[29] = {
+    0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 0};
+static const uint16_t pds__deflate_dist_base[30] = {
+    1, 2, 3, 4, 5, 7, 9, 13, 17, 25, 33, 49, 65, 97, 129, 193,
+    257, 385, 513, 769, 1025, 1537, 2049, 3073, 4097, 6145, 8193, 12289, 16385, 24577};
+static const unsigned char pds__deflate_dist_extra[30] = {
+    0, 0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12, 12, 13, 13};
+
+/* The order in which the code-length code's lengths are sent (sec. 3.2.7). */
+static const unsigned char pds__deflate_cl_order[19] = {
+    16, 17, 18, 0, 8, 7, 9, 6, 10, 5, 11, 4, 12, 3, 13, 2, 14, 1, 15};
+
+/* Index 0-28 of the length code for a match length 3-258 (258 has its
+   own code, 285, although 284 could also reach it). */
+static int pds__deflate_len_index(unsigned len)
+{
+    int i = 28;
+    while (pds__deflate_len_base[i] > len) i--;
+    return i;
+}
+
+/* Distance code 0-29 for a distance 1-32768. */
+static int pds__deflate_dist_code(unsigned dist)
+{
+    int i = 29;
+    while (pds__deflate_dist_base[i] > dist) i--;
+    return i;
+}
+
+/* Code lengths of a length-limited Huffman code: n <= 288 symbols with
+   the given counts; unused symbols get 0, a lone used symbol gets 1. A
+   Huffman tree (the two-queue construction over the counts sorted
+   ascending, ties by symbol number, so the result is deterministic) gives
+   each symbol's depth. Leaves deeper than limit are then lifted by the
+   Adjust_BITS procedure of ITU-T T.81 (JPEG) Annex K.3: take two leaves at
+   the deepest level i, put one a level up in place of their parent, and
+   hang the other with a leaf from level j <= i - 2 below that leaf's old
+   place. Each step keeps the Kraft sum at exactly 1. Last, the lengths
+   are dealt out again, shortest to the most frequent. Needs 2^limit >= the
+   number of used symbols (true for deflate's alphabets). */
+static void pds__huff_lengths(const uint32_t *freq, int n, int limit, unsigned char *len)
+{
+    int sym[288], parent[2 * 288], depth[2 * 288], count[2 * 288];
+    uint64_t w[2 * 288];
+    int m = 0, i, j, k, leaf, node, next, maxd = 0;
+    for (i = 0; i < n; i++) {
+        len[i] = 0;
+        if (freq[i] > 0) sym[m++] = i;
+    }
+    if (m == 0) return;
+    if (m == 1) {
+        len[sym[0]] = 1;
+        return;
+    }
+    for (i = 1; i < m; i++) { /* insertion sort: stable, so ties stay by symbol */
+        int s = sym[i];
+        for (j = i; j > 0 && freq[sym[j - 1]] > freq[s]; j--) sym[j] = sym[j - 1];
+        sym[j] = s;
+    }
+    /* Leaves are nodes 0..m-1 in ascending weight; internal nodes m..2m-2
+       are made in non-decreasing weight, so the two lightest are always at
+       the heads of the two queues. */
+    for (i = 0; i < m; i++) w[i] = freq[sym[i]];
+    leaf = 0;
+    node = m;
+    for (next = m; next < 2 * m - 1; next++) {
+        int pick[2];
+        for (k = 0; k < 2; k++) {
+            if (leaf < m && (node >= next || w[leaf] <= w[node])) pick[k] = leaf++;
+            else pick[k] = node++;
+        }
+        w[next] = w[pick[0]] + w[pick[1]];
+        parent[pick[0]] = next;
+        parent[pick[1]] = next;
+    }
+    depth[2 * m - 2] = 0;
+    for (i = 2 * m - 3; i >= 0; i--) depth[i] = depth[parent[i]] + 1; /* parents come later */
+    for (i = 0; i <= m; i++) count[i] = 0;
+    for (i = 0; i < m; i++) {
+        count[depth[i]]++;
+        if (depth[i] > maxd) maxd = depth[i];
+    }
+    /* Adjust_BITS. count[i] is even here: the Kraft sum is 1 and no leaf
+       is deeper than i. A leaf at j <= i - 2 exists while m <= 2^limit. */
+    for (i = maxd; i > limit; i--) {
+        while (count[i] > 0) {
+            j = i - 2;
+            while (count[j] == 0) j--;
+            count[i] -= 2;
+            count[i - 1] += 1;
+            count[j + 1] += 2;
+            count[j] -= 1;
+        }
+    }
+    k = 0;
+    for (i = maxd < limit ? maxd : limit; i >= 1; i--)
+        for (j = 0; j < count[i]; j++) len[sym[k++]] = (unsigned char)i;
+}
+
+/* Canonical Huffman codes from code lengths (RFC 1951 sec. 3.2.2), each
+   bit-reversed for pds__out_bits. Lengths are at most 15. */
+static void pds__huff_codes(const unsigned char *len, int n, uint16_t *code)
+{
+    int bl_count[16], next_code[16], i, b, c = 0;
+    for (b = 0; b < 16; b++) bl_count[b] = 0;
+    for (i = 0; i < n; i++) bl_count[len[i]]++;
+    bl_count[0] = 0;
+    for (b = 1; b < 16; b++) {
+        c = (c + bl_count[b - 1]) << 1;
+        next_code[b] = c;
+    }
+    for (i = 0; i < n; i++) {
+        int v, r = 0;
+        code[i] = 0;
+        if (len[i] == 0) continue;
+        v = next_code[len[i]]++;
+        for (b = 0; b < len[i]; b++) {
+            r = (r << 1) | (v & 1);
+            v >>= 1;
+        }
+        code[i] = (uint16_t)r;
+    }
+}
+
+/* Make sure at least two symbols have a count, giving the first unused
+   ones a count of 1. A code with one used symbol would be one 1-bit
+   code with one unused; with two it is complete, which every inflater
+   accepts (zlib's deflate does the same). The added symbols never occur. */
+static void pds__huff_two_used(uint32_t *freq, int n)
+{
+    int i, used = 0;
+    for (i = 0; i < n; i++) used += freq[i] > 0;
+    for (i = 0; i < n && used < 2; i++)
+        if (freq[i] == 0) {
+            freq[i] = 1;
+            used++;
+        }
+}
+
+/* An LZ77 token: a literal byte (dist 0, len = the byte) or a copy of len
+   (3-258) bytes from dist (1-32767) back. */
+typedef struct pds__lz_token {
+    uint16_t len;
+    uint16_t dist;
+} pds__lz_token;
+
+/* Hash chains over the input: head[h] is the latest position (plus 1;
+   0 = none) whose next 3 bytes hash to h, and prev[p % WINDOW] the one
+   before p with p's hash. Positions below `inserted` are in the chains. */
+typedef struct pds__lz {
+    const unsigned char *data;
+    size_t n, inserted;
+    uint32_t *head; /* 2^PDS__LZ_HASH_BITS entries */
+    uint32_t *prev; /* PDS__LZ_WINDOW entries */
+} pds__lz;
+
+static uint32_t pds__lz_hash(const unsigned char *p)
+{
+    uint32_t v = (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16;
+    return (v * 2654435761u) >> (32 - PDS__LZ_HASH_BITS);
+}
+
+static void pds__lz_insert_until(pds__lz *z, size_t end)
+{
+    for (; z->inserted < end; z->inserted++) {
+        size_t p = z->inserted;
+        uint32_t h;
+        if (p + 3 > z->n) continue;
+        h = pds__lz_hash(z->data + p);
+        z->prev[p & (PDS__LZ_WINDOW - 1)] = z->head[h];
+        z->head[h] = (uint32_t)(p + 1);
+    }
+}
+
+/* The longest match for the bytes at pos among the earlier positions in
+   the chains (pos itself not yet in them), trying at most chain
+   candidates, nearest first. Returns its length, or 0 if none reaches 3;
+   *dist gets its distance. Only distances below PDS__LZ_WINDOW are tried:
+   prev[] slots further back have been overwritten. */
+static size_t pds__lz_find(const pds__lz *z, size_t pos, size_t chain, size_t *dist)
+{
+    const unsigned char *cur = z->data + pos;
+    size_t max_len = z->n - pos, best = 2;
+    uint32_t c;
+    *dist = 0;
+    if (max_len > 258) max_len = 258;
+    if (max_len < 3) return 0;
+    c = z->head[pds__lz_hash(cur)];
+    while (c != 0 && chain-- > 0) {
+        size_t cand = c - 1, k;
+        const unsigned char *old = z->data + cand;
+        if (pos - cand >= PDS__LZ_WINDOW) break;
+        if (old[best] == cur[best] && old[0] == cur[0] && old[1] == cur[1]) {
+            for (k = 2; k < max_len && old[k] == cur[k]; k++) {}
+            if (k > best) {
+                best = k;
+                *dist = pos - cand;
+                if (k == max_len) break;
+            }
+        }
+        c = z->prev[cand & (PDS__LZ_WINDOW - 1)];
+    }
+    return *dist ? best : 0;
+}
+
+/* Send tokens[0..ntok) and end-of-block with the given codes. */
+static void pds__deflate_put_tokens(pds__bitout *o, const pds__lz_token *tok, size_t ntok,
+                                    const unsigned char *llen, const uint16_t *lcode,
+                                    const unsigned char *dlen, const uint16_t *dcode)
+{
+    size_t t;
+    for (t = 0; t < ntok; t++) {
+        if (tok[t].dist == 0) {
+            pds__out_bits(o, lcode[tok[t].len], llen[tok[t].len]);
+        } else {
+            int li = pds__deflate_len_index(tok[t].len), dc = pds__deflate_dist_code(tok[t].dist);
+            pds__out_bits(o, lcode[257 + li], llen[257 + li]);
+            pds__out_bits(o, (uint32_t)(tok[t].len - pds__deflate_len_base[li]), pds__deflate_len_extra[li]);
+            pds__out_bits(o, dcode[dc], dlen[dc]);
+            pds__out_bits(o, (uint32_t)(tok[t].dist - pds__deflate_dist_base[dc]), pds__deflate_dist_extra[dc]);
+        }
+    }
+    pds__out_bits(o, lcode[256], llen[256]);
+}
+
+/* One deflate block (BFINAL = final) holding tokens[0..ntok), which
+   encode raw[0..raw_len), in whichever encoding takes fewest bits:
+   dynamic Huffman, fixed Huffman, or stored (as many stored blocks of
+   at most 65535 bytes as needed; only the last can carry BFINAL).
+
+   The dynamic block's header (sec. 3.2.7): HLIT - 257 (5 bits), HDIST - 1
+   (5), HCLEN - 4 (4), HCLEN 3-bit lengths of the code-length code in
+   pds__deflate_cl_order, then the HLIT + HDIST code lengths as one
+   sequence in that code, runs shortened by symbols 16 (repeat the
+   previous length 3-6 times, 2 extra bits), 17 (3-10 zeros, 3 bits) and
+   18 (11-138 zeros, 7 bits). */
+static void pds__deflate_block(pds__bitout *o, const pds__lz_token *tok, size_t ntok,
+                               const unsigned char *raw, size_t raw_len, int final)
+{
+    uint32_t lfreq[288], dfreq[30], lf2[288], df2[30], cfreq[19];
+    unsigned char llen[288], dlen[30], clen[19], seq[286 + 30], rle[286 + 30], rle_extra[286 + 30];
+    uint16_t lcode[288], dcode[30], ccode[19];
+    uint64_t extra_bits = 0, dyn_bits, fixed_bits, stored_bits;
+    size_t t, nseq, nrle = 0, i, blocks;
+    int hlit, hdist, hclen, s;
+
+    /* Symbol counts, and the extra bits every Huffman encoding shares. */
+    memset(lfreq, 0, sizeof lfreq);
+    memset(dfreq, 0, sizeof dfreq);
+    for (t = 0; t < ntok; t++) {
+        if (tok[t].dist == 0) {
+            lfreq[tok[t].len]++;
+        } else {
+            int li = pds__deflate_len_index(tok[t].len), dc = pds__deflate_dist_code(tok[t].dist);
+            lfreq[257 + li]++;
+            dfreq[dc]++;
+            extra_bits += (uint64_t)pds__deflate_len_extra[li] + pds__deflate_dist_extra[dc];
+        }
+    }
+    lfreq[256] = 1; /* end of block */
+
+    /* Dynamic codes and their header. */
+    memcpy(lf2, lfreq, sizeof lf2);
+    memcpy(df2, dfreq, sizeof df2);
+    pds__huff_two_used(lf2, 286);
+    pds__huff_two_used(df2, 30);
+    pds__huff_lengths(lf2, 286, 15, llen);
+    pds__huff_lengths(df2, 30, 15, dlen);
+    for (hlit = 286; hlit > 257 && llen[hlit - 1] == 0; hlit--) {}
+    for (hdist = 30; hdist > 1 && dlen[hdist - 1] == 0; hdist--) {}
+    memcpy(seq, llen, (size_t)hlit);
+    memcpy(seq + hlit, dlen, (size_t)hdist);
+    nseq = (size_t)(hlit + hdist);
+    memset(cfreq, 0, sizeof cfreq);
+    for (i = 0; i < nseq;) {
+        size_t run = 1;
+        while (i + run < nseq && run < 138 && seq[i + run] == seq[i]) run++;
+        if (seq[i] == 0 && run >= 3) {
+            rle[nrle] = (unsigned char)(run >= 11 ? 18 : 17);
+            rle_extra[nrle] = (unsigned char)(run - (run >= 11 ? 11 : 3));
+        } else if (i > 0 && seq[i - 1] == seq[i] && run >= 3) {
+            if (run > 6) run = 6;
+            rle[nrle] = 16;
+            rle_extra[nrle] = (unsigned char)(run - 3);
+        } else {
+            run = 1;
+            rle[nrle] = seq[i];
+            rle_extra[nrle] = 0;
+        }
+        cfreq[rle[nrle]]++;
+        nrle++;
+        i += run;
+    }
+    pds__huff_two_used(cfreq, 19);
+    pds__huff_lengths(cfreq, 19, 7, clen);
+    for (hclen = 19; hclen > 4 && clen[pds__deflate_cl_order[hclen - 1]] == 0; hclen--) {}
+
+    /* Sizes in bits of the three encodings. */
+    dyn_bits = 3 + 5 + 5 + 4 + 3 * (uint64_t)hclen + extra_bits;
+    for (i = 0; i < nrle; i++)
+        dyn_bits += clen[rle[i]] + (rle[i] == 16 ? 2 : rle[i] == 17 ? 3 : rle[i] == 18 ? 7 : 0);
+    for (s = 0; s < 286; s++) dyn_bits += (uint64_t)lfreq[s] * llen[s];
+    for (s = 0; s < 30; s++) dyn_bits += (uint64_t)dfreq[s] * dlen[s];
+    fixed_bits = 3 + extra_bits;
+    for (s = 0; s < 286; s++) fixed_bits += (uint64_t)lfreq[s] * (s < 144 ? 8 : s < 256 ? 9 : s < 280 ? 7 : 8);
+    for (s = 0; s < 30; s++) fixed_bits += (uint64_t)dfreq[s] * 5;
+    blocks = raw_len == 0 ? 1 : (raw_len + 65534) / 65535;
+    stored_bits = (uint64_t)blocks * (3 + 7 + 32) + 8 * (uint64_t)raw_len; /* 7: padding, at most */
+
+    if (stored_bits < dyn_bits && stored_bits < fixed_bits) {
+        do {
+            size_t k = raw_len < 65535 ? raw_len : 65535;
+            unsigned char lens[4];
+            lens[0] = (unsigned char)(k & 0xffu);
+            lens[1] = (unsigned char)(k >> 8);
+            lens[2] = (unsigned char)(~k & 0xffu);
+            lens[3] = (unsigned char)((~k >> 8) & 0xffu);
+            pds__out_bits(o, final && k == raw_len ? 1u : 0u, 1);
+            pds__out_bits(o, 0, 2); /* BTYPE 00 */
+            pds__out_align(o);
+            pds__out_bytes(o, lens, 4);
+            pds__out_bytes(o, raw, k);
+            raw += k;
+            raw_len -= k;
+        } while (raw_len > 0);
+    } else if (fixed_bits <= dyn_bits) {
+        for (s = 0; s < 288; s++) llen[s] = (unsigned char)(s < 144 ? 8 : s < 256 ? 9 : s < 280 ? 7 : 8);
+        for (s = 0; s < 30; s++) dlen[s] = 5;
+        pds__huff_codes(llen, 288, lcode);
+        pds__huff_codes(dlen, 30, dcode);
+        pds__out_bits(o, final ? 1u : 0u, 1);
+        pds__out_bits(o, 1, 2); /* BTYPE 01 */
+        pds__deflate_put_tokens(o, tok, ntok, llen, lcode, dlen, dcode);
+    } else {
+        pds__huff_codes(llen, 286, lcode);
+        pds__huff_codes(dlen, 30, dcode);
+        pds__huff_codes(clen, 19, ccode);
+        pds__out_bits(o, final ? 1u : 0u, 1);
+        pds__out_bits(o, 2, 2); /* BTYPE 10 */
+        pds__out_bits(o, (uint32_t)(hlit - 257), 5);
+        pds__out_bits(o, (uint32_t)(hdist - 1), 5);
+        pds__out_bits(o, (uint32_t)(hclen - 4), 4);
+        for (s = 0; s < hclen; s++) pds__out_bits(o, clen[pds__deflate_cl_order[s]], 3);
+        for (i = 0; i < nrle; i++) {
+            pds__out_bits(o, ccode[rle[i]], clen[rle[i]]);
+            if (rle[i] >= 16) pds__out_bits(o, rle_extra[i], rle[i] == 16 ? 2 : rle[i] == 17 ? 3 : 7);
+        }
+        pds__deflate_put_tokens(o, tok, ntok, llen, lcode, dlen, dcode);
+    }
+}
+
+/* Compress data[0..n) into a complete deflate stream appended to o,
+   ending on a byte boundary. LZ77 with one-step lazy matching: a match
+   found at pos is dropped for a literal if the match at pos + 1 is
+   longer. Blocks end after about PDS__LZ_BLOCK_TOKENS tokens. Sets
+   o->nomem when memory runs out. */
+static void pds__deflate(pds__bitout *o, const unsigned char *data, size_t n)
+{
+    pds__lz z;
+    pds__lz_token *tok;
+    size_t ntok = 0, pos = 0, block_start = 0;
+    z.data = data;
+    z.n = n;
+    z.inserted = 0;
+    z.head = (uint32_t *)calloc((size_t)1 << PDS__LZ_HASH_BITS, sizeof(uint32_t));
+    z.prev = (uint32_t *)calloc(PDS__LZ_WINDOW, sizeof(uint32_t));
+    tok = (pds__lz_token *)malloc(PDS__LZ_BLOCK_TOKENS * sizeof *tok);
+    if (!z.head || !z.prev || !tok) {
+        o->nomem = 1;
+        n = 0;
+    }
+    while (pos < n && !o->nomem) {
+        size_t len, dist, len2, dist2;
+        /* Room for one token more than the lazy loop below can add. */
+        if (ntok + PDS__LZ_LAZY + 1 > PDS__LZ_BLOCK_TOKENS) {
+            pds__deflate_block(o, tok, ntok, data + block_start, pos - block_start, 0);
+            ntok = 0;
+            block_start = pos;
+        }
+        pds__lz_insert_until(&z, pos);
+        len = pds__lz_find(&z, pos, PDS__LZ_CHAIN, &dist);
+        /* Each literal here makes len longer, so at most LAZY of them. */
+        while (len >= 3 && len < PDS__LZ_LAZY && pos + 1 < n) {
+            pds__lz_insert_until(&z, pos + 1);
+            len2 = pds__lz_find(&z, pos + 1, PDS__LZ_CHAIN, &dist2);
+            if (len2 <= len) break;
+            tok[ntok].len = data[pos];
+            tok[ntok].dist = 0;
+            ntok++;
+            pos++;
+            len = len2;
+            dist = dist2;
+        }
+        if (len >= 3) {
+            tok[ntok].len = (uint16_t)len;
+            tok[ntok].dist = (uint16_t)dist;
+            pos += len;
+        } else {
+            tok[ntok].len = data[pos];
+            tok[ntok].dist = 0;
+            pos++;
+        }
+        ntok++;
+    }
+    if (!o->nomem) pds__deflate_block(o, tok, ntok, data + block_start, n - block_start, 1);
+    pds__out_align(o);
+    free(z.head);
+    free(z.prev);
+    free(tok);
+}
+
+/* ---------------------------------------------------------- PNG proper */
+
+/* PNG's Paeth predictor (ISO/IEC 15948 sec. 9.4): of the left byte a,
+   the one above b and the upper-left c, the one nearest to a + b - c,
+   ties going to a, then b. */
+static int pds__png_paeth(int a, int b, int c)
+{
+    int p = a + b - c;
+    int pa = abs(p - a), pb = abs(p - b), pc = abs(p - c);
+    if (pa <= pb && pa <= pc) return a;
+    return pb <= pc ? b : c;
+}
+
+/* Apply filter type 0-4 (None, Sub, Up, Average, Paeth; ISO/IEC 15948
+   sec. 9.2) to one row of n bytes, bpp bytes per pixel: out[i] = cur[i]
+   minus the predictor, modulo 256. prior is the row above (zeros above
+   the first row); bytes left of the row count as 0. */
+static void pds__png_filter(int type, const unsigned char *cur, const unsigned char *prior,
+                            size_t n, size_t bpp, unsigned char *out)
+{
+    size_t i;
+    for (i = 0; i < n; i++) {
+        int a = i >= bpp ? cur[i - bpp] : 0, b = prior[i], pred;
+        switch (type) {
+        case 0: pred = 0; break;
+        case 1: pred = a; break;
+        case 2: pred = b; break;
+        case 3: pred = (a + b) / 2; break;
+        default: pred = pds__png_paeth(a, b, i >= bpp ? prior[i - bpp] : 0); break;
+        }
+        out[i] = (unsigned char)((cur[i] - pred) & 0xff);
+    }
+}
+
+/* The filter type for a row by the heuristic of ISO/IEC 15948 sec. 12.8:
+   the one whose output, each byte read as signed (-128..127), has the
+   least sum of absolute values; ties go to the lower type. All five sums
+   are taken in one pass over the row. */
+static int pds__png_pick_filter(const unsigned char *cur, const unsigned char *prior, size_t n, size_t bpp)
+{
+    size_t sum[5] = {0, 0, 0, 0, 0}, i;
+    int type, best = 0;
+    for (i = 0; i < n; i++) {
+        int a = i >= bpp ? cur[i - bpp] : 0, b = prior[i], c = i >= bpp ? prior[i - bpp] : 0;
+        int pred[5], k;
+        pred[0] = 0;
+        pred[1] = a;
+        pred[2] = b;
+        pred[3] = (a + b) / 2;
+        pred[4] = pds__png_paeth(a, b, c);
+        for (k = 0; k < 5; k++) {
+            unsigned v = (unsigned)(cur[i] - pred[k]) & 0xffu;
+            sum[k] += v < 128 ? v : 256 - v;
+        }
+    }
+    for (type = 1; type < 5; type++)
+        if (sum[type] < sum[best]) best = type;
+    return best;
 }
 
 /* Write *img as an 8-bit RGB PNG, tone-mapped: value * 2^exposure_stops,
    clamped, sRGB-encoded, rounded. File layout (all integers big-endian):
      8  signature 89 50 4E 47 0D 0A 1A 0A
      25 IHDR: len 13 | "IHDR" | W, H, depth 8, colour 2, 0, 0, 0 | CRC
-     IDAT: len | "IDAT" | 78 01 | stored blocks | Adler-32 | CRC
-     12 IEND: len 0 | "IEND" | CRC */
+     IDAT: len | "IDAT" | 78 9C | deflate blocks | Adler-32 | CRC
+     12 IEND: len 0 | "IEND" | CRC
+   The filtered raw stream (H * (1 + 3 W) bytes) is built whole before it
+   is compressed. */
 pds_status pds_image_write_png(const char *path, const pds_image *img,
                                double exposure_stops, pds_error *err)
 {
     static const unsigned char signature[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
-    size_t row_len, raw_len, idat_len, total, x, y;
-    unsigned char *buf, *row, *p, *idat_type;
+    static const unsigned char zlib_header[2] = {
+        0x78, /* CM 8 (deflate), CINFO 7 (32 KiB window) */
+        0x9C  /* FLEVEL 2 (default), no dictionary; 0x789C = 31 * 996 */
+    };
+    size_t row_len, raw_len, idat_at, idat_len, x, y;
+    unsigned char *raw, *rows, *cur, *prior, chunk[25];
     double gain;
-    pds__zstore z;
+    pds__bitout o;
     pds_status st = pds__image_check(img, path, err);
     if (st != PDS_OK) return st;
     if (!(exposure_stops > -1e300 && exposure_stops < 1e300))
@@ -7126,68 +7629,68 @@ pds_status pds_image_write_png(const char *path, const pds_image *img,
     gain = pow(2.0, exposure_stops);
 
     /* Sizes: W, H <= 16384 keep raw_len under 2^30, so the IDAT length
-       fits its 31 bits and nothing here overflows a 32-bit size_t. */
-    row_len = 1 + 3 * (size_t)img->width;
-    raw_len = row_len * (size_t)img->height;
-    idat_len = 2 + pds__zstore_size(raw_len) + 4;
-    total = 8 + (12 + 13) + (12 + idat_len) + 12;
-    buf = (unsigned char *)malloc(total);
-    row = (unsigned char *)malloc(row_len);
-    if (!buf || !row) {
-        free(buf);
-        free(row);
+       (raw_len plus 5 bytes per 65535 at worst) fits its 31 bits and
+       nothing here overflows a 32-bit size_t. */
+    row_len = 3 * (size_t)img->width;
+    raw_len = (1 + row_len) * (size_t)img->height;
+    raw = (unsigned char *)malloc(raw_len);
+    rows = (unsigned char *)calloc(2, row_len); /* prior (zeros above row 0), cur */
+    if (!raw || !rows) {
+        free(raw);
+        free(rows);
         return pds__nomem(err);
     }
-    p = buf;
-    memcpy(p, signature, 8);
-    p += 8;
-
-    pds__put_u32_be(p, 13);
-    memcpy(p + 4, "IHDR", 4);
-    pds__put_u32_be(p + 8, (uint32_t)img->width);
-    pds__put_u32_be(p + 12, (uint32_t)img->height);
-    p[16] = 8; /* bit depth */
-    p[17] = 2; /* colour type: RGB */
-    p[18] = 0; /* compression: deflate */
-    p[19] = 0; /* filter method 0 */
-    p[20] = 0; /* no interlace */
-    pds__put_u32_be(p + 21, pds__crc32_update(0, p + 4, 4 + 13));
-    p += 25;
-
-    pds__put_u32_be(p, (uint32_t)idat_len);
-    idat_type = p + 4;
-    memcpy(idat_type, "IDAT", 4);
-    p += 8;
-    p[0] = 0x78; /* CM 8 (deflate), CINFO 7 (32 KiB window) */
-    p[1] = 0x01; /* FLEVEL 0, no dictionary; 0x7801 is a multiple of 31 */
-    z.out = p + 2;
-    z.left_total = raw_len;
-    z.left_block = 0;
-    z.adler = 1;
-    row[0] = 0; /* filter type None for every row */
+    prior = rows;
+    cur = rows + row_len;
     for (y = 0; y < (size_t)img->height; y++) {
-        const float *src = img->rgb + y * (size_t)img->width * 3;
-        for (x = 0; x < (size_t)img->width * 3; x++) {
+        const float *src = img->rgb + y * row_len;
+        unsigned char *dst = raw + y * (1 + row_len), *swap;
+        for (x = 0; x < row_len; x++) {
             double e = pds__srgb_encode((double)src[x] * gain);
-            row[1 + x] = (unsigned char)(e * 255.0 + 0.5);
+            cur[x] = (unsigned char)(e * 255.0 + 0.5);
         }
-        pds__zstore_put(&z, row, row_len);
+        dst[0] = (unsigned char)pds__png_pick_filter(cur, prior, row_len, 3);
+        pds__png_filter(dst[0], cur, prior, row_len, 3, dst + 1);
+        swap = prior;
+        prior = cur;
+        cur = swap;
     }
-    pds__put_u32_be(z.out, z.adler);
-    p = z.out + 4;
-    pds__put_u32_be(p, pds__crc32_update(0, idat_type, 4 + idat_len));
-    p += 4;
+    free(rows);
 
-    pds__put_u32_be(p, 0);
-    memcpy(p + 4, "IEND", 4);
-    pds__put_u32_be(p + 8, pds__crc32_update(0, p + 4, 4));
-    p += 12;
+    memset(&o, 0, sizeof o);
+    pds__out_bytes(&o, signature, 8);
+    pds__put_u32_be(chunk, 13);
+    memcpy(chunk + 4, "IHDR", 4);
+    pds__put_u32_be(chunk + 8, (uint32_t)img->width);
+    pds__put_u32_be(chunk + 12, (uint32_t)img->height);
+    chunk[16] = 8; /* bit depth */
+    chunk[17] = 2; /* colour type: RGB */
+    chunk[18] = 0; /* compression: deflate */
+    chunk[19] = 0; /* filter method 0 (the five types) */
+    chunk[20] = 0; /* no interlace */
+    pds__put_u32_be(chunk + 21, pds__crc32_update(0, chunk + 4, 4 + 13));
+    pds__out_bytes(&o, chunk, 25);
 
-    free(row);
-    st = (size_t)(p - buf) == total
-             ? pds__write_file_atomic(path, buf, total, err)
-             : pds__fail(err, PDS_ERR_IO, path, 0, 0, "internal error: PNG size mismatch");
-    free(buf);
+    idat_at = o.len;
+    pds__out_bytes(&o, "\0\0\0\0IDAT", 8); /* the length is filled in below */
+    pds__out_bytes(&o, zlib_header, 2);
+    pds__deflate(&o, raw, raw_len);
+    pds__put_u32_be(chunk, pds__adler32_update(1, raw, raw_len));
+    pds__out_bytes(&o, chunk, 4);
+    free(raw);
+    if (!o.nomem) {
+        idat_len = o.len - idat_at - 8;
+        pds__put_u32_be(o.buf + idat_at, (uint32_t)idat_len);
+        pds__put_u32_be(chunk, pds__crc32_update(0, o.buf + idat_at + 4, 4 + idat_len));
+        pds__out_bytes(&o, chunk, 4);
+    }
+    pds__put_u32_be(chunk, 0);
+    memcpy(chunk + 4, "IEND", 4);
+    pds__put_u32_be(chunk + 8, pds__crc32_update(0, chunk + 4, 4));
+    pds__out_bytes(&o, chunk, 12);
+
+    st = o.nomem ? pds__nomem(err) : pds__write_file_atomic(path, o.buf, o.len, err);
+    free(o.buf);
     return st;
 }
 

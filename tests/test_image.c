@@ -1,8 +1,10 @@
 /* tests/test_image.c - PFM and PNG files, tone mapping, RMSE and SSIM.
 
    The PNG tests decode the writer's output with a small independent reader
-   (bitwise CRC-32, byte-at-a-time Adler-32, stored-block inflate), so a
-   file that a real decoder would reject fails here too. The SSIM tests
+   (bitwise CRC-32, byte-at-a-time Adler-32, an inflater for stored, fixed
+   and dynamic Huffman blocks written from RFC 1951, the five row filters),
+   so a file that a real decoder would reject fails here too; the deflate
+   and Huffman-length tests call the compressor's parts directly. The SSIM tests
    compare against a direct, non-separable evaluation of Wang et al.'s
    formula and against numbers computed once with scikit-image. */
 
@@ -115,114 +117,403 @@ static double timg_srgb(double c)
     return c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055;
 }
 
-/* A decoded PNG: 8-bit RGB pixels, top row first, and how the deflate
-   stream was cut into stored blocks. */
+/* An inflater (RFC 1951) written for these tests from the RFC alone; it
+   shares no code or tables with pds.c. It takes stored, fixed-Huffman and
+   dynamic-Huffman blocks and is strict where the writer promises more than
+   the RFC asks: every dynamic code must be complete (the writer pads a
+   code with a lone symbol to two), and nothing may follow the final
+   block but the zlib trailer. */
+typedef struct tinf {
+    const unsigned char *in;
+    size_t n, pos;
+    uint32_t bitbuf;
+    int bitcnt;
+    unsigned char *out;
+    size_t len, max;  /* bytes out so far; more than max is an error */
+    int blocks[3];    /* blocks seen, by BTYPE */
+    size_t matches;   /* length/distance pairs decoded */
+    const char *err;  /* first error, or NULL */
+} tinf;
+
+/* need (0-16) bits, first bit lowest; 0 once the input has run out. */
+static unsigned tinf_bits(tinf *s, int need)
+{
+    unsigned v;
+    while (s->bitcnt < need) {
+        if (s->pos >= s->n) {
+            if (!s->err) s->err = "deflate data runs past the end";
+            return 0;
+        }
+        s->bitbuf |= (uint32_t)s->in[s->pos++] << s->bitcnt;
+        s->bitcnt += 8;
+    }
+    v = (unsigned)(s->bitbuf & ((1u << need) - 1u));
+    s->bitbuf >>= need;
+    s->bitcnt -= need;
+    return v;
+}
+
+/* A canonical code as the RFC defines it (sec. 3.2.2): how many codes
+   have each length, and the symbols in code order (by length, then by
+   symbol number). */
+typedef struct tinf_code {
+    int count[16];
+    int symbol[320];
+} tinf_code;
+
+/* Build from n code lengths. Returns the unused part of the code space in
+   units of 2^-15: 0 for a complete code, > 0 for an incomplete one, < 0
+   for an over-subscribed one (not a prefix code at all). */
+static long tinf_code_build(tinf_code *c, const unsigned char *len, int n)
+{
+    int start[16], l, i;
+    long room = 1L << 15;
+    for (l = 0; l < 16; l++) c->count[l] = 0;
+    for (i = 0; i < n; i++) c->count[len[i]]++;
+    c->count[0] = 0;
+    start[1] = 0;
+    for (l = 1; l < 15; l++) start[l + 1] = start[l] + c->count[l];
+    for (i = 0; i < n; i++)
+        if (len[i]) c->symbol[start[len[i]]++] = i;
+    for (l = 1; l < 16; l++) room -= (long)c->count[l] << (15 - l);
+    return room;
+}
+
+/* One symbol: the code's bits arrive first bit = most significant. At
+   each length, the codes of that length are the next count[l] values
+   after the last code of the length before, doubled (sec. 3.2.2). */
+static int tinf_decode(tinf *s, const tinf_code *c)
+{
+    int code = 0, first = 0, seen = 0, l;
+    for (l = 1; l < 16; l++) {
+        code = code << 1 | (int)tinf_bits(s, 1);
+        if (code - first < c->count[l]) return c->symbol[seen + code - first];
+        seen += c->count[l];
+        first = (first + c->count[l]) << 1;
+    }
+    if (!s->err) s->err = "no symbol has this code";
+    return -1;
+}
+
+static void tinf_put(tinf *s, unsigned char b)
+{
+    if (s->len >= s->max) {
+        if (!s->err) s->err = "more output than expected";
+        return;
+    }
+    s->out[s->len++] = b;
+}
+
+/* Decode one Huffman-coded block's symbols up to end-of-block. Length and
+   distance bases come from the RFC's table rule: lengths 3-10 take no
+   extra bits, then every four codes one bit more; code 285 is 258.
+   Distances 1-4 take none, then every two codes one more. */
+static void tinf_block(tinf *s, const tinf_code *lit, const tinf_code *dist)
+{
+    int lbase[29], lextra[29], dbase[30], dextra[30], i;
+    for (i = 0; i < 28; i++) {
+        lextra[i] = i < 8 ? 0 : (i - 4) / 4;
+        lbase[i] = i == 0 ? 3 : lbase[i - 1] + (1 << lextra[i - 1]);
+    }
+    lbase[28] = 258;
+    lextra[28] = 0;
+    for (i = 0; i < 30; i++) {
+        dextra[i] = i < 4 ? 0 : i / 2 - 1;
+        dbase[i] = i == 0 ? 1 : dbase[i - 1] + (1 << dextra[i - 1]);
+    }
+    while (!s->err) {
+        int sym = tinf_decode(s, lit), d, k;
+        size_t length, distance;
+        if (sym < 0) return;
+        if (sym < 256) {
+            tinf_put(s, (unsigned char)sym);
+            continue;
+        }
+        if (sym == 256) return;
+        if (sym > 285) {
+            s->err = "literal/length symbol 286 or 287";
+            return;
+        }
+        length = (size_t)lbase[sym - 257] + tinf_bits(s, lextra[sym - 257]);
+        d = tinf_decode(s, dist);
+        if (d < 0) return;
+        if (d > 29) {
+            s->err = "distance symbol 30 or 31";
+            return;
+        }
+        distance = (size_t)dbase[d] + tinf_bits(s, dextra[d]);
+        if (distance > s->len || distance > 32768) {
+            if (!s->err) s->err = "distance reaches before the start or past the window";
+            return;
+        }
+        for (k = 0; k < (int)length; k++) tinf_put(s, s->out[s->len - distance]);
+        s->matches++;
+    }
+}
+
+/* The code lengths of a dynamic block (sec. 3.2.7), then its symbols. */
+static void tinf_dynamic(tinf *s)
+{
+    static const int order[19] = {16, 17, 18, 0, 8, 7, 9, 6, 10, 5, 11, 4, 12, 3, 13, 2, 14, 1, 15};
+    unsigned char lens[320], cl[19];
+    tinf_code lit, dist, clc;
+    int hlit = (int)tinf_bits(s, 5) + 257, hdist = (int)tinf_bits(s, 5) + 1, hclen = (int)tinf_bits(s, 4) + 4;
+    int i = 0;
+    if (hlit > 286 || hdist > 30) {
+        s->err = "HLIT or HDIST out of range";
+        return;
+    }
+    memset(cl, 0, sizeof cl);
+    for (i = 0; i < hclen; i++) cl[order[i]] = (unsigned char)tinf_bits(s, 3);
+    if (tinf_code_build(&clc, cl, 19) != 0) {
+        s->err = "code-length code is not complete";
+        return;
+    }
+    i = 0;
+    while (i < hlit + hdist && !s->err) {
+        int sym = tinf_decode(s, &clc), rep, val;
+        if (sym < 0) return;
+        if (sym < 16) {
+            lens[i++] = (unsigned char)sym;
+            continue;
+        }
+        if (sym == 16) {
+            if (i == 0) {
+                s->err = "repeat code 16 with no previous length";
+                return;
+            }
+            val = lens[i - 1];
+            rep = 3 + (int)tinf_bits(s, 2);
+        } else {
+            val = 0;
+            rep = sym == 17 ? 3 + (int)tinf_bits(s, 3) : 11 + (int)tinf_bits(s, 7);
+        }
+        if (i + rep > hlit + hdist) {
+            s->err = "code-length repeat runs past HLIT + HDIST";
+            return;
+        }
+        while (rep--) lens[i++] = (unsigned char)val;
+    }
+    if (s->err) return;
+    if (lens[256] == 0) {
+        s->err = "end-of-block has no code";
+        return;
+    }
+    if (tinf_code_build(&lit, lens, hlit) != 0 || tinf_code_build(&dist, lens + hlit, hdist) != 0) {
+        s->err = "literal/length or distance code is not complete";
+        return;
+    }
+    tinf_block(s, &lit, &dist);
+}
+
+/* Inflate a zlib stream (RFC 1950): checks CM, CINFO, FCHECK, FDICT,
+   every block, and the Adler-32 trailer, which must end the input.
+   Output goes to out (max bytes). Returns NULL or what was wrong. */
+static const char *timg_zlib_inflate(const unsigned char *z, size_t n, unsigned char *out, size_t max,
+                                     tinf *s)
+{
+    int final = 0;
+    memset(s, 0, sizeof *s);
+    s->out = out;
+    s->max = max;
+    if (n < 6) return "zlib stream too short";
+    if ((z[0] & 0x0f) != 8 || (z[0] >> 4) > 7) return "zlib CMF is not deflate with a window <= 32 KiB";
+    if ((z[0] * 256 + z[1]) % 31 != 0) return "zlib FCHECK wrong";
+    if (z[1] & 0x20) return "zlib FDICT set";
+    s->in = z + 2;
+    s->n = n - 2 - 4;
+    while (!final && !s->err) {
+        int type;
+        final = (int)tinf_bits(s, 1);
+        type = (int)tinf_bits(s, 2);
+        if (s->err) break;
+        if (type == 3) return "block type 3";
+        s->blocks[type]++;
+        if (type == 0) {
+            unsigned len, nlen;
+            s->bitbuf = 0; /* the rest of the byte is padding */
+            s->bitcnt = 0;
+            if (s->n - s->pos < 4) return "stored block header runs past the end";
+            len = s->in[s->pos] | (unsigned)s->in[s->pos + 1] << 8;
+            nlen = s->in[s->pos + 2] | (unsigned)s->in[s->pos + 3] << 8;
+            s->pos += 4;
+            if ((len ^ 0xffffu) != nlen) return "stored block LEN and NLEN disagree";
+            if (s->n - s->pos < len) return "stored block runs past the end";
+            while (len-- && !s->err) tinf_put(s, s->in[s->pos++]);
+        } else if (type == 1) {
+            unsigned char lens[320];
+            tinf_code lit, dist;
+            int i;
+            for (i = 0; i < 288; i++) lens[i] = (unsigned char)(i < 144 ? 8 : i < 256 ? 9 : i < 280 ? 7 : 8);
+            tinf_code_build(&lit, lens, 288);
+            for (i = 0; i < 32; i++) lens[i] = 5;
+            tinf_code_build(&dist, lens, 32);
+            tinf_block(s, &lit, &dist);
+        } else {
+            tinf_dynamic(s);
+        }
+    }
+    if (s->err) return s->err;
+    if (s->pos != s->n) return "bytes between the final block and the Adler-32";
+    if (timg_get_be(z + n - 4) != timg_adler_naive(out, s->len)) return "bad Adler-32";
+    return NULL;
+}
+
+/* PNG's Paeth predictor, from ISO/IEC 15948 sec. 9.4. */
+static int timg_paeth(int a, int b, int c)
+{
+    int p = a + b - c, pa = abs(p - a), pb = abs(p - b), pc = abs(p - c);
+    if (pa <= pb && pa <= pc) return a;
+    if (pb <= pc) return b;
+    return c;
+}
+
+/* A decoded PNG: 8-bit RGB pixels, top row first, and how it was coded. */
 typedef struct timg_png {
     int width, height;
     unsigned char *rgb;
-    int blocks;
+    int blocks[3];       /* deflate blocks by BTYPE */
+    int filters[5];      /* rows by filter type */
+    unsigned char cmf, flg;
+    size_t idat_len;     /* bytes of zlib stream */
+    size_t matches;
 } timg_png;
 
-/* Decode a PNG as written by pds_image_write_png: checks the signature,
-   every chunk's CRC, IHDR, the zlib header, each stored block's LEN/NLEN
-   and BFINAL, the Adler-32 and the row filter bytes. Returns NULL on
-   success, else what was wrong. */
+/* Decode an 8-bit RGB, non-interlaced PNG: checks the signature, every
+   chunk's CRC, IHDR, the zlib stream (timg_zlib_inflate) and the filter
+   types, and undoes the filters. Returns NULL on success, else what was
+   wrong; out->rgb is then NULL. */
 static const char *timg_png_decode(const unsigned char *f, size_t n, timg_png *out)
 {
     static const unsigned char sig[8] = {0x89, 0x50, 0x4E, 0x47, 0x0D, 0x0A, 0x1A, 0x0A};
     unsigned char *z = NULL, *raw = NULL;
-    size_t zlen = 0, pos = 8, zp, rawlen = 0, expect, y;
-    int seen_ihdr = 0, seen_iend = 0, final = 0;
+    size_t zlen = 0, pos = 8, expect, stride, y, i;
+    int seen_ihdr = 0, seen_iend = 0;
+    const char *why;
+    tinf s;
     memset(out, 0, sizeof *out);
     if (n < 8 || memcmp(f, sig, 8) != 0) return "bad signature";
     while (pos < n && !seen_iend) {
         uint32_t len, crc;
         const unsigned char *type, *data;
-        if (n - pos < 12) return "chunk header runs past the end";
-        len = timg_get_be(f + pos);
+        if (n - pos < 12) why = "chunk header runs past the end";
+        else if ((len = timg_get_be(f + pos)) > n - pos - 12) why = "chunk data runs past the end";
+        else why = NULL;
+        if (why) {
+            free(z);
+            return why;
+        }
         type = f + pos + 4;
         data = f + pos + 8;
-        if (len > n - pos - 12) return "chunk data runs past the end";
         crc = timg_get_be(data + len);
-        if (crc != timg_crc_bitwise(type, 4 + (size_t)len)) return "bad chunk CRC";
-        if (memcmp(type, "IHDR", 4) == 0) {
-            if (pos != 8 || len != 13) return "IHDR not first or wrong length";
+        if (crc != timg_crc_bitwise(type, 4 + (size_t)len)) why = "bad chunk CRC";
+        else if (memcmp(type, "IHDR", 4) == 0) {
+            if (pos != 8 || len != 13) why = "IHDR not first or wrong length";
             out->width = (int)timg_get_be(data);
             out->height = (int)timg_get_be(data + 4);
             if (data[8] != 8 || data[9] != 2 || data[10] || data[11] || data[12])
-                return "IHDR is not 8-bit RGB, deflate, filter 0, no interlace";
+                why = "IHDR is not 8-bit RGB, deflate, filter 0, no interlace";
+            if (out->width < 1 || out->height < 1 || out->width > 16384 || out->height > 16384)
+                why = "IHDR size out of range";
             seen_ihdr = 1;
         } else if (memcmp(type, "IDAT", 4) == 0) {
             unsigned char *nz = (unsigned char *)realloc(z, zlen + len + 1);
-            if (!seen_ihdr) return "IDAT before IHDR";
-            if (!nz) return "out of memory";
-            z = nz;
-            memcpy(z + zlen, data, len);
-            zlen += len;
+            if (!seen_ihdr) why = "IDAT before IHDR";
+            else if (!nz) why = "out of memory";
+            else {
+                z = nz;
+                memcpy(z + zlen, data, len);
+                zlen += len;
+            }
         } else if (memcmp(type, "IEND", 4) == 0) {
-            if (len != 0) return "IEND has data";
+            if (len != 0) why = "IEND has data";
             seen_iend = 1;
         } else {
-            return "unexpected chunk type";
+            why = "unexpected chunk type";
+        }
+        if (why) {
+            free(z);
+            return why;
         }
         pos += 12 + (size_t)len;
     }
-    if (!seen_iend || pos != n) {
+    if (!seen_iend || pos != n || !z) {
         free(z);
-        return "missing IEND or bytes after it";
+        return "missing IDAT or IEND, or bytes after IEND";
     }
-    if (zlen < 6 || z[0] != 0x78 || z[1] != 0x01 || ((z[0] << 8) | z[1]) % 31 != 0) {
-        free(z);
-        return "bad zlib header";
-    }
-    expect = (size_t)out->height * (1 + 3 * (size_t)out->width);
+    stride = 3 * (size_t)out->width;
+    expect = (size_t)out->height * (1 + stride);
     raw = (unsigned char *)malloc(expect + 1);
-    if (!raw) {
-        free(z);
-        return "out of memory";
-    }
-    zp = 2;
-    while (!final) {
-        unsigned len, nlen;
-        if (zlen - zp < 5) goto bad_blocks;
-        if (z[zp] > 1) goto bad_blocks; /* only BTYPE 00 with BFINAL 0/1 */
-        final = z[zp] & 1;
-        len = z[zp + 1] | (unsigned)z[zp + 2] << 8;
-        nlen = z[zp + 3] | (unsigned)z[zp + 4] << 8;
-        if ((len ^ 0xffffu) != nlen) goto bad_blocks;
-        zp += 5;
-        if (zlen - zp < len || rawlen + len > expect) goto bad_blocks;
-        memcpy(raw + rawlen, z + zp, len);
-        rawlen += len;
-        zp += len;
-        out->blocks++;
-    }
-    if (zlen - zp != 4 || rawlen != expect) goto bad_blocks;
-    if (timg_get_be(z + zp) != timg_adler_naive(raw, rawlen)) {
+    out->rgb = (unsigned char *)malloc(stride * out->height + 1);
+    if (!raw || !out->rgb) {
         free(z);
         free(raw);
-        return "bad Adler-32";
+        free(out->rgb);
+        out->rgb = NULL;
+        return "out of memory";
     }
+    out->cmf = z[0];
+    out->flg = zlen > 1 ? z[1] : 0;
+    out->idat_len = zlen;
+    why = timg_zlib_inflate(z, zlen, raw, expect, &s);
     free(z);
-    out->rgb = (unsigned char *)malloc((size_t)out->width * out->height * 3 + 1);
-    if (!out->rgb) {
-        free(raw);
-        return "out of memory";
-    }
-    for (y = 0; y < (size_t)out->height; y++) {
-        const unsigned char *row = raw + y * (1 + 3 * (size_t)out->width);
-        if (row[0] != 0) {
-            free(raw);
-            return "row filter byte is not 0";
+    memcpy(out->blocks, s.blocks, sizeof out->blocks);
+    out->matches = s.matches;
+    if (!why && s.len != expect) why = "decoded stream has the wrong length";
+    for (y = 0; !why && y < (size_t)out->height; y++) {
+        const unsigned char *row = raw + y * (1 + stride);
+        unsigned char *px = out->rgb + y * stride, *up = y ? px - stride : NULL;
+        if (row[0] > 4) {
+            why = "row filter type above 4";
+            break;
         }
-        memcpy(out->rgb + y * 3 * (size_t)out->width, row + 1, 3 * (size_t)out->width);
+        out->filters[row[0]]++;
+        for (i = 0; i < stride; i++) {
+            int a = i >= 3 ? px[i - 3] : 0, b = up ? up[i] : 0, c = up && i >= 3 ? up[i - 3] : 0;
+            int pred = row[0] == 0 ? 0 : row[0] == 1 ? a : row[0] == 2 ? b : row[0] == 3 ? (a + b) >> 1
+                                                                                           : timg_paeth(a, b, c);
+            px[i] = (unsigned char)((row[1 + i] + pred) & 0xff);
+        }
     }
     free(raw);
-    return NULL;
-bad_blocks:
-    free(z);
-    free(raw);
-    return "bad stored-block structure";
+    if (why) {
+        free(out->rgb);
+        out->rgb = NULL;
+    }
+    return why;
+}
+
+/* Write img as PNG with the given exposure to a scratch file and decode
+   it; also returns the file's size. NULL on success. */
+static const char *timg_png_round_trip(const pds_image *img, double exposure, timg_png *png, size_t *size)
+{
+    char path[256];
+    pds_error err;
+    unsigned char *file;
+    const char *why;
+    memset(png, 0, sizeof *png);
+    timg_path(path, sizeof path, "round.png");
+    if (pds_image_write_png(path, img, exposure, &err) != PDS_OK) return "the writer failed";
+    file = timg_read_bytes(path, size);
+    remove(path);
+    if (!file) return "cannot read the file back";
+    why = timg_png_decode(file, *size, png);
+    free(file);
+    return why;
+}
+
+/* Width, height and RGB bytes of a PNG file (caller frees), or NULL. */
+static unsigned char *timg_png_read_rgb(const char *path, int *w, int *h)
+{
+    size_t n;
+    unsigned char *file = timg_read_bytes(path, &n);
+    timg_png png;
+    if (!file) return NULL;
+    if (timg_png_decode(file, n, &png) != NULL) png.rgb = NULL;
+    free(file);
+    *w = png.width;
+    *h = png.height;
+    return png.rgb;
 }
 
 /* Deterministic test pattern: dyadic values (exact in float), some out
@@ -563,70 +854,408 @@ static void test_png_small_image_decodes_to_tone_mapped_bytes(pds_test_ctx *t)
     CHECK(t, why == NULL, "decode: %s", why ? why : "");
     if (!why) {
         CHECK(t, png.width == 4 && png.height == 2, "size %dx%d", png.width, png.height);
-        CHECK(t, png.blocks == 1, "%d stored blocks", png.blocks);
         for (i = 0; i < 24; i++) CHECK(t, png.rgb[i] == want[i], "byte %d = %d, want %d", i, png.rgb[i], want[i]);
+        /* 26 raw bytes: fixed Huffman codes beat a dynamic block's header. */
+        CHECK(t, png.blocks[1] == 1 && png.blocks[0] + png.blocks[2] == 0, "blocks: %d stored, %d fixed, %d dynamic",
+              png.blocks[0], png.blocks[1], png.blocks[2]);
     }
-    /* The byte layout is fixed: 8 + 25 + 12 + (2 + 5 + 26 + 4) + 12. */
-    CHECK(t, size == 8 + 25 + 12 + 37 + 12, "file size %lu", (unsigned long)size);
+    /* Never longer than the stored layout: 8 + 25 + 12 + (2 + 5 + 26 + 4) + 12. */
+    CHECK(t, size <= 8 + 25 + 12 + 37 + 12, "file size %lu", (unsigned long)size);
     free(png.rgb);
     free(file);
     pds_image_free(&img);
     remove(path);
 }
 
-/* Writes a W x H pattern with exposure 0 and checks the decoded bytes and
-   the number of stored blocks against ceil(raw / 65535). */
+/* Writes a W x H pattern with exposure 0 through pds_image_write and
+   checks the decoded bytes against an independent tone mapping. */
 static void timg_png_size_case(pds_test_ctx *t, int W, int H)
 {
     char path[256];
     pds_image img;
     pds_error err;
-    unsigned char *file;
-    size_t size, i, raw = (size_t)H * (1 + 3 * (size_t)W);
-    timg_png png;
-    const char *why;
-    int bad = 0;
+    unsigned char *rgb;
+    size_t i;
+    int w = 0, h = 0, bad = 0;
 
     REQUIRE(t, pds_image_alloc(&img, W, H) == PDS_OK, "alloc %dx%d", W, H);
     for (i = 0; i < (size_t)W * H * 3; i++) img.rgb[i] = (float)(i % 251) / 200.0f;
     timg_path(path, sizeof path, "wide.png");
     REQUIRE(t, pds_image_write(path, &img, 0.0, &err) == PDS_OK, "write: %s", err.text);
-    file = timg_read_bytes(path, &size);
-    REQUIRE(t, file != NULL, "read back");
-    why = timg_png_decode(file, size, &png);
-    CHECK(t, why == NULL, "%dx%d decode: %s", W, H, why ? why : "");
-    if (!why) {
-        CHECK(t, png.width == W && png.height == H, "size %dx%d", png.width, png.height);
-        CHECK(t, png.blocks == (int)((raw + 65534) / 65535), "%dx%d: %d blocks for %lu raw bytes", W, H,
-              png.blocks, (unsigned long)raw);
+    rgb = timg_png_read_rgb(path, &w, &h);
+    CHECK(t, rgb != NULL, "%dx%d does not decode", W, H);
+    if (rgb) {
+        CHECK(t, w == W && h == H, "size %dx%d", w, h);
         for (i = 0; i < (size_t)W * H * 3 && bad < 5; i++) {
             int want = (int)floor(timg_srgb(img.rgb[i]) * 255.0 + 0.5);
-            if (png.rgb[i] != want) {
-                CHECK(t, 0, "%dx%d byte %lu = %d, want %d", W, H, (unsigned long)i, png.rgb[i], want);
+            if (rgb[i] != want) {
+                CHECK(t, 0, "%dx%d byte %lu = %d, want %d", W, H, (unsigned long)i, rgb[i], want);
                 bad++;
             }
         }
-        CHECK(t, bad == 0, "%dx%d pixels differ", W, H);
     }
-    free(png.rgb);
-    free(file);
+    free(rgb);
     pds_image_free(&img);
     remove(path);
 }
 
-static void test_png_stored_blocks_split_rows(pds_test_ctx *t)
+static void test_png_round_trips_odd_sizes(pds_test_ctx *t)
 {
-    /* 16000x3: rows of 48001 bytes, 144003 raw bytes -> 3 blocks whose
-       boundaries fall inside rows. */
-    timg_png_size_case(t, 16000, 3);
-    /* 1456x15: exactly 65535 raw bytes -> one full block; 1456x30: exactly
-       two full blocks (no empty final block). */
-    timg_png_size_case(t, 1456, 15);
+    timg_png_size_case(t, 16000, 3); /* rows longer than a stored block */
+    timg_png_size_case(t, 1456, 15); /* 65535 raw bytes */
     timg_png_size_case(t, 1456, 30);
-    /* 1x1: the smallest image. */
-    timg_png_size_case(t, 1, 1);
-    /* Widest allowed image, one row: 49153 bytes in one block. */
+    timg_png_size_case(t, 1, 1);     /* the smallest image */
+    timg_png_size_case(t, 2, 1);     /* one pixel to the left, none above */
+    timg_png_size_case(t, 1, 70);    /* one pixel per row: Sub has nothing to the left */
     timg_png_size_case(t, PDS_MAX_RESOLUTION, 1);
+}
+
+/* A 512x300 test card, in bands of rows: black (None wins), a horizontal
+   ramp that changes every row (Sub), rows repeating a noisy row (Up), a
+   smooth 2-D blend (Average), diagonal stripes (Paeth), flat grey and, at
+   the bottom, noise uniform over the byte values, which no code can
+   shrink (stored blocks).
+   Noise is a fixed LCG, so the image is the same on every run. */
+static void timg_test_card(pds_image *img)
+{
+    uint32_t lcg = 12345u, row_seed = 0;
+    int x, y, c;
+    for (y = 0; y < img->height; y++) {
+        if (y % 8 == 0) row_seed = lcg;
+        for (x = 0; x < img->width; x++)
+            for (c = 0; c < 3; c++) {
+                float *p = img->rgb + 3 * ((size_t)y * img->width + x) + c;
+                double v;
+                lcg = lcg * 1664525u + 1013904223u;
+                if (y < 20) {
+                    v = 0.0;
+                } else if (y < 60) {
+                    v = (double)((x * (y - 19) + 40 * c) % 512) / 511.0;
+                } else if (y < 100) {
+                    uint32_t r = row_seed + (uint32_t)(x * 3 + c) * 2654435761u;
+                    v = (double)(r >> 24) / 255.0;
+                } else if (y < 150) {
+                    v = 0.2 + 0.3 * sin(x * 0.021 + c) * cos(y * 0.033) + 0.001 * (double)(lcg >> 29);
+                } else if (y < 200) {
+                    v = ((x + 2 * y + 7 * c) / 9) % 3 == 0 ? 0.9 : 0.05 * (double)((x - y) & 7);
+                } else if (y < 210) {
+                    v = 0.18;
+                } else { /* linear values whose sRGB bytes are uniform */
+                    v = (double)(lcg >> 24) / 255.0;
+                    v = v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4);
+                }
+                *p = (float)v;
+            }
+    }
+}
+
+static void test_png_round_trip_test_card_uses_every_filter_and_block_type(pds_test_ctx *t)
+{
+    pds_image img;
+    timg_png png, again;
+    size_t i, size, size2;
+    const char *why;
+    int bad = 0, k;
+    REQUIRE(t, pds_image_alloc(&img, 512, 300) == PDS_OK, "alloc");
+    timg_test_card(&img);
+    why = timg_png_round_trip(&img, 0.0, &png, &size);
+    REQUIRE(t, why == NULL, "decode: %s", why);
+    CHECK(t, png.width == 512 && png.height == 300, "size %dx%d", png.width, png.height);
+    for (i = 0; i < (size_t)512 * 300 * 3 && bad < 5; i++) {
+        int want = (int)floor(timg_srgb(img.rgb[i]) * 255.0 + 0.5);
+        if (png.rgb[i] != want) {
+            CHECK(t, 0, "byte %lu = %d, want %d", (unsigned long)i, png.rgb[i], want);
+            bad++;
+        }
+    }
+    for (k = 0; k < 5; k++) CHECK(t, png.filters[k] > 0, "no row used filter type %d", k);
+    CHECK(t, png.blocks[2] >= 1, "%d dynamic blocks", png.blocks[2]);
+    CHECK(t, png.blocks[0] >= 1, "no stored block for the noise");
+    CHECK(t, png.matches > 1000, "only %lu matches", (unsigned long)png.matches);
+
+    /* Same image, same bytes. */
+    why = timg_png_round_trip(&img, 0.0, &again, &size2);
+    CHECK(t, why == NULL && size2 == size && again.idat_len == png.idat_len, "second write differs");
+    if (!why) CHECK(t, memcmp(again.rgb, png.rgb, (size_t)512 * 300 * 3) == 0, "second decode differs");
+    free(again.rgb);
+
+    /* Exposure -3 stops: darker, different filters, still exact. */
+    free(png.rgb);
+    why = timg_png_round_trip(&img, -3.0, &png, &size);
+    REQUIRE(t, why == NULL, "decode at -3 stops: %s", why);
+    for (i = 0, bad = 0; i < (size_t)512 * 300 * 3 && bad < 5; i++) {
+        int want = (int)floor(timg_srgb(img.rgb[i] * 0.125) * 255.0 + 0.5);
+        if (png.rgb[i] != want) {
+            CHECK(t, 0, "-3 stops: byte %lu = %d, want %d", (unsigned long)i, png.rgb[i], want);
+            bad++;
+        }
+    }
+    free(png.rgb);
+    pds_image_free(&img);
+}
+
+static void test_png_zlib_header_and_adler32_trailer(pds_test_ctx *t)
+{
+    char path[256];
+    pds_image img;
+    pds_error err;
+    unsigned char *file, *z = NULL, *raw;
+    size_t size, pos = 8, zlen = 0, raw_len = 40 * (1 + 3 * 64);
+    tinf s;
+    const char *why;
+    REQUIRE(t, pds_image_alloc(&img, 64, 40) == PDS_OK, "alloc");
+    timg_pattern(&img, 1);
+    timg_path(path, sizeof path, "zlib.png");
+    REQUIRE(t, pds_image_write_png(path, &img, 0.0, &err) == PDS_OK, "write: %s", err.text);
+    file = timg_read_bytes(path, &size);
+    remove(path);
+    REQUIRE(t, file != NULL, "read back");
+    while (pos + 12 <= size) { /* the one IDAT's data */
+        size_t len = timg_get_be(file + pos);
+        if (memcmp(file + pos + 4, "IDAT", 4) == 0) {
+            z = file + pos + 8;
+            zlen = len;
+        }
+        pos += 12 + len;
+    }
+    REQUIRE(t, z != NULL && zlen >= 6, "no IDAT");
+    CHECK(t, z[0] == 0x78 && z[1] == 0x9C, "zlib header %02x %02x", z[0], z[1]);
+    CHECK(t, (z[0] * 256 + z[1]) % 31 == 0, "FCHECK: 0x%02x%02x is not a multiple of 31", z[0], z[1]);
+    CHECK(t, (z[1] & 0x20) == 0, "FDICT set");
+    raw = (unsigned char *)malloc(raw_len);
+    REQUIRE(t, raw != NULL, "malloc");
+    why = timg_zlib_inflate(z, zlen, raw, raw_len, &s);
+    CHECK(t, why == NULL && s.len == raw_len, "inflate: %s, %lu bytes", why ? why : "ok", (unsigned long)s.len);
+    if (!why)
+        CHECK(t, timg_get_be(z + zlen - 4) == timg_adler_naive(raw, raw_len), "trailer %08lx, Adler-32 %08lx",
+              (unsigned long)timg_get_be(z + zlen - 4), (unsigned long)timg_adler_naive(raw, raw_len));
+    /* The decoder does check the trailer: flip one of its bits. */
+    z[zlen - 1] ^= 1;
+    why = timg_zlib_inflate(z, zlen, raw, raw_len, &s);
+    CHECK(t, why && strcmp(why, "bad Adler-32") == 0, "corrupt trailer: %s", why ? why : "accepted");
+    free(raw);
+    free(file);
+    pds_image_free(&img);
+}
+
+static void test_png_smooth_gradient_compresses_well(pds_test_ctx *t)
+{
+    /* 256x256 linear ramps: raw stream 256 * (1 + 768) = 196864 bytes.
+       Sub/Up/Average turn a smooth ramp into a few small differences, and
+       LZ77 + Huffman squeeze those: require 20:1 (it gets more). */
+    pds_image img;
+    timg_png png;
+    size_t size, raw = 256 * (1 + 768);
+    const char *why;
+    int x, y;
+    REQUIRE(t, pds_image_alloc(&img, 256, 256) == PDS_OK, "alloc");
+    for (y = 0; y < 256; y++)
+        for (x = 0; x < 256; x++) {
+            float *p = img.rgb + 3 * (y * 256 + x);
+            p[0] = (float)x / 255.0f;
+            p[1] = (float)y / 255.0f;
+            p[2] = (float)(x + y) / 510.0f;
+        }
+    why = timg_png_round_trip(&img, 0.0, &png, &size);
+    CHECK(t, why == NULL, "decode: %s", why ? why : "");
+    CHECK(t, size * 20 < raw, "%lu bytes for %lu raw: ratio %.1f", (unsigned long)size, (unsigned long)raw,
+          (double)raw / (double)size);
+    free(png.rgb);
+    pds_image_free(&img);
+}
+
+/* Deflates data[0..n) with pds__deflate wrapped as zlib and inflates it
+   with the test decoder; checks the bytes come back. Returns the stream. */
+static unsigned char *timg_deflate_round_trip(pds_test_ctx *t, const char *what, const unsigned char *data,
+                                              size_t n, tinf *s, size_t *zlen)
+{
+    pds__bitout o;
+    unsigned char hdr[2] = {0x78, 0x9C}, trailer[4], *back;
+    const char *why;
+    memset(&o, 0, sizeof o);
+    pds__out_bytes(&o, hdr, 2);
+    pds__deflate(&o, data, n);
+    timg_put_be(trailer, pds__adler32_update(1, data, n));
+    pds__out_bytes(&o, trailer, 4);
+    CHECK(t, !o.nomem, "%s: out of memory", what);
+    back = (unsigned char *)malloc(n + 1);
+    if (!back || o.nomem) {
+        free(back);
+        free(o.buf);
+        return NULL;
+    }
+    why = timg_zlib_inflate(o.buf, o.len, back, n, s);
+    CHECK(t, why == NULL, "%s: %s", what, why ? why : "");
+    CHECK(t, s->len == n && (n == 0 || memcmp(back, data, n) == 0), "%s: %lu bytes back of %lu, or they differ",
+          what, (unsigned long)s->len, (unsigned long)n);
+    free(back);
+    *zlen = o.len;
+    return o.buf;
+}
+
+static void test_deflate_round_trips_edge_cases(pds_test_ctx *t)
+{
+    size_t n = 300000, i, zlen, zlen2;
+    unsigned char *data = (unsigned char *)malloc(n), *z, *z2, small[80];
+    uint32_t lcg = 7u;
+    int len = 2;
+    tinf s;
+    REQUIRE(t, data != NULL, "malloc");
+
+    /* Empty input: one final block with only end-of-block. */
+    memset(data, 0, n);
+    z = timg_deflate_round_trip(t, "empty", data, 0, &s, &zlen);
+    CHECK(t, s.blocks[0] + s.blocks[1] + s.blocks[2] == 1, "empty: %d blocks", s.blocks[0] + s.blocks[1] + s.blocks[2]);
+    free(z);
+    data[0] = 'a';
+    free(timg_deflate_round_trip(t, "one byte", data, 1, &s, &zlen));
+
+    /* One distinct byte: one literal, then copies at distance 1, so the
+       distance code has a single used symbol. */
+    memset(data, 'a', n);
+    z = timg_deflate_round_trip(t, "300000 x 'a'", data, n, &s, &zlen);
+    CHECK(t, zlen < 2000 && s.matches > 1000, "run of one byte: %lu bytes, %lu matches", (unsigned long)zlen,
+          (unsigned long)s.matches);
+    free(z);
+
+    /* No match at all: a sequence over 4 letters with no 3-byte string
+       twice (built greedily), so the block is all literals and no
+       distance code is used, yet 2 bits a letter beat the fixed code. */
+    small[0] = small[1] = 0;
+    for (;;) {
+        int c, ok = 0;
+        for (c = 3; c >= 0 && !ok; c--) {
+            int j;
+            ok = 1;
+            for (j = 0; j + 2 < len && ok; j++)
+                if (small[j] == small[len - 2] && small[j + 1] == small[len - 1] && small[j + 2] == c) ok = 0;
+            if (ok) small[len] = (unsigned char)c;
+        }
+        if (!ok || len + 1 >= (int)sizeof small) break;
+        len++;
+    }
+    CHECK(t, len >= 60, "greedy sequence only %d long", len);
+    z = timg_deflate_round_trip(t, "no repeats", small, (size_t)len, &s, &zlen);
+    CHECK(t, s.matches == 0 && s.blocks[2] == 1, "no repeats: %lu matches, %d dynamic blocks",
+          (unsigned long)s.matches, s.blocks[2]);
+    free(z);
+
+    /* Noise: stored blocks, several of them (65535 bytes at most each). */
+    for (i = 0; i < n; i++) {
+        lcg = lcg * 1664525u + 1013904223u;
+        data[i] = (unsigned char)(lcg >> 24);
+    }
+    z = timg_deflate_round_trip(t, "noise", data, n, &s, &zlen);
+    CHECK(t, s.blocks[0] >= 5 && zlen < n + n / 1000 + 64, "noise: %d stored blocks, %lu bytes", s.blocks[0],
+          (unsigned long)zlen);
+    free(z);
+
+    /* Long-range copies: noise repeating with period 32767, the longest
+       distance the compressor uses: 258-byte matches all the way. */
+    for (i = 32767; i < 132767; i++) data[i] = data[i - 32767];
+    z = timg_deflate_round_trip(t, "window", data, 132767, &s, &zlen);
+    CHECK(t, zlen < 40000 && s.matches > 300, "window: %lu bytes, %lu matches", (unsigned long)zlen,
+          (unsigned long)s.matches);
+    /* Deterministic. */
+    z2 = timg_deflate_round_trip(t, "window again", data, 132767, &s, &zlen2);
+    CHECK(t, z && z2 && zlen == zlen2 && memcmp(z, z2, zlen) == 0, "two runs differ");
+    free(z);
+    free(z2);
+    free(data);
+}
+
+/* The optimal (unlimited) Huffman cost sum f_i * len_i, computed as the
+   sum of the merged weights while repeatedly joining the two lightest. */
+static uint64_t timg_huffman_cost(const uint32_t *freq, int n)
+{
+    uint64_t w[300], cost = 0;
+    int m = 0, i;
+    for (i = 0; i < n; i++)
+        if (freq[i]) w[m++] = freq[i];
+    while (m > 1) {
+        int a = 0, b = 1, k;
+        if (w[b] < w[a]) a = 1, b = 0;
+        for (k = 2; k < m; k++) {
+            if (w[k] < w[a]) b = a, a = k;
+            else if (w[k] < w[b]) b = k;
+        }
+        w[a] += w[b];
+        cost += w[a];
+        w[b] = w[--m];
+    }
+    return cost;
+}
+
+/* Checks lengths from pds__huff_lengths: 0 exactly for unused symbols, at
+   most limit, Kraft sum exactly 1 (1/2 for one symbol), and a more
+   frequent symbol never gets a longer code. Returns sum f * len. */
+static uint64_t timg_check_lengths(pds_test_ctx *t, const char *what, const uint32_t *freq, int n, int limit)
+{
+    unsigned char len[300];
+    uint64_t kraft = 0, cost = 0, one = (uint64_t)1 << 40;
+    int i, j, used = 0, maxlen = 0, bad = 0;
+    pds__huff_lengths(freq, n, limit, len);
+    for (i = 0; i < n; i++) {
+        used += freq[i] > 0;
+        if ((freq[i] > 0) != (len[i] > 0)) bad++;
+        if (len[i] > maxlen) maxlen = len[i];
+        if (len[i]) kraft += one >> len[i];
+        cost += (uint64_t)freq[i] * len[i];
+        for (j = 0; j < n; j++)
+            if (freq[i] > 0 && freq[j] > freq[i] && len[j] > len[i]) bad++;
+    }
+    CHECK(t, bad == 0, "%s: %d symbols with a wrong or non-monotone length", what, bad);
+    CHECK(t, maxlen <= limit, "%s: a length of %d over the limit %d", what, maxlen, limit);
+    if (used >= 2) CHECK(t, kraft == one, "%s: Kraft sum %.17g", what, (double)kraft / (double)one);
+    if (used == 1) CHECK(t, kraft == one / 2, "%s: one symbol, Kraft sum %.17g", what, (double)kraft / (double)one);
+    if (used == 0) CHECK(t, maxlen == 0, "%s: lengths for no symbols", what);
+    return cost;
+}
+
+static void test_huffman_lengths_are_limited_and_complete(pds_test_ctx *t)
+{
+    uint32_t freq[286];
+    uint64_t cost;
+    uint32_t lcg = 99u;
+    int i, k;
+    /* Fibonacci counts make the Huffman tree a chain as deep as there
+       are symbols: 40 symbols want depth 39. */
+    memset(freq, 0, sizeof freq);
+    freq[0] = freq[1] = 1;
+    for (i = 2; i < 40; i++) freq[i] = freq[i - 1] + freq[i - 2];
+    timg_check_lengths(t, "fibonacci 40, limit 15", freq, 40, 15);
+    cost = timg_check_lengths(t, "fibonacci 40, unlimited", freq, 40, 60);
+    CHECK(t, cost == timg_huffman_cost(freq, 40), "unlimited cost %llu, Huffman %llu", (unsigned long long)cost,
+          (unsigned long long)timg_huffman_cost(freq, 40));
+    /* The code-length alphabet: 19 symbols, limit 7. */
+    timg_check_lengths(t, "fibonacci 19, limit 7", freq, 19, 7);
+    /* Spread over a literal/length-sized alphabet, with holes. */
+    memset(freq, 0, sizeof freq);
+    for (i = 0; i < 32; i++) freq[i * 9] = i < 2 ? 1 : 0;
+    for (i = 2; i < 32; i++) freq[i * 9] = freq[(i - 1) * 9] + freq[(i - 2) * 9];
+    timg_check_lengths(t, "fibonacci 32 of 286, limit 15", freq, 286, 15);
+    /* Random counts: when the Huffman depth fits, the cost is optimal. */
+    for (k = 0; k < 20; k++) {
+        for (i = 0; i < 286; i++) {
+            lcg = lcg * 1664525u + 1013904223u;
+            freq[i] = (lcg >> 28) < 3 ? 0 : 1 + (lcg >> 20) % (k < 10 ? 50 : 5000);
+        }
+        cost = timg_check_lengths(t, "random", freq, 286, 15);
+        CHECK(t, cost == timg_huffman_cost(freq, 286), "random %d: cost %llu, Huffman %llu", k,
+              (unsigned long long)cost, (unsigned long long)timg_huffman_cost(freq, 286));
+    }
+    /* Degenerate tables. */
+    memset(freq, 0, sizeof freq);
+    timg_check_lengths(t, "no symbol", freq, 30, 15);
+    freq[7] = 1000;
+    timg_check_lengths(t, "one symbol", freq, 30, 15);
+    freq[29] = 1;
+    timg_check_lengths(t, "two symbols", freq, 30, 15);
+    /* All 19 used with equal counts under limit 7; 2^limit = symbols. */
+    for (i = 0; i < 19; i++) freq[i] = 5;
+    timg_check_lengths(t, "19 equal", freq, 19, 7);
+    for (i = 0; i < 16; i++) freq[i] = (uint32_t)1 << i;
+    timg_check_lengths(t, "16 powers of two, limit 4", freq, 16, 4);
 }
 
 /* --------------------------------------------------------- writing files */
@@ -899,7 +1528,13 @@ static const pds_test_case tests_image[] = {
     {"crc32_and_adler32_match_known_check_values", test_crc_adler_known_values},
     {"srgb_encode_matches_the_curve_at_key_points", test_srgb_encode_key_points},
     {"png_decodes_to_hand_computed_tone_mapped_bytes", test_png_small_image_decodes_to_tone_mapped_bytes},
-    {"png_stored_blocks_split_long_rows_and_count_is_exact", test_png_stored_blocks_split_rows},
+    {"png_round_trips_odd_sizes_exactly", test_png_round_trips_odd_sizes},
+    {"png_round_trip_of_test_card_is_exact_and_uses_every_filter_and_block_type",
+     test_png_round_trip_test_card_uses_every_filter_and_block_type},
+    {"png_zlib_header_check_value_and_adler32_trailer", test_png_zlib_header_and_adler32_trailer},
+    {"png_smooth_gradient_compresses_at_least_20_to_1", test_png_smooth_gradient_compresses_well},
+    {"deflate_round_trips_empty_one_byte_runs_no_repeats_noise_and_far_copies", test_deflate_round_trips_edge_cases},
+    {"huffman_lengths_are_limited_complete_and_optimal_when_unlimited", test_huffman_lengths_are_limited_and_complete},
     {"image_write_picks_format_by_extension_case_insensitively", test_image_write_picks_format_by_extension},
     {"image_failed_write_leaves_no_file_behind", test_image_failed_write_leaves_no_file},
     {"image_alloc_and_writers_check_arguments", test_image_alloc_and_writers_check_arguments},
