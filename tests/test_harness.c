@@ -111,53 +111,13 @@ static double harness_value(const char *line, const char *key)
     return p ? strtod(p + strlen(pat), NULL) : NAN;
 }
 
-/* Width, height and RGB bytes of a PNG as pds writes it (stored deflate
-   blocks, filter 0 on every row); NULL when the file is not like that. */
+/* Width, height and RGB bytes of a PNG file (caller frees), or NULL when
+   it does not decode: the independent PNG reader of test_image.c. */
+static unsigned char *timg_png_read_rgb(const char *path, int *w, int *h);
+
 static unsigned char *harness_png(const char *path, int *w, int *h)
 {
-    size_t n, at = 8, zlen = 0, raw_len, got = 0, zi;
-    unsigned char *f = (unsigned char *)harness_slurp(path, &n), *z, *raw, *rgb;
-    int y;
-    if (!f || n < 33 || memcmp(f + 1, "PNG", 3) != 0) {
-        free(f);
-        return NULL;
-    }
-    *w = (int)((unsigned)f[16] << 24 | (unsigned)f[17] << 16 | (unsigned)f[18] << 8 | f[19]);
-    *h = (int)((unsigned)f[20] << 24 | (unsigned)f[21] << 16 | (unsigned)f[22] << 8 | f[23]);
-    z = (unsigned char *)malloc(n);
-    raw_len = (size_t)*h * (1 + 3 * (size_t)*w);
-    raw = (unsigned char *)malloc(raw_len + 1);
-    rgb = (unsigned char *)malloc((size_t)*w * *h * 3 + 1);
-    while (z && at + 12 <= n) {
-        size_t len = (size_t)f[at] << 24 | (size_t)f[at + 1] << 16 | (size_t)f[at + 2] << 8 | f[at + 3];
-        if (at + 12 + len > n) break;
-        if (!memcmp(f + at + 4, "IDAT", 4)) {
-            memcpy(z + zlen, f + at + 8, len);
-            zlen += len;
-        }
-        at += 12 + len;
-    }
-    /* zlib: 2 header bytes, stored blocks (BTYPE 00), Adler-32 */
-    for (zi = 2; z && raw && zi + 5 <= zlen && got < raw_len;) {
-        size_t len = (size_t)z[zi + 1] | (size_t)z[zi + 2] << 8;
-        if ((z[zi] & 6) != 0 || zi + 5 + len > zlen || got + len > raw_len) break;
-        memcpy(raw + got, z + zi + 5, len);
-        got += len;
-        zi += 5 + len;
-    }
-    for (y = 0; got == raw_len && rgb && y < *h; y++) {
-        const unsigned char *row = raw + (size_t)y * (1 + 3 * (size_t)*w);
-        if (row[0] != 0) break;
-        memcpy(rgb + (size_t)y * *w * 3, row + 1, 3 * (size_t)*w);
-    }
-    free(f);
-    free(z);
-    free(raw);
-    if (!rgb || got != raw_len || y != *h) {
-        free(rgb);
-        return NULL;
-    }
-    return rgb;
+    return timg_png_read_rgb(path, w, h);
 }
 
 /* A PFM of w x h pixels, value(x, y) grey. */
