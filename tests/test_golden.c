@@ -62,6 +62,19 @@ static const golden_case golden_cases[] = {
     {"scenes/cardioid.scene", "cardioid", PDS_METHOD_PDS, 96, 2, 20000, 0},
     {"scenes/cardioid.scene", "cardioid", PDS_METHOD_PM, 96, 2, 20000, 30},
     {"scenes/cardioid.scene", "cardioid", PDS_METHOD_PT, 96, 16, 0, 0},
+    {"scenes/cognac.scene", "cognac", PDS_METHOD_PDS, 96, 2, 20000, 8},
+    {"scenes/cognac.scene", "cognac", PDS_METHOD_PM, 96, 2, 20000, 30},
+    {"scenes/cognac.scene", "cognac", PDS_METHOD_PT, 96, 16, 0, 0},
+    {"scenes/pool.scene", "pool", PDS_METHOD_PDS, 96, 2, 20000, 8},
+    {"scenes/pool.scene", "pool", PDS_METHOD_PM, 96, 2, 20000, 30},
+    {"scenes/torus.scene", "torus", PDS_METHOD_PDS, 96, 2, 20000, 8},
+    {"scenes/torus.scene", "torus", PDS_METHOD_PM, 96, 2, 20000, 30},
+    {"scenes/torus.scene", "torus", PDS_METHOD_PT, 96, 16, 0, 0},
+    {"scenes/cornell.scene", "cornell", PDS_METHOD_PDS, 96, 2, 20000, 8},
+    {"scenes/cornell.scene", "cornell", PDS_METHOD_PM, 96, 2, 20000, 30},
+    {"scenes/cornell.scene", "cornell", PDS_METHOD_PT, 96, 16, 0, 0},
+    {"scenes/ring_octahedron.scene", "ring_octahedron", PDS_METHOD_PDS, 96, 2, 20000, 8},
+    {"scenes/ring_octahedron.scene", "ring_octahedron", PDS_METHOD_PM, 96, 2, 20000, 30},
 };
 
 #define GOLDEN_NCASES (sizeof golden_cases / sizeof golden_cases[0])
