@@ -6,6 +6,7 @@
 #   make bench      benchmarks (figures, not pass/fail)
 #   make update-golden  re-render tests/golden/*.pfm (review with git diff)
 #   make references     reference images of the shipped scenes (minutes)
+#   make gallery        the README gallery: every scene at full size (minutes)
 #   make CC=clang   any C99 compiler works
 CC ?= cc
 OPT ?= -O2
@@ -55,6 +56,28 @@ references: pds
 	./pds render scenes/cardioid.scene --method pt --caustics-only --spp 4096 --res 256x192 --quiet \
 	  -o scenes/cardioid.caustics.ref.pfm
 
+# The README's gallery: every shipped scene at full size with PDS and the
+# options its README line recommends, and PDS beside pm on equal photon-pass
+# time for the refraction case, the gold ring and the pool (about 2 minutes).
+GALLERY = scenes/gallery
+gallery: pds
+	mkdir -p $(GALLERY)
+	./pds render scenes/demo.scene -o $(GALLERY)/demo.png
+	./pds render scenes/refraction.scene --photons 200000 --smoothing 8 -o $(GALLERY)/refraction.png
+	./pds render scenes/reflection.scene --photons 200000 --smoothing 8 -o $(GALLERY)/reflection.png
+	./pds render scenes/cardioid.scene --photons 200000 --smoothing 8 -o $(GALLERY)/cardioid.png
+	./pds render scenes/cognac.scene --smoothing 8 -o $(GALLERY)/cognac.png
+	./pds render scenes/pool.scene --photons 400000 --smoothing 8 -o $(GALLERY)/pool.png
+	./pds render scenes/torus.scene --photons 400000 --smoothing 8 -o $(GALLERY)/torus.png
+	./pds render scenes/cornell.scene --photons 400000 --smoothing 8 -o $(GALLERY)/cornell.png
+	./pds render scenes/ring_octahedron.scene --photons 400000 --smoothing 8 -o $(GALLERY)/ring_octahedron.png
+	./pds render scenes/refraction.scene --smoothing 8 --time 6 -o $(GALLERY)/refraction.pds-6s.png
+	./pds render scenes/refraction.scene --method pm --k 50 --time 6 -o $(GALLERY)/refraction.pm-6s.png
+	./pds render scenes/cardioid.scene --smoothing 8 --time 4 -o $(GALLERY)/cardioid.pds-4s.png
+	./pds render scenes/cardioid.scene --method pm --k 50 --time 4 -o $(GALLERY)/cardioid.pm-4s.png
+	./pds render scenes/pool.scene --smoothing 8 --time 6 -o $(GALLERY)/pool.pds-6s.png
+	./pds render scenes/pool.scene --method pm --k 50 --max-radius 0.1 --time 6 -o $(GALLERY)/pool.pm-6s.png
+
 render: pds
 	./pds render scenes/demo.scene -o demo.png
 
@@ -77,4 +100,4 @@ clean:
 	rm -f pds pds-san tests/test_pds tests/test_pds-san demo.png
 	rm -rf tests/out
 
-.PHONY: all test sanitize render bench clean update-golden references
+.PHONY: all test sanitize render bench clean update-golden references gallery
