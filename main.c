@@ -53,6 +53,8 @@ static const char *const usage_text[] = {
     "      --smoothing S           pds, pdm: the footprints' smoothing parameter s (default 12; 5..40)\n"
     "      --plane-tolerance F     pds, pdm, splat: ignore eye vertices farther than F x the footprint's\n"
     "                              major semi-axis from the photon's tangent plane (default 0.25)\n"
+    "      --min-aspect A          pds, pdm: widen needle footprints to at least A x their length\n"
+    "                              (default 0: never, as in the paper; try 0.1-0.3 with many photons)\n"
     "      --debug footprint       pds: also write OUT.footprint.png, footprint anisotropy (red = needle)\n"
     "      --k N                   pm: photons per density estimate (default 50)\n"
     "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
@@ -79,7 +81,8 @@ static const char *const usage_text[] = {
     "  sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]\n"
     "                              render once per value of one parameter and compare each with REF\n"
     "      --method NAME           the method swept (default pds)\n"
-    "      --param NAME            smoothing, k, radius, alpha, photons, spp, max-photons or passes\n"
+    "      --param NAME            smoothing, min-aspect, k, radius, alpha, photons, spp, max-photons\n"
+    "                              or passes\n"
     "      --values A,B,...        the values, comma-separated\n"
     "      --ref REF.pfm           the reference (linear PFM, the renders' resolution)\n"
     "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
@@ -468,6 +471,8 @@ static const opt_spec option_table[] = {
      F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--plane-tolerance", NULL, "plane_tolerance", set_double, OPTF(plane_tolerance), 0, 1e6, "a positive number",
      M_PDS | M_PDM | M_SPLAT, C_ALL, F_VALUE | F_LO_OPEN | F_PER_METHOD},
+    {"--min-aspect", NULL, "min_aspect", set_double, OPTF(min_aspect), 0, 1, "a number from 0 to 1", M_PDS | M_PDM,
+     C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--debug", NULL, "debug", set_debug, 0, 0, 0, "footprint", M_PDS, C_RENDER, F_VALUE},
     {"--k", NULL, "k", set_int, OPTF(k), 1, 1000000, "a whole number from 1 to 1000000", M_PM, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
@@ -595,6 +600,10 @@ static void format_params(const pds_options *o, char *buf, size_t n)
         snprintf(buf, n, " radius=%s alpha=%g", distance_text(o->radius, "auto", d, sizeof d), o->alpha);
         break;
     default: break;
+    }
+    if ((o->method == PDS_METHOD_PDS || o->method == PDS_METHOD_PDM) && o->min_aspect > 0.0) {
+        size_t used = strlen(buf);
+        snprintf(buf + used, n - used, " min_aspect=%g", o->min_aspect);
     }
 }
 

@@ -6607,6 +6607,31 @@ static double pds__footprint_major_axis(pds__v3 dpdu, pds__v3 dpdv)
     return sqrt(0.5 * (aa + bb) + sqrt(h * h + ab * ab));
 }
 
+/* Widen a needle footprint (an extension of the paper, --min-aspect): the
+   ellipse x = a cos t + b sin t, a = dpdu/2, b = dpdv/2, has its principal
+   semi-axes at tan 2t = 2 a.b / (a.a - b.b) (where |x|^2 is extremal):
+   A = a cos t + b sin t (major), B = -a sin t + b cos t (minor, orthogonal
+   to A). If |B| < min_aspect |A|, B is lengthened to min_aspect |A| (along
+   np x A if it has collapsed) and the differentials replaced by 2A, 2B:
+   the same ellipse, only wider. Returns 1 when it changed them. */
+static int pds__footprint_widen(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double min_aspect)
+{
+    pds__v3 a = pds__scale(*dpdu, 0.5), b = pds__scale(*dpdv, 0.5), A, B, dir;
+    double aa = pds__dot(a, a), bb = pds__dot(b, b), ab = pds__dot(a, b), t = 0.5 * atan2(2.0 * ab, aa - bb);
+    double la, lb;
+    if (!(min_aspect > 0.0)) return 0;
+    A = pds__add(pds__scale(a, cos(t)), pds__scale(b, sin(t)));
+    B = pds__add(pds__scale(a, -sin(t)), pds__scale(b, cos(t)));
+    la = pds__length(A);
+    lb = pds__length(B);
+    if (!(la > 0.0) || !isfinite(la) || !isfinite(lb) || lb >= min_aspect * la) return 0;
+    dir = lb > 1e-12 * la ? pds__scale(B, 1.0 / lb) : pds__cross(np, pds__scale(A, 1.0 / la));
+    if (!(pds__length(dir) > 0.5)) return 0; /* A along np: nothing sensible to do */
+    *dpdu = pds__scale(A, 2.0);
+    *dpdv = pds__scale(pds__normalize(dir), 2.0 * min_aspect * la);
+    return 1;
+}
+
 /* Anisotropy metric m_a of appendix B: with Dmax / Dmin the longer /
    shorter positional vector, the part of Dmin perpendicular to Dmax over
    |Dmax|. In [0,1]; 1 = isotropic (equal orthogonal vectors), < 0.1
@@ -8575,6 +8600,7 @@ typedef struct pds__photon_job {
     pds__target target;
     uint64_t seed;
     double smoothing, plane_tolerance, eps;
+    double min_aspect;         /* pds, pdm: footprint widening (0 = off) */
     int max_depth;
     double n_planned;          /* photon count for eqs. 5-6 */
     long n_total;              /* photons to emit (upper bound in time mode) */
@@ -8674,6 +8700,11 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
             sc.M[1][k] = pds__v3_get(t2, k) / major;
         }
     } else {
+        pds__ray_diff wide;
+        if (job->min_aspect > 0.0) {
+            wide = *r;
+            if (pds__footprint_widen(&wide.dpdu, &wide.dpdv, sc.np, job->min_aspect)) r = &wide;
+        }
         ap = pds__footprint_area(r->dpdu, r->dpdv);
         if (!(ap > 0.0) || !isfinite(ap) || !pds__filter_matrix(r->dpdu, r->dpdv, sc.np, sc.M)) {
             buf->degenerate++;
@@ -9151,9 +9182,15 @@ static void pds__store_diff_photon(const pds__photon_job *job, pds__splat_buf *b
 {
     pds__diff_photon *p;
     pds__v3 np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
-    double M[2][3], ap = pds__footprint_area(r->dpdu, r->dpdv), major = pds__footprint_major_axis(r->dpdu, r->dpdv);
+    pds__ray_diff wide;
+    double M[2][3], ap, major;
     int k;
-    (void)job;
+    if (job->min_aspect > 0.0) {
+        wide = *r;
+        if (pds__footprint_widen(&wide.dpdu, &wide.dpdv, np, job->min_aspect)) r = &wide;
+    }
+    ap = pds__footprint_area(r->dpdu, r->dpdv);
+    major = pds__footprint_major_axis(r->dpdu, r->dpdv);
     if (!(ap > 0.0) || !isfinite(ap) || !(major > 0.0) || !isfinite(major) ||
         !pds__filter_matrix(r->dpdu, r->dpdv, np, M)) {
         buf->degenerate++;
@@ -9542,6 +9579,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.seed = opt->seed;
     job.smoothing = opt->smoothing;
     job.plane_tolerance = opt->plane_tolerance;
+    job.min_aspect = opt->min_aspect;
     job.eps = 1e-6 * pds__scene_scale(s);
     job.max_depth = opt->photon_depth;
     job.n_total = opt->photons;
@@ -9735,6 +9773,8 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "smoothing must be positive");
     if (!(opt->plane_tolerance > 0.0) || opt->plane_tolerance > 1e6)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "plane tolerance must be positive");
+    if (!(opt->min_aspect >= 0.0) || opt->min_aspect > 1.0)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "minimum aspect must be between 0 and 1");
     if (opt->photon_depth < 1 || opt->photon_depth > 1000)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photon depth %d is outside 1..1000", opt->photon_depth);
     if (opt->k < 1 || opt->k > 100000)

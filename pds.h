@@ -325,6 +325,12 @@ typedef struct pds_options {
     double plane_tolerance; /* PDS topological-bias guard: eye vertices farther
                            than this times the footprint's major semi-axis from
                            the photon's tangent plane get nothing (default 0.25) */
+    double min_aspect;  /* pds, pdm: widen every footprint whose minor semi-axis
+                           is shorter than this times its major one to that
+                           width, flux unchanged (0 = never, the paper's
+                           method; default 0; at most 1). Needle footprints
+                           at caustic focal lines otherwise hit single eye
+                           vertices with huge weights. */
     int photon_depth;   /* most specular bounces a photon follows (default 16) */
     /* baselines */
     int k;              /* pm: photons per estimate (default 50) */
