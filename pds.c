@@ -8683,6 +8683,7 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
                        const double flux[3], long photon)
 {
     pds__splat_ctx sc;
+    pds__ray_diff wide; /* a widened footprint; r may point here */
     double ap, major;
     int c;
     (void)photon;
@@ -8700,7 +8701,6 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
             sc.M[1][k] = pds__v3_get(t2, k) / major;
         }
     } else {
-        pds__ray_diff wide;
         if (job->min_aspect > 0.0) {
             wide = *r;
             if (pds__footprint_widen(&wide.dpdu, &wide.dpdv, sc.np, job->min_aspect)) r = &wide;
