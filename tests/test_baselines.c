@@ -299,6 +299,41 @@ static void test_map_plan_leaves_time_for_the_build_and_gather(pds_test_ctx *t)
     CHECK_NEAR(t, pds__map_plan(&p, 1, 500.0, 100000, 1e6, 0.1), 0.0, 1e-9);
 }
 
+static void pdm_cap_one(pds_options *o) { o->max_photons = 1; }
+
+/* pdm's cap binds: each eye vertex keeps at most max_photons footprints,
+   so with a cap of one, where footprints overlap, the slab's caustic loses
+   most of its light. */
+static void test_pdm_max_photons_caps_each_gather(pds_test_ctx *t)
+{
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PDM, 20000, 2, &a, NULL, NULL), "pdm");
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PDM, 20000, 2, &b, NULL, pdm_cap_one), "pdm cap 1");
+    CHECK(t, image_mean(&b, 1) < 0.5 * image_mean(&a, 1), "cap 1: %g, cap 500: %g", image_mean(&b, 1),
+          image_mean(&a, 1));
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+
+static void ppm_budget(pds_options *o)
+{
+    o->radius = 0.05;
+    o->passes = 1000000;
+    o->time_s = 0.3;
+}
+
+/* ppm under --time runs whole passes until the time is spent, whatever
+   --passes says, and counts every photon of them. */
+static void test_ppm_under_a_time_budget_runs_whole_passes(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PPM, 5000, 2, &img, &st, ppm_budget), "ppm --time");
+    CHECK(t, st.passes >= 1 && st.passes < 1000000 && st.photons == (long)st.passes * 5000, "passes %d photons %ld",
+          st.passes, st.photons);
+    pds_image_free(&img);
+}
+
 static const pds_test_case tests_baselines[] = {
     {"pm_finds_the_analytic_irradiance_of_a_uniform_caustic", test_pm_finds_the_analytic_irradiance_of_a_uniform_caustic},
     {"pm_filter_normalisations_are_the_filters_integrals", test_pm_filter_normalisations_are_the_filters_integrals},
@@ -310,4 +345,6 @@ static const pds_test_case tests_baselines[] = {
     {"ppm_converges_on_the_uniform_caustic", test_ppm_converges_on_the_uniform_caustic},
     {"pm_under_a_time_budget_maps_only_the_photons_it_counts", test_pm_under_a_time_budget_maps_only_the_photons_it_counts},
     {"map_plan_leaves_time_for_the_build_and_gather", test_map_plan_leaves_time_for_the_build_and_gather},
+    {"pdm_max_photons_caps_each_gather", test_pdm_max_photons_caps_each_gather},
+    {"ppm_under_a_time_budget_runs_whole_passes", test_ppm_under_a_time_budget_runs_whole_passes},
 };

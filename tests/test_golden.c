@@ -314,7 +314,31 @@ static void test_golden_tolerances_catch_power_and_rotation(pds_test_ctx *t)
     }
 }
 
+/* A failure leaves the evidence where the message says: the actual image
+   and |actual - reference| under tests/out/golden/ (git-ignored). */
+static void test_golden_failure_writes_actual_and_difference(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL}, ref = {0, 0, NULL}, back = {0, 0, NULL};
+    pds_error err;
+    REQUIRE(t, pds_image_alloc(&img, 2, 1) == PDS_OK && pds_image_alloc(&ref, 2, 1) == PDS_OK, "alloc");
+    img.rgb[0] = 3.0f;
+    ref.rgb[0] = 1.0f;
+    remove("tests/out/golden/selftest.case.actual.pfm");
+    remove("tests/out/golden/selftest.case.diff.pfm");
+    golden_write_failure("selftest.case", &img, &ref);
+    CHECK(t, pds_image_read_pfm("tests/out/golden/selftest.case.actual.pfm", &back, &err) == PDS_OK, "%s", err.text);
+    pds_image_free(&back);
+    REQUIRE(t, pds_image_read_pfm("tests/out/golden/selftest.case.diff.pfm", &back, &err) == PDS_OK, "%s", err.text);
+    CHECK_NEAR(t, back.rgb[0], 2.0, 0.0);
+    pds_image_free(&back);
+    pds_image_free(&img);
+    pds_image_free(&ref);
+    remove("tests/out/golden/selftest.case.actual.pfm");
+    remove("tests/out/golden/selftest.case.diff.pfm");
+}
+
 static const pds_test_case tests_golden[] = {
     {"golden_images_match_their_references", test_golden_images_match_their_references},
     {"golden_tolerances_catch_power_and_rotation", test_golden_tolerances_catch_power_and_rotation},
+    {"golden_failure_writes_actual_and_difference", test_golden_failure_writes_actual_and_difference},
 };
