@@ -4887,6 +4887,21 @@ static void pds__kd_sift_down(size_t *idx, double *dist2, size_t cnt)
     idx[i] = id;
 }
 
+/* Put (d, id) into the hole at slot i of the max-heap, moving parents
+   that come before it down. */
+static void pds__kd_sift_up(size_t *idx, double *dist2, size_t i, double d, size_t id)
+{
+    while (i > 0) {
+        size_t parent = (i - 1) / 2;
+        if (!pds__kd_after(d, id, dist2[parent], idx[parent])) break;
+        dist2[i] = dist2[parent];
+        idx[i] = idx[parent];
+        i = parent;
+    }
+    dist2[i] = d;
+    idx[i] = id;
+}
+
 /* The same, bottom-up (Floyd's variant), for the final heap sort: walk
    the hole down to a leaf along the larger children, one comparison per
    level, then move the element up from there. The element moved to the
@@ -4902,15 +4917,7 @@ static void pds__kd_sift_down_bottom_up(size_t *idx, double *dist2, size_t cnt)
         idx[i] = idx[ch];
         i = ch;
     }
-    while (i > 0) {
-        size_t parent = (i - 1) / 2;
-        if (!pds__kd_after(d, id, dist2[parent], idx[parent])) break;
-        dist2[i] = dist2[parent];
-        idx[i] = idx[parent];
-        i = parent;
-    }
-    dist2[i] = d;
-    idx[i] = id;
+    pds__kd_sift_up(idx, dist2, i, d, id);
 }
 
 /* Offer a candidate to the bounded heap (cnt entries, capacity k); it has
@@ -4920,15 +4927,7 @@ static void pds__kd_offer(size_t *idx, double *dist2, size_t *cnt, size_t k, dou
     size_t i = *cnt;
     if (i < k) {
         /* room left: sift up from the end */
-        while (i > 0) {
-            size_t parent = (i - 1) / 2;
-            if (!pds__kd_after(d, id, dist2[parent], idx[parent])) break;
-            dist2[i] = dist2[parent];
-            idx[i] = idx[parent];
-            i = parent;
-        }
-        dist2[i] = d;
-        idx[i] = id;
+        pds__kd_sift_up(idx, dist2, i, d, id);
         *cnt += 1;
     } else if (pds__kd_after(dist2[0], idx[0], d, id)) {
         /* better than the worst kept: replace the root */

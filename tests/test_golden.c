@@ -181,7 +181,6 @@ static int golden_render(pds_test_ctx *t, const golden_case *g, golden_edit edit
     opt.method = g->method;
     opt.seed = 1;
     opt.threads = 2;
-    opt.progress = NULL;
     if (g->size > 0) {
         const pds_camera *cam = pds_scene_camera(s);
         opt.width = g->size;
