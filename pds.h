@@ -40,7 +40,10 @@
    file, line and column; pds_error_string() formats them the way compilers
    do ("scenes/ring.scene:12:7: expected a number after 'ior', got 'glass'").
    The library never prints and never exits. Output files are written to a
-   temporary name and renamed, so a failure never leaves a half-written file.
+   temporary name, "PATH.tmp-PID" (PID: the writing process's id in
+   decimal), and renamed, so a failure never leaves a half-written file; a
+   program that may be killed while writing removes that name in its signal
+   handler (the `pds` tool does).
 
    License: MIT (see LICENSE).
 */
