@@ -638,7 +638,17 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
     } else {
         printf(" passes=%d", st->passes);
     }
-    printf(" time_total=%.3f threads=%d output=%s\n", st->time_total_s, st->threads, output);
+    printf(" time_total=%.3f threads=%d saturated=%ld nonfinite=%ld output=%s\n", st->time_total_s, st->threads,
+           st->saturated, st->nonfinite, output);
+    if (st->saturated > 0)
+        fprintf(stderr, "pds: warning: %ld photon terms overflowed their pixel's sum (the light is some 1e18 times "
+                "brighter there than the scene's mean); those pixels hold the largest value\n", st->saturated);
+    if (st->dropped_invalid > 0)
+        fprintf(stderr, "pds: warning: %ld photon terms were negative, infinite or NaN and were dropped\n",
+                st->dropped_invalid);
+    if (st->nonfinite > 0)
+        fprintf(stderr, "pds: warning: %ld image values were NaN or beyond the float range; written as 0 or the "
+                "largest float\n", st->nonfinite);
 }
 
 static int cmd_render(int argc, char **argv)

@@ -218,6 +218,79 @@ static int pds__join_path(const char *dir, const char *name, char *out, size_t n
     return (w < 0 || (size_t)w >= n) ? -1 : 0;
 }
 
+/* --- exact, order-free sums ----------------------------------------------
+   The photon methods add millions of small positive terms into every pixel
+   from several threads. Floating-point addition is not associative, so a
+   float sum would depend on which thread added what first. Instead each
+   pixel channel is a 128-bit unsigned integer counting "units": a term v
+   becomes round(v * unit) on its own (the rounding depends on the term
+   alone), and integer additions are exact and commutative, so the total is
+   the same bit for bit whatever the order, the thread count or the split
+   of the work.
+
+   unit is a power of two chosen per render from the light powers and the
+   scene's size (pds__sum_unit), so that the scene's typical radiance is
+   about 2^64 units: 63 bits of headroom above it before a sum saturates
+   (a focus 10^18 times brighter than the mean) and 64 below it, so a pixel
+   at 10^-6 of the typical radiance still has 13 significant digits. Being
+   a power of two tied to the light power, it makes the precision the same
+   at any light level or scene scale (the fixed 2^-32 resolution this
+   replaces lost all of a caustic lit 10^-9 times as brightly). */
+typedef struct pds__sum128 {
+    uint64_t lo, hi;
+} pds__sum128;
+
+#define PDS__TWO64 18446744073709551616.0 /* 2^64 */
+#define PDS__TWO63 9223372036854775808.0  /* 2^63 */
+#define PDS__SUM_ADDED 0
+#define PDS__SUM_SATURATED 1
+#define PDS__SUM_INVALID 2
+
+/* a += (hi 2^64 + lo); on overflow a stays at its largest value and 1 is
+   returned. */
+static int pds__sum128_add_bits(pds__sum128 *a, uint64_t lo, uint64_t hi)
+{
+    uint64_t sum_lo = a->lo + lo, sum_hi = a->hi + hi;
+    int over = sum_hi < a->hi;
+    if (sum_lo < lo) {
+        sum_hi++;
+        over |= sum_hi == 0;
+    }
+    if (over) {
+        a->lo = a->hi = UINT64_MAX;
+        return 1;
+    }
+    a->lo = sum_lo;
+    a->hi = sum_hi;
+    return 0;
+}
+
+/* a += round(f), f already in units. Returns PDS__SUM_ADDED, or
+   PDS__SUM_SATURATED when the term passed 2^127 or the total 2^128 (the
+   sum then stays at its largest value), or PDS__SUM_INVALID for a
+   negative, infinite or NaN term (not added). */
+static int pds__sum128_add(pds__sum128 *a, double f)
+{
+    if (!(f >= 0.0) || f == HUGE_VAL) return PDS__SUM_INVALID;
+    if (f < PDS__TWO63) /* f + 0.5 <= 2^63: fits */
+        return pds__sum128_add_bits(a, (uint64_t)(f + 0.5), 0) ? PDS__SUM_SATURATED : PDS__SUM_ADDED;
+    if (f < PDS__TWO64 * PDS__TWO63) {
+        /* f >= 2^63 is a multiple of 2^11: floor(f / 2^64) and the
+           remainder f - hi 2^64 (< 2^64, at most 53 bits) are exact */
+        double h = floor(f / PDS__TWO64);
+        return pds__sum128_add_bits(a, (uint64_t)(f - h * PDS__TWO64), (uint64_t)h) ? PDS__SUM_SATURATED
+                                                                                   : PDS__SUM_ADDED;
+    }
+    a->lo = a->hi = UINT64_MAX;
+    return PDS__SUM_SATURATED;
+}
+
+/* The sum in units, as a double (rounded once per half). */
+static double pds__sum128_value(pds__sum128 a)
+{
+    return (double)a.hi * PDS__TWO64 + (double)a.lo;
+}
+
 double pds_time_now(void)
 {
     struct timespec ts;
@@ -8383,8 +8456,8 @@ static int pds__run_threads(int n, void *(*fn)(void *), void *arg)
 
    Determinism: photon i is a pure function of (seed, i); photons go to
    threads in fixed batches, and each thread adds its splats into its own
-   image in 64-bit fixed point (2^-32 resolution), whose sums do not depend
-   on order, so the image is bit for bit the same for any thread count.
+   image of exact 128-bit sums (>>util), which do not depend on order, so
+   the image is bit for bit the same for any thread count.
 
    Aiming: a photon whose first hit is not specular would be dropped, so
    photons are only sent where specular geometry is: towards the bounding
@@ -8394,7 +8467,26 @@ static int pds__run_threads(int n, void *(*fn)(void *), void *arg)
    lights, the sphere's cross-section for directional lights. */
 
 #define PDS__PHOTON_BATCH 1024
-#define PDS__FIXED_SCALE 4294967296.0 /* 2^32 */
+
+/* Units per W/(m^2 sr) of the photon images' exact sums (>>util): a power
+   of two near 2^64 / L, L the radiance of a diffuse white surface that
+   spreads the lights' mean power per channel over the square of the
+   scene's bounding-box diagonal, L = P / (pi D^2). A function of the scene
+   alone, so every shard of a render and every thread count uses the same
+   one. */
+static double pds__sum_unit(const pds_scene *s)
+{
+    double power = 0.0, d2, radiance;
+    pds__v3 e = pds__sub(s->bounds_max, s->bounds_min);
+    size_t i;
+    int exponent;
+    for (i = 0; i < s->nlights; i++) power += pds__light_total_power(&s->lights[i], s->lights[i].area) / 3.0;
+    d2 = pds__dot(e, e);
+    radiance = power / (PDS__PI * (d2 > 0.0 ? d2 : 1.0));
+    if (!(radiance > 0.0) || !isfinite(radiance)) radiance = 1.0;
+    (void)frexp(radiance, &exponent); /* radiance in [2^(exponent-1), 2^exponent) */
+    return ldexp(1.0, 64 - exponent);
+}
 
 /* Bounding sphere of the specular triangles (the photons' target). */
 typedef struct pds__target {
@@ -8575,9 +8667,12 @@ typedef struct pds__diff_photon {
 
 /* One thread's share of the photon pass. */
 typedef struct pds__splat_buf {
-    long long *fixed;      /* 3 per pixel: radiance x 2^32 */
-    double *aniso;         /* footprint debug: 2 per pixel (sum w m_a, sum w); NULL if off */
-    long splatted, degenerate, saturated;
+    pds__sum128 *sum;      /* 3 per pixel: radiance x unit, exact */
+    double unit;           /* pds__sum_unit of the scene */
+    pds__sum128 *aniso;    /* footprint debug: 2 per pixel (sum w m_a, sum w) x 2^64; NULL if off */
+    long splatted, degenerate;
+    long saturated;        /* terms that saturated a pixel's sum */
+    long invalid;          /* negative, infinite or NaN terms, dropped */
     pds__stored_photon *stored;   /* photon-map methods: landed photons */
     size_t nstored, cap_stored;
     pds__diff_photon *dstored;    /* pdm: landed photons with footprints */
@@ -8635,15 +8730,12 @@ typedef struct pds__splat_ctx {
     double aniso;              /* m_a of this footprint (debug image) */
 } pds__splat_ctx;
 
-static void pds__fixed_add(pds__splat_buf *b, size_t i, double v)
+/* Add radiance v (W/(m^2 sr)) into sum i of the thread's image. */
+static void pds__image_add(pds__splat_buf *b, size_t i, double v)
 {
-    double f = v * PDS__FIXED_SCALE;
-    if (!(f >= 0.0)) return; /* NaN or negative: nothing physical */
-    if (f > 9.0e18) {
-        b->saturated++;
-        f = 9.0e18;
-    }
-    b->fixed[i] += (long long)(f + 0.5);
+    int r = pds__sum128_add(&b->sum[i], v * b->unit);
+    if (r == PDS__SUM_SATURATED) b->saturated++;
+    if (r == PDS__SUM_INVALID) b->invalid++;
 }
 
 /* eq. 10 for one eye vertex: pi K(|Mp (x - xp)|) fr(x, wi, wo) Ep. */
@@ -8668,11 +8760,11 @@ static void pds__splat_visit(void *vctx, size_t index, double dist2)
     pds__bsdf_eval(&s->materials.items[v->material], pds__f3_get(v->pos), pds__f3_get(v->wo), sc->wi, ns, ng, f, &pdf);
     for (c = 0; c < 3; c++) {
         double val = PDS__PI * k * f[c] * sc->ep[c] * v->importance[c];
-        if (val > 0.0) pds__fixed_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
+        if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
     }
     if (sc->buf->aniso) {
-        sc->buf->aniso[2 * (size_t)v->pixel] += k * sc->aniso;
-        sc->buf->aniso[2 * (size_t)v->pixel + 1] += k;
+        pds__sum128_add(&sc->buf->aniso[2 * (size_t)v->pixel], k * sc->aniso * PDS__TWO64);
+        pds__sum128_add(&sc->buf->aniso[2 * (size_t)v->pixel + 1], k * PDS__TWO64);
     }
 }
 
@@ -8732,7 +8824,7 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
    kd-tree and the eye vertices (which the photon pass stores in tree
    order). Refraction case, 256x256, 200k photons, one thread: 6.0 s of CPU
    before, 4.9 s with this order, 3.65 s with the vertices in tree order
-   too. The images are fixed-point sums, so the order changes nothing in
+   too. The images are exact sums (>>util), so the order changes nothing in
    them. */
 typedef struct pds__landing {
     pds__ray_diff r;
@@ -8918,7 +9010,7 @@ static void *pds__photon_worker(void *arg)
 /* >>baselines                                                           */
 /* ===================================================================== */
 /* The methods PDS is measured against, on the same eye pass, the same
-   aimed caustic photons and the same fixed-point images:
+   aimed caustic photons and the same exact images:
 
    splat  fixed-bandwidth photon splatting into the eye-path map
           (Lavignotte & Paulin 2003 splat with one bandwidth; Herzog et al.
@@ -9014,7 +9106,7 @@ static int pds__photon_index_cmp(const void *a, const void *b)
 /* The gather of the photon-map methods (pm, pdm): every eye vertex asks
    the map for its k nearest photons within a radius, a method-specific
    estimate turns them into reflected radiance, and the vertex's importance
-   times that goes into its pixel (fixed point, so the chunking of vertices
+   times that goes into its pixel (exact sums, so the chunking of vertices
    over threads does not matter). */
 typedef struct pds__gather {
     const pds_scene *scene;
@@ -9068,7 +9160,7 @@ static void *pds__gather_worker(void *arg)
             if (n == 0) continue;
             g->estimate(g, v, idx, d2, n, sum);
             for (c = 0; c < 3; c++)
-                if (sum[c] > 0.0) pds__fixed_add(buf, 3 * (size_t)v->pixel + (size_t)c, v->importance[c] * sum[c]);
+                if (sum[c] != 0.0) pds__image_add(buf, 3 * (size_t)v->pixel + (size_t)c, v->importance[c] * sum[c]);
         }
     }
     free(idx);
@@ -9132,7 +9224,7 @@ static pds__stored_photon *pds__merge_photons(pds__splat_buf *bufs, int nbufs, s
 }
 
 /* Photon mapping's second half: the caustic map and the gather into the
-   threads' fixed-point images. */
+   threads' exact images. */
 static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
                                  int threads, pds_render_stats *stats, pds_error *err)
 {
@@ -9597,9 +9689,10 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         return pds__nomem(err);
     }
     for (t = 0; t < threads; t++) {
-        job.bufs[t].fixed = (long long *)calloc(npix * 3, sizeof(long long));
-        if (footprint) job.bufs[t].aniso = (double *)calloc(npix * 2, sizeof(double));
-        if (!job.bufs[t].fixed || (footprint && !job.bufs[t].aniso)) st = PDS_ERR_NOMEM;
+        job.bufs[t].sum = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
+        job.bufs[t].unit = pds__sum_unit(s);
+        if (footprint) job.bufs[t].aniso = (pds__sum128 *)calloc(npix * 2, sizeof(pds__sum128));
+        if (!job.bufs[t].sum || (footprint && !job.bufs[t].aniso)) st = PDS_ERR_NOMEM;
     }
     if (!st && opt->method == PDS_METHOD_PPM) {
         st = pds__ppm_passes(&job, opt, vertices, nvertices, threads, rgb, stats, err);
@@ -9624,9 +9717,9 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             remaining -= pds_time_now() - tp; /* the probe's own time */
         }
         for (t = 0; t < threads; t++) {
-            memset(job.bufs[t].fixed, 0, npix * 3 * sizeof(long long));
-            if (job.bufs[t].aniso) memset(job.bufs[t].aniso, 0, npix * 2 * sizeof(double));
-            job.bufs[t].splatted = job.bufs[t].degenerate = job.bufs[t].saturated = 0;
+            memset(job.bufs[t].sum, 0, npix * 3 * sizeof(pds__sum128));
+            if (job.bufs[t].aniso) memset(job.bufs[t].aniso, 0, npix * 2 * sizeof(pds__sum128));
+            job.bufs[t].splatted = job.bufs[t].degenerate = job.bufs[t].saturated = job.bufs[t].invalid = 0;
             job.bufs[t].nstored = job.bufs[t].ndstored = 0;
         }
         job.n_planned = fmax(rate * fmax(remaining, 0.0), (double)PDS__PHOTON_BATCH);
@@ -9654,20 +9747,25 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     if (!st && opt->method == PDS_METHOD_PM) st = pds__pm_gather(&job, opt, vertices, nvertices, threads, stats, err);
     if (!st && opt->method == PDS_METHOD_PDM) st = pds__pdm_gather(&job, opt, vertices, nvertices, threads, stats, err);
     if (!st) {
-        /* Fixed-point sums are exact and order-free; the photons were
-           weighted for n_planned, the count actually emitted corrects it. */
+        /* The sums are exact and order-free; the photons were weighted for
+           n_planned, the count actually emitted corrects it. */
+        long saturated = 0;
         for (i = 0; i < npix * 3; i++) {
-            long long sum = 0;
-            for (t = 0; t < job.nbufs; t++) sum += job.bufs[t].fixed[i];
-            if (emitted > 0) rgb[i] += (double)sum / PDS__FIXED_SCALE * (job.n_planned / (double)emitted);
+            pds__sum128 sum = {0, 0};
+            for (t = 0; t < job.nbufs; t++) saturated += pds__sum128_add_bits(&sum, job.bufs[t].sum[i].lo, job.bufs[t].sum[i].hi);
+            if (emitted > 0)
+                rgb[i] += pds__sum128_value(sum) / job.bufs[0].unit * (job.n_planned / (double)emitted);
         }
         if (footprint && pds_image_alloc(footprint, width, height) == PDS_OK) {
             for (i = 0; i < npix; i++) {
-                double wm = 0.0, w = 0.0;
+                pds__sum128 swm = {0, 0}, sw = {0, 0};
+                double wm, w;
                 for (t = 0; t < job.nbufs; t++) {
-                    wm += job.bufs[t].aniso[2 * i];
-                    w += job.bufs[t].aniso[2 * i + 1];
+                    pds__sum128_add_bits(&swm, job.bufs[t].aniso[2 * i].lo, job.bufs[t].aniso[2 * i].hi);
+                    pds__sum128_add_bits(&sw, job.bufs[t].aniso[2 * i + 1].lo, job.bufs[t].aniso[2 * i + 1].hi);
                 }
+                wm = pds__sum128_value(swm);
+                w = pds__sum128_value(sw);
                 if (w > 0.0) {
                     footprint->rgb[3 * i] = (float)(1.0 - wm / w);
                     footprint->rgb[3 * i + 1] = (float)(wm / w);
@@ -9677,17 +9775,20 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         if (stats) {
             if (opt->method != PDS_METHOD_PPM) stats->photons = emitted;
             stats->eye_vertices = (long)nvertices;
+            stats->saturated += saturated;
             for (t = 0; t < job.nbufs; t++) {
                 if (opt->method != PDS_METHOD_PM && opt->method != PDS_METHOD_PPM) stats->splatted += job.bufs[t].splatted;
                 stats->dropped_degenerate += job.bufs[t].degenerate;
+                stats->saturated += job.bufs[t].saturated;
+                stats->dropped_invalid += job.bufs[t].invalid;
             }
             stats->time_photons_s = pds_time_now() - t0;
             stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + stats->map_bytes +
-                                   (size_t)job.nbufs * npix * (3 * sizeof(long long) + (footprint ? 2 * sizeof(double) : 0));
+                                   (size_t)job.nbufs * npix * (3 + (footprint ? 2 : 0)) * sizeof(pds__sum128);
         }
     }
     for (t = 0; t < job.nbufs; t++) {
-        free(job.bufs[t].fixed);
+        free(job.bufs[t].sum);
         free(job.bufs[t].aniso);
         free(job.bufs[t].stored);
         free(job.bufs[t].dstored);
@@ -9922,7 +10023,19 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
         pds_image_free(out);
         return st;
     }
-    for (i = 0; i < npix * 3; i++) out->rgb[i] = (float)rgb[i];
+    /* No output holds NaN or infinity: count what would have, write 0 for
+       NaN and the largest float for values beyond it. */
+    for (i = 0; i < npix * 3; i++) {
+        double v = rgb[i];
+        if (v != v) {
+            v = 0.0;
+            stats->nonfinite++;
+        } else if (fabs(v) > FLT_MAX) {
+            v = v > 0.0 ? FLT_MAX : -FLT_MAX;
+            stats->nonfinite++;
+        }
+        out->rgb[i] = (float)v;
+    }
     free(job.sum);
     if (job.progress) job.progress(job.progress_user, 1.0, pds_time_now() - job.t0);
     stats->time_total_s = pds_time_now() - job.t0;

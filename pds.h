@@ -367,6 +367,15 @@ typedef struct pds_render_stats {
                                after >= 1 specular bounce and were splatted */
     long dropped_degenerate;/* photons whose footprint had collapsed */
     long eye_vertices;      /* vertices in the eye-path map */
+    long saturated;         /* terms that overflowed a pixel's exact photon
+                               sum (2^128 units, some 10^18 times the scene's
+                               typical radiance), which then stays at its
+                               largest value; 0 in any sane scene */
+    long dropped_invalid;   /* photon terms that were negative, infinite or
+                               NaN, dropped */
+    long nonfinite;         /* image values that would have been NaN (written
+                               as 0) or beyond the float range (written as
+                               the largest float) */
     double time_eye_s, time_photons_s;
     size_t map_bytes;       /* pm, pdm, ppm: peak size of the photon map */
     size_t memory_bytes;    /* largest working memory the render held at once

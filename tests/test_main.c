@@ -18,6 +18,7 @@
 #include "test_differentials.c"
 #include "test_pds.c"
 #include "test_baselines.c"
+#include "test_exact.c"
 
 int main(int argc, char **argv)
 {
@@ -36,6 +37,7 @@ int main(int argc, char **argv)
         PDS_SUITE(tests_differentials),
         PDS_SUITE(tests_pds),
         PDS_SUITE(tests_baselines),
+        PDS_SUITE(tests_exact),
     };
     return pds_test_run(suites, sizeof suites / sizeof suites[0], argc, argv);
 }
