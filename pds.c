@@ -51,8 +51,14 @@
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/types.h>
 
 #define PDS__PI 3.14159265358979323846
+
+/* A PFM the readers accept: the header and the largest raster allowed. */
+#define PDS__MAX_PFM_BYTES ((size_t)PDS_MAX_RESOLUTION * PDS_MAX_RESOLUTION * 12u + 4096u)
 
 /* ===================================================================== */
 /* >>util                                                                */
@@ -141,34 +147,99 @@ static void pds__strlcpy(char *dst, const char *src, size_t n)
     dst[len] = '\0';
 }
 
-/* Read a whole file into a NUL-terminated buffer. */
-static pds_status pds__read_file(const char *path, char **out, size_t *size, pds_error *err)
+/* Read a whole file into a NUL-terminated buffer, refusing what cannot be
+   read in bounded time and memory: anything that is not a regular file (a
+   FIFO would block forever, /dev/zero never ends; opened non-blocking so
+   that even a FIFO does not stall before it is refused), and a file larger
+   than max_bytes (checked before anything is allocated). kind names the
+   file's role in messages ("scene file", "OBJ file", ...). */
+static pds_status pds__read_file(const char *path, size_t max_bytes, const char *kind, char **out, size_t *size,
+                                 pds_error *err)
 {
-    FILE *f = fopen(path, "rb");
-    char *buf = NULL;
-    size_t cap = 0, len = 0;
+    struct stat sb;
+    char *buf;
+    size_t len = 0, want;
+    int fd;
     *out = NULL;
-    if (!f) return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot open: %s", strerror(errno));
-    for (;;) {
-        size_t n;
-        if (pds__grow((void **)&buf, &cap, len + 65536 + 1, 1)) {
-            fclose(f);
+    fd = open(path, O_RDONLY | O_NONBLOCK);
+    if (fd < 0) return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot open: %s", strerror(errno));
+    if (fstat(fd, &sb) != 0) {
+        int e = errno;
+        close(fd);
+        return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot read: %s", strerror(e));
+    }
+    if (!S_ISREG(sb.st_mode)) {
+        close(fd);
+        return pds__fail(err, PDS_ERR_IO, path, 0, 0, "%s", S_ISDIR(sb.st_mode) ? "is a directory" : "not a regular file");
+    }
+    if (sb.st_size < 0 || (unsigned long long)sb.st_size > (unsigned long long)max_bytes) {
+        close(fd);
+        return pds__fail(err, PDS_ERR_LIMIT, path, 0, 0, "%.0f bytes is larger than the limit of %.0f bytes for a %s",
+                         (double)sb.st_size, (double)max_bytes, kind);
+    }
+    want = (size_t)sb.st_size;
+    buf = (char *)malloc(want + 2);
+    if (!buf) {
+        close(fd);
+        return pds__nomem(err);
+    }
+    /* one byte more than the size: a file that grew while being read is
+       refused rather than read in part */
+    while (len < want + 1) {
+        ssize_t n = read(fd, buf + len, want + 1 - len);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) {
+            int e = errno;
+            close(fd);
             free(buf);
-            return pds__nomem(err);
+            return pds__fail(err, PDS_ERR_IO, path, 0, 0, "read error: %s", strerror(e));
         }
-        n = fread(buf + len, 1, cap - len - 1, f);
-        len += n;
         if (n == 0) break;
+        len += (size_t)n;
     }
-    if (ferror(f)) {
-        fclose(f);
+    close(fd);
+    if (len != want) {
         free(buf);
-        return pds__fail(err, PDS_ERR_IO, path, 0, 0, "read error: %s", strerror(errno));
+        return pds__fail(err, PDS_ERR_IO, path, 0, 0, "the file changed while it was read");
     }
-    fclose(f);
     buf[len] = '\0';
     *out = buf;
     if (size) *size = len;
+    return PDS_OK;
+}
+
+/* Can path be read as an input file? 0 if it is a regular file, else an
+   errno value (stat's), or -1 for a FIFO, device, socket or directory.
+   Never opens the file, so a FIFO cannot block it. */
+static int pds__input_file_check(const char *path)
+{
+    struct stat sb;
+    if (stat(path, &sb) != 0) return errno ? errno : ENOENT;
+    return S_ISREG(sb.st_mode) ? 0 : -1;
+}
+
+/* The reason pds__input_file_check gave, as text. */
+static const char *pds__input_file_problem(int code)
+{
+    return code == -1 ? "not a regular file" : strerror(code);
+}
+
+/* Refuse text whose longest line is longer than PDS_MAX_LINE_BYTES, naming
+   the first such line. */
+static pds_status pds__check_lines(const char *path, const char *text, size_t size, pds_error *err)
+{
+    const char *p = text, *end = text + size;
+    int line = 1;
+    while (p < end) {
+        const char *nl = (const char *)memchr(p, '\n', (size_t)(end - p));
+        size_t n = (size_t)((nl ? nl : end) - p);
+        if (n > (size_t)PDS_MAX_LINE_BYTES)
+            return pds__fail(err, PDS_ERR_LIMIT, path, line, 0, "line of %lu bytes is longer than the limit of %d",
+                             (unsigned long)n, PDS_MAX_LINE_BYTES);
+        if (!nl) break;
+        p = nl + 1;
+        if (line < INT_MAX) line++;
+    }
     return PDS_OK;
 }
 
@@ -216,6 +287,91 @@ static int pds__join_path(const char *dir, const char *name, char *out, size_t n
 {
     int w = name[0] == '/' ? snprintf(out, n, "%s", name) : snprintf(out, n, "%s%s", dir, name);
     return (w < 0 || (size_t)w >= n) ? -1 : 0;
+}
+
+/* --- string hash map ------------------------------------------------------- */
+
+/* Open-addressing map from strings (owned copies) to ints; capacity is a
+   power of two, at most half full. */
+typedef struct pds__names {
+    char **keys;
+    int *vals;
+    size_t cap, count;
+} pds__names;
+
+static size_t pds__names_hash(const char *s, size_t n)
+{
+    size_t i;
+    unsigned long h = 2166136261UL; /* FNV-1a */
+    for (i = 0; i < n; i++) h = ((h ^ (unsigned char)s[i]) * 16777619UL) & 0xFFFFFFFFUL;
+    return (size_t)h;
+}
+
+/* Slot for key (s, n): where it is, or the empty slot where it would go. */
+static size_t pds__names_slot(const pds__names *h, const char *s, size_t n)
+{
+    size_t i = pds__names_hash(s, n) & (h->cap - 1);
+    while (h->keys[i] && !(strlen(h->keys[i]) == n && memcmp(h->keys[i], s, n) == 0))
+        i = (i + 1) & (h->cap - 1);
+    return i;
+}
+
+static int pds__names_find(const pds__names *h, const char *s, size_t n)
+{
+    size_t i;
+    if (h->cap == 0) return -1;
+    i = pds__names_slot(h, s, n);
+    return h->keys[i] ? h->vals[i] : -1;
+}
+
+/* Insert (s, n) -> val unless present. Returns the stored key (the copy),
+   or NULL when out of memory. */
+static const char *pds__names_put(pds__names *h, const char *s, size_t n, int val)
+{
+    size_t i;
+    if (2 * (h->count + 1) > h->cap) {
+        size_t ncap = h->cap ? 2 * h->cap : 64, j;
+        char **nk = (char **)calloc(ncap, sizeof *nk);
+        int *nv = (int *)malloc(ncap * sizeof *nv);
+        pds__names old = *h;
+        if (!nk || !nv) {
+            free(nk);
+            free(nv);
+            return NULL;
+        }
+        h->keys = nk;
+        h->vals = nv;
+        h->cap = ncap;
+        for (j = 0; j < old.cap; j++) {
+            if (old.keys[j]) {
+                size_t k = pds__names_slot(h, old.keys[j], strlen(old.keys[j]));
+                h->keys[k] = old.keys[j];
+                h->vals[k] = old.vals[j];
+            }
+        }
+        free(old.keys);
+        free(old.vals);
+    }
+    i = pds__names_slot(h, s, n);
+    if (!h->keys[i]) {
+        char *copy = (char *)malloc(n + 1);
+        if (!copy) return NULL;
+        memcpy(copy, s, n);
+        copy[n] = '\0';
+        h->keys[i] = copy;
+        h->vals[i] = val;
+        h->count++;
+    }
+    return h->keys[i];
+}
+
+static void pds__names_free(pds__names *h)
+{
+    size_t i;
+    for (i = 0; i < h->cap; i++) free(h->keys[i]);
+    free(h->keys);
+    free(h->vals);
+    memset(h, 0, sizeof *h);
 }
 
 /* --- exact, order-free sums ----------------------------------------------
@@ -443,6 +599,9 @@ typedef struct pds__mesh {
     int *idx, *mat;
     size_t ntris, cap_idx, cap_mat;
     long degenerate_dropped; /* zero-area triangles refused by add_tri */
+    long beyond_limit;       /* vertices past +-PDS_MAX_COORD (or not finite)
+                                after their transform, stored as 0: the
+                                loader that added them reports an error */
 } pds__mesh;
 
 static void pds__mesh_free(pds__mesh *m)
@@ -461,6 +620,12 @@ static long pds__mesh_add_vertex(pds__mesh *m, pds__v3 p, pds__v3 n)
     if (i >= (size_t)INT_MAX / 4) return -1;
     if (pds__grow((void **)&m->pos, &m->cap_pos, 3 * (i + 1), sizeof(float))) return -1;
     if (pds__grow((void **)&m->nrm, &m->cap_nrm, 3 * (i + 1), sizeof(float))) return -1;
+    if (!(fabs(p.x) <= PDS_MAX_COORD && fabs(p.y) <= PDS_MAX_COORD && fabs(p.z) <= PDS_MAX_COORD)) {
+        /* converting such a value to float could overflow (undefined) */
+        m->beyond_limit++;
+        p = n = pds__v(0.0, 0.0, 0.0);
+    }
+    if (!(fabs(n.x) <= 2.0 && fabs(n.y) <= 2.0 && fabs(n.z) <= 2.0)) n = pds__v(0.0, 0.0, 0.0);
     m->pos[3 * i + 0] = (float)p.x;
     m->pos[3 * i + 1] = (float)p.y;
     m->pos[3 * i + 2] = (float)p.z;
@@ -515,15 +680,32 @@ static int pds__mesh_add_tri(pds__mesh *m, long a, long b, long c, int mat)
 typedef struct pds__materials {
     pds_material *items;
     size_t count, cap;
+    pds__names index;   /* name -> first material of that name */
 } pds__materials;
 
-/* Index of the material called name, or -1. */
+/* Index of the material called name, or -1 (a hash look-up: 65,536
+   materials parse in milliseconds, not the 43 s a linear search took). */
 static int pds__materials_find(const pds__materials *ms, const char *name)
 {
+    return pds__names_find(&ms->index, name, strlen(name));
+}
+
+static void pds__materials_free(pds__materials *ms)
+{
+    free(ms->items);
+    pds__names_free(&ms->index);
+    memset(ms, 0, sizeof *ms);
+}
+
+/* Forget the materials from index n on (an OBJ that failed to load). */
+static int pds__materials_truncate(pds__materials *ms, size_t n)
+{
     size_t i;
-    for (i = 0; i < ms->count; i++)
-        if (strcmp(ms->items[i].name, name) == 0) return (int)i;
-    return -1;
+    pds__names_free(&ms->index);
+    ms->count = n;
+    for (i = 0; i < n; i++)
+        if (!pds__names_put(&ms->index, ms->items[i].name, strlen(ms->items[i].name), (int)i)) return -1;
+    return 0;
 }
 
 /* A white diffuse material called name (the default for anything). */
@@ -544,6 +726,7 @@ static int pds__materials_add(pds__materials *ms, const pds_material *m)
 {
     if (ms->count >= (size_t)PDS_MAX_MATERIALS) return -1;
     if (pds__grow((void **)&ms->items, &ms->cap, ms->count + 1, sizeof *ms->items)) return -1;
+    if (!pds__names_put(&ms->index, m->name, strlen(m->name), (int)ms->count)) return -1;
     ms->items[ms->count] = *m;
     return (int)ms->count++;
 }
@@ -907,91 +1090,6 @@ static int pds__obj_parse_int(const char *s, int len, long long *out)
     return i;
 }
 
-/* ----------------------------------------------------- string hash map */
-
-/* Open-addressing map from strings (owned copies) to ints; capacity is a
-   power of two, at most half full. */
-typedef struct pds__obj_names {
-    char **keys;
-    int *vals;
-    size_t cap, count;
-} pds__obj_names;
-
-static size_t pds__obj_hash(const char *s, size_t n)
-{
-    size_t i;
-    unsigned long h = 2166136261UL; /* FNV-1a */
-    for (i = 0; i < n; i++) h = ((h ^ (unsigned char)s[i]) * 16777619UL) & 0xFFFFFFFFUL;
-    return (size_t)h;
-}
-
-/* Slot for key (s, n): where it is, or the empty slot where it would go. */
-static size_t pds__obj_names_slot(const pds__obj_names *h, const char *s, size_t n)
-{
-    size_t i = pds__obj_hash(s, n) & (h->cap - 1);
-    while (h->keys[i] && !(strlen(h->keys[i]) == n && memcmp(h->keys[i], s, n) == 0))
-        i = (i + 1) & (h->cap - 1);
-    return i;
-}
-
-static int pds__obj_names_find(const pds__obj_names *h, const char *s, size_t n)
-{
-    size_t i;
-    if (h->cap == 0) return -1;
-    i = pds__obj_names_slot(h, s, n);
-    return h->keys[i] ? h->vals[i] : -1;
-}
-
-/* Insert (s, n) -> val unless present. Returns the stored key (the copy),
-   or NULL when out of memory. */
-static const char *pds__obj_names_put(pds__obj_names *h, const char *s, size_t n, int val)
-{
-    size_t i;
-    if (2 * (h->count + 1) > h->cap) {
-        size_t ncap = h->cap ? 2 * h->cap : 64, j;
-        char **nk = (char **)calloc(ncap, sizeof *nk);
-        int *nv = (int *)malloc(ncap * sizeof *nv);
-        pds__obj_names old = *h;
-        if (!nk || !nv) {
-            free(nk);
-            free(nv);
-            return NULL;
-        }
-        h->keys = nk;
-        h->vals = nv;
-        h->cap = ncap;
-        for (j = 0; j < old.cap; j++) {
-            if (old.keys[j]) {
-                size_t k = pds__obj_names_slot(h, old.keys[j], strlen(old.keys[j]));
-                h->keys[k] = old.keys[j];
-                h->vals[k] = old.vals[j];
-            }
-        }
-        free(old.keys);
-        free(old.vals);
-    }
-    i = pds__obj_names_slot(h, s, n);
-    if (!h->keys[i]) {
-        char *copy = (char *)malloc(n + 1);
-        if (!copy) return NULL;
-        memcpy(copy, s, n);
-        copy[n] = '\0';
-        h->keys[i] = copy;
-        h->vals[i] = val;
-        h->count++;
-    }
-    return h->keys[i];
-}
-
-static void pds__obj_names_free(pds__obj_names *h)
-{
-    size_t i;
-    for (i = 0; i < h->cap; i++) free(h->keys[i]);
-    free(h->keys);
-    free(h->vals);
-    memset(h, 0, sizeof *h);
-}
-
 /* ----------------------------------------------------------- loader state */
 
 /* Sources of a mesh vertex's normal (see the prologue). */
@@ -1039,11 +1137,11 @@ typedef struct pds__obj_state {
 
     long long group;           /* smoothing group: 0 off, -1 implicit */
     int slot;                  /* current usemtl slot, -1 none */
-    pds__obj_names slots;      /* usemtl name -> slot */
+    pds__names slots;      /* usemtl name -> slot */
     const char **slot_names;   /* slot -> name (owned by slots) */
     size_t nslots, cap_slot_names;
-    pds__obj_names matnames;   /* material name -> index in mats */
-    pds__obj_names mtl_loaded; /* MTL paths already read */
+    pds__names matnames;   /* material name -> index in mats */
+    pds__names mtl_loaded; /* MTL paths already read */
     long face_no;
 
     size_t base_v, base_t, base_mats;
@@ -1167,7 +1265,7 @@ static pds_status pds__mtl_commit(pds__obj_state *s, const pds__mtl_raw *r)
     size_t n = strlen(r->name);
     s->st->mtl_materials++;
     if (s->opt->material_override >= 0) return PDS_OK;
-    if (pds__obj_names_find(&s->matnames, r->name, n) >= 0) return PDS_OK;
+    if (pds__names_find(&s->matnames, r->name, n) >= 0) return PDS_OK;
     m = pds__mtl_to_material(r);
     idx = pds__materials_add(s->mats, &m);
     if (idx < 0) {
@@ -1176,7 +1274,7 @@ static pds_status pds__mtl_commit(pds__obj_state *s, const pds__mtl_raw *r)
                              "more than %d materials", PDS_MAX_MATERIALS);
         return pds__nomem(s->err);
     }
-    if (!pds__obj_names_put(&s->matnames, r->name, n, idx)) return pds__nomem(s->err);
+    if (!pds__names_put(&s->matnames, r->name, n, idx)) return pds__nomem(s->err);
     return PDS_OK;
 }
 
@@ -1233,7 +1331,11 @@ static pds_status pds__mtl_load(pds__obj_state *s, const char *path)
         "Ka", "bump", "disp", "decal", "refl", "norm", "sharpness", "Pr", "Pm", "Ps", "Pc",
         "Pcr", "aniso", "anisor", "Km", "Tw"};
 
-    if ((st = pds__read_file(path, &buf, &size, s->err)) != PDS_OK) return st;
+    if ((st = pds__read_file(path, PDS_MAX_TEXT_BYTES, "MTL file", &buf, &size, s->err)) != PDS_OK) return st;
+    if ((st = pds__check_lines(path, buf, size, s->err)) != PDS_OK) {
+        free(buf);
+        return st;
+    }
     pds__obj_lexer_init(&lx, buf, size);
     memset(&cur, 0, sizeof cur);
     while (st == PDS_OK && lx.p < lx.end) {
@@ -1296,7 +1398,7 @@ static pds_status pds__mtl_load(pds__obj_state *s, const char *path)
                                "expected an illumination model number 0-10 for 'illum', got '%.*s'",
                                t.len > 64 ? 64 : t.len, t.s);
             }
-            cur.illum = (int)v;
+            if (st == PDS_OK) cur.illum = (int)v; /* 0..10 now: the conversion is defined */
         } else if (kw.len > 4 && memcmp(kw.s, "map_", 4) == 0) {
             /* textures: not used */
         } else {
@@ -1321,14 +1423,13 @@ static pds_status pds__obj_mtllib(pds__obj_state *s, pds__obj_lexer *lx)
     char rest[4096], full[4096];
     size_t n, i;
     pds_status st;
-    FILE *f;
+    int e;
     int r = pds__obj_rest(s, lx, rest, sizeof rest, &n);
     if (r == -2) return pds__nomem(s->err);
     if (r) return pds__obj_err(s, &s->ftok[0], "material library name is too long");
-    if (n > 1 && pds__join_path(s->dir, rest, full, sizeof full) == 0 && (f = fopen(full, "rb"))) {
-        fclose(f);
-        if (pds__obj_names_find(&s->mtl_loaded, full, strlen(full)) >= 0) return PDS_OK;
-        if (!pds__obj_names_put(&s->mtl_loaded, full, strlen(full), 1)) return pds__nomem(s->err);
+    if (n > 1 && pds__join_path(s->dir, rest, full, sizeof full) == 0 && pds__input_file_check(full) == 0) {
+        if (pds__names_find(&s->mtl_loaded, full, strlen(full)) >= 0) return PDS_OK;
+        if (!pds__names_put(&s->mtl_loaded, full, strlen(full), 1)) return pds__nomem(s->err);
         return pds__mtl_load(s, full);
     }
     for (i = 0; i < n; i++) {
@@ -1338,16 +1439,11 @@ static pds_status pds__obj_mtllib(pds__obj_state *s, pds__obj_lexer *lx)
         name[t.len] = '\0';
         if (pds__join_path(s->dir, name, full, sizeof full))
             return pds__obj_err(s, &t, "material library path is too long");
-        if (pds__obj_names_find(&s->mtl_loaded, full, strlen(full)) >= 0) continue;
-        f = fopen(full, "rb");
-        if (!f) {
-            int e = errno;
-            if (e == ENOENT)
-                return pds__obj_err(s, &t, "material library '%s' not found (looked for %s)", name, full);
-            return pds__obj_err(s, &t, "cannot open material library %s: %s", full, strerror(e));
-        }
-        fclose(f);
-        if (!pds__obj_names_put(&s->mtl_loaded, full, strlen(full), 1)) return pds__nomem(s->err);
+        if (pds__names_find(&s->mtl_loaded, full, strlen(full)) >= 0) continue;
+        e = pds__input_file_check(full);
+        if (e == ENOENT) return pds__obj_err(s, &t, "material library '%s' not found (looked for %s)", name, full);
+        if (e) return pds__obj_err(s, &t, "cannot read material library %s: %s", full, pds__input_file_problem(e));
+        if (!pds__names_put(&s->mtl_loaded, full, strlen(full), 1)) return pds__nomem(s->err);
         if ((st = pds__mtl_load(s, full)) != PDS_OK) return st;
     }
     return PDS_OK;
@@ -1752,10 +1848,10 @@ static pds_status pds__obj_statement(pds__obj_state *s, pds__obj_lexer *lx, cons
             s->slot = -1; /* "usemtl" alone: back to the default material */
             return PDS_OK;
         }
-        slot = pds__obj_names_find(&s->slots, name, strlen(name));
+        slot = pds__names_find(&s->slots, name, strlen(name));
         if (slot < 0) {
             slot = (int)s->nslots;
-            key = pds__obj_names_put(&s->slots, name, strlen(name), slot);
+            key = pds__names_put(&s->slots, name, strlen(name), slot);
             if (!key || pds__grow((void **)&s->slot_names, &s->cap_slot_names, s->nslots + 1,
                                   sizeof *s->slot_names))
                 return pds__nomem(s->err);
@@ -1796,7 +1892,7 @@ static pds_status pds__obj_finish(pds__obj_state *s)
             if (o->override_names[k] && strcmp(o->override_names[k], name) == 0) m = o->override_materials[k];
         if (m < 0) {
             pds__strlcpy(trunc, name, sizeof trunc);
-            m = pds__obj_names_find(&s->matnames, trunc, strlen(trunc));
+            m = pds__names_find(&s->matnames, trunc, strlen(trunc));
         }
         if (m < 0) {
             m = o->default_material;
@@ -1861,9 +1957,9 @@ static void pds__obj_state_free(pds__obj_state *s)
     free(s->tris);
     free(s->reflex);
     free(s->slot_names);
-    pds__obj_names_free(&s->slots);
-    pds__obj_names_free(&s->matnames);
-    pds__obj_names_free(&s->mtl_loaded);
+    pds__names_free(&s->slots);
+    pds__names_free(&s->matnames);
+    pds__names_free(&s->mtl_loaded);
 }
 
 /* Load the OBJ file at path into mesh (appending vertices and triangles)
@@ -1914,10 +2010,11 @@ static pds_status pds__obj_load(const char *path, pds__mesh *mesh, pds__material
     s.base_dropped = mesh->degenerate_dropped;
     for (i = 0; i < mats->count && st == PDS_OK; i++) {
         const char *nm = mats->items[i].name;
-        if (!pds__obj_names_put(&s.matnames, nm, strlen(nm), (int)i)) st = pds__nomem(err);
+        if (!pds__names_put(&s.matnames, nm, strlen(nm), (int)i)) st = pds__nomem(err);
     }
 
-    if (st == PDS_OK) st = pds__read_file(path, &buf, &size, err);
+    if (st == PDS_OK) st = pds__read_file(path, PDS_MAX_OBJ_BYTES, "OBJ file", &buf, &size, err);
+    if (st == PDS_OK) st = pds__check_lines(path, buf, size, err);
     if (st == PDS_OK) {
         pds__obj_lexer_init(&lx, buf, size);
         while (st == PDS_OK && lx.p < lx.end) {
@@ -1933,7 +2030,7 @@ static pds_status pds__obj_load(const char *path, pds__mesh *mesh, pds__material
         mesh->nverts = s.base_v;
         mesh->ntris = s.base_t;
         mesh->degenerate_dropped = s.base_dropped;
-        mats->count = s.base_mats;
+        if (pds__materials_truncate(mats, s.base_mats)) st = pds__nomem(err);
     }
     free(buf);
     pds__obj_state_free(&s);
@@ -3810,18 +3907,24 @@ static void pds__beer(const double *sigma, double dist, double w[3])
    wavelength (nm): Cauchy or Sellmeier with lambda in micrometres when
    the material has dispersion, else m->ior. A formula that gives no real
    index (at a Sellmeier pole) falls back to m->ior. */
+/* n(lambda) of the material's dispersion law as it stands (NaN where a
+   Sellmeier law gives n^2 < 0; huge near its poles); the parser refuses
+   laws that leave [1, 10] in the visible range. */
+static double pds__dispersion_law(const pds_material *m, double wavelength_nm)
+{
+    double l = wavelength_nm * 1e-3, l2 = l * l;
+    const double *c = m->dispersion_coef;
+    if (m->dispersion == PDS_DISPERSION_CAUCHY) return c[0] + c[1] / l2;
+    if (m->dispersion == PDS_DISPERSION_SELLMEIER) {
+        double n2 = 1.0 + c[0] * l2 / (l2 - c[3]) + c[1] * l2 / (l2 - c[4]) + c[2] * l2 / (l2 - c[5]);
+        return n2 >= 0.0 ? sqrt(n2) : NAN;
+    }
+    return m->ior;
+}
+
 static double pds__ior_at(const pds_material *m, double wavelength_nm)
 {
-    double l = wavelength_nm * 1e-3, l2 = l * l, n;
-    const double *c = m->dispersion_coef;
-    if (m->dispersion == PDS_DISPERSION_CAUCHY) {
-        n = c[0] + c[1] / l2;
-    } else if (m->dispersion == PDS_DISPERSION_SELLMEIER) {
-        double n2 = 1.0 + c[0] * l2 / (l2 - c[3]) + c[1] * l2 / (l2 - c[4]) + c[2] * l2 / (l2 - c[5]);
-        n = n2 > 0.0 ? sqrt(n2) : 0.0;
-    } else {
-        return m->ior;
-    }
+    double n = pds__dispersion_law(m, wavelength_nm);
     if (!(n > 0.0) || !(n < 1e6)) return m->ior;
     return n;
 }
@@ -5173,7 +5276,7 @@ void pds_scene_free(pds_scene *s)
 {
     if (!s) return;
     pds__mesh_free(&s->mesh);
-    free(s->materials.items);
+    pds__materials_free(&s->materials);
     free(s->lights);
     free(s->warnings);
     pds__bvh_free(&s->bvh);
@@ -5558,6 +5661,8 @@ static pds_status pds__parse_material(pds__parser *P)
     char type[32], what[128];
     pds_status st;
     int have_ior = 0;
+    pds__token law_tok;
+    memset(&law_tok, 0, sizeof law_tok);
     if ((st = pds__p_word(P, "material", m.name, sizeof m.name))) return st;
     name_tok = P->tok;
     if (strlen(P->tok.text) >= sizeof m.name)
@@ -5625,6 +5730,7 @@ static pds_status pds__parse_material(pds__parser *P)
         else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "outside_ior")) st = pds__p_range(P, key, 1.0, 10.0, &m.outside_ior);
         else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "outside_absorption")) st = pds__p_rgb(P, key, m.outside_absorption);
         else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "cauchy")) {
+            law_tok = P->tok;
             m.dispersion = PDS_DISPERSION_CAUCHY;
             if (!(st = pds__p_range(P, key, 1.0, 10.0, &m.dispersion_coef[0])))
                 st = pds__p_range(P, key, 0.0, 1.0, &m.dispersion_coef[1]);
@@ -5632,6 +5738,7 @@ static pds_status pds__parse_material(pds__parser *P)
             if (!st && !have_ior) m.ior = m.dispersion_coef[0] + m.dispersion_coef[1] / (0.5876 * 0.5876);
         } else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "sellmeier")) {
             int i;
+            law_tok = P->tok;
             m.dispersion = PDS_DISPERSION_SELLMEIER;
             for (i = 0; i < 6 && !st; i++) st = pds__p_range(P, key, 0.0, 1e6, &m.dispersion_coef[i]);
             if (!st && !have_ior) {
@@ -5644,6 +5751,18 @@ static pds_status pds__parse_material(pds__parser *P)
         if (st) return st;
     }
     if (st) return st;
+    if (m.dispersion != PDS_DISPERSION_NONE) {
+        /* a law must give an index in the ior's own range over the whole
+           visible spectrum (a Sellmeier pole there gives n = 674, or NaN) */
+        int nm;
+        for (nm = 360; nm <= 830; nm++) {
+            double n = pds__dispersion_law(&m, nm);
+            if (!(n >= 1.0 && n <= 10.0))
+                return pds__perr(P, &law_tok, PDS_ERR_PARSE,
+                                 "this %s law gives n = %g at %d nm: it must stay within 1 to 10 from 360 to 830 nm",
+                                 m.dispersion == PDS_DISPERSION_CAUCHY ? "Cauchy" : "Sellmeier", n, nm);
+        }
+    }
     if (pds__materials_add(&P->scene->materials, &m) < 0)
         return pds__perr(P, &name_tok, PDS_ERR_LIMIT, "more than %d materials", PDS_MAX_MATERIALS);
     return PDS_OK;
@@ -5762,6 +5881,23 @@ static pds_status pds__parse_light(pds__parser *P)
     if (l.type == PDS_LIGHT_DIRECTIONAL) {
         int c;
         for (c = 0; c < 3; c++) l.power[c] = l.irradiance[c] * l.area;
+    }
+    {
+        /* a size so small that its area or radiance leaves the double
+           range would render black (or infinite) without a word */
+        int c, finite = 1;
+        double total = 0.0;
+        for (c = 0; c < 3; c++) {
+            finite &= isfinite(l.power[c]) && isfinite(l.radiance[c]);
+            total += l.power[c];
+        }
+        if (!finite || (l.type != PDS_LIGHT_POINT && l.type != PDS_LIGHT_SPOT && !(l.area > 0.0)))
+            return pds__perr(P, &type_tok, PDS_ERR_PARSE,
+                             "this %s light is too small: its area (%g) or radiance is out of range (a point light "
+                             "stands for a tiny one)", type, l.area);
+        if (!(total > 0.0))
+            pds__scene_warn(P->scene, "%s:%d:%d: this %s light emits nothing (its power is 0)", P->file, type_tok.line,
+                            type_tok.col, type);
     }
     if (pds__scene_add_light(P->scene, &l) < 0)
         return pds__perr(P, &type_tok, PDS_ERR_LIMIT, "more than %d lights", PDS_MAX_LIGHTS);
@@ -5987,6 +6123,7 @@ static pds_status pds__shape_emit(pds__parser *P, const char *kind, pds__shape_d
     pds__emitter e;
     double sweep = d->sweep_deg * PDS__PI / 180.0;
     int r = 0;
+    long beyond = s->mesh.beyond_limit;
     e.mesh = &s->mesh;
     e.xf = &d->xf;
     e.material = d->material;
@@ -6011,6 +6148,9 @@ static pds_status pds__shape_emit(pds__parser *P, const char *kind, pds__shape_d
         st = pds__obj_load(d->file, &s->mesh, &s->materials, &o, &stats, P->err);
         free((void *)names);
         if (st) return st;
+        if (s->mesh.beyond_limit > beyond)
+            return pds__perr(P, at, PDS_ERR_LIMIT, "%ld vertices of '%s' lie beyond +-%g once transformed",
+                             s->mesh.beyond_limit - beyond, d->file, PDS_MAX_COORD);
         pds__scene_warn_obj(s, d->file, &stats);
         return PDS_OK;
     }
@@ -6041,6 +6181,9 @@ static pds_status pds__shape_emit(pds__parser *P, const char *kind, pds__shape_d
             return pds__perr(P, at, PDS_ERR_LIMIT, "scene has more than %d triangles", PDS_MAX_TRIANGLES);
         return pds__nomem(P->err);
     }
+    if (s->mesh.beyond_limit > beyond)
+        return pds__perr(P, at, PDS_ERR_LIMIT, "%ld vertices of this %s lie beyond +-%g once transformed",
+                         s->mesh.beyond_limit - beyond, kind, PDS_MAX_COORD);
     return PDS_OK;
 }
 
@@ -6063,15 +6206,14 @@ static pds_status pds__parse_shape(pds__parser *P)
     pds__strlcpy(kind, P->tok.text, sizeof kind);
     pds__shape_desc_init(&d, -1);
     if (!strcmp(kind, "mesh")) {
-        FILE *f;
+        int e;
         if ((st = pds__lex_next(P))) return st;
         if (P->tok.kind != PDS__TOK_STRING && P->tok.kind != PDS__TOK_WORD)
             return pds__perr(P, &P->tok, PDS_ERR_PARSE, "expected a file name after 'mesh', got '%s'", P->tok.text);
         if (pds__join_path(P->dir, P->tok.text, d.file, sizeof d.file))
             return pds__perr(P, &P->tok, PDS_ERR_LIMIT, "mesh path too long");
-        f = fopen(d.file, "rb");
-        if (!f) return pds__perr(P, &P->tok, PDS_ERR_IO, "cannot open mesh '%s': %s", d.file, strerror(errno));
-        fclose(f);
+        e = pds__input_file_check(d.file);
+        if (e) return pds__perr(P, &P->tok, PDS_ERR_IO, "cannot read mesh '%s': %s", d.file, pds__input_file_problem(e));
     }
     st = pds__parse_shape_block(P, kind, &d);
     if (!st && d.material < 0) {
@@ -6198,8 +6340,9 @@ pds_status pds_scene_load(const char *path, pds_scene **out, pds_error *err)
     pds_status st;
     if (!path || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_scene_load: NULL argument");
     *out = NULL;
-    if ((st = pds__read_file(path, &src, &size, err))) return st;
-    if (memchr(src, '\0', size))
+    if ((st = pds__read_file(path, PDS_MAX_TEXT_BYTES, "scene file", &src, &size, err))) return st;
+    st = pds__check_lines(path, src, size, err);
+    if (!st && memchr(src, '\0', size))
         st = pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "not a text file (contains a NUL byte)");
     s = pds__scene_new(path);
     if (!s) {
@@ -6988,7 +7131,7 @@ pds_status pds_image_read_pfm(const char *path, pds_image *img, pds_error *err)
     img->rgb = NULL;
     if (!path || !path[0])
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "no input file name given");
-    st = pds__read_file(path, &data, &size, err);
+    st = pds__read_file(path, PDS__MAX_PFM_BYTES, "PFM image", &data, &size, err);
     if (st != PDS_OK) return st;
 
     r.buf = (const unsigned char *)data;
@@ -7056,6 +7199,17 @@ pds_status pds_image_read_pfm(const char *path, pds_image *img, pds_error *err)
             else
                 u = (uint32_t)b[3] | (uint32_t)b[2] << 8 | (uint32_t)b[1] << 16 | (uint32_t)b[0] << 24;
             f = pds__bits_float(u);
+            if ((u & 0x7F800000u) == 0x7F800000u) {
+                /* x, y as a viewer shows them: from the top-left corner */
+                size_t px = channels == 3 ? x / 3 : x;
+                pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "pixel (%lu, %lu) %s is %s: an image must hold finite values",
+                          (unsigned long)px, (unsigned long)((size_t)height - 1 - y),
+                          channels == 3 ? (x % 3 == 0 ? "red" : x % 3 == 1 ? "green" : "blue") : "grey",
+                          (u & 0x007FFFFFu) ? "NaN" : (u >> 31) ? "-infinity" : "infinity");
+                pds_image_free(img);
+                free(data);
+                return PDS_ERR_PARSE;
+            }
             if (channels == 3) {
                 dst[x] = f;
             } else {

@@ -94,6 +94,12 @@ const char *pds_error_string(const pds_error *err);
 #define PDS_MAX_LIGHTS 65536         /* explicit lights in one scene */
 #define PDS_MAX_PROFILE_POINTS 4096  /* points in a revolve profile */
 #define PDS_MAX_COORD 1e12           /* |coordinate| and any length */
+#define PDS_MAX_TEXT_BYTES 67108864  /* a scene or MTL file (64 MiB) */
+#define PDS_MAX_OBJ_BYTES 2147483647 /* an OBJ file (2 GiB) */
+#define PDS_MAX_LINE_BYTES 4194304   /* one line of a scene, OBJ or MTL file (4 MiB:
+                                        an OBJ face of some 500,000 corners) */
+/* Input files must be regular files (not FIFOs, devices or directories);
+   a PFM may hold at most PDS_MAX_RESOLUTION^2 pixels. */
 
 /* ------------------------------------------------------------------- math */
 

@@ -32,7 +32,7 @@ static int timg_write_bytes(const char *path, const void *data, size_t n)
 static unsigned char *timg_read_bytes(const char *path, size_t *n)
 {
     char *data = NULL;
-    if (pds__read_file(path, &data, n, NULL) != PDS_OK) return NULL;
+    if (pds__read_file(path, (size_t)1 << 30, "test file", &data, n, NULL) != PDS_OK) return NULL;
     return (unsigned char *)data;
 }
 

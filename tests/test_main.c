@@ -19,6 +19,7 @@
 #include "test_pds.c"
 #include "test_baselines.c"
 #include "test_exact.c"
+#include "test_limits.c"
 
 int main(int argc, char **argv)
 {
@@ -38,6 +39,7 @@ int main(int argc, char **argv)
         PDS_SUITE(tests_pds),
         PDS_SUITE(tests_baselines),
         PDS_SUITE(tests_exact),
+        PDS_SUITE(tests_limits),
     };
     return pds_test_run(suites, sizeof suites / sizeof suites[0], argc, argv);
 }

@@ -124,7 +124,7 @@ static void test_scene_errors_name_file_line_column_word_for_word(pds_test_ctx *
                                           "sphere, disk, quad, box, cylinder, torus, revolve or heightfield)", PDS_ERR_PARSE},
         {"material g dielectric { ior glass }", "FILE:1:29: expected a number after 'ior', got 'glass'", PDS_ERR_PARSE},
         {"sphere {\n  material nothing\n}", "FILE:2:12: unknown material 'nothing'", PDS_ERR_PARSE},
-        {"mesh \"missing.obj\" { }", "FILE:1:6: cannot open mesh '/tmp/missing.obj': No such file or directory", PDS_ERR_IO},
+        {"mesh \"missing.obj\" { }", "FILE:1:6: cannot read mesh '/tmp/missing.obj': No such file or directory", PDS_ERR_IO},
         {"camera { resolution -5 10 }", "FILE:1:21: 'resolution' must be at least 1, got -5", PDS_ERR_PARSE},
         {"camera { resolution 99999 10 }", "FILE:1:21: 'resolution' must be at most 16384, got 99999", PDS_ERR_LIMIT},
         {"sphere { radius nan }", "FILE:1:17: expected a number after 'radius', got 'nan'", PDS_ERR_PARSE},

@@ -1,0 +1,216 @@
+/* tests/test_limits.c - bounded on any input: special files, sizes, lines,
+   values past the documented limits, and the parts that used to take
+   quadratic time. Uses scene_tmp_write and scene_from_text (test_scene.c). */
+
+#include <sys/stat.h>
+#include <sys/types.h>
+
+/* Load path as a scene; 0 and the error text in *err if it failed. */
+static int limits_load(const char *path, pds_error *err)
+{
+    pds_scene *s = NULL;
+    if (pds_scene_load(path, &s, err) != PDS_OK) return 0;
+    pds_scene_free(s);
+    return 1;
+}
+
+static int limits_contains(const char *text, const char *part)
+{
+    return strstr(text, part) != NULL;
+}
+
+static void test_readers_refuse_fifos_devices_and_directories(pds_test_ctx *t)
+{
+    char fifo[256], scene[256], obj[256], text[600];
+    pds_error err;
+    pds_image img = {0, 0, NULL};
+    pds_scene *s = NULL;
+    snprintf(fifo, sizeof fifo, "/tmp/pds_test_%ld_fifo", (long)getpid());
+    remove(fifo);
+    REQUIRE(t, mkfifo(fifo, 0600) == 0, "mkfifo");
+    /* a FIFO with no writer would block an ordinary open forever */
+    CHECK(t, !limits_load(fifo, &err) && !strcmp(err.message, "not a regular file") && !strcmp(err.file, fifo),
+          "FIFO scene: %s", err.text);
+    CHECK(t, pds_image_read_pfm(fifo, &img, &err) != PDS_OK && !strcmp(err.message, "not a regular file"),
+          "FIFO PFM: %s", err.text);
+    CHECK(t, pds_scene_load_obj(fifo, &s, &err) != PDS_OK && !strcmp(err.message, "not a regular file"),
+          "FIFO OBJ: %s", err.text);
+    /* a device as the mesh of a scene, and as the MTL of an OBJ */
+    CHECK(t, !limits_load(scene_tmp_write(scene, sizeof scene, "dev.scene", "mesh \"/dev/zero\" {}\n"), &err) &&
+              limits_contains(err.text, "dev.scene:1:6: cannot read mesh '/dev/zero': not a regular file"),
+          "mesh /dev/zero: %s", err.text);
+    snprintf(text, sizeof text, "mtllib /dev/zero\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    CHECK(t, pds_scene_load_obj(scene_tmp_write(obj, sizeof obj, "dev.obj", text), &s, &err) != PDS_OK &&
+              limits_contains(err.text, "dev.obj:1:8: cannot read material library /dev/zero: not a regular file"),
+          "mtllib /dev/zero: %s", err.text);
+    snprintf(text, sizeof text, "mesh \"%s\" {}\n", fifo);
+    CHECK(t, !limits_load(scene_tmp_write(scene, sizeof scene, "fifo.scene", text), &err) &&
+              limits_contains(err.message, "not a regular file"),
+          "mesh FIFO: %s", err.text);
+    CHECK(t, !limits_load("/tmp", &err) && !strcmp(err.text, "/tmp: is a directory"), "directory: %s", err.text);
+    remove(fifo);
+    remove(scene);
+    remove(obj);
+}
+
+static void test_readers_refuse_files_past_their_size_limit_before_reading(pds_test_ctx *t)
+{
+    char path[256];
+    pds_error err;
+    pds_image img = {0, 0, NULL};
+    FILE *f;
+    snprintf(path, sizeof path, "/tmp/pds_test_%ld_big.scene", (long)getpid());
+    f = fopen(path, "wb");
+    REQUIRE(t, f != NULL, "create");
+    fclose(f);
+    /* a sparse file one byte over the limit: refused from its size alone */
+    REQUIRE(t, truncate(path, (off_t)PDS_MAX_TEXT_BYTES + 1) == 0, "truncate");
+    CHECK(t, !limits_load(path, &err) && err.status == PDS_ERR_LIMIT &&
+              limits_contains(err.message, "larger than the limit of 67108864 bytes for a scene file"),
+          "scene: %s", err.text);
+    REQUIRE(t, truncate(path, (off_t)PDS__MAX_PFM_BYTES + 1) == 0, "truncate");
+    CHECK(t, pds_image_read_pfm(path, &img, &err) == PDS_ERR_LIMIT, "PFM: %s", err.text);
+    remove(path);
+}
+
+static void test_readers_name_the_first_line_past_the_line_limit(pds_test_ctx *t)
+{
+    size_t n = (size_t)PDS_MAX_LINE_BYTES + 10;
+    char *text = (char *)malloc(n + 64), path[256];
+    pds_error err;
+    pds_scene *s = NULL;
+    REQUIRE(t, text != NULL, "memory");
+    strcpy(text, "v 0 0 0\nv 1 0 0\n# ");
+    memset(text + strlen(text), 'x', n);
+    strcpy(text + 18 + n, "\nv 0 1 0\nf 1 2 3\n");
+    REQUIRE(t, scene_tmp_write(path, sizeof path, "long.obj", text) != NULL, "write");
+    CHECK(t, pds_scene_load_obj(path, &s, &err) == PDS_ERR_LIMIT && err.line == 3 &&
+              limits_contains(err.message, "longer than the limit of 4194304"),
+          "long OBJ line: %s", err.text);
+    remove(path);
+    free(text);
+}
+
+static void test_pfm_with_nan_or_infinity_names_the_first_bad_pixel(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL}, back = {0, 0, NULL};
+    char path[256];
+    pds_error err;
+    REQUIRE(t, pds_image_alloc(&img, 4, 3) == PDS_OK, "alloc");
+    img.rgb[3 * (1 * 4 + 2) + 1] = (float)NAN; /* x 2, y 1 (from the top), green */
+    snprintf(path, sizeof path, "/tmp/pds_test_%ld_nan.pfm", (long)getpid());
+    REQUIRE(t, pds_image_write_pfm(path, &img, NULL) == PDS_OK, "write");
+    CHECK(t, pds_image_read_pfm(path, &back, &err) == PDS_ERR_PARSE &&
+              !strcmp(err.message, "pixel (2, 1) green is NaN: an image must hold finite values"),
+          "NaN: %s", err.text);
+    CHECK(t, back.rgb == NULL, "no image is returned with the error");
+    img.rgb[3 * (1 * 4 + 2) + 1] = 0.0f;
+    img.rgb[3 * (2 * 4 + 0) + 2] = -HUGE_VALF;
+    REQUIRE(t, pds_image_write_pfm(path, &img, NULL) == PDS_OK, "write");
+    CHECK(t, pds_image_read_pfm(path, &back, &err) == PDS_ERR_PARSE &&
+              !strcmp(err.message, "pixel (0, 2) blue is -infinity: an image must hold finite values"),
+          "infinity: %s", err.text);
+    remove(path);
+    pds_image_free(&img);
+}
+
+static void test_scene_refuses_values_past_the_documented_limits(pds_test_ctx *t)
+{
+    static const struct {
+        const char *text, *message;
+    } cases[] = {
+        /* a transform that pushes vertices past 1e12 */
+        {"quad { size 1 1 }\nsphere { radius 1 translate 9e11 0 0 scale 100 }\n",
+         "t.scene:2:1: 2145 vertices of this sphere lie beyond +-1e+12 once transformed"},
+        /* a Sellmeier law with a pole in the visible range */
+        {"material h dielectric { sellmeier 1.03 0.23 1.01 0.006 0.3 103 }\n",
+         "t.scene:1:25: this Sellmeier law gives n = 0.990508 at 497 nm: it must stay within 1 to 10 from 360 to "
+         "830 nm"},
+        /* a disk light whose area underflows */
+        {"light disk { center 0 2 0 radius 1e-200 power 10 }\n",
+         "t.scene:1:7: this disk light is too small: its area (0) or radiance is out of range (a point light "
+         "stands for a tiny one)"},
+    };
+    size_t i;
+    for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        pds_error err;
+        pds_scene *s = scene_from_text(cases[i].text, &err);
+        CHECK(t, s == NULL && limits_contains(err.text, cases[i].message), "case %lu: got '%s'", (unsigned long)i,
+              s ? "(loaded)" : err.text);
+        pds_scene_free(s);
+    }
+}
+
+static void test_scene_warns_of_a_light_that_emits_nothing(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text("camera { position 0 1 3 look_at 0 0 0 }\nquad { size 1 1 }\n"
+                                   "light point { position 0 1 0 power 0 }\n", &err);
+    pds_scene_info info;
+    REQUIRE(t, s != NULL, "load: %s", err.text);
+    pds_scene_get_info(s, &info);
+    CHECK(t, info.warnings == 1 && limits_contains(pds_scene_warning(s, 0), "t.scene:3:7: this point light emits nothing"),
+          "warning: %s", info.warnings ? pds_scene_warning(s, 0) : "(none)");
+    pds_scene_free(s);
+}
+
+static void test_mtl_illum_out_of_range_is_refused_before_conversion(pds_test_ctx *t)
+{
+    char obj[256], mtl[256];
+    pds_error err;
+    pds_scene *s = NULL;
+    scene_tmp_write(mtl, sizeof mtl, "illum.mtl", "newmtl a\nillum 4e44\n");
+    scene_tmp_write(obj, sizeof obj, "illum.obj", "");
+    {
+        char text[512];
+        snprintf(text, sizeof text, "mtllib %s\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n", strrchr(mtl, '/') + 1);
+        scene_tmp_write(obj, sizeof obj, "illum.obj", text);
+    }
+    CHECK(t, pds_scene_load_obj(obj, &s, &err) == PDS_ERR_PARSE &&
+              limits_contains(err.text, "illum.mtl:2:7: expected an illumination model number 0-10 for 'illum', got '4e44'"),
+          "illum: %s", err.text);
+    remove(obj);
+    remove(mtl);
+}
+
+/* 65,536 materials (the limit): each is found by name, and one past the
+   limit is refused. A linear search made this quadratic (43 s). */
+static void test_scene_with_the_most_materials_loads_and_finds_each(pds_test_ctx *t)
+{
+    size_t n = (size_t)PDS_MAX_MATERIALS, i, len = 0, cap = 48 * (n + 2);
+    char *text = (char *)malloc(cap);
+    pds_error err;
+    pds_scene *s;
+    REQUIRE(t, text != NULL, "memory");
+    for (i = 0; i + 1 < n; i++) len += (size_t)snprintf(text + len, cap - len, "material m%lu diffuse {}\n", (unsigned long)i);
+    len += (size_t)snprintf(text + len, cap - len, "quad { material m%lu size 1 1 }\n", (unsigned long)(n / 2));
+    s = scene_from_text(text, &err);
+    REQUIRE(t, s != NULL, "load: %s", err.text);
+    CHECK(t, s->mesh.mat[0] == (int)(n / 2), "the quad's material is m%lu (index %d)", (unsigned long)(n / 2),
+          s->mesh.mat[0]);
+    for (i = 0; i + 1 < n; i += 997) {
+        char name[32];
+        snprintf(name, sizeof name, "m%lu", (unsigned long)i);
+        CHECK(t, pds__materials_find(&s->materials, name) == (int)i, "find %s", name);
+    }
+    pds_scene_free(s);
+    /* n - 1 materials and two more is one over the limit */
+    len += (size_t)snprintf(text + len, cap - len, "material x1 diffuse {}\nmaterial x2 diffuse {}\n");
+    s = scene_from_text(text, &err);
+    CHECK(t, s == NULL && limits_contains(err.text, "more than 65536 materials"), "over the limit: %s",
+          s ? "(loaded)" : err.text);
+    pds_scene_free(s);
+    free(text);
+}
+
+static const pds_test_case tests_limits[] = {
+    {"readers_refuse_fifos_devices_and_directories", test_readers_refuse_fifos_devices_and_directories},
+    {"readers_refuse_files_past_their_size_limit_before_reading",
+     test_readers_refuse_files_past_their_size_limit_before_reading},
+    {"readers_name_the_first_line_past_the_line_limit", test_readers_name_the_first_line_past_the_line_limit},
+    {"pfm_with_nan_or_infinity_names_the_first_bad_pixel", test_pfm_with_nan_or_infinity_names_the_first_bad_pixel},
+    {"scene_refuses_values_past_the_documented_limits", test_scene_refuses_values_past_the_documented_limits},
+    {"scene_warns_of_a_light_that_emits_nothing", test_scene_warns_of_a_light_that_emits_nothing},
+    {"mtl_illum_out_of_range_is_refused_before_conversion", test_mtl_illum_out_of_range_is_refused_before_conversion},
+    {"scene_with_the_most_materials_loads_and_finds_each", test_scene_with_the_most_materials_loads_and_finds_each},
+};
