@@ -603,8 +603,8 @@ static void test_pfm_round_trip(pds_test_ctx *t)
     float special[6];
     special[0] = -0.0f;
     special[1] = 1e-40f; /* subnormal */
-    special[2] = (float)HUGE_VAL;
-    special[3] = -(float)HUGE_VAL;
+    special[2] = 1.17549435e-38f; /* smallest normal (infinities and NaN are refused on reading) */
+    special[3] = -3.4028235e38f;
     special[4] = 3.4028235e38f;
     special[5] = -123.456f;
 
@@ -612,10 +612,6 @@ static void test_pfm_round_trip(pds_test_ctx *t)
     REQUIRE(t, pds_image_alloc(&img, 5, 3) == PDS_OK, "alloc 5x3");
     for (i = 0; i < 45; i++) img.rgb[i] = (float)i * 0.25f - 3.0f;
     for (i = 0; i < 6; i++) img.rgb[20 + i] = special[i];
-    {
-        uint32_t nan_bits = 0x7fc01234u; /* a quiet NaN with a payload */
-        memcpy(&img.rgb[44], &nan_bits, 4);
-    }
     REQUIRE(t, pds_image_write_pfm(path, &img, &err) == PDS_OK, "write: %s", err.text);
     REQUIRE(t, pds_image_read_pfm(path, &back, &err) == PDS_OK, "read: %s", err.text);
     CHECK(t, back.width == 5 && back.height == 3, "size %dx%d", back.width, back.height);
