@@ -10065,6 +10065,62 @@ static pds__eye_vertex *pds__join_rows(pds__render_job *job, size_t *count)
     return all;
 }
 
+/* Physical memory of this machine in bytes, 0 if the system does not say. */
+static double pds__physical_memory(void)
+{
+#if defined(_SC_PHYS_PAGES) && defined(_SC_PAGESIZE)
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    if (pages > 0 && page > 0) return (double)pages * (double)page;
+#endif
+    return 0.0;
+}
+
+/* What a render will hold at once, beyond the scene, from its options
+   alone (an upper bound: every eye sample is taken to record a vertex,
+   every photon emitted to be stored). Per eye vertex: the vertex (68 bytes)
+   in its row array, which grows by doubling (up to 2 x 68), and its copy in
+   the joined array, 204 bytes in all (the kd-tree's 21 bytes and the
+   tree-ordered copy come after the rows are freed). Per stored photon of
+   pm: 56 bytes, twice while the threads' arrays are merged, plus 21 of
+   kd-tree; pdm: 88 bytes, twice. */
+pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *opt, pds_render_estimate *est,
+                                   pds_error *err)
+{
+    const pds_camera *cam;
+    int w, h, spp, threads;
+    double npix, photons, vertex_bytes = 3.0 * sizeof(pds__eye_vertex), bytes;
+    pds_status st;
+    if (!scene || !opt || !est) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render_estimate_get: NULL argument");
+    memset(est, 0, sizeof *est);
+    cam = &scene->camera;
+    w = opt->width > 0 ? opt->width : cam->width;
+    h = opt->height > 0 ? opt->height : cam->height;
+    if ((st = pds__options_check(opt, w, h, err))) return st;
+    spp = opt->spp > 0 ? opt->spp : cam->spp;
+    threads = opt->threads > 0 ? opt->threads : pds_cpu_count();
+    if (threads > h) threads = h;
+    npix = (double)w * (double)h;
+    est->samples = npix * spp;
+    bytes = npix * 3.0 * (sizeof(double) + sizeof(float)); /* the sums and the output image */
+    if (pds__is_photon_method(opt->method) && opt->paths != PDS_PATHS_NO_CAUSTICS) {
+        est->eye_vertices = est->samples;
+        bytes += est->eye_vertices * vertex_bytes;
+        bytes += (double)threads * npix * (3 + (opt->footprint ? 2 : 0)) * sizeof(pds__sum128);
+        photons = opt->time_s > 0.0 ? 0.0 : (double)opt->photons; /* a time budget: not known in advance */
+        if (opt->method == PDS_METHOD_PM) est->stored_photons = photons;
+        if (opt->method == PDS_METHOD_PDM) est->stored_photons = photons;
+        if (opt->method == PDS_METHOD_PPM) {
+            est->stored_photons = (double)opt->photons;
+            bytes += est->eye_vertices * sizeof(pds__ppm_state);
+        }
+        if (opt->method == PDS_METHOD_PDM) bytes += est->stored_photons * 2.0 * sizeof(pds__diff_photon);
+        else bytes += est->stored_photons * (2.0 * sizeof(pds__stored_photon) + 21.0);
+    }
+    est->memory_bytes = bytes;
+    est->available_bytes = pds__physical_memory();
+    return PDS_OK;
+}
+
 pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image *out,
                       pds_render_stats *stats, pds_error *err)
 {
@@ -10080,6 +10136,18 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     w = opt->width > 0 ? opt->width : cam->width;
     h = opt->height > 0 ? opt->height : cam->height;
     if ((st = pds__options_check(opt, w, h, err))) return st;
+    {
+        pds_render_estimate est;
+        double limit;
+        if ((st = pds_render_estimate_get(scene, opt, &est, err))) return st;
+        limit = opt->memory_limit > 0.0 ? opt->memory_limit : est.available_bytes;
+        if (limit > 0.0 && est.memory_bytes > limit)
+            return pds__fail(err, PDS_ERR_LIMIT, NULL, 0, 0,
+                             "this render needs up to %.1f GB (%dx%d pixels, %.3g eye vertices, %.3g stored photons) "
+                             "but %s %.1f GB: lower the resolution, spp or photon count",
+                             est.memory_bytes / 1e9, w, h, est.eye_vertices, est.stored_photons,
+                             opt->memory_limit > 0.0 ? "the memory limit is" : "this machine has", limit / 1e9);
+    }
     if (!stats) stats = &local;
     memset(stats, 0, sizeof *stats);
     memset(&job, 0, sizeof job);

@@ -356,6 +356,9 @@ typedef struct pds_options {
                            footprints are needle-like (m_a -> 0), green where
                            round (m_a -> 1), weighted by the splats' kernels;
                            black where no photon landed (default NULL) */
+    double memory_limit; /* bytes: pds_render refuses (PDS_ERR_LIMIT) a render
+                           whose pds_render_estimate_get memory exceeds this;
+                           0 = this machine's physical memory (default 0) */
 } pds_options;
 
 void pds_options_default(pds_options *opt);
@@ -389,7 +392,26 @@ typedef struct pds_render_stats {
                                does not grow with the photon count */
 } pds_render_stats;
 
-/* Render the scene into *out (allocated here; the caller frees it). */
+/* What a render will need, from the scene and options alone, before any
+   work: an upper bound on the memory it holds at once beyond the scene
+   (per eye vertex 204 bytes, every pixel sample taken to record one; per
+   stored photon 133 bytes for pm and ppm, 176 for pdm; per pixel 36 bytes
+   plus 48 per thread for the photon methods), the pixel samples of one
+   eye pass, and the machine's physical memory (0 if unknown). With a time
+   budget the photon count is not known in advance and counts as 0. */
+typedef struct pds_render_estimate {
+    double memory_bytes;
+    double eye_vertices;    /* photon methods: at most */
+    double stored_photons;  /* pm, pdm: at most; ppm: per pass */
+    double samples;         /* pixel samples of one eye pass */
+    double available_bytes; /* physical memory, 0 if unknown */
+} pds_render_estimate;
+pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *opt,
+                                   pds_render_estimate *est, pds_error *err);
+
+/* Render the scene into *out (allocated here; the caller frees it).
+   Refuses with PDS_ERR_LIMIT, before any work, a render whose estimated
+   memory exceeds opt->memory_limit (or the machine's memory). */
 pds_status pds_render(const pds_scene *scene, const pds_options *opt,
                       pds_image *out, pds_render_stats *stats, pds_error *err);
 

@@ -203,6 +203,43 @@ static void test_scene_with_the_most_materials_loads_and_finds_each(pds_test_ctx
     free(text);
 }
 
+
+/* The estimate is an upper bound on what a render holds, follows the
+   documented bytes per eye vertex, stored photon and pixel, and a render
+   over the memory limit is refused before any work. */
+static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text("camera { position 0 1 3 look_at 0 0 0 resolution 40 30 spp 4 }\n"
+                                   "material glass dielectric { ior 1.5 }\n"
+                                   "quad { size 4 4 }\nsphere { material glass radius 0.5 translate 0 0.6 0 }\n"
+                                   "light point { position 0 3 0 power 100 }\n", &err);
+    pds_options opt;
+    pds_render_estimate est;
+    pds_render_stats st;
+    pds_image img = {0, 0, NULL};
+    double pixels = 40.0 * 30.0;
+    REQUIRE(t, s != NULL, "load: %s", err.text);
+    pds_options_default(&opt);
+    opt.method = PDS_METHOD_PM;
+    opt.photons = 5000;
+    opt.threads = 2;
+    REQUIRE(t, pds_render_estimate_get(s, &opt, &est, &err) == PDS_OK, "estimate: %s", err.text);
+    CHECK(t, est.eye_vertices == pixels * 4 && est.stored_photons == 5000 && est.samples == pixels * 4,
+          "counts %g %g %g", est.eye_vertices, est.stored_photons, est.samples);
+    CHECK(t, est.memory_bytes == pixels * 36 + pixels * 4 * 204 + 2 * pixels * 48 + 5000.0 * 133,
+          "bytes %.0f", est.memory_bytes);
+    REQUIRE(t, pds_render(s, &opt, &img, &st, &err) == PDS_OK, "render: %s", err.text);
+    CHECK(t, (double)st.memory_bytes <= est.memory_bytes, "the render held %lu bytes, over the estimate %.0f",
+          (unsigned long)st.memory_bytes, est.memory_bytes);
+    pds_image_free(&img);
+    opt.memory_limit = est.memory_bytes - 1.0;
+    CHECK(t, pds_render(s, &opt, &img, &st, &err) == PDS_ERR_LIMIT && img.rgb == NULL &&
+              limits_contains(err.message, "but the memory limit is"),
+          "over the limit: %s", err.text);
+    pds_scene_free(s);
+}
+
 static const pds_test_case tests_limits[] = {
     {"readers_refuse_fifos_devices_and_directories", test_readers_refuse_fifos_devices_and_directories},
     {"readers_refuse_files_past_their_size_limit_before_reading",
@@ -213,4 +250,6 @@ static const pds_test_case tests_limits[] = {
     {"scene_warns_of_a_light_that_emits_nothing", test_scene_warns_of_a_light_that_emits_nothing},
     {"mtl_illum_out_of_range_is_refused_before_conversion", test_mtl_illum_out_of_range_is_refused_before_conversion},
     {"scene_with_the_most_materials_loads_and_finds_each", test_scene_with_the_most_materials_loads_and_finds_each},
+    {"render_memory_estimate_bounds_the_render_and_refuses_too_much",
+     test_render_memory_estimate_bounds_the_render_and_refuses_too_much},
 };
