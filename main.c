@@ -4,21 +4,29 @@
 
    Exit status: 0 success, 1 failure (bad input, I/O), 2 usage error.
    Every command ends with one machine-readable line of key=value pairs on
-   stdout; errors go to stderr as FILE:LINE:COLUMN: message.
+   stdout; errors go to stderr as FILE:LINE:COLUMN: message, usage errors as
+   "pds COMMAND: what is wrong". Every command answers --help / -h.
 
    The options of render, sweep and race come from one table
    (option_table): option name -> setter, with the methods whose image the
-   option changes and the commands that take it. sweep and race (the
-   comparison harness) keep every image in memory and create their output
-   folder only after all renders have succeeded; each file in it is written
-   under a temporary name and renamed into place, so a failure never leaves
-   a half-written file. */
-#define _POSIX_C_SOURCE 200809L /* isatty, fileno, mkdir, access, strdup */
+   option changes and the commands that take it. An option's value follows
+   it (--photons 1e6) or is joined to it (--photons=1e6); counts take
+   exponents and the suffixes k, M and G. sweep and race (the comparison
+   harness) keep every image in memory and create their output folder only
+   after all renders have succeeded.
+
+   Every output file is written under a temporary name and renamed into
+   place (pds.h: "PATH.tmp-PID"), so a failure never leaves a half-written
+   file. SIGINT, SIGTERM and SIGHUP are caught (>>signals): the handler
+   removes the temporary file being written, if any, clears the progress
+   bar and dies by the same signal. */
+#define _POSIX_C_SOURCE 200809L /* isatty, fileno, mkdir, access, strdup, sigaction */
 #include "pds.h"
 
 #include <errno.h>
 #include <limits.h>
 #include <math.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -30,6 +38,7 @@
 #include <unistd.h>
 
 #define EXIT_USAGE 2
+#define PATH_MAX_LEN 4096
 
 #if defined(__GNUC__)
 #define PRINTF_LIKE(f, a) __attribute__((format(printf, f, a)))
@@ -37,93 +46,157 @@
 #define PRINTF_LIKE(f, a)
 #endif
 
-/* --help, in three parts (C99 guarantees string literals of 4095 bytes only) */
-static const char *const usage_text[] = {
-    "usage: pds COMMAND [ARGS]\n"
-    "\n"
-    "commands:\n"
-    "  render SCENE [options]      render a scene file (or a bare .obj) to an image\n"
-    "      -o, --output FILE       output image, .png (tone-mapped sRGB) or .pfm (linear)\n"
-    "                              (default: the scene's name with .png, in the current folder)\n"
-    "      --method NAME           pds (photon differential splatting, default), pt (path tracing),\n"
-    "                              preview (eye-light shading), or a baseline: pm (photon mapping),\n"
-    "                              pdm (photon differential mapping), splat (fixed-radius photon\n"
-    "                              splatting), ppm (progressive photon mapping)\n"
-    "      --photons N             photon methods: caustic photons (default 100000; ppm: per pass)\n"
-    "      --smoothing S           pds, pdm: the footprints' smoothing parameter s (default 12; 5..40)\n"
-    "      --plane-tolerance F     pds, pdm, splat: ignore eye vertices farther than F x the footprint's\n"
-    "                              major semi-axis from the photon's tangent plane (default 0.25)\n"
-    "      --min-aspect A          pds, pdm: widen needle footprints to at least A x their length\n"
-    "                              (default 0: never, as in the paper; try 0.1-0.3 with many photons)\n"
-    "      --debug footprint       pds: also write OUT.footprint.png, footprint anisotropy (red = needle)\n"
-    "      --k N                   pm: photons per density estimate (default 50)\n"
-    "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
-    "      --max-radius R          pm: largest gather radius in scene units (default: no limit)\n"
-    "      --max-photons N         pdm: most photons gathered per estimate (default 500)\n"
-    "      --radius R              splat: splat radius; ppm: initial radius (default: from the scene)\n"
-    "      --alpha A               ppm: radius reduction, 0 < A <= 1 (default 0.7)\n"
-    "      --passes N              ppm: photon passes (default 10; with --time, until the time is spent)\n"
-    "                              memory: pm and pdm store every photon, so their memory grows with\n"
-    "                              --photons (the final line reports map_bytes); ppm keeps one pass's\n"
-    "                              photons, pds and splat none\n"
-    "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
-    "      --res WxH               resolution (default: the scene camera's)\n"
-    "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
-    "      --seed N                random seed (default 0); same seed, same image\n"
-    "      --max-depth N           longest eye path in bounces (default 32) and, if given, longest\n"
-    "                              photon path in specular bounces (default 16)\n"
-    "      --time SECONDS          pt: passes of --spp samples until the time is spent;\n"
-    "                              photon methods: one eye pass, then photons until the time is spent\n"
-    "      --no-caustics           leave out caustic paths L S+ D... (what the photon methods add)\n"
-    "      --caustics-only         only caustic paths (pt: the reference for photon methods)\n"
-    "      --exposure STOPS        PNG exposure in stops (default 0)\n"
-    "      --progress / --quiet    force the progress bar on stderr on / off (default: on if a terminal)\n",
-    "  sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]\n"
-    "                              render once per value of one parameter and compare each with REF\n"
-    "      --method NAME           the method swept (default pds)\n"
-    "      --param NAME            smoothing, min-aspect, k, radius, alpha, photons, spp, max-photons\n"
-    "                              or passes\n"
-    "      --values A,B,...        the values, comma-separated\n"
-    "      --ref REF.pfm           the reference (linear PFM, the renders' resolution)\n"
-    "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
-    "                              (RMSE and SSIM against the parameter), one PNG per value\n"
-    "      and any render option, e.g. --photons N, --res WxH, --caustics-only\n"
-    "  race SCENE --ref REF.pfm (--time T | --photons N) --methods LIST [options]\n"
-    "                              every method on the same budget, side by side against REF\n"
-    "      --methods LIST          e.g. pds,pm:k=50,pdm,splat:radius=0.05,ppm; options for one\n"
-    "                              method follow it as :NAME=VALUE (k, kernel, radius, spp, ...)\n"
-    "      --time T, --photons N   the budget of every method (ppm: N photons over all its passes)\n"
-    "      --roi X,Y,W,H           region to crop (default: the 64x64 window of REF with the\n"
-    "                              largest luminance variance)\n"
-    "      -o DIR                  output folder (default race-SCENE): index.html, race.csv, images\n"
-    "      and any render option; it applies to every method it concerns\n",
-    "  compare A.pfm REF.pfm       RMSE and SSIM of A against the reference REF\n"
-    "  info FILE                   what a scene or OBJ file holds\n"
-    "  bench rays MESH [N]         BVH build and ray throughput, one thread (N rays, default 1000000)\n"
-    "  bench pt [SCENE]            path-traced samples per second, 1 thread and all threads\n"
-    "  bench photons [SCENE]       PDS caustic photons per second, 1 thread and all threads\n"
-    "  bench memory [SCENE]        PDS working memory at 1e5 and at 1e7 photons\n"
-    "  bench filter                eq. 12 filter matrices per second against a general 3x3 inverse\n"
-    "  bench kdtree                eye-path map build, range and nearest-neighbour queries per second\n"
-    "  --help                      this text\n"
-    "  --version                   the version\n",
-};
+/* ------------------------------------------------------------------- help */
 
-static void print_usage(FILE *f)
+/* One command's help: `pds help` prints every entry (synopsis and summary
+   on one line, then the details); `pds COMMAND --help` prints one. Each
+   literal stays under the 4095 bytes C99 guarantees. */
+typedef struct command_help {
+    const char *name;     /* "render" */
+    const char *synopsis; /* "render SCENE [options]" */
+    const char *summary;  /* one line */
+    const char *details;  /* options and notes, indented six spaces; may be "" */
+    int takes_options;    /* follows the option syntax of render (the footer applies) */
+} command_help;
+
+static const command_help help_table[] = {
+    {"render", "render SCENE [options]", "render a scene file (or a bare .obj) to an image",
+     "      -o, --output FILE       output image, .png (tone-mapped sRGB) or .pfm (linear)\n"
+     "                              (default: the scene's name with .png, in the current folder)\n"
+     "      --method NAME           pds (photon differential splatting, default), pt (path tracing),\n"
+     "                              preview (eye-light shading), or a baseline: pm (photon mapping),\n"
+     "                              pdm (photon differential mapping), splat (fixed-radius photon\n"
+     "                              splatting), ppm (progressive photon mapping)\n"
+     "      --photons N             photon methods: caustic photons (default 100000; ppm: per pass)\n"
+     "      --smoothing S           pds, pdm: the footprints' smoothing parameter s (default 12; 5..40)\n"
+     "      --plane-tolerance F     pds, pdm, splat: ignore eye vertices farther than F x the footprint's\n"
+     "                              major semi-axis from the photon's tangent plane (default 0.25)\n"
+     "      --min-aspect A          pds, pdm: widen needle footprints to at least A x their length\n"
+     "                              (default 0: never, as in the paper; try 0.1-0.3 with many photons)\n"
+     "      --debug footprint       pds: also write OUT.footprint.png, footprint anisotropy (red = needle)\n"
+     "      --k N                   pm: photons per density estimate (default 50)\n"
+     "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
+     "      --max-radius R          pm: largest gather radius in scene units (default: no limit)\n"
+     "      --max-photons N         pdm: most photons gathered per estimate (default 500)\n"
+     "      --radius R              splat: splat radius; ppm: initial radius (default: from the scene)\n"
+     "      --alpha A               ppm: radius reduction, 0 < A <= 1 (default 0.7)\n"
+     "      --passes N              ppm: photon passes (default 10; with --time, until the time is spent)\n"
+     "                              memory: pm and pdm store every photon, so their memory grows with\n"
+     "                              --photons (the final line reports map_bytes); ppm keeps one pass's\n"
+     "                              photons, pds and splat none\n"
+     "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
+     "      --res WxH               resolution (default: the scene camera's)\n"
+     "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
+     "      --seed N                random seed (default 0); same seed, same image\n"
+     "      --max-depth N           longest eye path in bounces (default 32) and, if given, longest\n"
+     "                              photon path in specular bounces (default 16)\n"
+     "      --time SECONDS          pt: passes of --spp samples until the time is spent;\n"
+     "                              photon methods: one eye pass, then photons until the time is spent\n"
+     "      --no-caustics           leave out caustic paths L S+ D... (what the photon methods add)\n"
+     "      --caustics-only         only caustic paths (pt: the reference for photon methods)\n"
+     "      --exposure STOPS        PNG exposure in stops (default 0)\n"
+     "      --progress              progress on stderr even when it is not a terminal (then one line\n"
+     "                              every 2 seconds); default: a bar when stderr is a terminal\n"
+     "      --quiet                 no progress, no scene warnings\n",
+     1},
+    {"sweep", "sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]",
+     "render once per value of one parameter and compare each with REF",
+     "      --method NAME           the method swept (default pds)\n"
+     "      --param NAME            smoothing, min-aspect, k, radius, alpha, photons, spp, max-photons\n"
+     "                              or passes\n"
+     "      --values A,B,...        the values, comma-separated\n"
+     "      --ref REF.pfm           the reference (linear PFM, the renders' resolution)\n"
+     "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
+     "                              (RMSE and SSIM against the parameter), one PNG per value\n"
+     "      and any render option, e.g. --photons N, --res WxH, --caustics-only\n",
+     1},
+    {"race", "race SCENE --ref REF.pfm (--time T | --photons N) --methods LIST [options]",
+     "every method on the same budget, side by side against REF",
+     "      --methods LIST          e.g. pds,pm:k=50,pdm,splat:radius=0.05,ppm; options for one\n"
+     "                              method follow it as :NAME=VALUE (k, kernel, radius, spp, ...)\n"
+     "      --time T, --photons N   the budget of every method (ppm: N photons over all its passes)\n"
+     "      --roi X,Y,W,H           region to crop (default: the 64x64 window of REF with the\n"
+     "                              largest luminance variance)\n"
+     "      -o DIR                  output folder (default race-SCENE): index.html, race.csv, images\n"
+     "      and any render option; it applies to every method it concerns\n",
+     1},
+    {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", 0},
+    {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", 0},
+    {"bench", "bench WHAT [ARGS]", "micro-benchmarks (figures, never pass/fail):",
+     "      rays MESH [N]           BVH build and ray throughput, one thread (N rays, default 1000000)\n"
+     "      pt [SCENE]              path-traced samples per second, 1 thread and all threads\n"
+     "      photons [SCENE]         PDS caustic photons per second, 1 thread and all threads\n"
+     "      memory [SCENE]          PDS working memory at 1e5 and at 1e7 photons\n"
+     "      filter                  eq. 12 filter matrices per second against a general 3x3 inverse\n"
+     "      kdtree                  eye-path map build, range and nearest-neighbour queries per second\n",
+     0},
+    {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", 0},
+};
+#define N_COMMANDS (sizeof help_table / sizeof help_table[0])
+
+static const char option_syntax_help[] =
+    "      -h, --help              this text\n"
+    "      an option's value follows it or is joined with '=': --photons 2M, --photons=2M;\n"
+    "      counts (N) may be written 250000, 2.5e5 or 250k (k = 1e3, M = 1e6, G = 1e9)\n";
+
+static const command_help *command_help_lookup(const char *name)
 {
     size_t i;
-    for (i = 0; i < sizeof usage_text / sizeof usage_text[0]; i++) fputs(usage_text[i], f);
+    for (i = 0; i < N_COMMANDS; i++)
+        if (!strcmp(help_table[i].name, name)) return &help_table[i];
+    return NULL;
 }
 
+/* `pds --help`: every command with its options. */
+static void print_overview(FILE *f)
+{
+    size_t i;
+    fputs("usage: pds COMMAND [ARGS]     (pds COMMAND --help: one command's options)\n\ncommands:\n", f);
+    for (i = 0; i < N_COMMANDS; i++) {
+        const command_help *h = &help_table[i];
+        if (strlen(h->synopsis) <= 26) fprintf(f, "  %-26s  %s\n%s", h->synopsis, h->summary, h->details);
+        else fprintf(f, "  %s\n%30s%s\n%s", h->synopsis, "", h->summary, h->details);
+    }
+    fputs("  --help, -h                  this text\n"
+          "  --version                   the version\n"
+          "\n"
+          "render, sweep and race: an option's value follows it or is joined with '=' (--photons 2M,\n"
+          "--photons=2M); counts (N) may be written 250000, 2.5e5 or 250k (k = 1e3, M = 1e6, G = 1e9).\n",
+          f);
+}
+
+/* `pds COMMAND --help`. */
+static void print_command_help(const command_help *h, FILE *f)
+{
+    fprintf(f, "usage: pds %s\n  %s\n%s", h->synopsis, h->summary, h->details);
+    if (h->takes_options) fputs(option_syntax_help, f);
+    else fputs("      -h, --help              this text\n", f);
+}
+
+/* Is a an argument asking for help? */
+static int is_help(const char *a)
+{
+    return !strcmp(a, "--help") || !strcmp(a, "-h");
+}
+
+/* --------------------------------------------------------------- messages */
+
+/* The command being run ("render"), for messages; NULL before one is known. */
+static const char *current_command;
+
+/* "pds render: unknown option '--photon' (did you mean '--photons'?)" and a
+   pointer to the help; status 2. */
 static int usage_error(const char *fmt, ...) PRINTF_LIKE(1, 2);
 static int usage_error(const char *fmt, ...)
 {
+    const char *cmd = current_command ? current_command : "";
+    const char *space = current_command ? " " : "";
     va_list ap;
-    fprintf(stderr, "pds: ");
+    fprintf(stderr, "pds%s%s: ", space, cmd);
     va_start(ap, fmt);
     vfprintf(stderr, fmt, ap);
     va_end(ap);
-    fprintf(stderr, "\n(run 'pds --help' for usage)\n");
+    fprintf(stderr, "\n(run 'pds%s%s --help' for usage)\n", space, cmd);
     return EXIT_USAGE;
 }
 
@@ -138,6 +211,168 @@ static int fail(const char *fmt, ...)
     fputc('\n', stderr);
     return 1;
 }
+
+/* ------------------------------------------------------------ suggestions */
+
+/* Edit distance between a and b: inserting, deleting or replacing a
+   character, or swapping two neighbours, costs 1 each (the "optimal string
+   alignment" distance; Damerau 1964 counted the same four typing errors).
+   Words longer than 63 characters count as far from everything. */
+static int edit_distance(const char *a, const char *b)
+{
+    int d[64][64], i, j;
+    int n = (int)strlen(a), m = (int)strlen(b);
+    if (n > 63 || m > 63) return 99;
+    for (i = 0; i <= n; i++) d[i][0] = i;
+    for (j = 0; j <= m; j++) d[0][j] = j;
+    for (i = 1; i <= n; i++)
+        for (j = 1; j <= m; j++) {
+            int best = d[i - 1][j - 1] + (a[i - 1] != b[j - 1]);
+            if (d[i - 1][j] + 1 < best) best = d[i - 1][j] + 1;
+            if (d[i][j - 1] + 1 < best) best = d[i][j - 1] + 1;
+            if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] && d[i - 2][j - 2] + 1 < best)
+                best = d[i - 2][j - 2] + 1;
+            d[i][j] = best;
+        }
+    return d[n][m];
+}
+
+/* The known names closest to a word the tool did not know: feed every
+   candidate to suggest_consider(), then suggest_text() says "did you mean
+   ...?". A name is close when it is at most 2 edits away (and fewer edits
+   than the word has letters, so "-x" suggests nothing) or when the word
+   begins it; more than three equally close names suggest nothing. */
+typedef struct suggestion {
+    const char *word;
+    const char *names[3];
+    int count, distance;
+} suggestion;
+
+static void suggest_init(suggestion *s, const char *word)
+{
+    s->word = word;
+    s->count = 0;
+    s->distance = 3;
+}
+
+static void suggest_consider(suggestion *s, const char *name)
+{
+    size_t len = strlen(s->word), letters = len - strspn(s->word, "-");
+    int d = edit_distance(s->word, name);
+    if (letters >= 2 && len < strlen(name) && !strncmp(name, s->word, len) && d > 1) d = 1;
+    if (d == 0 || d > 2 || d >= (int)letters || d > s->distance) return;
+    if (d < s->distance) {
+        s->distance = d;
+        s->count = 0;
+    }
+    if (s->count < 3) s->names[s->count] = name;
+    s->count++;
+}
+
+/* " (did you mean 'a', 'b' or 'c'?)", or "" when nothing is close. */
+static const char *suggest_text(const suggestion *s, char *buf, size_t n)
+{
+    int i;
+    buf[0] = '\0';
+    if (s->count < 1 || s->count > 3) return buf;
+    snprintf(buf, n, " (did you mean ");
+    for (i = 0; i < s->count; i++) {
+        size_t used = strlen(buf);
+        snprintf(buf + used, n - used, "%s'%s'", i == 0 ? "" : i == s->count - 1 ? " or " : ", ", s->names[i]);
+    }
+    if (strlen(buf) + 3 < n) strcat(buf, "?)");
+    return buf;
+}
+
+/* ---------------------------------------------------------------- signals */
+/* >>signals  Ctrl-C (SIGINT), kill (SIGTERM) and a closed terminal (SIGHUP)
+   must not leave a half-written output file. The library writes every file
+   to "PATH.tmp-PID" and renames it (pds.h), and so do write_text() here;
+   before writing a file the tool arms a slot with that temporary name, and
+   disarms it once the file is in place. The handler may only make
+   async-signal-safe calls (POSIX.1-2008, 2.4.3): it unlinks the armed
+   names, erases the progress bar with write(), restores the default action
+   and raises the signal again, so the process dies by it and the shell
+   sees "killed by SIGINT", not an exit status.
+
+   The handler may interrupt the tool anywhere, even halfway through arming
+   a slot: the names and flags are volatile, a slot's name is complete
+   before its flag says so, and a name is never changed while armed. */
+
+#define TEMP_SLOTS 2 /* render writes at most two files: the image, its footprint image */
+
+static volatile char temp_name[TEMP_SLOTS][PATH_MAX_LEN + 32];
+static volatile sig_atomic_t temp_armed[TEMP_SLOTS];
+static volatile sig_atomic_t bar_on_screen; /* a progress bar is drawn on the terminal */
+
+/* The temporary name the library and write_text() use for path. 0, or -1
+   when it does not fit. */
+static int temp_path(const char *path, char *out, size_t n)
+{
+    int len = snprintf(out, n, "%s.tmp-%ld", path, (long)getpid());
+    return len < 0 || (size_t)len >= n ? -1 : 0;
+}
+
+/* From now on a signal removes path's temporary file. 0, or 1 after printing
+   why the name does not fit. */
+static int temp_arm(int slot, const char *path)
+{
+    char tmp[PATH_MAX_LEN + 32];
+    size_t i;
+    if (temp_path(path, tmp, sizeof tmp)) return fail("%s: path too long", path);
+    temp_armed[slot] = 0;
+    for (i = 0; tmp[i]; i++) temp_name[slot][i] = tmp[i];
+    temp_name[slot][i] = '\0';
+    temp_armed[slot] = 1;
+    return 0;
+}
+
+static void temp_disarm(int slot)
+{
+    temp_armed[slot] = 0;
+}
+
+static void on_fatal_signal(int sig)
+{
+    int saved = errno, k;
+    for (k = 0; k < TEMP_SLOTS; k++) {
+        char name[PATH_MAX_LEN + 32];
+        size_t i;
+        if (!temp_armed[k]) continue;
+        for (i = 0; i + 1 < sizeof name && temp_name[k][i]; i++) name[i] = temp_name[k][i];
+        name[i] = '\0';
+        unlink(name); /* fails harmlessly when the file is not there (yet or any more) */
+    }
+    if (bar_on_screen) {
+        static const char erase[] = "\r\033[K"; /* carriage return, erase to the end of the line */
+        ssize_t w = write(STDERR_FILENO, erase, sizeof erase - 1);
+        (void)w;
+    }
+    signal(sig, SIG_DFL);
+    raise(sig); /* blocked until the handler returns, then the default action: die */
+    errno = saved;
+}
+
+/* Catch the signals that end a run, except those ignored when pds started
+   (nohup, background jobs of a non-interactive shell): they stay ignored. */
+static void catch_fatal_signals(void)
+{
+    static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
+    size_t i;
+    for (i = 0; i < sizeof sigs / sizeof sigs[0]; i++) {
+        struct sigaction sa, old;
+        if (sigaction(sigs[i], NULL, &old) != 0 || old.sa_handler == SIG_IGN) continue;
+        memset(&sa, 0, sizeof sa);
+        sa.sa_handler = on_fatal_signal;
+        sigemptyset(&sa.sa_mask);
+        sigaddset(&sa.sa_mask, SIGINT); /* one handler at a time */
+        sigaddset(&sa.sa_mask, SIGTERM);
+        sigaddset(&sa.sa_mask, SIGHUP);
+        sigaction(sigs[i], &sa, NULL);
+    }
+}
+
+/* ---------------------------------------------------------------- parsing */
 
 static int has_ext(const char *path, const char *ext)
 {
@@ -160,6 +395,41 @@ static int parse_int(const char *s, long lo, long hi, long *out)
     v = strtol(s, &end, 10);
     if (end == s || *end || errno || v < lo || v > hi) return -1;
     *out = v;
+    return 0;
+}
+
+/* Parse a count in [lo, hi]: a whole number written plainly (250000), with
+   an exponent (2.5e5) or a suffix k, M or G (250k; k = 1e3, M = 1e6,
+   G = 1e9). After scaling it must be whole: 1.5k is 1500, 1.5 is an error.
+   0, or -1 on error. */
+static int parse_count(const char *s, long lo, long hi, long *out)
+{
+    char num[64], *end;
+    size_t n = strlen(s), i;
+    double v, scale = 1.0;
+    if (parse_int(s, lo, hi, out) == 0) return 0; /* the plain case, exact to the last digit */
+    if (n == 0 || n >= sizeof num) return -1;
+    memcpy(num, s, n + 1);
+    switch (num[n - 1]) {
+    case 'k': case 'K': scale = 1e3; break;
+    case 'M': scale = 1e6; break;
+    case 'G': scale = 1e9; break;
+    default: break;
+    }
+    if (scale > 1.0) num[--n] = '\0';
+    /* digits, a point and an exponent only: no sign in front, no hex, inf or nan */
+    for (i = 0; i < n; i++) {
+        char ch = num[i];
+        int exponent_sign = (ch == '+' || ch == '-') && i > 0 && (num[i - 1] == 'e' || num[i - 1] == 'E');
+        if (!(ch >= '0' && ch <= '9') && ch != '.' && ch != 'e' && ch != 'E' && !exponent_sign) return -1;
+    }
+    errno = 0;
+    v = strtod(num, &end);
+    if (n == 0 || end != num + n || errno) return -1;
+    v *= scale;
+    /* (double)LONG_MAX rounds up to 2^63, which no long holds */
+    if (!(v >= (double)lo && v <= (double)hi) || v != floor(v) || v >= 9.2e18) return -1;
+    *out = (long)v;
     return 0;
 }
 
@@ -199,18 +469,105 @@ static void default_output(const char *scene, char *out, size_t n)
     strcat(out, ".png");
 }
 
-/* Progress bar on stderr: [#####.....]  42%  elapsed 3.1 s  ETA 4.2 s */
-static void show_progress(void *user, double fraction, double elapsed)
+/* --------------------------------------------------------------- progress */
+
+/* Progress on stderr. On a terminal one line, redrawn in place at most ten
+   times a second,
+
+       [########................]  33%  elapsed 4.1 s  ETA 8.2 s
+
+   ("\r" goes back to its start, "\033[K" erases what a longer line left
+   behind), erased when the render ends and by the signal handler. Anywhere
+   else (--progress into a file or a pipe) a line every 2 seconds and a
+   last one at 100%, each ending in a newline.
+
+   Elapsed is the tool's own clock since the command started (the library's
+   restarts between the eye and the photon pass). Under --time the fraction
+   and the ETA come from that clock and the budget; otherwise the fraction
+   is the library's and the ETA the rate since it began to move, shown once
+   2% are done and a second has passed, when the rate has begun to mean
+   something. */
+#define BAR_WIDTH 24
+
+typedef struct progress_state {
+    int tty;                   /* stderr is a terminal */
+    double t_command;          /* when the command started */
+    double t_render;           /* when the current render started */
+    double budget_s;           /* its --time, 0 if none */
+    const char *label;         /* "race pm-k50", or NULL */
+    double t_moving, f_moving; /* the first report with a fraction above 0 (t < 0: none yet) */
+    double t_drawn;            /* when the last line was drawn (< 0: none yet) */
+} progress_state;
+
+static progress_state progress;
+
+/* A render begins: label (or NULL) names it, budget_s is its --time. */
+static void progress_begin(const char *label, double budget_s)
 {
-    char bar[41];
-    int i, n = (int)(fraction * 40.0 + 0.5);
-    (void)user;
-    for (i = 0; i < 40; i++) bar[i] = i < n ? '#' : '.';
-    bar[40] = '\0';
-    fprintf(stderr, "\r[%s] %3d%%  elapsed %.1f s", bar, (int)(fraction * 100.0 + 0.5), elapsed);
-    if (fraction > 0.0 && fraction < 1.0) fprintf(stderr, "  ETA %.1f s ", elapsed * (1.0 - fraction) / fraction);
-    else fprintf(stderr, "            ");
+    progress.t_render = pds_time_now();
+    progress.budget_s = budget_s;
+    progress.label = label;
+    progress.t_moving = progress.t_drawn = -1.0;
+}
+
+/* One line: "[####....]  42%  elapsed 3.1 s  ETA 4.2 s" (eta < 0: none). */
+static void progress_draw(progress_state *p, double fraction, double now, double eta)
+{
+    char bar[BAR_WIDTH + 1], line[256];
+    int i, filled = (int)(fraction * BAR_WIDTH + 0.5);
+    for (i = 0; i < BAR_WIDTH; i++) bar[i] = i < filled ? '#' : '.';
+    bar[BAR_WIDTH] = '\0';
+    snprintf(line, sizeof line, "%s%s[%s] %3d%%  elapsed %.1f s", p->label ? p->label : "", p->label ? " " : "", bar,
+             (int)(fraction * 100.0 + 0.5), now - p->t_command);
+    if (eta >= 0.0) snprintf(line + strlen(line), sizeof line - strlen(line), "  ETA %.1f s", eta);
+    if (p->tty) {
+        bar_on_screen = 1; /* before drawing: a signal halfway through still erases it */
+        fprintf(stderr, "\r%s\033[K", line);
+    } else {
+        fprintf(stderr, "%s\n", line);
+    }
     fflush(stderr);
+    p->t_drawn = now;
+}
+
+/* The pds_progress_fn: the library calls it from one thread only. */
+static void show_progress(void *user, double fraction, double library_elapsed_s)
+{
+    progress_state *p = (progress_state *)user;
+    double now = pds_time_now(), eta = -1.0;
+    (void)library_elapsed_s;
+    if (p->budget_s > 0.0) {
+        /* under --time the clock is the measure (the library's fraction
+           also covers calibration runs that go 0 to 1 in a moment) */
+        fraction = (now - p->t_render) / p->budget_s;
+        eta = p->budget_s - (now - p->t_render);
+        if (eta < 0.0) eta = 0.0;
+    }
+    if (!(fraction > 0.0)) fraction = 0.0;
+    if (fraction > 1.0) fraction = 1.0;
+    if (fraction > 0.0 && p->t_moving < 0.0) {
+        p->t_moving = now;
+        p->f_moving = fraction;
+    }
+    if (p->t_drawn >= 0.0 && now - p->t_drawn < (p->tty ? 0.1 : 2.0) && !(p->tty && fraction >= 1.0)) return;
+    if (p->budget_s <= 0.0 && fraction < 1.0 && fraction >= 0.02 && p->t_moving >= 0.0 && now - p->t_moving >= 1.0 &&
+        fraction > p->f_moving)
+        eta = (now - p->t_moving) * (1.0 - fraction) / (fraction - p->f_moving);
+    progress_draw(p, fraction, now, eta);
+}
+
+/* A render ended: erase the bar from the terminal; elsewhere, if it
+   finished, write the last line, at 100%. */
+static void progress_end(int finished)
+{
+    if (!progress.tty) {
+        if (finished) progress_draw(&progress, 1.0, pds_time_now(), -1.0);
+        return;
+    }
+    if (!bar_on_screen) return;
+    fputs("\r\033[K", stderr);
+    fflush(stderr);
+    bar_on_screen = 0;
 }
 
 /* ------------------------------------------------------------------ methods */
@@ -277,7 +634,12 @@ static void method_join(unsigned mask, const char *and_word, char *out, size_t n
 
 static int unknown_method(const char *name)
 {
-    char list[128];
+    char list[128], hint[256];
+    suggestion sug;
+    size_t i;
+    suggest_init(&sug, name);
+    for (i = 0; i < N_METHODS; i++) suggest_consider(&sug, method_table[i].name);
+    if (suggest_text(&sug, hint, sizeof hint)[0]) return usage_error("unknown method '%s'%s", name, hint);
     method_join(M_ALL, NULL, list, sizeof list);
     return usage_error("unknown method '%s' (this version has: %s)", name, list);
 }
@@ -297,6 +659,7 @@ typedef struct run_cfg {
     double exposure;     /* PNG exposure in stops */
     const char *output;  /* render: the image file, NULL for the default */
     int progress;        /* 1 on, 0 off, -1 when stderr is a terminal */
+    int quiet;           /* --quiet: no progress, no scene warnings */
     int debug_footprint; /* render --debug footprint */
     unsigned long given; /* bit i: option_table[i] was on the command line */
 } run_cfg;
@@ -331,9 +694,10 @@ struct opt_spec {
 #define OPTF(member) (offsetof(run_cfg, opt) + offsetof(pds_options, member))
 #define FIELD(c, s, type) ((type *)(void *)((char *)(c) + (s)->field))
 
+/* Counts: 250000, 2.5e5, 250k (parse_count). */
 static int set_whole(const opt_spec *s, const char *shown, const char *v, long *n)
 {
-    if (parse_int(v, (long)s->lo, s->hi < 0 ? LONG_MAX : (long)s->hi, n))
+    if (parse_count(v, (long)s->lo, s->hi < 0 ? LONG_MAX : (long)s->hi, n))
         return usage_error("%s needs %s, got '%s'", shown, s->what, v);
     return 0;
 }
@@ -380,14 +744,19 @@ static int set_method(const opt_spec *s, run_cfg *c, const char *shown, const ch
 
 static int set_kernel(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
+    char hint[256];
+    suggestion sug;
     int k;
     (void)s;
-    for (k = 0; k < 3; k++)
+    suggest_init(&sug, v);
+    for (k = 0; k < 3; k++) {
         if (!strcmp(v, kernel_names[k])) {
             c->opt.kernel = (pds_kernel)k;
             return 0;
         }
-    return usage_error("%s knows cone, gaussian and none, got '%s'", shown, v);
+        suggest_consider(&sug, kernel_names[k]);
+    }
+    return usage_error("%s knows cone, gaussian and none, got '%s'%s", shown, v, suggest_text(&sug, hint, sizeof hint));
 }
 
 static int set_res(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
@@ -447,11 +816,13 @@ static int set_paths(const opt_spec *s, run_cfg *c, const char *shown, const cha
     return 0;
 }
 
+/* --progress and --quiet: the last one given wins. */
 static int set_progress(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
     (void)shown;
     (void)v;
     c->progress = s->name[2] == 'p';
+    c->quiet = !c->progress;
     return 0;
 }
 
@@ -531,27 +902,95 @@ static void cfg_init(run_cfg *c)
     c->progress = -1;
 }
 
-/* argv[*i] as an option of the table for command cmd (C_RENDER, ...):
-   0 when taken (and *i moved past its value), -1 when it is not in the
-   table, EXIT_USAGE after printing why it is wrong. */
+/* The length of an argument's option name: "--photons=5" -> 9, the
+   length of "--photons"; the whole argument when it has no '=' or is not a
+   long option. */
+static size_t arg_name_length(const char *a)
+{
+    const char *eq = a[0] == '-' && a[1] == '-' ? strchr(a, '=') : NULL;
+    return eq ? (size_t)(eq - a) : strlen(a);
+}
+
+/* Is argument a the option name, alone or as "name=VALUE"? */
+static int arg_is(const char *a, const char *name)
+{
+    size_t n = arg_name_length(a);
+    return n == strlen(name) && !strncmp(a, name, n);
+}
+
+/* The value of option argv[*i]: what follows its '=', or else the next
+   argument (and *i moves on to it). 0, or EXIT_USAGE after saying that it
+   is missing. */
+static int option_value(int argc, char **argv, int *i, const char **v)
+{
+    const char *a = argv[*i];
+    size_t n = arg_name_length(a);
+    if (a[n] == '=') {
+        *v = a + n + 1;
+        return **v ? 0 : usage_error("%.*s needs a value", (int)n, a);
+    }
+    if (*i + 1 >= argc) return usage_error("%s needs a value", a);
+    *v = argv[++*i];
+    return 0;
+}
+
+/* "unknown option '--photon' (did you mean '--photons'?)". The names it may
+   have meant: the table's options for command cmd, the command's own
+   options (own: NULL-terminated, or NULL) and --help. EXIT_USAGE. */
+static int unknown_option(const char *a, unsigned cmd, const char *const *own)
+{
+    char name[64], hint[256];
+    suggestion sug;
+    size_t i, n = arg_name_length(a);
+    if (n >= sizeof name) n = sizeof name - 1;
+    memcpy(name, a, n);
+    name[n] = '\0';
+    suggest_init(&sug, name);
+    for (i = 0; i < N_OPTIONS; i++)
+        if (option_table[i].commands & cmd) suggest_consider(&sug, option_table[i].name);
+    for (i = 0; own && own[i]; i++) suggest_consider(&sug, own[i]);
+    suggest_consider(&sug, "--help");
+    return usage_error("unknown option '%s'%s", name, suggest_text(&sug, hint, sizeof hint));
+}
+
+/* argv[*i] as an option of the table for command cmd (C_RENDER, ...),
+   "--name VALUE" or "--name=VALUE": 0 when taken (and *i moved past its
+   value), -1 when it is not in the table, EXIT_USAGE after printing why it
+   is wrong. */
 static int parse_option(run_cfg *c, unsigned cmd, const char *cmd_name, int argc, char **argv, int *i)
 {
     const char *a = argv[*i], *v = NULL;
-    int idx = option_index(a);
+    char name[64];
+    size_t n = arg_name_length(a);
     const opt_spec *s;
+    int idx, r;
+    if (n >= sizeof name) return -1;
+    memcpy(name, a, n);
+    name[n] = '\0';
+    idx = option_index(name);
     if (idx < 0) return -1;
     s = &option_table[idx];
     if (!(s->commands & cmd)) {
         if (cmd == C_RACE && !strcmp(s->name, "--method"))
             return usage_error("%s", "race takes a list of methods: --methods M1,M2,...");
-        return usage_error("%s is not a %s option", a, cmd_name);
+        return usage_error("%s is not a %s option", name, cmd_name);
     }
     if (s->flags & F_VALUE) {
-        if (*i + 1 >= argc) return usage_error("%s needs a value", a);
-        v = argv[++*i];
+        if ((r = option_value(argc, argv, i, &v)) != 0) return r;
+    } else if (a[n] == '=') {
+        return usage_error("%s takes no value, got '%s'", name, a);
     }
     c->given |= 1ul << idx;
-    return s->set(s, c, a, v);
+    return s->set(s, c, name, v);
+}
+
+/* The number an option of the table was set to in c (generic setters
+   only: the options sweep may vary). */
+static double option_number(const opt_spec *s, const run_cfg *c)
+{
+    if (s->set == set_int) return *FIELD(c, s, int);
+    if (s->set == set_long) return (double)*FIELD(c, s, long);
+    return *FIELD(c, s, double);
 }
 
 /* Options given that change nothing for the methods in mask get a note on
@@ -564,14 +1003,29 @@ static void note_idle_options(const run_cfg *c, unsigned mask, const char *where
         char list[128];
         if (!(c->given & (1ul << i)) || (option_table[i].methods & mask)) continue;
         method_join(option_table[i].methods, " and ", list, sizeof list);
-        fprintf(stderr, "pds: note: %s has no effect %s (it is for %s)\n", option_table[i].name, where, list);
+        fprintf(stderr, "pds %s: note: %s has no effect %s (it is for %s)\n", current_command, option_table[i].name,
+                where, list);
     }
 }
 
 static void cfg_apply_progress(run_cfg *c)
 {
-    if (c->progress < 0) c->progress = isatty(fileno(stderr));
+    progress.tty = isatty(fileno(stderr));
+    if (c->progress < 0) c->progress = progress.tty;
     c->opt.progress = c->progress ? show_progress : NULL;
+    c->opt.progress_user = &progress;
+}
+
+/* The scene's load warnings on stderr, as `pds info` lists them, unless
+   --quiet. */
+static void print_scene_warnings(const pds_scene *scene, const run_cfg *c)
+{
+    pds_scene_info info;
+    int i;
+    if (c->quiet) return;
+    pds_scene_get_info(scene, &info);
+    for (i = 0; i < info.warnings; i++)
+        fprintf(stderr, "pds %s: warning: %s\n", current_command, pds_scene_warning(scene, i));
 }
 
 /* A distance option for output: 0 means "chosen by the renderer". */
@@ -651,6 +1105,31 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
                 "largest float\n", st->nonfinite);
 }
 
+/* Before loading or rendering anything: fail now if path could not be
+   written later. Its folder must exist and let us create files in it (the
+   image is written beside it under a temporary name, then renamed), and
+   path must not be a folder. 0, or 1 after printing "PATH: why". */
+static int check_out_file(const char *path)
+{
+    char dir[PATH_MAX_LEN];
+    const char *slash = strrchr(path, '/');
+    struct stat sb;
+    if (strlen(path) >= sizeof dir) return fail("%s: path too long", path);
+    if (!slash) {
+        strcpy(dir, ".");
+    } else if (slash == path) {
+        strcpy(dir, "/");
+    } else {
+        memcpy(dir, path, (size_t)(slash - path));
+        dir[slash - path] = '\0';
+    }
+    if (stat(dir, &sb) != 0) return fail("%s: cannot write: %s: %s", path, dir, strerror(errno));
+    if (!S_ISDIR(sb.st_mode)) return fail("%s: cannot write: %s is not a folder", path, dir);
+    if (access(dir, W_OK | X_OK) != 0) return fail("%s: cannot write in %s: %s", path, dir, strerror(errno));
+    if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode)) return fail("%s: cannot write: it is a folder", path);
+    return 0;
+}
+
 static int cmd_render(int argc, char **argv)
 {
     const char *scene_path = NULL, *output;
@@ -661,7 +1140,8 @@ static int cmd_render(int argc, char **argv)
     pds_image img = {0, 0, NULL};
     pds_render_stats stats;
     pds_error err;
-    int i, r;
+    pds_status st;
+    int i, r, rc = 0;
     cfg_init(&c);
     for (i = 0; i < argc; i++) {
         const char *a = argv[i];
@@ -671,7 +1151,7 @@ static int cmd_render(int argc, char **argv)
             continue;
         }
         r = parse_option(&c, C_RENDER, "render", argc, argv, &i);
-        if (r < 0) return usage_error("unknown render option '%s'", a);
+        if (r < 0) return unknown_option(a, C_RENDER, NULL);
         if (r) return r;
     }
     if (!scene_path) return usage_error("%s", "render needs a scene file");
@@ -684,6 +1164,14 @@ static int cmd_render(int argc, char **argv)
     }
     if (!has_ext(output, ".png") && !has_ext(output, ".pfm"))
         return usage_error("output must end in .png or .pfm, got '%s'", output);
+    if (c.debug_footprint) {
+        /* OUT.png -> OUT.footprint.png */
+        const char *dot = strrchr(output, '.');
+        snprintf(footprint_path, sizeof footprint_path, "%.*s.footprint%s", (int)(dot - output), output, dot);
+        c.opt.footprint = &footprint;
+    }
+    /* a typo in -o costs nothing: it is found before the render, not after */
+    if (check_out_file(output) || (c.debug_footprint && check_out_file(footprint_path))) return 1;
     snprintf(where, sizeof where, "with --method %s", method_name(c.opt.method));
     note_idle_options(&c, MBIT(c.opt.method), where);
     cfg_apply_progress(&c);
@@ -691,28 +1179,25 @@ static int cmd_render(int argc, char **argv)
         fprintf(stderr, "%s\n", pds_error_string(&err));
         return 1;
     }
-    if (c.debug_footprint) {
-        /* OUT.png -> OUT.footprint.png */
-        const char *dot = strrchr(output, '.');
-        snprintf(footprint_path, sizeof footprint_path, "%.*s.footprint%s", (int)(dot - output), output, dot);
-        c.opt.footprint = &footprint;
-    }
-    if (pds_render(scene, &c.opt, &img, &stats, &err) != PDS_OK ||
-        pds_image_write(output, &img, c.exposure, &err) != PDS_OK ||
-        (c.debug_footprint && pds_image_write(footprint_path, &footprint, 0.0, &err) != PDS_OK)) {
-        if (c.progress) fputc('\n', stderr);
-        fprintf(stderr, "%s\n", pds_error_string(&err));
-        pds_image_free(&img);
-        pds_image_free(&footprint);
-        pds_scene_free(scene);
-        return 1;
-    }
-    pds_image_free(&footprint);
-    if (c.progress) fputc('\n', stderr);
-    print_render_line(&c, &stats, output);
+    print_scene_warnings(scene, &c);
+    if (c.progress) progress_begin(NULL, c.opt.time_s);
+    st = pds_render(scene, &c.opt, &img, &stats, &err);
+    if (c.progress) progress_end(st == PDS_OK);
+    if (st != PDS_OK) rc = fail("%s", pds_error_string(&err));
+    /* from here until they are in place a signal removes the images'
+       temporary files */
+    else if (temp_arm(0, output) || (c.debug_footprint && temp_arm(1, footprint_path)))
+        rc = 1;
+    else if (pds_image_write(output, &img, c.exposure, &err) != PDS_OK ||
+             (c.debug_footprint && pds_image_write(footprint_path, &footprint, 0.0, &err) != PDS_OK))
+        rc = fail("%s", pds_error_string(&err));
+    temp_disarm(0);
+    temp_disarm(1);
     pds_image_free(&img);
+    pds_image_free(&footprint);
     pds_scene_free(scene);
-    return 0;
+    if (rc == 0) print_render_line(&c, &stats, output);
+    return rc;
 }
 
 static int cmd_compare(int argc, char **argv)
@@ -943,7 +1428,7 @@ static int cmd_bench(int argc, char **argv)
         pds_bench_rays_result r;
         long n = 1000000;
         if (argc < 2 || argc > 3) return usage_error("%s", "bench rays needs MESH.obj (or a scene) [RAYS]");
-        if (argc == 3 && parse_int(argv[2], 1, 100000000, &n))
+        if (argc == 3 && parse_count(argv[2], 1, 100000000, &n))
             return usage_error("bench rays: RAYS must be a whole number from 1 to 1e8, got '%s'", argv[2]);
         if (pds_bench_rays(argv[1], n, &r, &err) != PDS_OK) {
             fprintf(stderr, "%s\n", pds_error_string(&err));
@@ -978,7 +1463,17 @@ static int cmd_bench(int argc, char **argv)
                r.build_s, r.range_mqps, r.found_per_query, r.knn_mqps);
         return 0;
     }
-    return usage_error("unknown benchmark '%s' (rays, pt, photons, memory, filter, kdtree)", argv[0]);
+    {
+        static const char *const names[] = {"rays", "pt", "photons", "memory", "filter", "kdtree"};
+        char hint[256];
+        suggestion sug;
+        size_t i;
+        suggest_init(&sug, argv[0]);
+        for (i = 0; i < sizeof names / sizeof names[0]; i++) suggest_consider(&sug, names[i]);
+        if (!suggest_text(&sug, hint, sizeof hint)[0])
+            snprintf(hint, sizeof hint, " (rays, pt, photons, memory, filter, kdtree)");
+        return usage_error("unknown benchmark '%s'%s", argv[0], hint);
+    }
 }
 
 
@@ -994,7 +1489,6 @@ static int cmd_bench(int argc, char **argv)
 
 #define MAX_SWEEP_VALUES 256
 #define MAX_RACE_METHODS 32
-#define PATH_MAX_LEN 4096
 
 /* A growing text buffer for the CSV, SVG and HTML files. */
 typedef struct sbuf {
@@ -1076,14 +1570,23 @@ static int write_text(const char *dir, const char *name, const sbuf *b)
     int ok, e;
     if (join_path(path, sizeof path, dir, name)) return 1;
     if (b->nomem) return fail("%s: out of memory", path);
-    snprintf(tmp, sizeof tmp, "%s.tmp-%ld", path, (long)getpid());
+    if (temp_arm(0, path)) return 1;
+    temp_path(path, tmp, sizeof tmp); /* the name just armed: it fits */
     f = fopen(tmp, "wb");
-    if (!f) return fail("%s: cannot write: %s", path, strerror(errno));
+    if (!f) {
+        e = errno;
+        temp_disarm(0);
+        return fail("%s: cannot write: %s", path, strerror(e));
+    }
     ok = fwrite(b->s ? b->s : "", 1, b->len, f) == b->len;
     ok = (fclose(f) == 0) && ok;
-    if (ok && rename(tmp, path) == 0) return 0;
+    if (ok && rename(tmp, path) == 0) {
+        temp_disarm(0);
+        return 0;
+    }
     e = errno;
     remove(tmp);
+    temp_disarm(0);
     return fail("%s: cannot write: %s", path, strerror(e));
 }
 
@@ -1091,9 +1594,11 @@ static int write_image(const char *dir, const char *name, const pds_image *img, 
 {
     char path[PATH_MAX_LEN];
     pds_error err;
-    if (join_path(path, sizeof path, dir, name)) return 1;
-    if (pds_image_write(path, img, exposure, &err) != PDS_OK) return fail("%s", pds_error_string(&err));
-    return 0;
+    pds_status st;
+    if (join_path(path, sizeof path, dir, name) || temp_arm(0, path)) return 1;
+    st = pds_image_write(path, img, exposure, &err);
+    temp_disarm(0);
+    return st == PDS_OK ? 0 : fail("%s", pds_error_string(&err));
 }
 
 /* Before any render: fail now if the folder could not be made or written
@@ -1189,13 +1694,15 @@ static int load_scene_and_ref(const char *scene_path, const char *ref_path, cons
 }
 
 /* Render with c and compare with ref; 0, or 1 after printing the error
-   followed by context ("(sweep k=50)"). */
+   followed by context ("(sweep k=50)"), which also labels the progress bar. */
 static int render_and_compare(const pds_scene *scene, const run_cfg *c, const pds_image *ref, pds_image *img,
                               pds_render_stats *st, pds_metrics *m, const char *context)
 {
     pds_error err;
-    pds_status s = pds_render(scene, &c->opt, img, st, &err);
-    if (c->progress) fputc('\n', stderr);
+    pds_status s;
+    if (c->progress) progress_begin(context, c->opt.time_s);
+    s = pds_render(scene, &c->opt, img, st, &err);
+    if (c->progress) progress_end(s == PDS_OK);
     if (s == PDS_OK) s = pds_image_compare(img, ref, m, &err);
     if (s != PDS_OK) return fail("%s (%s)", pds_error_string(&err), context);
     return 0;
@@ -1472,6 +1979,8 @@ static void sweep_svg(sbuf *b, const char *title, const char *subtitle, const ch
 
 /* ------------------------------------------------------------------ sweep */
 
+static const char *const sweep_own_options[] = {"--param", "--values", "--ref", "--output", NULL};
+
 static int cmd_sweep(int argc, char **argv)
 {
     const char *scene_path = NULL, *param = NULL, *values = NULL, *ref_path = NULL, *dir = NULL;
@@ -1492,18 +2001,18 @@ static int cmd_sweep(int argc, char **argv)
             scene_path = a;
             continue;
         }
-        if (!strcmp(a, "--param") || !strcmp(a, "--values") || !strcmp(a, "--ref") || !strcmp(a, "-o") ||
-            !strcmp(a, "--output")) {
-            if (i + 1 >= argc) return usage_error("%s needs a value", a);
-            i++;
-            if (a[2] == 'p') param = argv[i];
-            else if (a[2] == 'v') values = argv[i];
-            else if (a[2] == 'r') ref_path = argv[i];
-            else dir = argv[i];
+        if (arg_is(a, "--param") || arg_is(a, "--values") || arg_is(a, "--ref") || arg_is(a, "-o") ||
+            arg_is(a, "--output")) {
+            const char *v;
+            if (option_value(argc, argv, &i, &v)) return EXIT_USAGE;
+            if (arg_is(a, "--param")) param = v;
+            else if (arg_is(a, "--values")) values = v;
+            else if (arg_is(a, "--ref")) ref_path = v;
+            else dir = v;
             continue;
         }
         r = parse_option(&base, C_SWEEP, "sweep", argc, argv, &i);
-        if (r < 0) return usage_error("unknown sweep option '%s'", a);
+        if (r < 0) return unknown_option(a, C_SWEEP, sweep_own_options);
         if (r) return r;
     }
     if (!scene_path) return usage_error("%s", "sweep needs a scene file");
@@ -1516,6 +2025,9 @@ static int cmd_sweep(int argc, char **argv)
     idx = strlen(param) < 40 && param[0] != '-' ? option_index(name) : -1;
     if (idx < 0 || !(option_table[idx].flags & F_SWEEP)) {
         size_t k, count = 0, done = 0;
+        char hint[256];
+        suggestion sug;
+        suggest_init(&sug, param);
         list[0] = '\0';
         for (k = 0; k < N_OPTIONS; k++) count += (option_table[k].flags & F_SWEEP) != 0;
         for (k = 0; k < N_OPTIONS; k++)
@@ -1523,8 +2035,9 @@ static int cmd_sweep(int argc, char **argv)
                 done++;
                 snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s",
                          done == 1 ? "" : done == count ? " and " : ", ", option_table[k].name + 2);
+                suggest_consider(&sug, option_table[k].name + 2);
             }
-        return usage_error("--param knows %s, got '%s'", list, param);
+        return usage_error("--param knows %s, got '%s'%s", list, param, suggest_text(&sug, hint, sizeof hint));
     }
     ps = &option_table[idx];
     if (base.given & (1ul << idx))
@@ -1561,7 +2074,7 @@ static int cmd_sweep(int argc, char **argv)
             goto done;
         }
         rows[n].value = p;
-        rows[n].x = strtod(p, NULL);
+        rows[n].x = option_number(ps, &probe); /* "100k" is 100000 */
         n++;
         if (!comma) break;
         p = comma;
@@ -1575,6 +2088,7 @@ static int cmd_sweep(int argc, char **argv)
     }
     if (check_out_dir(dir)) goto done;
     if (load_scene_and_ref(scene_path, ref_path, &base.opt, &scene, &ref)) goto done;
+    print_scene_warnings(scene, &base);
     cfg_apply_progress(&base);
 
     for (i = 0; i < n; i++) {
@@ -1851,7 +2365,13 @@ static int parse_race_methods(const char *list, const run_cfg *base, race_entry 
                 idx = option_index(oname);
             }
             if (idx < 0) {
-                rc = usage_error("--methods: unknown option '%s' for %s", param, item);
+                char hint[256];
+                suggestion sug;
+                suggest_init(&sug, param);
+                for (k = 0; k < N_OPTIONS; k++)
+                    if (option_table[k].flags & F_PER_METHOD) suggest_consider(&sug, option_table[k].name + 2);
+                rc = usage_error("--methods: unknown option '%s' for %s%s", param, item,
+                                 suggest_text(&sug, hint, sizeof hint));
                 break;
             }
             s = &option_table[idx];
@@ -2030,6 +2550,8 @@ static int parse_roi(const char *s, roi_box *r)
     return 0;
 }
 
+static const char *const race_own_options[] = {"--ref", "--methods", "--roi", "--output", NULL};
+
 static int cmd_race(int argc, char **argv)
 {
     const char *scene_path = NULL, *ref_path = NULL, *methods = NULL, *dir = NULL, *roi_text = NULL;
@@ -2049,18 +2571,18 @@ static int cmd_race(int argc, char **argv)
             scene_path = a;
             continue;
         }
-        if (!strcmp(a, "--ref") || !strcmp(a, "--methods") || !strcmp(a, "--roi") || !strcmp(a, "-o") ||
-            !strcmp(a, "--output")) {
-            if (i + 1 >= argc) return usage_error("%s needs a value", a);
-            i++;
-            if (!strcmp(a, "--ref")) ref_path = argv[i];
-            else if (!strcmp(a, "--methods")) methods = argv[i];
-            else if (!strcmp(a, "--roi")) roi_text = argv[i];
-            else dir = argv[i];
+        if (arg_is(a, "--ref") || arg_is(a, "--methods") || arg_is(a, "--roi") || arg_is(a, "-o") ||
+            arg_is(a, "--output")) {
+            const char *v;
+            if (option_value(argc, argv, &i, &v)) return EXIT_USAGE;
+            if (arg_is(a, "--ref")) ref_path = v;
+            else if (arg_is(a, "--methods")) methods = v;
+            else if (arg_is(a, "--roi")) roi_text = v;
+            else dir = v;
             continue;
         }
         r = parse_option(&base, C_RACE, "race", argc, argv, &i);
-        if (r < 0) return usage_error("unknown race option '%s'", a);
+        if (r < 0) return unknown_option(a, C_RACE, race_own_options);
         if (r) return r;
     }
     if (!scene_path) return usage_error("%s", "race needs a scene file");
@@ -2098,6 +2620,7 @@ static int cmd_race(int argc, char **argv)
     }
     if (check_out_dir(dir)) goto done;
     if (load_scene_and_ref(scene_path, ref_path, &base.opt, &scene, &ref)) goto done;
+    print_scene_warnings(scene, &base);
     if (roi_text) {
         if (roi.x + roi.w > ref.width || roi.y + roi.h > ref.height) {
             rc = usage_error("--roi %s does not fit the %dx%d image", roi_text, ref.width, ref.height);
@@ -2173,27 +2696,67 @@ done:
     return rc;
 }
 
-int main(int argc, char **argv)
+static int unknown_command(const char *name)
 {
-    const char *cmd;
-    if (argc < 2) {
-        print_usage(stderr);
-        return EXIT_USAGE;
-    }
-    cmd = argv[1];
-    if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "help")) {
-        print_usage(stdout);
+    char hint[256];
+    suggestion sug;
+    size_t i;
+    suggest_init(&sug, name);
+    for (i = 0; i < N_COMMANDS; i++) suggest_consider(&sug, help_table[i].name);
+    current_command = NULL;
+    return usage_error("unknown command '%s'%s", name, suggest_text(&sug, hint, sizeof hint));
+}
+
+/* pds help [COMMAND] */
+static int cmd_help(int argc, char **argv)
+{
+    const command_help *h;
+    if (argc == 0) {
+        print_overview(stdout);
         return 0;
     }
-    if (!strcmp(cmd, "--version")) {
+    if (argc > 1) return usage_error("%s", "help takes one command name");
+    h = command_help_lookup(argv[0]);
+    if (!h) return unknown_command(argv[0]);
+    print_command_help(h, stdout);
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    static const struct {
+        const char *name;
+        int (*run)(int argc, char **argv);
+    } commands[] = {
+        {"render", cmd_render}, {"sweep", cmd_sweep}, {"race", cmd_race},   {"compare", cmd_compare},
+        {"info", cmd_info},     {"bench", cmd_bench}, {"help", cmd_help},
+    };
+    size_t k;
+    int i;
+    progress.t_command = pds_time_now();
+    catch_fatal_signals();
+    if (argc < 2) {
+        print_overview(stderr);
+        return EXIT_USAGE;
+    }
+    if (is_help(argv[1])) {
+        print_overview(stdout);
+        return 0;
+    }
+    if (!strcmp(argv[1], "--version")) {
         printf("pds %s\n", PDS_VERSION_STRING);
         return 0;
     }
-    if (!strcmp(cmd, "render")) return cmd_render(argc - 2, argv + 2);
-    if (!strcmp(cmd, "sweep")) return cmd_sweep(argc - 2, argv + 2);
-    if (!strcmp(cmd, "race")) return cmd_race(argc - 2, argv + 2);
-    if (!strcmp(cmd, "compare")) return cmd_compare(argc - 2, argv + 2);
-    if (!strcmp(cmd, "info")) return cmd_info(argc - 2, argv + 2);
-    if (!strcmp(cmd, "bench")) return cmd_bench(argc - 2, argv + 2);
-    return usage_error("unknown command '%s'", cmd);
+    for (k = 0; k < sizeof commands / sizeof commands[0]; k++) {
+        if (strcmp(argv[1], commands[k].name) != 0) continue;
+        current_command = commands[k].name;
+        /* --help anywhere after the command: its help, whatever else is there */
+        for (i = 2; i < argc; i++)
+            if (is_help(argv[i])) {
+                print_command_help(command_help_lookup(commands[k].name), stdout);
+                return 0;
+            }
+        return commands[k].run(argc - 2, argv + 2);
+    }
+    return unknown_command(argv[1]);
 }

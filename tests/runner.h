@@ -11,7 +11,12 @@
 
    and test_main.c lists the tables. Usage: test_pds [NAME-SUBSTRING...];
    the last line printed is "N passed, N failed". Test programs include
-   pds.c itself, so static functions are testable. */
+   pds.c itself, so static functions are testable.
+
+   Progress: with PDS_TEST_VERBOSE=1 in the environment (or in a build
+   with AddressSanitizer, whose tests take minutes), each test's name goes
+   to stderr as it starts, "[ 12/172] bvh_matches_...", so a long run shows
+   where it is; PDS_TEST_VERBOSE=0 turns that off. stdout stays as it is. */
 #ifndef PDS_TEST_RUNNER_H
 #define PDS_TEST_RUNNER_H
 
@@ -71,6 +76,26 @@ static void pds_test_fail(pds_test_ctx *t, const char *file, int line, const cha
     CHECK((t), fabs((double)(a) - (double)(b)) <= (tol), "%s = %.9g, expected %.9g (tol %g)", \
           #a, (double)(a), (double)(b), (double)(tol))
 
+/* Was this program built with AddressSanitizer (gcc and clang spell it
+   differently)? */
+#if defined(__SANITIZE_ADDRESS__)
+#define PDS_TEST_SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define PDS_TEST_SANITIZED 1
+#endif
+#endif
+#ifndef PDS_TEST_SANITIZED
+#define PDS_TEST_SANITIZED 0
+#endif
+
+static int pds_test_verbose(void)
+{
+    const char *v = getenv("PDS_TEST_VERBOSE");
+    if (v && *v) return strcmp(v, "0") != 0;
+    return PDS_TEST_SANITIZED;
+}
+
 static int pds_test_selected(const char *name, int argc, char **argv)
 {
     int i;
@@ -85,12 +110,18 @@ static int pds_test_selected(const char *name, int argc, char **argv)
 static int pds_test_run(const pds_test_suite *suites, size_t nsuites, int argc, char **argv)
 {
     size_t s, i;
-    int passed = 0, failed = 0;
+    int passed = 0, failed = 0, verbose = pds_test_verbose(), total = 0;
+    for (s = 0; s < nsuites; s++)
+        for (i = 0; i < suites[s].count; i++) total += pds_test_selected(suites[s].cases[i].name, argc, argv);
     for (s = 0; s < nsuites; s++) {
         for (i = 0; i < suites[s].count; i++) {
             pds_test_ctx t;
             const pds_test_case *c = &suites[s].cases[i];
             if (!pds_test_selected(c->name, argc, argv)) continue;
+            if (verbose) {
+                fprintf(stderr, "[%3d/%d] %s\n", passed + failed + 1, total, c->name);
+                fflush(stderr);
+            }
             t.name = c->name;
             t.failures = 0;
             t.checks = 0;

@@ -223,7 +223,9 @@ static uint64_t golden_manifest_hash(const char *key)
     return found;
 }
 
-static void golden_write_failure(const char *key, pds_image *img, const pds_image *ref)
+/* Write the actual image and |actual - reference| for a failing case; say
+   where unless quiet (the self-test, which writes them on purpose). */
+static void golden_write_failure(const char *key, pds_image *img, const pds_image *ref, int quiet)
 {
     char path[256];
     pds_error err;
@@ -231,11 +233,11 @@ static void golden_write_failure(const char *key, pds_image *img, const pds_imag
     mkdir("tests/out", 0777);
     mkdir("tests/out/golden", 0777);
     snprintf(path, sizeof path, "tests/out/golden/%s.actual.pfm", key);
-    if (pds_image_write_pfm(path, img, &err) == PDS_OK) printf("  wrote %s\n", path);
+    if (pds_image_write_pfm(path, img, &err) == PDS_OK && !quiet) printf("  wrote %s\n", path);
     if (!ref || ref->width != img->width || ref->height != img->height) return;
     for (i = 0; i < n; i++) img->rgb[i] = (float)fabs((double)img->rgb[i] - (double)ref->rgb[i]);
     snprintf(path, sizeof path, "tests/out/golden/%s.diff.pfm", key);
-    if (pds_image_write_pfm(path, img, &err) == PDS_OK) printf("  wrote %s\n", path);
+    if (pds_image_write_pfm(path, img, &err) == PDS_OK && !quiet) printf("  wrote %s\n", path);
 }
 
 static void test_golden_images_match_their_references(pds_test_ctx *t)
@@ -264,12 +266,12 @@ static void test_golden_images_match_their_references(pds_test_ctx *t)
             printf("updated %s\n", ref_path);
         } else if (pds_image_read_pfm(ref_path, &ref, &err) != PDS_OK) {
             CHECK(t, 0, "%s (run make update-golden to create it)", err.text);
-            golden_write_failure(key, &img, NULL);
+            golden_write_failure(key, &img, NULL, 0);
         } else {
             int within = golden_within(&img, &ref, &m);
             CHECK(t, within, "%s: rmse %g (max %g), ssim %.6f (min %g)", key, m.rmse,
                   GOLDEN_RMSE_OF_MEAN * golden_mean(&ref), m.ssim, GOLDEN_MIN_SSIM);
-            if (!within) golden_write_failure(key, &img, &ref);
+            if (!within) golden_write_failure(key, &img, &ref, 0);
             else if ((recorded = golden_manifest_hash(key)) != h)
                 printf("  note: %s is within the tolerances (rmse %g, ssim %.6f) but its hash %016llx is not the "
                        "manifest's %016llx\n",
@@ -324,7 +326,7 @@ static void test_golden_failure_writes_actual_and_difference(pds_test_ctx *t)
     ref.rgb[0] = 1.0f;
     remove("tests/out/golden/selftest.case.actual.pfm");
     remove("tests/out/golden/selftest.case.diff.pfm");
-    golden_write_failure("selftest.case", &img, &ref);
+    golden_write_failure("selftest.case", &img, &ref, 1);
     CHECK(t, pds_image_read_pfm("tests/out/golden/selftest.case.actual.pfm", &back, &err) == PDS_OK, "%s", err.text);
     pds_image_free(&back);
     REQUIRE(t, pds_image_read_pfm("tests/out/golden/selftest.case.diff.pfm", &back, &err) == PDS_OK, "%s", err.text);

@@ -539,7 +539,12 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
         args[at] = '\0';
         if (strncmp(args, "render", 6) && strchr(args, ' '))
             snprintf(args + at, sizeof args - at, " --res 32x24 -o %s", dir);
-        snprintf(expect, sizeof expect, "pds: %s\n(run 'pds --help' for usage)\n", cases[i][1]);
+        {
+            /* messages name the command: "pds race: ...", "(run 'pds race --help' ...)" */
+            int cmd_len = (int)strcspn(cases[i][0], " ");
+            snprintf(expect, sizeof expect, "pds %.*s: %s\n(run 'pds %.*s --help' for usage)\n", cmd_len, cases[i][0],
+                     cases[i][1], cmd_len, cases[i][0]);
+        }
         CHECK(t, cli_run(args, out, sizeof out) == 2, "exit 2 for: %s", args);
         CHECK(t, strstr(out, expect) != NULL, "%s\n  expected: %s  got: %s", args, expect, out);
         CHECK(t, !harness_dir_exists(dir), "no folder after: %s", args);
@@ -548,7 +553,7 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
        image size is known */
     snprintf(args, sizeof args, "race tests/golden/glass.scene --ref %s --methods pt --time 1 --res 32x24 --roi 0,0,64,64 -o %s",
              ref, dir);
-    CHECK(t, cli_run(args, out, sizeof out) == 2 && strstr(out, "pds: --roi 0,0,64,64 does not fit the 32x24 image\n"),
+    CHECK(t, cli_run(args, out, sizeof out) == 2 && strstr(out, "pds race: --roi 0,0,64,64 does not fit the 32x24 image\n"),
           "%s", out);
     CHECK(t, !harness_dir_exists(dir), "no folder after a bad --roi");
     remove(ref);
@@ -583,7 +588,7 @@ static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
     /* options the method does not use: a note, not an error */
     snprintf(args, sizeof args, "render tests/golden/glass.scene --method pt --k 50 --res 8x6 --spp 1 --quiet -o %s", png);
     CHECK(t, cli_run(args, out, sizeof out) == 0, "%s", out);
-    CHECK(t, strstr(out, "pds: note: --k has no effect with --method pt (it is for pm)\n") != NULL, "%s", out);
+    CHECK(t, strstr(out, "pds render: note: --k has no effect with --method pt (it is for pm)\n") != NULL, "%s", out);
     remove(png);
     CHECK(t, cli_run("--help", out, sizeof out) == 0, "--help");
     CHECK(t, strstr(out, "pm and pdm store every photon, so their memory grows with") && strstr(out, "  sweep SCENE") &&
