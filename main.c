@@ -1130,6 +1130,26 @@ static int check_out_file(const char *path)
     return 0;
 }
 
+/* Say so before a render that would take days or most of the memory
+   (pds_render itself refuses one that cannot fit). The speed is a round
+   figure for this kind of machine: 2 million eye samples a second per
+   core. */
+static void warn_about_the_cost(const pds_scene *scene, const pds_options *opt)
+{
+    pds_render_estimate est;
+    int threads = opt->threads > 0 ? opt->threads : pds_cpu_count();
+    double hours;
+    if (pds_render_estimate_get(scene, opt, &est, NULL) != PDS_OK) return;
+    hours = est.samples / (2e6 * threads) / 3600.0;
+    if (opt->time_s <= 0.0 && hours > 1.0)
+        fprintf(stderr, "pds render: warning: %.3g pixel samples a pass: at about 2 million a second per core, some "
+                "%.0f hours on %d threads\n", est.samples, hours, threads);
+    if (est.available_bytes > 0.0 && est.memory_bytes > 0.5 * est.available_bytes &&
+        est.memory_bytes <= est.available_bytes)
+        fprintf(stderr, "pds render: warning: this render may hold up to %.1f GB of the machine's %.1f GB\n",
+                est.memory_bytes / 1e9, est.available_bytes / 1e9);
+}
+
 static int cmd_render(int argc, char **argv)
 {
     const char *scene_path = NULL, *output;
@@ -1180,6 +1200,7 @@ static int cmd_render(int argc, char **argv)
         return 1;
     }
     print_scene_warnings(scene, &c);
+    if (!c.quiet) warn_about_the_cost(scene, &c.opt);
     if (c.progress) progress_begin(NULL, c.opt.time_s);
     st = pds_render(scene, &c.opt, &img, &stats, &err);
     if (c.progress) progress_end(st == PDS_OK);

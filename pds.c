@@ -243,7 +243,8 @@ static pds_status pds__check_lines(const char *path, const char *text, size_t si
     return PDS_OK;
 }
 
-/* Write size bytes to path atomically: to "path.tmp-PID-N" first, then
+/* Write size bytes to path atomically: to "path.tmp-PID" first (pds.h
+   promises that name, so signal handlers can remove it), then
    rename, so readers never see a half-written file and a failure leaves no
    file behind. */
 static pds_status pds__write_file_atomic(const char *path, const void *data, size_t size,
@@ -9861,7 +9862,9 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         pthread_mutex_init(&job.lock, NULL);
         job.n_total = 2 * PDS__PHOTON_BATCH;
         job.next_buf = 0;
+        job.progress = NULL; /* the calibration is not the pass the caller waits for */
         pds__run_threads(1, pds__photon_worker, &job);
+        job.progress = opt->progress;
         pthread_mutex_destroy(&job.lock);
         rate = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6) * threads;
         remaining = opt->time_s - (pds_time_now() - t0);
