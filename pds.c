@@ -1497,6 +1497,410 @@ static int pds__obj_is_ear(const pds__obj_state *s, int i, int nreflex)
     return 1;
 }
 
+/* --- large faces: monotone decomposition, O(n log n) ------------------------
+   Ear clipping tests every ear against the reflex corners, O(n^2) and worse
+   (a 100,000-corner circle written with six decimals took 38 s). Faces of
+   more than PDS__EAR_CLIP_MAX corners are triangulated by the plane sweep
+   of Garey, Johnson, Preparata and Tarjan (1978), as de Berg et al.,
+   Computational Geometry (3rd ed., 2008), ch. 3 present it: a sweep from
+   top to bottom adds diagonals at split and merge corners so that every
+   piece is y-monotone (sect. 3.2), and each monotone piece is triangulated
+   in linear time with a stack (sect. 3.3). The sweep status is a treap of
+   the edges with the interior to their right, ordered by x at the sweep
+   line, so the whole is O(n log n). Corners are ordered "above" by (v
+   descending, u ascending, index), a strict total order even where
+   positions repeat (bridged holes). */
+#define PDS__EAR_CLIP_MAX 64
+
+typedef struct pds__sweep {
+    const double *u, *v;
+    int n;
+    int *rank;                 /* corner -> position from the top */
+    int *left, *right, *up;    /* treap of edges (edge i: corner i to i+1) */
+    uint32_t *prio;
+    int *helper;               /* de Berg's helper(e) */
+    int root;
+    int *diag;                 /* pairs of corners */
+    int ndiag;
+} pds__sweep;
+
+typedef struct pds__sweep_key {
+    double u, v;
+    int i;
+} pds__sweep_key;
+
+static int pds__sweep_key_cmp(const void *pa, const void *pb)
+{
+    const pds__sweep_key *a = (const pds__sweep_key *)pa, *b = (const pds__sweep_key *)pb;
+    if (a->v != b->v) return a->v > b->v ? -1 : 1;
+    if (a->u != b->u) return a->u < b->u ? -1 : 1;
+    return a->i - b->i;
+}
+
+/* x (here u) of edge e where the sweep line v = y crosses it. */
+static double pds__sweep_edge_u(const pds__sweep *w, int e, double y)
+{
+    int a = e, b = e + 1 == w->n ? 0 : e + 1;
+    double ua = w->u[a], va = w->v[a], ub = w->u[b], vb = w->v[b];
+    if (va == vb) return ua < ub ? ua : ub;
+    if (y >= (va > vb ? va : vb)) return va > vb ? ua : ub;
+    if (y <= (va < vb ? va : vb)) return va < vb ? ua : ub;
+    return ua + (ub - ua) * (y - va) / (vb - va);
+}
+
+static void pds__sweep_rotate_up(pds__sweep *w, int x)
+{
+    int p = w->up[x], g = w->up[p];
+    if (w->left[p] == x) {
+        w->left[p] = w->right[x];
+        if (w->right[x] >= 0) w->up[w->right[x]] = p;
+        w->right[x] = p;
+    } else {
+        w->right[p] = w->left[x];
+        if (w->left[x] >= 0) w->up[w->left[x]] = p;
+        w->left[x] = p;
+    }
+    w->up[p] = x;
+    w->up[x] = g;
+    if (g < 0) w->root = x;
+    else if (w->left[g] == p) w->left[g] = x;
+    else w->right[g] = x;
+}
+
+/* Insert edge e, which starts at corner c (its upper end): ordered by u at
+   c's height, ties by where the edges go below it. */
+static void pds__sweep_insert(pds__sweep *w, int e, int c)
+{
+    double y = w->v[c], x = w->u[c];
+    int at = w->root, parent = -1, go_left = 0;
+    int e_next = e + 1 == w->n ? 0 : e + 1;
+    w->left[e] = w->right[e] = -1;
+    while (at >= 0) {
+        double ux = pds__sweep_edge_u(w, at, y);
+        parent = at;
+        if (x != ux) go_left = x < ux;
+        else {
+            /* both through c: the one whose lower end is further left */
+            int a_low = w->v[at] < w->v[at + 1 == w->n ? 0 : at + 1] ? at : (at + 1 == w->n ? 0 : at + 1);
+            go_left = w->u[e_next] < w->u[a_low];
+        }
+        at = go_left ? w->left[at] : w->right[at];
+    }
+    w->up[e] = parent;
+    if (parent < 0) w->root = e;
+    else if (go_left) w->left[parent] = e;
+    else w->right[parent] = e;
+    while (w->up[e] >= 0 && w->prio[w->up[e]] < w->prio[e]) pds__sweep_rotate_up(w, e);
+}
+
+static void pds__sweep_remove(pds__sweep *w, int e)
+{
+    int child, p;
+    if (e < 0 || (w->up[e] < 0 && w->root != e)) return; /* not in the tree */
+    /* rotate e down until it has at most one child, then splice it out */
+    while (w->left[e] >= 0 && w->right[e] >= 0)
+        pds__sweep_rotate_up(w, w->prio[w->left[e]] > w->prio[w->right[e]] ? w->left[e] : w->right[e]);
+    child = w->left[e] >= 0 ? w->left[e] : w->right[e];
+    p = w->up[e];
+    if (child >= 0) w->up[child] = p;
+    if (p < 0) w->root = child;
+    else if (w->left[p] == e) w->left[p] = child;
+    else w->right[p] = child;
+    w->up[e] = w->left[e] = w->right[e] = -1;
+}
+
+/* The edge directly left of corner c (largest u at c's height that is
+   still left of c), or -1. */
+static int pds__sweep_left_of(const pds__sweep *w, int c)
+{
+    int at = w->root, best = -1;
+    double y = w->v[c], x = w->u[c];
+    while (at >= 0) {
+        if (pds__sweep_edge_u(w, at, y) <= x && at != c && (at + 1 == w->n ? 0 : at + 1) != c) {
+            best = at;
+            at = w->right[at];
+        } else {
+            at = w->left[at];
+        }
+    }
+    return best;
+}
+
+static int pds__sweep_above(const pds__sweep *w, int a, int b)
+{
+    return w->rank[a] < w->rank[b];
+}
+
+static void pds__sweep_diagonal(pds__sweep *w, int a, int b)
+{
+    if (a == b || w->ndiag >= 2 * w->n) return;
+    w->diag[2 * w->ndiag] = a;
+    w->diag[2 * w->ndiag + 1] = b;
+    w->ndiag++;
+}
+
+/* Is the corner a merge corner (both neighbours above, reflex)? */
+static int pds__sweep_is_merge(const pds__sweep *w, int c)
+{
+    int p = c == 0 ? w->n - 1 : c - 1, q = c + 1 == w->n ? 0 : c + 1;
+    return c >= 0 && pds__sweep_above(w, p, c) && pds__sweep_above(w, q, c) &&
+           pds__obj_orient(w->u, w->v, p, c, q) < 0.0;
+}
+
+/* Triangulate one y-monotone piece (corners in cyclic order) by the stack
+   algorithm; appends its triangles to tris. */
+static void pds__sweep_monotone(const pds__sweep *w, const int *piece, int m, int *chain, int *sorted, int *stack,
+                                int *tris, int *k)
+{
+    int i, top = 0, low = 0, sp = 0, j;
+    if (m < 3) return;
+    for (i = 1; i < m; i++) {
+        if (pds__sweep_above(w, piece[i], piece[top])) top = i;
+        if (pds__sweep_above(w, piece[low], piece[i])) low = i;
+    }
+    /* the piece is counter-clockwise: from the top, forward runs down the
+       left chain (0), backward down the right chain (1); merge them */
+    {
+        int a = top, b = top, n_out = 0;
+        sorted[n_out] = piece[top];
+        chain[n_out++] = 0;
+        a = (a + 1) % m;
+        b = (b + m - 1) % m;
+        while (n_out < m) {
+            int take_a = b == low || (a != low && pds__sweep_above(w, piece[a], piece[b]));
+            if (n_out == m - 1) take_a = 1; /* the bottom corner */
+            if (take_a) {
+                sorted[n_out] = piece[a];
+                chain[n_out++] = a == low ? 1 : 0;
+                a = (a + 1) % m;
+            } else {
+                sorted[n_out] = piece[b];
+                chain[n_out++] = 1;
+                b = (b + m - 1) % m;
+            }
+        }
+    }
+    stack[sp++] = 0;
+    stack[sp++] = 1;
+    for (j = 2; j < m - 1; j++) {
+        if (chain[j] != chain[stack[sp - 1]]) {
+            for (i = 0; i + 1 < sp; i++) {
+                tris[(*k)++] = sorted[j];
+                tris[(*k)++] = sorted[stack[i]];
+                tris[(*k)++] = sorted[stack[i + 1]];
+            }
+            stack[0] = j - 1;
+            stack[1] = j;
+            sp = 2;
+        } else {
+            int last = stack[--sp];
+            while (sp > 0) {
+                double o = pds__obj_orient(w->u, w->v, sorted[stack[sp - 1]], sorted[last], sorted[j]);
+                if (chain[j] == 0 ? !(o > 0.0) : !(o < 0.0)) break;
+                tris[(*k)++] = sorted[j];
+                tris[(*k)++] = sorted[last];
+                tris[(*k)++] = sorted[stack[sp - 1]];
+                last = stack[--sp];
+            }
+            stack[sp++] = last;
+            stack[sp++] = j;
+        }
+    }
+    for (i = 0; i + 1 < sp; i++) {
+        tris[(*k)++] = sorted[m - 1];
+        tris[(*k)++] = sorted[stack[i]];
+        tris[(*k)++] = sorted[stack[i + 1]];
+    }
+}
+
+typedef struct pds__sweep_nb {
+    double angle;
+    int to;
+} pds__sweep_nb;
+
+static int pds__sweep_nb_cmp(const void *pa, const void *pb)
+{
+    const pds__sweep_nb *a = (const pds__sweep_nb *)pa, *b = (const pds__sweep_nb *)pb;
+    if (a->angle != b->angle) return a->angle < b->angle ? -1 : 1;
+    return a->to - b->to;
+}
+
+/* Triangulate the counter-clockwise polygon (u, v)[0..n-1]; writes n - 2
+   corner triples (counter-clockwise) to tris. Returns 1 if done, 0 if the
+   polygon defeated the sweep (it crosses itself): the caller falls back.
+   -1 when out of memory. */
+static int pds__obj_triangulate_sweep(const double *u, const double *v, int n, int *tris)
+{
+    pds__sweep w;
+    pds__sweep_key *keys = (pds__sweep_key *)malloc(sizeof *keys * (size_t)n);
+    int *ints = (int *)malloc(sizeof(int) * (size_t)n * 20);
+    uint32_t *prio = (uint32_t *)malloc(sizeof(uint32_t) * (size_t)n);
+    pds__sweep_nb *nb = NULL;
+    int *off, *deg, *done, *piece, *chain, *sorted, *stack, i, k = 0, ok = 1, total;
+    if (!keys || !ints || !prio) {
+        free(keys);
+        free(ints);
+        free(prio);
+        return -1;
+    }
+    memset(&w, 0, sizeof w);
+    w.u = u;
+    w.v = v;
+    w.n = n;
+    w.rank = ints;
+    w.left = ints + n;
+    w.right = ints + 2 * n;
+    w.up = ints + 3 * n;
+    w.helper = ints + 4 * n;
+    w.diag = ints + 5 * n; /* 2n pairs: 4n ints */
+    w.prio = prio;
+    w.root = -1;
+    for (i = 0; i < n; i++) {
+        keys[i].u = u[i];
+        keys[i].v = v[i];
+        keys[i].i = i;
+        w.left[i] = w.right[i] = w.up[i] = w.helper[i] = -1;
+        prio[i] = (uint32_t)(pds__mix64((uint64_t)i + 0x9E3779B97F4A7C15ULL) >> 32);
+    }
+    qsort(keys, (size_t)n, sizeof *keys, pds__sweep_key_cmp);
+    for (i = 0; i < n; i++) w.rank[keys[i].i] = i;
+    /* the sweep (de Berg et al. 2008, algorithm MakeMonotone) */
+    for (i = 0; i < n; i++) {
+        int c = keys[i].i, p = c == 0 ? n - 1 : c - 1, q = c + 1 == n ? 0 : c + 1, e;
+        int p_above = pds__sweep_above(&w, p, c), q_above = pds__sweep_above(&w, q, c);
+        double turn = pds__obj_orient(u, v, p, c, q);
+        if (!p_above && !q_above) {
+            if (turn < 0.0) { /* split */
+                e = pds__sweep_left_of(&w, c);
+                if (e < 0) ok = 0;
+                else {
+                    pds__sweep_diagonal(&w, c, w.helper[e]);
+                    w.helper[e] = c;
+                }
+            }
+            pds__sweep_insert(&w, c, c); /* start or split: edge c leaves c downwards */
+            w.helper[c] = c;
+        } else if (p_above && q_above) {
+            if (pds__sweep_is_merge(&w, w.helper[p])) pds__sweep_diagonal(&w, c, w.helper[p]);
+            pds__sweep_remove(&w, p);
+            if (turn < 0.0) { /* merge */
+                e = pds__sweep_left_of(&w, c);
+                if (e < 0) ok = 0;
+                else {
+                    if (pds__sweep_is_merge(&w, w.helper[e])) pds__sweep_diagonal(&w, c, w.helper[e]);
+                    w.helper[e] = c;
+                }
+            }
+        } else if (p_above) { /* regular, interior to the right: the left boundary going down */
+            if (pds__sweep_is_merge(&w, w.helper[p])) pds__sweep_diagonal(&w, c, w.helper[p]);
+            pds__sweep_remove(&w, p);
+            pds__sweep_insert(&w, c, c);
+            w.helper[c] = c;
+        } else { /* regular on the right boundary */
+            e = pds__sweep_left_of(&w, c);
+            if (e < 0) ok = 0;
+            else {
+                if (pds__sweep_is_merge(&w, w.helper[e])) pds__sweep_diagonal(&w, c, w.helper[e]);
+                w.helper[e] = c;
+            }
+        }
+    }
+    free(keys);
+    /* split along the diagonals: every corner's neighbours sorted by angle;
+       a piece is walked by turning, at each corner, to the neighbour just
+       clockwise of the one it came from */
+    total = 2 * (n + w.ndiag);
+    deg = w.left; /* the tree is done with: reuse its arrays */
+    off = w.right;
+    done = NULL;
+    nb = (pds__sweep_nb *)malloc(sizeof *nb * (size_t)total);
+    done = (int *)calloc((size_t)total, sizeof *done);
+    piece = (int *)malloc(sizeof(int) * (size_t)n * 5);
+    if (!nb || !done || !piece) {
+        free(nb);
+        free(done);
+        free(piece);
+        free(ints);
+        free(prio);
+        return -1;
+    }
+    chain = piece + n;
+    sorted = piece + 2 * n;
+    stack = piece + 3 * n;
+    for (i = 0; i < n; i++) deg[i] = 2;
+    for (i = 0; i < w.ndiag; i++) {
+        deg[w.diag[2 * i]]++;
+        deg[w.diag[2 * i + 1]]++;
+    }
+    off[0] = 0;
+    for (i = 1; i < n; i++) off[i] = off[i - 1] + deg[i - 1];
+    for (i = 0; i < n; i++) deg[i] = 0;
+#define PDS__SWEEP_LINK(a, b)                                                              \
+    do {                                                                                   \
+        pds__sweep_nb *x_ = &nb[off[a] + deg[a]++];                                        \
+        x_->to = (b);                                                                      \
+        x_->angle = atan2(v[b] - v[a], u[b] - u[a]);                                       \
+    } while (0)
+    for (i = 0; i < n; i++) {
+        int q = i + 1 == n ? 0 : i + 1;
+        PDS__SWEEP_LINK(i, q);
+        PDS__SWEEP_LINK(q, i);
+    }
+    for (i = 0; i < w.ndiag; i++) {
+        PDS__SWEEP_LINK(w.diag[2 * i], w.diag[2 * i + 1]);
+        PDS__SWEEP_LINK(w.diag[2 * i + 1], w.diag[2 * i]);
+    }
+#undef PDS__SWEEP_LINK
+    for (i = 0; i < n; i++) qsort(nb + off[i], (size_t)deg[i], sizeof *nb, pds__sweep_nb_cmp);
+    /* the outside face is the walk along i+1 -> i: mark those done */
+    for (i = 0; i < n; i++) {
+        int q = i + 1 == n ? 0 : i + 1, j;
+        for (j = 0; j < deg[q]; j++)
+            if (nb[off[q] + j].to == i) done[off[q] + j] = 1;
+    }
+    for (i = 0; i < total && ok; i++) {
+        int a, at, m = 0, steps = 0;
+        if (done[i]) continue;
+        for (a = 0; a + 1 < n && off[a + 1] <= i; a++) {}
+        at = i;
+        /* walk: half-edge (a -> b) at nb[at] */
+        while (!done[at] && steps++ <= n && m < n) {
+            int b = nb[at].to, j, back = -1;
+            done[at] = 1;
+            piece[m++] = a;
+            for (j = 0; j < deg[b]; j++)
+                if (nb[off[b] + j].to == a) back = j;
+            if (back < 0) break;
+            /* the neighbour of b just clockwise of a: the one before it */
+            at = off[b] + (back + deg[b] - 1) % deg[b];
+            a = b;
+        }
+        if (at != i || m < 3) {
+            ok = 0;
+            break;
+        }
+        if (k / 3 + m - 2 > n - 2) {
+            ok = 0;
+            break;
+        }
+        pds__sweep_monotone(&w, piece, m, chain, sorted, stack, tris, &k);
+    }
+    if (ok && k != 3 * (n - 2)) ok = 0;
+    /* counter-clockwise, as the caller's normal expects */
+    for (i = 0; ok && i < k; i += 3)
+        if (pds__obj_orient(u, v, tris[i], tris[i + 1], tris[i + 2]) < 0.0) {
+            int t = tris[i + 1];
+            tris[i + 1] = tris[i + 2];
+            tris[i + 2] = t;
+        }
+    free(nb);
+    free(done);
+    free(piece);
+    free(ints);
+    free(prio);
+    return ok;
+}
+
 /* Triangulate the face in s->fpos[0..n-1] (n >= 3) whose Newell normal is
    nn. Writes n-2 corner triples to s->tris, counter-clockwise as seen
    from nn. Ear clipping (Meisters 1975) in the plane that drops nn's
@@ -1533,6 +1937,18 @@ static int pds__obj_triangulate(pds__obj_state *s, int n, pds__v3 nn)
         s->v[i] = neg ? a : b;
         s->prev[i] = (i + n - 1) % n;
         s->next[i] = (i + 1) % n;
+    }
+    if (n > PDS__EAR_CLIP_MAX) {
+        int r = pds__obj_triangulate_sweep(s->u, s->v, n, s->tris);
+        if (r < 0) return -1;
+        if (r > 0) return 0;
+        /* a face that crosses itself: a fan, as ear clipping would end */
+        for (i = 0; i + 2 < n; i++) {
+            s->tris[3 * i] = 0;
+            s->tris[3 * i + 1] = i + 1;
+            s->tris[3 * i + 2] = i + 2;
+        }
+        return 0;
     }
     for (i = 0; i < n; i++) {
         s->reflex[i] = pds__obj_orient(s->u, s->v, s->prev[i], i, s->next[i]) <= 0.0;

@@ -45,7 +45,7 @@ static void tobj_init(tobj_fix *f)
 static void tobj_done(tobj_fix *f)
 {
     pds__mesh_free(&f->mesh);
-    free(f->mats.items);
+    pds__materials_free(&f->mats);
 }
 
 /* Write text to /tmp/pds_obj_PID_name and load it into f. */
@@ -753,10 +753,125 @@ static void test_obj_loads_200k_triangles(pds_test_ctx *t)
     tobj_done(&f);
 }
 
+
+/* Twice the signed area of polygon (u, v)[0..n-1] (shoelace). */
+static double tobj_shoelace2(const double *u, const double *v, int n)
+{
+    double a = 0.0;
+    int i;
+    for (i = 0; i < n; i++) a += u[i] * v[(i + 1) % n] - u[(i + 1) % n] * v[i];
+    return a;
+}
+
+/* The sweep's triangles of hard simple polygons: every one counter-
+   clockwise, n - 2 of them, adding up to the polygon's area (so none
+   overlaps and none is missing). */
+static void test_obj_sweep_triangulates_hard_polygons_to_their_area(pds_test_ctx *t)
+{
+    enum { MAX = 40000 };
+    double *u = (double *)malloc(sizeof(double) * MAX), *v = (double *)malloc(sizeof(double) * MAX);
+    int *tris = (int *)malloc(sizeof(int) * 3 * MAX), kind, i, n;
+    static const char *const names[] = {"star", "random star-shaped", "comb", "ring bridged to its hole", "sawtooth"};
+    REQUIRE(t, u && v && tris, "memory");
+    for (kind = 0; kind < 5; kind++) {
+        double want, got = 0.0;
+        int r, negative = 0;
+        n = 0;
+        if (kind == 0)
+            for (i = 0; i < 20000; i++, n++) {
+                double a = 2.0 * PDS__PI * i / 20000, rad = i % 2 ? 0.5 : 1.0;
+                u[n] = rad * cos(a);
+                v[n] = rad * sin(a);
+            }
+        if (kind == 1)
+            for (i = 0; i < 9001; i++, n++) {
+                double a = 2.0 * PDS__PI * i / 9001, rad = 0.2 + pds__rng_uniform(5, 1, (uint64_t)i, 0);
+                u[n] = rad * cos(a);
+                v[n] = rad * sin(a);
+            }
+        if (kind == 2) { /* 3000 teeth standing on a bar */
+            u[n] = 0.0, v[n++] = 0.0;
+            u[n] = 6000.0, v[n++] = 0.0;
+            for (i = 2999; i >= 0; i--) {
+                double x = 2.0 * i;
+                u[n] = x + 2.0, v[n++] = 10.0;
+                u[n] = x + 1.5, v[n++] = 10.0;
+                u[n] = x + 1.5, v[n++] = 1.0;
+                u[n] = x + 0.5, v[n++] = 1.0;
+                u[n] = x + 0.5, v[n++] = 10.0;
+            }
+            u[n] = 0.0, v[n++] = 10.0;
+        }
+        if (kind == 3) { /* outer circle, bridge, inner circle backwards, bridge back: positions repeat */
+            for (i = 0; i <= 5000; i++, n++) u[n] = cos(2.0 * PDS__PI * i / 5000), v[n] = sin(2.0 * PDS__PI * i / 5000);
+            for (i = 0; i <= 5000; i++, n++)
+                u[n] = 0.5 * cos(-2.0 * PDS__PI * i / 5000), v[n] = 0.5 * sin(-2.0 * PDS__PI * i / 5000);
+        }
+        if (kind == 4) {
+            for (i = 0; i < 3000; i++, n++) u[n] = i, v[n] = i % 2 ? 0.3 : 0.0;
+            for (i = 2999; i >= 0; i--, n++) u[n] = i, v[n] = i % 2 ? 1.7 : 2.0;
+        }
+        r = pds__obj_triangulate_sweep(u, v, n, tris);
+        CHECK(t, r == 1, "%s: the sweep gave up (%d)", names[kind], r);
+        if (r != 1) continue;
+        for (i = 0; i < n - 2; i++) {
+            double o = pds__obj_orient(u, v, tris[3 * i], tris[3 * i + 1], tris[3 * i + 2]);
+            negative += o < 0.0;
+            got += o;
+        }
+        want = tobj_shoelace2(u, v, n);
+        CHECK(t, negative == 0 && fabs(got - want) <= 1e-9 * fabs(want), "%s (%d corners): area %.12g of %.12g, %d clockwise",
+              names[kind], n, got / 2, want / 2, negative);
+    }
+    free(u);
+    free(v);
+    free(tris);
+}
+
+/* A 100,000-corner face (a circle written with six decimals: ear
+   clipping took 38 s on it) loads through the OBJ path as n - 2
+   triangles covering the disc. */
+static void test_obj_face_of_100000_corners_triangulates_to_its_area(pds_test_ctx *t)
+{
+    enum { N = 100000 };
+    size_t cap = (size_t)N * 40 + 64, len = 0;
+    char *text = (char *)malloc(cap), path[256];
+    tobj_fix f;
+    int i;
+    double want = 0.0, got;
+    REQUIRE(t, text != NULL, "memory");
+    for (i = 0; i < N; i++) {
+        double a = 2.0 * PDS__PI * i / N;
+        len += (size_t)snprintf(text + len, cap - len, "v %.6f %.6f 0\n", cos(a), sin(a));
+    }
+    len += (size_t)snprintf(text + len, cap - len, "f");
+    for (i = 1; i <= N; i++) len += (size_t)snprintf(text + len, cap - len, " %d", i);
+    snprintf(text + len, cap - len, "\n");
+    tobj_init(&f);
+    REQUIRE(t, tobj_load_text(&f, "circle.obj", text, path, sizeof path) == PDS_OK, "load: %s", f.err.text);
+    for (i = 0; i < N; i++) {
+        pds__v3 p = pds__mesh_pos(&f.mesh, i), q = pds__mesh_pos(&f.mesh, (i + 1) % N);
+        want += p.x * q.y - q.x * p.y;
+    }
+    want *= 0.5;
+    got = tobj_total_area(&f.mesh);
+    CHECK(t, (long)f.mesh.ntris + f.mesh.degenerate_dropped == N - 2, "%lu triangles + %ld dropped",
+          (unsigned long)f.mesh.ntris, f.mesh.degenerate_dropped);
+    CHECK(t, fabs(got - want) <= 1e-6 * want, "area %.9g, the polygon's %.9g", got, want);
+    for (i = 0; (size_t)i < f.mesh.ntris; i++)
+        if (tobj_tri_cross(&f.mesh, (size_t)i).z < 0.0) break;
+    CHECK(t, (size_t)i == f.mesh.ntris, "triangle %d faces away from the face's normal", i);
+    tobj_done(&f);
+    remove(path);
+    free(text);
+}
+
 static const pds_test_case tests_obj[] = {
     {"obj_reads_every_face_index_form", test_obj_index_forms},
     {"obj_negative_indices_count_back_from_the_last_element", test_obj_negative_indices},
     {"obj_quad_and_concave_polygons_triangulate_to_their_area", test_obj_polygons_triangulate},
+    {"obj_sweep_triangulates_hard_polygons_to_their_area", test_obj_sweep_triangulates_hard_polygons_to_their_area},
+    {"obj_face_of_100000_corners_triangulates_to_its_area", test_obj_face_of_100000_corners_triangulates_to_its_area},
     {"obj_crlf_tabs_bom_and_continuations_parse_like_a_clean_file", test_obj_messy_file_parses_like_clean},
     {"obj_unknown_statements_are_skipped_and_counted", test_obj_unknown_statements_are_counted},
     {"obj_cube_normals_are_smooth_by_default_and_flat_under_s_off", test_obj_cube_smooth_and_flat_normals},
