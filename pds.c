@@ -10060,6 +10060,7 @@ static pds_status pds__ppm_update(pds__photon_job *job, const pds_options *opt, 
     pds__kdtree tree;
     size_t np;
     pds_status st;
+    double tb = pds_time_now(), tg;
     pds__stored_photon *photons = pds__merge_photons(job->bufs, job->nbufs, &np);
     if (!photons) return pds__nomem(err);
     st = pds__kdtree_build(&tree, np ? &photons[0].pos[0] : NULL, sizeof *photons / sizeof(float), np, err);
@@ -10067,6 +10068,8 @@ static pds_status pds__ppm_update(pds__photon_job *job, const pds_options *opt, 
         free(photons);
         return st;
     }
+    tg = pds_time_now();
+    if (stats) stats->time_map_s += tg - tb;
     if (stats && np * sizeof *photons + pds__kdtree_memory(&tree) > stats->map_bytes)
         stats->map_bytes = np * sizeof *photons + pds__kdtree_memory(&tree);
     memset(&pj, 0, sizeof pj);
@@ -10081,6 +10084,7 @@ static pds_status pds__ppm_update(pds__photon_job *job, const pds_options *opt, 
     pthread_mutex_init(&pj.lock, NULL);
     pds__run_threads(threads, pds__ppm_worker, &pj);
     pthread_mutex_destroy(&pj.lock);
+    if (stats) stats->time_gather_s += pds_time_now() - tg;
     pds__kdtree_free(&tree);
     free(photons);
     return PDS_OK;
@@ -10340,6 +10344,10 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     }
     if (!st && opt->method == PDS_METHOD_PM) st = pds__pm_gather(&job, opt, vertices, nvertices, threads, stats, err);
     if (!st && opt->method == PDS_METHOD_PDM) st = pds__pdm_gather(&job, opt, vertices, nvertices, threads, stats, err);
+    if (!st && stats && (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM)) {
+        stats->time_map_s = job.build_s;
+        stats->time_gather_s = job.gather_s;
+    }
     if (!st) {
         /* The sums are exact and order-free; the photons were weighted for
            n_planned, the count actually emitted corrects it. */

@@ -385,7 +385,12 @@ typedef struct pds_render_stats {
     long nonfinite;         /* image values that would have been NaN (written
                                as 0) or beyond the float range (written as
                                the largest float) */
-    double time_eye_s, time_photons_s;
+    double time_eye_s, time_photons_s; /* the eye pass; the whole photon pass
+                               (tracing, and for pds and splat the splats, which
+                               go with it batch by batch; for pm, pdm and ppm
+                               also the two phases below) */
+    double time_map_s;      /* pm, pdm, ppm: building the photon maps */
+    double time_gather_s;   /* pm, pdm, ppm: gathering at the eye vertices */
     size_t map_bytes;       /* pm, pdm, ppm: peak size of the photon map */
     size_t memory_bytes;    /* largest working memory the render held at once
                                (image sums, eye-path map, per-thread images);
