@@ -10171,6 +10171,7 @@ typedef struct pds__map_probe {
     double emitted;            /* photons emitted to fill it */
     double planned;            /* the photon count the calibration planned for */
     double queried;            /* eye vertices the probe gathered at */
+    int threads;               /* the probe ran on one thread, the gather will on these */
 } pds__map_probe;
 
 /* The model above, solved: the seconds of tracing, at `rate` photons per
@@ -10187,7 +10188,7 @@ static double pds__map_plan(const pds__map_probe *p, int pdm, double k, size_t n
         double n = 0.5 * (lo + hi), m = fmax(2.0, n * share), lm = log(m) / mlog;
         double f = pdm ? found : fmin(k, m);
         double cost = n / rate + p->build_s * m / p->map_photons * fmax(1.0, lm) +
-                      per_vertex * (double)nv * (1.0 + f) * sqrt(fmax(1.0, lm));
+                      per_vertex * (double)nv * (1.0 + f) * sqrt(fmax(1.0, lm)) / (p->threads > 0 ? p->threads : 1);
         if (cost > remaining) hi = n;
         else lo = n;
     }
@@ -10197,7 +10198,7 @@ static double pds__map_plan(const pds__map_probe *p, int pdm, double k, size_t n
 static double pds__map_budget(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
                               int threads, double rate, double remaining)
 {
-    size_t step = nv / 4096 + 1, nsub = 0, i;
+    size_t step = nv / 8192 + 1, nsub = 0, i;
     pds__eye_vertex *sub = (pds__eye_vertex *)malloc(sizeof *sub * (nv / step + 1));
     pds__map_probe p;
     pds_error ignored;
@@ -10206,8 +10207,11 @@ static double pds__map_budget(pds__photon_job *job, const pds_options *opt, cons
     for (i = 0; i < nv; i += step) sub[nsub++] = v[i];
     job->build_s = job->gather_s = job->gather_found = 0.0;
     job->map_photons = 0;
-    st = opt->method == PDS_METHOD_PM ? pds__pm_gather(job, opt, sub, nsub, threads, NULL, &ignored)
-                                      : pds__pdm_gather(job, opt, sub, nsub, threads, NULL, &ignored);
+    /* one thread: a probe of tens of milliseconds on one core is not at
+       the mercy of the other threads' scheduling (a 1 ms probe on two
+       threads of a busy machine planned no tracing at all) */
+    st = opt->method == PDS_METHOD_PM ? pds__pm_gather(job, opt, sub, nsub, 1, NULL, &ignored)
+                                      : pds__pdm_gather(job, opt, sub, nsub, 1, NULL, &ignored);
     free(sub);
     if (st || job->map_photons < 2 || nsub == 0) return remaining;
     p.build_s = job->build_s;
@@ -10217,8 +10221,13 @@ static double pds__map_budget(pds__photon_job *job, const pds_options *opt, cons
     p.emitted = (double)job->n_total;
     p.planned = job->n_planned;
     p.queried = (double)nsub;
-    return pds__map_plan(&p, opt->method == PDS_METHOD_PDM, (double)(opt->method == PDS_METHOD_PM ? opt->k : opt->max_photons),
-                         nv, rate, remaining);
+    p.threads = threads;
+    /* whatever the model says, trace for a quarter of the time at least:
+       a render without caustics is no answer (and misses show in the
+       time the render reports) */
+    return fmax(0.25 * remaining,
+                pds__map_plan(&p, opt->method == PDS_METHOD_PDM,
+                              (double)(opt->method == PDS_METHOD_PM ? opt->k : opt->max_photons), nv, rate, remaining));
 }
 
 /* --- the photon pass --------------------------------------------------- */

@@ -281,6 +281,7 @@ static void test_map_plan_leaves_time_for_the_build_and_gather(pds_test_ctx *t)
     p.emitted = 4000.0;
     p.planned = 100000.0;
     p.queried = 1024.0;
+    p.threads = 1;
     pm_half = pds__map_plan(&p, 0, 50.0, 100000, 1e6, 0.5);
     pm_two = pds__map_plan(&p, 0, 50.0, 100000, 1e6, 2.0);
     /* pm, 2 s: the tracing plus the modelled build and gather fill the budget */
