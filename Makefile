@@ -5,6 +5,9 @@
 #   make sanitize   the same tests built with AddressSanitizer + UBSan
 #   make bench      benchmarks (figures, not pass/fail)
 #   make update-golden  re-render tests/golden/*.pfm (review with git diff)
+#   make fuzz       libFuzzer on the scene, OBJ, MTL and PFM readers
+#                   (clang; FUZZ_SECONDS per target, default 60; -j2 runs two
+#                   at once); make fuzz-regress replays the committed corpus
 #   make references     reference images of the shipped scenes (minutes)
 #   make gallery        the README gallery: every scene at full size (minutes)
 #   make CC=clang   any C99 compiler works
@@ -96,8 +99,35 @@ bench: pds $(BUNNY)
 	./pds bench rays $(BUNNY) 4000000
 	./pds bench pt
 
+# Fuzzing (README "Fuzzing"): one libFuzzer harness per reader in
+# tests/fuzz/, built with clang and every sanitizer that applies. All of
+# -fsanitize=integer is on except unsigned-integer-overflow: unsigned
+# arithmetic wraps by definition, and pds.c relies on it on purpose (the
+# FNV-1a and splitmix hashes, the random numbers, the BVH traversal's
+# branch-free swap mask 0u - (d1 < d0)). Signed overflow, shifts, division
+# by zero and value-changing implicit conversions stay checked.
+FUZZ_SECONDS ?= 60
+FUZZ_CC ?= clang
+FUZZ_OUT = tests/out/fuzz
+FUZZ_TARGETS = scene obj mtl pfm
+FUZZ_CFLAGS = $(WARN) -g -O1 -fsanitize=fuzzer,address,undefined,float-cast-overflow,integer \
+  -fno-sanitize=unsigned-integer-overflow -fno-sanitize-recover=all
+
+$(FUZZ_OUT)/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz.h pds.c pds.h
+	mkdir -p $(FUZZ_OUT)
+	$(FUZZ_CC) $(FUZZ_CFLAGS) -o $@ $< $(LDLIBS)
+
+$(FUZZ_TARGETS:%=fuzz-%): fuzz-%: $(FUZZ_OUT)/fuzz_%
+	sh tests/fuzz/run.sh $* $(FUZZ_SECONDS)
+
+fuzz: $(FUZZ_TARGETS:%=fuzz-%)
+
+fuzz-regress: $(FUZZ_TARGETS:%=$(FUZZ_OUT)/fuzz_%)
+	for t in $(FUZZ_TARGETS); do sh tests/fuzz/run.sh $$t 0 || exit 1; done
+
 clean:
 	rm -f pds pds-san tests/test_pds tests/test_pds-san demo.png
 	rm -rf tests/out
 
-.PHONY: all test sanitize render bench clean update-golden references gallery
+.PHONY: all test sanitize render bench clean update-golden references gallery fuzz fuzz-regress \
+  $(FUZZ_TARGETS:%=fuzz-%)

@@ -1,0 +1,49 @@
+/* fuzz_obj.c - libFuzzer harness for the OBJ loader.
+
+   The input is an OBJ file, optionally followed by an MTL file: everything
+   after the first line that is exactly "#MTL" goes to in.mtl (which the OBJ
+   part can read with `mtllib in.mtl`); the line itself is an OBJ comment, so
+   a plain OBJ file is an input as it is. The OBJ part is written to in.obj
+   and loaded with pds_scene_load_obj, which also builds the scene's BVH.
+   Without the separator in.mtl does not exist. See fuzz.h for the guard on
+   paths outside the temporary directory. */
+#include "fuzz.h"
+
+/* Offset of the "#MTL" line's first byte, or size if there is none; *mtl
+   gets the offset just past that line. */
+static size_t pds_fuzz_split(const uint8_t *data, size_t size, size_t *mtl)
+{
+    static const char sep[] = "#MTL";
+    size_t i = 0, n = sizeof sep - 1;
+    while (i < size) {
+        size_t end = i;
+        while (end < size && data[end] != '\n') end++;
+        if (end - i == n && memcmp(data + i, sep, n) == 0) {
+            *mtl = end < size ? end + 1 : end;
+            return i;
+        }
+        i = end + 1;
+    }
+    *mtl = size;
+    return size;
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    char path[4096], mtl_path[4096];
+    size_t mtl, cut = pds_fuzz_split(data, size, &mtl);
+    pds_scene *scene = NULL;
+    pds_error err;
+    if (pds_fuzz_skip(data, cut, cut < size ? data + mtl : NULL, size - mtl))
+        return -1; /* see fuzz.h */
+    if (cut < size) pds_fuzz_write("in.mtl", data + mtl, size - mtl, mtl_path);
+    else remove(pds_fuzz_path("in.mtl", mtl_path));
+    pds_fuzz_write("in.obj", data, cut, path);
+    if (pds_scene_load_obj(path, &scene, &err) == PDS_OK) {
+        pds_scene_info info;
+        pds_scene_get_info(scene, &info);
+        if (info.materials < 1) abort();
+        pds_scene_free(scene);
+    }
+    return 0;
+}
