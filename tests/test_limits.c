@@ -240,6 +240,30 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
     pds_scene_free(s);
 }
 
+
+/* Found by fuzzing: an `mtllib` of several names walked its tokens in a
+   scratch array the MTL reader refills for a multi-word `newmtl`, and read
+   the next name from the freed MTL text. Both libraries must load. */
+static void test_obj_mtllib_of_several_files_survives_multi_word_newmtl(pds_test_ctx *t)
+{
+    char obj[256], a[256], b[256], text[600];
+    pds_error err;
+    pds_scene *s = NULL;
+    scene_tmp_write(a, sizeof a, "multi_a.mtl", "newmtl red glossy\nKd 1 0 0\n");
+    scene_tmp_write(b, sizeof b, "multi_b.mtl", "newmtl blue\nKd 0 0 1\n");
+    snprintf(text, sizeof text, "mtllib %s %s\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl blue\nf 1 2 3\n",
+             strrchr(a, '/') + 1, strrchr(b, '/') + 1);
+    REQUIRE(t, pds_scene_load_obj(scene_tmp_write(obj, sizeof obj, "multi.obj", text), &s, &err) == PDS_OK,
+            "load: %s", err.text);
+    CHECK(t, s->mesh.ntris == 1 && s->materials.items[s->mesh.mat[0]].albedo[2] > 0.5 &&
+              s->materials.items[s->mesh.mat[0]].albedo[0] < 0.5,
+          "the triangle has the second library's blue");
+    pds_scene_free(s);
+    remove(obj);
+    remove(a);
+    remove(b);
+}
+
 static const pds_test_case tests_limits[] = {
     {"readers_refuse_fifos_devices_and_directories", test_readers_refuse_fifos_devices_and_directories},
     {"readers_refuse_files_past_their_size_limit_before_reading",
@@ -250,6 +274,7 @@ static const pds_test_case tests_limits[] = {
     {"scene_warns_of_a_light_that_emits_nothing", test_scene_warns_of_a_light_that_emits_nothing},
     {"mtl_illum_out_of_range_is_refused_before_conversion", test_mtl_illum_out_of_range_is_refused_before_conversion},
     {"scene_with_the_most_materials_loads_and_finds_each", test_scene_with_the_most_materials_loads_and_finds_each},
+    {"obj_mtllib_of_several_files_survives_multi_word_newmtl", test_obj_mtllib_of_several_files_survives_multi_word_newmtl},
     {"render_memory_estimate_bounds_the_render_and_refuses_too_much",
      test_render_memory_estimate_bounds_the_render_and_refuses_too_much},
 };

@@ -8,19 +8,17 @@
    exits) and calls the public loader on that file.
 
    Guards (the only places a harness steps between the fuzzer and pds.c;
-   PDS_FUZZ_UNGUARDED=1 in the environment turns both off, and the skips
-   below too, to reproduce the findings they keep out of the way):
+   PDS_FUZZ_UNGUARDED=1 in the environment turns both off):
 
-   1. Paths. pds.c opens files only through fopen, which is redirected to
-   pds_fuzz_fopen. It refuses, with EACCES, every path outside the
-   temporary directory and every path with a ".." component. Scene files
-   (`mesh "PATH"`) and OBJ files (`mtllib PATH`) can name any file, and the
-   reader of this pds.c has no size limit or regular-file check yet: a scene
-   with `mesh "/dev/zero"` reads until memory runs out (finding
-   /work/fuzz-findings/scene-mesh-dev-zero, in the fuzzing report). Without
-   the guard every run stops at that input instead of looking further, and a
-   fuzzer that can read the machine's files is not reproducible. What the
-   loaders do with a file they may open is untouched.
+   1. Paths. pds.c opens and examines input files only through open and
+   stat, which are redirected to pds_fuzz_open and pds_fuzz_stat: they
+   refuse, with EACCES, every path outside the temporary directory and
+   every path with a ".." component. Scene files (`mesh "PATH"`) and OBJ
+   files (`mtllib PATH`) can name any file; the readers refuse special
+   files and files past their size limits, but a fuzzer that can read the
+   machine's files is not reproducible, and a regular file of 60 MB takes
+   long to read under the sanitizers. What the loaders do with a file they
+   may open is untouched.
 
    2. Memory. malloc, calloc and realloc in pds.c are redirected to
    versions that fail (return NULL, as when memory runs out) for any one
@@ -28,27 +26,18 @@
    limits let a few bytes ask for tens of millions of triangles (`quad {
    segments 4096 }`: 33.5 million): such a scene is valid and takes minutes
    and gigabytes to load, more still under the sanitizers, and every scene
-   fuzzing run ended on one in its first minutes as a timeout (finding
-   /work/fuzz-findings/scene-huge-tessellation). With the cap the mesh
-   stops growing at about 350,000 triangles and the BVH build at about
-   65,000 (its binning array takes 64 bytes a triangle), where the load
-   fails with PDS_ERR_NOMEM; so the out-of-memory paths are fuzzed too: they
-   must free what they allocated and report.
+   fuzzing run ended on one in its first minutes as a timeout. With the cap
+   the mesh stops growing at about 350,000 triangles and the BVH build at
+   about 65,000 (its binning array takes 64 bytes a triangle), where the
+   load fails with PDS_ERR_NOMEM; so the out-of-memory paths are fuzzed
+   too: they must free what they allocated and report.
 
-   Skips (inputs the text harnesses return -1 on, so that libFuzzer drops
-   them, until pds.c is fixed; each blocked every run of the OBJ or MTL
-   fuzzer within seconds). pds_fuzz_skip finds them with pds.c's own OBJ/MTL
-   lexer and number parser, in the whole input, since any input file may be
-   read as an OBJ or MTL file (a scene or an OBJ can name itself in `mesh`
-   or `mtllib`):
-   - `illum N` with N outside int's range: pds__mtl_load reports it as an
-     error but converts it to int first, which is undefined behaviour
-     (finding /work/fuzz-findings/mtl-illum-float-cast-overflow);
-   - an `mtllib` with two or more names together with a `newmtl` whose name
-     is two or more tokens: pds__obj_mtllib walks its names in the scratch
-     token array s->ftok, which pds__mtl_load's `newmtl` refills with tokens
-     of the MTL buffer it then frees; the next name is read from freed
-     memory (finding /work/fuzz-findings/obj-mtllib-heap-use-after-free).
+   The first long runs found four bugs, all fixed, whose inputs stay in the
+   corpus as finding-*: an MTL `illum` beyond int's range converted to int
+   before the range check; an `mtllib` of several names read from freed
+   memory after an MTL with a multi-word `newmtl` (the names' tokens were
+   refilled by the MTL reader); `mesh "/dev/zero"` and `mtllib /dev/zero`
+   read until memory ran out.
 
    Build: `make fuzz` (clang with libFuzzer; see the Makefile). */
 #ifndef PDS_FUZZ_H
@@ -68,17 +57,24 @@
 
 #define PDS_FUZZ_MAX_BLOCK ((size_t)4 << 20)
 
-static FILE *pds_fuzz_fopen(const char *path, const char *mode);
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+
+static int pds_fuzz_open(const char *path, int flags, ...);
+static int pds_fuzz_stat(const char *path, struct stat *sb);
 static void *pds_fuzz_malloc(size_t size);
 static void *pds_fuzz_calloc(size_t count, size_t size);
 static void *pds_fuzz_realloc(void *p, size_t size);
 
-#define fopen pds_fuzz_fopen
+#define open(...) pds_fuzz_open(__VA_ARGS__)
+#define stat(p, b) pds_fuzz_stat(p, b)
 #define malloc pds_fuzz_malloc
 #define calloc pds_fuzz_calloc
 #define realloc pds_fuzz_realloc
 #include "../../pds.c"
-#undef fopen
+#undef open
+#undef stat
 #undef malloc
 #undef calloc
 #undef realloc
@@ -153,50 +149,32 @@ static const char *pds_fuzz_write(const char *name, const void *data, size_t siz
     return out;
 }
 
-/* Is the input one of the skipped kinds (see above)? It is given as up to
-   two parts, each read as a file of its own (the OBJ harness writes an OBJ
-   and an MTL file); a combination of statements counts across the parts. */
-int pds_fuzz_skip(const uint8_t *a, size_t na, const uint8_t *b, size_t nb);
-int pds_fuzz_skip(const uint8_t *a, size_t na, const uint8_t *b, size_t nb)
-{
-    pds__obj_lexer lx;
-    pds__obj_token kw, t;
-    int multi_mtllib = 0, multi_newmtl = 0, part;
-    if (pds_fuzz_unguarded()) return 0;
-    for (part = 0; part < 2; part++) {
-        if (part == 0) pds__obj_lexer_init(&lx, (const char *)a, na);
-        else if (b) pds__obj_lexer_init(&lx, (const char *)b, nb);
-        else break;
-        while (lx.p < lx.end) {
-            int n = 0;
-            double v;
-            if (pds__obj_next(&lx, &kw)) {
-                while (pds__obj_next(&lx, &t)) {
-                    if (n++ == 0 && pds__obj_is(&kw, "illum") && pds__obj_parse_double(t.s, t.len, &v) == 1 &&
-                        !(v > -2147483649.0 && v < 2147483648.0))
-                        return 1;
-                }
-                multi_mtllib |= n >= 2 && pds__obj_is(&kw, "mtllib");
-                multi_newmtl |= n >= 2 && pds__obj_is(&kw, "newmtl");
-            }
-            pds__obj_end_statement(&lx);
-        }
-    }
-    return multi_mtllib && multi_newmtl;
-}
-
-/* fopen for pds.c: the real one for paths inside the temporary directory
-   without "..", EACCES for the rest (see the guard above). */
-static FILE *pds_fuzz_fopen(const char *path, const char *mode)
+/* Is path one pds.c may read (see the guard above)? */
+static int pds_fuzz_allowed(const char *path)
 {
     size_t n = strlen(pds_fuzz_tmpdir()), len = strlen(path);
-    int inside = strncmp(path, pds_fuzz_dir, n) == 0 && path[n] == '/' && !strstr(path + n, "/../") &&
-                 !(len >= 3 && strcmp(path + len - 3, "/..") == 0);
-    if (!inside && !pds_fuzz_unguarded()) {
+    return pds_fuzz_unguarded() || (strncmp(path, pds_fuzz_dir, n) == 0 && path[n] == '/' &&
+                                    !strstr(path + n, "/../") && !(len >= 3 && strcmp(path + len - 3, "/..") == 0));
+}
+
+/* open and stat for pds.c: the real ones for allowed paths, EACCES for
+   the rest. */
+static int pds_fuzz_open(const char *path, int flags, ...)
+{
+    if (!pds_fuzz_allowed(path)) {
         errno = EACCES;
-        return NULL;
+        return -1;
     }
-    return fopen(path, mode);
+    return open(path, flags);
+}
+
+static int pds_fuzz_stat(const char *path, struct stat *sb)
+{
+    if (!pds_fuzz_allowed(path)) {
+        errno = EACCES;
+        return -1;
+    }
+    return stat(path, sb);
 }
 
 /* The allocators for pds.c: NULL for a block over PDS_FUZZ_MAX_BLOCK (see

@@ -34,8 +34,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     size_t mtl, cut = pds_fuzz_split(data, size, &mtl);
     pds_scene *scene = NULL;
     pds_error err;
-    if (pds_fuzz_skip(data, cut, cut < size ? data + mtl : NULL, size - mtl))
-        return -1; /* see fuzz.h */
     if (cut < size) pds_fuzz_write("in.mtl", data + mtl, size - mtl, mtl_path);
     else remove(pds_fuzz_path("in.mtl", mtl_path));
     pds_fuzz_write("in.obj", data, cut, path);

@@ -42,7 +42,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         pds_fuzz_write("tri.mtl", pds_fuzz_tri_mtl, sizeof pds_fuzz_tri_mtl - 1, path);
         ready = 1;
     }
-    if (pds_fuzz_skip(data, size, NULL, 0)) return -1; /* see fuzz.h */
     pds_fuzz_write("in.scene", data, size, path);
     if (pds_scene_load(path, &scene, &err) == PDS_OK) {
         pds_scene_info info;
