@@ -1434,6 +1434,7 @@ static pds_status pds__obj_mtllib(pds__obj_state *s, pds__obj_lexer *lx)
     char rest[4096], full[4096];
     size_t n, i;
     pds_status st;
+    pds__obj_token *names;
     int e;
     int r = pds__obj_rest(s, lx, rest, sizeof rest, &n);
     if (r == -2) return pds__nomem(s->err);
@@ -1443,21 +1444,32 @@ static pds_status pds__obj_mtllib(pds__obj_state *s, pds__obj_lexer *lx)
         if (!pds__names_put(&s->mtl_loaded, full, strlen(full), 1)) return pds__nomem(s->err);
         return pds__mtl_load(s, full);
     }
-    for (i = 0; i < n; i++) {
-        pds__obj_token t = s->ftok[i];
+    /* the names' tokens live in s->ftok, which loading an MTL refills (its
+       `newmtl` lines are read the same way): walk a copy (found by
+       fuzzing: the next name was read from the freed MTL text) */
+    names = (pds__obj_token *)malloc(sizeof *names * (n ? n : 1));
+    if (!names) return pds__nomem(s->err);
+    if (n) memcpy(names, s->ftok, sizeof *names * n);
+    for (i = 0, st = PDS_OK; i < n && st == PDS_OK; i++) {
+        pds__obj_token t = names[i];
         char name[4096];
         memcpy(name, t.s, (size_t)t.len); /* t.len < sizeof rest <= sizeof name */
         name[t.len] = '\0';
         if (pds__join_path(s->dir, name, full, sizeof full))
-            return pds__obj_err(s, &t, "material library path is too long");
-        if (pds__names_find(&s->mtl_loaded, full, strlen(full)) >= 0) continue;
-        e = pds__input_file_check(full);
-        if (e == ENOENT) return pds__obj_err(s, &t, "material library '%s' not found (looked for %s)", name, full);
-        if (e) return pds__obj_err(s, &t, "cannot read material library %s: %s", full, pds__input_file_problem(e));
-        if (!pds__names_put(&s->mtl_loaded, full, strlen(full), 1)) return pds__nomem(s->err);
-        if ((st = pds__mtl_load(s, full)) != PDS_OK) return st;
+            st = pds__obj_err(s, &t, "material library path is too long");
+        else if (pds__names_find(&s->mtl_loaded, full, strlen(full)) >= 0)
+            continue;
+        else if ((e = pds__input_file_check(full)) == ENOENT)
+            st = pds__obj_err(s, &t, "material library '%s' not found (looked for %s)", name, full);
+        else if (e)
+            st = pds__obj_err(s, &t, "cannot read material library %s: %s", full, pds__input_file_problem(e));
+        else if (!pds__names_put(&s->mtl_loaded, full, strlen(full), 1))
+            st = pds__nomem(s->err);
+        else
+            st = pds__mtl_load(s, full);
     }
-    return PDS_OK;
+    free(names);
+    return st;
 }
 
 /* ------------------------------------------------------- triangulation */
@@ -9598,6 +9610,74 @@ static void *pds__photon_worker(void *arg)
 }
 
 
+/* --- progressive PDS ------------------------------------------------------
+   The paper's PDS splats N photons whose footprints have radius
+   r ~ s sqrt(A / (pi N)) (eqs. 5-6): with s fixed, about s^2 footprints
+   cover each point whatever N is, so the noise does not fall as photons are
+   added while the bias does. A kernel estimate converges when r -> 0 while
+   the number of kernels over a point, ~ N r^2, grows without bound.
+   Progressive PDS gets there as Knaus and Zwicker (2011, "Progressive
+   photon mapping: a probabilistic approach", sect. 4) showed for photon
+   mapping: K passes of M photons, each an independent PDS estimate with
+   N = M, pass i (from 1) with smoothing s_i = s_1 i^((alpha - 1) / 2), so
+   that its footprints' areas shrink as i^(alpha - 1); the image is the
+   mean of the pass images. The variance of pass i is ~ 1 / (M r_i^2) ~
+   i^(1 - alpha), so the mean's is ~ K^(-alpha); the bias is the mean of
+   the passes' biases, ~ K^(alpha - 1) where the caustic is smooth (bias
+   ~ r^2) and ~ K^((alpha - 1) / 2) at its edges (bias ~ r). alpha = 2/3
+   balances them for a smooth caustic (MSE ~ K^(-2/3), RMSE ~ N^(-1/3)),
+   alpha = 1/2 at edges (RMSE ~ N^(-1/4)). Every pass costs the same, so
+   a time budget just runs passes until the time is spent, and the photon
+   count never has to be planned before the first photon. Needle widening
+   (min_aspect) widens each footprint to a fixed fraction of its major
+   axis, which shrinks with the passes too, so it stays consistent. */
+
+/* s_i of pass i (from 1). */
+static double pds__pass_smoothing(double s1, double alpha, long pass)
+{
+    return s1 * pow((double)pass, 0.5 * (alpha - 1.0));
+}
+
+/* Run progressive PDS passes into the job's sums: K = ceil(N / pass_photons)
+   passes of M = ceil(N / K) photons (photon numbers pass * M + j), or with
+   a deadline, whole passes while the last pass's duration still fits.
+   Returns the photons emitted (K M); *passes gets K. */
+static long pds__pds_passes(pds__photon_job *job, const pds_options *opt, int threads, double deadline, long *passes)
+{
+    long k_max, m, k;
+    double t_pass = 0.0;
+    if (deadline > 0.0) {
+        m = opt->pass_photons;
+        k_max = LONG_MAX / m - 1;
+    } else {
+        k_max = (opt->photons + opt->pass_photons - 1) / opt->pass_photons;
+        if (k_max < 1) k_max = 1;
+        m = (opt->photons + k_max - 1) / k_max;
+        if (m < 1) m = 1;
+    }
+    job->n_total = m;
+    job->n_planned = (double)m;
+    for (k = 0; k < k_max; k++) {
+        double t = pds_time_now();
+        if (deadline > 0.0 && k > 0 && t + t_pass > deadline) break;
+        job->smoothing = pds__pass_smoothing(opt->smoothing, opt->pass_alpha, k + 1);
+        job->index_offset = k * m;
+        job->next_batch = job->batches_done = 0;
+        job->stop = 0;
+        job->next_buf = 0;
+        pthread_mutex_init(&job->lock, NULL);
+        pds__run_threads(threads, pds__photon_worker, job);
+        pthread_mutex_destroy(&job->lock);
+        t_pass = pds_time_now() - t;
+        if (job->progress) {
+            double frac = deadline > 0.0 ? (pds_time_now() - job->t0) / (deadline - job->t0) : (k + 1.0) / k_max;
+            job->progress(job->progress_user, frac > 1.0 ? 1.0 : frac, pds_time_now() - job->t0);
+        }
+    }
+    *passes = k;
+    return k * m;
+}
+
 /* ===================================================================== */
 /* >>baselines                                                           */
 /* ===================================================================== */
@@ -10244,6 +10324,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     size_t npix = (size_t)width * (size_t)height, i;
     long emitted = 0;
     int t, splats = opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_SPLAT;
+    int progressive = opt->method == PDS_METHOD_PDS && opt->progressive;
     pds_status st = PDS_OK;
     double t0 = pds_time_now();
     if (opt->method != PDS_METHOD_PDS) footprint = NULL;
@@ -10302,6 +10383,14 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     if (!st && opt->method == PDS_METHOD_PPM) {
         st = pds__ppm_passes(&job, opt, vertices, nvertices, threads, rgb, stats, err);
         emitted = 0; /* the passes added their image themselves */
+    } else if (!st && progressive) {
+        long passes = 0;
+        job.progress = NULL; /* the passes report progress themselves */
+        emitted = pds__pds_passes(&job, opt, threads, opt->time_s > 0.0 ? t0 + opt->time_s : 0.0, &passes);
+        job.progress = opt->progress;
+        if (stats) stats->passes = (int)(passes < INT_MAX ? passes : INT_MAX);
+        for (t = 0; t < job.nbufs; t++)
+            if (job.bufs[t].out_of_memory) st = PDS_ERR_NOMEM;
     } else if (!st && opt->time_s > 0.0) {
         /* PDS: the photon count enters eqs. 5-6, so it must be fixed before
            the first photon: time a calibration run of two batches (thrown
@@ -10341,7 +10430,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.next_batch = job.batches_done = 0;
         job.stop = 0;
     }
-    if (!st && opt->method != PDS_METHOD_PPM) {
+    if (!st && opt->method != PDS_METHOD_PPM && !progressive) {
         pthread_mutex_init(&job.lock, NULL);
         job.next_buf = 0;
         threads = pds__run_threads(threads, pds__photon_worker, &job);
@@ -10432,6 +10521,9 @@ void pds_options_default(pds_options *opt)
     opt->progress_user = NULL;
     opt->photons = 100000;
     opt->smoothing = 12.0;
+    opt->progressive = 0;
+    opt->pass_photons = 16384;
+    opt->pass_alpha = 2.0 / 3.0;
     opt->plane_tolerance = 0.25;
     opt->photon_depth = 16;
     opt->footprint = NULL;
@@ -10482,6 +10574,10 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photon count must not be negative, got %ld", opt->photons);
     if (!(opt->smoothing > 0.0) || opt->smoothing > 1e6)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "smoothing must be positive");
+    if (opt->pass_photons < 1 || opt->pass_photons > 1000000000L)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photons per pass %ld is outside 1..1e9", opt->pass_photons);
+    if (!(opt->pass_alpha > 0.0 && opt->pass_alpha <= 1.0))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the passes' alpha must be above 0 and at most 1");
     if (!(opt->plane_tolerance > 0.0) || opt->plane_tolerance > 1e6)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "plane tolerance must be positive");
     if (!(opt->min_aspect >= 0.0) || opt->min_aspect > 1.0)
@@ -10712,7 +10808,8 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     stats->width = w;
     stats->height = h;
     stats->spp = job.spp * job.pass;
-    if (opt->method != PDS_METHOD_PPM) stats->passes = job.pass; /* ppm: its photon passes */
+    if (opt->method != PDS_METHOD_PPM && !(opt->method == PDS_METHOD_PDS && opt->progressive))
+        stats->passes = job.pass; /* ppm and progressive pds: their photon passes */
     return PDS_OK;
 }
 

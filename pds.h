@@ -340,6 +340,15 @@ typedef struct pds_options {
                            method; default 0; at most 1). Needle footprints
                            at caustic focal lines otherwise hit single eye
                            vertices with huge weights. */
+    int progressive;    /* pds: 1 = progressive PDS: passes of at most
+                           pass_photons photons, pass i splatting with
+                           smoothing s_i = smoothing * i^((pass_alpha - 1)/2),
+                           the image their mean, which converges as photons
+                           are added; 0 = the paper's one pass with a fixed s
+                           (default 0) */
+    long pass_photons;  /* progressive pds: photons per pass, at most (default 16384) */
+    double pass_alpha;  /* progressive pds: pass i's footprint areas shrink as
+                           i^(pass_alpha - 1), in (0, 1] (default 2/3) */
     int photon_depth;   /* most specular bounces a photon follows (default 16) */
     /* baselines */
     int k;              /* pm: photons per estimate (default 50) */
