@@ -288,7 +288,84 @@ static void test_pds_footprint_widening_conserves_the_caustic_light(pds_test_ctx
     pds_image_free(&b);
 }
 
+
+/* Progressive PDS's schedule: pass i splats with s_i = s_1 i^((alpha-1)/2),
+   so that its footprint areas (~ s_i^2 / M, eqs. 5-6) shrink as
+   i^(alpha - 1). */
+static void test_progressive_pds_schedule_shrinks_footprint_areas_as_i_to_alpha_minus_1(pds_test_ctx *t)
+{
+    /* alpha 2/3, pass 8: 8^(-1/6) = 2^(-1/2) */
+    CHECK_NEAR(t, pds__pass_smoothing(4.0, 2.0 / 3.0, 8), 4.0 / sqrt(2.0), 1e-12);
+    CHECK_NEAR(t, pds__pass_smoothing(4.0, 2.0 / 3.0, 1), 4.0, 1e-12);
+    /* area ratio of passes 1000 and 1 is 1000^(alpha - 1) */
+    CHECK_NEAR(t, pow(pds__pass_smoothing(3.0, 0.5, 1000) / 3.0, 2.0), pow(1000.0, -0.5), 1e-12);
+    CHECK_NEAR(t, pds__pass_smoothing(3.0, 1.0, 77), 3.0, 1e-12);
+}
+
+/* RMSE, relative to the answer, of the plane mirror's caustic (the point
+   light mirrored: E = 0.9 P / (4 pi d^2) cos) over the inner pixels. */
+static double mirror_caustic_error(const pds_image *img)
+{
+    double sum = 0.0;
+    int x, y, n = 0;
+    for (y = 3; y < 21; y++) {
+        for (x = 3; x < 21; x++) {
+            pds__v3 p = floor_point(2.0, 30.0, 24, x, y);
+            pds__v3 d = pds__sub(pds__v(2.0, 1.0, 0.0), p);
+            double d2 = pds__dot(d, d), E = 0.9 * 100.0 / (4.0 * PDS__PI) * (1.0 / sqrt(d2)) / d2;
+            double expect = 0.5 / PDS__PI * E, rel = img->rgb[3 * (y * 24 + x) + 1] / expect - 1.0;
+            sum += rel * rel;
+            n++;
+        }
+    }
+    return sqrt(sum / n);
+}
+
+static const char mirror_scene[] =
+    "camera { position 0 2 0.000001 look_at 0 0 0 up 0 0 -1 fov 30 resolution 24 24 spp 16 }\n"
+    "material floor diffuse { albedo 0.5 }\n"
+    "material glass mirror { reflectance 0.9 }\n"
+    "quad { material floor size 8 8 }\n"
+    "quad { material glass size 3 3 rotate 90 0 0 1 translate 1 1.5 0 }\n"
+    "light point { position 0 1 0 power 100 }\n";
+
+static void progressive_small_passes(pds_options *o)
+{
+    o->progressive = 1;
+    o->pass_photons = 2048;
+}
+
+/* Progressive PDS converges: with a fixed seed its error against the
+   analytic caustic falls at every eightfold step of the photon count, to
+   well below the paper's fixed-s PDS at the same count (whose noise stops
+   falling: the same s^2 footprints cover each point whatever N is). */
+static void test_progressive_pds_error_falls_as_photons_are_added(pds_test_ctx *t)
+{
+    static const long counts[] = {2048, 16384, 131072, 1048576};
+    double err[4], fixed;
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    int i;
+    for (i = 0; i < 4; i++) {
+        REQUIRE(t, photon_render_text(mirror_scene, PDS_METHOD_PDS, counts[i], 3.0, PDS_PATHS_CAUSTICS_ONLY, 2, &img,
+                                      &st, progressive_small_passes),
+                "render");
+        err[i] = mirror_caustic_error(&img);
+        CHECK(t, st.passes == (int)(counts[i] / 2048) && st.photons == counts[i], "%ld photons: %d passes, %ld photons",
+              counts[i], st.passes, st.photons);
+        pds_image_free(&img);
+        if (i > 0) CHECK(t, err[i] < err[i - 1], "error %g at %ld photons, %g at %ld", err[i], counts[i], err[i - 1], counts[i - 1]);
+    }
+    REQUIRE(t, pds_render_text(mirror_scene, counts[3], 3.0, PDS_PATHS_CAUSTICS_ONLY, 2, &img, NULL), "render");
+    fixed = mirror_caustic_error(&img);
+    pds_image_free(&img);
+    CHECK(t, err[3] < 0.5 * fixed, "progressive %g, fixed s %g at %ld photons", err[3], fixed, counts[3]);
+}
+
 static const pds_test_case tests_pds[] = {
+    {"progressive_pds_schedule_shrinks_footprint_areas_as_i_to_alpha_minus_1",
+     test_progressive_pds_schedule_shrinks_footprint_areas_as_i_to_alpha_minus_1},
+    {"progressive_pds_error_falls_as_photons_are_added", test_progressive_pds_error_falls_as_photons_are_added},
     {"pds_footprint_widening_keeps_the_major_axis", test_pds_footprint_widening_keeps_the_major_axis},
     {"pds_footprint_widening_conserves_the_caustic_light", test_pds_footprint_widening_conserves_the_caustic_light},
     {"pds_plane_mirror_reflects_the_mirrored_point_light", test_pds_plane_mirror_reflects_the_mirrored_point_light},
