@@ -16,7 +16,12 @@ OPT ?= -O2
 WARN = -std=c99 -pedantic -Wall -Wextra
 CFLAGS ?= $(OPT)
 LDLIBS = -lm -lpthread
-SAN = -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=undefined
+SAN = -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all $(SAN_EXTRA)
+# clang adds more checks: make sanitize CC=clang SAN_EXTRA="$(CLANG_SAN)"
+# (unsigned wrap-around and unsigned left shifts that drop high bits are
+# defined behaviour; the hashes, the RNG, the BVH's masks and the Morton
+# codes rely on them)
+CLANG_SAN = -fsanitize=float-cast-overflow,integer -fno-sanitize=unsigned-integer-overflow,unsigned-shift-base
 
 TEST_SRC = tests/test_main.c tests/runner.h $(wildcard tests/test_*.c)
 
