@@ -35,6 +35,8 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/types.h>
+#include <sys/utsname.h>
+#include <time.h>
 #include <unistd.h>
 
 #define EXIT_USAGE 2
@@ -110,11 +112,17 @@ static const command_help help_table[] = {
      "                              (RMSE and SSIM against the parameter), one PNG per value\n"
      "      and any render option, e.g. --photons N, --res WxH, --caustics-only\n",
      1},
-    {"race", "race SCENE --ref REF.pfm (--time T | --photons N) --methods LIST [options]",
+    {"race", "race SCENE --ref REF.pfm (--time T | --photons N | --budgets LIST) --methods LIST [options]",
      "every method on the same budget, side by side against REF",
      "      --methods LIST          e.g. pds,pm:k=50,pdm,splat:radius=0.05,ppm; options for one\n"
      "                              method follow it as :NAME=VALUE (k, kernel, radius, spp, ...)\n"
-     "      --time T, --photons N   the budget of every method (ppm: N photons over all its passes)\n"
+     "      --time T, --photons N   the budget of every method (ppm: N photons over all its passes);\n"
+     "                              a time missed by more than 25% is flagged (stderr, race.csv, page)\n"
+     "      --budgets A,B,...       several budgets (seconds; photons with --budget-kind photons):\n"
+     "                              every method on each, and convergence.svg (error against time, log-log)\n"
+     "      --tune                  choose each method's main parameter per budget by the lowest RMSE on a\n"
+     "                              small grid, rendered with seed+1 (tune.csv); values given are kept\n"
+     "      --diff-scale MODE       difference images: shared (one scale, default), each, or a number\n"
      "      --roi X,Y,W,H           region to crop (default: the 64x64 window of REF with the\n"
      "                              largest luminance variance)\n"
      "      -o DIR                  output folder (default race-SCENE): index.html, race.csv, images\n"
@@ -183,6 +191,9 @@ static int is_help(const char *a)
 
 /* The command being run ("render"), for messages; NULL before one is known. */
 static const char *current_command;
+/* The whole command line (pds race writes it into its page). */
+static int command_argc;
+static char **command_argv;
 
 /* "pds render: unknown option '--photon' (did you mean '--photons'?)" and a
    pointer to the help; status 2. */
@@ -1776,6 +1787,7 @@ typedef struct plot_frame {
     double left, right, top, bottom, pad;
     int logx;
     double xmin, xmax;
+    int logy; /* sweep: the RMSE axis is logarithmic */
 } plot_frame;
 
 static double plot_x(const plot_frame *f, double x)
@@ -1790,13 +1802,36 @@ static double plot_y(const plot_frame *f, double v, double lo, double hi)
     return f->bottom - (v - lo) / (hi - lo) * (f->bottom - f->top);
 }
 
+/* The same on a logarithmic axis (v, lo, hi > 0). */
+static double plot_logy(const plot_frame *f, double v, double lo, double hi)
+{
+    return plot_y(f, log10(v), log10(lo), log10(hi));
+}
+
+/* A logarithmic axis [lo, hi] on whole decades that holds [mn, mx] (> 0). */
+static void log_range(double mn, double mx, double *lo, double *hi)
+{
+    *lo = pow(10.0, floor(log10(mn) + 1e-9));
+    *hi = pow(10.0, ceil(log10(mx) - 1e-9));
+    if (!(*hi > *lo)) *hi = *lo * 10.0;
+}
+
+/* The RMSE axis position of v in the sweep figure, linear or logarithmic. */
+static double rmse_y(const plot_frame *f, double v, double lo, double hi)
+{
+    return f->logy ? plot_logy(f, v, lo, hi) : plot_y(f, v, lo, hi);
+}
+
 /* The sweep's figure, after the PDS paper's Figure 6: RMSE (left axis,
    circles) and SSIM (right axis, squares) against the parameter, the
    optimum of each ringed. x is logarithmic when every value is positive and
    the largest is at least 10 times the smallest. rows with a non-finite
-   metric are left out. */
+   metric are left out. With loglog (a sweep of photons) both x and the
+   RMSE axis are logarithmic, so an error falling as a power of the photon
+   count is a straight line. note, if not empty, is printed in red under
+   the subtitle (an optimum at the edge of the values swept). */
 static void sweep_svg(sbuf *b, const char *title, const char *subtitle, const char *xname, const sweep_row *rows,
-                      int n, int best_r, int best_s)
+                      int n, int best_r, int best_s, int loglog, const char *note)
 {
     static const char rmse_col[] = "#c0392b", ssim_col[] = "#1f5fa8";
     plot_frame f;
@@ -1818,6 +1853,7 @@ static void sweep_svg(sbuf *b, const char *title, const char *subtitle, const ch
     f.xmin = m ? rows[order[0]].x : 0.0;
     f.xmax = m ? rows[order[m - 1]].x : 1.0;
     f.logx = m > 1 && f.xmin > 0.0 && f.xmax >= 10.0 * f.xmin;
+    f.logy = 0;
     for (i = 0; i < m; i++) {
         const pds_metrics *q = &rows[order[i]].m;
         if (i == 0 || q->rmse < rmin) rmin = q->rmse;
@@ -1825,7 +1861,13 @@ static void sweep_svg(sbuf *b, const char *title, const char *subtitle, const ch
         if (i == 0 || q->ssim < smin) smin = q->ssim;
         if (i == 0 || q->ssim > smax) smax = q->ssim;
     }
-    nice_range(rmin, rmax, 1, &rlo, &rhi, &rstep);
+    if (loglog && m > 1 && f.xmin > 0.0 && f.xmax > f.xmin && rmin > 0.0) {
+        f.logx = f.logy = 1;
+        log_range(rmin, rmax, &rlo, &rhi);
+        rstep = 0.0;
+    } else {
+        nice_range(rmin, rmax, 1, &rlo, &rhi, &rstep);
+    }
     nice_range(smin, smax, 0, &slo, &shi, &sstep);
 
     sb_printf(b, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"720\" height=\"440\" viewBox=\"0 0 720 440\" "
@@ -1837,6 +1879,12 @@ static void sweep_svg(sbuf *b, const char *title, const char *subtitle, const ch
     sb_printf(b, "</text>\n<text x=\"360\" y=\"46\" text-anchor=\"middle\" fill=\"#444\">");
     sb_xml(b, subtitle);
     sb_printf(b, "</text>\n");
+    if (note && note[0]) {
+        sb_printf(b, "<text class=\"edge-note\" x=\"360\" y=\"%.0f\" text-anchor=\"middle\" fill=\"#c00\">",
+                  f.bottom + 60);
+        sb_xml(b, note);
+        sb_printf(b, "</text>\n");
+    }
     /* legend */
     sb_printf(b,
               "<g class=\"legend\"><line x1=\"250\" y1=\"64\" x2=\"280\" y2=\"64\" stroke=\"%s\" stroke-width=\"2\"/>"
@@ -1910,8 +1958,26 @@ static void sweep_svg(sbuf *b, const char *title, const char *subtitle, const ch
     sb_xml(b, xname);
     sb_printf(b, "%s</text>\n</g>\n", f.logx ? " (log scale)" : "");
     /* left axis: RMSE */
-    sb_printf(b, "<g class=\"rmse-axis\" font-size=\"11\" fill=\"%s\">\n", rmse_col);
-    for (i = 0; i <= 100; i++) {
+    sb_printf(b, "<g class=\"rmse-axis%s\" font-size=\"11\" fill=\"%s\">\n", f.logy ? " log-y" : "", rmse_col);
+    if (f.logy) {
+        /* decades labelled, 2..9 times each as faint grid lines */
+        double d;
+        for (d = rlo; d <= rhi * (1 + 1e-9); d *= 10.0) {
+            int k;
+            double py = plot_logy(&f, d, rlo, rhi);
+            sb_printf(b,
+                      "<line x1=\"%.0f\" y1=\"%.1f\" x2=\"%.0f\" y2=\"%.1f\" stroke=\"#e5e5e5\"/>"
+                      "<line x1=\"%.0f\" y1=\"%.1f\" x2=\"%.0f\" y2=\"%.1f\" stroke=\"%s\"/>"
+                      "<text x=\"%.0f\" y=\"%.1f\" text-anchor=\"end\">%g</text>\n",
+                      f.left, py, f.right, py, f.left - 5, py, f.left, py, rmse_col, f.left - 8, py + 4, d);
+            for (k = 2; k <= 9 && d * k < rhi; k++) {
+                py = plot_logy(&f, d * k, rlo, rhi);
+                sb_printf(b, "<line x1=\"%.0f\" y1=\"%.1f\" x2=\"%.0f\" y2=\"%.1f\" stroke=\"#f3f3f3\"/>\n", f.left,
+                          py, f.right, py);
+            }
+        }
+    }
+    for (i = 0; i <= 100 && !f.logy; i++) {
         double v = rlo + i * rstep, py;
         if (v > rhi + rstep * 1e-6) break;
         py = plot_y(&f, v, rlo, rhi);
@@ -1924,8 +1990,8 @@ static void sweep_svg(sbuf *b, const char *title, const char *subtitle, const ch
     }
     sb_printf(b,
               "<text transform=\"translate(24 %.0f) rotate(-90)\" text-anchor=\"middle\" font-size=\"13\">RMSE "
-              "(linear RGB)</text>\n</g>\n",
-              0.5 * (f.top + f.bottom));
+              "(linear RGB)%s</text>\n</g>\n",
+              0.5 * (f.top + f.bottom), f.logy ? ", log scale" : "");
     /* right axis: SSIM */
     sb_printf(b, "<g class=\"ssim-axis\" font-size=\"11\" fill=\"%s\">\n", ssim_col);
     for (i = 0; i <= 100; i++) {
@@ -1948,7 +2014,7 @@ static void sweep_svg(sbuf *b, const char *title, const char *subtitle, const ch
     sb_printf(b, "<polyline class=\"rmse-line\" fill=\"none\" stroke=\"%s\" stroke-width=\"2\" points=\"", rmse_col);
     for (i = 0, first = 1; i < m; i++, first = 0)
         sb_printf(b, "%s%.1f,%.1f", first ? "" : " ", plot_x(&f, rows[order[i]].x),
-                  plot_y(&f, rows[order[i]].m.rmse, rlo, rhi));
+                  rmse_y(&f, rows[order[i]].m.rmse, rlo, rhi));
     sb_printf(b, "\"/>\n<polyline class=\"ssim-line\" fill=\"none\" stroke=\"%s\" stroke-width=\"2\" "
                  "stroke-dasharray=\"6 3\" points=\"", ssim_col);
     for (i = 0, first = 1; i < m; i++, first = 0)
@@ -1959,7 +2025,7 @@ static void sweep_svg(sbuf *b, const char *title, const char *subtitle, const ch
         const sweep_row *r = &rows[order[i]];
         double px = plot_x(&f, r->x);
         sb_printf(b, "<circle class=\"rmse-marker\" cx=\"%.1f\" cy=\"%.1f\" r=\"4\" fill=\"%s\"><title>", px,
-                  plot_y(&f, r->m.rmse, rlo, rhi), rmse_col);
+                  rmse_y(&f, r->m.rmse, rlo, rhi), rmse_col);
         sb_xml(b, xname);
         sb_printf(b, "=");
         sb_xml(b, r->value);
@@ -1974,7 +2040,7 @@ static void sweep_svg(sbuf *b, const char *title, const char *subtitle, const ch
     /* the optima, on top:  a dashed vertical line, a ring and a label */
     mid = 0.5 * (f.left + f.right);
     if (best_r >= 0 && isfinite(rows[best_r].m.rmse)) {
-        double px = plot_x(&f, rows[best_r].x), py = plot_y(&f, rows[best_r].m.rmse, rlo, rhi);
+        double px = plot_x(&f, rows[best_r].x), py = rmse_y(&f, rows[best_r].m.rmse, rlo, rhi);
         sb_printf(b,
                   "<g class=\"rmse-optimum\"><line x1=\"%.1f\" y1=\"%.0f\" x2=\"%.1f\" y2=\"%.0f\" stroke=\"%s\" "
                   "stroke-opacity=\"0.5\" stroke-dasharray=\"2 3\"/><circle cx=\"%.1f\" cy=\"%.1f\" r=\"9\" "
@@ -2000,6 +2066,22 @@ static void sweep_svg(sbuf *b, const char *title, const char *subtitle, const ch
 
 /* ------------------------------------------------------------------ sweep */
 
+/* Is row `best` at the smallest or the largest x of two or more distinct
+   finite values? */
+static int sweep_at_edge(const sweep_row *rows, int n, int best)
+{
+    double lo = 0.0, hi = 0.0;
+    int i, seen = 0;
+    if (best < 0) return 0;
+    for (i = 0; i < n; i++) {
+        if (!isfinite(rows[i].x)) continue;
+        if (!seen || rows[i].x < lo) lo = rows[i].x;
+        if (!seen || rows[i].x > hi) hi = rows[i].x;
+        seen = 1;
+    }
+    return hi > lo && (rows[best].x == lo || rows[best].x == hi);
+}
+
 static const char *const sweep_own_options[] = {"--param", "--values", "--ref", "--output", NULL};
 
 static int cmd_sweep(int argc, char **argv)
@@ -2011,8 +2093,8 @@ static int cmd_sweep(int argc, char **argv)
     sweep_row *rows = NULL;
     pds_scene *scene = NULL;
     pds_image ref = {0, 0, NULL};
-    char *vbuf = NULL, *p;
-    int i, r, n = 0, rc = 1, best_r = -1, best_s = -1, idx, photon;
+    char *vbuf = NULL, *p, edge_note[160] = "";
+    int i, r, n = 0, rc = 1, best_r = -1, best_s = -1, idx, photon, rmse_edge = 0, ssim_edge = 0;
     pds_method method;
     cfg_init(&base);
     for (i = 0; i < argc; i++) {
@@ -2128,6 +2210,20 @@ static int cmd_sweep(int argc, char **argv)
         if (isfinite(rows[i].m.ssim) && (best_s < 0 || rows[i].m.ssim > rows[best_s].m.ssim)) best_s = i;
     }
 
+    /* An optimum on the smallest or largest value swept may lie beyond
+       it: say so. Not for the counts (photons, spp, passes), whose error
+       falls as they grow, so that their best is the largest by design. */
+    if (strcmp(ps->key, "photons") && strcmp(ps->key, "spp") && strcmp(ps->key, "passes")) {
+        rmse_edge = sweep_at_edge(rows, n, best_r);
+        ssim_edge = sweep_at_edge(rows, n, best_s);
+    }
+    if (rmse_edge || ssim_edge) {
+        snprintf(edge_note, sizeof edge_note, "the %s%s%s optimum is at the edge of the values swept: widen --values",
+                 rmse_edge ? "RMSE" : "", rmse_edge && ssim_edge ? " and the SSIM" : "", ssim_edge && !rmse_edge ? "SSIM" : "");
+        fprintf(stderr, "pds sweep: warning: %s (lowest RMSE at %s=%s, highest SSIM at %s=%s)\n", edge_note, ps->key,
+                best_r >= 0 ? rows[best_r].value : "none", ps->key, best_s >= 0 ? rows[best_s].value : "none");
+    }
+
     /* every render succeeded: now the folder */
     if (make_dirs(dir)) goto done;
     {
@@ -2157,17 +2253,18 @@ static int cmd_sweep(int argc, char **argv)
                      best_r >= 0 ? rows[best_r].value : "-", best_s >= 0 ? rows[best_s].m.ssim : 0.0, ps->key,
                      best_s >= 0 ? rows[best_s].value : "-");
         }
-        sweep_svg(&svg, title, subtitle, ps->key, rows, n, best_r, best_s);
+        sweep_svg(&svg, title, subtitle, ps->key, rows, n, best_r, best_s, !strcmp(ps->key, "photons"), edge_note);
         if (!bad) bad = write_text(dir, "sweep.csv", &csv);
         if (!bad) bad = write_text(dir, "sweep.svg", &svg);
         free(csv.s);
         free(svg.s);
         if (bad) goto done;
     }
-    printf("sweep best method=%s rmse_optimal_%s=%s rmse=%.6f ssim_optimal_%s=%s ssim=%.6f dir=%s\n",
+    printf("sweep best method=%s rmse_optimal_%s=%s rmse=%.6f ssim_optimal_%s=%s ssim=%.6f dir=%s rmse_at_edge=%d "
+           "ssim_at_edge=%d\n",
            method_name(method), ps->key, best_r >= 0 ? rows[best_r].value : "none",
            best_r >= 0 ? rows[best_r].m.rmse : 0.0, ps->key, best_s >= 0 ? rows[best_s].value : "none",
-           best_s >= 0 ? rows[best_s].m.ssim : 0.0, dir);
+           best_s >= 0 ? rows[best_s].m.ssim : 0.0, dir, rmse_edge, ssim_edge);
     rc = 0;
 done:
     for (i = 0; rows && i < n; i++) pds_image_free(&rows[i].img);
@@ -2184,15 +2281,42 @@ typedef struct roi_box {
     int x, y, w, h;
 } roi_box;
 
+/* Budget checks (race.csv's budget_flag, a warning on stderr, a mark on
+   the page): under a time budget a render that took more than 25% more
+   or less than its budget, or a photon method that emitted fewer than
+   RACE_MIN_PHOTONS photons or fewer than 1% of the most any photon method
+   emitted on that budget, is not an equal-time result. */
+enum { RACE_OVER_TIME = 1, RACE_UNDER_TIME = 2, RACE_FEW_PHOTONS = 4 };
+#define RACE_TIME_TOLERANCE 0.25
+#define RACE_MIN_PHOTONS 10000
+#define RACE_MIN_PHOTON_SHARE 0.01
+#define MAX_RACE_BUDGETS 16
+#define MAX_RACE_ENTRIES 96
+
 typedef struct race_entry {
-    char label[96];   /* file stem, unique: "pm-k50" */
-    char params[256]; /* " k=50 kernel=cone max_radius=none" */
+    char label[96];   /* file stem, unique: "pm-k50"; with --budgets "pm-k50-2s" */
+    char params[256]; /* " k=50 kernel=cone max_radius=none", after tuning */
+    char tuned[96];   /* --tune: the values chosen, "k=20"; "" if none */
+    char tuned_keys[48]; /* the parameters tuned, "radius+alpha" */
+    int tuned_edge;   /* a chosen value is the first or last of its grid */
+    int method;       /* its place in --methods: its series in the convergence plot */
+    int budget;       /* its place in the budgets */
+    unsigned flags;   /* RACE_OVER_TIME, ... */
     run_cfg cfg;
     pds_image img;
     pds_render_stats st;
     pds_metrics m;
     double diff_scale; /* |luminance error| shown at full colour */
 } race_entry;
+
+/* The budgets: --time T or --photons N (one), or --budgets A,B,... */
+typedef struct race_budgets {
+    int by_time;  /* 1: seconds, 0: photons */
+    int listed;   /* from --budgets: labels carry the budget */
+    int n;
+    double value[MAX_RACE_BUDGETS];
+    char text[MAX_RACE_BUDGETS][32]; /* for labels and tables: "2", "1e+05" */
+} race_budgets;
 
 /* sRGB transfer curve of a value clamped to [0, 1]. */
 static double srgb_encode(double c)
@@ -2298,43 +2422,51 @@ static int cmp_double(const void *a, const void *b)
 }
 
 /* The signed luminance error e = Y(img) - Y(ref), Y = 0.299 R + 0.587 G +
-   0.114 B of the linear values, as colour (the PDS paper's Fig. 14): green
-   where e > 0 (too bright), red where e < 0 (too dark), with intensity
-   |e| / s clamped to 1, s = the 99th percentile of |e| (so 1% of the pixels
-   saturate); blue where e is not a number. *scale = s (0: no error). */
-static int make_diff(const pds_image *img, const pds_image *ref, pds_image *out, double *scale)
+   0.114 B of the linear values, of pixel i. */
+static double luminance_error(const pds_image *img, const pds_image *ref, size_t i)
+{
+    const float *a = img->rgb + 3 * i, *b = ref->rgb + 3 * i;
+    return 0.299 * ((double)a[0] - b[0]) + 0.587 * ((double)a[1] - b[1]) + 0.114 * ((double)a[2] - b[2]);
+}
+
+/* *p99 = the 99th percentile of |e| over the pixels where e is a number
+   (0: no error), so that 1% of them saturate at that scale. */
+static int diff_percentile(const pds_image *img, const pds_image *ref, double *p99)
 {
     size_t i, n = (size_t)ref->width * ref->height, nf = 0;
-    double *err, *mag, s = 0.0;
-    if (pds_image_alloc(out, ref->width, ref->height) != PDS_OK) return fail("%s", "out of memory");
-    err = (double *)malloc(2 * n * sizeof *err);
-    if (!err) {
-        pds_image_free(out);
-        return fail("%s", "out of memory");
-    }
-    mag = err + n;
+    double *mag = (double *)malloc((n ? n : 1) * sizeof *mag), s = 0.0;
+    if (!mag) return fail("%s", "out of memory");
     for (i = 0; i < n; i++) {
-        const float *a = img->rgb + 3 * i, *b = ref->rgb + 3 * i;
-        err[i] = 0.299 * ((double)a[0] - b[0]) + 0.587 * ((double)a[1] - b[1]) + 0.114 * ((double)a[2] - b[2]);
-        if (isfinite(err[i])) mag[nf++] = fabs(err[i]);
+        double e = luminance_error(img, ref, i);
+        if (isfinite(e)) mag[nf++] = fabs(e);
     }
     if (nf > 0) {
         qsort(mag, nf, sizeof *mag, cmp_double);
         s = mag[(size_t)(0.99 * (double)(nf - 1))];
         if (!(s > 0.0)) s = mag[nf - 1]; /* fewer than 1% of the pixels differ */
     }
+    free(mag);
+    *p99 = s;
+    return 0;
+}
+
+/* The error e as colour (the PDS paper's Fig. 14): green where e > 0 (too
+   bright), red where e < 0 (too dark), with intensity |e| / scale clamped
+   to 1; blue where e is not a number; black everywhere when scale is 0. */
+static int make_diff(const pds_image *img, const pds_image *ref, double scale, pds_image *out)
+{
+    size_t i, n = (size_t)ref->width * ref->height;
+    if (pds_image_alloc(out, ref->width, ref->height) != PDS_OK) return fail("%s", "out of memory");
     for (i = 0; i < n; i++) {
         float *d = out->rgb + 3 * i;
-        double e = err[i];
-        double v = s > 0.0 ? fabs(e) / s : 0.0;
+        double e = luminance_error(img, ref, i);
+        double v = scale > 0.0 ? fabs(e) / scale : 0.0;
         if (v > 1.0) v = 1.0;
         d[0] = d[1] = d[2] = 0.0f;
         if (!isfinite(e)) d[2] = 1.0f;
         else if (e < 0.0) d[0] = (float)v;
         else d[1] = (float)v;
     }
-    free(err);
-    *scale = s;
     return 0;
 }
 
@@ -2410,6 +2542,7 @@ static int parse_race_methods(const char *list, const run_cfg *base, race_entry 
                 rc = EXIT_USAGE;
                 break;
             }
+            r->cfg.given |= 1ul << idx; /* given: --tune keeps it */
             file_safe(eq + 1, safe, sizeof safe);
             snprintf(r->label + strlen(r->label), sizeof r->label - strlen(r->label), "-%s%s", s->key, safe);
         }
@@ -2444,21 +2577,559 @@ static void html_figure(sbuf *b, const char *src, const char *alt, const char *c
     sb_printf(b, "</div><figcaption>%s</figcaption></figure>\n", caption);
 }
 
-/* index.html: the table, then rows of full images, crops and differences,
-   reference first. Plain HTML and CSS, image paths relative to the folder. */
-static void race_html(sbuf *b, const char *scene_path, const char *ref_path, const char *budget, const run_cfg *base,
-                      const pds_image *ref, roi_box roi, int roi_given, int scale, const race_entry *e, int n)
+/* ------------------------------------------------------------- race: tune */
+
+/* pds race --tune: each method's main parameter, chosen for each budget by
+   the lowest RMSE over a small grid, rendered on seed + 1 (another photon
+   and pixel sequence than the render reported, so the choice does not fit
+   that render's own noise). A parameter given in --methods or as an option
+   is kept. ppm is tuned one parameter at a time: R0 with alpha at its
+   value, then alpha with the best R0. Radii are multiples of the pixel
+   footprint at the camera's look-at distance (race_pixel_size), so the
+   grid follows the scene's scale. */
+typedef struct tune_grid {
+    pds_method method;
+    const char *key; /* the option without its dashes */
+    int n;
+    double v[8];
+    int in_pixels;   /* the values are multiples of the pixel footprint */
+} tune_grid;
+
+static const tune_grid tune_grids[] = {
+    {PDS_METHOD_PDS, "smoothing", 6, {4, 6, 8, 12, 16, 24}, 0},
+    {PDS_METHOD_PDM, "smoothing", 6, {4, 6, 8, 12, 16, 24}, 0},
+    {PDS_METHOD_PM, "k", 5, {10, 20, 40, 80, 160}, 0},
+    {PDS_METHOD_SPLAT, "radius", 5, {1, 2, 4, 8, 16}, 1},
+    {PDS_METHOD_PPM, "radius", 5, {1, 2, 4, 8, 16}, 1},
+    {PDS_METHOD_PPM, "alpha", 3, {0.5, 0.7, 0.9}, 0},
+};
+#define N_TUNE_GRIDS (sizeof tune_grids / sizeof tune_grids[0])
+
+/* One tuning render, for tune.csv. */
+typedef struct tune_row {
+    int entry;         /* the race entry it tuned */
+    const char *key;   /* "k" */
+    char value[32];    /* "20" */
+    pds_metrics m;
+    double time_s;
+    long photons;
+    int chosen;
+} tune_row;
+
+typedef struct tune_log {
+    tune_row *rows;
+    int n, cap;
+} tune_log;
+
+/* The side of a pixel, in scene units, on a plane facing the camera at
+   its look-at point: 2 d tan(fov / 2) / height. */
+static double race_pixel_size(const pds_scene *scene, const pds_options *opt)
 {
-    int i, best_r = -1, best_s = -1, W = ref->width, H = ref->height;
-    int dw = W < 256 ? W * ((256 + W - 1) / W) : W > 640 ? 640 : W;
-    char src[160], alt[160];
-    sbuf c = {NULL, 0, 0, 0};
+    const pds_camera *cam = pds_scene_camera(scene);
+    double dx = cam->look_at.x - cam->position.x, dy = cam->look_at.y - cam->position.y;
+    double dz = cam->look_at.z - cam->position.z, d = sqrt(dx * dx + dy * dy + dz * dz);
+    int h = opt->height > 0 ? opt->height : cam->height;
+    double p = 2.0 * d * tan(0.5 * cam->fov_deg * 3.14159265358979323846 / 180.0) / (h > 0 ? h : 1);
+    return p > 0.0 && isfinite(p) ? p : 1e-3;
+}
+
+/* Tune entry t (index: its place in the race) as the comment above says;
+   every render goes to log. 0, or 1 after printing the error. */
+static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_m, race_entry *t, int index,
+                     tune_log *log)
+{
+    size_t g;
+    for (g = 0; g < N_TUNE_GRIDS; g++) {
+        const tune_grid *tg = &tune_grids[g];
+        const opt_spec *s;
+        char name[64];
+        int idx, i, best = -1, first = log->n;
+        if (tg->method != t->cfg.opt.method) continue;
+        snprintf(name, sizeof name, "--%s", tg->key);
+        idx = option_index(name);
+        if (idx < 0 || (t->cfg.given & (1ul << idx))) continue; /* given: kept as it is */
+        s = &option_table[idx];
+        for (i = 0; i < tg->n; i++) {
+            run_cfg c = t->cfg;
+            pds_image img = {0, 0, NULL};
+            pds_render_stats st;
+            pds_metrics m;
+            tune_row *row;
+            char value[32], context[200];
+            snprintf(value, sizeof value, "%.4g", tg->in_pixels ? tg->v[i] * pixel_m : tg->v[i]);
+            if (s->set(s, &c, name, value)) return 1;
+            c.opt.seed = t->cfg.opt.seed + 1; /* not the reported render's sequence */
+            snprintf(context, sizeof context, "race tune %s %s=%s", t->label, tg->key, value);
+            if (render_and_compare(scene, &c, ref, &img, &st, &m, context)) return 1;
+            pds_image_free(&img);
+            if (log->n == log->cap) {
+                int cap = log->cap ? 2 * log->cap : 64;
+                tune_row *p = (tune_row *)realloc(log->rows, (size_t)cap * sizeof *p);
+                if (!p) return fail("%s", "out of memory");
+                log->rows = p;
+                log->cap = cap;
+            }
+            row = &log->rows[log->n++];
+            row->entry = index;
+            row->key = tg->key;
+            snprintf(row->value, sizeof row->value, "%s", value);
+            row->m = m;
+            row->time_s = st.time_total_s;
+            row->photons = st.photons;
+            row->chosen = 0;
+            /* the first of equal RMSEs wins; NaN never does */
+            if (isfinite(m.rmse) && (best < 0 || m.rmse < log->rows[first + best].m.rmse)) best = i;
+        }
+        if (best < 0) {
+            fprintf(stderr, "pds race: warning: %s: no %s of the grid gave a finite RMSE; kept %s's value\n", t->label,
+                    tg->key, name);
+            continue;
+        }
+        log->rows[first + best].chosen = 1;
+        s->set(s, &t->cfg, name, log->rows[first + best].value); /* a value that was accepted above */
+        snprintf(t->tuned + strlen(t->tuned), sizeof t->tuned - strlen(t->tuned), "%s%s=%s", t->tuned[0] ? " " : "",
+                 tg->key, log->rows[first + best].value);
+        snprintf(t->tuned_keys + strlen(t->tuned_keys), sizeof t->tuned_keys - strlen(t->tuned_keys), "%s%s",
+                 t->tuned_keys[0] ? "+" : "", tg->key);
+        if (best == 0 || best == tg->n - 1) t->tuned_edge = 1;
+    }
+    return 0;
+}
+
+/* ----------------------------------------------------------- race: budgets */
+
+/* Set the flags of every entry (see RACE_TIME_TOLERANCE) and warn on
+   stderr about each flagged one. Returns how many are flagged. */
+static int race_check_budgets(race_entry *e, int n, const race_budgets *bud)
+{
+    int i, j, flagged = 0;
     for (i = 0; i < n; i++) {
-        if (isfinite(e[i].m.rmse) && (best_r < 0 || e[i].m.rmse < e[best_r].m.rmse)) best_r = i;
-        if (isfinite(e[i].m.ssim) && (best_s < 0 || e[i].m.ssim > e[best_s].m.ssim)) best_s = i;
+        race_entry *t = &e[i];
+        double budget = bud->value[t->budget], ratio;
+        long most = 0;
+        t->flags = 0;
+        if (!bud->by_time) continue; /* a photon budget is exact */
+        ratio = t->st.time_total_s / budget;
+        if (ratio > 1.0 + RACE_TIME_TOLERANCE) t->flags |= RACE_OVER_TIME;
+        else if (ratio < 1.0 - RACE_TIME_TOLERANCE) t->flags |= RACE_UNDER_TIME;
+        if (t->flags)
+            fprintf(stderr, "pds race: warning: %s took %.3g s of its %g s budget (%+.0f%%): more than %.0f%% off, "
+                    "not an equal-time result\n", t->label, t->st.time_total_s, budget, 100.0 * (ratio - 1.0),
+                    100.0 * RACE_TIME_TOLERANCE);
+        if (!is_photon_method(t->cfg.opt.method) || t->cfg.opt.paths == PDS_PATHS_NO_CAUSTICS) continue;
+        for (j = 0; j < n; j++)
+            if (e[j].budget == t->budget && is_photon_method(e[j].cfg.opt.method) && e[j].st.photons > most)
+                most = e[j].st.photons;
+        if (t->st.photons < RACE_MIN_PHOTONS || (double)t->st.photons < RACE_MIN_PHOTON_SHARE * (double)most) {
+            t->flags |= RACE_FEW_PHOTONS;
+            fprintf(stderr, "pds race: warning: %s emitted %ld photons in its %g s (the most on that budget: %ld; "
+                    "fewer than %d or 1%% of that is too few for a useful estimate)\n", t->label, t->st.photons,
+                    budget, most, RACE_MIN_PHOTONS);
+        }
+    }
+    for (i = 0; i < n; i++) flagged += e[i].flags != 0;
+    return flagged;
+}
+
+/* "ok", or the flags joined by '+': "over-time+few-photons". */
+static const char *race_flag_text(unsigned flags, char *out, size_t n)
+{
+    snprintf(out, n, "%s%s%s%s%s", flags ? "" : "ok", (flags & RACE_OVER_TIME) ? "over-time" : "",
+             (flags & RACE_UNDER_TIME) ? "under-time" : "",
+             (flags & RACE_FEW_PHOTONS) && (flags & (RACE_OVER_TIME | RACE_UNDER_TIME)) ? "+" : "",
+             (flags & RACE_FEW_PHOTONS) ? "few-photons" : "");
+    return out;
+}
+
+/* Parse --budgets: seconds above 0 (by_time) or photon counts of 1 or more
+   (250000, 2.5e5, 250k). 0 or EXIT_USAGE. */
+static int parse_budgets(const char *list, race_budgets *b)
+{
+    char buf[1024], *p = buf;
+    b->n = 0;
+    b->listed = 1;
+    if (strlen(list) >= sizeof buf) return usage_error("%s", "--budgets: the list is too long");
+    strcpy(buf, list);
+    for (;;) {
+        char *comma = strchr(p, ',');
+        double v;
+        long count;
+        if (comma) *comma = '\0';
+        if (b->n == MAX_RACE_BUDGETS) return usage_error("--budgets takes at most %d budgets", MAX_RACE_BUDGETS);
+        if (b->by_time) {
+            if (parse_double(p, &v) || !(v > 0.0) || v > 1e7)
+                return usage_error("--budgets needs seconds above 0, comma-separated, got '%s'", list);
+        } else {
+            if (parse_count(p, 1, LONG_MAX, &count))
+                return usage_error("--budgets needs photon counts of 1 or more, comma-separated, got '%s'", list);
+            v = (double)count;
+        }
+        b->value[b->n] = v;
+        snprintf(b->text[b->n], sizeof b->text[b->n], b->by_time ? "%g" : "%.0f", v);
+        b->n++;
+        if (!comma) break;
+        p = comma + 1;
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------- race: provenance */
+
+/* The command line, as a shell would take it back: words of plain
+   characters as they are, others in single quotes. */
+static void sb_command_line(sbuf *b, int argc, char **argv)
+{
+    int i;
+    for (i = 0; i < argc; i++) {
+        const char *w = argv[i];
+        int plain = w[0] != '\0';
+        const char *q;
+        for (q = w; *q && plain; q++)
+            plain = (*q >= 'a' && *q <= 'z') || (*q >= 'A' && *q <= 'Z') || (*q >= '0' && *q <= '9') ||
+                    strchr("_./:=,+-@%", *q) != NULL;
+        if (i) sb_printf(b, " ");
+        if (plain) {
+            sb_printf(b, "%s", w);
+            continue;
+        }
+        sb_printf(b, "'");
+        for (q = w; *q; q++) sb_printf(b, *q == '\'' ? "'\\''" : "%c", *q);
+        sb_printf(b, "'");
+    }
+}
+
+/* The processor's name from /proc/cpuinfo ("model name"), or "unknown". */
+static void cpu_model(char *out, size_t n)
+{
+    FILE *f = fopen("/proc/cpuinfo", "r");
+    char line[512];
+    snprintf(out, n, "unknown");
+    if (!f) return;
+    while (fgets(line, sizeof line, f)) {
+        char *colon = strchr(line, ':'), *v;
+        size_t len;
+        if (strncmp(line, "model name", 10) != 0 || !colon) continue;
+        for (v = colon + 1; *v == ' ' || *v == '\t'; v++) continue;
+        len = strcspn(v, "\r\n");
+        snprintf(out, n, "%.*s", (int)len, v);
+        break;
+    }
+    fclose(f);
+}
+
+/* ------------------------------------------------------ race: convergence */
+
+static const char *const series_colour[8] = {"#1f5fa8", "#c0392b", "#2e8b57", "#8e44ad",
+                                             "#d35400", "#16a085", "#7f8c8d", "#b7950b"};
+
+/* A marker of shape k mod 4 (circle, square, triangle, diamond) at (x, y),
+   with a tooltip. */
+static void svg_marker(sbuf *b, const char *cls, int k, double x, double y, const char *colour, const char *tip)
+{
+    switch (k % 4) {
+    case 0: sb_printf(b, "<circle class=\"%s\" cx=\"%.1f\" cy=\"%.1f\" r=\"4\" fill=\"%s\">", cls, x, y, colour); break;
+    case 1:
+        sb_printf(b, "<rect class=\"%s\" x=\"%.1f\" y=\"%.1f\" width=\"8\" height=\"8\" fill=\"%s\">", cls, x - 4, y - 4,
+                  colour);
+        break;
+    case 2:
+        sb_printf(b, "<polygon class=\"%s\" points=\"%.1f,%.1f %.1f,%.1f %.1f,%.1f\" fill=\"%s\">", cls, x, y - 5, x - 5,
+                  y + 4, x + 5, y + 4, colour);
+        break;
+    default:
+        sb_printf(b, "<polygon class=\"%s\" points=\"%.1f,%.1f %.1f,%.1f %.1f,%.1f %.1f,%.1f\" fill=\"%s\">", cls, x,
+                  y - 5, x + 5, y, x, y + 5, x - 5, y, colour);
+        break;
+    }
+    sb_printf(b, "<title>");
+    sb_xml(b, tip);
+    sb_printf(b, "</title>");
+    sb_printf(b, k % 4 == 0 ? "</circle>\n" : k % 4 == 1 ? "</rect>\n" : "</polygon>\n");
+}
+
+/* The value a convergence panel plots: RMSE, or 1 - SSIM. */
+static double race_metric(const race_entry *t, int panel)
+{
+    return panel == 0 ? t->m.rmse : 1.0 - t->m.ssim;
+}
+
+/* convergence.svg: for each method of the race, RMSE (left panel) and
+   1 - SSIM (right panel) against the render's measured time, both axes
+   logarithmic (whole decades, ticks at 1-9 times each), one line and
+   marker shape per method through its budgets. Points that are not
+   positive and finite cannot be drawn on log axes and are left out. */
+static void race_convergence_svg(sbuf *b, const char *title, const race_entry *e, int n, const char *const *names,
+                                 int methods)
+{
+    static const char *const ylabel[2] = {"RMSE (linear RGB), log scale", "1 - SSIM (sRGB luminance), log scale"};
+    double xmin = 0, xmax = 0, ymin[2] = {0, 0}, ymax[2] = {0, 0}, xlo, xhi;
+    int seen[2] = {0, 0}, xseen = 0, i, p, k;
+    for (i = 0; i < n; i++) {
+        double x = e[i].st.time_total_s;
+        if (!(x > 0.0) || !isfinite(x)) continue;
+        for (p = 0; p < 2; p++) {
+            double y = race_metric(&e[i], p);
+            if (!(y > 0.0) || !isfinite(y)) continue;
+            if (!xseen || x < xmin) xmin = x;
+            if (!xseen || x > xmax) xmax = x;
+            xseen = 1;
+            if (!seen[p] || y < ymin[p]) ymin[p] = y;
+            if (!seen[p] || y > ymax[p]) ymax[p] = y;
+            seen[p] = 1;
+        }
+    }
+    if (!xseen) xmin = xmax = 1.0;
+    log_range(xmin, xmax, &xlo, &xhi);
+    sb_printf(b, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"960\" height=\"%d\" viewBox=\"0 0 960 %d\" "
+                 "font-family=\"Helvetica, Arial, sans-serif\" font-size=\"12\">\n<title>",
+              470 + 18 * ((methods + 3) / 4), 470 + 18 * ((methods + 3) / 4));
+    sb_xml(b, title);
+    sb_printf(b, "</title>\n<rect width=\"960\" height=\"100%%\" fill=\"white\"/>\n"
+                 "<text x=\"480\" y=\"26\" text-anchor=\"middle\" font-size=\"16\" font-weight=\"bold\">");
+    sb_xml(b, title);
+    sb_printf(b, "</text>\n");
+    for (p = 0; p < 2; p++) {
+        plot_frame f;
+        double ylo, yhi, d;
+        f.left = 80 + 480 * p;
+        f.right = f.left + 360;
+        f.top = 60;
+        f.bottom = 380;
+        f.pad = 0;
+        f.logx = 1;
+        f.logy = 1;
+        f.xmin = xlo;
+        f.xmax = xhi;
+        if (!seen[p]) ymin[p] = ymax[p] = 1.0;
+        log_range(ymin[p], ymax[p], &ylo, &yhi);
+        sb_printf(b, "<g class=\"panel %s log-x log-y\">\n", p == 0 ? "rmse" : "one-minus-ssim");
+        /* grid and ticks: decades labelled */
+        for (d = xlo; d <= xhi * (1 + 1e-9); d *= 10.0) {
+            for (k = 1; k <= 9 && d * k <= xhi * (1 + 1e-9); k++) {
+                double px = plot_x(&f, d * k);
+                sb_printf(b, "<line x1=\"%.1f\" y1=\"%.0f\" x2=\"%.1f\" y2=\"%.0f\" stroke=\"%s\"/>", px, f.top, px,
+                          f.bottom, k == 1 ? "#dddddd" : "#f3f3f3");
+                if (k == 1)
+                    sb_printf(b, "<text x=\"%.1f\" y=\"%.0f\" text-anchor=\"middle\" font-size=\"11\">%g</text>", px,
+                              f.bottom + 16, d);
+                sb_printf(b, "\n");
+            }
+        }
+        for (d = ylo; d <= yhi * (1 + 1e-9); d *= 10.0) {
+            for (k = 1; k <= 9 && d * k <= yhi * (1 + 1e-9); k++) {
+                double py = plot_logy(&f, d * k, ylo, yhi);
+                sb_printf(b, "<line x1=\"%.0f\" y1=\"%.1f\" x2=\"%.0f\" y2=\"%.1f\" stroke=\"%s\"/>", f.left, py,
+                          f.right, py, k == 1 ? "#dddddd" : "#f3f3f3");
+                if (k == 1)
+                    sb_printf(b, "<text x=\"%.0f\" y=\"%.1f\" text-anchor=\"end\" font-size=\"11\">%g</text>",
+                              f.left - 6, py + 4, d);
+                sb_printf(b, "\n");
+            }
+        }
+        sb_printf(b, "<rect x=\"%.0f\" y=\"%.0f\" width=\"%.0f\" height=\"%.0f\" fill=\"none\" stroke=\"#444\"/>\n",
+                  f.left, f.top, f.right - f.left, f.bottom - f.top);
+        sb_printf(b, "<text x=\"%.0f\" y=\"%.0f\" text-anchor=\"middle\" font-size=\"13\">time (s), log scale</text>\n",
+                  0.5 * (f.left + f.right), f.bottom + 38);
+        sb_printf(b, "<text transform=\"translate(%.0f %.0f) rotate(-90)\" text-anchor=\"middle\" font-size=\"13\">%s"
+                     "</text>\n", f.left - 52, 0.5 * (f.top + f.bottom), ylabel[p]);
+        /* one series per method, its points in order of time */
+        for (k = 0; k < methods; k++) {
+            int order[MAX_RACE_ENTRIES], m = 0, j;
+            const char *col = series_colour[k % 8];
+            for (i = 0; i < n; i++) {
+                double x = e[i].st.time_total_s, y = race_metric(&e[i], p);
+                if (e[i].method != k || !(x > 0.0) || !isfinite(x) || !(y > 0.0) || !isfinite(y)) continue;
+                for (j = m; j > 0 && e[order[j - 1]].st.time_total_s > x; j--) order[j] = order[j - 1];
+                order[j] = i;
+                m++;
+            }
+            sb_printf(b, "<polyline class=\"series\" data-method=\"");
+            sb_xml(b, names[k]);
+            sb_printf(b, "\" fill=\"none\" stroke=\"%s\" stroke-width=\"2\" points=\"", col);
+            for (j = 0; j < m; j++)
+                sb_printf(b, "%s%.1f,%.1f", j ? " " : "", plot_x(&f, e[order[j]].st.time_total_s),
+                          plot_logy(&f, race_metric(&e[order[j]], p), ylo, yhi));
+            sb_printf(b, "\"/>\n");
+            for (j = 0; j < m; j++) {
+                const race_entry *t = &e[order[j]];
+                char tip[256];
+                snprintf(tip, sizeof tip, "%s: %s %.6g at %.3g s", t->label, p == 0 ? "RMSE" : "1 - SSIM",
+                         race_metric(t, p), t->st.time_total_s);
+                svg_marker(b, "point", k, plot_x(&f, t->st.time_total_s), plot_logy(&f, race_metric(t, p), ylo, yhi), col, tip);
+            }
+        }
+        sb_printf(b, "</g>\n");
+    }
+    /* legend: four methods a row */
+    sb_printf(b, "<g class=\"legend\">\n");
+    for (k = 0; k < methods; k++) {
+        double x = 80 + 220 * (k % 4), y = 450 + 18 * (k / 4);
+        sb_printf(b, "<line x1=\"%.0f\" y1=\"%.0f\" x2=\"%.0f\" y2=\"%.0f\" stroke=\"%s\" stroke-width=\"2\"/>", x, y,
+                  x + 28, y, series_colour[k % 8]);
+        svg_marker(b, "legend-marker", k, x + 14, y, series_colour[k % 8], names[k]);
+        sb_printf(b, "<text x=\"%.0f\" y=\"%.0f\">", x + 34, y + 4);
+        sb_xml(b, names[k]);
+        sb_printf(b, "</text>\n");
+    }
+    sb_printf(b, "</g>\n</svg>\n");
+}
+
+/* What race_html shows besides the entries. */
+typedef struct race_page {
+    const char *scene_path, *ref_path;
+    const run_cfg *base;
+    const race_budgets *bud;
+    const pds_image *ref;
+    roi_box roi;
+    int roi_given, scale;
+    double crop_exposure;   /* stops: the crops' exposure */
+    const char *diff_mode;  /* "shared", "each" or a number */
+    int tuned;              /* --tune */
+    double pixel_m;         /* the tuning grid's radius unit */
+    int methods;            /* entries of --methods */
+} race_page;
+
+/* A time cell: seconds, or a dash when the phase is not the method's. */
+static void html_time(sbuf *b, int applies, double s)
+{
+    if (applies) sb_printf(b, "<td>%.3f</td>", s);
+    else sb_printf(b, "<td>&ndash;</td>");
+}
+
+/* The image comparer: two images of the race (A, B) over each other in a
+   slider (B right of the pointer), hover (B under the pointer) or flip
+   (click or space) view, zoomed with nearest neighbour, the full images or
+   the crops. Inline script, no network: the page stays one folder. */
+static void html_comparer(sbuf *b, const race_entry *e, int n, const race_page *pg)
+{
+    int i, zoom, W = pg->ref->width, H = pg->ref->height;
+    sb_printf(b, "<h2>Compare</h2>\n<div class=\"cmp\">\n<p class=\"meta\">Pick two images; in <b>slider</b> mode A "
+                 "is left and B right of the pointer, in <b>hover</b> mode B shows under the pointer, in <b>flip</b> "
+                 "mode a click (or the space bar) swaps them. Zoom enlarges pixels without smoothing.</p>\n");
+    for (i = 0; i < 2; i++) {
+        int k;
+        sb_printf(b, "<label>%s <select id=\"cmp-%s\">", i ? "B" : "A", i ? "b" : "a");
+        sb_printf(b, "<option value=\"ref.png\" data-crop=\"ref-crop.png\"%s>reference</option>", i ? "" : " selected");
+        for (k = 0; k < n; k++) {
+            sb_printf(b, "<option value=\"");
+            sb_xml(b, e[k].label);
+            sb_printf(b, ".png\" data-crop=\"");
+            sb_xml(b, e[k].label);
+            sb_printf(b, "-crop.png\"%s>", i && k == 0 ? " selected" : "");
+            sb_xml(b, e[k].label);
+            sb_printf(b, "</option>");
+        }
+        sb_printf(b, "</select></label>\n");
+    }
+    sb_printf(b, "<label>view <select id=\"cmp-mode\"><option value=\"slider\">slider</option>"
+                 "<option value=\"hover\">hover</option><option value=\"flip\">flip</option></select></label>\n"
+                 "<label>zoom <select id=\"cmp-zoom\">");
+    /* at first, the smallest zoom that shows the image at least 256 pixels wide */
+    for (i = 0, zoom = 1; zoom <= 16; zoom *= 2) {
+        int pick = !i && (W * zoom >= 256 || zoom == 16);
+        sb_printf(b, "<option value=\"%d\"%s>%dx</option>", zoom, pick ? " selected" : "", zoom);
+        i |= pick;
+    }
+    sb_printf(b, "</select></label>\n"
+                 "<label>images <select id=\"cmp-set\"><option value=\"full\">full</option>"
+                 "<option value=\"crop\">region of interest</option></select></label>\n"
+                 "<span id=\"cmp-label\" class=\"cmp-label\"></span>\n");
+    sb_printf(b, "<div class=\"cmp-view\"><div id=\"cmp-stage\" class=\"cmp-stage\" data-w=\"%d\" data-h=\"%d\" "
+                 "data-cw=\"%d\" data-ch=\"%d\" style=\"width:%dpx;height:%dpx\">"
+                 "<img id=\"cmp-ia\" src=\"ref.png\" alt=\"A\">",
+              W, H, pg->roi.w * pg->scale, pg->roi.h * pg->scale, W, H);
+    sb_printf(b, "<img id=\"cmp-ib\" src=\"");
+    sb_xml(b, n > 0 ? e[0].label : "ref");
+    sb_printf(b, ".png\" alt=\"B\"><div id=\"cmp-bar\" class=\"cmp-bar\"></div></div></div>\n</div>\n");
+    sb_printf(b,
+              "<script>\n"
+              "(function () {\n"
+              "  'use strict';\n"
+              "  function el(id) { return document.getElementById(id); }\n"
+              "  var a = el('cmp-a'), b = el('cmp-b'), mode = el('cmp-mode'), zoom = el('cmp-zoom');\n"
+              "  var set = el('cmp-set'), stage = el('cmp-stage'), ia = el('cmp-ia'), ib = el('cmp-ib');\n"
+              "  var bar = el('cmp-bar'), label = el('cmp-label');\n"
+              "  var split = 0.5, flipped = false, inside = false;\n"
+              "  function pick(sel) {\n"
+              "    var o = sel.options[sel.selectedIndex];\n"
+              "    return set.value === 'crop' ? o.getAttribute('data-crop') : o.value;\n"
+              "  }\n"
+              "  function name(sel) { return sel.options[sel.selectedIndex].text; }\n"
+              "  function draw() {\n"
+              "    var crop = set.value === 'crop', z = Number(zoom.value), showB;\n"
+              "    var w = Number(stage.getAttribute(crop ? 'data-cw' : 'data-w'));\n"
+              "    var h = Number(stage.getAttribute(crop ? 'data-ch' : 'data-h'));\n"
+              "    if (ia.getAttribute('src') !== pick(a)) ia.setAttribute('src', pick(a));\n"
+              "    if (ib.getAttribute('src') !== pick(b)) ib.setAttribute('src', pick(b));\n"
+              "    stage.style.width = (w * z) + 'px';\n"
+              "    stage.style.height = (h * z) + 'px';\n"
+              "    if (mode.value === 'slider') {\n"
+              "      ib.style.visibility = 'visible';\n"
+              "      ib.style.clipPath = 'inset(0 0 0 ' + (100 * split) + '%%)';\n"
+              "      bar.style.display = 'block';\n"
+              "      bar.style.left = (100 * split) + '%%';\n"
+              "      label.textContent = 'left: ' + name(a) + ', right: ' + name(b);\n"
+              "    } else {\n"
+              "      showB = mode.value === 'flip' ? flipped : inside;\n"
+              "      ib.style.clipPath = 'none';\n"
+              "      ib.style.visibility = showB ? 'visible' : 'hidden';\n"
+              "      bar.style.display = 'none';\n"
+              "      label.textContent = 'showing ' + (showB ? name(b) : name(a));\n"
+              "    }\n"
+              "  }\n"
+              "  stage.addEventListener('mousemove', function (ev) {\n"
+              "    var r = stage.getBoundingClientRect();\n"
+              "    split = Math.min(1, Math.max(0, (ev.clientX - r.left) / r.width));\n"
+              "    if (mode.value === 'slider') draw();\n"
+              "  });\n"
+              "  stage.addEventListener('mouseenter', function () { inside = true; draw(); });\n"
+              "  stage.addEventListener('mouseleave', function () { inside = false; draw(); });\n"
+              "  stage.addEventListener('click', function () { flipped = !flipped; draw(); });\n"
+              "  document.addEventListener('keydown', function (ev) {\n"
+              "    if (mode.value === 'flip' && (ev.key === ' ' || ev.key === 'f')) {\n"
+              "      flipped = !flipped;\n"
+              "      draw();\n"
+              "      ev.preventDefault();\n"
+              "    }\n"
+              "  });\n"
+              "  [a, b, mode, zoom, set].forEach(function (s) { s.addEventListener('change', draw); });\n"
+              "  draw();\n"
+              "  document.body.setAttribute('data-comparer', 'ready');\n"
+              "  /* for tests/check_race_page.sh: how many images failed to load */\n"
+              "  window.addEventListener('load', function () {\n"
+              "    var imgs = document.images, broken = 0, i;\n"
+              "    for (i = 0; i < imgs.length; i++) if (!imgs[i].complete || imgs[i].naturalWidth === 0) broken++;\n"
+              "    document.body.setAttribute('data-broken-images', String(broken));\n"
+              "  });\n"
+              "})();\n"
+              "</script>\n");
+}
+
+/* index.html: provenance, warnings, the table, the convergence plot (with
+   several budgets), the comparer, then rows of full images, crops and
+   differences, reference first. Paths relative to the folder; the one
+   script is inline. */
+static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, int argc, char **argv)
+{
+    const race_budgets *bud = pg->bud;
+    const pds_image *ref = pg->ref;
+    roi_box roi = pg->roi;
+    int i, W = ref->width, H = ref->height, scale = pg->scale, warned = 0;
+    int dw = W < 256 ? W * ((256 + W - 1) / W) : W > 640 ? 640 : W;
+    int best_r[MAX_RACE_BUDGETS], best_s[MAX_RACE_BUDGETS];
+    char src[160], alt[160], text[256], flag[64];
+    sbuf c = {NULL, 0, 0, 0};
+    time_t now = time(NULL);
+    struct tm *utc = gmtime(&now);
+    struct utsname un;
+    for (i = 0; i < bud->n; i++) best_r[i] = best_s[i] = -1;
+    for (i = 0; i < n; i++) {
+        int k = e[i].budget;
+        if (isfinite(e[i].m.rmse) && (best_r[k] < 0 || e[i].m.rmse < e[best_r[k]].m.rmse)) best_r[k] = i;
+        if (isfinite(e[i].m.ssim) && (best_s[k] < 0 || e[i].m.ssim > e[best_s[k]].m.ssim)) best_s[k] = i;
     }
     sb_printf(b, "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>pds race: ");
-    sb_xml(b, scene_path);
+    sb_xml(b, pg->scene_path);
     sb_printf(b,
               "</title>\n<style>\n"
               "body { font-family: Helvetica, Arial, sans-serif; margin: 24px; color: #222; background: #fafafa; }\n"
@@ -2468,6 +3139,10 @@ static void race_html(sbuf *b, const char *scene_path, const char *ref_path, con
               "th, td { border: 1px solid #ccc; padding: 4px 10px; text-align: right; }\n"
               "th { background: #eee; } .l { text-align: left; }\n"
               "td.best { font-weight: bold; background: #e3f2e6; }\n"
+              "td.flag { color: #a00; font-weight: bold; text-align: left; }\n"
+              ".warn { border: 2px solid #c00; background: #fff0f0; padding: 6px 14px; max-width: 980px; }\n"
+              "pre.cmd { background: #f0f0f0; padding: 8px; white-space: pre-wrap; word-break: break-all; "
+              "max-width: 980px; }\n"
               ".row { display: flex; flex-wrap: wrap; gap: 18px; align-items: flex-start; }\n"
               "figure { margin: 0; }\n"
               "figcaption { font-size: 13px; margin-top: 4px; max-width: 320px; }\n"
@@ -2476,40 +3151,134 @@ static void race_html(sbuf *b, const char *scene_path, const char *ref_path, con
               "image-rendering: crisp-edges; border: 1px solid #888; box-sizing: border-box; }\n"
               ".roi { position: absolute; border: 2px solid #ffd400; box-sizing: border-box; }\n"
               ".key span { display: inline-block; width: 12px; height: 12px; vertical-align: middle; }\n"
+              ".cmp label { margin-right: 14px; } .cmp-label { color: #444; font-size: 13px; }\n"
+              ".cmp-view { overflow: auto; max-width: 100%%; max-height: 80vh; margin-top: 8px; "
+              "border: 1px solid #888; display: inline-block; }\n"
+              ".cmp-stage { position: relative; cursor: crosshair; }\n"
+              ".cmp-stage img { position: absolute; left: 0; top: 0; width: 100%%; height: 100%%; "
+              "image-rendering: pixelated; image-rendering: crisp-edges; }\n"
+              ".cmp-bar { position: absolute; top: 0; bottom: 0; width: 0; border-left: 2px solid #ffd400; }\n"
               "</style>\n</head>\n<body>\n<h1>pds race: ");
-    sb_xml(b, scene_path);
+    sb_xml(b, pg->scene_path);
     sb_printf(b, "</h1>\n<p class=\"meta\">Reference <code>");
-    sb_xml(b, ref_path);
-    sb_printf(b, "</code>, %dx%d, light paths: %s. Budget: %s for every method. ", W, H, paths_name(base->opt.paths),
-              budget);
+    sb_xml(b, pg->ref_path);
+    sb_printf(b, "</code>, %dx%d, light paths: %s. ", W, H, paths_name(pg->base->opt.paths));
+    if (bud->by_time) sb_printf(b, "Budget%s: ", bud->n > 1 ? "s" : "");
+    else sb_printf(b, "Photon budget%s: ", bud->n > 1 ? "s" : "");
+    for (i = 0; i < bud->n; i++) sb_printf(b, "%s%s", i ? ", " : "", bud->text[i]);
+    sb_printf(b, "%s for every method%s. ", bud->by_time ? " s" : " photons",
+              bud->by_time ? "" : " (ppm: over all its passes; pt and preview emit none)");
     sb_printf(b, "RMSE over all pixels and channels of the linear values; SSIM (11x11 Gaussian window, "
                  "&sigma; 1.5) of the luminance of the sRGB-encoded values clamped to [0, 1]. ");
     sb_printf(b, "Region of interest: x %d, y %d, %dx%d pixels (%s), framed in yellow; crops enlarged %dx with "
-                 "nearest neighbour. Data: <a href=\"race.csv\">race.csv</a>.</p>\n",
+                 "nearest neighbour. Data: <a href=\"race.csv\">race.csv</a>%s.</p>\n",
               roi.x, roi.y, roi.w, roi.h,
-              roi_given ? "given with --roi"
-                        : "chosen: the window of at most 64x64 where the reference's luminance varies most",
-              scale);
+              pg->roi_given ? "given with --roi"
+                            : "chosen: the window of at most 64x64 where the reference's luminance varies most",
+              scale, pg->tuned ? ", the tuning renders: <a href=\"tune.csv\">tune.csv</a>" : "");
+    if (pg->tuned)
+        sb_printf(b, "<p class=\"meta\"><b>Tuned</b> (<code>--tune</code>): each method's main parameter was chosen "
+                     "for each budget as the value of lowest RMSE on a fixed grid, rendered with seed %llu, not the "
+                     "seed %llu of the renders shown, so the choice does not fit their own noise. Grids: pds and pdm "
+                     "s in 4, 6, 8, 12, 16, 24; pm k in 10, 20, 40, 80, 160; splat R and ppm R0 in 1, 2, 4, 8, 16 "
+                     "pixels (one pixel: %.4g scene units at the camera's look-at distance); ppm alpha in 0.5, 0.7, "
+                     "0.9 after R0. A value given on the command line is kept.</p>\n",
+                  pg->base->opt.seed + 1, pg->base->opt.seed, pg->pixel_m);
+    /* provenance */
+    sb_printf(b, "<h2>How this page was made</h2>\n<pre class=\"cmd\" id=\"command\">");
+    {
+        sbuf cmd = {NULL, 0, 0, 0};
+        sb_command_line(&cmd, argc, argv);
+        sb_xml(b, cmd.s ? cmd.s : "");
+        if (cmd.nomem) b->nomem = 1;
+        free(cmd.s);
+    }
+    sb_printf(b, "</pre>\n<table class=\"provenance\">\n");
+    sb_printf(b, "<tr><th class=\"l\">pds version</th><td class=\"l\">%s</td></tr>\n", PDS_VERSION_STRING);
+    sb_printf(b, "<tr><th class=\"l\">seed</th><td class=\"l\">%llu%s</td></tr>\n", pg->base->opt.seed,
+              pg->tuned ? " (tuning renders: the seed + 1)" : "");
+    sb_printf(b, "<tr><th class=\"l\">threads</th><td class=\"l\">%d used (%s)</td></tr>\n", n > 0 ? e[0].st.threads : 0,
+              pg->base->opt.threads > 0 ? "given with --threads" : "all cores");
+    if (uname(&un) == 0) {
+        sb_printf(b, "<tr><th class=\"l\">machine</th><td class=\"l\" id=\"machine\">");
+        sb_xml(b, un.sysname);
+        sb_printf(b, " ");
+        sb_xml(b, un.release);
+        sb_printf(b, " ");
+        sb_xml(b, un.version);
+        sb_printf(b, " ");
+        sb_xml(b, un.machine);
+        sb_printf(b, "</td></tr>\n");
+    }
+    cpu_model(text, sizeof text);
+    sb_printf(b, "<tr><th class=\"l\">CPU</th><td class=\"l\">");
+    sb_xml(b, text);
+    sb_printf(b, "</td></tr>\n<tr><th class=\"l\">cores</th><td class=\"l\">%d</td></tr>\n", pds_cpu_count());
+    if (utc && strftime(text, sizeof text, "%Y-%m-%d %H:%M:%S UTC", utc) > 0)
+        sb_printf(b, "<tr><th class=\"l\">finished</th><td class=\"l\">%s</td></tr>\n", text);
+    sb_printf(b, "</table>\n");
+    /* what is not a fair comparison, said first */
+    for (i = 0; i < n; i++) {
+        const race_entry *t = &e[i];
+        if (!t->flags && !t->tuned_edge) continue;
+        if (!warned++) sb_printf(b, "<div class=\"warn\" id=\"warnings\"><p><b>Not a fair comparison as it stands:</b></p><ul>\n");
+        sb_printf(b, "<li>");
+        sb_xml(b, t->label);
+        if (t->flags & (RACE_OVER_TIME | RACE_UNDER_TIME))
+            sb_printf(b, ": took %.3g s of its %s s budget (%+.0f%%, more than %.0f%% off)", t->st.time_total_s,
+                      bud->text[t->budget], 100.0 * (t->st.time_total_s / bud->value[t->budget] - 1.0),
+                      100.0 * RACE_TIME_TOLERANCE);
+        if (t->flags & RACE_FEW_PHOTONS)
+            sb_printf(b, ": emitted only %ld photons (fewer than %d, or than 1%% of the most on its budget)",
+                      t->st.photons, RACE_MIN_PHOTONS);
+        if (t->tuned_edge) {
+            sb_printf(b, ": its tuned value (");
+            sb_xml(b, t->tuned);
+            sb_printf(b, ") is at the edge of the grid; the optimum may lie beyond it");
+        }
+        sb_printf(b, "</li>\n");
+    }
+    if (warned) sb_printf(b, "</ul></div>\n");
     /* the table */
-    sb_printf(b, "<h2>Results</h2>\n<table>\n<tr><th class=\"l\">image</th><th class=\"l\">method</th><th>photons</th>"
-                 "<th>spp</th><th class=\"l\">parameters</th><th>RMSE</th><th>SSIM</th><th>time (s)</th>"
-                 "<th>photon map (MB)</th></tr>\n");
+    sb_printf(b, "<h2>Results</h2>\n<table class=\"results\">\n<tr><th class=\"l\">image</th><th class=\"l\">method"
+                 "</th><th>budget</th><th>photons</th><th>spp</th><th class=\"l\">parameters</th><th class=\"l\">tuned"
+                 "</th><th>RMSE</th><th>SSIM</th><th>eye pass (s)</th><th>photon tracing (s)</th><th>map build (s)"
+                 "</th><th>gather (s)</th><th>total (s)</th><th>photon map (MB)</th><th class=\"l\">budget check"
+                 "</th></tr>\n");
     for (i = 0; i < n; i++) {
         const race_entry *r = &e[i];
+        unsigned mb = MBIT(r->cfg.opt.method);
         sb_printf(b, "<tr><td class=\"l\"><a href=\"");
         sb_xml(b, r->label);
         sb_printf(b, ".pfm\">");
         sb_xml(b, r->label);
-        sb_printf(b, "</a></td><td class=\"l\">%s</td><td>%ld</td><td>%d</td><td class=\"l\">",
-                  method_name(r->cfg.opt.method), r->st.photons, r->st.spp);
+        sb_printf(b, "</a></td><td class=\"l\">%s</td><td>%s%s</td><td>%ld</td><td>%d</td><td class=\"l\">",
+                  method_name(r->cfg.opt.method), bud->text[r->budget], bud->by_time ? " s" : "", r->st.photons,
+                  r->st.spp);
         sb_xml(b, r->params[0] ? r->params + 1 : "");
-        sb_printf(b, "</td><td%s>%.6f</td><td%s>%.6f</td><td>%.3f</td><td>", i == best_r ? " class=\"best\"" : "",
-                  r->m.rmse, i == best_s ? " class=\"best\"" : "", r->m.ssim, r->st.time_total_s);
-        if (MBIT(r->cfg.opt.method) & M_MAP) sb_printf(b, "%.3f", (double)r->st.map_bytes / 1048576.0);
+        sb_printf(b, "</td><td class=\"l\">");
+        if (r->tuned[0]) sb_xml(b, r->tuned);
         else sb_printf(b, "&ndash;");
-        sb_printf(b, "</td></tr>\n");
+        sb_printf(b, "</td><td%s>%.6f</td><td%s>%.6f</td>", i == best_r[r->budget] ? " class=\"best\"" : "",
+                  r->m.rmse, i == best_s[r->budget] ? " class=\"best\"" : "", r->m.ssim);
+        html_time(b, 1, r->st.time_eye_s);
+        html_time(b, (mb & M_PHOTON) != 0, r->st.time_photons_s);
+        html_time(b, (mb & M_MAP) != 0, r->st.time_map_s);
+        html_time(b, (mb & M_MAP) != 0, r->st.time_gather_s);
+        html_time(b, 1, r->st.time_total_s);
+        if (mb & M_MAP) sb_printf(b, "<td>%.3f</td>", (double)r->st.map_bytes / 1048576.0);
+        else sb_printf(b, "<td>&ndash;</td>");
+        sb_printf(b, "<td class=\"%s\">%s</td></tr>\n", r->flags ? "flag" : "l",
+                  race_flag_text(r->flags, flag, sizeof flag));
     }
-    sb_printf(b, "</table>\n");
+    sb_printf(b, "</table>\n<p class=\"meta\">Phases: the eye pass (for pt, the whole render); photon tracing, "
+                 "which for pds and splat includes the splats and for pm, pdm and ppm the map build and gather "
+                 "after it; the best RMSE and SSIM of each budget in bold.</p>\n");
+    if (bud->n > 1)
+        sb_printf(b, "<h2>Convergence</h2>\n<p class=\"meta\">RMSE and 1 &minus; SSIM against each render's "
+                     "measured time, log-log (<a href=\"convergence.svg\">convergence.svg</a>).</p>\n"
+                     "<img src=\"convergence.svg\" alt=\"RMSE and 1 - SSIM against time, log-log\" width=\"960\">\n");
+    html_comparer(b, e, n, pg);
     /* full images */
     sb_printf(b, "<h2>Images</h2>\n<div class=\"row\">\n");
     html_figure(b, "ref.png", "reference", "reference", W, H, dw, &roi);
@@ -2520,7 +3289,10 @@ static void race_html(sbuf *b, const char *scene_path, const char *ref_path, con
         snprintf(src, sizeof src, "%s.png", e[i].label);
         if (!c.nomem) html_figure(b, src, e[i].label, c.s, W, H, dw, &roi);
     }
-    sb_printf(b, "</div>\n<h2>Region of interest</h2>\n<div class=\"row\">\n");
+    sb_printf(b, "</div>\n<h2>Region of interest</h2>\n<p class=\"meta\">Crops at exposure %+.2f stops, which "
+                 "shows the reference's brightest value in the region as white, so the caustic's peak is not "
+                 "clipped (full images: %+.2f stops, <code>--exposure</code>).</p>\n<div class=\"row\">\n",
+              pg->crop_exposure, pg->base->exposure);
     html_figure(b, "ref-crop.png", "reference, region of interest", "reference", roi.w * scale, roi.h * scale,
                 roi.w * scale, NULL);
     for (i = 0; i < n; i++) {
@@ -2532,9 +3304,19 @@ static void race_html(sbuf *b, const char *scene_path, const char *ref_path, con
     }
     sb_printf(b, "</div>\n<h2>Difference from the reference</h2>\n<p class=\"meta key\">Luminance of image minus "
                  "reference (linear): <span style=\"background:#0f0\"></span> green where the image is too bright, "
-                 "<span style=\"background:#f00\"></span> red where it is too dark; full colour at the 99th "
-                 "percentile of |error| of that image (given under it), blue where the value is not a number.</p>\n"
-                 "<div class=\"row\">\n");
+                 "<span style=\"background:#f00\"></span> red where it is too dark, blue where the value is not a "
+                 "number. ");
+    if (!strcmp(pg->diff_mode, "each"))
+        sb_printf(b, "Each image on its own scale: full colour at the 99th percentile of its |error| (given under "
+                     "it); colours do not compare across images.</p>\n");
+    else if (!strcmp(pg->diff_mode, "shared"))
+        sb_printf(b, "<b>One scale for all</b>: full colour at |error| %.4g, the largest of the images' 99th "
+                     "percentiles of |error| (<code>--diff-scale each</code> gives each its own).</p>\n",
+                  n > 0 ? e[0].diff_scale : 0.0);
+    else
+        sb_printf(b, "<b>One scale for all</b>: full colour at |error| %.4g (<code>--diff-scale</code>).</p>\n",
+                  n > 0 ? e[0].diff_scale : 0.0);
+    sb_printf(b, "<div class=\"row\">\n");
     for (i = 0; i < n; i++) {
         c.len = 0;
         sb_xml(&c, e[i].label);
@@ -2571,20 +3353,42 @@ static int parse_roi(const char *s, roi_box *r)
     return 0;
 }
 
-static const char *const race_own_options[] = {"--ref", "--methods", "--roi", "--output", NULL};
+static const char *const race_own_options[] = {"--ref",    "--methods",     "--roi",        "--output",
+                                               "--tune",   "--budgets",     "--budget-kind", "--diff-scale", NULL};
+
+/* The largest finite channel value of img in the region (0 if none). */
+static double roi_peak(const pds_image *img, roi_box roi)
+{
+    double peak = 0.0;
+    int x, y, k;
+    for (y = roi.y; y < roi.y + roi.h; y++)
+        for (x = roi.x; x < roi.x + roi.w; x++)
+            for (k = 0; k < 3; k++) {
+                double v = img->rgb[3 * ((size_t)y * img->width + x) + k];
+                if (isfinite(v) && v > peak) peak = v;
+            }
+    return peak;
+}
 
 static int cmd_race(int argc, char **argv)
 {
     const char *scene_path = NULL, *ref_path = NULL, *methods = NULL, *dir = NULL, *roi_text = NULL;
-    char dir_buf[1024], stem[256], budget[96];
+    const char *budgets_text = NULL, *kind_text = NULL, *diff_mode = "shared";
+    const char *names[MAX_RACE_METHODS];
+    char dir_buf[1024], stem[256];
     run_cfg base;
-    race_entry *e = NULL;
+    race_entry *e = NULL, *proto = NULL;
+    race_budgets bud;
+    race_page pg;
+    tune_log tlog = {NULL, 0, 0};
     pds_scene *scene = NULL;
     pds_image ref = {0, 0, NULL};
     roi_box roi = {0, 0, 0, 0};
-    int i, r, n = 0, rc = 1, by_time, by_photons, scale;
+    int i, r, n = 0, n_methods = 0, rc = 1, by_photons, tune = 0, scale, flagged;
+    double diff_fixed = 0.0, pixel_m = 0.0, peak;
     unsigned mask = 0;
     cfg_init(&base);
+    memset(&bud, 0, sizeof bud);
     for (i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (a[0] != '-' || a[1] == '\0') {
@@ -2592,13 +3396,22 @@ static int cmd_race(int argc, char **argv)
             scene_path = a;
             continue;
         }
+        if (arg_is(a, "--tune")) {
+            if (a[6] == '=') return usage_error("--tune takes no value, got '%s'", a);
+            tune = 1;
+            continue;
+        }
         if (arg_is(a, "--ref") || arg_is(a, "--methods") || arg_is(a, "--roi") || arg_is(a, "-o") ||
-            arg_is(a, "--output")) {
+            arg_is(a, "--output") || arg_is(a, "--budgets") || arg_is(a, "--budget-kind") ||
+            arg_is(a, "--diff-scale")) {
             const char *v;
             if (option_value(argc, argv, &i, &v)) return EXIT_USAGE;
             if (arg_is(a, "--ref")) ref_path = v;
             else if (arg_is(a, "--methods")) methods = v;
             else if (arg_is(a, "--roi")) roi_text = v;
+            else if (arg_is(a, "--budgets")) budgets_text = v;
+            else if (arg_is(a, "--budget-kind")) kind_text = v;
+            else if (arg_is(a, "--diff-scale")) diff_mode = v;
             else dir = v;
             continue;
         }
@@ -2609,31 +3422,70 @@ static int cmd_race(int argc, char **argv)
     if (!scene_path) return usage_error("%s", "race needs a scene file");
     if (!ref_path) return usage_error("%s", "race needs --ref REFERENCE.pfm");
     if (!methods) return usage_error("%s", "race needs --methods M1,M2,... (for example pds,pm:k=50,ppm)");
-    by_time = option_given(&base, "--time");
+    bud.by_time = option_given(&base, "--time");
     by_photons = option_given(&base, "--photons");
-    if (by_time && by_photons) return usage_error("%s", "race takes one budget: --time or --photons, not both");
-    if (!by_time && !by_photons) return usage_error("%s", "race needs a budget: --time SECONDS or --photons N");
+    if (bud.by_time && by_photons) return usage_error("%s", "race takes one budget: --time or --photons, not both");
+    if (budgets_text && (bud.by_time || by_photons))
+        return usage_error("--budgets replaces %s: give one of them", bud.by_time ? "--time" : "--photons");
+    if (kind_text && !budgets_text) return usage_error("%s", "--budget-kind goes with --budgets");
+    if (budgets_text) {
+        if (kind_text && strcmp(kind_text, "time") && strcmp(kind_text, "photons"))
+            return usage_error("--budget-kind knows time and photons, got '%s'", kind_text);
+        bud.by_time = !kind_text || !strcmp(kind_text, "time");
+        if (parse_budgets(budgets_text, &bud)) return EXIT_USAGE;
+    } else if (bud.by_time || by_photons) {
+        bud.n = 1;
+        bud.value[0] = bud.by_time ? base.opt.time_s : (double)base.opt.photons;
+        snprintf(bud.text[0], sizeof bud.text[0], bud.by_time ? "%g" : "%.0f", bud.value[0]);
+    } else {
+        return usage_error("%s", "race needs a budget: --time SECONDS, --photons N or --budgets LIST");
+    }
+    if (strcmp(diff_mode, "shared") && strcmp(diff_mode, "each") &&
+        (parse_double(diff_mode, &diff_fixed) || !(diff_fixed > 0.0) || !isfinite(diff_fixed)))
+        return usage_error("--diff-scale needs shared, each or a positive number, got '%s'", diff_mode);
     if (roi_text && parse_roi(roi_text, &roi))
         return usage_error("--roi needs X,Y,WIDTH,HEIGHT in pixels, got '%s'", roi_text);
     cfg_apply_progress(&base);
-    e = (race_entry *)calloc(MAX_RACE_METHODS, sizeof *e);
-    if (!e) return fail("%s", "out of memory");
-    if ((rc = parse_race_methods(methods, &base, e, &n)) != 0) goto done;
-    rc = 1;
-    for (i = 0; i < n; i++) {
-        run_cfg *c = &e[i].cfg;
-        /* a photon budget is the total: ppm spreads it over its passes */
-        if (by_photons && c->opt.method == PDS_METHOD_PPM) {
-            long passes = c->opt.passes > 0 ? c->opt.passes : 1;
-            c->opt.photons = base.opt.photons / passes;
-            if (c->opt.photons < 1 && base.opt.photons > 0) c->opt.photons = 1;
-        }
-        format_params(&c->opt, e[i].params, sizeof e[i].params);
-        mask |= MBIT(c->opt.method);
+    proto = (race_entry *)calloc(MAX_RACE_METHODS, sizeof *proto);
+    e = (race_entry *)calloc(MAX_RACE_ENTRIES, sizeof *e);
+    if (!proto || !e) {
+        free(proto);
+        free(e);
+        return fail("%s", "out of memory");
     }
+    if ((rc = parse_race_methods(methods, &base, proto, &n_methods)) != 0) goto done;
+    rc = 1;
+    if (n_methods * bud.n > MAX_RACE_ENTRIES) {
+        rc = usage_error("%d methods on %d budgets make %d renders; at most %d", n_methods, bud.n, n_methods * bud.n,
+                         MAX_RACE_ENTRIES);
+        goto done;
+    }
+    /* the entries: every method on every budget, budget by budget */
+    for (r = 0; r < bud.n; r++)
+        for (i = 0; i < n_methods; i++) {
+            race_entry *t = &e[n++];
+            pds_options *o = &t->cfg.opt;
+            *t = proto[i];
+            t->method = i;
+            t->budget = r;
+            if (bud.listed)
+                snprintf(t->label + strlen(t->label), sizeof t->label - strlen(t->label), "-%s%s", bud.text[r],
+                         bud.by_time ? "s" : "ph");
+            if (bud.by_time) {
+                o->time_s = bud.value[r];
+            } else {
+                /* a photon budget is the total: ppm spreads it over its passes */
+                o->time_s = 0.0;
+                o->photons = (long)bud.value[r];
+                if (o->method == PDS_METHOD_PPM) {
+                    o->photons /= o->passes > 0 ? o->passes : 1;
+                    if (o->photons < 1) o->photons = 1;
+                }
+            }
+            mask |= MBIT(o->method);
+        }
+    for (i = 0; i < n_methods; i++) names[i] = proto[i].label;
     note_idle_options(&base, mask, "for any method raced");
-    if (by_time) snprintf(budget, sizeof budget, "%g s", base.opt.time_s);
-    else snprintf(budget, sizeof budget, "%ld photons", base.opt.photons);
     scene_stem(scene_path, stem, sizeof stem);
     if (!dir) {
         snprintf(dir_buf, sizeof dir_buf, "race-%s", stem);
@@ -2653,28 +3505,53 @@ static int cmd_race(int argc, char **argv)
     /* crops at least 256 pixels wide, within the image size limit */
     scale = (256 + roi.w - 1) / roi.w;
     if (scale > PDS_MAX_RESOLUTION / roi.h) scale = PDS_MAX_RESOLUTION / roi.h;
+    pixel_m = race_pixel_size(scene, &base.opt);
 
     for (i = 0; i < n; i++) {
         race_entry *t = &e[i];
         char context[160];
+        if (tune && race_tune(scene, &ref, pixel_m, t, i, &tlog)) goto done;
+        format_params(&t->cfg.opt, t->params, sizeof t->params);
         snprintf(context, sizeof context, "race %s", t->label);
         if (render_and_compare(scene, &t->cfg, &ref, &t->img, &t->st, &t->m, context)) goto done;
         printf("race method=%s label=%s photons=%ld spp=%d%s", method_name(t->cfg.opt.method), t->label,
                t->st.photons, t->st.spp, t->params);
         if (t->cfg.opt.method == PDS_METHOD_PPM) printf(" passes=%d", t->st.passes);
         if (MBIT(t->cfg.opt.method) & M_MAP) printf(" map_bytes=%lu", (unsigned long)t->st.map_bytes);
-        printf(" rmse=%.6f ssim=%.6f time=%.3f\n", t->m.rmse, t->m.ssim, t->st.time_total_s);
+        printf(" rmse=%.6f ssim=%.6f time=%.3f budget=%s", t->m.rmse, t->m.ssim, t->st.time_total_s,
+               bud.text[t->budget]);
+        if (t->tuned_keys[0]) printf(" tuned=%s", t->tuned_keys);
+        printf("\n");
         fflush(stdout);
+        if (t->tuned_edge)
+            fprintf(stderr, "pds race: warning: %s: the tuned %s is at the edge of its grid; the optimum may lie "
+                    "beyond it\n", t->label, t->tuned);
     }
+    flagged = race_check_budgets(e, n, &bud);
+
+    /* one difference scale for all (default), each its own, or given */
+    {
+        double shared = 0.0;
+        for (i = 0; i < n; i++) {
+            if (diff_fixed > 0.0) e[i].diff_scale = diff_fixed;
+            else if (diff_percentile(&e[i].img, &ref, &e[i].diff_scale)) goto done;
+            if (e[i].diff_scale > shared) shared = e[i].diff_scale;
+        }
+        if (!strcmp(diff_mode, "shared"))
+            for (i = 0; i < n; i++) e[i].diff_scale = shared;
+    }
+    /* crops: the reference's peak in the region shows as white */
+    peak = roi_peak(&ref, roi);
+    pg.crop_exposure = peak > 0.0 ? -log2(peak) : base.exposure;
 
     /* every render succeeded: now the folder */
     if (make_dirs(dir)) goto done;
     {
         pds_image crop = {0, 0, NULL}, diff = {0, 0, NULL};
-        sbuf csv = {NULL, 0, 0, 0}, html = {NULL, 0, 0, 0};
-        char file[160];
+        sbuf csv = {NULL, 0, 0, 0}, html = {NULL, 0, 0, 0}, tcsv = {NULL, 0, 0, 0}, svg = {NULL, 0, 0, 0};
+        char file[160], flag[64];
         int bad = write_image(dir, "ref.png", &ref, base.exposure) || make_crop(&ref, roi, scale, &crop) ||
-                  write_image(dir, "ref-crop.png", &crop, base.exposure);
+                  write_image(dir, "ref-crop.png", &crop, pg.crop_exposure);
         pds_image_free(&crop);
         for (i = 0; i < n && !bad; i++) {
             race_entry *t = &e[i];
@@ -2683,35 +3560,78 @@ static int cmd_race(int argc, char **argv)
             snprintf(file, sizeof file, "%s.png", t->label);
             bad = bad || write_image(dir, file, &t->img, base.exposure);
             snprintf(file, sizeof file, "%s-crop.png", t->label);
-            bad = bad || make_crop(&t->img, roi, scale, &crop) || write_image(dir, file, &crop, base.exposure);
+            bad = bad || make_crop(&t->img, roi, scale, &crop) || write_image(dir, file, &crop, pg.crop_exposure);
             snprintf(file, sizeof file, "%s-diff.png", t->label);
-            bad = bad || make_diff(&t->img, &ref, &diff, &t->diff_scale) || write_image(dir, file, &diff, 0.0);
+            bad = bad || make_diff(&t->img, &ref, t->diff_scale, &diff) || write_image(dir, file, &diff, 0.0);
             pds_image_free(&crop);
             pds_image_free(&diff);
         }
         if (!bad) {
-            sb_printf(&csv, "method,label,photons,spp,passes,parameters,rmse,ssim,time_s,map_bytes,diff_scale\n");
+            sb_printf(&csv, "method,label,%s,photons,spp,passes,parameters,tuned,rmse,ssim,time_s,time_eye_s,"
+                            "time_photons_s,time_map_s,time_gather_s,map_bytes,diff_scale,budget_flag\n",
+                      bud.by_time ? "budget_s" : "budget_photons");
             for (i = 0; i < n; i++) {
                 const race_entry *t = &e[i];
                 sb_printf(&csv, "%s,", method_name(t->cfg.opt.method));
                 sb_csv(&csv, t->label);
-                sb_printf(&csv, ",%ld,%d,%d,", t->st.photons, t->st.spp, t->st.passes);
+                sb_printf(&csv, ",%s,%ld,%d,%d,", bud.text[t->budget], t->st.photons, t->st.spp, t->st.passes);
                 sb_csv(&csv, t->params[0] ? t->params + 1 : "");
-                sb_printf(&csv, ",%.6f,%.6f,%.3f,%lu,%.6g\n", t->m.rmse, t->m.ssim, t->st.time_total_s,
-                          (unsigned long)t->st.map_bytes, t->diff_scale);
+                sb_printf(&csv, ",");
+                sb_csv(&csv, t->tuned);
+                sb_printf(&csv, ",%.6f,%.6f,%.3f,%.3f,%.3f,%.3f,%.3f,%lu,%.6g,%s\n", t->m.rmse, t->m.ssim,
+                          t->st.time_total_s, t->st.time_eye_s, t->st.time_photons_s, t->st.time_map_s,
+                          t->st.time_gather_s, (unsigned long)t->st.map_bytes, t->diff_scale,
+                          race_flag_text(t->flags, flag, sizeof flag));
             }
-            race_html(&html, scene_path, ref_path, budget, &base, &ref, roi, roi_text != NULL, scale, e, n);
+            pg.scene_path = scene_path;
+            pg.ref_path = ref_path;
+            pg.base = &base;
+            pg.bud = &bud;
+            pg.ref = &ref;
+            pg.roi = roi;
+            pg.roi_given = roi_text != NULL;
+            pg.scale = scale;
+            pg.diff_mode = diff_mode;
+            pg.tuned = tune;
+            pg.pixel_m = pixel_m;
+            pg.methods = n_methods;
+            race_html(&html, &pg, e, n, command_argc, command_argv);
             bad = write_text(dir, "race.csv", &csv) || write_text(dir, "index.html", &html);
+        }
+        if (!bad && tune) {
+            sb_printf(&tcsv, "label,method,%s,param,value,seed,rmse,ssim,time_s,photons,chosen\n",
+                      bud.by_time ? "budget_s" : "budget_photons");
+            for (i = 0; i < tlog.n; i++) {
+                const tune_row *w = &tlog.rows[i];
+                const race_entry *t = &e[w->entry];
+                sb_csv(&tcsv, t->label);
+                sb_printf(&tcsv, ",%s,%s,%s,%s,%llu,%.6f,%.6f,%.3f,%ld,%d\n", method_name(t->cfg.opt.method),
+                          bud.text[t->budget], w->key, w->value, t->cfg.opt.seed + 1, w->m.rmse, w->m.ssim, w->time_s,
+                          w->photons, w->chosen);
+            }
+            bad = write_text(dir, "tune.csv", &tcsv);
+        }
+        if (!bad && bud.n > 1) {
+            char title[512];
+            snprintf(title, sizeof title, "%s: error against time, %dx%d, %s budgets", stem, ref.width, ref.height,
+                     bud.by_time ? "time" : "photon");
+            race_convergence_svg(&svg, title, e, n, names, n_methods);
+            bad = write_text(dir, "convergence.svg", &svg);
         }
         free(csv.s);
         free(html.s);
+        free(tcsv.s);
+        free(svg.s);
         if (bad) goto done;
     }
-    printf("race dir=%s methods=%d roi=%d,%d,%d,%d\n", dir, n, roi.x, roi.y, roi.w, roi.h);
+    printf("race dir=%s methods=%d roi=%d,%d,%d,%d budgets=%d flagged=%d\n", dir, n_methods, roi.x, roi.y, roi.w,
+           roi.h, bud.n, flagged);
     rc = 0;
 done:
-    for (i = 0; e && i < n; i++) pds_image_free(&e[i].img);
+    for (i = 0; i < n; i++) pds_image_free(&e[i].img);
     free(e);
+    free(proto);
+    free(tlog.rows);
     pds_image_free(&ref);
     pds_scene_free(scene);
     return rc;
@@ -2755,6 +3675,8 @@ int main(int argc, char **argv)
     size_t k;
     int i;
     progress.t_command = pds_time_now();
+    command_argc = argc;
+    command_argv = argv;
     catch_fatal_signals();
     if (argc < 2) {
         print_overview(stderr);

@@ -286,25 +286,28 @@ static void test_harness_race_writes_every_image_its_index_shows(pds_test_ctx *t
     CHECK(t, harness_value(lines[1], "rmse") < harness_value(lines[0], "rmse"), "8 spp beat 1 spp: %s / %s",
           lines[1], lines[0]);
     last = cli_last_line(out);
-    snprintf(expect, sizeof expect, "race dir=%s methods=3 roi=0,0,32,24", dir);
+    snprintf(expect, sizeof expect, "race dir=%s methods=3 roi=0,0,32,24 budgets=1 flagged=0", dir);
     CHECK(t, !strcmp(last, expect), "final line: %s", last);
 
     snprintf(path, sizeof path, "%s/race.csv", dir);
     csv = harness_slurp(path, NULL);
     REQUIRE(t, csv != NULL, "no %s", path);
     CHECK(t, harness_count(csv, "\n") == 4, "header and 3 rows: %s", csv);
-    CHECK(t, HARNESS_STARTS(csv, "method,label,photons,spp,passes,parameters,rmse,ssim,time_s,map_bytes,diff_scale\n"),
+    CHECK(t, HARNESS_STARTS(csv, "method,label,budget_photons,photons,spp,passes,parameters,tuned,rmse,ssim,time_s,"
+                                 "time_eye_s,time_photons_s,time_map_s,time_gather_s,map_bytes,diff_scale,budget_flag\n"),
           "header: %s", csv);
-    CHECK(t, strstr(csv, "\npt,pt,0,1,1,,") && strstr(csv, "\npt,pt-spp8,0,8,1,,") &&
-                 strstr(csv, "\npds,pds,0,1,1,smoothing=12,"),
+    CHECK(t, strstr(csv, "\npt,pt,1000,0,1,1,,,") && strstr(csv, "\npt,pt-spp8,1000,0,8,1,,,") &&
+                 strstr(csv, "\npds,pds,1000,0,1,1,smoothing=12,,"),
           "rows: %s", csv);
+    CHECK(t, harness_count(csv, ",ok\n") == 3, "a photon budget is met exactly: %s", csv);
     free(csv);
 
     snprintf(path, sizeof path, "%s/index.html", dir);
     html = harness_slurp(path, NULL);
     REQUIRE(t, html != NULL, "no %s", path);
     CHECK(t, HARNESS_STARTS(html, "<!DOCTYPE html>") && strstr(html, "</html>\n"), "an HTML document");
-    CHECK(t, strstr(html, "<script") == NULL, "no scripts");
+    CHECK(t, harness_count(html, "<script") == 1 && strstr(html, "<script>\n") != NULL, "one inline script");
+    CHECK(t, strstr(html, "http://") == NULL && strstr(html, "https://") == NULL, "no network address");
     /* every image and link it names is in the folder */
     for (p = html; (p = strstr(p, "src=\"")) != NULL;) {
         char name[256];
@@ -327,7 +330,8 @@ static void test_harness_race_writes_every_image_its_index_shows(pds_test_ctx *t
         CHECK(t, cli_file_exists(path), "index.html links %s, which is missing", name);
     }
     /* reference: full and crop; each method: full, crop, difference */
-    CHECK(t, srcs == 2 + 3 * 3, "images shown: %d", srcs);
+    /* and the comparer's two images */
+    CHECK(t, srcs == 2 + 3 * 3 + 2, "images shown: %d", srcs);
     CHECK(t, strstr(html, "src=\"ref.png\"") && strstr(html, "src=\"ref-crop.png\"") && strstr(html, "href=\"race.csv\""),
           "reference and table");
     for (i = 0; i < 3; i++) {
@@ -499,7 +503,15 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
         {"race", "race needs a scene file"},
         {"race S", "race needs --ref REFERENCE.pfm"},
         {"race S --ref R", "race needs --methods M1,M2,... (for example pds,pm:k=50,ppm)"},
-        {"race S --ref R --methods pt", "race needs a budget: --time SECONDS or --photons N"},
+        {"race S --ref R --methods pt", "race needs a budget: --time SECONDS, --photons N or --budgets LIST"},
+        {"race S --ref R --methods pt --time 1 --budgets 1,2", "--budgets replaces --time: give one of them"},
+        {"race S --ref R --methods pt --budgets 1,x", "--budgets needs seconds above 0, comma-separated, got '1,x'"},
+        {"race S --ref R --methods pt --budgets 1,0 --budget-kind photons",
+         "--budgets needs photon counts of 1 or more, comma-separated, got '1,0'"},
+        {"race S --ref R --methods pt --budgets 1 --budget-kind joules", "--budget-kind knows time and photons, got 'joules'"},
+        {"race S --ref R --methods pt --time 1 --budget-kind time", "--budget-kind goes with --budgets"},
+        {"race S --ref R --methods pt --time 1 --diff-scale big", "--diff-scale needs shared, each or a positive number, got 'big'"},
+        {"race S --ref R --methods pt --time 1 --tune=yes", "--tune takes no value, got '--tune=yes'"},
         {"race S --ref R --methods pt --time 1 --photons 3", "race takes one budget: --time or --photons, not both"},
         {"race S --ref R --methods pt,bogus --photons 3",
          "unknown method 'bogus' (this version has: pds, pt, preview, pm, pdm, splat, ppm)"},
@@ -559,6 +571,311 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
     remove(ref);
 }
 
+/* A caustics-only reference for the race tests that need photons: the
+   golden glass scene by ppm (a neutral method, not pds), 32x24. */
+static int harness_caustics_reference(pds_test_ctx *t, char *ref, size_t n)
+{
+    char out[8192], args[1024];
+    harness_path(ref, n, "caustics_ref.pfm");
+    snprintf(args, sizeof args,
+             "render tests/golden/glass.scene --method ppm --caustics-only --photons 20000 --passes 8 --res 32x24 "
+             "--spp 4 --seed 9 --quiet -o %s",
+             ref);
+    CHECK(t, cli_run(args, out, sizeof out) == 0, "reference render failed: %s", out);
+    return cli_file_exists(ref);
+}
+
+/* The CSV field number `col` (0-based) of the line that starts with
+   prefix, copied into out ("" if none). No quoted fields before it. */
+static void harness_csv_field(const char *csv, const char *prefix, int col, char *out, size_t n)
+{
+    const char *p = csv;
+    out[0] = '\0';
+    while (p && *p) {
+        if (!strncmp(p, prefix, strlen(prefix))) {
+            int k;
+            for (k = 0; k < col && p; k++) {
+                p = strpbrk(p, ",\n");
+                if (p && *p == ',') p++;
+                else p = NULL;
+            }
+            if (p) snprintf(out, n, "%.*s", (int)strcspn(p, ",\n"), p);
+            return;
+        }
+        p = strchr(p, '\n');
+        if (p) p++;
+    }
+}
+
+static void test_harness_race_flags_a_missed_time_budget(pds_test_ctx *t)
+{
+    char out[16384], err[16384], args[1024], ref[256], dir[256], path[512], field[128];
+    char *csv, *html;
+    const char *last;
+    REQUIRE(t, harness_caustics_reference(t, ref, sizeof ref), "no reference");
+    harness_path(dir, sizeof dir, "race_miss");
+    harness_rmtree(dir);
+    /* 5 ms: the eye pass of 32x24 x 64 samples alone takes longer, and pt's
+       one pass of 256 samples too; pds gets no time for photons */
+    snprintf(args, sizeof args,
+             "race tests/golden/glass.scene --ref %s --time 0.005 --methods pds,pt:spp=256 --res 32x24 --spp 64 "
+             "--caustics-only --quiet -o %s",
+             ref, dir);
+    REQUIRE(t, cli_run_split(args, out, sizeof out, err, sizeof err) == 0, "race failed: %s%s", out, err);
+    last = cli_last_line(out);
+    CHECK(t, strstr(last, " budgets=1 flagged=2") != NULL, "final line: %s", last);
+    CHECK(t, strstr(err, "pds race: warning: pds took ") && strstr(err, "pds race: warning: pt-spp256 took ") &&
+                 strstr(err, "of its 0.005 s budget (+") && strstr(err, "more than 25% off, not an equal-time result"),
+          "stderr: %s", err);
+    CHECK(t, strstr(err, "pds race: warning: pds emitted ") != NULL, "few photons on stderr: %s", err);
+    snprintf(path, sizeof path, "%s/race.csv", dir);
+    csv = harness_slurp(path, NULL);
+    REQUIRE(t, csv != NULL, "no %s", path);
+    CHECK(t, strstr(csv, ",budget_s,") != NULL, "header names the budget's unit: %s", csv);
+    harness_csv_field(csv, "pds,pds,", 17, field, sizeof field);
+    CHECK(t, !strcmp(field, "over-time+few-photons"), "pds flag '%s': %s", field, csv);
+    harness_csv_field(csv, "pt,pt-spp256,", 17, field, sizeof field);
+    CHECK(t, !strcmp(field, "over-time"), "pt flag '%s': %s", field, csv);
+    free(csv);
+    snprintf(path, sizeof path, "%s/index.html", dir);
+    html = harness_slurp(path, NULL);
+    REQUIRE(t, html != NULL, "no %s", path);
+    CHECK(t, strstr(html, "Not a fair comparison as it stands") && strstr(html, ">over-time+few-photons</td>") &&
+                 strstr(html, ">over-time</td>"),
+          "the page flags both");
+    free(html);
+    harness_rmtree(dir);
+    remove(ref);
+}
+
+static void test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_seed(pds_test_ctx *t)
+{
+    static const char *const methods[3] = {"pds", "pm", "ppm"};
+    static const char *const labels[3] = {"pds", "pm", "ppm-alpha0.7"};
+    static const char *const keys[3] = {"smoothing", "k", "radius"};
+    static const int grid[3] = {6, 5, 5};
+    char out[16384], args[1024], ref[256], dir[256], path[512], lines[8][512];
+    char *csv, *tune, *html;
+    int i, n;
+    REQUIRE(t, harness_caustics_reference(t, ref, sizeof ref), "no reference");
+    harness_path(dir, sizeof dir, "race_tune");
+    harness_rmtree(dir);
+    snprintf(args, sizeof args,
+             "race tests/golden/glass.scene --ref %s --photons 2000 --methods pds,pm,ppm:alpha=0.7,pm:k=30 --tune "
+             "--res 32x24 --spp 4 --seed 5 --caustics-only --quiet -o %s",
+             ref, dir);
+    REQUIRE(t, cli_run_split(args, out, sizeof out, NULL, 0) == 0, "race failed: %s", out);
+    n = harness_lines(out, "race method=", lines, 8);
+    REQUIRE(t, n == 4, "one line per method: %s", out);
+    CHECK(t, strstr(lines[0], " tuned=smoothing") && strstr(lines[1], " tuned=k") && strstr(lines[2], " tuned=radius") &&
+                 !strstr(lines[2], "tuned=radius+") && !strstr(lines[3], " tuned="),
+          "tuned parameters: %s", out);
+    CHECK(t, strstr(lines[3], " k=30 ") != NULL, "a value given in --methods is kept: %s", lines[3]);
+    snprintf(path, sizeof path, "%s/tune.csv", dir);
+    tune = harness_slurp(path, NULL);
+    snprintf(path, sizeof path, "%s/race.csv", dir);
+    csv = harness_slurp(path, NULL);
+    REQUIRE(t, tune && csv, "tune.csv and race.csv written");
+    CHECK(t, HARNESS_STARTS(tune, "label,method,budget_photons,param,value,seed,rmse,ssim,time_s,photons,chosen\n"),
+          "tune.csv header: %s", tune);
+    /* pds: 6 smoothings, pm: 5 k, ppm: 5 radii (alpha given), pm:k=30 none */
+    CHECK(t, harness_count(tune, "\n") == 1 + 6 + 5 + 5, "rows: %s", tune);
+    CHECK(t, strstr(tune, "pm-k30") == NULL && strstr(tune, ",alpha,") == NULL, "given values are not tuned");
+    for (i = 0; i < 3; i++) {
+        char prefix[64], want[128], field[128], best_value[32] = "";
+        const char *p;
+        double best = 1e300;
+        int rows = 0, chosen = 0, chosen_is_best = 0;
+        snprintf(prefix, sizeof prefix, "%s,%s,2000,%s,", labels[i], methods[i], keys[i]);
+        for (p = strstr(tune, prefix); p; p = strstr(p + 1, prefix)) {
+            char value[32];
+            int seed, ch;
+            double rmse;
+            if (p[-1] != '\n') continue;
+            if (sscanf(p + strlen(prefix), "%31[^,],%d,%lf,%*f,%*f,%*d,%d", value, &seed, &rmse, &ch) != 4) continue;
+            rows++;
+            CHECK(t, seed == 6, "tuned on seed + 1 (6), not the reported seed 5: %d", seed);
+            if (rmse < best) {
+                best = rmse;
+                snprintf(best_value, sizeof best_value, "%s", value);
+                chosen_is_best = ch;
+            }
+            chosen += ch;
+        }
+        CHECK(t, rows == grid[i], "%s: %d grid rows", labels[i], rows);
+        CHECK(t, chosen == 1 && chosen_is_best, "%s: the row of lowest RMSE (%s) is the one chosen", labels[i],
+              best_value);
+        /* race.csv's tuned column and the render's parameters show it */
+        snprintf(want, sizeof want, "%s=%s", keys[i], best_value);
+        snprintf(prefix, sizeof prefix, "%s,%s,", methods[i], labels[i]);
+        harness_csv_field(csv, prefix, 7, field, sizeof field);
+        CHECK(t, !strcmp(field, want), "%s: tuned '%s', want '%s'", labels[i], field, want);
+        snprintf(want, sizeof want, " %s=%s", keys[i], best_value);
+        CHECK(t, strstr(lines[i], want) != NULL, "%s rendered with %s: %s", labels[i], want, lines[i]);
+    }
+    snprintf(path, sizeof path, "%s/index.html", dir);
+    html = harness_slurp(path, NULL);
+    CHECK(t, html && strstr(html, "<b>Tuned</b>") && strstr(html, "rendered with seed 6, not the seed 5") &&
+                 strstr(html, "href=\"tune.csv\""),
+          "the page says how it was tuned");
+    free(html);
+    free(tune);
+    free(csv);
+    harness_rmtree(dir);
+    remove(ref);
+}
+
+static void test_harness_race_budgets_draw_a_log_log_convergence_plot(pds_test_ctx *t)
+{
+    static const char *const labels[4] = {"pds-1000ph", "pm-k20-1000ph", "pds-4000ph", "pm-k20-4000ph"};
+    char out[16384], args[1024], ref[256], dir[256], path[512], lines[8][512], field[64];
+    char *csv, *svg, *html;
+    int i, n;
+    REQUIRE(t, harness_caustics_reference(t, ref, sizeof ref), "no reference");
+    harness_path(dir, sizeof dir, "race_budgets");
+    harness_rmtree(dir);
+    snprintf(args, sizeof args,
+             "race tests/golden/glass.scene --ref %s --budgets 1k,4000 --budget-kind photons --methods pds,pm:k=20 "
+             "--res 32x24 --spp 2 --seed 7 --caustics-only --quiet -o %s",
+             ref, dir);
+    REQUIRE(t, cli_run_split(args, out, sizeof out, NULL, 0) == 0, "race failed: %s", out);
+    n = harness_lines(out, "race method=", lines, 8);
+    REQUIRE(t, n == 4, "one line per method and budget: %s", out);
+    for (i = 0; i < 4; i++) {
+        char prefix[128];
+        snprintf(prefix, sizeof prefix, "race method=%s label=%s photons=%s ", i % 2 ? "pm" : "pds", labels[i],
+                 i < 2 ? "1000" : "4000");
+        CHECK(t, !strncmp(lines[i], prefix, strlen(prefix)), "line %d: %s", i, lines[i]);
+    }
+    CHECK(t, strstr(cli_last_line(out), " methods=2 ") && strstr(cli_last_line(out), " budgets=2 "), "%s", out);
+    snprintf(path, sizeof path, "%s/race.csv", dir);
+    csv = harness_slurp(path, NULL);
+    REQUIRE(t, csv != NULL, "no race.csv");
+    CHECK(t, harness_count(csv, "\n") == 5, "header and one row per method and budget: %s", csv);
+    for (i = 0; i < 4; i++) {
+        char prefix[64];
+        snprintf(prefix, sizeof prefix, "%s,%s,", i % 2 ? "pm" : "pds", labels[i]);
+        harness_csv_field(csv, prefix, 2, field, sizeof field);
+        CHECK(t, !strcmp(field, i < 2 ? "1000" : "4000"), "%s budget '%s'", labels[i], field);
+    }
+    free(csv);
+    snprintf(path, sizeof path, "%s/convergence.svg", dir);
+    svg = harness_slurp(path, NULL);
+    REQUIRE(t, svg != NULL, "no convergence.svg");
+    CHECK(t, HARNESS_STARTS(svg, "<svg xmlns=\"http://www.w3.org/2000/svg\"") && strstr(svg, "</svg>\n"), "an SVG");
+    CHECK(t, strstr(svg, "<g class=\"panel rmse log-x log-y\">") &&
+                 strstr(svg, "<g class=\"panel one-minus-ssim log-x log-y\">"),
+          "two log-log panels: RMSE and 1 - SSIM");
+    CHECK(t, strstr(svg, "time (s), log scale") && strstr(svg, "RMSE (linear RGB), log scale"), "axis labels");
+    CHECK(t, harness_count(svg, "<polyline class=\"series\"") == 4, "one line per method and panel");
+    CHECK(t, harness_count(svg, "class=\"point\"") == 8, "one point per render and panel");
+    CHECK(t, strstr(svg, "data-method=\"pm-k20\"") && strstr(svg, "<title>pds-4000ph: RMSE "), "series and tooltips");
+    free(svg);
+    snprintf(path, sizeof path, "%s/index.html", dir);
+    html = harness_slurp(path, NULL);
+    REQUIRE(t, html != NULL, "no index.html");
+    CHECK(t, strstr(html, "<img src=\"convergence.svg\"") != NULL, "the page shows the plot");
+    free(html);
+    harness_rmtree(dir);
+    remove(ref);
+}
+
+static void test_harness_race_page_says_how_it_was_made(pds_test_ctx *t)
+{
+    char out[16384], args[1024], ref[256], dir[256], path[512], expect[512];
+    char *html, *csv, *p;
+    REQUIRE(t, harness_caustics_reference(t, ref, sizeof ref), "no reference");
+    harness_path(dir, sizeof dir, "race_page");
+    harness_rmtree(dir);
+    snprintf(args, sizeof args,
+             "race tests/golden/glass.scene --ref %s --photons 1000 --methods pds,pm --res 32x24 --spp 2 --seed 11 "
+             "--threads 2 --caustics-only --quiet -o %s",
+             ref, dir);
+    REQUIRE(t, cli_run_split(args, out, sizeof out, NULL, 0) == 0, "race failed: %s", out);
+    snprintf(path, sizeof path, "%s/index.html", dir);
+    html = harness_slurp(path, NULL);
+    REQUIRE(t, html != NULL, "no index.html");
+    /* the exact command line */
+    snprintf(expect, sizeof expect, " race tests/golden/glass.scene --ref %s --photons 1000 --methods pds,pm --res 32x24",
+             ref);
+    CHECK(t, strstr(html, expect) != NULL, "the command line: %s", expect);
+    CHECK(t, strstr(html, "<th class=\"l\">seed</th><td class=\"l\">11</td>") != NULL, "the seed");
+    CHECK(t, strstr(html, "<th class=\"l\">threads</th><td class=\"l\">2 used (given with --threads)</td>") != NULL,
+          "the threads");
+    CHECK(t, strstr(html, "<td class=\"l\" id=\"machine\">") && strstr(html, "<th class=\"l\">CPU</th>") &&
+                 strstr(html, "<th class=\"l\">cores</th>") && strstr(html, "<th class=\"l\">pds version</th><td class=\"l\">" PDS_VERSION_STRING),
+          "machine, CPU, cores and version");
+    CHECK(t, strstr(html, "<th>eye pass (s)</th><th>photon tracing (s)</th><th>map build (s)</th><th>gather (s)</th>") !=
+                 NULL,
+          "per-phase timings");
+    /* one inline script, no network */
+    CHECK(t, harness_count(html, "<script") == 1, "one script");
+    p = strstr(html, "<script");
+    CHECK(t, p && !strncmp(p, "<script>\n", 9), "inline, no src");
+    CHECK(t, strstr(html, "http:") == NULL && strstr(html, "https:") == NULL && strstr(html, "//cdn") == NULL &&
+                 strstr(html, "fetch(") == NULL && strstr(html, "XMLHttpRequest") == NULL,
+          "no network address or request");
+    CHECK(t, strstr(html, "id=\"cmp-stage\"") && strstr(html, "data-crop=\"pm-crop.png\""), "the comparer");
+    /* one difference scale for all: every row of race.csv has the same */
+    CHECK(t, strstr(html, "<b>One scale for all</b>") != NULL, "shared difference scale");
+    free(html);
+    snprintf(path, sizeof path, "%s/race.csv", dir);
+    csv = harness_slurp(path, NULL);
+    REQUIRE(t, csv != NULL, "no race.csv");
+    {
+        char a[64], b[64];
+        harness_csv_field(csv, "pds,pds,", 16, a, sizeof a);
+        harness_csv_field(csv, "pm,pm,", 16, b, sizeof b);
+        CHECK(t, a[0] && !strcmp(a, b), "shared diff_scale: %s / %s", a, b);
+    }
+    free(csv);
+    harness_rmtree(dir);
+    remove(ref);
+}
+
+static void test_harness_sweep_flags_an_optimum_at_the_edge_and_draws_photons_log_log(pds_test_ctx *t)
+{
+    char out[16384], err[8192], args[1024], ref[256], dir[256], path[512];
+    char *svg;
+    const char *last;
+    REQUIRE(t, harness_caustics_reference(t, ref, sizeof ref), "no reference");
+    harness_path(dir, sizeof dir, "sweep_edge");
+    harness_rmtree(dir);
+    /* of two values one is the best: it is at an edge */
+    snprintf(args, sizeof args,
+             "sweep tests/golden/glass.scene --method pm --param k --values 5,10 --photons 2000 --ref %s --res 32x24 "
+             "--spp 2 --caustics-only --quiet -o %s",
+             ref, dir);
+    REQUIRE(t, cli_run_split(args, out, sizeof out, err, sizeof err) == 0, "sweep failed: %s%s", out, err);
+    last = cli_last_line(out);
+    CHECK(t, strstr(last, " rmse_at_edge=1 ssim_at_edge=1") != NULL, "best line: %s", last);
+    CHECK(t, strstr(err, "pds sweep: warning: the RMSE and the SSIM optimum is at the edge of the values swept: "
+                         "widen --values") != NULL,
+          "stderr: %s", err);
+    snprintf(path, sizeof path, "%s/sweep.svg", dir);
+    svg = harness_slurp(path, NULL);
+    CHECK(t, svg && strstr(svg, "class=\"edge-note\"") && strstr(svg, "widen --values"), "the figure says so");
+    free(svg);
+    harness_rmtree(dir);
+    /* photons: log-log, and the largest count being best is no warning */
+    snprintf(args, sizeof args,
+             "sweep tests/golden/glass.scene --method pm --param photons --values 500,2000,8000 --ref %s --res 32x24 "
+             "--spp 2 --caustics-only --quiet -o %s",
+             ref, dir);
+    REQUIRE(t, cli_run_split(args, out, sizeof out, err, sizeof err) == 0, "sweep failed: %s%s", out, err);
+    last = cli_last_line(out);
+    CHECK(t, strstr(last, " rmse_at_edge=0 ssim_at_edge=0") != NULL, "best line: %s", last);
+    CHECK(t, strstr(err, "widen") == NULL, "no warning for a count: %s", err);
+    snprintf(path, sizeof path, "%s/sweep.svg", dir);
+    svg = harness_slurp(path, NULL);
+    CHECK(t, svg && strstr(svg, "photons (log scale)") && strstr(svg, "class=\"rmse-axis log-y\"") &&
+                 strstr(svg, "RMSE (linear RGB), log scale"),
+          "log-log axes");
+    free(svg);
+    harness_rmtree(dir);
+    remove(ref);
+}
+
 /* The baseline methods' options reach the final line. */
 static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
 {
@@ -608,4 +925,11 @@ static const pds_test_case tests_harness[] = {
      test_harness_race_region_of_interest_is_the_most_varied_window},
     {"harness_bad_usage_exits_2_with_a_message", test_harness_bad_usage_exits_2_with_a_message},
     {"harness_render_takes_the_baseline_options", test_harness_render_takes_the_baseline_options},
+    {"harness_race_flags_a_missed_time_budget", test_harness_race_flags_a_missed_time_budget},
+    {"harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_seed",
+     test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_seed},
+    {"harness_race_budgets_draw_a_log_log_convergence_plot", test_harness_race_budgets_draw_a_log_log_convergence_plot},
+    {"harness_race_page_says_how_it_was_made", test_harness_race_page_says_how_it_was_made},
+    {"harness_sweep_flags_an_optimum_at_the_edge_and_draws_photons_log_log",
+     test_harness_sweep_flags_an_optimum_at_the_edge_and_draws_photons_log_log},
 };
