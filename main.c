@@ -75,6 +75,10 @@ static const command_help help_table[] = {
      "                              major semi-axis from the photon's tangent plane (default 0.25)\n"
      "      --min-aspect A          pds, pdm: widen needle footprints to at least A x their length\n"
      "                              (default 0: never, as in the paper; try 0.1-0.3 with many photons)\n"
+     "      --progressive           pds: progressive PDS, passes whose footprints shrink so that the\n"
+     "                              image converges as photons are added; --smoothing is pass 1's s\n"
+     "      --pass-photons N        progressive pds: photons per pass, at most (default 16384)\n"
+     "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
      "      --debug footprint       pds: also write OUT.footprint.png, footprint anisotropy (red = needle)\n"
      "      --k N                   pm: photons per density estimate (default 50)\n"
      "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
@@ -827,6 +831,15 @@ static int set_paths(const opt_spec *s, run_cfg *c, const char *shown, const cha
     return 0;
 }
 
+static int set_progressive(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    (void)s;
+    (void)shown;
+    (void)v;
+    c->opt.progressive = 1;
+    return 0;
+}
+
 /* --progress and --quiet: the last one given wins. */
 static int set_progress(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
@@ -855,6 +868,11 @@ static const opt_spec option_table[] = {
      M_PDS | M_PDM | M_SPLAT, C_ALL, F_VALUE | F_LO_OPEN | F_PER_METHOD},
     {"--min-aspect", NULL, "min_aspect", set_double, OPTF(min_aspect), 0, 1, "a number from 0 to 1", M_PDS | M_PDM,
      C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--progressive", NULL, "progressive", set_progressive, 0, 0, 0, "", M_PDS, C_ALL, 0},
+    {"--pass-photons", NULL, "pass_photons", set_long, OPTF(pass_photons), 1, 1e9, "a whole number from 1 to 1e9",
+     M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--pass-alpha", NULL, "pass_alpha", set_double, OPTF(pass_alpha), 0, 1, "a number above 0 and at most 1", M_PDS,
+     C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--debug", NULL, "debug", set_debug, 0, 0, 0, "footprint", M_PDS, C_RENDER, F_VALUE},
     {"--k", NULL, "k", set_int, OPTF(k), 1, 1000000, "a whole number from 1 to 1000000", M_PM, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
@@ -1054,7 +1072,13 @@ static void format_params(const pds_options *o, char *buf, size_t n)
     char d[32];
     buf[0] = '\0';
     switch (o->method) {
-    case PDS_METHOD_PDS: snprintf(buf, n, " smoothing=%g", o->smoothing); break;
+    case PDS_METHOD_PDS:
+        if (o->progressive)
+            snprintf(buf, n, " progressive=1 smoothing=%g pass_photons=%ld pass_alpha=%g", o->smoothing,
+                     o->pass_photons, o->pass_alpha);
+        else
+            snprintf(buf, n, " smoothing=%g", o->smoothing);
+        break;
     case PDS_METHOD_PM:
         snprintf(buf, n, " k=%d kernel=%s max_radius=%s", o->k, kernel_name(o->kernel),
                  distance_text(o->max_radius, "none", d, sizeof d));

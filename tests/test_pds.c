@@ -335,6 +335,12 @@ static void progressive_small_passes(pds_options *o)
     o->pass_photons = 2048;
 }
 
+static void progressive_small_passes_3000(pds_options *o)
+{
+    o->progressive = 1;
+    o->pass_photons = 3000;
+}
+
 /* Progressive PDS converges: with a fixed seed its error against the
    analytic caustic falls at every eightfold step of the photon count, to
    well below the paper's fixed-s PDS at the same count (whose noise stops
@@ -362,10 +368,44 @@ static void test_progressive_pds_error_falls_as_photons_are_added(pds_test_ctx *
     CHECK(t, err[3] < 0.5 * fixed, "progressive %g, fixed s %g at %ld photons", err[3], fixed, counts[3]);
 }
 
+
+static void progressive_quarter_second(pds_options *o)
+{
+    o->progressive = 1;
+    o->pass_photons = 3000;
+    o->time_s = 0.25;
+}
+
+/* Under a time budget progressive PDS runs whole passes: the photon count
+   is a multiple of the pass size, and each pass is the same photons as
+   without a budget (the image of a budget that ran K passes equals the
+   image of K passes' photons). */
+static void test_progressive_pds_under_a_time_budget_runs_whole_passes(pds_test_ctx *t)
+{
+    pds_image timed = {0, 0, NULL}, counted = {0, 0, NULL};
+    pds_render_stats st, st2;
+    size_t i, n;
+    double worst = 0.0;
+    REQUIRE(t, photon_render_text(mirror_scene, PDS_METHOD_PDS, 100000, 3.0, PDS_PATHS_CAUSTICS_ONLY, 2, &timed, &st,
+                                  progressive_quarter_second),
+            "render");
+    CHECK(t, st.passes >= 1 && st.photons == 3000L * st.passes, "%d passes, %ld photons", st.passes, st.photons);
+    REQUIRE(t, photon_render_text(mirror_scene, PDS_METHOD_PDS, 3000L * st.passes, 3.0, PDS_PATHS_CAUSTICS_ONLY, 1,
+                                  &counted, &st2, progressive_small_passes_3000),
+            "render");
+    n = (size_t)timed.width * timed.height * 3;
+    for (i = 0; i < n; i++) worst = fmax(worst, fabs(timed.rgb[i] - counted.rgb[i]));
+    CHECK(t, st2.passes == st.passes && worst == 0.0, "%d and %d passes, largest difference %g", st.passes, st2.passes,
+          worst);
+    pds_image_free(&timed);
+    pds_image_free(&counted);
+}
+
 static const pds_test_case tests_pds[] = {
     {"progressive_pds_schedule_shrinks_footprint_areas_as_i_to_alpha_minus_1",
      test_progressive_pds_schedule_shrinks_footprint_areas_as_i_to_alpha_minus_1},
     {"progressive_pds_error_falls_as_photons_are_added", test_progressive_pds_error_falls_as_photons_are_added},
+    {"progressive_pds_under_a_time_budget_runs_whole_passes", test_progressive_pds_under_a_time_budget_runs_whole_passes},
     {"pds_footprint_widening_keeps_the_major_axis", test_pds_footprint_widening_keeps_the_major_axis},
     {"pds_footprint_widening_conserves_the_caustic_light", test_pds_footprint_widening_conserves_the_caustic_light},
     {"pds_plane_mirror_reflects_the_mirrored_point_light", test_pds_plane_mirror_reflects_the_mirrored_point_light},
