@@ -9632,6 +9632,19 @@ static void *pds__photon_worker(void *arg)
    (min_aspect) widens each footprint to a fixed fraction of its major
    axis, which shrinks with the passes too, so it stays consistent. */
 
+/* Trace photons index_offset .. index_offset + job->n_total - 1 on the
+   threads (one pass of progressive PDS or of ppm). */
+static void pds__photon_run(pds__photon_job *job, int threads, long index_offset)
+{
+    job->index_offset = index_offset;
+    job->next_batch = job->batches_done = 0;
+    job->stop = 0;
+    job->next_buf = 0;
+    pthread_mutex_init(&job->lock, NULL);
+    pds__run_threads(threads, pds__photon_worker, job);
+    pthread_mutex_destroy(&job->lock);
+}
+
 /* s_i of pass i (from 1). */
 static double pds__pass_smoothing(double s1, double alpha, long pass)
 {
@@ -9661,13 +9674,7 @@ static long pds__pds_passes(pds__photon_job *job, const pds_options *opt, int th
         double t = pds_time_now();
         if (deadline > 0.0 && k > 0 && t + t_pass > deadline) break;
         job->smoothing = pds__pass_smoothing(opt->smoothing, opt->pass_alpha, k + 1);
-        job->index_offset = k * m;
-        job->next_batch = job->batches_done = 0;
-        job->stop = 0;
-        job->next_buf = 0;
-        pthread_mutex_init(&job->lock, NULL);
-        pds__run_threads(threads, pds__photon_worker, job);
-        pthread_mutex_destroy(&job->lock);
+        pds__photon_run(job, threads, k * m);
         t_pass = pds_time_now() - t;
         if (job->progress) {
             double frac = deadline > 0.0 ? (pds_time_now() - job->t0) / (deadline - job->t0) : (k + 1.0) / k_max;
@@ -10193,13 +10200,7 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
     for (i = 0; i < nv; i++) state[i].r2 = r0 * r0;
     for (pass = 0; !st; pass++) {
         long this_pass;
-        job->index_offset = pass * (long)opt->photons;
-        job->next_batch = job->batches_done = 0;
-        job->stop = 0;
-        job->next_buf = 0;
-        pthread_mutex_init(&job->lock, NULL);
-        pds__run_threads(threads, pds__photon_worker, job);
-        pthread_mutex_destroy(&job->lock);
+        pds__photon_run(job, threads, pass * (long)opt->photons);
         this_pass = job->batches_done * (long)PDS__PHOTON_BATCH;
         emitted += this_pass < job->n_total ? this_pass : job->n_total;
         for (t = 0; t < job->nbufs; t++)

@@ -45,19 +45,22 @@ static pds__v3 floor_point(double h, double fov_deg, int width, int x, int y)
 /* A vertical mirror at x = 1 and a point light at (0, 1, 0): the caustic on
    the floor is the light of the mirrored source at (2, 1, 0) times the
    mirror's reflectance, E = R P / (4 pi) cos / d^2 with cos = 1 / d. */
+/* A point light at (0, 1, 0) and a mirror in the plane x = 1: the floor
+   sees the light mirrored at (2, 1, 0). */
+static const char mirror_scene[] =
+    "camera { position 0 2 0.000001 look_at 0 0 0 up 0 0 -1 fov 30 resolution 24 24 spp 16 }\n"
+    "material floor diffuse { albedo 0.5 }\n"
+    "material glass mirror { reflectance 0.9 }\n"
+    "quad { material floor size 8 8 }\n"
+    "quad { material glass size 3 3 rotate 90 0 0 1 translate 1 1.5 0 }\n"
+    "light point { position 0 1 0 power 100 }\n";
+
 static void test_pds_plane_mirror_reflects_the_mirrored_point_light(pds_test_ctx *t)
 {
-    static const char text[] =
-        "camera { position 0 2 0.000001 look_at 0 0 0 up 0 0 -1 fov 30 resolution 24 24 spp 16 }\n"
-        "material floor diffuse { albedo 0.5 }\n"
-        "material glass mirror { reflectance 0.9 }\n"
-        "quad { material floor size 8 8 }\n"
-        "quad { material glass size 3 3 rotate 90 0 0 1 translate 1 1.5 0 }\n"
-        "light point { position 0 1 0 power 100 }\n";
     pds_image img = {0, 0, NULL};
     int x, y, bad = 0, n = 0;
     double worst = 0.0;
-    REQUIRE(t, pds_render_text(text, 400000, 20.0, PDS_PATHS_CAUSTICS_ONLY, 2, &img, NULL), "render");
+    REQUIRE(t, pds_render_text(mirror_scene, 400000, 20.0, PDS_PATHS_CAUSTICS_ONLY, 2, &img, NULL), "render");
     for (y = 3; y < 21; y++) {
         for (x = 3; x < 21; x++) {
             pds__v3 p = floor_point(2.0, 30.0, 24, x, y);
@@ -320,14 +323,6 @@ static double mirror_caustic_error(const pds_image *img)
     }
     return sqrt(sum / n);
 }
-
-static const char mirror_scene[] =
-    "camera { position 0 2 0.000001 look_at 0 0 0 up 0 0 -1 fov 30 resolution 24 24 spp 16 }\n"
-    "material floor diffuse { albedo 0.5 }\n"
-    "material glass mirror { reflectance 0.9 }\n"
-    "quad { material floor size 8 8 }\n"
-    "quad { material glass size 3 3 rotate 90 0 0 1 translate 1 1.5 0 }\n"
-    "light point { position 0 1 0 power 100 }\n";
 
 static void progressive_small_passes(pds_options *o)
 {
