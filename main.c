@@ -78,6 +78,7 @@ static const command_help help_table[] = {
      "      --progressive           pds: progressive PDS, passes whose footprints shrink so that the\n"
      "                              image converges as photons are added; --smoothing is pass 1's s\n"
      "      --pass-photons N        progressive pds: photons per pass, at most (default 16384)\n"
+     "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"
      "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
      "      --debug footprint       pds: also write OUT.footprint.png, footprint anisotropy (red = needle)\n"
      "      --k N                   pm: photons per density estimate (default 50)\n"
@@ -869,6 +870,8 @@ static const opt_spec option_table[] = {
     {"--min-aspect", NULL, "min_aspect", set_double, OPTF(min_aspect), 0, 1, "a number from 0 to 1", M_PDS | M_PDM,
      C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--progressive", NULL, "progressive", set_progressive, 0, 0, 0, "", M_PDS, C_ALL, 0},
+    {"--min-width", NULL, "min_width", set_double, OPTF(min_width), 0, 1e6, "a number from 0 to 1e6", M_PDS, C_ALL,
+     F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--pass-photons", NULL, "pass_photons", set_long, OPTF(pass_photons), 1, 1e9, "a whole number from 1 to 1e9",
      M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--pass-alpha", NULL, "pass_alpha", set_double, OPTF(pass_alpha), 0, 1, "a number above 0 and at most 1", M_PDS,
@@ -1093,6 +1096,10 @@ static void format_params(const pds_options *o, char *buf, size_t n)
     if ((o->method == PDS_METHOD_PDS || o->method == PDS_METHOD_PDM) && o->min_aspect > 0.0) {
         size_t used = strlen(buf);
         snprintf(buf + used, n - used, " min_aspect=%g", o->min_aspect);
+    }
+    if (o->method == PDS_METHOD_PDS && o->min_width > 0.0) {
+        size_t used = strlen(buf);
+        snprintf(buf + used, n - used, " min_width=%g", o->min_width);
     }
 }
 

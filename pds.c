@@ -7279,22 +7279,33 @@ static double pds__footprint_major_axis(pds__v3 dpdu, pds__v3 dpdv)
    to A). If |B| < min_aspect |A|, B is lengthened to min_aspect |A| (along
    np x A if it has collapsed) and the differentials replaced by 2A, 2B:
    the same ellipse, only wider. Returns 1 when it changed them. */
-static int pds__footprint_widen(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double min_aspect)
+/* The same with a floor on both semi-axes: at least min_width (scene
+   units) each, besides the minor one's min_aspect times the major. */
+static int pds__footprint_widen_to(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double min_aspect, double min_width)
 {
     pds__v3 a = pds__scale(*dpdu, 0.5), b = pds__scale(*dpdv, 0.5), A, B, dir;
     double aa = pds__dot(a, a), bb = pds__dot(b, b), ab = pds__dot(a, b), t = 0.5 * atan2(2.0 * ab, aa - bb);
-    double la, lb;
-    if (!(min_aspect > 0.0)) return 0;
+    double la, lb, want_a, want_b;
+    if (!(min_aspect > 0.0) && !(min_width > 0.0)) return 0;
     A = pds__add(pds__scale(a, cos(t)), pds__scale(b, sin(t)));
     B = pds__add(pds__scale(a, -sin(t)), pds__scale(b, cos(t)));
     la = pds__length(A);
     lb = pds__length(B);
-    if (!(la > 0.0) || !isfinite(la) || !isfinite(lb) || lb >= min_aspect * la) return 0;
+    if (!(la > 0.0) || !isfinite(la) || !isfinite(lb)) return 0;
+    want_a = fmax(la, min_width);
+    want_b = fmax(min_aspect * want_a, min_width);
+    if (lb >= want_b && la >= want_a) return 0;
+    if (want_b > want_a) want_b = want_a;
     dir = lb > 1e-12 * la ? pds__scale(B, 1.0 / lb) : pds__cross(np, pds__scale(A, 1.0 / la));
     if (!(pds__length(dir) > 0.5)) return 0; /* A along np: nothing sensible to do */
-    *dpdu = pds__scale(A, 2.0);
-    *dpdv = pds__scale(pds__normalize(dir), 2.0 * min_aspect * la);
+    *dpdu = pds__scale(A, 2.0 * want_a / la);
+    *dpdv = pds__scale(pds__normalize(dir), 2.0 * fmax(lb, want_b));
     return 1;
+}
+
+static int pds__footprint_widen(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double min_aspect)
+{
+    return pds__footprint_widen_to(dpdu, dpdv, np, min_aspect, 0.0);
 }
 
 /* Anisotropy metric m_a of appendix B: with Dmax / Dmin the longer /
@@ -9299,6 +9310,9 @@ typedef struct pds__photon_job {
     uint64_t seed;
     double smoothing, plane_tolerance, eps;
     double min_aspect;         /* pds, pdm: footprint widening (0 = off) */
+    double min_width;          /* pds: widen to this many eye-sample spacings (0 = off) */
+    pds__v3 eye;               /* camera position */
+    double sample_angle;       /* angle between neighbouring eye samples */
     int max_depth;
     double n_planned;          /* photon count for eqs. 5-6 */
     long n_total;              /* photons to emit (upper bound in time mode) */
@@ -9396,9 +9410,19 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
             sc.M[1][k] = pds__v3_get(t2, k) / major;
         }
     } else {
-        if (job->min_aspect > 0.0) {
+        if (job->min_aspect > 0.0 || job->min_width > 0.0) {
+            /* the spacing of the eye samples where the photon landed, seen
+               straight from the camera: distance times the angle between
+               samples, stretched by the tilt (the geometric mean of the
+               two directions' spacings) */
+            double width = 0.0;
+            if (job->min_width > 0.0) {
+                pds__v3 to_eye = pds__sub(job->eye, r->p);
+                double d = pds__length(to_eye), c = d > 0.0 ? fabs(pds__dot(to_eye, sc.np)) / d : 1.0;
+                width = job->min_width * d * job->sample_angle / sqrt(fmax(c, 0.05));
+            }
             wide = *r;
-            if (pds__footprint_widen(&wide.dpdu, &wide.dpdv, sc.np, job->min_aspect)) r = &wide;
+            if (pds__footprint_widen_to(&wide.dpdu, &wide.dpdv, sc.np, job->min_aspect, width)) r = &wide;
         }
         ap = pds__footprint_area(r->dpdu, r->dpdv);
         if (!(ap > 0.0) || !isfinite(ap) || !pds__filter_matrix(r->dpdu, r->dpdv, sc.np, sc.M)) {
@@ -10358,6 +10382,10 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.smoothing = opt->smoothing;
     job.plane_tolerance = opt->plane_tolerance;
     job.min_aspect = opt->min_aspect;
+    job.min_width = opt->method == PDS_METHOD_PDS ? opt->min_width : 0.0;
+    job.eye = pds__v(s->camera.position.x, s->camera.position.y, s->camera.position.z);
+    job.sample_angle = 2.0 * tan(0.5 * s->camera.fov_deg * PDS__PI / 180.0) / height /
+                       sqrt((double)(opt->spp > 0 ? opt->spp : s->camera.spp > 0 ? s->camera.spp : 1));
     job.eps = 1e-6 * pds__scene_scale(s);
     job.max_depth = opt->photon_depth;
     job.n_total = opt->photons;
@@ -10525,6 +10553,7 @@ void pds_options_default(pds_options *opt)
     opt->progressive = 0;
     opt->pass_photons = 16384;
     opt->pass_alpha = 2.0 / 3.0;
+    opt->min_width = 0.0;
     opt->plane_tolerance = 0.25;
     opt->photon_depth = 16;
     opt->footprint = NULL;
@@ -10581,6 +10610,8 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the passes' alpha must be above 0 and at most 1");
     if (!(opt->plane_tolerance > 0.0) || opt->plane_tolerance > 1e6)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "plane tolerance must be positive");
+    if (!(opt->min_width >= 0.0) || opt->min_width > 1e6)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "minimum width must be between 0 and 1e6");
     if (!(opt->min_aspect >= 0.0) || opt->min_aspect > 1.0)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "minimum aspect must be between 0 and 1");
     if (opt->photon_depth < 1 || opt->photon_depth > 1000)

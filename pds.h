@@ -349,6 +349,11 @@ typedef struct pds_options {
     long pass_photons;  /* progressive pds: photons per pass, at most (default 16384) */
     double pass_alpha;  /* progressive pds: pass i's footprint areas shrink as
                            i^(pass_alpha - 1), in (0, 1] (default 2/3) */
+    double min_width;   /* pds: widen every footprint to semi-axes of at least
+                           this many times the spacing of the eye samples where
+                           it lands (camera distance x the angle between
+                           samples, for the tilt), flux unchanged; 0 = never
+                           (default 0) */
     int photon_depth;   /* most specular bounces a photon follows (default 16) */
     /* baselines */
     int k;              /* pm: photons per estimate (default 50) */

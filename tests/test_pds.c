@@ -267,6 +267,33 @@ static void test_pds_footprint_widening_keeps_the_major_axis(pds_test_ctx *t)
     CHECK_NEAR(t, fabs(v2.z), 2.0 * 0.25 * sqrt(0.5), 1e-12); /* across the surface */
 }
 
+
+/* The width floor (min_width, progressive PDS): both semi-axes at least the
+   floor, a long axis kept, a footprint larger than the floor left alone. */
+static void test_pds_footprint_width_floor_raises_both_semi_axes(pds_test_ctx *t)
+{
+    pds__v3 np = pds__v(0, 1, 0), u2, v2;
+    /* a needle, semi-axes 1 and 0.01: the minor one becomes 0.5 */
+    u2 = pds__v(2.0, 0.0, 0.0);
+    v2 = pds__v(0.0, 0.0, 0.02);
+    REQUIRE(t, pds__footprint_widen_to(&u2, &v2, np, 0.0, 0.5), "a needle is widened");
+    CHECK_NEAR(t, pds__footprint_major_axis(u2, v2), 1.0, 1e-12);
+    CHECK_NEAR(t, pds__footprint_area(u2, v2), PDS__PI * 1.0 * 0.5, 1e-12);
+    /* a tiny round footprint becomes a disc of the floor's radius */
+    u2 = pds__v(0.02, 0.0, 0.0);
+    v2 = pds__v(0.0, 0.0, 0.02);
+    REQUIRE(t, pds__footprint_widen_to(&u2, &v2, np, 0.0, 0.5), "a tiny footprint is widened");
+    CHECK_NEAR(t, pds__footprint_area(u2, v2), PDS__PI * 0.25, 1e-12);
+    /* the aspect floor applies to the widened major axis */
+    u2 = pds__v(0.02, 0.0, 0.0);
+    v2 = pds__v(0.0, 0.0, 0.001);
+    REQUIRE(t, pds__footprint_widen_to(&u2, &v2, np, 0.3, 0.5), "widened");
+    CHECK_NEAR(t, pds__footprint_area(u2, v2), PDS__PI * 0.5 * 0.5, 1e-12);
+    u2 = pds__v(2.0, 0.0, 0.0);
+    v2 = pds__v(0.0, 0.0, 1.6);
+    CHECK(t, !pds__footprint_widen_to(&u2, &v2, np, 0.3, 0.5), "a large round footprint is left alone");
+}
+
 static void min_aspect_03(pds_options *o) { o->min_aspect = 0.3; }
 
 /* Widening moves light only sideways within each footprint: the sphere's
@@ -397,6 +424,7 @@ static void test_progressive_pds_under_a_time_budget_runs_whole_passes(pds_test_
 }
 
 static const pds_test_case tests_pds[] = {
+    {"pds_footprint_width_floor_raises_both_semi_axes", test_pds_footprint_width_floor_raises_both_semi_axes},
     {"progressive_pds_schedule_shrinks_footprint_areas_as_i_to_alpha_minus_1",
      test_progressive_pds_schedule_shrinks_footprint_areas_as_i_to_alpha_minus_1},
     {"progressive_pds_error_falls_as_photons_are_added", test_progressive_pds_error_falls_as_photons_are_added},
