@@ -6782,25 +6782,18 @@ static pds_status pds__scene_parse(pds_scene *s, const char *path, const char *s
     return PDS_OK;
 }
 
-pds_status pds_scene_load(const char *path, pds_scene **out, pds_error *err)
+/* Parse scene text (size bytes, NUL-terminated) named path, and build. */
+static pds_status pds__scene_from_text(const char *path, const char *src, size_t size, pds_scene **out,
+                                       pds_error *err)
 {
-    char *src = NULL;
-    size_t size = 0;
     pds_scene *s;
-    pds_status st;
-    if (!path || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_scene_load: NULL argument");
-    *out = NULL;
-    if ((st = pds__read_file(path, PDS_MAX_TEXT_BYTES, "scene file", &src, &size, err))) return st;
-    st = pds__check_lines(path, src, size, err);
+    pds_status st = pds__check_lines(path, src, size, err);
     if (!st && memchr(src, '\0', size))
         st = pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "not a text file (contains a NUL byte)");
+    if (st) return st;
     s = pds__scene_new(path);
-    if (!s) {
-        free(src);
-        return pds__nomem(err);
-    }
-    if (!st) st = pds__scene_parse(s, path, src, err);
-    free(src);
+    if (!s) return pds__nomem(err);
+    st = pds__scene_parse(s, path, src, err);
     if (!st) st = pds__scene_finish(s, err);
     if (st) {
         pds_scene_free(s);
@@ -6808,6 +6801,32 @@ pds_status pds_scene_load(const char *path, pds_scene **out, pds_error *err)
     }
     *out = s;
     return PDS_OK;
+}
+
+pds_status pds_scene_load(const char *path, pds_scene **out, pds_error *err)
+{
+    char *src = NULL;
+    size_t size = 0;
+    pds_status st;
+    if (!path || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_scene_load: NULL argument");
+    *out = NULL;
+    if ((st = pds__read_file(path, PDS_MAX_TEXT_BYTES, "scene file", &src, &size, err))) return st;
+    st = pds__scene_from_text(path, src, size, out, err);
+    free(src);
+    return st;
+}
+
+pds_status pds_scene_load_string(const char *text, const char *name, pds_scene **out, pds_error *err)
+{
+    size_t size;
+    if (!text || !name || !out)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_scene_load_string: NULL argument");
+    *out = NULL;
+    size = strlen(text);
+    if (size > (size_t)PDS_MAX_TEXT_BYTES)
+        return pds__fail(err, PDS_ERR_LIMIT, name, 0, 0, "%.0f bytes is larger than the limit of %.0f bytes for a scene",
+                         (double)size, (double)PDS_MAX_TEXT_BYTES);
+    return pds__scene_from_text(name, text, size, out, err);
 }
 
 /* A camera that sees the whole box from +z (and a little above), at the

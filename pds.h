@@ -180,6 +180,10 @@ typedef struct pds_scene pds_scene; /* opaque; immutable once loaded */
 
 /* Load a scene file (format in README.md) and build its BVH. */
 pds_status pds_scene_load(const char *path, pds_scene **out, pds_error *err);
+/* The same from scene text in memory: `name` stands for the file in error
+   messages ("name:LINE:COLUMN: ...") and relative mesh paths are taken
+   from name's directory, as for a file of that name. */
+pds_status pds_scene_load_string(const char *text, const char *name, pds_scene **out, pds_error *err);
 /* Load a bare Wavefront OBJ (with its MTL files) as a scene with a default
    camera looking at its bounds, and build its BVH. */
 pds_status pds_scene_load_obj(const char *path, pds_scene **out, pds_error *err);

@@ -264,6 +264,31 @@ static void test_obj_mtllib_of_several_files_survives_multi_word_newmtl(pds_test
     remove(b);
 }
 
+
+/* Scene text from memory: the same scene as from a file, errors naming the
+   virtual file, meshes found beside it. */
+static void test_scene_loads_from_a_string_with_a_virtual_file_name(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = NULL;
+    pds_scene_info info;
+    CHECK(t, pds_scene_load_string("quad { size 2 2 }\nlight point { position 0 1 0 power 1 }\n", "mem.scene", &s, &err) ==
+                 PDS_OK,
+          "load: %s", err.text);
+    if (s) {
+        pds_scene_get_info(s, &info);
+        CHECK(t, info.triangles == 2 && info.lights == 1, "%ld triangles, %d lights", info.triangles, info.lights);
+        pds_scene_free(s);
+    }
+    s = NULL;
+    CHECK(t, pds_scene_load_string("quad { size 2 2 }\nsphere { radius -1 }\n", "virtual/mem.scene", &s, &err) ==
+                 PDS_ERR_PARSE && !strncmp(err.text, "virtual/mem.scene:2:", 20),
+          "error: %s", err.text);
+    CHECK(t, pds_scene_load_string("mesh \"octahedron.obj\" {}\n", "scenes/virtual.scene", &s, &err) == PDS_OK,
+          "mesh beside the virtual file: %s", err.text);
+    pds_scene_free(s);
+}
+
 static const pds_test_case tests_limits[] = {
     {"readers_refuse_fifos_devices_and_directories", test_readers_refuse_fifos_devices_and_directories},
     {"readers_refuse_files_past_their_size_limit_before_reading",
@@ -275,6 +300,7 @@ static const pds_test_case tests_limits[] = {
     {"mtl_illum_out_of_range_is_refused_before_conversion", test_mtl_illum_out_of_range_is_refused_before_conversion},
     {"scene_with_the_most_materials_loads_and_finds_each", test_scene_with_the_most_materials_loads_and_finds_each},
     {"obj_mtllib_of_several_files_survives_multi_word_newmtl", test_obj_mtllib_of_several_files_survives_multi_word_newmtl},
+    {"scene_loads_from_a_string_with_a_virtual_file_name", test_scene_loads_from_a_string_with_a_virtual_file_name},
     {"render_memory_estimate_bounds_the_render_and_refuses_too_much",
      test_render_memory_estimate_bounds_the_render_and_refuses_too_much},
 };
