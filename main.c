@@ -832,12 +832,13 @@ static int set_paths(const opt_spec *s, run_cfg *c, const char *shown, const cha
     return 0;
 }
 
+/* --progressive, or in race's --methods pds:progressive=1 (or =0). */
 static int set_progressive(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
     (void)s;
-    (void)shown;
-    (void)v;
-    c->opt.progressive = 1;
+    if (v && strcmp(v, "0") != 0 && strcmp(v, "1") != 0)
+        return usage_error("%s takes 0 or 1, got '%s'", shown, v);
+    c->opt.progressive = !v || v[0] == '1';
     return 0;
 }
 
@@ -869,7 +870,7 @@ static const opt_spec option_table[] = {
      M_PDS | M_PDM | M_SPLAT, C_ALL, F_VALUE | F_LO_OPEN | F_PER_METHOD},
     {"--min-aspect", NULL, "min_aspect", set_double, OPTF(min_aspect), 0, 1, "a number from 0 to 1", M_PDS | M_PDM,
      C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
-    {"--progressive", NULL, "progressive", set_progressive, 0, 0, 0, "", M_PDS, C_ALL, 0},
+    {"--progressive", NULL, "progressive", set_progressive, 0, 0, 0, "", M_PDS, C_ALL, F_PER_METHOD},
     {"--min-width", NULL, "min_width", set_double, OPTF(min_width), 0, 1e6, "a number from 0 to 1e6", M_PDS, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--pass-photons", NULL, "pass_photons", set_long, OPTF(pass_photons), 1, 1e9, "a whole number from 1 to 1e9",
