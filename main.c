@@ -70,13 +70,17 @@ static const command_help help_table[] = {
      "                              pdm (photon differential mapping), splat (fixed-radius photon\n"
      "                              splatting), ppm (progressive photon mapping)\n"
      "      --photons N             photon methods: caustic photons (default 100000; ppm: per pass)\n"
-     "      --smoothing S           pds, pdm: the footprints' smoothing parameter s (default 12; 5..40)\n"
+     "      --smoothing S           pdm, and pds: the paper's fixed-s PDS with smoothing s (default 12;\n"
+     "                              5..40); as --min-aspect and --min-width, it turns progressive PDS off\n"
      "      --plane-tolerance F     pds, pdm, splat: ignore eye vertices farther than F x the footprint's\n"
      "                              major semi-axis from the photon's tangent plane (default 0.25)\n"
      "      --min-aspect A          pds, pdm: widen needle footprints to at least A x their length\n"
      "                              (default 0: never, as in the paper; try 0.1-0.3 with many photons)\n"
-     "      --progressive           pds: progressive PDS, passes whose footprints shrink so that the\n"
-     "                              image converges as photons are added; --smoothing is pass 1's s\n"
+     "      --progressive           pds: progressive PDS (the default): passes whose footprints shrink so\n"
+     "                              that the image converges as photons are added\n"
+     "      --pass-smoothing S      progressive pds: the first pass's s (default 2)\n"
+     "      --pass-min-aspect A     progressive pds: as --min-aspect (default 0.15)\n"
+     "      --pass-min-width W      progressive pds: as --min-width (default 1.5)\n"
      "      --pass-photons N        progressive pds: photons per pass, at most (default 16384)\n"
      "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"
      "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
@@ -734,6 +738,19 @@ static int set_long(const opt_spec *s, run_cfg *c, const char *shown, const char
     return 0;
 }
 
+static int set_double(const opt_spec *s, run_cfg *c, const char *shown, const char *v);
+static int option_given(const run_cfg *c, const char *name);
+
+/* --smoothing, --min-aspect and --min-width are the paper's PDS's own
+   parameters: giving one selects it (the fixed-s method), unless
+   --progressive was given before. */
+static int set_paper_double(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    int r = set_double(s, c, shown, v);
+    if (!r && !option_given(c, "--progressive")) c->opt.progressive = 0;
+    return r;
+}
+
 static int set_double(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
     double d;
@@ -864,15 +881,21 @@ static const opt_spec option_table[] = {
     {"--method", NULL, "method", set_method, 0, 0, 0, "a method name", M_ALL, C_RENDER | C_SWEEP, F_VALUE},
     {"--photons", NULL, "photons", set_long, OPTF(photons), 0, -1, "a whole number of 0 or more", M_PHOTON, C_ALL,
      F_VALUE | F_SWEEP},
-    {"--smoothing", NULL, "smoothing", set_double, OPTF(smoothing), 0, 1e6, "a positive number", M_PDS | M_PDM, C_ALL,
+    {"--smoothing", NULL, "smoothing", set_paper_double, OPTF(smoothing), 0, 1e6, "a positive number", M_PDS | M_PDM, C_ALL,
      F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--plane-tolerance", NULL, "plane_tolerance", set_double, OPTF(plane_tolerance), 0, 1e6, "a positive number",
      M_PDS | M_PDM | M_SPLAT, C_ALL, F_VALUE | F_LO_OPEN | F_PER_METHOD},
-    {"--min-aspect", NULL, "min_aspect", set_double, OPTF(min_aspect), 0, 1, "a number from 0 to 1", M_PDS | M_PDM,
+    {"--min-aspect", NULL, "min_aspect", set_paper_double, OPTF(min_aspect), 0, 1, "a number from 0 to 1", M_PDS | M_PDM,
      C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--progressive", NULL, "progressive", set_progressive, 0, 0, 0, "", M_PDS, C_ALL, F_PER_METHOD},
-    {"--min-width", NULL, "min_width", set_double, OPTF(min_width), 0, 1e6, "a number from 0 to 1e6", M_PDS, C_ALL,
+    {"--min-width", NULL, "min_width", set_paper_double, OPTF(min_width), 0, 1e6, "a number from 0 to 1e6", M_PDS, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--pass-smoothing", NULL, "pass_smoothing", set_double, OPTF(pass_smoothing), 0, 1e6, "a positive number", M_PDS,
+     C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
+    {"--pass-min-aspect", NULL, "pass_min_aspect", set_double, OPTF(pass_min_aspect), 0, 1, "a number from 0 to 1",
+     M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--pass-min-width", NULL, "pass_min_width", set_double, OPTF(pass_min_width), 0, 1e6, "a number from 0 to 1e6",
+     M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--pass-photons", NULL, "pass_photons", set_long, OPTF(pass_photons), 1, 1e9, "a whole number from 1 to 1e9",
      M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--pass-alpha", NULL, "pass_alpha", set_double, OPTF(pass_alpha), 0, 1, "a number above 0 and at most 1", M_PDS,
@@ -1078,8 +1101,9 @@ static void format_params(const pds_options *o, char *buf, size_t n)
     switch (o->method) {
     case PDS_METHOD_PDS:
         if (o->progressive)
-            snprintf(buf, n, " progressive=1 smoothing=%g pass_photons=%ld pass_alpha=%g", o->smoothing,
-                     o->pass_photons, o->pass_alpha);
+            snprintf(buf, n, " progressive=1 pass_smoothing=%g pass_photons=%ld pass_alpha=%g pass_min_aspect=%g"
+                     " pass_min_width=%g", o->pass_smoothing, o->pass_photons, o->pass_alpha, o->pass_min_aspect,
+                     o->pass_min_width);
         else
             snprintf(buf, n, " smoothing=%g", o->smoothing);
         break;
@@ -1094,11 +1118,11 @@ static void format_params(const pds_options *o, char *buf, size_t n)
         break;
     default: break;
     }
-    if ((o->method == PDS_METHOD_PDS || o->method == PDS_METHOD_PDM) && o->min_aspect > 0.0) {
+    if (((o->method == PDS_METHOD_PDS && !o->progressive) || o->method == PDS_METHOD_PDM) && o->min_aspect > 0.0) {
         size_t used = strlen(buf);
         snprintf(buf + used, n - used, " min_aspect=%g", o->min_aspect);
     }
-    if (o->method == PDS_METHOD_PDS && o->min_width > 0.0) {
+    if (o->method == PDS_METHOD_PDS && !o->progressive && o->min_width > 0.0) {
         size_t used = strlen(buf);
         snprintf(buf + used, n - used, " min_width=%g", o->min_width);
     }
@@ -2621,6 +2645,7 @@ static void html_figure(sbuf *b, const char *src, const char *alt, const char *c
    grid follows the scene's scale. */
 typedef struct tune_grid {
     pds_method method;
+    int progressive; /* pds: the grid for progressive (1) or the paper's PDS (0); -1 any */
     const char *key; /* the option without its dashes */
     int n;
     double v[8];
@@ -2628,12 +2653,13 @@ typedef struct tune_grid {
 } tune_grid;
 
 static const tune_grid tune_grids[] = {
-    {PDS_METHOD_PDS, "smoothing", 6, {4, 6, 8, 12, 16, 24}, 0},
-    {PDS_METHOD_PDM, "smoothing", 6, {4, 6, 8, 12, 16, 24}, 0},
-    {PDS_METHOD_PM, "k", 5, {10, 20, 40, 80, 160}, 0},
-    {PDS_METHOD_SPLAT, "radius", 5, {1, 2, 4, 8, 16}, 1},
-    {PDS_METHOD_PPM, "radius", 5, {1, 2, 4, 8, 16}, 1},
-    {PDS_METHOD_PPM, "alpha", 3, {0.5, 0.7, 0.9}, 0},
+    {PDS_METHOD_PDS, 0, "smoothing", 6, {4, 6, 8, 12, 16, 24}, 0},
+    {PDS_METHOD_PDS, 1, "pass-smoothing", 5, {1, 1.5, 2, 3, 4}, 0},
+    {PDS_METHOD_PDM, -1, "smoothing", 6, {4, 6, 8, 12, 16, 24}, 0},
+    {PDS_METHOD_PM, -1, "k", 5, {10, 20, 40, 80, 160}, 0},
+    {PDS_METHOD_SPLAT, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
+    {PDS_METHOD_PPM, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
+    {PDS_METHOD_PPM, -1, "alpha", 3, {0.5, 0.7, 0.9}, 0},
 };
 #define N_TUNE_GRIDS (sizeof tune_grids / sizeof tune_grids[0])
 
@@ -2677,6 +2703,7 @@ static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_
         char name[64];
         int idx, i, best = -1, first = log->n;
         if (tg->method != t->cfg.opt.method) continue;
+        if (tg->progressive >= 0 && tg->progressive != (t->cfg.opt.progressive != 0)) continue;
         snprintf(name, sizeof name, "--%s", tg->key);
         idx = option_index(name);
         if (idx < 0 || (t->cfg.given & (1ul << idx))) continue; /* given: kept as it is */

@@ -9716,7 +9716,7 @@ static long pds__pds_passes(pds__photon_job *job, const pds_options *opt, int th
     for (k = 0; k < k_max; k++) {
         double t = pds_time_now();
         if (deadline > 0.0 && k > 0 && t + t_pass > deadline) break;
-        job->smoothing = pds__pass_smoothing(opt->smoothing, opt->pass_alpha, k + 1);
+        job->smoothing = pds__pass_smoothing(opt->pass_smoothing, opt->pass_alpha, k + 1);
         pds__photon_run(job, threads, k * m);
         t_pass = pds_time_now() - t;
         if (job->progress) {
@@ -10400,8 +10400,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.seed = opt->seed;
     job.smoothing = opt->smoothing;
     job.plane_tolerance = opt->plane_tolerance;
-    job.min_aspect = opt->min_aspect;
-    job.min_width = opt->method == PDS_METHOD_PDS ? opt->min_width : 0.0;
+    job.min_aspect = progressive ? opt->pass_min_aspect : opt->min_aspect;
+    job.min_width = progressive ? opt->pass_min_width : opt->method == PDS_METHOD_PDS ? opt->min_width : 0.0;
     job.eye = pds__v(s->camera.position.x, s->camera.position.y, s->camera.position.z);
     job.sample_angle = 2.0 * tan(0.5 * s->camera.fov_deg * PDS__PI / 180.0) / height /
                        sqrt((double)(opt->spp > 0 ? opt->spp : s->camera.spp > 0 ? s->camera.spp : 1));
@@ -10569,9 +10569,12 @@ void pds_options_default(pds_options *opt)
     opt->progress_user = NULL;
     opt->photons = 100000;
     opt->smoothing = 12.0;
-    opt->progressive = 0;
+    opt->progressive = 1;
     opt->pass_photons = 16384;
     opt->pass_alpha = 2.0 / 3.0;
+    opt->pass_smoothing = 2.0;
+    opt->pass_min_aspect = 0.15;
+    opt->pass_min_width = 1.5;
     opt->min_width = 0.0;
     opt->plane_tolerance = 0.25;
     opt->photon_depth = 16;
@@ -10629,6 +10632,11 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the passes' alpha must be above 0 and at most 1");
     if (!(opt->plane_tolerance > 0.0) || opt->plane_tolerance > 1e6)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "plane tolerance must be positive");
+    if (!(opt->pass_smoothing > 0.0) || opt->pass_smoothing > 1e6)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the first pass's smoothing must be positive");
+    if (!(opt->pass_min_aspect >= 0.0) || opt->pass_min_aspect > 1.0 || !(opt->pass_min_width >= 0.0) ||
+        opt->pass_min_width > 1e6)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the passes' widening must be 0..1 (aspect), 0..1e6 (width)");
     if (!(opt->min_width >= 0.0) || opt->min_width > 1e6)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "minimum width must be between 0 and 1e6");
     if (!(opt->min_aspect >= 0.0) || opt->min_aspect > 1.0)

@@ -333,8 +333,9 @@ typedef struct pds_options {
     long photons;       /* caustic photons to emit (default 100000); with
                            time_s > 0, the photon pass emits batches until the
                            time is spent instead */
-    double smoothing;   /* PDS smoothing parameter s of eqs. 5-6 (default 12;
-                           the paper used 5 to 40) */
+    double smoothing;   /* the paper's PDS (progressive 0) and pdm: smoothing
+                           parameter s of eqs. 5-6 (default 12; the paper used
+                           5 to 40) */
     double plane_tolerance; /* PDS topological-bias guard: eye vertices farther
                            than this times the footprint's major semi-axis from
                            the photon's tangent plane get nothing (default 0.25) */
@@ -346,13 +347,18 @@ typedef struct pds_options {
                            vertices with huge weights. */
     int progressive;    /* pds: 1 = progressive PDS: passes of at most
                            pass_photons photons, pass i splatting with
-                           smoothing s_i = smoothing * i^((pass_alpha - 1)/2),
-                           the image their mean, which converges as photons
-                           are added; 0 = the paper's one pass with a fixed s
-                           (default 0) */
+                           s_i = pass_smoothing * i^((pass_alpha - 1)/2),
+                           footprints widened by pass_min_aspect and
+                           pass_min_width, the image their mean, which
+                           converges as photons are added; 0 = the paper's
+                           one pass with smoothing, min_aspect and min_width
+                           (default 1) */
     long pass_photons;  /* progressive pds: photons per pass, at most (default 16384) */
     double pass_alpha;  /* progressive pds: pass i's footprint areas shrink as
                            i^(pass_alpha - 1), in (0, 1] (default 2/3) */
+    double pass_smoothing; /* progressive pds: s_1 of the first pass (default 2) */
+    double pass_min_aspect; /* progressive pds: as min_aspect (default 0.15) */
+    double pass_min_width;  /* progressive pds: as min_width (default 1.5) */
     double min_width;   /* pds: widen every footprint to semi-axes of at least
                            this many times the spacing of the eye samples where
                            it lands (camera distance x the angle between

@@ -282,7 +282,7 @@ static void test_harness_race_writes_every_image_its_index_shows(pds_test_ctx *t
     CHECK(t, HARNESS_STARTS(lines[0], "race method=pt label=pt photons=0 spp=1 rmse="), "%s", lines[0]);
     CHECK(t, HARNESS_STARTS(lines[1], "race method=pt label=pt-spp8 photons=0 spp=8 rmse="), "%s", lines[1]);
     /* without caustic paths the photon methods have nothing to emit */
-    CHECK(t, HARNESS_STARTS(lines[2], "race method=pds label=pds photons=0 spp=1 smoothing=12 rmse="), "%s", lines[2]);
+    CHECK(t, HARNESS_STARTS(lines[2], "race method=pds label=pds photons=0 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 rmse="), "%s", lines[2]);
     CHECK(t, harness_value(lines[1], "rmse") < harness_value(lines[0], "rmse"), "8 spp beat 1 spp: %s / %s",
           lines[1], lines[0]);
     last = cli_last_line(out);
@@ -297,7 +297,7 @@ static void test_harness_race_writes_every_image_its_index_shows(pds_test_ctx *t
                                  "time_eye_s,time_photons_s,time_map_s,time_gather_s,map_bytes,diff_scale,budget_flag\n"),
           "header: %s", csv);
     CHECK(t, strstr(csv, "\npt,pt,1000,0,1,1,,,") && strstr(csv, "\npt,pt-spp8,1000,0,8,1,,,") &&
-                 strstr(csv, "\npds,pds,1000,0,1,1,smoothing=12,,"),
+                 strstr(csv, "\npds,pds,1000,0,1,0,progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5,,"),
           "rows: %s", csv);
     CHECK(t, harness_count(csv, ",ok\n") == 3, "a photon budget is met exactly: %s", csv);
     free(csv);
@@ -454,7 +454,7 @@ static void test_harness_race_region_of_interest_is_the_most_varied_window(pds_t
              "race tests/golden/glass.scene --ref %s --photons 200 --methods pds --res 128x96 --spp 1 --quiet -o %s",
              ref, dir);
     REQUIRE(t, cli_run(args, out, sizeof out) == 0, "race failed: %s", out);
-    CHECK(t, strstr(out, "race method=pds label=pds photons=200 spp=1 smoothing=12 rmse=") != NULL, "%s", out);
+    CHECK(t, strstr(out, "race method=pds label=pds photons=200 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 rmse=") != NULL, "%s", out);
     last = cli_last_line(out);
     CHECK(t, strstr(last, " roi=40,0,64,64") != NULL, "final line: %s", last);
     snprintf(path, sizeof path, "%s/ref-crop.png", dir);
@@ -489,7 +489,7 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
         {"sweep S --param spp", "sweep needs --values A,B,..."},
         {"sweep S --param spp --values 1,2", "sweep needs --ref REFERENCE.pfm"},
         {"sweep S --param foo --values 1 --ref R",
-         "--param knows photons, smoothing, min-aspect, min-width, pass-photons, pass-alpha, k, max-photons, radius, alpha, passes and spp, got 'foo'"},
+         "--param knows photons, smoothing, min-aspect, min-width, pass-smoothing, pass-min-aspect, pass-min-width, pass-photons, pass-alpha, k, max-photons, radius, alpha, passes and spp, got 'foo'"},
         {"sweep S --param k --values 1 --ref R", "--param k has no effect with --method pds (k is for pm)"},
         {"sweep S --method pt --param spp --values 1,,4 --ref R",
          "--values needs a comma-separated list of values, got '1,,4'"},
@@ -616,23 +616,23 @@ static void test_harness_race_flags_a_missed_time_budget(pds_test_ctx *t)
     harness_path(dir, sizeof dir, "race_miss");
     harness_rmtree(dir);
     /* 5 ms: the eye pass of 32x24 x 64 samples alone takes longer, and pt's
-       one pass of 256 samples too; pds gets no time for photons */
+       one pass of 256 samples too; the paper's pds gets no time for photons */
     snprintf(args, sizeof args,
-             "race tests/golden/glass.scene --ref %s --time 0.005 --methods pds,pt:spp=256 --res 32x24 --spp 64 "
+             "race tests/golden/glass.scene --ref %s --time 0.005 --methods pds:progressive=0,pt:spp=256 --res 32x24 --spp 64 "
              "--caustics-only --quiet -o %s",
              ref, dir);
     REQUIRE(t, cli_run_split(args, out, sizeof out, err, sizeof err) == 0, "race failed: %s%s", out, err);
     last = cli_last_line(out);
     CHECK(t, strstr(last, " budgets=1 flagged=2") != NULL, "final line: %s", last);
-    CHECK(t, strstr(err, "pds race: warning: pds took ") && strstr(err, "pds race: warning: pt-spp256 took ") &&
+    CHECK(t, strstr(err, "pds race: warning: pds-progressive0 took ") && strstr(err, "pds race: warning: pt-spp256 took ") &&
                  strstr(err, "of its 0.005 s budget (+") && strstr(err, "more than 25% off, not an equal-time result"),
           "stderr: %s", err);
-    CHECK(t, strstr(err, "pds race: warning: pds emitted ") != NULL, "few photons on stderr: %s", err);
+    CHECK(t, strstr(err, "pds race: warning: pds-progressive0 emitted ") != NULL, "few photons on stderr: %s", err);
     snprintf(path, sizeof path, "%s/race.csv", dir);
     csv = harness_slurp(path, NULL);
     REQUIRE(t, csv != NULL, "no %s", path);
     CHECK(t, strstr(csv, ",budget_s,") != NULL, "header names the budget's unit: %s", csv);
-    harness_csv_field(csv, "pds,pds,", 17, field, sizeof field);
+    harness_csv_field(csv, "pds,pds-progressive0,", 17, field, sizeof field);
     CHECK(t, !strcmp(field, "over-time+few-photons"), "pds flag '%s': %s", field, csv);
     harness_csv_field(csv, "pt,pt-spp256,", 17, field, sizeof field);
     CHECK(t, !strcmp(field, "over-time"), "pt flag '%s': %s", field, csv);
@@ -652,8 +652,10 @@ static void test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_
 {
     static const char *const methods[3] = {"pds", "pm", "ppm"};
     static const char *const labels[3] = {"pds", "pm", "ppm-alpha0.7"};
-    static const char *const keys[3] = {"smoothing", "k", "radius"};
-    static const int grid[3] = {6, 5, 5};
+    /* pds is progressive by default: its grid is the first pass's s */
+    static const char *const keys[3] = {"pass-smoothing", "k", "radius"};
+    static const char *const param_keys[3] = {"pass_smoothing", "k", "radius"};
+    static const int grid[3] = {5, 5, 5};
     char out[16384], args[1024], ref[256], dir[256], path[512], lines[8][512];
     char *csv, *tune, *html;
     int i, n;
@@ -667,7 +669,7 @@ static void test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_
     REQUIRE(t, cli_run_split(args, out, sizeof out, NULL, 0) == 0, "race failed: %s", out);
     n = harness_lines(out, "race method=", lines, 8);
     REQUIRE(t, n == 4, "one line per method: %s", out);
-    CHECK(t, strstr(lines[0], " tuned=smoothing") && strstr(lines[1], " tuned=k") && strstr(lines[2], " tuned=radius") &&
+    CHECK(t, strstr(lines[0], " tuned=pass-smoothing") && strstr(lines[1], " tuned=k") && strstr(lines[2], " tuned=radius") &&
                  !strstr(lines[2], "tuned=radius+") && !strstr(lines[3], " tuned="),
           "tuned parameters: %s", out);
     CHECK(t, strstr(lines[3], " k=30 ") != NULL, "a value given in --methods is kept: %s", lines[3]);
@@ -678,8 +680,8 @@ static void test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_
     REQUIRE(t, tune && csv, "tune.csv and race.csv written");
     CHECK(t, HARNESS_STARTS(tune, "label,method,budget_photons,param,value,seed,rmse,ssim,time_s,photons,chosen\n"),
           "tune.csv header: %s", tune);
-    /* pds: 6 smoothings, pm: 5 k, ppm: 5 radii (alpha given), pm:k=30 none */
-    CHECK(t, harness_count(tune, "\n") == 1 + 6 + 5 + 5, "rows: %s", tune);
+    /* pds: 5 first-pass smoothings, pm: 5 k, ppm: 5 radii (alpha given), pm:k=30 none */
+    CHECK(t, harness_count(tune, "\n") == 1 + 5 + 5 + 5, "rows: %s", tune);
     CHECK(t, strstr(tune, "pm-k30") == NULL && strstr(tune, ",alpha,") == NULL, "given values are not tuned");
     for (i = 0; i < 3; i++) {
         char prefix[64], want[128], field[128], best_value[32] = "";
@@ -710,7 +712,7 @@ static void test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_
         snprintf(prefix, sizeof prefix, "%s,%s,", methods[i], labels[i]);
         harness_csv_field(csv, prefix, 7, field, sizeof field);
         CHECK(t, !strcmp(field, want), "%s: tuned '%s', want '%s'", labels[i], field, want);
-        snprintf(want, sizeof want, " %s=%s", keys[i], best_value);
+        snprintf(want, sizeof want, " %s=%s", param_keys[i], best_value);
         CHECK(t, strstr(lines[i], want) != NULL, "%s rendered with %s: %s", labels[i], want, lines[i]);
     }
     snprintf(path, sizeof path, "%s/index.html", dir);

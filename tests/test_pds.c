@@ -12,6 +12,7 @@ static int photon_render_text(const char *text, pds_method method, long photons,
     opt.method = method;
     opt.photons = photons;
     opt.smoothing = s;
+    opt.progressive = 0; /* s is the paper's fixed smoothing; a tweak may turn passes on */
     opt.paths = paths;
     opt.threads = threads;
     if (tweak) tweak(&opt);
@@ -355,12 +356,16 @@ static void progressive_small_passes(pds_options *o)
 {
     o->progressive = 1;
     o->pass_photons = 2048;
+    o->pass_smoothing = 3.0;
+    o->pass_min_aspect = o->pass_min_width = 0.0; /* the analytic caustic needs no widening */
 }
 
 static void progressive_small_passes_3000(pds_options *o)
 {
     o->progressive = 1;
     o->pass_photons = 3000;
+    o->pass_smoothing = 3.0;
+    o->pass_min_aspect = o->pass_min_width = 0.0; /* the analytic caustic needs no widening */
 }
 
 /* Progressive PDS converges: with a fixed seed its error against the
@@ -393,8 +398,7 @@ static void test_progressive_pds_error_falls_as_photons_are_added(pds_test_ctx *
 
 static void progressive_quarter_second(pds_options *o)
 {
-    o->progressive = 1;
-    o->pass_photons = 3000;
+    progressive_small_passes_3000(o);
     o->time_s = 0.25;
 }
 
