@@ -5,7 +5,8 @@
    Table of contents (grep for the tag); each section uses only those
    above it:
      >>config     feature macros, includes, limits
-     >>util       status strings, error reporting, growable arrays, files, time
+     >>util       status strings, error reporting, growable arrays, bounded
+                  file reading, string map, exact order-free sums, time
      >>math       3-vectors in double precision, orthonormal bases, transforms
      >>mesh       the triangle store every shape ends up in; material table
      >>rng        counter-based random numbers: f(seed, purpose, index, dim)
@@ -809,8 +810,8 @@ static double pds__halton(uint64_t seed, uint64_t index, int dim)
 /* Wavefront OBJ and MTL loader: appends the polygons of one OBJ file (with
    the materials of its MTL libraries) to a pds__mesh.
 
-   Format facts: REFERENCE.md section 8 and the Wavefront "Object Files
-   (.obj)" appendix of the Advanced Visualizer manual.
+   Format facts: the Wavefront "Object Files (.obj)" and "Material Library
+   Files (.mtl)" appendices of the Advanced Visualizer manual.
 
    Reading (one pass over the file, kept in memory whole):
    - Statements are whitespace-separated tokens; `#` at the start of a token
@@ -4031,7 +4032,8 @@ static int pds__bvh_occluded(const pds__bvh *bvh, pds__v3 org, pds__v3 dir, doub
      absorption. That loses a little energy on smooth-shaded meshes but
      never leaks light through a surface.
 
-   Formulas (REFERENCE.md sections 1 and 7; pbrt-v3 for the same equations):
+   Formulas (Born and Wolf's Fresnel equations as Pharr, Jakob and Humphreys,
+   "Physically Based Rendering", 3rd ed., sect. 8.2, write them):
    - Dielectric Fresnel, exact and unpolarised, from Snell's law:
      r_par = (nt ci - ni ct)/(nt ci + ni ct), r_perp = (ni ci - nt ct)/(ni ci
      + nt ct), R = (r_par^2 + r_perp^2)/2; sin t >= 1 is total internal
@@ -6980,8 +6982,8 @@ int pds_scene_occluded(const pds_scene *s, const pds_ray *ray)
 /* Photon differentials (Frisvad, Schjoth, Erleben, Sporring, "Photon
    Differential Splatting for Rendering Caustics", CGF 2014, sections
    3.1-3.3 and appendices A-B) on top of Igehy's ray differentials
-   ("Tracing Ray Differentials", SIGGRAPH 1999). REFERENCE.md sections 1-2
-   hold every formula used here.
+   ("Tracing Ray Differentials", SIGGRAPH 1999); every formula below is
+   from those two papers, cited by equation at its function.
 
    A photon carries two ray differentials, one per footprint axis:
        pair u = (Du x + Dtheta x, Dtheta omega),  pair v = (Dv x + Dphi x, Dphi omega).
