@@ -899,6 +899,10 @@ typedef struct pds__obj_stats {
                                   default_material */
     char ignored_example[640]; /* "FILE:LINE:COL: 'kw'" of the first
                                   unknown statement, "" if none */
+    long missing_mtl;          /* mtllib files that do not exist (their
+                                  materials fall back to the default) */
+    char missing_example[640]; /* "FILE:LINE:COL: 'x.mtl' (looked for ...)"
+                                  of the first, "" if none */
 } pds__obj_stats;
 
 /* ---------------------------------------------------------------- lexing */
@@ -1460,9 +1464,13 @@ static pds_status pds__obj_mtllib(pds__obj_state *s, pds__obj_lexer *lx)
             st = pds__obj_err(s, &t, "material library path is too long");
         else if (pds__names_find(&s->mtl_loaded, full, strlen(full)) >= 0)
             continue;
-        else if ((e = pds__input_file_check(full)) == ENOENT)
-            st = pds__obj_err(s, &t, "material library '%s' not found (looked for %s)", name, full);
-        else if (e)
+        else if ((e = pds__input_file_check(full)) == ENOENT) {
+            /* downloads often lack their .mtl: warn and go on, as other
+               importers do (its usemtl names then take the default) */
+            if (s->st->missing_mtl++ == 0)
+                snprintf(s->st->missing_example, sizeof s->st->missing_example, "%.200s:%d:%d: '%.100s' (looked for %.300s)",
+                         s->path, t.line, t.col, name, full);
+        } else if (e)
             st = pds__obj_err(s, &t, "cannot read material library %s: %s", full, pds__input_file_problem(e));
         else if (!pds__names_put(&s->mtl_loaded, full, strlen(full), 1))
             st = pds__nomem(s->err);
@@ -5685,6 +5693,9 @@ static void pds__scene_warn_obj(pds_scene *s, const char *path, const pds__obj_s
     if (st->ignored_statements)
         pds__scene_warn(s, "%s: %ld unknown statements ignored (first: %s)", path, st->ignored_statements,
                         st->ignored_example);
+    if (st->missing_mtl)
+        pds__scene_warn(s, "%s: %ld material libraries not found, first %s; their materials use the default", path,
+                        st->missing_mtl, st->missing_example);
     if (st->unknown_materials)
         pds__scene_warn(s, "%s: %ld material names not found in its MTL files; they use the default material", path,
                         st->unknown_materials);
