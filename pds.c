@@ -899,6 +899,8 @@ typedef struct pds__obj_stats {
                                   default_material */
     char ignored_example[640]; /* "FILE:LINE:COL: 'kw'" of the first
                                   unknown statement, "" if none */
+    long bad_references;       /* vt or vn indices out of range, dropped */
+    char bad_example[320];     /* "FILE:LINE:COL: normal index 9 of 4" */
     long missing_mtl;          /* mtllib files that do not exist (their
                                   materials fall back to the default) */
     char missing_example[640]; /* "FILE:LINE:COL: 'x.mtl' (looked for ...)"
@@ -2081,7 +2083,7 @@ static pds_status pds__obj_index(pds__obj_state *s, const pds__obj_token *at, lo
    fields allowed) into a position index and a normal index (-1: none). */
 static pds_status pds__obj_corner(pds__obj_state *s, const pds__obj_token *t, int *p, int *nrm)
 {
-    int field = 0, i = 0, dummy;
+    int field = 0, i = 0;
     pds_status st;
     *nrm = -1;
     while (field < 3) {
@@ -2092,9 +2094,22 @@ static pds_status pds__obj_corner(pds__obj_state *s, const pds__obj_token *t, in
         if (used == 0 && field == 0) break; /* malformed */
         if (used > 0) {
             if (field == 0) st = pds__obj_index(s, &at, raw, s->npos, "face", "vertex", "vertices", p);
-            else if (field == 1) st = pds__obj_index(s, &at, raw, (size_t)s->ntex, "texture coordinate",
-                                                     "texture coordinate", "texture coordinates", &dummy);
-            else st = pds__obj_index(s, &at, raw, s->nnrm, "normal", "normal", "normals", nrm);
+            else {
+                /* a vt or vn index out of range is dropped with a warning
+                   (the normal is then computed), as other importers do:
+                   only the position is needed to read the face */
+                size_t count = field == 1 ? (size_t)s->ntex : s->nnrm;
+                long long r = raw > 0 ? raw - 1 : (long long)count + raw;
+                st = PDS_OK;
+                if (raw == 0 || r < 0 || r >= (long long)count) {
+                    if (s->st->bad_references++ == 0)
+                        snprintf(s->st->bad_example, sizeof s->st->bad_example,
+                                 "%.200s:%d:%d: %s index %lld of %lu", s->path, at.line, at.col,
+                                 field == 1 ? "texture coordinate" : "normal", raw, (unsigned long)count);
+                } else if (field == 2) {
+                    *nrm = (int)r;
+                }
+            }
             if (st != PDS_OK) return st;
             i += used;
         }
@@ -5693,6 +5708,9 @@ static void pds__scene_warn_obj(pds_scene *s, const char *path, const pds__obj_s
     if (st->ignored_statements)
         pds__scene_warn(s, "%s: %ld unknown statements ignored (first: %s)", path, st->ignored_statements,
                         st->ignored_example);
+    if (st->bad_references)
+        pds__scene_warn(s, "%s: %ld texture-coordinate or normal indices out of range were dropped (first: %s); "
+                        "those corners get computed normals", path, st->bad_references, st->bad_example);
     if (st->missing_mtl)
         pds__scene_warn(s, "%s: %ld material libraries not found, first %s; their materials use the default", path,
                         st->missing_mtl, st->missing_example);

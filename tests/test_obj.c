@@ -641,10 +641,6 @@ static void test_obj_errors_word_for_word(pds_test_ctx *t)
                       PDS_ERR_PARSE, "9:7: face index 9 is out of range: 8 vertices defined so far");
     tobj_expect_error(t, "e_neg.obj", "v 0 0 0\nf -1 -2 -3\n", PDS_ERR_PARSE,
                       "2:6: face index -2 is out of range: 1 vertex defined so far");
-    tobj_expect_error(t, "e_nrange.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3/ \\\n 1/2\n",
-                      PDS_ERR_PARSE, "6:4: texture coordinate index 2 is out of range: 0 texture coordinates defined so far");
-    tobj_expect_error(t, "e_vn.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//2\n", PDS_ERR_PARSE,
-                      "5:16: normal index 2 is out of range: 1 normal defined so far");
     tobj_expect_error(t, "e_num.obj", "v 1 2 x\n", PDS_ERR_PARSE, "1:7: expected a number for 'v', got 'x'");
     tobj_expect_error(t, "e_nan.obj", "v 0 0 0\r\nvn 0 nan 1\n", PDS_ERR_PARSE, "2:6: 'nan' is not a finite number");
     tobj_expect_error(t, "e_inf.obj", "v 0 1e999 0\n", PDS_ERR_PARSE, "1:5: '1e999' is not a finite number");
@@ -655,6 +651,25 @@ static void test_obj_errors_word_for_word(pds_test_ctx *t)
                       "2:5: expected a vertex index like 7, 7/2, 7//3 or 7/2/3, got '1/x'");
     tobj_expect_error(t, "e_s.obj", "s maybe\n", PDS_ERR_PARSE,
                       "1:3: expected a smoothing group number or 'off' for 's', got 'maybe'");
+
+    /* vt and vn indices out of range are dropped with a warning (the
+       corner's normal is computed), as other importers do */
+    {
+        static const char *const texts[2] = {"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3/ \\\n 1/2\n",
+                                             "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//2\n"};
+        static const char *const names[2] = {"w_vt.obj", "w_vn.obj"};
+        static const char *const where[2] = {":6:4: texture coordinate index 2 of 0", ":5:16: normal index 2 of 1"};
+        int k;
+        for (k = 0; k < 2; k++) {
+            tobj_init(&f);
+            CHECK(t, tobj_load_text(&f, names[k], texts[k], path, sizeof path) == PDS_OK && f.mesh.ntris == 1,
+                  "%s: %s", names[k], f.err.text);
+            CHECK(t, f.stats.bad_references == 1 && strstr(f.stats.bad_example, where[k]) != NULL, "%s: %ld, '%s'",
+                  names[k], f.stats.bad_references, f.stats.bad_example);
+            remove(path);
+            tobj_done(&f);
+        }
+    }
 
     /* a missing mtllib is a warning (downloads often lack their .mtl): the
        OBJ loads, its usemtl takes the default, and the warning names the
