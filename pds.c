@@ -10586,7 +10586,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
 void pds_options_default(pds_options *opt)
 {
     memset(opt, 0, sizeof *opt);
-    opt->method = PDS_METHOD_PT;
+    opt->method = PDS_METHOD_PDS;
     opt->paths = PDS_PATHS_ALL;
     opt->width = 0;
     opt->height = 0;

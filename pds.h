@@ -316,7 +316,7 @@ typedef enum pds_paths {
 typedef void (*pds_progress_fn)(void *user, double fraction, double elapsed_s);
 
 typedef struct pds_options {
-    pds_method method;  /* default PDS_METHOD_PT */
+    pds_method method;  /* default PDS_METHOD_PDS (as the pds tool's) */
     pds_paths paths;    /* default PDS_PATHS_ALL */
     int width, height;  /* 0 = the scene camera's resolution (default 0) */
     int spp;            /* samples per pixel per pass; 0 = the scene camera's (default 0) */

@@ -186,6 +186,7 @@ static void test_pt_delta_light_caustics_are_left_to_photons(pds_test_ctx *t)
     pds_options opt;
     pds_image img = {0, 0, NULL};
     pds_options_default(&opt);
+    opt.method = PDS_METHOD_PT;
     opt.paths = PDS_PATHS_CAUSTICS_ONLY;
     REQUIRE(t, render_text(text, &opt, &img, NULL), "render");
     CHECK(t, image_mean(&img, 0) == 0.0 && image_mean(&img, 2) == 0.0, "a path tracer finds no point-light caustic");
@@ -198,6 +199,7 @@ static void test_pt_time_budget_renders_whole_passes(pds_test_ctx *t)
     pds_image img = {0, 0, NULL}, ref = {0, 0, NULL};
     pds_render_stats st;
     pds_options_default(&opt);
+    opt.method = PDS_METHOD_PT;
     opt.spp = 1;
     opt.time_s = 0.3;
     REQUIRE(t, render_text(glass_sphere_scene, &opt, &img, &st), "timed render");
