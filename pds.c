@@ -5790,6 +5790,7 @@ typedef struct pds__parser {
     const char *p;        /* read position */
     int line, col;        /* of *p */
     pds__token tok;       /* current token */
+    pds__token brace;     /* the '{' of the block being read (blocks do not nest) */
     pds_scene *scene;
     pds_error *err;
 } pds__parser;
@@ -6047,6 +6048,7 @@ static pds_status pds__expect_lbrace(pds__parser *P, const char *what)
     if (st) return st;
     if (P->tok.kind != PDS__TOK_LBRACE)
         return pds__perr(P, &P->tok, PDS_ERR_PARSE, "expected '{' after %s, got '%s'", what, P->tok.text);
+    P->brace = P->tok;
     return PDS_OK;
 }
 
@@ -6057,16 +6059,23 @@ static int pds__block_next(pds__parser *P, const char *what, pds_status *st)
     if (*st) return 0;
     if (P->tok.kind == PDS__TOK_RBRACE) return 0;
     if (P->tok.kind == PDS__TOK_WORD) return 1;
-    if (P->tok.kind == PDS__TOK_END)
-        *st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "missing '}' at the end of %s", what);
+    if (P->tok.kind == PDS__TOK_END) /* point at the brace left open, not at the end of the file */
+        *st = pds__perr(P, &P->brace, PDS_ERR_PARSE, "this '{' of %s is never closed: the file ends first", what);
     else
         *st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "expected a keyword in %s, got '%s'", what, P->tok.text);
     return 0;
 }
 
+static int pds__is_shape_kind(const char *w);
+
 static pds_status pds__unknown_key(pds__parser *P, const char *what)
 {
-    return pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown keyword '%s' in %s", P->tok.text, what);
+    const char *w = P->tok.text;
+    if (!strcmp(w, "camera") || !strcmp(w, "material") || !strcmp(w, "light") || pds__is_shape_kind(w))
+        /* a statement inside a block: the block's '}' is most likely missing */
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' starts a statement, but %s opened at %d:%d is not closed "
+                         "(a '}' missing?)", w, what, P->brace.line, P->brace.col);
+    return pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown keyword '%s' in %s", w, what);
 }
 
 /* --- camera ------------------------------------------------------------- */

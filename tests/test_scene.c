@@ -134,7 +134,11 @@ static void test_scene_errors_name_file_line_column_word_for_word(pds_test_ctx *
          "FILE:1:43: 'direction' must not be a zero-length vector", PDS_ERR_PARSE},
         {"sphere { segments 100000 }", "FILE:1:19: 'segments' must be at most 4096, got 100000", PDS_ERR_LIMIT},
         {"sphere { radius -1 }", "FILE:1:17: 'radius' must be positive, got -1", PDS_ERR_PARSE},
-        {"sphere { radius 1 ", "FILE:1:19: missing '}' at the end of the sphere block", PDS_ERR_PARSE},
+        {"sphere { radius 1 ", "FILE:1:8: this '{' of the sphere block is never closed: the file ends first",
+         PDS_ERR_PARSE},
+        {"material m diffuse {\n albedo 0.5\n\nquad { }\n",
+         "FILE:4:1: 'quad' starts a statement, but the diffuse material block opened at 1:20 is not closed (a '}' "
+         "missing?)", PDS_ERR_PARSE},
         {"sphere { colour 1 }", "FILE:1:10: unknown keyword 'colour' in the sphere block", PDS_ERR_PARSE},
         {"material a diffuse { }\nmaterial a mirror { }", "FILE:2:10: material 'a' is defined twice", PDS_ERR_PARSE},
         {"camera { }\ncamera { }", "FILE:2:1: the scene has two cameras", PDS_ERR_PARSE},
