@@ -5791,6 +5791,9 @@ typedef struct pds__parser {
     int line, col;        /* of *p */
     pds__token tok;       /* current token */
     pds__token brace;     /* the '{' of the block being read (blocks do not nest) */
+    const char *keys[48]; /* the keys the block's reader tried for the current
+                             key, in order: the ones valid here (for "did you mean") */
+    int nkeys;
     pds_scene *scene;
     pds_error *err;
 } pds__parser;
@@ -6058,6 +6061,7 @@ static int pds__block_next(pds__parser *P, const char *what, pds_status *st)
     *st = pds__lex_next(P);
     if (*st) return 0;
     if (P->tok.kind == PDS__TOK_RBRACE) return 0;
+    P->nkeys = 0;
     if (P->tok.kind == PDS__TOK_WORD) return 1;
     if (P->tok.kind == PDS__TOK_END) /* point at the brace left open, not at the end of the file */
         *st = pds__perr(P, &P->brace, PDS_ERR_PARSE, "this '{' of %s is never closed: the file ends first", what);
@@ -6066,11 +6070,50 @@ static int pds__block_next(pds__parser *P, const char *what, pds_status *st)
     return 0;
 }
 
+/* Is key `name`? Notes name as a key valid at this point (the readers
+   test a key only where it applies, so the notes are the valid keys). */
+static int pds__key_is(pds__parser *P, const char *key, const char *name)
+{
+    if (P->nkeys < (int)(sizeof P->keys / sizeof P->keys[0])) P->keys[P->nkeys++] = name;
+    return strcmp(key, name) == 0;
+}
+
+/* Levenshtein distance of a and b (each at most 63 characters; longer
+   counts as far). */
+static int pds__edit_distance(const char *a, const char *b)
+{
+    int row[64], i, j, la = (int)strlen(a), lb = (int)strlen(b);
+    if (la > 63 || lb > 63) return 64;
+    for (j = 0; j <= lb; j++) row[j] = j;
+    for (i = 1; i <= la; i++) {
+        int diag = row[0];
+        row[0] = i;
+        for (j = 1; j <= lb; j++) {
+            int up = row[j], best = diag + (a[i - 1] != b[j - 1]);
+            if (up + 1 < best) best = up + 1;
+            if (row[j - 1] + 1 < best) best = row[j - 1] + 1;
+            diag = up;
+            row[j] = best;
+        }
+    }
+    return row[lb];
+}
+
 static int pds__is_shape_kind(const char *w);
 
 static pds_status pds__unknown_key(pds__parser *P, const char *what)
 {
-    const char *w = P->tok.text;
+    const char *w = P->tok.text, *near = NULL;
+    int i, best = 3;
+    for (i = 0; i < P->nkeys; i++) {
+        int d = pds__edit_distance(w, P->keys[i]);
+        if (d < best) {
+            best = d;
+            near = P->keys[i];
+        }
+    }
+    if (near && best <= (strlen(w) > 4 ? 2 : 1))
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown keyword '%s' in %s (did you mean '%s'?)", w, what, near);
     if (!strcmp(w, "camera") || !strcmp(w, "material") || !strcmp(w, "light") || pds__is_shape_kind(w))
         /* a statement inside a block: the block's '}' is most likely missing */
         return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' starts a statement, but %s opened at %d:%d is not closed "
@@ -6091,15 +6134,15 @@ static pds_status pds__parse_camera(pds__parser *P)
         const char *k = P->tok.text;
         char key[64];
         pds__strlcpy(key, k, sizeof key);
-        if (!strcmp(key, "position")) st = pds__p_vec3(P, key, &c->position);
-        else if (!strcmp(key, "look_at")) st = pds__p_vec3(P, key, &c->look_at);
-        else if (!strcmp(key, "up")) st = pds__p_dir(P, key, &c->up);
-        else if (!strcmp(key, "fov")) st = pds__p_number(P, key, &v), c->fov_deg = v;
-        else if (!strcmp(key, "resolution")) {
+        if (pds__key_is(P, key, "position")) st = pds__p_vec3(P, key, &c->position);
+        else if (pds__key_is(P, key, "look_at")) st = pds__p_vec3(P, key, &c->look_at);
+        else if (pds__key_is(P, key, "up")) st = pds__p_dir(P, key, &c->up);
+        else if (pds__key_is(P, key, "fov")) st = pds__p_number(P, key, &v), c->fov_deg = v;
+        else if (pds__key_is(P, key, "resolution")) {
             if (!(st = pds__p_int(P, key, 1, PDS_MAX_RESOLUTION, &c->width)))
                 st = pds__p_int(P, key, 1, PDS_MAX_RESOLUTION, &c->height);
-        } else if (!strcmp(key, "spp")) st = pds__p_int(P, key, 1, PDS_MAX_SPP, &c->spp);
-        else if (!strcmp(key, "filter")) {
+        } else if (pds__key_is(P, key, "spp")) st = pds__p_int(P, key, 1, PDS_MAX_SPP, &c->spp);
+        else if (pds__key_is(P, key, "filter")) {
             char f[32];
             if (!(st = pds__p_word(P, key, f, sizeof f))) {
                 if (!strcmp(f, "box")) c->filter = PDS_FILTER_BOX;
@@ -6108,7 +6151,7 @@ static pds_status pds__parse_camera(pds__parser *P)
             }
         } else st = pds__unknown_key(P, "the camera block");
         if (st) return st;
-        if (!strcmp(key, "fov") && !(c->fov_deg > 0.0 && c->fov_deg < 180.0))
+        if (pds__key_is(P, key, "fov") && !(c->fov_deg > 0.0 && c->fov_deg < 180.0))
             return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'fov' must be between 0 and 180 degrees, got %s", P->tok.text);
     }
     if (st) return st;
@@ -6175,23 +6218,23 @@ static pds_status pds__parse_material(pds__parser *P)
     while (pds__block_next(P, what, &st)) {
         char key[64];
         pds__strlcpy(key, P->tok.text, sizeof key);
-        if (m.type == PDS_MAT_DIFFUSE && !strcmp(key, "albedo")) {
+        if (m.type == PDS_MAT_DIFFUSE && pds__key_is(P, key, "albedo")) {
             if (!(st = pds__p_rgb(P, key, m.albedo)) && (m.albedo[0] > 1 || m.albedo[1] > 1 || m.albedo[2] > 1))
                 st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'albedo' must be at most 1 (energy conservation)");
-        } else if (m.type == PDS_MAT_DIFFUSE && !strcmp(key, "tiles")) {
+        } else if (m.type == PDS_MAT_DIFFUSE && pds__key_is(P, key, "tiles")) {
             /* tiles SIZE GROUT_WIDTH GROUT_ALBEDO */
             if (!(st = pds__p_positive(P, key, &m.tile_size)) && !(st = pds__p_range(P, key, 0.0, m.tile_size, &m.tile_grout)) &&
                 !(st = pds__p_rgb(P, key, m.grout_albedo)) &&
                 (m.grout_albedo[0] > 1 || m.grout_albedo[1] > 1 || m.grout_albedo[2] > 1 || m.grout_albedo[0] < 0 ||
                  m.grout_albedo[1] < 0 || m.grout_albedo[2] < 0))
                 st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "the grout albedo of 'tiles' must be between 0 and 1");
-        } else if (m.type == PDS_MAT_MIRROR && !strcmp(key, "reflectance")) {
+        } else if (m.type == PDS_MAT_MIRROR && pds__key_is(P, key, "reflectance")) {
             if (!(st = pds__p_rgb(P, key, m.reflectance)) &&
                 (m.reflectance[0] > 1 || m.reflectance[1] > 1 || m.reflectance[2] > 1))
                 st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'reflectance' must be at most 1 (energy conservation)");
-        } else if (m.type == PDS_MAT_CONDUCTOR && !strcmp(key, "eta")) st = pds__p_rgb(P, key, m.eta);
-        else if (m.type == PDS_MAT_CONDUCTOR && !strcmp(key, "k")) st = pds__p_rgb(P, key, m.k);
-        else if (m.type == PDS_MAT_CONDUCTOR && !strcmp(key, "preset")) {
+        } else if (m.type == PDS_MAT_CONDUCTOR && pds__key_is(P, key, "eta")) st = pds__p_rgb(P, key, m.eta);
+        else if (m.type == PDS_MAT_CONDUCTOR && pds__key_is(P, key, "k")) st = pds__p_rgb(P, key, m.k);
+        else if (m.type == PDS_MAT_CONDUCTOR && pds__key_is(P, key, "preset")) {
             char pre[32];
             size_t i, n = sizeof pds__metal_presets / sizeof pds__metal_presets[0];
             if (!(st = pds__p_word(P, key, pre, sizeof pre))) {
@@ -6202,20 +6245,20 @@ static pds_status pds__parse_material(pds__parser *P)
                     memcpy(m.k, pds__metal_presets[i].k, sizeof m.k);
                 }
             }
-        } else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "ior")) {
+        } else if (m.type == PDS_MAT_DIELECTRIC && pds__key_is(P, key, "ior")) {
             st = pds__p_range(P, key, 1.0, 10.0, &m.ior);
             have_ior = 1;
-        } else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "absorption")) st = pds__p_rgb(P, key, m.absorption);
-        else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "outside_ior")) st = pds__p_range(P, key, 1.0, 10.0, &m.outside_ior);
-        else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "outside_absorption")) st = pds__p_rgb(P, key, m.outside_absorption);
-        else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "cauchy")) {
+        } else if (m.type == PDS_MAT_DIELECTRIC && pds__key_is(P, key, "absorption")) st = pds__p_rgb(P, key, m.absorption);
+        else if (m.type == PDS_MAT_DIELECTRIC && pds__key_is(P, key, "outside_ior")) st = pds__p_range(P, key, 1.0, 10.0, &m.outside_ior);
+        else if (m.type == PDS_MAT_DIELECTRIC && pds__key_is(P, key, "outside_absorption")) st = pds__p_rgb(P, key, m.outside_absorption);
+        else if (m.type == PDS_MAT_DIELECTRIC && pds__key_is(P, key, "cauchy")) {
             law_tok = P->tok;
             m.dispersion = PDS_DISPERSION_CAUCHY;
             if (!(st = pds__p_range(P, key, 1.0, 10.0, &m.dispersion_coef[0])))
                 st = pds__p_range(P, key, 0.0, 1.0, &m.dispersion_coef[1]);
             /* n at 587.6 nm stands in for ior when none is given */
             if (!st && !have_ior) m.ior = m.dispersion_coef[0] + m.dispersion_coef[1] / (0.5876 * 0.5876);
-        } else if (m.type == PDS_MAT_DIELECTRIC && !strcmp(key, "sellmeier")) {
+        } else if (m.type == PDS_MAT_DIELECTRIC && pds__key_is(P, key, "sellmeier")) {
             int i;
             law_tok = P->tok;
             m.dispersion = PDS_DISPERSION_SELLMEIER;
@@ -6225,7 +6268,7 @@ static pds_status pds__parse_material(pds__parser *P)
                 for (i = 0; i < 3; i++) n2 += m.dispersion_coef[i] * l2 / (l2 - m.dispersion_coef[3 + i]);
                 if (n2 > 1.0) m.ior = sqrt(n2);
             }
-        } else if (m.type == PDS_MAT_EMISSIVE && !strcmp(key, "radiance")) st = pds__p_rgb(P, key, m.radiance);
+        } else if (m.type == PDS_MAT_EMISSIVE && pds__key_is(P, key, "radiance")) st = pds__p_rgb(P, key, m.radiance);
         else st = pds__unknown_key(P, what);
         if (st) return st;
     }
@@ -6281,12 +6324,12 @@ static pds_status pds__parse_light(pds__parser *P)
         char key[64];
         int T = l.type;
         pds__strlcpy(key, P->tok.text, sizeof key);
-        if ((T == PDS_LIGHT_POINT || T == PDS_LIGHT_SPOT) && !strcmp(key, "position")) st = pds__p_vec3(P, key, &l.position);
-        else if ((T == PDS_LIGHT_DISK || T == PDS_LIGHT_QUAD) && !strcmp(key, "center")) st = pds__p_vec3(P, key, &l.position);
-        else if ((T == PDS_LIGHT_SPOT || T == PDS_LIGHT_DIRECTIONAL) && !strcmp(key, "direction")) {
+        if ((T == PDS_LIGHT_POINT || T == PDS_LIGHT_SPOT) && pds__key_is(P, key, "position")) st = pds__p_vec3(P, key, &l.position);
+        else if ((T == PDS_LIGHT_DISK || T == PDS_LIGHT_QUAD) && pds__key_is(P, key, "center")) st = pds__p_vec3(P, key, &l.position);
+        else if ((T == PDS_LIGHT_SPOT || T == PDS_LIGHT_DIRECTIONAL) && pds__key_is(P, key, "direction")) {
             st = pds__p_dir(P, key, &l.direction);
             have_dir = 1;
-        } else if (T == PDS_LIGHT_SPOT && !strcmp(key, "look_at")) {
+        } else if (T == PDS_LIGHT_SPOT && pds__key_is(P, key, "look_at")) {
             pds__v3 at;
             if (!(st = pds__p_vec3(P, key, &at))) {
                 if (!(pds__length(pds__sub(at, l.position)) > 0.0))
@@ -6294,31 +6337,31 @@ static pds_status pds__parse_light(pds__parser *P)
                 else l.direction = pds__normalize(pds__sub(at, l.position));
             }
             have_dir = 1;
-        } else if (T == PDS_LIGHT_SPOT && !strcmp(key, "cone")) {
+        } else if (T == PDS_LIGHT_SPOT && pds__key_is(P, key, "cone")) {
             if (!(st = pds__p_range(P, key, 0.0, 90.0, &l.cone_inner_deg)))
                 st = pds__p_range(P, key, 0.0, 90.0, &l.cone_outer_deg);
             if (!st && !(l.cone_outer_deg > 0.0 && l.cone_inner_deg <= l.cone_outer_deg))
                 st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'cone' needs 0 <= inner <= outer and outer > 0 (degrees)");
-        } else if (T == PDS_LIGHT_DISK && !strcmp(key, "normal")) st = pds__p_dir(P, key, &l.direction);
-        else if (T == PDS_LIGHT_DISK && !strcmp(key, "radius")) st = pds__p_positive(P, key, &l.radius);
-        else if (T == PDS_LIGHT_QUAD && !strcmp(key, "edge1")) st = pds__p_edge(P, key, &l.edge1);
-        else if (T == PDS_LIGHT_QUAD && !strcmp(key, "edge2")) st = pds__p_edge(P, key, &l.edge2);
-        else if (T == PDS_LIGHT_DIRECTIONAL && !strcmp(key, "irradiance")) {
+        } else if (T == PDS_LIGHT_DISK && pds__key_is(P, key, "normal")) st = pds__p_dir(P, key, &l.direction);
+        else if (T == PDS_LIGHT_DISK && pds__key_is(P, key, "radius")) st = pds__p_positive(P, key, &l.radius);
+        else if (T == PDS_LIGHT_QUAD && pds__key_is(P, key, "edge1")) st = pds__p_edge(P, key, &l.edge1);
+        else if (T == PDS_LIGHT_QUAD && pds__key_is(P, key, "edge2")) st = pds__p_edge(P, key, &l.edge2);
+        else if (T == PDS_LIGHT_DIRECTIONAL && pds__key_is(P, key, "irradiance")) {
             st = pds__p_rgb(P, key, l.irradiance);
             have_power = 1;
-        } else if (T == PDS_LIGHT_DIRECTIONAL && !strcmp(key, "disk")) {
+        } else if (T == PDS_LIGHT_DIRECTIONAL && pds__key_is(P, key, "disk")) {
             l.emitter_shape = 0;
             if (!(st = pds__p_vec3(P, key, &l.position))) st = pds__p_positive(P, key, &l.radius);
             have_emitter = 1;
-        } else if (T == PDS_LIGHT_DIRECTIONAL && !strcmp(key, "rect")) {
+        } else if (T == PDS_LIGHT_DIRECTIONAL && pds__key_is(P, key, "rect")) {
             l.emitter_shape = 1;
             if (!(st = pds__p_vec3(P, key, &l.position)) && !(st = pds__p_edge(P, key, &l.edge1)))
                 st = pds__p_edge(P, key, &l.edge2);
             have_emitter = 1;
-        } else if (T != PDS_LIGHT_DIRECTIONAL && !strcmp(key, "power")) {
+        } else if (T != PDS_LIGHT_DIRECTIONAL && pds__key_is(P, key, "power")) {
             st = pds__p_rgb(P, key, l.power);
             have_power = 1;
-        } else if ((T == PDS_LIGHT_DISK || T == PDS_LIGHT_QUAD) && !strcmp(key, "radiance")) {
+        } else if ((T == PDS_LIGHT_DISK || T == PDS_LIGHT_QUAD) && pds__key_is(P, key, "radiance")) {
             st = pds__p_rgb(P, key, l.radiance);
             have_radiance = 1;
         } else st = pds__unknown_key(P, what);
@@ -6426,18 +6469,18 @@ static pds__xform pds__xform_rotate(double angle_deg, pds__v3 axis)
 static int pds__parse_transform_key(pds__parser *P, const char *key, pds__xform *xf, pds_status *st)
 {
     pds__xform op = pds__xform_identity();
-    if (!strcmp(key, "translate")) {
+    if (pds__key_is(P, key, "translate")) {
         pds__v3 t;
         if ((*st = pds__p_vec3(P, key, &t))) return 1;
         op.m[0][3] = t.x;
         op.m[1][3] = t.y;
         op.m[2][3] = t.z;
-    } else if (!strcmp(key, "rotate")) {
+    } else if (pds__key_is(P, key, "rotate")) {
         double angle;
         pds__v3 axis;
         if ((*st = pds__p_number(P, key, &angle)) || (*st = pds__p_dir(P, key, &axis))) return 1;
         op = pds__xform_rotate(angle, axis);
-    } else if (!strcmp(key, "scale")) {
+    } else if (pds__key_is(P, key, "scale")) {
         double s[3];
         int i;
         if ((*st = pds__p_rgb(P, key, s))) return 1; /* one or three numbers */
@@ -6476,10 +6519,10 @@ static pds_status pds__parse_shape_block(pds__parser *P, const char *kind, pds__
         int sweep = !strcmp(kind, "cylinder") || !strcmp(kind, "torus") || !strcmp(kind, "revolve");
         pds__strlcpy(key, P->tok.text, sizeof key);
         if (pds__parse_transform_key(P, key, &d->xf, &st)) {
-        } else if (!strcmp(key, "material")) {
+        } else if (pds__key_is(P, key, "material")) {
             st = pds__p_material_ref(P, key, &d->material);
             d->material_given = 1;
-        } else if (!strcmp(kind, "mesh") && !strcmp(key, "replace")) {
+        } else if (!strcmp(kind, "mesh") && pds__key_is(P, key, "replace")) {
             char from[64];
             int to;
             if ((st = pds__p_word(P, key, from, sizeof from)) || (st = pds__p_material_ref(P, key, &to))) break;
@@ -6488,20 +6531,20 @@ static pds_status pds__parse_shape_block(pds__parser *P, const char *kind, pds__
                 return pds__nomem(P->err);
             pds__strlcpy(d->override_names + 64 * d->noverrides, from, 64);
             d->override_mats[d->noverrides++] = to;
-        } else if ((!strcmp(kind, "sphere") || !strcmp(kind, "disk") || !strcmp(kind, "cylinder")) && !strcmp(key, "radius"))
+        } else if ((!strcmp(kind, "sphere") || !strcmp(kind, "disk") || !strcmp(kind, "cylinder")) && pds__key_is(P, key, "radius"))
             st = pds__p_positive(P, key, &d->radius);
-        else if ((!strcmp(kind, "disk") || !strcmp(kind, "cylinder")) && !strcmp(key, "inner_radius"))
+        else if ((!strcmp(kind, "disk") || !strcmp(kind, "cylinder")) && pds__key_is(P, key, "inner_radius"))
             st = pds__p_range(P, key, 0.0, PDS_MAX_COORD, &d->inner_radius);
-        else if (!strcmp(kind, "cylinder") && !strcmp(key, "height")) st = pds__p_positive(P, key, &d->height);
-        else if (!strcmp(kind, "cylinder") && (!strcmp(key, "open") || !strcmp(key, "closed")))
+        else if (!strcmp(kind, "cylinder") && pds__key_is(P, key, "height")) st = pds__p_positive(P, key, &d->height);
+        else if (!strcmp(kind, "cylinder") && (pds__key_is(P, key, "open") || pds__key_is(P, key, "closed")))
             d->closed = key[0] == 'c';
-        else if (!strcmp(kind, "torus") && !strcmp(key, "major")) st = pds__p_positive(P, key, &d->major);
-        else if (!strcmp(kind, "torus") && !strcmp(key, "minor")) st = pds__p_positive(P, key, &d->minor);
-        else if (sweep && !strcmp(key, "sweep")) {
+        else if (!strcmp(kind, "torus") && pds__key_is(P, key, "major")) st = pds__p_positive(P, key, &d->major);
+        else if (!strcmp(kind, "torus") && pds__key_is(P, key, "minor")) st = pds__p_positive(P, key, &d->minor);
+        else if (sweep && pds__key_is(P, key, "sweep")) {
             st = pds__p_range(P, key, 0.0, 360.0, &d->sweep_deg);
             if (!st && !(d->sweep_deg > 0.0)) st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'sweep' must be positive");
-        } else if (!strcmp(kind, "revolve") && !strcmp(key, "crease")) st = pds__p_range(P, key, 0.0, 180.0, &d->crease_deg);
-        else if (!strcmp(kind, "revolve") && !strcmp(key, "profile")) {
+        } else if (!strcmp(kind, "revolve") && pds__key_is(P, key, "crease")) st = pds__p_range(P, key, 0.0, 180.0, &d->crease_deg);
+        else if (!strcmp(kind, "revolve") && pds__key_is(P, key, "profile")) {
             /* pairs of numbers until the next keyword */
             pds__token key_tok = P->tok;
             d->nprofile = 0;
@@ -6523,21 +6566,21 @@ static pds_status pds__parse_shape_block(pds__parser *P, const char *kind, pds__
             }
             if (d->nprofile < 2)
                 return pds__perr(P, &key_tok, PDS_ERR_PARSE, "'profile' needs at least two points (r y pairs)");
-        } else if (!strcmp(kind, "box") && !strcmp(key, "size")) {
+        } else if (!strcmp(kind, "box") && pds__key_is(P, key, "size")) {
             double s[3];
             if (!(st = pds__p_rgb(P, key, s))) {
                 if (!(s[0] > 0.0 && s[1] > 0.0 && s[2] > 0.0))
                     st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "box 'size' must be positive");
                 d->size = pds__v(s[0], s[1], s[2]);
             }
-        } else if (!strcmp(kind, "quad") && !strcmp(key, "size")) {
+        } else if (!strcmp(kind, "quad") && pds__key_is(P, key, "size")) {
             if (!(st = pds__p_positive(P, key, &d->size.x))) st = pds__p_positive(P, key, &d->size.z);
-        } else if (!strcmp(kind, "heightfield") && !strcmp(key, "size")) {
+        } else if (!strcmp(kind, "heightfield") && pds__key_is(P, key, "size")) {
             if (!(st = pds__p_positive(P, key, &d->size.x))) st = pds__p_positive(P, key, &d->size.z);
-        } else if (!strcmp(kind, "heightfield") && !strcmp(key, "resolution")) {
+        } else if (!strcmp(kind, "heightfield") && pds__key_is(P, key, "resolution")) {
             if (!(st = pds__p_int(P, key, 1, PDS_MAX_TESSELLATION, &d->res_x)))
                 st = pds__p_int(P, key, 1, PDS_MAX_TESSELLATION, &d->res_z);
-        } else if (!strcmp(kind, "heightfield") && !strcmp(key, "wave")) {
+        } else if (!strcmp(kind, "heightfield") && pds__key_is(P, key, "wave")) {
             /* wave AMPLITUDE WAVELENGTH DX DZ [PHASE_DEG] */
             pds__wave *w = &d->waves[d->nwaves];
             pds__token key_tok = P->tok;
@@ -6563,9 +6606,9 @@ static pds_status pds__parse_shape_block(pds__parser *P, const char *kind, pds__
                 }
             }
             d->nwaves++;
-        } else if (!strcmp(key, "segments") && strcmp(kind, "mesh") && strcmp(kind, "box") && strcmp(kind, "heightfield"))
+        } else if (strcmp(kind, "mesh") && strcmp(kind, "box") && strcmp(kind, "heightfield") && pds__key_is(P, key, "segments"))
             st = pds__p_int(P, key, !strcmp(kind, "quad") ? 1 : 3, PDS_MAX_TESSELLATION, &d->segments);
-        else if (!strcmp(key, "rings") && (!strcmp(kind, "sphere") || !strcmp(kind, "torus")))
+        else if ((!strcmp(kind, "sphere") || !strcmp(kind, "torus")) && pds__key_is(P, key, "rings"))
             st = pds__p_int(P, key, !strcmp(kind, "sphere") ? 2 : 3, PDS_MAX_TESSELLATION, &d->rings);
         else
             st = pds__unknown_key(P, what);

@@ -136,6 +136,12 @@ static void test_scene_errors_name_file_line_column_word_for_word(pds_test_ctx *
         {"sphere { radius -1 }", "FILE:1:17: 'radius' must be positive, got -1", PDS_ERR_PARSE},
         {"sphere { radius 1 ", "FILE:1:8: this '{' of the sphere block is never closed: the file ends first",
          PDS_ERR_PARSE},
+        /* near misses get the nearest key valid in that block, and only those */
+        {"material m diffuse { albdo 0.5 }",
+         "FILE:1:22: unknown keyword 'albdo' in the diffuse material block (did you mean 'albedo'?)", PDS_ERR_PARSE},
+        {"light point { positon 0 1 0 power 1 }",
+         "FILE:1:15: unknown keyword 'positon' in the point light block (did you mean 'position'?)", PDS_ERR_PARSE},
+        {"box { segmnts 4 }", "FILE:1:7: unknown keyword 'segmnts' in the box block", PDS_ERR_PARSE},
         {"material m diffuse {\n albedo 0.5\n\nquad { }\n",
          "FILE:4:1: 'quad' starts a statement, but the diffuse material block opened at 1:20 is not closed (a '}' "
          "missing?)", PDS_ERR_PARSE},
