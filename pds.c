@@ -449,6 +449,27 @@ static double pds__sum128_value(pds__sum128 a)
     return (double)a.hi * PDS__TWO64 + (double)a.lo;
 }
 
+/* The output image from the double sums: no output holds NaN or infinity.
+   NaN becomes 0, a value beyond the float range the largest float of its
+   sign; returns how many were replaced. */
+static long pds__finite_floats(const double *in, float *out, size_t n)
+{
+    long replaced = 0;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        double v = in[i];
+        if (v != v) {
+            v = 0.0;
+            replaced++;
+        } else if (fabs(v) > FLT_MAX) {
+            v = v > 0.0 ? FLT_MAX : -FLT_MAX;
+            replaced++;
+        }
+        out[i] = (float)v;
+    }
+    return replaced;
+}
+
 /* Physical memory of this machine in bytes, 0 if the system does not say. */
 static double pds__physical_memory(void)
 {
@@ -10930,19 +10951,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
         pds_image_free(out);
         return st;
     }
-    /* No output holds NaN or infinity: count what would have, write 0 for
-       NaN and the largest float for values beyond it. */
-    for (i = 0; i < npix * 3; i++) {
-        double v = rgb[i];
-        if (v != v) {
-            v = 0.0;
-            stats->nonfinite++;
-        } else if (fabs(v) > FLT_MAX) {
-            v = v > 0.0 ? FLT_MAX : -FLT_MAX;
-            stats->nonfinite++;
-        }
-        out->rgb[i] = (float)v;
-    }
+    stats->nonfinite = pds__finite_floats(rgb, out->rgb, npix * 3);
     free(job.sum);
     if (job.progress) job.progress(job.progress_user, 1.0, pds_time_now() - job.t0);
     stats->time_total_s = pds_time_now() - job.t0;

@@ -52,7 +52,7 @@ static void test_sum128_saturates_and_refuses_what_is_not_a_number(pds_test_ctx 
 {
     pds__sum128 a = {0, 0};
     CHECK(t, pds__sum128_add(&a, -1.0) == PDS__SUM_INVALID, "negative");
-    CHECK(t, pds__sum128_add(&a, 0.0 / 0.0 + 0.0 * (double)a.lo) == PDS__SUM_INVALID, "NaN");
+    CHECK(t, pds__sum128_add(&a, NAN) == PDS__SUM_INVALID, "NaN");
     CHECK(t, pds__sum128_add(&a, HUGE_VAL) == PDS__SUM_INVALID, "infinity");
     CHECK(t, a.lo == 0 && a.hi == 0, "invalid terms add nothing");
     CHECK(t, pds__sum128_add(&a, ldexp(1.0, 127)) == PDS__SUM_SATURATED, "2^127 is past one term's range");
@@ -137,9 +137,29 @@ static void test_images_scale_with_the_light_for_every_method(pds_test_ctx *t)
     }
 }
 
+
+/* No output image holds NaN or infinity: the render's conversion replaces
+   and counts them (NaN -> 0, beyond the float range -> the largest float). */
+static void test_output_images_hold_no_nan_or_infinity(pds_test_ctx *t)
+{
+    double in[6];
+    float out[6];
+    in[0] = 0.5;
+    in[1] = NAN;
+    in[2] = HUGE_VAL;
+    in[3] = -HUGE_VAL;
+    in[4] = 1e39;
+    in[5] = FLT_MAX;
+    CHECK(t, pds__finite_floats(in, out, 6) == 4, "four values replaced");
+    CHECK(t, out[0] == 0.5f && out[1] == 0.0f && out[2] == FLT_MAX && out[3] == -FLT_MAX && out[4] == FLT_MAX &&
+             out[5] == FLT_MAX,
+          "replacements %g %g %g %g %g", out[1], out[2], out[3], out[4], out[5]);
+}
+
 static const pds_test_case tests_exact[] = {
     {"sum128_adds_exactly_and_carries_into_the_high_word", test_sum128_adds_exactly_and_carries_into_the_high_word},
     {"sum128_is_the_same_in_any_order", test_sum128_is_the_same_in_any_order},
     {"sum128_saturates_and_refuses_what_is_not_a_number", test_sum128_saturates_and_refuses_what_is_not_a_number},
     {"images_scale_with_the_light_for_every_method", test_images_scale_with_the_light_for_every_method},
+    {"output_images_hold_no_nan_or_infinity", test_output_images_hold_no_nan_or_infinity},
 };
