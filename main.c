@@ -324,6 +324,12 @@ static const char *suggest_text(const suggestion *s, char *buf, size_t n)
 static volatile char temp_name[TEMP_SLOTS][PATH_MAX_LEN + 32];
 static volatile sig_atomic_t temp_armed[TEMP_SLOTS];
 static volatile sig_atomic_t bar_on_screen; /* a progress bar is drawn on the terminal */
+/* render: the first SIGINT or SIGTERM asks the render to stop after the
+   batch under way (the progress callback passes it on), and render then
+   writes the image and its partial file; a second one ends the process as
+   any signal does. */
+static volatile sig_atomic_t stop_gracefully; /* a render that can stop is running */
+static volatile sig_atomic_t stop_requested;  /* the first signal came */
 
 /* The temporary name the library and write_text() use for path. 0, or -1
    when it does not fit. */
@@ -355,6 +361,15 @@ static void temp_disarm(int slot)
 static void on_fatal_signal(int sig)
 {
     int saved = errno, k;
+    if (stop_gracefully && !stop_requested && (sig == SIGINT || sig == SIGTERM)) {
+        static const char note[] = "\npds render: stopping after the batch under way (a second signal aborts)\n";
+        ssize_t w = write(STDERR_FILENO, note, sizeof note - 1);
+        (void)w;
+        bar_on_screen = 0; /* the note ended the bar's line */
+        stop_requested = 1;
+        errno = saved;
+        return;
+    }
     for (k = 0; k < TEMP_SLOTS; k++) {
         char name[PATH_MAX_LEN + 32];
         size_t i;
@@ -517,6 +532,12 @@ typedef struct progress_state {
     const char *label;         /* "race pm-k50", or NULL */
     double t_moving, f_moving; /* the first report with a fraction above 0 (t < 0: none yet) */
     double t_drawn;            /* when the last line was drawn (< 0: none yet) */
+    int show;                  /* draw it (else the callback only passes a stop on) */
+    int phase;                 /* the pds_phase last reported */
+    double checkpoint_s;       /* render --checkpoint: stop every this many seconds (0: never) */
+    double t_checkpoint;       /* when the last checkpoint was written (or the render began) */
+    int checkpoint_due;        /* the callback asked for a stop to write a checkpoint */
+    int checkpoint_phase;      /* the phase whose work a checkpoint keeps (pds_phase), -1 none */
 } progress_state;
 
 static progress_state progress;
@@ -528,6 +549,7 @@ static void progress_begin(const char *label, double budget_s)
     progress.budget_s = budget_s;
     progress.label = label;
     progress.t_moving = progress.t_drawn = -1.0;
+    progress.phase = 0;
 }
 
 /* One line: "[####....]  42%  elapsed 3.1 s  ETA 4.2 s" (eta < 0: none). */
@@ -537,8 +559,9 @@ static void progress_draw(progress_state *p, double fraction, double now, double
     int i, filled = (int)(fraction * BAR_WIDTH + 0.5);
     for (i = 0; i < BAR_WIDTH; i++) bar[i] = i < filled ? '#' : '.';
     bar[BAR_WIDTH] = '\0';
-    snprintf(line, sizeof line, "%s%s[%s] %3d%%  elapsed %.1f s", p->label ? p->label : "", p->label ? " " : "", bar,
-             (int)(fraction * 100.0 + 0.5), now - p->t_command);
+    static const char *const phases[] = {"eye", "photons", "gather"};
+    snprintf(line, sizeof line, "%s%s%-7s [%s] %3d%%  elapsed %.1f s", p->label ? p->label : "", p->label ? " " : "",
+             (unsigned)p->phase < 3 ? phases[p->phase] : "", bar, (int)(fraction * 100.0 + 0.5), now - p->t_command);
     if (eta >= 0.0) snprintf(line + strlen(line), sizeof line - strlen(line), "  ETA %.1f s", eta);
     if (p->tty) {
         bar_on_screen = 1; /* before drawing: a signal halfway through still erases it */
@@ -550,12 +573,25 @@ static void progress_draw(progress_state *p, double fraction, double now, double
     p->t_drawn = now;
 }
 
-/* The pds_progress_fn: the library calls it from one thread only. */
-static void show_progress(void *user, double fraction, double library_elapsed_s)
+/* The pds_progress_fn: the library calls it from one thread only. It
+   returns nonzero, asking the render to stop, after the first signal
+   (>>signals) or when a checkpoint is due. */
+static int show_progress(void *user, pds_phase phase, double fraction, double library_elapsed_s)
 {
     progress_state *p = (progress_state *)user;
     double now = pds_time_now(), eta = -1.0;
     (void)library_elapsed_s;
+    if (stop_requested) return 1;
+    if (p->checkpoint_s > 0.0 && (int)phase == p->checkpoint_phase && now - p->t_checkpoint >= p->checkpoint_s) {
+        p->checkpoint_due = 1;
+        return 1;
+    }
+    if (!p->show) return 0;
+    if ((int)phase != p->phase) {
+        /* a new phase: its own fraction, its own rate */
+        p->phase = (int)phase;
+        p->t_moving = -1.0;
+    }
     if (p->budget_s > 0.0) {
         /* under --time the clock is the measure (the library's fraction
            also covers calibration runs that go 0 to 1 in a moment) */
@@ -569,11 +605,12 @@ static void show_progress(void *user, double fraction, double library_elapsed_s)
         p->t_moving = now;
         p->f_moving = fraction;
     }
-    if (p->t_drawn >= 0.0 && now - p->t_drawn < (p->tty ? 0.1 : 2.0) && !(p->tty && fraction >= 1.0)) return;
+    if (p->t_drawn >= 0.0 && now - p->t_drawn < (p->tty ? 0.1 : 2.0) && !(p->tty && fraction >= 1.0)) return 0;
     if (p->budget_s <= 0.0 && fraction < 1.0 && fraction >= 0.02 && p->t_moving >= 0.0 && now - p->t_moving >= 1.0 &&
         fraction > p->f_moving)
         eta = (now - p->t_moving) * (1.0 - fraction) / (fraction - p->f_moving);
     progress_draw(p, fraction, now, eta);
+    return 0;
 }
 
 /* A render ended: erase the bar from the terminal; elsewhere, if it
@@ -1068,7 +1105,10 @@ static void cfg_apply_progress(run_cfg *c)
 {
     progress.tty = isatty(fileno(stderr));
     if (c->progress < 0) c->progress = progress.tty;
-    c->opt.progress = c->progress ? show_progress : NULL;
+    progress.show = c->progress;
+    progress.checkpoint_phase = -1;
+    /* always called: it passes a stop on (render) even when it draws nothing */
+    c->opt.progress = show_progress;
     c->opt.progress_user = &progress;
 }
 
@@ -1217,40 +1257,154 @@ static void warn_about_the_cost(const pds_scene *scene, const pds_options *opt)
                 est.memory_bytes / 1e9, est.available_bytes / 1e9);
 }
 
+/* The image of one part, as the merge makes it (a part not finished gives
+   what it holds). */
+static pds_status part_image(const pds_partial *part, pds_image *img, pds_error *err)
+{
+    const pds_partial *parts[1];
+    parts[0] = part;
+    return pds_partial_merge(parts, NULL, 1, 1, img, NULL, err);
+}
+
+/* Write the part's file and, unless image_path is NULL, its image; both
+   atomically (a signal removes their temporary files). 0, or 1 after
+   printing why. */
+static int write_part(const pds_partial *part, const char *part_path, const char *image_path, double exposure)
+{
+    pds_image img = {0, 0, NULL};
+    pds_error err;
+    int rc = 0;
+    if (temp_arm(0, part_path) || (image_path && temp_arm(1, image_path))) rc = 1;
+    else if (pds_partial_write(part_path, part, &err) != PDS_OK ||
+             (image_path && (part_image(part, &img, &err) != PDS_OK ||
+                             pds_image_write(image_path, &img, exposure, &err) != PDS_OK)))
+        rc = fail("%s", pds_error_string(&err));
+    temp_disarm(0);
+    temp_disarm(1);
+    pds_image_free(&img);
+    return rc;
+}
+
+/* --shard I/N (1-based I, as job arrays count) into opt's 0-based fields. */
+static int parse_shard(const char *v, pds_options *opt)
+{
+    long i, n;
+    char a[32], *slash;
+    if (strlen(v) >= sizeof a) return usage_error("--shard needs I/N, e.g. 2/8, got '%s'", v);
+    strcpy(a, v);
+    slash = strchr(a, '/');
+    if (!slash) return usage_error("--shard needs I/N, e.g. 2/8, got '%s'", v);
+    *slash = '\0';
+    if (parse_int(slash + 1, 1, 1000000, &n) || parse_int(a, 1, n, &i))
+        return usage_error("--shard needs I/N with 1 <= I <= N <= 1000000, got '%s'", v);
+    opt->shard_index = (int)(i - 1);
+    opt->shard_count = (int)n;
+    return 0;
+}
+
 static int cmd_render(int argc, char **argv)
 {
-    const char *scene_path = NULL, *output;
+    static const char *const own[] = {"--shard", "--resume", "--checkpoint", NULL};
+    const char *scene_path = NULL, *output, *resume = NULL;
     pds_image footprint = {0, 0, NULL};
-    char footprint_path[1100], default_out[1024], where[64];
+    char footprint_path[1100], default_out[1024], where[64], part_path[1100];
     run_cfg c;
     pds_scene *scene = NULL;
     pds_image img = {0, 0, NULL};
     pds_render_stats stats;
+    pds_partial *part = NULL;
+    pds_partial_info info;
     pds_error err;
     pds_status st;
-    int i, r, rc = 0;
+    double checkpoint_s = 0.0;
+    int i, r, rc = 0, shard_given = 0, part_only;
     cfg_init(&c);
     for (i = 0; i < argc; i++) {
-        const char *a = argv[i];
+        const char *a = argv[i], *v;
         if (a[0] != '-' || a[1] == '\0') {
             if (scene_path) return usage_error("render takes one scene, got another: '%s'", a);
             scene_path = a;
             continue;
         }
+        if (arg_is(a, "--shard") || arg_is(a, "--resume") || arg_is(a, "--checkpoint")) {
+            if ((r = option_value(argc, argv, &i, &v)) != 0) return r;
+            if (arg_is(a, "--shard")) {
+                if ((r = parse_shard(v, &c.opt)) != 0) return r;
+                shard_given = 1;
+            } else if (arg_is(a, "--resume")) {
+                resume = v;
+            } else if (parse_double(v, &checkpoint_s) || !(checkpoint_s > 0.0) || checkpoint_s > 1e7) {
+                return usage_error("--checkpoint needs a number of seconds above 0, got '%s'", v);
+            }
+            continue;
+        }
         r = parse_option(&c, C_RENDER, "render", argc, argv, &i);
-        if (r < 0) return unknown_option(a, C_RENDER, NULL);
+        if (r < 0) return unknown_option(a, C_RENDER, own);
         if (r) return r;
+    }
+    if (resume) {
+        /* the options come from the partial file; only how to run may change */
+        static const char *const allowed[] = {"--output", "--threads", "--progress", "--quiet", "--exposure"};
+        size_t k;
+        int threads = c.opt.threads;
+        for (k = 0; k < N_OPTIONS; k++) {
+            size_t j;
+            int ok = 0;
+            for (j = 0; j < sizeof allowed / sizeof allowed[0]; j++) ok |= !strcmp(option_table[k].name, allowed[j]);
+            if (!ok && (c.given & (1ul << k)))
+                return usage_error("--resume takes the render's options from %s; %s cannot change them", resume,
+                                   option_table[k].name);
+        }
+        if (shard_given) return usage_error("--resume takes the shard from %s; --shard cannot change it", resume);
+        if (pds_partial_read(resume, &part, &err) != PDS_OK) return fail("%s", pds_error_string(&err));
+        pds_partial_get_info(part, &info);
+        pds_partial_options(part, &c.opt);
+        c.opt.threads = threads;
+        if (!scene_path) scene_path = info.scene_path;
     }
     if (!scene_path) return usage_error("%s", "render needs a scene file");
     if (c.debug_footprint && c.opt.method != PDS_METHOD_PDS)
         return usage_error("%s", "--debug footprint needs --method pds");
     output = c.output;
+    if (!output && resume) {
+        /* OUT.png.pdsp continues OUT.png; a shard's file continues itself */
+        size_t n = strlen(resume);
+        if (c.opt.shard_count > 1) {
+            output = resume;
+        } else if (n > 5 && has_ext(resume, ".pdsp") && n - 5 < sizeof default_out) {
+            memcpy(default_out, resume, n - 5);
+            default_out[n - 5] = '\0';
+            output = default_out;
+        }
+        if (!output) {
+            pds_partial_free(part);
+            return usage_error("say where the image goes: -o OUT.png (%s does not end in .pdsp)", resume);
+        }
+    }
     if (!output) {
         default_output(scene_path, default_out, sizeof default_out);
         output = default_out;
     }
-    if (!has_ext(output, ".png") && !has_ext(output, ".pfm"))
-        return usage_error("output must end in .png or .pfm, got '%s'", output);
+    part_only = has_ext(output, ".pdsp");
+    if (!has_ext(output, ".png") && !has_ext(output, ".pfm") && !part_only) {
+        pds_partial_free(part);
+        return usage_error("output must end in .png, .pfm or .pdsp, got '%s'", output);
+    }
+    if (c.opt.shard_count > 1 && !part_only) {
+        pds_partial_free(part);
+        return usage_error("a shard is written as a partial file: -o PART.pdsp (then pds merge), got '%s'", output);
+    }
+    if (c.opt.time_s > 0.0 && (part_only || checkpoint_s > 0.0)) {
+        pds_partial_free(part);
+        return usage_error("%s", "a render with --time cannot be split, continued or checkpointed: its photon count "
+                           "is not fixed (give --photons)");
+    }
+    if (c.debug_footprint && (part_only || resume)) {
+        pds_partial_free(part);
+        return usage_error("%s", "--debug footprint is for a render in one go (no partial files)");
+    }
+    if (part_only) snprintf(part_path, sizeof part_path, "%s", output);
+    else snprintf(part_path, sizeof part_path, "%s.pdsp", output);
     if (c.debug_footprint) {
         /* OUT.png -> OUT.footprint.png */
         const char *dot = strrchr(output, '.');
@@ -1258,33 +1412,148 @@ static int cmd_render(int argc, char **argv)
         c.opt.footprint = &footprint;
     }
     /* a typo in -o costs nothing: it is found before the render, not after */
-    if (check_out_file(output) || (c.debug_footprint && check_out_file(footprint_path))) return 1;
+    if (check_out_file(output) || (c.debug_footprint && check_out_file(footprint_path))) {
+        pds_partial_free(part);
+        return 1;
+    }
     snprintf(where, sizeof where, "with --method %s", method_name(c.opt.method));
     note_idle_options(&c, MBIT(c.opt.method), where);
     cfg_apply_progress(&c);
     if (load_any(scene_path, &scene, &err) != PDS_OK) {
         fprintf(stderr, "%s\n", pds_error_string(&err));
+        pds_partial_free(part);
         return 1;
     }
     print_scene_warnings(scene, &c);
     if (!c.quiet) warn_about_the_cost(scene, &c.opt);
+    /* checkpoints stop the render where its state is kept: between eye
+       rows (pt), photon batches or passes (pds, splat); pm, pdm and ppm
+       keep nothing between photons, so they get none before the end */
+    progress.checkpoint_s = checkpoint_s;
+    progress.checkpoint_phase = !is_photon_method(c.opt.method) || c.opt.paths == PDS_PATHS_NO_CAUSTICS ? PDS_PHASE_EYE
+                                : c.opt.method == PDS_METHOD_PDS || c.opt.method == PDS_METHOD_SPLAT ? PDS_PHASE_PHOTONS
+                                                                                                     : -1;
+    if (checkpoint_s > 0.0 && progress.checkpoint_phase < 0)
+        fprintf(stderr, "pds render: note: --checkpoint: %s keeps no state between photons; it writes the partial "
+                "file only at the end\n", method_name(c.opt.method));
+    progress.t_checkpoint = pds_time_now();
     if (c.progress) progress_begin(NULL, c.opt.time_s);
-    st = pds_render(scene, &c.opt, &img, &stats, &err);
-    if (c.progress) progress_end(st == PDS_OK);
-    if (st != PDS_OK) rc = fail("%s", pds_error_string(&err));
-    /* from here until they are in place a signal removes the images'
-       temporary files */
-    else if (temp_arm(0, output) || (c.debug_footprint && temp_arm(1, footprint_path)))
-        rc = 1;
-    else if (pds_image_write(output, &img, c.exposure, &err) != PDS_OK ||
-             (c.debug_footprint && pds_image_write(footprint_path, &footprint, 0.0, &err) != PDS_OK))
+    stop_gracefully = 1;
+    for (;;) {
+        progress.checkpoint_due = 0;
+        st = pds_render_part(scene, &c.opt, &part, &stats, &err);
+        if (st != PDS_OK || !stats.partial || stop_requested || !progress.checkpoint_due) break;
+        /* a checkpoint: the state and the image so far, then go on */
+        if (write_part(part, part_path, part_only ? NULL : output, c.exposure)) {
+            rc = 1;
+            break;
+        }
+        progress.t_checkpoint = pds_time_now();
+    }
+    /* from here a signal ends the process, removing the temporary files */
+    stop_gracefully = 0;
+    if (c.progress) progress_end(st == PDS_OK && !stats.partial);
+    if (rc) {
+        /* the checkpoint's message is out */
+    } else if (st != PDS_OK) {
         rc = fail("%s", pds_error_string(&err));
-    temp_disarm(0);
-    temp_disarm(1);
+    } else if (stats.partial && stop_requested && c.opt.time_s <= 0.0) {
+        /* interrupted: the image of what is done, and the state to go on */
+        pds_partial_get_info(part, &info);
+        rc = write_part(part, part_path, part_only ? NULL : output, c.exposure);
+        if (!rc) {
+            fprintf(stderr, "pds render: interrupted with %.1f%% of %s done; %s%s holds it; continue with\n"
+                    "    pds render --resume %s%s%s\n", 100.0 * info.done_fraction,
+                    c.opt.shard_count > 1 ? "the shard" : "the render", part_only ? "" : "the image so far is in ",
+                    part_only ? part_path : output, part_path, part_only ? "" : " -o ", part_only ? "" : output);
+            if (!part_only) fprintf(stderr, "    (%s holds the exact state)\n", part_path);
+            rc = 130;
+        }
+    } else if (part_only) {
+        rc = write_part(part, part_path, NULL, c.exposure);
+    } else {
+        /* from here until they are in place a signal removes the images'
+           temporary files */
+        if (temp_arm(0, output) || (c.debug_footprint && temp_arm(1, footprint_path))) rc = 1;
+        else if (part_image(part, &img, &err) != PDS_OK || pds_image_write(output, &img, c.exposure, &err) != PDS_OK ||
+                 (c.debug_footprint && pds_image_write(footprint_path, &footprint, 0.0, &err) != PDS_OK))
+            rc = fail("%s", pds_error_string(&err));
+        temp_disarm(0);
+        temp_disarm(1);
+        /* the render is whole: a partial file it was continued from is spent */
+        if (!rc && resume && !strcmp(resume, part_path)) remove(part_path);
+        if (stop_requested && c.opt.time_s > 0.0 && !rc) rc = 130; /* --time: the image of the time spent */
+    }
     pds_image_free(&img);
     pds_image_free(&footprint);
+    pds_partial_free(part);
     pds_scene_free(scene);
-    if (rc == 0) print_render_line(&c, &stats, output);
+    if (rc == 0 || rc == 130) print_render_line(&c, &stats, part_only ? part_path : output);
+    return rc;
+}
+
+/* pds merge -o OUT [--partial] PART.pdsp... */
+static int cmd_merge(int argc, char **argv)
+{
+    static const char *const own[] = {"--output", "--partial", "--exposure", NULL};
+    const char *output = NULL;
+    const char **names;
+    pds_partial **parts;
+    pds_image img = {0, 0, NULL};
+    pds_error err;
+    double exposure = 0.0, fraction = 0.0, t0 = pds_time_now();
+    int i, n = 0, subset = 0, rc = 0, r;
+    names = (const char **)malloc(sizeof *names * (size_t)(argc > 0 ? argc : 1));
+    parts = (pds_partial **)calloc((size_t)(argc > 0 ? argc : 1), sizeof *parts);
+    if (!names || !parts) {
+        free(names);
+        free(parts);
+        return fail("%s", "out of memory");
+    }
+    for (i = 0; i < argc && !rc; i++) {
+        const char *a = argv[i], *v;
+        if (a[0] != '-' || a[1] == '\0') {
+            names[n++] = a;
+        } else if (arg_is(a, "--output") || arg_is(a, "-o")) {
+            if ((r = option_value(argc, argv, &i, &v)) != 0) rc = r;
+            else output = v;
+        } else if (arg_is(a, "--exposure")) {
+            if ((r = option_value(argc, argv, &i, &v)) != 0) rc = r;
+            else if (parse_double(v, &exposure) || exposure < -64 || exposure > 64)
+                rc = usage_error("--exposure needs a number of stops from -64 to 64, got '%s'", v);
+        } else if (!strcmp(a, "--partial")) {
+            subset = 1;
+        } else {
+            rc = unknown_option(a, 0, own);
+        }
+    }
+    if (!rc && !output) rc = usage_error("%s", "merge needs -o OUT.png or OUT.pfm");
+    if (!rc && n == 0) rc = usage_error("%s", "merge needs the partial files: pds merge -o OUT.png PART.pdsp...");
+    if (!rc && !has_ext(output, ".png") && !has_ext(output, ".pfm"))
+        rc = usage_error("output must end in .png or .pfm, got '%s'", output);
+    if (!rc && check_out_file(output)) rc = 1;
+    for (i = 0; i < n && !rc; i++)
+        if (pds_partial_read(names[i], &parts[i], &err) != PDS_OK) rc = fail("%s", pds_error_string(&err));
+    if (!rc && pds_partial_merge((const pds_partial *const *)parts, names, n, subset, &img, &fraction, &err) != PDS_OK)
+        rc = fail("%s", pds_error_string(&err));
+    if (!rc) {
+        if (temp_arm(0, output)) rc = 1;
+        else if (pds_image_write(output, &img, exposure, &err) != PDS_OK) rc = fail("%s", pds_error_string(&err));
+        temp_disarm(0);
+    }
+    if (!rc) {
+        pds_partial_info info;
+        pds_partial_get_info(parts[0], &info);
+        if (fraction < 1.0)
+            fprintf(stderr, "pds merge: note: %d part%s holding %.1f%% of the render's work (--partial)\n", n,
+                    n == 1 ? "" : "s", 100.0 * fraction);
+        printf("merge parts=%d shards=%d fraction=%.6f width=%d height=%d time_total=%.3f output=%s\n", n,
+               info.shard_count, fraction, img.width, img.height, pds_time_now() - t0, output);
+    }
+    for (i = 0; i < n; i++) pds_partial_free(parts[i]);
+    free(parts);
+    free(names);
+    pds_image_free(&img);
     return rc;
 }
 
@@ -3729,7 +3998,7 @@ int main(int argc, char **argv)
         int (*run)(int argc, char **argv);
     } commands[] = {
         {"render", cmd_render}, {"sweep", cmd_sweep}, {"race", cmd_race},   {"compare", cmd_compare},
-        {"info", cmd_info},     {"bench", cmd_bench}, {"help", cmd_help},
+        {"merge", cmd_merge},   {"info", cmd_info},   {"bench", cmd_bench}, {"help", cmd_help},
     };
     size_t k;
     int i;

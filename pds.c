@@ -22,6 +22,8 @@
                   reflection, refraction (Igehy 1999), footprint, eq. 12
      >>image      PFM read/write, PNG write, tone mapping
      >>metrics    RMSE and SSIM
+     >>partial    the exact state of a render or a shard of it: the image
+                  from it, merging shards, the partial file
      >>render     camera, path tracer and eye pass, preview, row scheduler
      >>pds        photon differential splatting: aimed caustic photons,
                   tracing with differentials, splatting into the eye-path map
@@ -8755,6 +8757,727 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
 }
 
 /* ===================================================================== */
+/* >>partial                                                             */
+/* ===================================================================== */
+/* The exact state of a render or of one shard of it (pds.h "shards,
+   interrupt, resume"), the image made from it, and its file.
+
+   A render's image is, pixel by pixel,
+
+       image = E + S / unit * (n_planned / emitted)
+
+   E the eye pass's value (its sample sum over its samples, a double
+   computed by one thread in sample order), S the photon part's exact
+   128-bit sum (>>util), unit its power of two, n_planned the photon count
+   the photons were weighted for and emitted the photons actually in S.
+   pds_render makes its image from this state too, with the same function
+   (pds__partial_image), so a merge of shards that holds the same E, the
+   same S and the same counts gives the same bits:
+     - E of a row is computed by one shard, the one that owns the row;
+     - S of a merge is the integer sum of the parts' S, which does not
+       depend on how the photons were split;
+     - emitted is the sum of the parts' (photon-split methods) or, where
+       every shard traces all photons (pm, pdm, ppm), the same in each.
+
+   Work units (the split of shard I of N, pds.h):
+     split 0, rows:    eye rows I, I+N, ... (pt, preview, no caustics)
+     split 1, photons: batches of PDS__PHOTON_BATCH photons, or progressive
+                       PDS's passes, I, I+N, ...; the eye rows as split 0
+     split 2, gather:  one unit per shard: all photons, gathered at the
+                       eye vertices of rows I, I+N, ... (pm, pdm, ppm)
+   Within a shard the done units are always its first ones (work is
+   handed out in order, and a stop lets what was handed out finish), so a
+   count says which. */
+
+#define PDS__PARTIAL_MAGIC "PDSPART\n"
+#define PDS__PARTIAL_VERSION 1u
+#define PDS__PARTIAL_MAX_SHARDS 1000000
+#define PDS__PARTIAL_NOPT 28 /* options stored, 8 bytes each */
+
+enum { PDS__SPLIT_ROWS = 0, PDS__SPLIT_PHOTONS = 1, PDS__SPLIT_GATHER = 2 };
+
+struct pds_partial {
+    char version[16];          /* PDS_VERSION_STRING of the library that rendered it */
+    uint64_t scene_hash;       /* pds_scene_hash */
+    char scene_path[512];
+    pds_options opt;           /* the options that shape the image (others at defaults) */
+    int width, height;
+    int shard_index, shard_count;
+    int split;                 /* PDS__SPLIT_* */
+    long rows_own, rows_done;  /* eye rows of the shard, and the first ones done */
+    long units_total;          /* photon units of the whole render */
+    long units_own, units_done;
+    double n_planned;          /* photon count the photons were weighted for */
+    long emitted;              /* photons in photon[] */
+    double unit;               /* pds__sum_unit of the scene */
+    long splatted, degenerate, saturated, invalid, eye_vertices; /* stats, summed */
+    double *eye;               /* width * height * 3: E of the rows done, else 0 */
+    pds__sum128 *photon;       /* width * height * 3: S; NULL for split 0 */
+};
+
+/* Content hash of a loaded scene: its triangles, materials, lights and
+   camera (not the file names), so that parts of one render are recognised
+   wherever the scene was loaded from. Every number goes in by value,
+   through the rng's mixer (>>rng), never padding bytes. */
+typedef struct pds__hasher {
+    uint64_t h;
+} pds__hasher;
+
+static void pds__hash_u64(pds__hasher *hs, uint64_t v)
+{
+    hs->h = pds__mix64(hs->h ^ v);
+}
+
+static void pds__hash_f64(pds__hasher *hs, double d)
+{
+    uint64_t v;
+    memcpy(&v, &d, sizeof v);
+    pds__hash_u64(hs, v);
+}
+
+static void pds__hash_f64s(pds__hasher *hs, const double *d, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; i++) pds__hash_f64(hs, d[i]);
+}
+
+static void pds__hash_v3(pds__hasher *hs, pds_vec3 v)
+{
+    pds__hash_f64(hs, v.x);
+    pds__hash_f64(hs, v.y);
+    pds__hash_f64(hs, v.z);
+}
+
+unsigned long long pds_scene_hash(const pds_scene *s)
+{
+    pds__hasher hs = {0x5044535343454e45ull}; /* "PDSSCENE" */
+    size_t i;
+    if (!s) return 0;
+    pds__hash_u64(&hs, s->mesh.nverts);
+    for (i = 0; i < 3 * s->mesh.nverts; i++) {
+        uint32_t a, b;
+        memcpy(&a, &s->mesh.pos[i], sizeof a);
+        memcpy(&b, &s->mesh.nrm[i], sizeof b);
+        pds__hash_u64(&hs, (uint64_t)a << 32 | b);
+    }
+    pds__hash_u64(&hs, s->mesh.ntris);
+    for (i = 0; i < s->mesh.ntris; i++) {
+        pds__hash_u64(&hs, (uint64_t)(uint32_t)s->mesh.idx[3 * i] << 32 | (uint32_t)s->mesh.idx[3 * i + 1]);
+        pds__hash_u64(&hs, (uint64_t)(uint32_t)s->mesh.idx[3 * i + 2] << 32 | (uint32_t)s->mesh.mat[i]);
+    }
+    pds__hash_u64(&hs, s->materials.count);
+    for (i = 0; i < s->materials.count; i++) {
+        const pds_material *m = &s->materials.items[i];
+        size_t c;
+        for (c = 0; c < sizeof m->name && m->name[c]; c++) pds__hash_u64(&hs, (unsigned char)m->name[c]);
+        pds__hash_u64(&hs, (uint64_t)m->type);
+        pds__hash_f64s(&hs, m->albedo, 3);
+        pds__hash_f64(&hs, m->tile_size);
+        pds__hash_f64(&hs, m->tile_grout);
+        pds__hash_f64s(&hs, m->grout_albedo, 3);
+        pds__hash_f64s(&hs, m->reflectance, 3);
+        pds__hash_f64s(&hs, m->eta, 3);
+        pds__hash_f64s(&hs, m->k, 3);
+        pds__hash_f64(&hs, m->ior);
+        pds__hash_f64s(&hs, m->absorption, 3);
+        pds__hash_f64(&hs, m->outside_ior);
+        pds__hash_f64s(&hs, m->outside_absorption, 3);
+        pds__hash_u64(&hs, (uint64_t)m->dispersion);
+        pds__hash_f64s(&hs, m->dispersion_coef, 6);
+        pds__hash_f64s(&hs, m->radiance, 3);
+    }
+    pds__hash_u64(&hs, s->nlights);
+    for (i = 0; i < s->nlights; i++) {
+        const pds_light *l = &s->lights[i];
+        pds__hash_u64(&hs, (uint64_t)l->type);
+        pds__hash_v3(&hs, l->position);
+        pds__hash_v3(&hs, l->direction);
+        pds__hash_v3(&hs, l->edge1);
+        pds__hash_v3(&hs, l->edge2);
+        pds__hash_f64(&hs, l->radius);
+        pds__hash_f64(&hs, l->cone_inner_deg);
+        pds__hash_f64(&hs, l->cone_outer_deg);
+        pds__hash_f64s(&hs, l->power, 3);
+        pds__hash_f64s(&hs, l->irradiance, 3);
+        pds__hash_f64s(&hs, l->radiance, 3);
+        pds__hash_u64(&hs, (uint64_t)(uint32_t)l->emitter_shape);
+        pds__hash_u64(&hs, (uint64_t)(uint32_t)l->material);
+        pds__hash_u64(&hs, (uint64_t)(uint32_t)l->first_triangle << 32 | (uint32_t)l->triangle_count);
+        pds__hash_f64(&hs, l->area);
+    }
+    pds__hash_v3(&hs, s->camera.position);
+    pds__hash_v3(&hs, s->camera.look_at);
+    pds__hash_v3(&hs, s->camera.up);
+    pds__hash_f64(&hs, s->camera.fov_deg);
+    pds__hash_u64(&hs, (uint64_t)(uint32_t)s->camera.width << 32 | (uint32_t)s->camera.height);
+    pds__hash_u64(&hs, (uint64_t)(uint32_t)s->camera.spp << 32 | (uint32_t)s->camera.filter);
+    return hs.h;
+}
+
+/* The options that shape the image, in the file's order (README "Partial
+   files"): integers as int64, reals as binary64, 8 bytes each. */
+static void pds__partial_opt_encode(const pds_options *o, uint64_t v[PDS__PARTIAL_NOPT])
+{
+    const double d[] = {o->time_s, o->smoothing, o->plane_tolerance, o->min_aspect, o->pass_alpha,
+                        o->pass_smoothing, o->pass_min_aspect, o->pass_min_width, o->min_width,
+                        o->max_radius, o->radius, o->alpha};
+    int k;
+    v[0] = (uint64_t)(int64_t)o->method;
+    v[1] = (uint64_t)(int64_t)o->paths;
+    v[2] = (uint64_t)(int64_t)o->width;
+    v[3] = (uint64_t)(int64_t)o->height;
+    v[4] = (uint64_t)(int64_t)o->spp;
+    v[5] = (uint64_t)o->seed;
+    v[6] = (uint64_t)(int64_t)o->max_depth;
+    v[7] = (uint64_t)(int64_t)o->rr_depth;
+    v[8] = (uint64_t)(int64_t)o->photons;
+    v[9] = (uint64_t)(int64_t)o->progressive;
+    v[10] = (uint64_t)(int64_t)o->pass_photons;
+    v[11] = (uint64_t)(int64_t)o->photon_depth;
+    v[12] = (uint64_t)(int64_t)o->k;
+    v[13] = (uint64_t)(int64_t)o->kernel;
+    v[14] = (uint64_t)(int64_t)o->passes;
+    v[15] = (uint64_t)(int64_t)o->max_photons;
+    for (k = 0; k < 12; k++) memcpy(&v[16 + k], &d[k], sizeof d[k]);
+}
+
+static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], pds_options *o)
+{
+    double d[12];
+    int k;
+    pds_options_default(o);
+    /* out-of-range values come back as the nearest int; pds__options_check
+       refuses them before they are used */
+#define PDS__OPT_INT(x) ((int)((int64_t)(x) < INT_MIN ? INT_MIN : (int64_t)(x) > INT_MAX ? INT_MAX : (int64_t)(x)))
+    o->method = (pds_method)PDS__OPT_INT(v[0]);
+    o->paths = (pds_paths)PDS__OPT_INT(v[1]);
+    o->width = PDS__OPT_INT(v[2]);
+    o->height = PDS__OPT_INT(v[3]);
+    o->spp = PDS__OPT_INT(v[4]);
+    o->seed = v[5];
+    o->max_depth = PDS__OPT_INT(v[6]);
+    o->rr_depth = PDS__OPT_INT(v[7]);
+    o->photons = (long)(int64_t)v[8];
+    o->progressive = PDS__OPT_INT(v[9]);
+    o->pass_photons = (long)(int64_t)v[10];
+    o->photon_depth = PDS__OPT_INT(v[11]);
+    o->k = PDS__OPT_INT(v[12]);
+    o->kernel = (pds_kernel)PDS__OPT_INT(v[13]);
+    o->passes = PDS__OPT_INT(v[14]);
+    o->max_photons = (long)(int64_t)v[15];
+#undef PDS__OPT_INT
+    for (k = 0; k < 12; k++) memcpy(&d[k], &v[16 + k], sizeof d[k]);
+    o->time_s = d[0];
+    o->smoothing = d[1];
+    o->plane_tolerance = d[2];
+    o->min_aspect = d[3];
+    o->pass_alpha = d[4];
+    o->pass_smoothing = d[5];
+    o->pass_min_aspect = d[6];
+    o->pass_min_width = d[7];
+    o->min_width = d[8];
+    o->max_radius = d[9];
+    o->radius = d[10];
+    o->alpha = d[11];
+}
+
+static int pds__partial_same_options(const pds_options *a, const pds_options *b)
+{
+    uint64_t va[PDS__PARTIAL_NOPT], vb[PDS__PARTIAL_NOPT];
+    pds__partial_opt_encode(a, va);
+    pds__partial_opt_encode(b, vb);
+    return memcmp(va, vb, sizeof va) == 0;
+}
+
+/* Rows I, I+N, ... of h: how many. */
+static long pds__shard_count_of(long total, int index, int count)
+{
+    return index < total ? (total - index + count - 1) / count : 0;
+}
+
+void pds_partial_free(pds_partial *p)
+{
+    if (!p) return;
+    free(p->eye);
+    free(p->photon);
+    free(p);
+}
+
+void pds_partial_get_info(const pds_partial *p, pds_partial_info *info)
+{
+    memset(info, 0, sizeof *info);
+    if (!p) return;
+    info->shard_index = p->shard_index;
+    info->shard_count = p->shard_count;
+    info->width = p->width;
+    info->height = p->height;
+    info->method = p->opt.method;
+    info->scene_hash = p->scene_hash;
+    info->scene_path = p->scene_path;
+    info->complete = p->rows_done == p->rows_own && p->units_done == p->units_own;
+    if (p->split == PDS__SPLIT_ROWS) {
+        info->units_done = p->rows_done;
+        info->units_total = p->rows_own;
+    } else {
+        info->units_done = p->units_done;
+        info->units_total = p->units_own;
+    }
+    info->done_fraction = info->units_total > 0 ? (double)info->units_done / (double)info->units_total : 1.0;
+}
+
+void pds_partial_options(const pds_partial *p, pds_options *opt)
+{
+    if (!p) {
+        pds_options_default(opt);
+        return;
+    }
+    *opt = p->opt;
+    opt->shard_index = p->shard_index;
+    opt->shard_count = p->shard_count;
+}
+
+/* The image of the state (eq. at the top of this section): for every
+   pixel channel, E + S / unit * (n_planned / emitted). Used by pds_render
+   and by merges alike. */
+static long pds__partial_image(const double *eye, const pds__sum128 *photon, double unit, double n_planned,
+                               long emitted, size_t n, float *out)
+{
+    double *rgb = (double *)malloc(sizeof *rgb * (n ? n : 1));
+    size_t i;
+    long nonfinite;
+    if (!rgb) return -1;
+    for (i = 0; i < n; i++) {
+        rgb[i] = eye[i];
+        if (photon && emitted > 0) rgb[i] += pds__sum128_value(photon[i]) / unit * (n_planned / (double)emitted);
+    }
+    nonfinite = pds__finite_floats(rgb, out, n);
+    free(rgb);
+    return nonfinite;
+}
+
+/* A part's name in messages: its file name if the caller gave names. */
+static const char *pds__part_name(const char *const *names, int i, char *buf, size_t n)
+{
+    if (names && names[i]) return names[i];
+    snprintf(buf, n, "part %d", i + 1);
+    return buf;
+}
+
+/* Check that part i belongs to the same render as part 0. */
+static pds_status pds__partial_compatible(const pds_partial *a, const pds_partial *b, const char *na, const char *nb,
+                                          pds_error *err)
+{
+    if (strcmp(a->version, b->version) != 0)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, nb, 0, 0, "rendered by pds %s, %s by pds %s: versions may render differently",
+                         b->version, na, a->version);
+    if (a->scene_hash != b->scene_hash)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, nb, 0, 0,
+                         "a part of another scene (%s, content hash %016llx) than %s (%s, %016llx)", b->scene_path,
+                         (unsigned long long)b->scene_hash, na, a->scene_path, (unsigned long long)a->scene_hash);
+    if (!pds__partial_same_options(&a->opt, &b->opt) || a->width != b->width || a->height != b->height ||
+        a->split != b->split || a->unit != b->unit || a->n_planned != b->n_planned || a->units_total != b->units_total)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, nb, 0, 0, "a part of the same scene rendered with other options than %s",
+                         na);
+    if (a->shard_count != b->shard_count)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, nb, 0, 0, "one of %d shards, %s one of %d", b->shard_count, na,
+                         a->shard_count);
+    return PDS_OK;
+}
+
+/* The fraction of the render's work units that parts hold. */
+static void pds__partial_fraction(const pds_partial *const *parts, int n, double *fraction)
+{
+    const pds_partial *p0 = parts[0];
+    long rows = 0, units = 0;
+    int i;
+    for (i = 0; i < n; i++) {
+        rows += parts[i]->rows_done;
+        units += parts[i]->units_done;
+    }
+    *fraction = p0->split == PDS__SPLIT_ROWS ? (double)rows / (double)p0->height
+                : p0->units_total > 0       ? (double)units / (double)p0->units_total
+                                            : 1.0;
+}
+
+/* The merge itself, with names for the messages (NULL: "part K"). */
+static pds_status pds__partial_merge(const pds_partial *const *parts, const char *const *names, int n,
+                                     int allow_subset, pds_image *out, double *fraction, long *nonfinite,
+                                     pds_error *err)
+{
+    const pds_partial *p0;
+    int *owner = NULL, i, shards;
+    size_t npix, k;
+    double *eye = NULL;
+    pds__sum128 *photon = NULL;
+    long emitted = 0;
+    char b0[32], b1[32];
+    pds_status st = PDS_OK;
+    if (!parts || n < 1 || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_partial_merge: no parts");
+    p0 = parts[0];
+    shards = p0->shard_count;
+    for (i = 1; i < n; i++)
+        if ((st = pds__partial_compatible(p0, parts[i], pds__part_name(names, 0, b0, sizeof b0),
+                                          pds__part_name(names, i, b1, sizeof b1), err)))
+            return st;
+    owner = (int *)malloc(sizeof *owner * (size_t)shards);
+    if (!owner) return pds__nomem(err);
+    for (i = 0; i < shards; i++) owner[i] = -1;
+    for (i = 0; i < n; i++) {
+        int s = parts[i]->shard_index;
+        if (owner[s] >= 0) {
+            st = pds__fail(err, PDS_ERR_INVALID_ARG, pds__part_name(names, i, b1, sizeof b1), 0, 0,
+                           "shard %d/%d again: %s is that shard too", s + 1, shards,
+                           pds__part_name(names, owner[s], b0, sizeof b0));
+            free(owner);
+            return st;
+        }
+        owner[s] = i;
+    }
+    if (!allow_subset) {
+        for (i = 0; i < shards; i++) {
+            pds_partial_info info;
+            if (owner[i] < 0) {
+                st = pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                               "shard %d/%d is missing (%d of %d given; --partial merges a subset)", i + 1, shards, n,
+                               shards);
+                break;
+            }
+            pds_partial_get_info(parts[owner[i]], &info);
+            if (!info.complete) {
+                st = pds__fail(err, PDS_ERR_INVALID_ARG, pds__part_name(names, owner[i], b1, sizeof b1), 0, 0,
+                               "shard %d/%d is unfinished (%.1f%% done): continue it with --resume, or merge with "
+                               "--partial", i + 1, shards, 100.0 * info.done_fraction);
+                break;
+            }
+        }
+    }
+    free(owner);
+    if (st) return st;
+    npix = (size_t)p0->width * (size_t)p0->height * 3;
+    if (n == 1) {
+        /* one part: its own arrays are the merge (rows it does not hold are 0) */
+        if (pds_image_alloc(out, p0->width, p0->height) != PDS_OK) return pds__nomem(err);
+        if (fraction) pds__partial_fraction(parts, n, fraction);
+        k = (size_t)pds__partial_image(p0->eye, p0->photon, p0->unit, p0->n_planned, p0->emitted, npix, out->rgb);
+        if (k == (size_t)-1) {
+            pds_image_free(out);
+            return pds__nomem(err);
+        }
+        if (nonfinite) *nonfinite = (long)k;
+        return PDS_OK;
+    }
+    eye = (double *)calloc(npix, sizeof *eye);
+    if (p0->split != PDS__SPLIT_ROWS) photon = (pds__sum128 *)calloc(npix, sizeof *photon);
+    if (!eye || (p0->split != PDS__SPLIT_ROWS && !photon) || pds_image_alloc(out, p0->width, p0->height) != PDS_OK) {
+        free(eye);
+        free(photon);
+        return pds__nomem(err);
+    }
+    for (i = 0; i < n; i++) {
+        const pds_partial *p = parts[i];
+        long j;
+        size_t row = (size_t)p->width * 3;
+        for (j = 0; j < p->rows_done; j++) {
+            size_t y = (size_t)p->shard_index + (size_t)j * (size_t)shards;
+            memcpy(eye + y * row, p->eye + y * row, sizeof *eye * row);
+        }
+        if (photon) {
+            for (k = 0; k < npix; k++) pds__sum128_add_bits(&photon[k], p->photon[k].lo, p->photon[k].hi);
+            if (p->split == PDS__SPLIT_PHOTONS) emitted += p->emitted;
+            else if (p->emitted > emitted) emitted = p->emitted;
+        }
+    }
+    if (fraction) pds__partial_fraction(parts, n, fraction);
+    k = (size_t)pds__partial_image(eye, photon, p0->unit, p0->n_planned, emitted, npix, out->rgb);
+    if (k == (size_t)-1) {
+        pds_image_free(out);
+        st = pds__nomem(err);
+    } else if (nonfinite) {
+        *nonfinite = (long)k;
+    }
+    free(eye);
+    free(photon);
+    return st;
+}
+
+pds_status pds_partial_merge(const pds_partial *const *parts, const char *const *names, int n, int allow_subset,
+                             pds_image *out, double *fraction, pds_error *err)
+{
+    return pds__partial_merge(parts, names, n, allow_subset, out, fraction, NULL, err);
+}
+
+/* --- the partial file -----------------------------------------------------
+   Little-endian throughout (README "Partial files" has the table):
+
+     offset  bytes  field
+     0       8      magic "PDSPART\n"
+     8       4      format version (1)
+     12      16     library version string, NUL-padded ("0.1.0")
+     28      8      scene content hash (pds_scene_hash)
+     36      512    scene path as loaded, NUL-padded
+     548     4 x 5  width, height, shard index (0-based), shard count, split
+     568     8 x 28 options (pds__partial_opt_encode's order)
+     792     8 x 13 rows done, units total, units own, units done, n_planned
+                    (binary64), emitted, unit (binary64), splatted,
+                    degenerate, saturated, invalid, eye vertices, reserved 0
+     896     ...    eye values of the rows done (rows I, I+N, ...: each
+                    width x 3 binary64), then, unless split is 0, the photon
+                    sums (width x height x 3 of: low 64 bits, high 64 bits)
+     end-8   8      check: FNV-1a 64 of every byte before it */
+
+#define PDS__PARTIAL_HEADER 896u
+
+static void pds__put_u32(unsigned char *b, uint32_t v)
+{
+    int i;
+    for (i = 0; i < 4; i++) b[i] = (unsigned char)(v >> (8 * i));
+}
+
+static void pds__put_u64(unsigned char *b, uint64_t v)
+{
+    int i;
+    for (i = 0; i < 8; i++) b[i] = (unsigned char)(v >> (8 * i));
+}
+
+static void pds__put_f64(unsigned char *b, double d)
+{
+    uint64_t v;
+    memcpy(&v, &d, sizeof v);
+    pds__put_u64(b, v);
+}
+
+static uint32_t pds__get_u32(const unsigned char *b)
+{
+    return (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
+}
+
+static uint64_t pds__get_u64(const unsigned char *b)
+{
+    uint64_t v = 0;
+    int i;
+    for (i = 7; i >= 0; i--) v = v << 8 | b[i];
+    return v;
+}
+
+static double pds__get_f64(const unsigned char *b)
+{
+    uint64_t v = pds__get_u64(b);
+    double d;
+    memcpy(&d, &v, sizeof d);
+    return d;
+}
+
+static uint64_t pds__fnv1a64(const unsigned char *b, size_t n)
+{
+    uint64_t h = 0xcbf29ce484222325ull;
+    size_t i;
+    for (i = 0; i < n; i++) h = (h ^ b[i]) * 0x100000001b3ull;
+    return h;
+}
+
+/* Bytes of the file of a part with these counts; 0 if it would not fit
+   in a size_t. */
+static size_t pds__partial_file_size(int width, int height, int split, long rows_done)
+{
+    double bytes = PDS__PARTIAL_HEADER + 8.0 + (double)rows_done * width * 3.0 * 8.0 +
+                   (split != PDS__SPLIT_ROWS ? (double)width * height * 3.0 * 16.0 : 0.0);
+    return bytes < (double)((size_t)-1) / 2 ? (size_t)bytes : 0;
+}
+
+pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *err)
+{
+    size_t size, at, row, k;
+    unsigned char *b;
+    uint64_t opt[PDS__PARTIAL_NOPT];
+    long j;
+    int i;
+    pds_status st;
+    if (!path || !p) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_partial_write: NULL argument");
+    size = pds__partial_file_size(p->width, p->height, p->split, p->rows_done);
+    b = size ? (unsigned char *)calloc(size, 1) : NULL;
+    if (!b) return pds__nomem(err);
+    memcpy(b, PDS__PARTIAL_MAGIC, 8);
+    pds__put_u32(b + 8, PDS__PARTIAL_VERSION);
+    memcpy(b + 12, p->version, 16);
+    pds__put_u64(b + 28, p->scene_hash);
+    memcpy(b + 36, p->scene_path, 512);
+    pds__put_u32(b + 548, (uint32_t)p->width);
+    pds__put_u32(b + 552, (uint32_t)p->height);
+    pds__put_u32(b + 556, (uint32_t)p->shard_index);
+    pds__put_u32(b + 560, (uint32_t)p->shard_count);
+    pds__put_u32(b + 564, (uint32_t)p->split);
+    pds__partial_opt_encode(&p->opt, opt);
+    for (i = 0; i < PDS__PARTIAL_NOPT; i++) pds__put_u64(b + 568 + 8 * (size_t)i, opt[i]);
+    at = 792;
+    pds__put_u64(b + at, (uint64_t)p->rows_done);
+    pds__put_u64(b + at + 8, (uint64_t)p->units_total);
+    pds__put_u64(b + at + 16, (uint64_t)p->units_own);
+    pds__put_u64(b + at + 24, (uint64_t)p->units_done);
+    pds__put_f64(b + at + 32, p->n_planned);
+    pds__put_u64(b + at + 40, (uint64_t)p->emitted);
+    pds__put_f64(b + at + 48, p->unit);
+    pds__put_u64(b + at + 56, (uint64_t)p->splatted);
+    pds__put_u64(b + at + 64, (uint64_t)p->degenerate);
+    pds__put_u64(b + at + 72, (uint64_t)p->saturated);
+    pds__put_u64(b + at + 80, (uint64_t)p->invalid);
+    pds__put_u64(b + at + 88, (uint64_t)p->eye_vertices);
+    at = PDS__PARTIAL_HEADER;
+    row = (size_t)p->width * 3;
+    for (j = 0; j < p->rows_done; j++) {
+        size_t y = (size_t)p->shard_index + (size_t)j * (size_t)p->shard_count;
+        for (k = 0; k < row; k++, at += 8) pds__put_f64(b + at, p->eye[y * row + k]);
+    }
+    if (p->split != PDS__SPLIT_ROWS)
+        for (k = 0; k < row * (size_t)p->height; k++, at += 16) {
+            pds__put_u64(b + at, p->photon[k].lo);
+            pds__put_u64(b + at + 8, p->photon[k].hi);
+        }
+    pds__put_u64(b + at, pds__fnv1a64(b, at));
+    st = pds__write_file_atomic(path, b, size, err);
+    free(b);
+    return st;
+}
+
+/* The checks of a partial file's header (k bytes of it in head). */
+static pds_status pds__partial_head_check(const char *path, const unsigned char *head, size_t k, pds_error *err)
+{
+    uint32_t version;
+    long rows_done, rows_own;
+    int width, height, shard, shards, split;
+    if (k < 12 || memcmp(head, PDS__PARTIAL_MAGIC, 8) != 0)
+        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "not a PDS partial file (it does not begin with \"PDSPART\")");
+    version = pds__get_u32(head + 8);
+    if (version != PDS__PARTIAL_VERSION)
+        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "partial file format version %lu; this pds reads version %u",
+                         (unsigned long)version, PDS__PARTIAL_VERSION);
+    if (k < PDS__PARTIAL_HEADER) return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "truncated: %lu bytes", (unsigned long)k);
+    if (head[27] != '\0' || head[547] != '\0')
+        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "damaged header (an unterminated name)");
+    if (strcmp((const char *)head + 12, PDS_VERSION_STRING) != 0)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0,
+                         "written by pds %s, this is pds %s: versions may render differently", (const char *)head + 12,
+                         PDS_VERSION_STRING);
+    width = (int)pds__get_u32(head + 548);
+    height = (int)pds__get_u32(head + 552);
+    shard = (int)pds__get_u32(head + 556);
+    shards = (int)pds__get_u32(head + 560);
+    split = (int)pds__get_u32(head + 564);
+    rows_done = (long)pds__get_u64(head + 792);
+    if (width < 1 || height < 1 || width > PDS_MAX_RESOLUTION || height > PDS_MAX_RESOLUTION || shards < 1 ||
+        shards > PDS__PARTIAL_MAX_SHARDS || shard < 0 || shard >= shards || split < 0 || split > 2)
+        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "damaged header (size %dx%d, shard %d of %d, split %d)", width,
+                         height, shard, shards, split);
+    rows_own = pds__shard_count_of(height, shard, shards);
+    if (rows_done < 0 || rows_done > rows_own)
+        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "damaged header (%ld rows done of %ld)", rows_done, rows_own);
+    return PDS_OK;
+}
+
+pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
+{
+    unsigned char head[PDS__PARTIAL_HEADER];
+    uint64_t opt[PDS__PARTIAL_NOPT];
+    char *data = NULL;
+    const unsigned char *b;
+    size_t size = 0, expect, at, row, k;
+    pds_partial *p;
+    pds_status st;
+    long rows_done, rows_own, j;
+    int i, width, height, shard, shards, split;
+    if (!path || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_partial_read: NULL argument");
+    *out = NULL;
+    /* at most the largest file the limits allow; then the header says
+       how long this one must be */
+    st = pds__read_file(path, pds__partial_file_size(PDS_MAX_RESOLUTION, PDS_MAX_RESOLUTION, 1, PDS_MAX_RESOLUTION),
+                        "partial file", &data, &size, err);
+    if (st) return st;
+    k = size < sizeof head ? size : sizeof head;
+    memcpy(head, data, k);
+    st = pds__partial_head_check(path, head, k, err);
+    if (st) {
+        free(data);
+        return st;
+    }
+    width = (int)pds__get_u32(head + 548);
+    height = (int)pds__get_u32(head + 552);
+    shard = (int)pds__get_u32(head + 556);
+    shards = (int)pds__get_u32(head + 560);
+    split = (int)pds__get_u32(head + 564);
+    rows_done = (long)pds__get_u64(head + 792);
+    rows_own = pds__shard_count_of(height, shard, shards);
+    expect = pds__partial_file_size(width, height, split, rows_done);
+    b = (const unsigned char *)data;
+    if (size != expect) {
+        free(data);
+        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "%lu bytes, its header says %lu: truncated or damaged",
+                         (unsigned long)size, (unsigned long)expect);
+    }
+    if (pds__get_u64(b + size - 8) != pds__fnv1a64(b, size - 8)) {
+        free(data);
+        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "damaged (its check sum does not match its contents)");
+    }
+    p = (pds_partial *)calloc(1, sizeof *p);
+    if (!p) {
+        free(data);
+        return pds__nomem(err);
+    }
+    memcpy(p->version, b + 12, 16);
+    p->scene_hash = pds__get_u64(b + 28);
+    memcpy(p->scene_path, b + 36, 512);
+    p->width = width;
+    p->height = height;
+    p->shard_index = shard;
+    p->shard_count = shards;
+    p->split = split;
+    for (i = 0; i < PDS__PARTIAL_NOPT; i++) opt[i] = pds__get_u64(b + 568 + 8 * (size_t)i);
+    pds__partial_opt_decode(opt, &p->opt);
+    p->rows_own = rows_own;
+    p->rows_done = rows_done;
+    p->units_total = (long)pds__get_u64(b + 800);
+    p->units_own = (long)pds__get_u64(b + 808);
+    p->units_done = (long)pds__get_u64(b + 816);
+    p->n_planned = pds__get_f64(b + 824);
+    p->emitted = (long)pds__get_u64(b + 832);
+    p->unit = pds__get_f64(b + 840);
+    p->splatted = (long)pds__get_u64(b + 848);
+    p->degenerate = (long)pds__get_u64(b + 856);
+    p->saturated = (long)pds__get_u64(b + 864);
+    p->invalid = (long)pds__get_u64(b + 872);
+    p->eye_vertices = (long)pds__get_u64(b + 880);
+    if (p->units_total < 0 || p->units_own < 0 || p->units_done < 0 || p->units_done > p->units_own ||
+        p->units_own > p->units_total ||
+        (split == PDS__SPLIT_PHOTONS && p->units_own != pds__shard_count_of(p->units_total, shard, shards)) ||
+        (split == PDS__SPLIT_GATHER && (p->units_total != shards || p->units_own != 1)) ||
+        (split == PDS__SPLIT_ROWS && p->units_total != 0) || p->emitted < 0 || !(p->unit > 0.0) || !isfinite(p->unit) ||
+        !(p->n_planned >= 0.0) || !isfinite(p->n_planned)) {
+        free(data);
+        pds_partial_free(p);
+        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "damaged header (inconsistent counts)");
+    }
+    row = (size_t)width * 3;
+    p->eye = (double *)calloc(row * (size_t)height, sizeof *p->eye);
+    if (split != PDS__SPLIT_ROWS) p->photon = (pds__sum128 *)malloc(sizeof *p->photon * row * (size_t)height);
+    if (!p->eye || (split != PDS__SPLIT_ROWS && !p->photon)) {
+        free(data);
+        pds_partial_free(p);
+        return pds__nomem(err);
+    }
+    at = PDS__PARTIAL_HEADER;
+    for (j = 0; j < rows_done; j++) {
+        size_t y = (size_t)shard + (size_t)j * (size_t)shards;
+        for (k = 0; k < row; k++, at += 8) p->eye[y * row + k] = pds__get_f64(b + at);
+    }
+    if (p->photon)
+        for (k = 0; k < row * (size_t)height; k++, at += 16) {
+            p->photon[k].lo = pds__get_u64(b + at);
+            p->photon[k].hi = pds__get_u64(b + at + 8);
+        }
+    free(data);
+    *out = p;
+    return PDS_OK;
+}
+
+/* ===================================================================== */
 /* >>render                                                              */
 /* ===================================================================== */
 /* Camera rays, the integrators (path tracing, preview) and the thread
@@ -9070,9 +9793,15 @@ typedef struct pds__render_job {
     int spp, pass, total_spp_max;
     pds_filter filter;
     uint64_t seed;
+    const int *rows;       /* the rows to render, in this order */
+    int nrows;
     pthread_mutex_t lock;
-    int next_row;          /* guarded by lock */
+    int next_row;          /* guarded by lock: index into rows */
     int rows_done;         /* guarded by lock */
+    int stop;              /* guarded by lock: stop handing out rows */
+    int stop_requested;    /* guarded by lock: the progress callback said stop */
+    int stoppable;         /* a stop may end a pass early (not under a time
+                              budget, whose passes must be whole) */
     pthread_t caller;
     pds_progress_fn progress;
     void *progress_user;
@@ -9133,19 +9862,26 @@ static void *pds__render_worker(void *arg)
     pds__render_job *job = (pds__render_job *)arg;
     int is_caller = pthread_equal(pthread_self(), job->caller);
     for (;;) {
-        int y, x, done;
+        int y, x, done, k;
         pthread_mutex_lock(&job->lock);
-        y = job->next_row++;
+        k = job->stop ? job->nrows : job->next_row++;
         pthread_mutex_unlock(&job->lock);
-        if (y >= job->frame.height) break;
+        if (k >= job->nrows) break;
+        y = job->rows[k];
         for (x = 0; x < job->frame.width; x++)
             pds__render_pixel(job, x, y, &job->sum[3 * ((size_t)y * job->frame.width + x)]);
         pthread_mutex_lock(&job->lock);
         done = ++job->rows_done;
         pthread_mutex_unlock(&job->lock);
-        if (is_caller && job->progress)
-            job->progress(job->progress_user, job->progress_base + job->progress_scale * done / job->frame.height,
-                          pds_time_now() - job->t0);
+        if (is_caller && job->progress &&
+            job->progress(job->progress_user, PDS_PHASE_EYE, job->progress_base + job->progress_scale * done / job->nrows,
+                          pds_time_now() - job->t0) &&
+            !job->stop_requested) {
+            pthread_mutex_lock(&job->lock);
+            job->stop_requested = 1;
+            job->stop = job->stoppable; /* the rows handed out are finished: the done rows stay a prefix */
+            pthread_mutex_unlock(&job->lock);
+        }
     }
     return NULL;
 }
@@ -9453,6 +10189,11 @@ typedef struct pds__photon_job {
     int differentials;         /* trace photon differentials (pds) or not */
     double fixed_radius;       /* splat: the isotropic footprint's radius */
     long index_offset;         /* ppm: the first photon number of this pass */
+    long unit_first, unit_stride, unit_start; /* shards: the worker's b-th batch is
+                                  batch unit_first + (unit_start + b) unit_stride
+                                  of the render (0, 1, 0 for all of them) */
+    long own_batches;          /* batches this call will run, for the progress */
+    int cancelled;             /* guarded by lock: the progress callback said stop */
     double build_s, gather_s;  /* pm, pdm: time of the last map build and gather */
     double gather_found;       /* pm, pdm: photons its queries returned */
     size_t map_photons;        /* pm, pdm: photons in the last map built */
@@ -9737,6 +10478,7 @@ static void *pds__photon_worker(void *arg)
         pthread_mutex_lock(&job->lock);
         if (job->deadline > 0.0 && pds_time_now() >= job->deadline) job->stop = 1;
         b = job->stop ? -1 : job->next_batch++;
+        if (b >= 0) b = job->unit_first + (job->unit_start + b) * job->unit_stride;
         if (b >= 0 && b * (long)PDS__PHOTON_BATCH >= job->n_total) b = -1;
         pthread_mutex_unlock(&job->lock);
         if (b < 0) break;
@@ -9749,8 +10491,15 @@ static void *pds__photon_worker(void *arg)
         pthread_mutex_unlock(&job->lock);
         if (is_caller && job->progress) {
             double frac = job->deadline > 0.0 ? (pds_time_now() - job->t0) / (job->deadline - job->t0)
-                                              : (double)done * PDS__PHOTON_BATCH / (double)job->n_total;
-            job->progress(job->progress_user, frac > 1.0 ? 1.0 : frac, pds_time_now() - job->t0);
+                          : job->own_batches > 0 ? (double)done / (double)job->own_batches
+                                                 : (double)done * PDS__PHOTON_BATCH / (double)job->n_total;
+            if (job->progress(job->progress_user, PDS_PHASE_PHOTONS, frac > 1.0 ? 1.0 : frac, pds_time_now() - job->t0)) {
+                /* stop: the batches handed out are finished, so the done
+                   batches stay the first ones of the list */
+                pthread_mutex_lock(&job->lock);
+                job->stop = job->cancelled = 1;
+                pthread_mutex_unlock(&job->lock);
+            }
         }
     }
     return NULL;
@@ -9798,38 +10547,54 @@ static double pds__pass_smoothing(double s1, double alpha, long pass)
     return s1 * pow((double)pass, 0.5 * (alpha - 1.0));
 }
 
-/* Run progressive PDS passes into the job's sums: K = ceil(N / pass_photons)
-   passes of M = ceil(N / K) photons (photon numbers pass * M + j), or with
-   a deadline, whole passes while the last pass's duration still fits.
-   Returns the photons emitted (K M); *passes gets K. */
-static long pds__pds_passes(pds__photon_job *job, const pds_options *opt, int threads, double deadline, long *passes)
+/* The pass plan of progressive PDS for N photons: K = ceil(N / pass_photons)
+   passes of M = ceil(N / K) photons (photon numbers pass * M + j). */
+static void pds__pds_pass_plan(const pds_options *opt, long *k_total, long *m)
 {
-    long k_max, m, k;
+    *k_total = (opt->photons + opt->pass_photons - 1) / opt->pass_photons;
+    if (*k_total < 1) *k_total = 1;
+    *m = (opt->photons + *k_total - 1) / *k_total;
+    if (*m < 1) *m = 1;
+}
+
+/* Run progressive PDS passes into the job's sums: the passes first,
+   first + stride, ... of the plan above, from the start-th of those on
+   (a shard, or the rest of an interrupted render), or with a deadline,
+   whole passes while the last pass's duration still fits. The progress
+   callback may stop it between passes. Returns the photons emitted;
+   *passes gets the passes run. */
+static long pds__pds_passes(pds__photon_job *job, const pds_options *opt, int threads, double deadline, long first,
+                            long stride, long start, long *passes)
+{
+    long k_max, m, k, run = 0;
     double t_pass = 0.0;
     if (deadline > 0.0) {
         m = opt->pass_photons;
         k_max = LONG_MAX / m - 1;
     } else {
-        k_max = (opt->photons + opt->pass_photons - 1) / opt->pass_photons;
-        if (k_max < 1) k_max = 1;
-        m = (opt->photons + k_max - 1) / k_max;
-        if (m < 1) m = 1;
+        pds__pds_pass_plan(opt, &k_max, &m);
     }
     job->n_total = m;
     job->n_planned = (double)m;
-    for (k = 0; k < k_max; k++) {
+    for (k = first + start * stride; k < k_max; k += stride) {
         double t = pds_time_now();
         if (deadline > 0.0 && k > 0 && t + t_pass > deadline) break;
         job->smoothing = pds__pass_smoothing(opt->pass_smoothing, opt->pass_alpha, k + 1);
         pds__photon_run(job, threads, k * m);
         t_pass = pds_time_now() - t;
-        if (job->progress) {
-            double frac = deadline > 0.0 ? (pds_time_now() - job->t0) / (deadline - job->t0) : (k + 1.0) / k_max;
-            job->progress(job->progress_user, frac > 1.0 ? 1.0 : frac, pds_time_now() - job->t0);
+        run++;
+        if (opt->progress) {
+            double frac = deadline > 0.0 ? (pds_time_now() - job->t0) / (deadline - job->t0)
+                                         : (double)(start + run) / (double)((k_max - first + stride - 1) / stride);
+            if (opt->progress(opt->progress_user, PDS_PHASE_PHOTONS, frac > 1.0 ? 1.0 : frac, pds_time_now() - job->t0) &&
+                deadline <= 0.0) {
+                job->cancelled = 1;
+                break;
+            }
         }
     }
-    *passes = k;
-    return k * m;
+    *passes = run;
+    return run * m;
 }
 
 /* ===================================================================== */
@@ -10333,9 +11098,12 @@ static double pds__default_radius(const pds_scene *s)
 
 /* Progressive photon mapping: passes of opt->photons photons, each
    updating every eye vertex, until opt->passes (or, with a time budget,
-   until the time is spent; at least one pass). Adds the image into rgb. */
+   until the time is spent; at least one pass). Adds the radiance of each
+   vertex into the exact sums of job->bufs[0] (for a factor n_planned /
+   emitted of 1), unless the progress callback stopped it (job->cancelled:
+   then nothing). *emitted_out gets the photons emitted. */
 static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
-                                  int threads, double *rgb, pds_render_stats *stats, pds_error *err)
+                                  int threads, long *emitted_out, pds_render_stats *stats, pds_error *err)
 {
     pds__ppm_state *state = (pds__ppm_state *)calloc(nv ? nv : 1, sizeof *state);
     double r0 = opt->radius > 0.0 ? opt->radius : pds__default_radius(job->scene);
@@ -10352,22 +11120,24 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
         emitted += this_pass < job->n_total ? this_pass : job->n_total;
         for (t = 0; t < job->nbufs; t++)
             if (job->bufs[t].out_of_memory) st = PDS_ERR_NOMEM;
+        if (job->cancelled) break;
         if (!st) st = pds__ppm_update(job, opt, v, state, nv, threads, stats, err);
         if (opt->time_s > 0.0 ? pds_time_now() - job->t0 >= opt->time_s : pass + 1 >= opt->passes) {
             pass++;
             break;
         }
     }
-    if (!st && emitted > 0) {
+    if (!st && emitted > 0 && !job->cancelled) {
         /* L = tau / (pi R^2 N_emitted), times the vertex's importance */
         for (i = 0; i < nv; i++) {
             int c;
             if (!(state[i].r2 > 0.0)) continue;
             for (c = 0; c < 3; c++)
-                rgb[3 * (size_t)v[i].pixel + (size_t)c] +=
-                    v[i].importance[c] * state[i].tau[c] / (PDS__PI * state[i].r2 * (double)emitted);
+                pds__image_add(&job->bufs[0], 3 * (size_t)v[i].pixel + (size_t)c,
+                               v[i].importance[c] * state[i].tau[c] / (PDS__PI * state[i].r2 * (double)emitted));
         }
     }
+    *emitted_out = emitted;
     if (stats) {
         stats->photons = emitted;
         stats->passes = (int)pass;
@@ -10460,11 +11230,12 @@ static double pds__map_budget(pds__photon_job *job, const pds_options *opt, cons
 
 /* --- the photon pass --------------------------------------------------- */
 
-/* After the eye pass: emit and trace the caustic photons for method m and
-   add the caustic image into rgb (importance already carries 1/spp).
-   footprint, if not NULL, receives PDS's anisotropy image. */
+/* After the eye pass: emit and trace the caustic photons for method m,
+   the part's photon units that are not done yet (>>partial), and add the
+   caustic light into the part's exact sums (importance already carries
+   1/spp). footprint, if not NULL, receives PDS's anisotropy image. */
 static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, pds__eye_vertex *vertices,
-                                   size_t nvertices, int width, int height, int threads, double *rgb,
+                                   size_t nvertices, int width, int height, int threads, pds_partial *part,
                                    pds_image *footprint, pds_render_stats *stats, pds_error *err)
 {
     pds__eye_map map;
@@ -10532,14 +11303,17 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         if (footprint) job.bufs[t].aniso = (pds__sum128 *)calloc(npix * 2, sizeof(pds__sum128));
         if (!job.bufs[t].sum || (footprint && !job.bufs[t].aniso)) st = PDS_ERR_NOMEM;
     }
+    job.unit_stride = 1;
     if (!st && opt->method == PDS_METHOD_PPM) {
-        st = pds__ppm_passes(&job, opt, vertices, nvertices, threads, rgb, stats, err);
-        emitted = 0; /* the passes added their image themselves */
+        st = pds__ppm_passes(&job, opt, vertices, nvertices, threads, &emitted, stats, err);
+        job.n_planned = (double)emitted; /* the passes normalised their image themselves */
     } else if (!st && progressive) {
         long passes = 0;
         job.progress = NULL; /* the passes report progress themselves */
-        emitted = pds__pds_passes(&job, opt, threads, opt->time_s > 0.0 ? t0 + opt->time_s : 0.0, &passes);
+        emitted = pds__pds_passes(&job, opt, threads, opt->time_s > 0.0 ? t0 + opt->time_s : 0.0, part->shard_index,
+                                  part->shard_count, part->units_done, &passes);
         job.progress = opt->progress;
+        part->units_done += opt->time_s > 0.0 ? part->units_own - part->units_done : passes;
         if (stats) stats->passes = (int)(passes < INT_MAX ? passes : INT_MAX);
         for (t = 0; t < job.nbufs; t++)
             if (job.bufs[t].out_of_memory) st = PDS_ERR_NOMEM;
@@ -10583,31 +11357,59 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.stop = 0;
     }
     if (!st && opt->method != PDS_METHOD_PPM && !progressive) {
+        if (splats && opt->time_s <= 0.0) {
+            /* this part's batches (>>partial) */
+            job.unit_first = part->shard_index;
+            job.unit_stride = part->shard_count;
+            job.unit_start = part->units_done;
+            job.own_batches = part->units_own - part->units_done;
+        }
         pthread_mutex_init(&job.lock, NULL);
         job.next_buf = 0;
         threads = pds__run_threads(threads, pds__photon_worker, &job);
         pthread_mutex_destroy(&job.lock);
-        emitted = job.batches_done * (long)PDS__PHOTON_BATCH;
-        if (emitted > job.n_total) emitted = job.n_total;
+        if (splats && opt->time_s <= 0.0) {
+            long j;
+            emitted = 0;
+            for (j = 0; j < job.batches_done; j++) {
+                long b = job.unit_first + (job.unit_start + j) * job.unit_stride;
+                emitted += job.n_total - b * (long)PDS__PHOTON_BATCH < PDS__PHOTON_BATCH
+                               ? job.n_total - b * (long)PDS__PHOTON_BATCH
+                               : PDS__PHOTON_BATCH;
+            }
+            part->units_done += job.batches_done;
+        } else {
+            emitted = job.batches_done * (long)PDS__PHOTON_BATCH;
+            if (emitted > job.n_total) emitted = job.n_total;
+            if (opt->time_s > 0.0) part->units_done = part->units_own;
+        }
         for (t = 0; t < job.nbufs; t++)
             if (job.bufs[t].out_of_memory) st = PDS_ERR_NOMEM;
     }
-    if (!st && opt->method == PDS_METHOD_PM) st = pds__pm_gather(&job, opt, vertices, nvertices, threads, stats, err);
-    if (!st && opt->method == PDS_METHOD_PDM) st = pds__pdm_gather(&job, opt, vertices, nvertices, threads, stats, err);
+    if (!splats && job.cancelled) emitted = 0; /* pm, pdm, ppm: all photons or none */
+    if (opt->progress && !splats && !job.cancelled)
+        (void)opt->progress(opt->progress_user, PDS_PHASE_GATHER, 0.0, pds_time_now() - t0); /* one unit: not stopped */
+    if (!st && !job.cancelled && opt->method == PDS_METHOD_PM)
+        st = pds__pm_gather(&job, opt, vertices, nvertices, threads, stats, err);
+    if (!st && !job.cancelled && opt->method == PDS_METHOD_PDM)
+        st = pds__pdm_gather(&job, opt, vertices, nvertices, threads, stats, err);
+    if (!st && !splats && !job.cancelled) part->units_done = part->units_own;
     if (!st && stats && (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM)) {
         stats->time_map_s = job.build_s;
         stats->time_gather_s = job.gather_s;
     }
     if (!st) {
-        /* The sums are exact and order-free; the photons were weighted for
-           n_planned, the count actually emitted corrects it. */
+        /* The sums are exact and order-free: the part's are their sum.
+           The photons were weighted for n_planned; the image divides by
+           the count actually emitted (pds__partial_image). */
         long saturated = 0;
-        for (i = 0; i < npix * 3; i++) {
-            pds__sum128 sum = {0, 0};
-            for (t = 0; t < job.nbufs; t++) saturated += pds__sum128_add_bits(&sum, job.bufs[t].sum[i].lo, job.bufs[t].sum[i].hi);
-            if (emitted > 0)
-                rgb[i] += pds__sum128_value(sum) / job.bufs[0].unit * (job.n_planned / (double)emitted);
-        }
+        if (!job.cancelled || splats)
+            for (i = 0; i < npix * 3; i++)
+                for (t = 0; t < job.nbufs; t++)
+                    saturated += pds__sum128_add_bits(&part->photon[i], job.bufs[t].sum[i].lo, job.bufs[t].sum[i].hi);
+        if (opt->time_s > 0.0 || (opt->method == PDS_METHOD_PPM && !job.cancelled)) part->n_planned = job.n_planned;
+        if (splats) part->emitted += emitted;
+        else part->emitted = emitted;
         if (footprint && pds_image_alloc(footprint, width, height) == PDS_OK) {
             for (i = 0; i < npix; i++) {
                 pds__sum128 swm = {0, 0}, sw = {0, 0};
@@ -10690,6 +11492,8 @@ void pds_options_default(pds_options *opt)
     opt->alpha = 0.7;
     opt->passes = 10;
     opt->max_photons = 500;
+    opt->shard_index = 0;
+    opt->shard_count = 1;
 }
 
 /* Methods that add caustics with photons after an eye pass. */
@@ -10761,6 +11565,15 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown rendering method %d", (int)opt->method);
     if ((unsigned)opt->paths > (unsigned)PDS_PATHS_CAUSTICS_ONLY)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown light path selection %d", (int)opt->paths);
+    if (opt->shard_count < 1 || opt->shard_count > PDS__PARTIAL_MAX_SHARDS || opt->shard_index < 0 ||
+        opt->shard_index >= opt->shard_count)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "shard %d of %d: the index must be 0..count-1, the count 1..%d",
+                         opt->shard_index, opt->shard_count, PDS__PARTIAL_MAX_SHARDS);
+    if (opt->shard_count > 1 && opt->time_s > 0.0)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                         "a render with a time budget cannot be split into shards: its photon count is not fixed");
+    if (opt->shard_count > 1 && opt->footprint)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the footprint image is not made for shards");
     return PDS_OK;
 }
 
@@ -10807,11 +11620,13 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
     if (threads > h) threads = h;
     npix = (double)w * (double)h;
     est->samples = npix * spp;
-    bytes = npix * 3.0 * (sizeof(double) + sizeof(float)); /* the sums and the output image */
+    /* the eye sums, the part's eye values, the output image */
+    bytes = npix * 3.0 * (2.0 * sizeof(double) + sizeof(float));
     if (pds__is_photon_method(opt->method) && opt->paths != PDS_PATHS_NO_CAUSTICS) {
         est->eye_vertices = est->samples;
         bytes += est->eye_vertices * vertex_bytes;
-        bytes += (double)threads * npix * (3 + (opt->footprint ? 2 : 0)) * sizeof(pds__sum128);
+        bytes += (double)(threads + 1) * npix * 3 * sizeof(pds__sum128) +
+                 (double)threads * npix * (opt->footprint ? 2 : 0) * sizeof(pds__sum128);
         photons = opt->time_s > 0.0 ? 0.0 : (double)opt->photons; /* a time budget: not known in advance */
         if (opt->method == PDS_METHOD_PM) est->stored_photons = photons;
         if (opt->method == PDS_METHOD_PDM) est->stored_photons = photons;
@@ -10827,35 +11642,79 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
     return PDS_OK;
 }
 
-pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image *out,
-                      pds_render_stats *stats, pds_error *err)
+/* A new partial for opt's shard of a render of scene at width x height:
+   nothing done yet (>>partial). NULL when memory runs out. */
+static pds_partial *pds__partial_new(const pds_scene *scene, const pds_options *opt, int width, int height)
+{
+    pds_partial *p = (pds_partial *)calloc(1, sizeof *p);
+    size_t n = (size_t)width * (size_t)height * 3;
+    int photons = pds__is_photon_method(opt->method) && opt->paths != PDS_PATHS_NO_CAUSTICS;
+    if (!p) return NULL;
+    pds__strlcpy(p->version, PDS_VERSION_STRING, sizeof p->version);
+    p->scene_hash = pds_scene_hash(scene);
+    pds__strlcpy(p->scene_path, scene->path, sizeof p->scene_path);
+    pds_options_default(&p->opt);
+    {
+        /* only what shapes the image; the rest stays at its default */
+        uint64_t v[PDS__PARTIAL_NOPT];
+        pds__partial_opt_encode(opt, v);
+        pds__partial_opt_decode(v, &p->opt);
+    }
+    p->width = width;
+    p->height = height;
+    p->shard_index = opt->shard_index;
+    p->shard_count = opt->shard_count;
+    p->split = !photons ? PDS__SPLIT_ROWS
+               : opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_SPLAT ? PDS__SPLIT_PHOTONS
+                                                                                  : PDS__SPLIT_GATHER;
+    p->rows_own = pds__shard_count_of(height, p->shard_index, p->shard_count);
+    /* n_planned as the photon pass sets it (a time budget sets its own):
+       every part of a render has the same */
+    p->n_planned = (double)opt->photons;
+    if (p->split == PDS__SPLIT_PHOTONS) {
+        long m;
+        if (opt->time_s > 0.0) {
+            p->units_total = 1; /* a time budget: one unit (never split) */
+        } else if (opt->method == PDS_METHOD_PDS && opt->progressive) {
+            pds__pds_pass_plan(opt, &p->units_total, &m);
+            p->n_planned = (double)m;
+        } else {
+            p->units_total = opt->photons / PDS__PHOTON_BATCH + (opt->photons % PDS__PHOTON_BATCH != 0);
+        }
+        p->units_own = pds__shard_count_of(p->units_total, p->shard_index, p->shard_count);
+    } else if (p->split == PDS__SPLIT_GATHER) {
+        p->units_total = p->shard_count;
+        p->units_own = 1;
+        if (opt->method == PDS_METHOD_PPM) p->n_planned = (double)opt->photons * opt->passes;
+    }
+    p->unit = pds__sum_unit(scene);
+    p->eye = (double *)calloc(n, sizeof *p->eye);
+    if (p->split != PDS__SPLIT_ROWS) p->photon = (pds__sum128 *)calloc(n, sizeof *p->photon);
+    if (!p->eye || (p->split != PDS__SPLIT_ROWS && !p->photon)) {
+        pds_partial_free(p);
+        return NULL;
+    }
+    return p;
+}
+
+/* The rendering itself: the part's eye rows and photon units not done yet
+   (>>partial), into the part. The eye pass renders
+     - the part's remaining rows, in order (pt, preview, no caustics, and
+       photon methods whose photon units are all done), or
+     - the rows whose eye vertices the photon pass needs: all rows for pds
+       and splat (every photon may land in any pixel), the part's rows for
+       pm, pdm and ppm; the eye values of the part's rows are kept once
+       the whole eye pass is done. */
+static pds_status pds__render_into(const pds_scene *scene, const pds_options *opt, pds_partial *part,
+                                   pds_render_stats *stats, pds_error *err)
 {
     pds__render_job job;
-    pds_render_stats local;
-    const pds_camera *cam;
-    int w, h, threads, max_passes, photons = 0;
-    size_t i, npix;
+    const pds_camera *cam = &scene->camera;
+    int w = part->width, h = part->height, threads, max_passes, photons, own_list, completed, j, y;
+    int I = part->shard_index, N = part->shard_count;
+    int *rows;
+    size_t i, npix, row;
     pds_status st = PDS_OK;
-    double *rgb;
-    if (!scene || !opt || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render: NULL argument");
-    cam = &scene->camera;
-    w = opt->width > 0 ? opt->width : cam->width;
-    h = opt->height > 0 ? opt->height : cam->height;
-    if ((st = pds__options_check(opt, w, h, err))) return st;
-    {
-        pds_render_estimate est;
-        double limit;
-        if ((st = pds_render_estimate_get(scene, opt, &est, err))) return st;
-        limit = opt->memory_limit > 0.0 ? opt->memory_limit : est.available_bytes;
-        if (limit > 0.0 && est.memory_bytes > limit)
-            return pds__fail(err, PDS_ERR_LIMIT, NULL, 0, 0,
-                             "this render needs up to %.1f GB (%dx%d pixels, %.3g eye vertices, %.3g stored photons) "
-                             "but %s %.1f GB: lower the resolution, spp or photon count",
-                             est.memory_bytes / 1e9, w, h, est.eye_vertices, est.stored_photons,
-                             opt->memory_limit > 0.0 ? "the memory limit is" : "this machine has", limit / 1e9);
-    }
-    if (!stats) stats = &local;
-    memset(stats, 0, sizeof *stats);
     memset(&job, 0, sizeof job);
     job.t0 = pds_time_now();
     job.scene = scene;
@@ -10872,10 +11731,10 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     job.tracer.eps = 1e-6 * pds__scene_scale(scene);
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
+    photons = part->split != PDS__SPLIT_ROWS && part->units_done < part->units_own;
     if (pds__is_photon_method(opt->method)) {
         /* The eye pass computes everything but the caustics and records the
            eye-path vertices; the photon pass adds the caustics. */
-        photons = opt->paths != PDS_PATHS_NO_CAUSTICS;
         job.tracer.paths = PDS_PATHS_NO_CAUSTICS;
         job.record_eye = photons;
     }
@@ -10885,15 +11744,29 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     max_passes = opt->time_s > 0.0 && !pds__is_photon_method(opt->method) ? PDS_MAX_SPP / job.spp : 1;
     if (max_passes < 1) max_passes = 1;
     job.total_spp_max = job.spp * max_passes;
+    job.stoppable = max_passes == 1;
     npix = (size_t)w * (size_t)h;
+    row = (size_t)w * 3;
+    /* the rows to render */
+    rows = (int *)malloc(sizeof *rows * (size_t)h);
+    own_list = !photons || part->split == PDS__SPLIT_GATHER;
+    job.nrows = 0;
+    if (rows && !photons) {
+        for (j = (int)part->rows_done; j < (int)part->rows_own; j++) rows[job.nrows++] = I + j * N;
+    } else if (rows && part->split == PDS__SPLIT_GATHER) {
+        for (j = 0; j < (int)part->rows_own; j++) rows[job.nrows++] = I + j * N;
+    } else if (rows) {
+        for (y = 0; y < h; y++) rows[job.nrows++] = y;
+    }
+    job.rows = rows;
     job.sum = (double *)calloc(npix * 3, sizeof(double));
     if (job.record_eye) {
         job.row_vertices = (pds__eye_vertex **)calloc((size_t)h, sizeof *job.row_vertices);
         job.row_count = (size_t *)calloc((size_t)h, sizeof *job.row_count);
         job.row_cap = (size_t *)calloc((size_t)h, sizeof *job.row_cap);
     }
-    if (!job.sum || (job.record_eye && (!job.row_vertices || !job.row_count || !job.row_cap)) ||
-        pds_image_alloc(out, w, h) != PDS_OK) {
+    if (!rows || !job.sum || (job.record_eye && (!job.row_vertices || !job.row_count || !job.row_cap))) {
+        free(rows);
         free(job.sum);
         free(job.row_vertices);
         free(job.row_count);
@@ -10915,46 +11788,57 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
             job.progress_scale = 0.0;
         } else {
             job.progress_base = 0.0;
-            job.progress_scale = photons ? 0.0 : 1.0;
+            job.progress_scale = 1.0;
         }
-        threads = pds__run_threads(threads, pds__render_worker, &job);
+        if (job.nrows > 0) threads = pds__run_threads(threads, pds__render_worker, &job);
         elapsed = pds_time_now() - job.t0;
-        if (max_passes == 1 || elapsed >= opt->time_s) {
+        if (max_passes == 1 || elapsed >= opt->time_s || job.stop_requested) {
             job.pass++;
             break;
         }
     }
     pthread_mutex_destroy(&job.lock);
     stats->time_eye_s = pds_time_now() - job.t0;
-    stats->memory_bytes = npix * 3 * sizeof(double);
-    /* the average of the passes, in place */
-    rgb = job.sum;
-    for (i = 0; i < npix * 3; i++) rgb[i] /= (double)job.spp * job.pass;
-    if (pds__is_photon_method(opt->method) && opt->paths == PDS_PATHS_CAUSTICS_ONLY)
-        memset(rgb, 0, npix * 3 * sizeof *rgb);
+    stats->memory_bytes = npix * 3 * sizeof(double) * 2 + (part->photon ? npix * 3 * sizeof(pds__sum128) : 0);
+    /* the rows handed out before a stop are all finished: a prefix */
+    completed = job.stop ? (job.next_row < job.nrows ? job.next_row : job.nrows) : job.nrows;
+    /* keep the eye values (the average of the passes) of the part's rows */
+    if (own_list || completed == job.nrows) {
+        int zero = pds__is_photon_method(opt->method) && opt->paths == PDS_PATHS_CAUSTICS_ONLY;
+        for (j = 0; j < completed; j++) {
+            long own;
+            y = rows[j];
+            if (y % N != I) continue;
+            own = (y - I) / N;
+            if (own < part->rows_done) continue;
+            for (i = 0; i < row; i++)
+                part->eye[(size_t)y * row + i] = zero ? 0.0 : job.sum[(size_t)y * row + i] / ((double)job.spp * job.pass);
+        }
+        if (!photons) part->rows_done += completed;
+        else if (completed == job.nrows) part->rows_done = part->rows_own;
+    }
     if (job.record_eye) {
         size_t nv = 0;
         pds__eye_vertex *verts = job.out_of_memory ? NULL : pds__join_rows(&job, &nv);
         if (job.out_of_memory) {
-            int y;
             for (y = 0; y < h; y++) free(job.row_vertices[y]);
         }
         if (!verts) st = pds__nomem(err);
-        else st = pds__photon_pass(scene, opt, verts, nv, w, h, threads, rgb, opt->footprint, stats, err);
+        else if (completed == job.nrows)
+            st = pds__photon_pass(scene, opt, verts, nv, w, h, threads, part, opt->footprint, stats, err);
         free(verts);
         free(job.row_vertices);
         free(job.row_count);
         free(job.row_cap);
     }
-    if (st) {
-        free(job.sum);
-        pds_image_free(out);
-        return st;
-    }
-    stats->nonfinite = pds__finite_floats(rgb, out->rgb, npix * 3);
     free(job.sum);
-    if (job.progress) job.progress(job.progress_user, 1.0, pds_time_now() - job.t0);
-    stats->time_total_s = pds_time_now() - job.t0;
+    free(rows);
+    if (st) return st;
+    part->splatted += stats->splatted;
+    part->degenerate += stats->dropped_degenerate;
+    part->saturated += stats->saturated;
+    part->invalid += stats->dropped_invalid;
+    if (stats->eye_vertices > part->eye_vertices) part->eye_vertices = stats->eye_vertices;
     stats->threads = threads;
     stats->width = w;
     stats->height = h;
@@ -10962,6 +11846,93 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     if (opt->method != PDS_METHOD_PPM && !(opt->method == PDS_METHOD_PDS && opt->progressive))
         stats->passes = job.pass; /* ppm and progressive pds: their photon passes */
     return PDS_OK;
+}
+
+/* The checks before any work: the memory estimate. */
+static pds_status pds__render_memory_check(const pds_scene *scene, const pds_options *opt, int w, int h,
+                                           pds_error *err)
+{
+    pds_render_estimate est;
+    double limit;
+    pds_status st;
+    if ((st = pds_render_estimate_get(scene, opt, &est, err))) return st;
+    limit = opt->memory_limit > 0.0 ? opt->memory_limit : est.available_bytes;
+    if (limit > 0.0 && est.memory_bytes > limit)
+        return pds__fail(err, PDS_ERR_LIMIT, NULL, 0, 0,
+                         "this render needs up to %.1f GB (%dx%d pixels, %.3g eye vertices, %.3g stored photons) "
+                         "but %s %.1f GB: lower the resolution, spp or photon count",
+                         est.memory_bytes / 1e9, w, h, est.eye_vertices, est.stored_photons,
+                         opt->memory_limit > 0.0 ? "the memory limit is" : "this machine has", limit / 1e9);
+    return PDS_OK;
+}
+
+pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_partial **part,
+                           pds_render_stats *stats, pds_error *err)
+{
+    pds_render_stats local;
+    pds_partial_info info;
+    const pds_camera *cam;
+    int w, h;
+    pds_status st;
+    double t0 = pds_time_now();
+    if (!scene || !opt || !part) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render_part: NULL argument");
+    cam = &scene->camera;
+    w = opt->width > 0 ? opt->width : cam->width;
+    h = opt->height > 0 ? opt->height : cam->height;
+    if ((st = pds__options_check(opt, w, h, err))) return st;
+    if ((st = pds__render_memory_check(scene, opt, w, h, err))) return st;
+    if (*part) {
+        pds_partial *p = *part;
+        if (opt->time_s > 0.0)
+            return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                             "a render with a time budget cannot be continued: its photon count is not fixed");
+        if (p->scene_hash != pds_scene_hash(scene))
+            return pds__fail(err, PDS_ERR_INVALID_ARG, scene->path, 0, 0,
+                             "not the scene this part was rendered from (%s): its content differs", p->scene_path);
+        if (!pds__partial_same_options(&p->opt, opt) || p->width != w || p->height != h ||
+            p->shard_index != opt->shard_index || p->shard_count != opt->shard_count)
+            return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                             "these options are not the ones the part was rendered with (pds_partial_options)");
+    } else {
+        *part = pds__partial_new(scene, opt, w, h);
+        if (!*part) return pds__nomem(err);
+    }
+    if (!stats) stats = &local;
+    memset(stats, 0, sizeof *stats);
+    st = pds__render_into(scene, opt, *part, stats, err);
+    if (st) return st;
+    pds_partial_get_info(*part, &info);
+    stats->partial = !info.complete;
+    stats->done_fraction = info.done_fraction;
+    if (opt->progress && info.complete)
+        (void)opt->progress(opt->progress_user, (*part)->split == PDS__SPLIT_ROWS ? PDS_PHASE_EYE : PDS_PHASE_PHOTONS, 1.0,
+                            pds_time_now() - t0);
+    stats->time_total_s = pds_time_now() - t0;
+    return PDS_OK;
+}
+
+pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image *out,
+                      pds_render_stats *stats, pds_error *err)
+{
+    pds_render_stats local;
+    pds_partial *part = NULL;
+    const pds_partial *parts[1];
+    pds_status st;
+    double t0 = pds_time_now();
+    if (!scene || !opt || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render: NULL argument");
+    if (!stats) stats = &local;
+    st = pds_render_part(scene, opt, &part, stats, err);
+    if (st) {
+        pds_partial_free(part);
+        return st;
+    }
+    /* the image of the state, as a merge of shards makes it */
+    parts[0] = part;
+    st = pds__partial_merge(parts, NULL, 1, 1, out, NULL, &stats->nonfinite, err);
+    pds_partial_free(part);
+    stats->partial = stats->partial || opt->shard_count > 1;
+    stats->time_total_s = pds_time_now() - t0;
+    return st;
 }
 
 /* `pds bench rays`: the rays are made before the clock starts, so only

@@ -311,9 +311,21 @@ typedef enum pds_paths {
     PDS_PATHS_CAUSTICS_ONLY
 } pds_paths;
 
-/* Progress report: fraction of the work done in [0,1] and seconds since the
-   render started. Called from the thread that called pds_render only. */
-typedef void (*pds_progress_fn)(void *user, double fraction, double elapsed_s);
+/* What a render is doing when it reports progress. */
+typedef enum pds_phase {
+    PDS_PHASE_EYE = 0,   /* the eye pass (all of a path-traced render) */
+    PDS_PHASE_PHOTONS,   /* tracing (and for pds and splat, splatting) photons */
+    PDS_PHASE_GATHER     /* pm, pdm, ppm: gathering photons at the eye vertices */
+} pds_phase;
+
+/* Progress report: the phase, the fraction of that phase done in [0,1] and
+   seconds since the render started. Called from the thread that called
+   pds_render only, after each batch of work (an image row, a batch of
+   photons, a pass). Return 0 to go on; nonzero to stop: the render finishes
+   the batches under way and returns PDS_OK with what it has (stats->partial
+   = 1, stats->done_fraction says how much; pds_render_part keeps the exact
+   state, to be continued later). */
+typedef int (*pds_progress_fn)(void *user, pds_phase phase, double fraction, double elapsed_s);
 
 typedef struct pds_options {
     pds_method method;  /* default PDS_METHOD_PDS (as the pds tool's) */
@@ -383,6 +395,10 @@ typedef struct pds_options {
     double memory_limit; /* bytes: pds_render refuses (PDS_ERR_LIMIT) a render
                            whose pds_render_estimate_get memory exceeds this;
                            0 = this machine's physical memory (default 0) */
+    int shard_index, shard_count; /* render only part shard_index (0-based) of
+                           shard_count disjoint parts of the render, which
+                           pds_partial_merge sums into the image of the whole,
+                           bit for bit (see pds_render_part; default 0 of 1) */
 } pds_options;
 
 void pds_options_default(pds_options *opt);
@@ -419,13 +435,18 @@ typedef struct pds_render_stats {
     size_t memory_bytes;    /* largest working memory the render held at once
                                (image sums, eye-path map, per-thread images);
                                does not grow with the photon count */
+    int partial;            /* 1 when the progress callback stopped the render
+                               (or the image is of a shard): not all of it is done */
+    double done_fraction;   /* of the whole render's work units (eye rows for
+                               pt, photon batches or passes for pds and splat,
+                               shards for pm, pdm and ppm) that are done */
 } pds_render_stats;
 
 /* What a render will need, from the scene and options alone, before any
    work: an upper bound on the memory it holds at once beyond the scene
    (per eye vertex 204 bytes, every pixel sample taken to record one; per
-   stored photon 133 bytes for pm and ppm, 176 for pdm; per pixel 36 bytes
-   plus 48 per thread for the photon methods), the pixel samples of one
+   stored photon 133 bytes for pm and ppm, 176 for pdm; per pixel 60 bytes,
+   and for the photon methods 48 more plus 48 per thread), the pixel samples of one
    eye pass, and the machine's physical memory (0 if unknown). With a time
    budget the photon count is not known in advance and counts as 0. */
 typedef struct pds_render_estimate {
@@ -443,6 +464,71 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
    memory exceeds opt->memory_limit (or the machine's memory). */
 pds_status pds_render(const pds_scene *scene, const pds_options *opt,
                       pds_image *out, pds_render_stats *stats, pds_error *err);
+
+/* ------------------------------------------------- shards, interrupt, resume */
+
+/* A render is a sum, and its exact state can be kept, continued and merged.
+   A pds_partial holds the state of one shard of a render: which of its
+   work units are done, the eye pass's pixel values of the rows it owns
+   (doubles, each pixel's computed by one shard in sample order) and the
+   photon part as exact 128-bit integer sums (order-free), with the scene's
+   content hash and every option that shapes the image.
+
+   The work units of shard I of N (0-based):
+     pt, preview, and any method with PDS_PATHS_NO_CAUSTICS: image rows
+       I, I + N, I + 2N, ...
+     pds, splat: photon batches (progressive pds: passes) I, I + N, ...;
+       every shard runs the whole eye pass (the eye-path map needs all
+       vertices) and keeps the eye image of rows I, I + N, ...
+     pm, pdm, ppm: an estimate needs every photon, so every shard traces
+       all photons and gathers at the eye vertices of rows I, I + N, ...
+       only (the photon part is one unit: done or not).
+   A render with a time budget (time_s > 0) cannot be split or continued.
+
+   pds_render_part renders (or continues) a part; the progress callback
+   may stop it at a batch boundary, and a later call continues it. The
+   merged image of all N parts equals pds_render's bit for bit. */
+typedef struct pds_partial pds_partial; /* opaque; the caller frees it */
+
+typedef struct pds_partial_info {
+    int shard_index, shard_count;
+    int width, height;
+    pds_method method;
+    unsigned long long scene_hash; /* of the loaded scene's geometry, materials,
+                                      lights and camera */
+    const char *scene_path;        /* as the scene was loaded; owned by the partial */
+    int complete;                  /* every unit of the shard is done */
+    double done_fraction;          /* of the shard's units */
+    long units_done, units_total;  /* the shard's work units (see above) */
+} pds_partial_info;
+
+/* Render opt's shard (opt->shard_index of opt->shard_count) into *part: a
+   new partial if *part is NULL, else continue *part (which must come from
+   the same scene and options: refused otherwise). stats as pds_render's,
+   for this call's work; stats->partial = 1 while units remain. */
+pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_partial **part,
+                           pds_render_stats *stats, pds_error *err);
+/* The image of n parts of one render: all N shards once each, or with
+   allow_subset any of them (units not done are black for the eye rows, and
+   the photon part is normalised by the photons actually in it). Refuses
+   parts of other scenes, options, shard counts or library versions, and
+   duplicated shards; without allow_subset also missing or unfinished ones.
+   names (or NULL) name the parts in messages (their files, say). *fraction
+   (if not NULL) gets the fraction of the render's work units the parts
+   hold. */
+pds_status pds_partial_merge(const pds_partial *const *parts, const char *const *names, int n, int allow_subset,
+                             pds_image *out, double *fraction, pds_error *err);
+/* The partial file (README "Partial files"): versioned little-endian binary,
+   written to a temporary name and renamed. */
+pds_status pds_partial_write(const char *path, const pds_partial *part, pds_error *err);
+pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err);
+void pds_partial_get_info(const pds_partial *part, pds_partial_info *info);
+/* The options the part was rendered with (progress, footprint, threads and
+   memory_limit at their defaults), to continue it. */
+void pds_partial_options(const pds_partial *part, pds_options *opt);
+void pds_partial_free(pds_partial *part);
+/* The content hash pds_partial_info reports, of a loaded scene. */
+unsigned long long pds_scene_hash(const pds_scene *scene);
 
 /* -------------------------------------------------------------- benchmarks */
 

@@ -99,7 +99,7 @@ static void test_cli_exit_codes_follow_the_contract(pds_test_ctx *t)
     CHECK(t, cli_run("render scenes/demo.scene --spp 0", out, sizeof out) == 2, "--spp 0");
     CHECK(t, cli_run("render scenes/demo.scene --res 10by10", out, sizeof out) == 2, "--res");
     CHECK(t, cli_run("render scenes/demo.scene --bogus", out, sizeof out) == 2, "unknown option");
-    CHECK(t, cli_run("render scenes/demo.scene -o out.jpg", out, sizeof out) == 2 && strstr(out, ".png or .pfm"), "%s", out);
+    CHECK(t, cli_run("render scenes/demo.scene -o out.jpg", out, sizeof out) == 2 && strstr(out, ".png, .pfm or .pdsp"), "%s", out);
     CHECK(t, cli_run("compare a.pfm", out, sizeof out) == 2, "compare arity");
     CHECK(t, cli_run("render /nonexistent.scene -o /tmp/x.png", out, sizeof out) == 1 &&
                  strstr(out, "/nonexistent.scene: cannot open"), "%s", out);
@@ -221,8 +221,10 @@ static pid_t cli_spawn(char **argv)
 }
 
 /* Kill a render while it writes a 12 MB PFM (and once while it renders):
-   whenever the signal lands, pds dies by that signal, leaves no temporary
-   file, and the output is either absent or complete. The kill follows the
+   while it writes, pds dies by that signal; while it renders, it stops
+   after the row under way and writes the image so far and its partial
+   file, exit status 130. Either way no temporary file is left, and the
+   output is either absent or complete. The kill follows the
    temporary file's appearance by 0 to 20 ms, so it lands before, during and
    after the write. */
 static void test_cli_signal_during_write_leaves_no_temporary_file(pds_test_ctx *t)
@@ -263,6 +265,12 @@ static void test_cli_signal_during_write_leaves_no_temporary_file(pds_test_ctx *
             if (WIFSIGNALED(status)) {
                 CHECK(t, WTERMSIG(status) == sigs[si], "died by signal %d, not %d", WTERMSIG(status), sigs[si]);
                 if (seen && delays_ms[di] == 0.0) killed_writing++;
+            } else if (WIFEXITED(status) && WEXITSTATUS(status) == 130) {
+                /* stopped while rendering: the image so far and its partial file */
+                char part[260];
+                snprintf(part, sizeof part, "%s.pdsp", out);
+                CHECK(t, cli_file_exists(out) && cli_file_exists(part), "signal %d, %g ms: exit 130 without %s and %s",
+                      sigs[si], delays_ms[di], out, part);
             } else {
                 CHECK(t, WIFEXITED(status) && WEXITSTATUS(status) == 0, "neither killed nor finished: status %d",
                       status);
@@ -274,7 +282,7 @@ static void test_cli_signal_during_write_leaves_no_temporary_file(pds_test_ctx *
                       "signal %d, %g ms: the output is not a complete image", sigs[si], delays_ms[di]);
                 pds_image_free(&img);
             } else if (delays_ms[di] < 0.0) {
-                CHECK(t, WIFSIGNALED(status), "killed while rendering, yet no output");
+                CHECK(t, WIFSIGNALED(status), "stopped while rendering, yet no output");
             }
             /* clean up whatever a failure left, so the next round starts empty */
             {
