@@ -11905,8 +11905,11 @@ pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_p
     stats->partial = !info.complete;
     stats->done_fraction = info.done_fraction;
     if (opt->progress && info.complete)
-        (void)opt->progress(opt->progress_user, (*part)->split == PDS__SPLIT_ROWS ? PDS_PHASE_EYE : PDS_PHASE_PHOTONS, 1.0,
-                            pds_time_now() - t0);
+        (void)opt->progress(opt->progress_user,
+                            (*part)->split == PDS__SPLIT_ROWS      ? PDS_PHASE_EYE
+                            : (*part)->split == PDS__SPLIT_PHOTONS ? PDS_PHASE_PHOTONS
+                                                                   : PDS_PHASE_GATHER,
+                            1.0, pds_time_now() - t0);
     stats->time_total_s = pds_time_now() - t0;
     return PDS_OK;
 }

@@ -1,0 +1,426 @@
+/* tests/test_shards.c - shards, exact merges, interrupt and resume, and the
+   partial file: a render split any way, stopped anywhere and continued,
+   gives the image of the render in one go, bit for bit. */
+
+/* A glass ball on a floor under a point light: caustics for the photon
+   methods, direct light for the eye pass. 24 x 16 pixels, 2 samples. */
+static const char shards_scene[] =
+    "camera { position 0 2 4 look_at 0 0.3 0 fov 40 resolution 24 16 spp 2 }\n"
+    "material floor diffuse { albedo 0.8 }\n"
+    "material glass dielectric { ior 1.5 }\n"
+    "quad { material floor size 6 6 }\n"
+    "sphere { material glass radius 0.5 translate 0 0.6 0 }\n"
+    "light point { position 0.3 3 0.2 power 200 }\n";
+
+static pds_scene *shards_load(const char *text, pds_error *err)
+{
+    pds_scene *s = NULL;
+    if (pds_scene_load_string(text, "shards.scene", &s, err) != PDS_OK) return NULL;
+    return s;
+}
+
+/* One method and its options, small enough for a test. */
+typedef struct shards_case {
+    const char *name;
+    pds_method method;
+    int progressive;
+} shards_case;
+
+static const shards_case shards_cases[] = {
+    {"pds (progressive)", PDS_METHOD_PDS, 1}, {"pds (paper)", PDS_METHOD_PDS, 0}, {"splat", PDS_METHOD_SPLAT, 0},
+    {"pm", PDS_METHOD_PM, 0},                 {"pdm", PDS_METHOD_PDM, 0},         {"ppm", PDS_METHOD_PPM, 0},
+    {"pt", PDS_METHOD_PT, 0},
+};
+
+static void shards_options(const shards_case *c, pds_options *opt)
+{
+    pds_options_default(opt);
+    opt->method = c->method;
+    opt->progressive = c->progressive;
+    opt->photons = 6000;      /* pds: 6 batches; progressive: 3 passes of 2000 */
+    opt->pass_photons = 2048;
+    opt->passes = 2;          /* ppm */
+    opt->k = 20;
+    opt->max_photons = 100;
+    opt->threads = 2;
+}
+
+static int shards_same(const pds_image *a, const pds_image *b)
+{
+    return a->width == b->width && a->height == b->height &&
+           memcmp(a->rgb, b->rgb, sizeof *a->rgb * 3 * (size_t)a->width * (size_t)a->height) == 0;
+}
+
+/* The image of parts, merged in the order given. */
+static pds_status shards_merge(pds_partial **parts, int n, int subset, pds_image *img, double *fraction,
+                               pds_error *err)
+{
+    return pds_partial_merge((const pds_partial *const *)parts, NULL, n, subset, img, fraction, err);
+}
+
+/* Every method: three shards (on 1, 2 and 1 threads), merged in any
+   order, equal the single run bit for bit; and the single run's image is
+   not black (the test would hold trivially for an empty image). */
+static void test_shards_merge_equals_the_single_run_bit_for_bit(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = shards_load(shards_scene, &err);
+    size_t k;
+    REQUIRE(t, s != NULL, "load: %s", err.text);
+    for (k = 0; k < sizeof shards_cases / sizeof shards_cases[0]; k++) {
+        const shards_case *c = &shards_cases[k];
+        pds_options opt;
+        pds_image full = {0, 0, NULL}, merged = {0, 0, NULL};
+        pds_partial *parts[3] = {NULL, NULL, NULL}, *shuffled[3];
+        double fraction = 0.0, caustic = 0.0;
+        int i;
+        size_t p;
+        shards_options(c, &opt);
+        REQUIRE(t, pds_render(s, &opt, &full, NULL, &err) == PDS_OK, "%s: render: %s", c->name, err.text);
+        for (p = 0; p < 3 * (size_t)full.width * full.height; p++) caustic += full.rgb[p];
+        CHECK(t, caustic > 0.0, "%s: a black image", c->name);
+        for (i = 0; i < 3; i++) {
+            pds_render_stats st;
+            opt.shard_index = i;
+            opt.shard_count = 3;
+            opt.threads = i == 1 ? 2 : 1;
+            CHECK(t, pds_render_part(s, &opt, &parts[i], &st, &err) == PDS_OK, "%s: shard %d: %s", c->name, i,
+                  err.text);
+            CHECK(t, st.partial == 0 && st.done_fraction == 1.0, "%s: shard %d is not whole", c->name, i);
+        }
+        shuffled[0] = parts[2];
+        shuffled[1] = parts[0];
+        shuffled[2] = parts[1];
+        if (parts[0] && parts[1] && parts[2]) {
+            CHECK(t, shards_merge(shuffled, 3, 0, &merged, &fraction, &err) == PDS_OK, "%s: merge: %s", c->name,
+                  err.text);
+            CHECK(t, fraction == 1.0, "%s: fraction %g", c->name, fraction);
+            CHECK(t, merged.rgb && shards_same(&merged, &full), "%s: the merged shards differ from the single run",
+                  c->name);
+        }
+        for (i = 0; i < 3; i++) pds_partial_free(parts[i]);
+        pds_image_free(&full);
+        pds_image_free(&merged);
+    }
+    pds_scene_free(s);
+}
+
+/* A progress callback that asks to stop at its stop_at-th call, and
+   records the phases it saw. */
+typedef struct shards_stopper {
+    int calls, stop_at;
+    int phases[3];      /* calls per pds_phase */
+    int order_broken;   /* a phase came after a later one */
+    int last;
+} shards_stopper;
+
+static int shards_stop(void *user, pds_phase phase, double fraction, double elapsed_s)
+{
+    shards_stopper *s = (shards_stopper *)user;
+    (void)elapsed_s;
+    if ((unsigned)phase < 3) s->phases[phase]++;
+    if ((int)phase < s->last || !(fraction >= 0.0 && fraction <= 1.0)) s->order_broken = 1;
+    s->last = (int)phase;
+    return ++s->calls == s->stop_at;
+}
+
+/* Stopped through the progress callback, written to a partial file, read
+   back and continued: the image equals the uninterrupted render's, for a
+   stop in the eye pass (pt; pds, whose eye pass starts over) and in the
+   photon pass (pds in passes and in batches, pm, whose photons start
+   over). The stopped render's own image is a real partial image. */
+static void test_shards_interrupt_and_resume_equal_the_uninterrupted_render(pds_test_ctx *t)
+{
+    static const struct {
+        int case_index;
+        int stop_at;
+        int threads;
+    } runs[] = {{6, 5, 1}, {0, 2, 2}, {0, 3, 1}, {1, 8, 1}, {3, 8, 2}};
+    pds_error err;
+    pds_scene *s = shards_load(shards_scene, &err);
+    char path[128];
+    size_t r;
+    REQUIRE(t, s != NULL, "load: %s", err.text);
+    snprintf(path, sizeof path, "/tmp/pds_test_resume_%ld.pdsp", (long)getpid());
+    for (r = 0; r < sizeof runs / sizeof runs[0]; r++) {
+        const shards_case *c = &shards_cases[runs[r].case_index];
+        pds_options opt;
+        pds_image full = {0, 0, NULL}, stopped = {0, 0, NULL}, resumed = {0, 0, NULL};
+        pds_render_stats st;
+        pds_partial *part = NULL, *back = NULL;
+        shards_stopper stopper;
+        memset(&stopper, 0, sizeof stopper);
+        stopper.stop_at = runs[r].stop_at;
+        shards_options(c, &opt);
+        REQUIRE(t, pds_render(s, &opt, &full, NULL, &err) == PDS_OK, "%s: render: %s", c->name, err.text);
+        opt.threads = runs[r].threads;
+        opt.progress = shards_stop;
+        opt.progress_user = &stopper;
+        CHECK(t, pds_render(s, &opt, &stopped, &st, &err) == PDS_OK, "%s: stopped render: %s", c->name, err.text);
+        CHECK(t, st.partial == 1 && st.done_fraction < 1.0, "%s, stop at call %d: partial %d, done %g", c->name,
+              runs[r].stop_at, st.partial, st.done_fraction);
+        CHECK(t, stopped.rgb && !shards_same(&stopped, &full), "%s: the stopped image is the whole one", c->name);
+        /* the same stop through pds_render_part, kept in a file */
+        stopper.calls = 0;
+        CHECK(t, pds_render_part(s, &opt, &part, &st, &err) == PDS_OK && st.partial == 1, "%s: part: %s", c->name,
+              err.text);
+        CHECK(t, part && pds_partial_write(path, part, &err) == PDS_OK, "%s: write: %s", c->name, err.text);
+        CHECK(t, pds_partial_read(path, &back, &err) == PDS_OK, "%s: read: %s", c->name, err.text);
+        if (back) {
+            opt.progress = NULL;
+            opt.threads = 2;
+            CHECK(t, pds_render_part(s, &opt, &back, &st, &err) == PDS_OK && st.partial == 0 && st.done_fraction == 1.0,
+                  "%s: resume: %s", c->name, err.text);
+            CHECK(t, shards_merge(&back, 1, 0, &resumed, NULL, &err) == PDS_OK, "%s: image: %s", c->name, err.text);
+            CHECK(t, resumed.rgb && shards_same(&resumed, &full), "%s (stop at call %d): resumed differs from the "
+                  "uninterrupted render", c->name, runs[r].stop_at);
+        }
+        pds_partial_free(part);
+        pds_partial_free(back);
+        pds_image_free(&full);
+        pds_image_free(&stopped);
+        pds_image_free(&resumed);
+    }
+    remove(path);
+    pds_scene_free(s);
+}
+
+/* The callback names the phases in the order the render goes through
+   them: eye pass, photons, gather (pm); fractions stay in [0, 1]. */
+static void test_shards_progress_names_the_phases_in_order(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = shards_load(shards_scene, &err);
+    pds_options opt;
+    pds_image img = {0, 0, NULL};
+    shards_stopper seen;
+    REQUIRE(t, s != NULL, "load: %s", err.text);
+    memset(&seen, 0, sizeof seen);
+    shards_options(&shards_cases[3], &opt);
+    opt.threads = 1; /* only the calling thread reports: with two, the other may take every row */
+    opt.progress = shards_stop;
+    opt.progress_user = &seen;
+    seen.stop_at = -1;
+    CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_OK, "render: %s", err.text);
+    CHECK(t, seen.phases[PDS_PHASE_EYE] > 0 && seen.phases[PDS_PHASE_PHOTONS] > 0 && seen.phases[PDS_PHASE_GATHER] > 0,
+          "eye %d, photons %d, gather %d", seen.phases[0], seen.phases[1], seen.phases[2]);
+    CHECK(t, !seen.order_broken, "phases out of order or a fraction outside [0, 1]");
+    pds_image_free(&img);
+    pds_scene_free(s);
+}
+
+/* Parts of another scene, of other options, the same shard twice, a
+   missing or unfinished shard: refused with a message that says which.
+   A subset merges when asked for, and says what fraction it holds. */
+static void test_shards_merge_refuses_foreign_duplicate_and_missing_parts(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = shards_load(shards_scene, &err), *other = NULL;
+    pds_options opt;
+    pds_partial *p[3] = {NULL, NULL, NULL}, *foreign = NULL, *seeded = NULL, *set[3];
+    pds_image img = {0, 0, NULL};
+    static const char *const names[] = {"a.pdsp", "b.pdsp", "c.pdsp"};
+    char text[sizeof shards_scene + 8];
+    double fraction = 0.0;
+    int i;
+    REQUIRE(t, s != NULL, "load: %s", err.text);
+    /* the same scene with a brighter light */
+    snprintf(text, sizeof text, "%s", shards_scene);
+    memcpy(strstr(text, "power 200"), "power 201", 9);
+    REQUIRE(t, pds_scene_load_string(text, "other.scene", &other, &err) == PDS_OK, "load: %s", err.text);
+    CHECK(t, pds_scene_hash(s) != pds_scene_hash(other), "a changed light does not change the hash");
+    shards_options(&shards_cases[6], &opt); /* pt: cheap */
+    opt.shard_count = 3;
+    for (i = 0; i < 3; i++) {
+        opt.shard_index = i;
+        REQUIRE(t, pds_render_part(s, &opt, &p[i], NULL, &err) == PDS_OK, "shard %d: %s", i, err.text);
+    }
+    opt.shard_index = 1;
+    REQUIRE(t, pds_render_part(other, &opt, &foreign, NULL, &err) == PDS_OK, "foreign: %s", err.text);
+    opt.seed = 7;
+    REQUIRE(t, pds_render_part(s, &opt, &seeded, NULL, &err) == PDS_OK, "seeded: %s", err.text);
+
+    set[0] = p[0];
+    set[1] = foreign;
+    set[2] = p[2];
+    CHECK(t, pds_partial_merge((const pds_partial *const *)set, names, 3, 0, &img, NULL, &err) == PDS_ERR_INVALID_ARG &&
+                 strstr(err.text, "b.pdsp: a part of another scene (other.scene") &&
+                 strstr(err.text, "than a.pdsp (shards.scene"),
+          "foreign: %s", err.text);
+    set[1] = seeded;
+    CHECK(t, pds_partial_merge((const pds_partial *const *)set, names, 3, 0, &img, NULL, &err) == PDS_ERR_INVALID_ARG &&
+                 !strcmp(err.text, "b.pdsp: a part of the same scene rendered with other options than a.pdsp"),
+          "options: %s", err.text);
+    set[1] = p[0];
+    CHECK(t, pds_partial_merge((const pds_partial *const *)set, names, 3, 1, &img, NULL, &err) == PDS_ERR_INVALID_ARG &&
+                 !strcmp(err.text, "b.pdsp: shard 1/3 again: a.pdsp is that shard too"),
+          "duplicate: %s", err.text);
+    set[1] = p[2];
+    CHECK(t, pds_partial_merge((const pds_partial *const *)set, names, 2, 0, &img, NULL, &err) == PDS_ERR_INVALID_ARG &&
+                 !strcmp(err.text, "shard 2/3 is missing (2 of 3 given; --partial merges a subset)"),
+          "missing: %s", err.text);
+    CHECK(t, pds_partial_merge((const pds_partial *const *)set, names, 2, 1, &img, &fraction, &err) == PDS_OK,
+          "subset: %s", err.text);
+    /* rows 0, 3, ... (6 of 16) and 2, 5, ... (5 of 16) */
+    CHECK(t, fraction == 11.0 / 16.0, "subset fraction %g", fraction);
+    if (img.rgb) {
+        /* row 10 belongs to the missing shard: black; row 9 (shard 1) is not */
+        double row9 = 0.0, row10 = 0.0;
+        int x;
+        for (x = 0; x < 3 * img.width; x++) {
+            row9 += img.rgb[9 * 3 * img.width + x];
+            row10 += img.rgb[10 * 3 * img.width + x];
+        }
+        CHECK(t, row9 > 0.0 && row10 == 0.0, "rows 9 and 10: %g %g", row9, row10);
+    }
+    pds_image_free(&img);
+    /* an unfinished shard */
+    {
+        shards_stopper stopper;
+        pds_partial *half = NULL;
+        memset(&stopper, 0, sizeof stopper);
+        stopper.stop_at = 2;
+        opt.seed = 0;
+        opt.shard_index = 1;
+        opt.threads = 1;
+        opt.progress = shards_stop;
+        opt.progress_user = &stopper;
+        REQUIRE(t, pds_render_part(s, &opt, &half, NULL, &err) == PDS_OK, "half: %s", err.text);
+        set[0] = p[0];
+        set[1] = half;
+        set[2] = p[2];
+        CHECK(t, pds_partial_merge((const pds_partial *const *)set, names, 3, 0, &img, NULL, &err) ==
+                         PDS_ERR_INVALID_ARG &&
+                     !strcmp(err.text, "b.pdsp: shard 2/3 is unfinished (40.0% done): continue it with --resume, or "
+                                       "merge with --partial"),
+              "unfinished: %s", err.text);
+        pds_partial_free(half);
+    }
+    for (i = 0; i < 3; i++) pds_partial_free(p[i]);
+    pds_partial_free(foreign);
+    pds_partial_free(seeded);
+    pds_scene_free(other);
+    pds_scene_free(s);
+}
+
+/* Read a whole file into memory (test helper). */
+static unsigned char *shards_slurp(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    unsigned char *b;
+    long len;
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    len = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    b = (unsigned char *)malloc((size_t)len + 1);
+    if (b && fread(b, 1, (size_t)len, f) != (size_t)len) {
+        free(b);
+        b = NULL;
+    }
+    fclose(f);
+    *n = (size_t)len;
+    return b;
+}
+
+static void shards_spit(const char *path, const unsigned char *b, size_t n)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f) return;
+    fwrite(b, 1, n, f);
+    fclose(f);
+}
+
+/* The partial file: what is written reads back the same (same info, same
+   image), the layout is the README's (magic, little-endian fields at their
+   offsets), and a file of another format version, another library
+   version, damaged or truncated is refused with a message saying which. */
+static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = shards_load(shards_scene, &err);
+    pds_options opt;
+    pds_partial *p = NULL, *back = NULL;
+    pds_partial_info a, b;
+    pds_image ia = {0, 0, NULL}, ib = {0, 0, NULL};
+    char path[128], bad[140];
+    unsigned char *bytes, *copy;
+    size_t n = 0;
+    REQUIRE(t, s != NULL, "load: %s", err.text);
+    snprintf(path, sizeof path, "/tmp/pds_test_part_%ld.pdsp", (long)getpid());
+    snprintf(bad, sizeof bad, "%s.bad", path);
+    shards_options(&shards_cases[0], &opt);
+    opt.shard_index = 1;
+    opt.shard_count = 2;
+    REQUIRE(t, pds_render_part(s, &opt, &p, NULL, &err) == PDS_OK, "render: %s", err.text);
+    REQUIRE(t, pds_partial_write(path, p, &err) == PDS_OK, "write: %s", err.text);
+    REQUIRE(t, pds_partial_read(path, &back, &err) == PDS_OK, "read: %s", err.text);
+    pds_partial_get_info(p, &a);
+    pds_partial_get_info(back, &b);
+    CHECK(t, a.shard_index == 1 && b.shard_index == 1 && b.shard_count == 2 && b.width == 24 && b.height == 16 &&
+                 b.method == PDS_METHOD_PDS && b.scene_hash == pds_scene_hash(s) && b.complete &&
+                 !strcmp(b.scene_path, "shards.scene") && b.units_done == a.units_done && b.units_total == 1,
+          "info: shard %d/%d %dx%d units %ld/%ld", b.shard_index, b.shard_count, b.width, b.height, b.units_done,
+          b.units_total);
+    CHECK(t, shards_merge(&p, 1, 1, &ia, NULL, &err) == PDS_OK && shards_merge(&back, 1, 1, &ib, NULL, &err) == PDS_OK &&
+                 shards_same(&ia, &ib),
+          "the image read back differs");
+    bytes = shards_slurp(path, &n);
+    REQUIRE(t, bytes != NULL && n > 904, "slurp");
+    /* 896 header bytes, 8 rows of 24 x 3 doubles, 24 x 16 x 3 sums, check */
+    CHECK(t, n == 896 + 8 * 24 * 3 * 8 + 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
+    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 1 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
+                 bytes[548] == 24 && bytes[552] == 16 && bytes[556] == 1 && bytes[560] == 2 && bytes[564] == 1,
+          "layout");
+    copy = (unsigned char *)malloc(n);
+    REQUIRE(t, copy != NULL, "malloc");
+    memcpy(copy, bytes, n);
+    copy[8] = 2;
+    shards_spit(bad, copy, n);
+    CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE &&
+                 strstr(err.text, ": partial file format version 2; this pds reads version 1"),
+          "format version: %s", err.text);
+    memcpy(copy, bytes, n);
+    memcpy(copy + 12, "9.9.9", 5);
+    shards_spit(bad, copy, n);
+    CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_INVALID_ARG &&
+                 strstr(err.text, ": written by pds 9.9.9, this is pds 0.1.0: versions may render differently"),
+          "library version: %s", err.text);
+    memcpy(copy, bytes, n);
+    copy[1000] ^= 1;
+    shards_spit(bad, copy, n);
+    CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE && strstr(err.text, "check sum does not match"),
+          "damaged: %s", err.text);
+    shards_spit(bad, bytes, n - 100);
+    CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE && strstr(err.text, "truncated or damaged"),
+          "truncated: %s", err.text);
+    shards_spit(bad, (const unsigned char *)"P6\n1 1\n255\n", 11);
+    CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE && strstr(err.text, "not a PDS partial file"),
+          "not a partial file: %s", err.text);
+    CHECK(t, pds_partial_read("/tmp", &back, &err) == PDS_ERR_IO && strstr(err.text, "is a directory"), "folder: %s",
+          err.text);
+    /* continuing with other options, or another scene, is refused */
+    opt.seed = 3;
+    CHECK(t, pds_render_part(s, &opt, &p, NULL, &err) == PDS_ERR_INVALID_ARG &&
+                 strstr(err.text, "not the ones the part was rendered with"),
+          "other options: %s", err.text);
+    free(copy);
+    free(bytes);
+    remove(path);
+    remove(bad);
+    pds_partial_free(p);
+    pds_partial_free(back);
+    pds_image_free(&ia);
+    pds_image_free(&ib);
+    pds_scene_free(s);
+}
+
+static const pds_test_case tests_shards[] = {
+    {"shards_merge_equals_the_single_run_bit_for_bit", test_shards_merge_equals_the_single_run_bit_for_bit},
+    {"shards_interrupt_and_resume_equal_the_uninterrupted_render",
+     test_shards_interrupt_and_resume_equal_the_uninterrupted_render},
+    {"shards_progress_names_the_phases_in_order", test_shards_progress_names_the_phases_in_order},
+    {"shards_merge_refuses_foreign_duplicate_and_missing_parts",
+     test_shards_merge_refuses_foreign_duplicate_and_missing_parts},
+    {"shards_partial_file_round_trips_and_is_versioned", test_shards_partial_file_round_trips_and_is_versioned},
+};
