@@ -125,17 +125,20 @@ static int shards_stop(void *user, pds_phase phase, double fraction, double elap
 }
 
 /* Stopped through the progress callback, written to a partial file, read
-   back and continued: the image equals the uninterrupted render's, for a
-   stop in the eye pass (pt; pds, whose eye pass starts over) and in the
-   photon pass (pds in passes and in batches, pm, whose photons start
-   over). The stopped render's own image is a real partial image. */
+   back and continued on two threads: the image equals the uninterrupted
+   render's, for a stop in the eye pass (pt; pds and ppm, whose eye pass
+   starts over) and in the photon pass (pds after its first pass, the
+   paper's pds after two batches, pm, whose photons start over). The
+   stopped render's own image is a real partial image. */
 static void test_shards_interrupt_and_resume_equal_the_uninterrupted_render(pds_test_ctx *t)
 {
     static const struct {
         int case_index;
         int stop_at;
         int threads;
-    } runs[] = {{6, 5, 1}, {0, 2, 2}, {0, 3, 1}, {1, 8, 1}, {3, 8, 2}};
+    } runs[] = {/* one thread: only the calling thread reports, so the call
+                   counts are exact: 16 eye rows, then batches or passes */
+                {6, 5, 1}, {0, 3, 1}, {0, 17, 1}, {1, 18, 1}, {3, 18, 1}, {5, 3, 1}};
     pds_error err;
     pds_scene *s = shards_load(shards_scene, &err);
     char path[128];
@@ -415,7 +418,111 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     pds_scene_free(s);
 }
 
+/* The image of the scene file at path as pds_render makes it here. */
+static int shards_render_file(const char *path, pds_method method, int w, int h, int spp, long photons, pds_image *img)
+{
+    pds_scene *s = NULL;
+    pds_options opt;
+    pds_error err;
+    int ok;
+    if (pds_scene_load(path, &s, &err) != PDS_OK) return 0;
+    pds_options_default(&opt);
+    opt.method = method;
+    opt.width = w;
+    opt.height = h;
+    opt.spp = spp;
+    opt.photons = photons;
+    ok = pds_render(s, &opt, img, NULL, &err) == PDS_OK;
+    pds_scene_free(s);
+    return ok;
+}
+
+/* A real `pds render` stopped by SIGINT: exit status 130, the image so far
+   and OUT.pdsp written; `pds render --resume OUT.pdsp` finishes it to the
+   image of the render in one go, bit for bit, and removes OUT.pdsp. */
+static void test_shards_cli_sigint_then_resume_equals_the_whole_render(pds_test_ctx *t)
+{
+    char dir[128], out[200], part[220], args[600], text[4096];
+    char *argv[] = {NULL, "render", "scenes/demo.scene", "--method", "pt", "--res", "96x72", "--spp", "64",
+                    "--threads", "1", "--quiet", "-o", out, NULL};
+    pds_image whole = {0, 0, NULL}, got = {0, 0, NULL};
+    pds_error err;
+    int status = 0;
+    pid_t pid;
+    snprintf(dir, sizeof dir, "/tmp/pds_test_sigint_%ld", (long)getpid());
+    snprintf(out, sizeof out, "%s/out.pfm", dir);
+    snprintf(part, sizeof part, "%s.pdsp", out);
+    mkdir(dir, 0777);
+    pid = cli_spawn(argv);
+    REQUIRE(t, pid > 0, "fork failed");
+    cli_sleep_ms(60.0);
+    kill(pid, SIGINT);
+    waitpid(pid, &status, 0);
+    CHECK(t, WIFEXITED(status) && WEXITSTATUS(status) == 130,
+          "status %d: not stopped by the signal (exit 0: the render ended before it)", status);
+    CHECK(t, cli_file_exists(out) && cli_file_exists(part), "no %s or no %s", out, part);
+    snprintf(args, sizeof args, "render --resume %s --quiet", part);
+    CHECK(t, cli_run(args, text, sizeof text) == 0, "resume: %s", text);
+    CHECK(t, !cli_file_exists(part), "the spent partial file is still there");
+    REQUIRE(t, shards_render_file("scenes/demo.scene", PDS_METHOD_PT, 96, 72, 64, 0, &whole), "render");
+    CHECK(t, pds_image_read_pfm(out, &got, &err) == PDS_OK && shards_same(&got, &whole),
+          "the resumed image differs from the whole render");
+    pds_image_free(&whole);
+    pds_image_free(&got);
+    remove(out);
+    remove(part);
+    rmdir(dir);
+}
+
+/* `pds render --shard I/N` and `pds merge`: the merged image is the whole
+   render's; a shard given twice or missing is refused, --partial merges a
+   subset and says what fraction it holds. */
+static void test_shards_cli_shards_and_merge(pds_test_ctx *t)
+{
+    char dir[128], args[900], text[4096], p1[200], p2[200], out[200];
+    pds_image whole = {0, 0, NULL}, got = {0, 0, NULL};
+    pds_error err;
+    int i;
+    snprintf(dir, sizeof dir, "/tmp/pds_test_merge_%ld", (long)getpid());
+    mkdir(dir, 0777);
+    snprintf(p1, sizeof p1, "%s/1.pdsp", dir);
+    snprintf(p2, sizeof p2, "%s/2.pdsp", dir);
+    snprintf(out, sizeof out, "%s/merged.pfm", dir);
+    for (i = 1; i <= 2; i++) {
+        snprintf(args, sizeof args, "render scenes/refraction.scene --res 32x24 --spp 1 --photons 20000 --quiet "
+                 "--shard %d/2 -o %s", i, i == 1 ? p1 : p2);
+        CHECK(t, cli_run(args, text, sizeof text) == 0, "shard %d: %s", i, text);
+    }
+    snprintf(args, sizeof args, "merge -o %s %s %s", out, p2, p1);
+    CHECK(t, cli_run(args, text, sizeof text) == 0 && strstr(text, "merge parts=2 shards=2 fraction=1.000000"), "%s",
+          text);
+    REQUIRE(t, shards_render_file("scenes/refraction.scene", PDS_METHOD_PDS, 32, 24, 1, 20000, &whole), "render");
+    CHECK(t, pds_image_read_pfm(out, &got, &err) == PDS_OK && shards_same(&got, &whole),
+          "the merged image differs from the whole render");
+    snprintf(args, sizeof args, "merge -o %s %s %s", out, p1, p1);
+    CHECK(t, cli_run(args, text, sizeof text) == 1 && strstr(text, "1.pdsp: shard 1/2 again: "), "twice: %s", text);
+    snprintf(args, sizeof args, "merge -o %s %s", out, p2);
+    CHECK(t, cli_run(args, text, sizeof text) == 1 && strstr(text, "shard 1/2 is missing"), "missing: %s", text);
+    snprintf(args, sizeof args, "merge --partial -o %s %s", out, p2);
+    CHECK(t, cli_run(args, text, sizeof text) == 0 && strstr(text, "holding 50.0% of the render's work"), "subset: %s",
+          text);
+    CHECK(t, cli_run("render scenes/refraction.scene --shard 3/2 -o x.pdsp", text, sizeof text) == 2 &&
+                 strstr(text, "--shard needs I/N with 1 <= I <= N"),
+          "bad shard: %s", text);
+    CHECK(t, cli_run("render scenes/refraction.scene --shard 1/2 -o x.png", text, sizeof text) == 2 &&
+                 strstr(text, "a shard is written as a partial file"),
+          "shard to an image: %s", text);
+    pds_image_free(&whole);
+    pds_image_free(&got);
+    remove(p1);
+    remove(p2);
+    remove(out);
+    rmdir(dir);
+}
+
 static const pds_test_case tests_shards[] = {
+    {"shards_cli_sigint_then_resume_equals_the_whole_render", test_shards_cli_sigint_then_resume_equals_the_whole_render},
+    {"shards_cli_shards_and_merge", test_shards_cli_shards_and_merge},
     {"shards_merge_equals_the_single_run_bit_for_bit", test_shards_merge_equals_the_single_run_bit_for_bit},
     {"shards_interrupt_and_resume_equal_the_uninterrupted_render",
      test_shards_interrupt_and_resume_equal_the_uninterrupted_render},
