@@ -1316,8 +1316,8 @@ static int cmd_render(int argc, char **argv)
     pds_partial_info info;
     pds_error err;
     pds_status st;
-    double checkpoint_s = 0.0;
-    int i, r, rc = 0, shard_given = 0, part_only;
+    double checkpoint_s = 0.0, t_start;
+    int i, r, rc = 0, shard_given = 0, part_only, checkpoints = 0;
     cfg_init(&c);
     for (i = 0; i < argc; i++) {
         const char *a = argv[i], *v;
@@ -1439,6 +1439,7 @@ static int cmd_render(int argc, char **argv)
     progress.t_checkpoint = pds_time_now();
     if (c.progress) progress_begin(NULL, c.opt.time_s);
     stop_gracefully = 1;
+    t_start = pds_time_now();
     for (;;) {
         progress.checkpoint_due = 0;
         st = pds_render_part(scene, &c.opt, &part, &stats, &err);
@@ -1448,10 +1449,12 @@ static int cmd_render(int argc, char **argv)
             rc = 1;
             break;
         }
+        checkpoints++;
         progress.t_checkpoint = pds_time_now();
     }
     /* from here a signal ends the process, removing the temporary files */
     stop_gracefully = 0;
+    stats.time_total_s = pds_time_now() - t_start; /* every call's, checkpoints included */
     if (c.progress) progress_end(st == PDS_OK && !stats.partial);
     if (rc) {
         /* the checkpoint's message is out */
@@ -1480,8 +1483,12 @@ static int cmd_render(int argc, char **argv)
             rc = fail("%s", pds_error_string(&err));
         temp_disarm(0);
         temp_disarm(1);
-        /* the render is whole: a partial file it was continued from is spent */
-        if (!rc && resume && !strcmp(resume, part_path)) remove(part_path);
+        /* the render is whole: a partial file it was continued from, or
+           its checkpoint, is spent */
+        if (!rc && ((resume && !strcmp(resume, part_path)) || checkpoints > 0)) remove(part_path);
+        if (!rc && checkpoints > 0 && !c.quiet)
+            fprintf(stderr, "pds render: %d checkpoints written to %s (removed now that the render is whole)\n",
+                    checkpoints, part_path);
         if (stop_requested && c.opt.time_s > 0.0 && !rc) rc = 130; /* --time: the image of the time spent */
     }
     pds_image_free(&img);

@@ -520,7 +520,34 @@ static void test_shards_cli_shards_and_merge(pds_test_ctx *t)
     rmdir(dir);
 }
 
+/* --checkpoint: the render stops to write its partial file and image and
+   goes on; the end result is the render in one go, bit for bit, and the
+   spent checkpoint is removed. (A checkpoint every millisecond: one after
+   nearly every row.) */
+static void test_shards_cli_checkpoints_leave_the_image_unchanged(pds_test_ctx *t)
+{
+    char out[200], part[220], args[600], text[4096];
+    pds_image whole = {0, 0, NULL}, got = {0, 0, NULL};
+    pds_error err;
+    snprintf(out, sizeof out, "/tmp/pds_test_checkpoint_%ld.pfm", (long)getpid());
+    snprintf(part, sizeof part, "%s.pdsp", out);
+    const char *note;
+    snprintf(args, sizeof args, "render scenes/demo.scene --method pt --res 48x36 --spp 8 --threads 1 --checkpoint 0.001 "
+             "-o %s", out);
+    CHECK(t, cli_run(args, text, sizeof text) == 0, "render: %s", text);
+    note = strstr(text, "pds render: ");
+    CHECK(t, note && atoi(note + 12) >= 5 && strstr(note, " checkpoints written to "), "no checkpoints: %s", text);
+    CHECK(t, !cli_file_exists(part), "the spent checkpoint %s is still there", part);
+    REQUIRE(t, shards_render_file("scenes/demo.scene", PDS_METHOD_PT, 48, 36, 8, 0, &whole), "render");
+    CHECK(t, pds_image_read_pfm(out, &got, &err) == PDS_OK && shards_same(&got, &whole),
+          "the checkpointed render differs from the render in one go");
+    pds_image_free(&whole);
+    pds_image_free(&got);
+    remove(out);
+}
+
 static const pds_test_case tests_shards[] = {
+    {"shards_cli_checkpoints_leave_the_image_unchanged", test_shards_cli_checkpoints_leave_the_image_unchanged},
     {"shards_cli_sigint_then_resume_equals_the_whole_render", test_shards_cli_sigint_then_resume_equals_the_whole_render},
     {"shards_cli_shards_and_merge", test_shards_cli_shards_and_merge},
     {"shards_merge_equals_the_single_run_bit_for_bit", test_shards_merge_equals_the_single_run_bit_for_bit},
