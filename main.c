@@ -59,6 +59,7 @@ typedef struct command_help {
     const char *summary;  /* one line */
     const char *details;  /* options and notes, indented six spaces; may be "" */
     int takes_options;    /* follows the option syntax of render (the footer applies) */
+    const char *more;     /* the details continued (a literal has at most 4095 bytes), or NULL */
 } command_help;
 
 static const command_help help_table[] = {
@@ -109,7 +110,22 @@ static const command_help help_table[] = {
      "      --progress              progress on stderr even when it is not a terminal (then one line\n"
      "                              every 2 seconds); default: a bar when stderr is a terminal\n"
      "      --quiet                 no progress, no scene warnings\n",
-     1},
+     1,
+     "      --shard I/N             render only the I-th of N disjoint parts (1 <= I <= N) into\n"
+     "                              -o PART.pdsp; pds merge makes the image, the single run's bit for bit\n"
+     "      --checkpoint SECONDS    write OUT.pdsp and OUT every SECONDS (pt, pds, splat)\n"
+     "      --resume PART.pdsp      continue a stopped render or shard (scene, options and output from\n"
+     "                              the file; -o, --threads, --exposure, --progress, --quiet may be given)\n"
+     "      The first Ctrl-C (SIGINT) or SIGTERM stops after the batch under way and writes OUT and\n"
+     "      OUT.pdsp (exit status 130); a second one aborts.\n"},
+    {"merge", "merge -o OUT.png|OUT.pfm [--partial] PART.pdsp...",
+     "the image of the shards of one render (pds render --shard I/N)",
+     "      -o, --output FILE       the image, .png or .pfm\n"
+     "      --partial               merge a subset (missing or unfinished shards), and say what fraction\n"
+     "      --exposure STOPS        PNG exposure in stops (default 0)\n"
+     "      Parts of another scene, other options, another pds version or a shard given twice are\n"
+     "      refused.\n",
+     0, NULL},
     {"sweep", "sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]",
      "render once per value of one parameter and compare each with REF",
      "      --method NAME           the method swept (default pds)\n"
@@ -120,7 +136,7 @@ static const command_help help_table[] = {
      "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
      "                              (RMSE and SSIM against the parameter), one PNG per value\n"
      "      and any render option, e.g. --photons N, --res WxH, --caustics-only\n",
-     1},
+     1, NULL},
     {"race", "race SCENE --ref REF.pfm (--time T | --photons N | --budgets LIST) --methods LIST [options]",
      "every method on the same budget, side by side against REF",
      "      --methods LIST          e.g. pds,pm:k=50,pdm,splat:radius=0.05,ppm; options for one\n"
@@ -136,9 +152,9 @@ static const command_help help_table[] = {
      "                              largest luminance variance)\n"
      "      -o DIR                  output folder (default race-SCENE): index.html, race.csv, images\n"
      "      and any render option; it applies to every method it concerns\n",
-     1},
-    {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", 0},
-    {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", 0},
+     1, NULL},
+    {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", 0, NULL},
+    {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", 0, NULL},
     {"bench", "bench WHAT [ARGS]", "micro-benchmarks (figures, never pass/fail):",
      "      rays MESH [N]           BVH build and ray throughput, one thread (N rays, default 1000000)\n"
      "      pt [SCENE]              path-traced samples per second, 1 thread and all threads\n"
@@ -146,8 +162,8 @@ static const command_help help_table[] = {
      "      memory [SCENE]          PDS working memory at 1e5 and at 1e7 photons\n"
      "      filter                  eq. 12 filter matrices per second against a general 3x3 inverse\n"
      "      kdtree                  eye-path map build, range and nearest-neighbour queries per second\n",
-     0},
-    {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", 0},
+     0, NULL},
+    {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", 0, NULL},
 };
 #define N_COMMANDS (sizeof help_table / sizeof help_table[0])
 
@@ -173,6 +189,7 @@ static void print_overview(FILE *f)
         const command_help *h = &help_table[i];
         if (strlen(h->synopsis) <= 26) fprintf(f, "  %-26s  %s\n%s", h->synopsis, h->summary, h->details);
         else fprintf(f, "  %s\n%30s%s\n%s", h->synopsis, "", h->summary, h->details);
+        if (h->more) fputs(h->more, f);
     }
     fputs("  --help, -h                  this text\n"
           "  --version                   the version\n"
@@ -186,6 +203,7 @@ static void print_overview(FILE *f)
 static void print_command_help(const command_help *h, FILE *f)
 {
     fprintf(f, "usage: pds %s\n  %s\n%s", h->synopsis, h->summary, h->details);
+    if (h->more) fputs(h->more, f);
     if (h->takes_options) fputs(option_syntax_help, f);
     else fputs("      -h, --help              this text\n", f);
 }
