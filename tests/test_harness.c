@@ -887,7 +887,7 @@ static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
         {"splat", "--radius 0.05", " radius=0.05 time_eye="},
         {"ppm", "--passes 3 --alpha 0.5 --radius 0.1", " passes=3 radius=0.1 alpha=0.5 map_bytes="},
     };
-    char out[8192], args[1024], png[256], prefix[128];
+    char out[16384], args[1024], png[256], prefix[128]; /* the overview is over 8 kB */
     size_t i;
     harness_path(png, sizeof png, "baseline.png");
     for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {
