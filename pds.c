@@ -9825,10 +9825,12 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
 }
 
 /* --- the render scheduler ----------------------------------------------- */
-/* Rows are handed out to threads one at a time under a mutex; each pixel's
-   samples are accumulated by the one thread that owns its row, in sample
-   order, into a double-precision sum. So the image is the same whatever
-   the thread count. A progressive render (time budget) runs whole passes
+/* Rows (from a list: all of them, or a shard's, >>partial) are handed out
+   to threads one at a time under a mutex; each pixel's samples are
+   accumulated by the one thread that owns its row, in sample order, into a
+   double-precision sum. So the image is the same whatever the thread
+   count. A stop asked for by the progress callback hands out no more rows;
+   the rows handed out are finished, so the rows done are the list's first. A progressive render (time budget) runs whole passes
    of spp samples per pixel; pass p uses sample indices p*spp .. p*spp+spp-1. */
 
 typedef struct pds__render_job {

@@ -33,7 +33,8 @@
 
    Determinism: every random number is a pure function of (seed, purpose,
    index); the same inputs give the same output bit for bit, whatever the
-   thread count.
+   thread count, and whatever shards the render was split into or how often
+   it was stopped and continued (pds_render_part, pds_partial_merge).
 
    Errors: functions that can fail return a pds_status and fill an optional
    pds_error (pass NULL if you do not want it). Input-file errors carry the
