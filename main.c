@@ -150,7 +150,10 @@ static const command_help help_table[] = {
      "      --diff-scale MODE       difference images: shared (one scale, default), each, or a number\n"
      "      --roi X,Y,W,H           region to crop (default: the 64x64 window of REF with the\n"
      "                              largest luminance variance)\n"
-     "      -o DIR                  output folder (default race-SCENE): index.html, race.csv, images\n"
+     "      -o DIR                  output folder (default race-SCENE): index.html, race.csv, images;\n"
+     "                              each finished entry is kept at once in DIR/entries\n"
+     "      --resume                load the entries kept in DIR/entries (an interrupted race) and\n"
+     "                              render only the others\n"
      "      and any render option; it applies to every method it concerns\n",
      1, NULL},
     {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", 0, NULL},
@@ -3706,8 +3709,97 @@ static int parse_roi(const char *s, roi_box *r)
     return 0;
 }
 
-static const char *const race_own_options[] = {"--ref",    "--methods",     "--roi",        "--output",
-                                               "--tune",   "--budgets",     "--budget-kind", "--diff-scale", NULL};
+static const char *const race_own_options[] = {"--ref",        "--methods",    "--roi",    "--output", "--tune",
+                                               "--budgets",    "--budget-kind", "--diff-scale", "--resume", NULL};
+
+/* --- keeping finished entries ----------------------------------------------
+   Each entry, once rendered, is kept in DIR/entries/: LABEL.pfm, its image,
+   and LABEL.txt, one line: what the entry is (its method, budget and
+   options before any tuning) and, after a tab, what came of it (the stats
+   the page and race.csv show, and the tuned values). An interrupted race
+   run again with --resume loads every entry whose files are there and say
+   the same entry, and renders only the others; the image and its stats are
+   the ones the first run made, so race.csv and the page come out as if it
+   had run in one go (tune.csv lists the tuning of this run's entries). */
+
+/* What an entry is: what --resume compares. */
+static void race_entry_key(const race_entry *t, const char *budget, char *out, size_t n)
+{
+    const pds_options *o = &t->cfg.opt;
+    char params[256];
+    format_params(o, params, sizeof params);
+    snprintf(out, n, "method=%s budget=%s seed=%llu res=%dx%d spp=%d photons=%ld passes=%d paths=%d depth=%d,%d%s",
+             method_name(o->method), budget, o->seed, o->width, o->height, o->spp, o->photons, o->passes,
+             (int)o->paths, o->max_depth, o->photon_depth, params);
+}
+
+/* Keep a finished entry (key from before its tuning). 0, or 1 after saying why not. */
+static int race_keep_entry(const char *dir, const race_entry *t, const char *key)
+{
+    char sub[PATH_MAX_LEN], name[160];
+    sbuf line = {NULL, 0, 0, 0};
+    const pds_render_stats *s = &t->st;
+    int bad;
+    if (snprintf(sub, sizeof sub, "%s/entries", dir) >= (int)sizeof sub) return fail("%s: path too long", dir);
+    if (make_dirs(sub)) return 1;
+    snprintf(name, sizeof name, "%s.pfm", t->label);
+    if (write_image(sub, name, &t->img, 0.0)) return 1;
+    sb_printf(&line, "%s\t%ld %d %d %lu %.17g %.17g %.17g %.17g %.17g %d\t%s\t%s\t%s\n", key, s->photons, s->spp,
+              s->passes, (unsigned long)s->map_bytes, s->time_total_s, s->time_eye_s, s->time_photons_s, s->time_map_s,
+              s->time_gather_s, t->tuned_edge, t->params, t->tuned, t->tuned_keys);
+    snprintf(name, sizeof name, "%s.txt", t->label);
+    bad = write_text(sub, name, &line);
+    free(line.s);
+    return bad;
+}
+
+/* Load a kept entry if DIR/entries holds one with this key: 1 loaded
+   (image, stats, tuning and metrics against ref), 0 not there (or another
+   entry's), -1 after printing an error. */
+static int race_load_entry(const char *dir, race_entry *t, const char *key, const pds_image *ref)
+{
+    char path[PATH_MAX_LEN], text[2048], *tab, *f[4];
+    pds_render_stats *s = &t->st;
+    unsigned long map_bytes;
+    pds_error err;
+    FILE *fp;
+    size_t len;
+    int k;
+    if (snprintf(path, sizeof path, "%s/entries/%s.txt", dir, t->label) >= (int)sizeof path) return 0;
+    fp = fopen(path, "r");
+    if (!fp) return 0;
+    len = fread(text, 1, sizeof text - 1, fp);
+    fclose(fp);
+    text[len] = '\0';
+    if (len && text[len - 1] == '\n') text[len - 1] = '\0';
+    tab = strchr(text, '\t');
+    if (!tab || (size_t)(tab - text) != strlen(key) || strncmp(text, key, strlen(key)) != 0) return 0;
+    /* the fields after the key: stats, params, tuned, tuned keys */
+    f[0] = tab + 1;
+    for (k = 1; k < 4; k++) {
+        f[k] = strchr(f[k - 1], '\t');
+        if (!f[k]) return 0;
+        *f[k]++ = '\0';
+    }
+    memset(s, 0, sizeof *s);
+    if (sscanf(f[0], "%ld %d %d %lu %lf %lf %lf %lf %lf %d", &s->photons, &s->spp, &s->passes, &map_bytes,
+               &s->time_total_s, &s->time_eye_s, &s->time_photons_s, &s->time_map_s, &s->time_gather_s,
+               &t->tuned_edge) != 10)
+        return 0;
+    s->map_bytes = (size_t)map_bytes;
+    snprintf(t->params, sizeof t->params, "%s", f[1]);
+    snprintf(t->tuned, sizeof t->tuned, "%s", f[2]);
+    snprintf(t->tuned_keys, sizeof t->tuned_keys, "%s", f[3]);
+    snprintf(path, sizeof path, "%s/entries/%s.pfm", dir, t->label);
+    if (pds_image_read_pfm(path, &t->img, &err) != PDS_OK || pds_image_compare(&t->img, ref, &t->m, &err) != PDS_OK) {
+        pds_image_free(&t->img);
+        fail("%s (kept entry %s; remove it to render it again)", pds_error_string(&err), t->label);
+        return -1;
+    }
+    s->width = t->img.width;
+    s->height = t->img.height;
+    return 1;
+}
 
 /* The largest finite channel value of img in the region (0 if none). */
 static double roi_peak(const pds_image *img, roi_box roi)
@@ -3737,7 +3829,7 @@ static int cmd_race(int argc, char **argv)
     pds_scene *scene = NULL;
     pds_image ref = {0, 0, NULL};
     roi_box roi = {0, 0, 0, 0};
-    int i, r, n = 0, n_methods = 0, rc = 1, by_photons, tune = 0, scale, flagged;
+    int i, r, n = 0, n_methods = 0, rc = 1, by_photons, tune = 0, scale, flagged, resume = 0, resumed = 0;
     double diff_fixed = 0.0, pixel_m = 0.0, peak;
     unsigned mask = 0;
     cfg_init(&base);
@@ -3752,6 +3844,11 @@ static int cmd_race(int argc, char **argv)
         if (arg_is(a, "--tune")) {
             if (a[6] == '=') return usage_error("--tune takes no value, got '%s'", a);
             tune = 1;
+            continue;
+        }
+        if (arg_is(a, "--resume")) {
+            if (a[8] == '=') return usage_error("--resume takes no value, got '%s'", a);
+            resume = 1;
             continue;
         }
         if (arg_is(a, "--ref") || arg_is(a, "--methods") || arg_is(a, "--roi") || arg_is(a, "-o") ||
@@ -3862,11 +3959,19 @@ static int cmd_race(int argc, char **argv)
 
     for (i = 0; i < n; i++) {
         race_entry *t = &e[i];
-        char context[160];
-        if (tune && race_tune(scene, &ref, pixel_m, t, i, &tlog)) goto done;
-        format_params(&t->cfg.opt, t->params, sizeof t->params);
-        snprintf(context, sizeof context, "race %s", t->label);
-        if (render_and_compare(scene, &t->cfg, &ref, &t->img, &t->st, &t->m, context)) goto done;
+        char context[160], key[600];
+        int loaded = 0;
+        race_entry_key(t, bud.text[t->budget], key, sizeof key);
+        if (resume && (loaded = race_load_entry(dir, t, key, &ref)) < 0) goto done;
+        if (!loaded) {
+            if (tune && race_tune(scene, &ref, pixel_m, t, i, &tlog)) goto done;
+            format_params(&t->cfg.opt, t->params, sizeof t->params);
+            snprintf(context, sizeof context, "race %s", t->label);
+            if (render_and_compare(scene, &t->cfg, &ref, &t->img, &t->st, &t->m, context)) goto done;
+            /* kept at once: an interrupted race loses no finished entry */
+            if (race_keep_entry(dir, t, key)) goto done;
+        }
+        resumed += loaded;
         printf("race method=%s label=%s photons=%ld spp=%d%s", method_name(t->cfg.opt.method), t->label,
                t->st.photons, t->st.spp, t->params);
         if (t->cfg.opt.method == PDS_METHOD_PPM) printf(" passes=%d", t->st.passes);
@@ -3874,6 +3979,7 @@ static int cmd_race(int argc, char **argv)
         printf(" rmse=%.6f ssim=%.6f time=%.3f budget=%s", t->m.rmse, t->m.ssim, t->st.time_total_s,
                bud.text[t->budget]);
         if (t->tuned_keys[0]) printf(" tuned=%s", t->tuned_keys);
+        if (loaded) printf(" resumed=1");
         printf("\n");
         fflush(stdout);
         if (t->tuned_edge)
@@ -3977,8 +4083,8 @@ static int cmd_race(int argc, char **argv)
         free(svg.s);
         if (bad) goto done;
     }
-    printf("race dir=%s methods=%d roi=%d,%d,%d,%d budgets=%d flagged=%d\n", dir, n_methods, roi.x, roi.y, roi.w,
-           roi.h, bud.n, flagged);
+    printf("race dir=%s methods=%d roi=%d,%d,%d,%d budgets=%d flagged=%d resumed=%d\n", dir, n_methods, roi.x, roi.y,
+           roi.w, roi.h, bud.n, flagged, resumed);
     rc = 0;
 done:
     for (i = 0; i < n; i++) pds_image_free(&e[i].img);

@@ -546,7 +546,59 @@ static void test_shards_cli_checkpoints_leave_the_image_unchanged(pds_test_ctx *
     remove(out);
 }
 
+/* The row of race.csv that begins with "method,label,". */
+static const char *shards_csv_row(const char *csv, const char *start, char *row, size_t n)
+{
+    const char *p = strstr(csv, start), *end;
+    if (!p) return "";
+    end = strchr(p, '\n');
+    snprintf(row, n, "%.*s", (int)(end ? end - p : (long)strlen(p)), p);
+    return row;
+}
+
+/* race keeps each finished entry in DIR/entries; a race run again with
+   --resume loads those (the same row in race.csv, times and all) and
+   renders only the missing ones; an entry of other options is not taken. */
+static void test_shards_race_resume_keeps_finished_entries(pds_test_ctx *t)
+{
+    char out[16384], args[1024], ref[256], dir[256], path[512], row1[512], row2[512], lines[4][512];
+    char *csv1, *csv2;
+    REQUIRE(t, harness_reference(t, ref, sizeof ref), "no reference");
+    harness_path(dir, sizeof dir, "race-resume");
+    harness_rmtree(dir);
+    snprintf(args, sizeof args,
+             "race tests/golden/glass.scene --ref %s --photons 1000 --methods pt,pds --res 32x24 --spp 1 --quiet -o %s",
+             ref, dir);
+    REQUIRE(t, cli_run(args, out, sizeof out) == 0, "race: %s", out);
+    snprintf(path, sizeof path, "%s/entries/pt.txt", dir);
+    CHECK(t, cli_file_exists(path), "no %s", path);
+    snprintf(path, sizeof path, "%s/race.csv", dir);
+    csv1 = harness_slurp(path, NULL);
+    /* as if the race had stopped while rendering pds */
+    snprintf(path, sizeof path, "%s/entries/pds.txt", dir);
+    remove(path);
+    snprintf(path, sizeof path, "%s/race.csv", dir);
+    remove(path);
+    snprintf(args + strlen(args), sizeof args - strlen(args), " --resume");
+    REQUIRE(t, cli_run(args, out, sizeof out) == 0, "race --resume: %s", out);
+    REQUIRE(t, harness_lines(out, "race method=", lines, 4) == 2, "%s", out);
+    CHECK(t, strstr(lines[0], "label=pt ") && strstr(lines[0], " resumed=1"), "pt not resumed: %s", lines[0]);
+    CHECK(t, strstr(lines[1], "label=pds ") && !strstr(lines[1], "resumed="), "pds not rendered: %s", lines[1]);
+    CHECK(t, strstr(cli_last_line(out), " resumed=1"), "final line: %s", out);
+    csv2 = harness_slurp(path, NULL);
+    CHECK(t, csv1 && csv2 && !strcmp(shards_csv_row(csv1, "pt,pt,", row1, sizeof row1),
+                                     shards_csv_row(csv2, "pt,pt,", row2, sizeof row2)) && row1[0],
+          "the kept entry's row changed: %s / %s", row1, row2);
+    /* another seed: the kept entries are not this race's */
+    snprintf(args + strlen(args), sizeof args - strlen(args), " --seed 5");
+    CHECK(t, cli_run(args, out, sizeof out) == 0 && strstr(cli_last_line(out), " resumed=0"), "seed 5: %s", out);
+    free(csv1);
+    free(csv2);
+    harness_rmtree(dir);
+}
+
 static const pds_test_case tests_shards[] = {
+    {"shards_race_resume_keeps_finished_entries", test_shards_race_resume_keeps_finished_entries},
     {"shards_cli_checkpoints_leave_the_image_unchanged", test_shards_cli_checkpoints_leave_the_image_unchanged},
     {"shards_cli_sigint_then_resume_equals_the_whole_render", test_shards_cli_sigint_then_resume_equals_the_whole_render},
     {"shards_cli_shards_and_merge", test_shards_cli_shards_and_merge},
