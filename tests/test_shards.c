@@ -368,6 +368,8 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     CHECK(t, shards_merge(&p, 1, 1, &ia, NULL, &err) == PDS_OK && shards_merge(&back, 1, 1, &ib, NULL, &err) == PDS_OK &&
                  shards_same(&ia, &ib),
           "the image read back differs");
+    pds_partial_free(back);
+    back = NULL;
     bytes = shards_slurp(path, &n);
     REQUIRE(t, bytes != NULL && n > 904, "slurp");
     /* 896 header bytes, 8 rows of 24 x 3 doubles, 24 x 16 x 3 sums, check */
@@ -439,25 +441,49 @@ static int shards_render_file(const char *path, pds_method method, int w, int h,
 
 /* A real `pds render` stopped by SIGINT: exit status 130, the image so far
    and OUT.pdsp written; `pds render --resume OUT.pdsp` finishes it to the
-   image of the render in one go, bit for bit, and removes OUT.pdsp. */
+   image of the render in one go, bit for bit, and removes OUT.pdsp. The
+   signal is sent once the render has begun: when its first progress line
+   (--progress, into a pipe) arrives, which it prints after its first row. */
 static void test_shards_cli_sigint_then_resume_equals_the_whole_render(pds_test_ctx *t)
 {
-    char dir[128], out[200], part[220], args[600], text[4096];
+    char dir[128], out[200], part[220], args[600], text[4096], c = 0;
     char *argv[] = {NULL, "render", "scenes/demo.scene", "--method", "pt", "--res", "96x72", "--spp", "64",
-                    "--threads", "1", "--quiet", "-o", out, NULL};
+                    "--threads", "1", "--progress", "-o", out, NULL};
+    const char *bin = getenv("PDS_BIN");
     pds_image whole = {0, 0, NULL}, got = {0, 0, NULL};
     pds_error err;
-    int status = 0;
+    int status = 0, fds[2];
     pid_t pid;
     snprintf(dir, sizeof dir, "/tmp/pds_test_sigint_%ld", (long)getpid());
     snprintf(out, sizeof out, "%s/out.pfm", dir);
     snprintf(part, sizeof part, "%s.pdsp", out);
     mkdir(dir, 0777);
-    pid = cli_spawn(argv);
+    REQUIRE(t, pipe(fds) == 0, "pipe");
+    argv[0] = (char *)(bin ? bin : "./pds");
+    pid = fork();
+    if (pid == 0) {
+        int null = open("/dev/null", O_WRONLY);
+        if (null >= 0) dup2(null, 1);
+        dup2(fds[1], 2);
+        close(fds[0]);
+        signal(SIGINT, SIG_DFL);
+        signal(SIGTERM, SIG_DFL);
+        execv(argv[0], argv);
+        _exit(127);
+    }
+    close(fds[1]);
     REQUIRE(t, pid > 0, "fork failed");
-    cli_sleep_ms(60.0);
+    /* the first progress line ("eye     [#....]  ..."): the render is under way */
+    {
+        int bracket = 0;
+        while (read(fds[0], &c, 1) == 1) {
+            bracket |= c == '[';
+            if (c == '\n' && bracket) break;
+        }
+    }
     kill(pid, SIGINT);
-    waitpid(pid, &status, 0);
+    waitpid(pid, &status, 0); /* the pipe stays open: a late line must not meet a closed pipe */
+    close(fds[0]);
     CHECK(t, WIFEXITED(status) && WEXITSTATUS(status) == 130,
           "status %d: not stopped by the signal (exit 0: the render ended before it)", status);
     CHECK(t, cli_file_exists(out) && cli_file_exists(part), "no %s or no %s", out, part);
