@@ -134,7 +134,10 @@ static const command_help help_table[] = {
      "      --values A,B,...        the values, comma-separated\n"
      "      --ref REF.pfm           the reference (linear PFM, the renders' resolution)\n"
      "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
-     "                              (RMSE and SSIM against the parameter), one PNG per value\n"
+     "                              (RMSE and SSIM against the parameter), one PNG per value;\n"
+     "                              each finished render is kept at once in DIR/entries\n"
+     "      --resume                load the renders kept in DIR/entries (an interrupted sweep) and\n"
+     "                              render only the others\n"
      "      and any render option, e.g. --photons N, --res WxH, --caustics-only\n",
      1, NULL},
     {"race", "race SCENE --ref REF.pfm (--time T | --photons N | --budgets LIST) --methods LIST [options]",
@@ -2080,6 +2083,88 @@ static int load_scene_and_ref(const char *scene_path, const char *ref_path, cons
 
 /* Render with c and compare with ref; 0, or 1 after printing the error
    followed by context ("(sweep k=50)"), which also labels the progress bar. */
+/* --- keeping finished entries ----------------------------------------------
+   sweep and race keep each entry the moment it is rendered in
+   DIR/entries/: LABEL.pfm, its image, and LABEL.txt, one line: what the
+   entry is (KEY: its method, options and budget) and, after a tab, what
+   came of it (the stats the pages and CSV files show, then any fields of
+   the command's own). Run again with --resume, the command loads every
+   entry whose files are there and say the same KEY, and renders only the
+   others; the image and its stats are the ones first made, so the CSV and
+   the page come out as if it had run in one go. An interrupted sweep or
+   race thus loses no finished entry. */
+
+/* Keep a finished entry; extra: the command's own fields (tab-separated,
+   no newline). 0, or 1 after saying why not. */
+static int keep_entry(const char *dir, const char *label, const char *key, const pds_image *img,
+                      const pds_render_stats *s, const char *extra)
+{
+    char sub[PATH_MAX_LEN], name[160];
+    sbuf line = {NULL, 0, 0, 0};
+    int bad;
+    if (snprintf(sub, sizeof sub, "%s/entries", dir) >= (int)sizeof sub) return fail("%s: path too long", dir);
+    if (make_dirs(sub)) return 1;
+    snprintf(name, sizeof name, "%s.pfm", label);
+    if (write_image(sub, name, img, 0.0)) return 1;
+    sb_printf(&line, "%s\t%ld %d %d %lu %.17g %.17g %.17g %.17g %.17g\t%s\n", key, s->photons, s->spp, s->passes,
+              (unsigned long)s->map_bytes, s->time_total_s, s->time_eye_s, s->time_photons_s, s->time_map_s,
+              s->time_gather_s, extra);
+    snprintf(name, sizeof name, "%s.txt", label);
+    bad = write_text(sub, name, &line);
+    free(line.s);
+    return bad;
+}
+
+/* Load a kept entry if DIR/entries holds one with this key: 1 loaded
+   (image, stats, extra fields and the metrics against ref), 0 not there
+   (or another entry's), -1 after printing an error. */
+static int load_entry(const char *dir, const char *label, const char *key, const pds_image *ref, pds_image *img,
+                      pds_render_stats *s, pds_metrics *m, char *extra, size_t extra_n)
+{
+    char path[PATH_MAX_LEN], text[2048], *tab, *rest;
+    unsigned long map_bytes;
+    pds_error err;
+    FILE *fp;
+    size_t len;
+    if (snprintf(path, sizeof path, "%s/entries/%s.txt", dir, label) >= (int)sizeof path) return 0;
+    fp = fopen(path, "r");
+    if (!fp) return 0;
+    len = fread(text, 1, sizeof text - 1, fp);
+    fclose(fp);
+    text[len] = '\0';
+    if (len && text[len - 1] == '\n') text[len - 1] = '\0';
+    tab = strchr(text, '\t');
+    if (!tab || (size_t)(tab - text) != strlen(key) || strncmp(text, key, strlen(key)) != 0) return 0;
+    rest = strchr(tab + 1, '\t');
+    if (!rest) return 0;
+    *rest++ = '\0';
+    memset(s, 0, sizeof *s);
+    if (sscanf(tab + 1, "%ld %d %d %lu %lf %lf %lf %lf %lf", &s->photons, &s->spp, &s->passes, &map_bytes,
+               &s->time_total_s, &s->time_eye_s, &s->time_photons_s, &s->time_map_s, &s->time_gather_s) != 9)
+        return 0;
+    s->map_bytes = (size_t)map_bytes;
+    snprintf(extra, extra_n, "%s", rest);
+    snprintf(path, sizeof path, "%s/entries/%s.pfm", dir, label);
+    if (pds_image_read_pfm(path, img, &err) != PDS_OK || pds_image_compare(img, ref, m, &err) != PDS_OK) {
+        pds_image_free(img);
+        fail("%s (kept entry %s; remove it to render it again)", pds_error_string(&err), label);
+        return -1;
+    }
+    s->width = img->width;
+    s->height = img->height;
+    return 1;
+}
+
+/* What an entry is: what --resume compares (budget: race's, or ""). */
+static void entry_key(const pds_options *o, const char *budget, char *out, size_t n)
+{
+    char params[256];
+    format_params(o, params, sizeof params);
+    snprintf(out, n, "method=%s budget=%s seed=%llu res=%dx%d spp=%d photons=%ld passes=%d paths=%d depth=%d,%d "
+             "time=%.17g%s", method_name(o->method), budget, o->seed, o->width, o->height, o->spp, o->photons,
+             o->passes, (int)o->paths, o->max_depth, o->photon_depth, o->time_s, params);
+}
+
 static int render_and_compare(const pds_scene *scene, const run_cfg *c, const pds_image *ref, pds_image *img,
                               pds_render_stats *st, pds_metrics *m, const char *context)
 {
@@ -2435,7 +2520,7 @@ static int sweep_at_edge(const sweep_row *rows, int n, int best)
     return hi > lo && (rows[best].x == lo || rows[best].x == hi);
 }
 
-static const char *const sweep_own_options[] = {"--param", "--values", "--ref", "--output", NULL};
+static const char *const sweep_own_options[] = {"--param", "--values", "--ref", "--output", "--resume", NULL};
 
 static int cmd_sweep(int argc, char **argv)
 {
@@ -2447,7 +2532,7 @@ static int cmd_sweep(int argc, char **argv)
     pds_scene *scene = NULL;
     pds_image ref = {0, 0, NULL};
     char *vbuf = NULL, *p, edge_note[160] = "";
-    int i, r, n = 0, rc = 1, best_r = -1, best_s = -1, idx, photon, rmse_edge = 0, ssim_edge = 0;
+    int i, r, n = 0, rc = 1, best_r = -1, best_s = -1, idx, photon, rmse_edge = 0, ssim_edge = 0, resume = 0;
     pds_method method;
     cfg_init(&base);
     for (i = 0; i < argc; i++) {
@@ -2455,6 +2540,11 @@ static int cmd_sweep(int argc, char **argv)
         if (a[0] != '-' || a[1] == '\0') {
             if (scene_path) return usage_error("sweep takes one scene, got another: '%s'", a);
             scene_path = a;
+            continue;
+        }
+        if (arg_is(a, "--resume")) {
+            if (a[8] == '=') return usage_error("--resume takes no value, got '%s'", a);
+            resume = 1;
             continue;
         }
         if (arg_is(a, "--param") || arg_is(a, "--values") || arg_is(a, "--ref") || arg_is(a, "-o") ||
@@ -2549,14 +2639,25 @@ static int cmd_sweep(int argc, char **argv)
 
     for (i = 0; i < n; i++) {
         run_cfg c = base;
-        char context[128];
+        char context[128], key[600], label[160], extra[8];
+        int loaded = 0;
         ps->set(ps, &c, param, rows[i].value);
         snprintf(context, sizeof context, "sweep %s=%s", ps->key, rows[i].value);
-        if (render_and_compare(scene, &c, &ref, &rows[i].img, &rows[i].st, &rows[i].m, context)) goto done;
+        /* kept entries (see "keeping finished entries") */
+        entry_key(&c.opt, "", key, sizeof key);
+        snprintf(label, sizeof label, "%s-%s", ps->key, rows[i].value);
+        if (resume && (loaded = load_entry(dir, label, key, &ref, &rows[i].img, &rows[i].st, &rows[i].m, extra,
+                                           sizeof extra)) < 0)
+            goto done;
+        if (!loaded) {
+            if (render_and_compare(scene, &c, &ref, &rows[i].img, &rows[i].st, &rows[i].m, context)) goto done;
+            if (keep_entry(dir, label, key, &rows[i].img, &rows[i].st, "")) goto done;
+        }
         printf("sweep method=%s %s=%s", method_name(method), ps->key, rows[i].value);
         if (photon && strcmp(ps->key, "photons")) printf(" photons=%ld", rows[i].st.photons);
         if (!photon && strcmp(ps->key, "spp")) printf(" spp=%d", rows[i].st.spp);
-        printf(" rmse=%.6f ssim=%.6f time=%.3f\n", rows[i].m.rmse, rows[i].m.ssim, rows[i].st.time_total_s);
+        printf(" rmse=%.6f ssim=%.6f time=%.3f%s\n", rows[i].m.rmse, rows[i].m.ssim, rows[i].st.time_total_s,
+               loaded ? " resumed=1" : "");
         fflush(stdout);
         /* first best wins a tie; NaN never wins */
         if (isfinite(rows[i].m.rmse) && (best_r < 0 || rows[i].m.rmse < rows[best_r].m.rmse)) best_r = i;
@@ -3712,92 +3813,33 @@ static int parse_roi(const char *s, roi_box *r)
 static const char *const race_own_options[] = {"--ref",        "--methods",    "--roi",    "--output", "--tune",
                                                "--budgets",    "--budget-kind", "--diff-scale", "--resume", NULL};
 
-/* --- keeping finished entries ----------------------------------------------
-   Each entry, once rendered, is kept in DIR/entries/: LABEL.pfm, its image,
-   and LABEL.txt, one line: what the entry is (its method, budget and
-   options before any tuning) and, after a tab, what came of it (the stats
-   the page and race.csv show, and the tuned values). An interrupted race
-   run again with --resume loads every entry whose files are there and say
-   the same entry, and renders only the others; the image and its stats are
-   the ones the first run made, so race.csv and the page come out as if it
-   had run in one go (tune.csv lists the tuning of this run's entries). */
-
-/* What an entry is: what --resume compares. */
-static void race_entry_key(const race_entry *t, const char *budget, char *out, size_t n)
-{
-    const pds_options *o = &t->cfg.opt;
-    char params[256];
-    format_params(o, params, sizeof params);
-    snprintf(out, n, "method=%s budget=%s seed=%llu res=%dx%d spp=%d photons=%ld passes=%d paths=%d depth=%d,%d%s",
-             method_name(o->method), budget, o->seed, o->width, o->height, o->spp, o->photons, o->passes,
-             (int)o->paths, o->max_depth, o->photon_depth, params);
-}
-
-/* Keep a finished entry (key from before its tuning). 0, or 1 after saying why not. */
+/* race's entries (see "keeping finished entries"): the extra fields are
+   the tuning's outcome and the parameters after it. */
 static int race_keep_entry(const char *dir, const race_entry *t, const char *key)
 {
-    char sub[PATH_MAX_LEN], name[160];
-    sbuf line = {NULL, 0, 0, 0};
-    const pds_render_stats *s = &t->st;
-    int bad;
-    if (snprintf(sub, sizeof sub, "%s/entries", dir) >= (int)sizeof sub) return fail("%s: path too long", dir);
-    if (make_dirs(sub)) return 1;
-    snprintf(name, sizeof name, "%s.pfm", t->label);
-    if (write_image(sub, name, &t->img, 0.0)) return 1;
-    sb_printf(&line, "%s\t%ld %d %d %lu %.17g %.17g %.17g %.17g %.17g %d\t%s\t%s\t%s\n", key, s->photons, s->spp,
-              s->passes, (unsigned long)s->map_bytes, s->time_total_s, s->time_eye_s, s->time_photons_s, s->time_map_s,
-              s->time_gather_s, t->tuned_edge, t->params, t->tuned, t->tuned_keys);
-    snprintf(name, sizeof name, "%s.txt", t->label);
-    bad = write_text(sub, name, &line);
-    free(line.s);
-    return bad;
+    char extra[512];
+    snprintf(extra, sizeof extra, "%d\t%s\t%s\t%s", t->tuned_edge, t->params, t->tuned, t->tuned_keys);
+    return keep_entry(dir, t->label, key, &t->img, &t->st, extra);
 }
 
-/* Load a kept entry if DIR/entries holds one with this key: 1 loaded
-   (image, stats, tuning and metrics against ref), 0 not there (or another
-   entry's), -1 after printing an error. */
 static int race_load_entry(const char *dir, race_entry *t, const char *key, const pds_image *ref)
 {
-    char path[PATH_MAX_LEN], text[2048], *tab, *f[4];
-    pds_render_stats *s = &t->st;
-    unsigned long map_bytes;
-    pds_error err;
-    FILE *fp;
-    size_t len;
-    int k;
-    if (snprintf(path, sizeof path, "%s/entries/%s.txt", dir, t->label) >= (int)sizeof path) return 0;
-    fp = fopen(path, "r");
-    if (!fp) return 0;
-    len = fread(text, 1, sizeof text - 1, fp);
-    fclose(fp);
-    text[len] = '\0';
-    if (len && text[len - 1] == '\n') text[len - 1] = '\0';
-    tab = strchr(text, '\t');
-    if (!tab || (size_t)(tab - text) != strlen(key) || strncmp(text, key, strlen(key)) != 0) return 0;
-    /* the fields after the key: stats, params, tuned, tuned keys */
-    f[0] = tab + 1;
+    char extra[512], *f[4];
+    int k, r = load_entry(dir, t->label, key, ref, &t->img, &t->st, &t->m, extra, sizeof extra);
+    if (r <= 0) return r;
+    f[0] = extra;
     for (k = 1; k < 4; k++) {
         f[k] = strchr(f[k - 1], '\t');
-        if (!f[k]) return 0;
+        if (!f[k]) {
+            pds_image_free(&t->img);
+            return 0; /* not a race entry's line: render it again */
+        }
         *f[k]++ = '\0';
     }
-    memset(s, 0, sizeof *s);
-    if (sscanf(f[0], "%ld %d %d %lu %lf %lf %lf %lf %lf %d", &s->photons, &s->spp, &s->passes, &map_bytes,
-               &s->time_total_s, &s->time_eye_s, &s->time_photons_s, &s->time_map_s, &s->time_gather_s,
-               &t->tuned_edge) != 10)
-        return 0;
-    s->map_bytes = (size_t)map_bytes;
+    t->tuned_edge = atoi(f[0]);
     snprintf(t->params, sizeof t->params, "%s", f[1]);
     snprintf(t->tuned, sizeof t->tuned, "%s", f[2]);
     snprintf(t->tuned_keys, sizeof t->tuned_keys, "%s", f[3]);
-    snprintf(path, sizeof path, "%s/entries/%s.pfm", dir, t->label);
-    if (pds_image_read_pfm(path, &t->img, &err) != PDS_OK || pds_image_compare(&t->img, ref, &t->m, &err) != PDS_OK) {
-        pds_image_free(&t->img);
-        fail("%s (kept entry %s; remove it to render it again)", pds_error_string(&err), t->label);
-        return -1;
-    }
-    s->width = t->img.width;
-    s->height = t->img.height;
     return 1;
 }
 
@@ -3961,7 +4003,7 @@ static int cmd_race(int argc, char **argv)
         race_entry *t = &e[i];
         char context[160], key[600];
         int loaded = 0;
-        race_entry_key(t, bud.text[t->budget], key, sizeof key);
+        entry_key(&t->cfg.opt, bud.text[t->budget], key, sizeof key);
         if (resume && (loaded = race_load_entry(dir, t, key, &ref)) < 0) goto done;
         if (!loaded) {
             if (tune && race_tune(scene, &ref, pixel_m, t, i, &tlog)) goto done;

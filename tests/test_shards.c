@@ -623,7 +623,28 @@ static void test_shards_race_resume_keeps_finished_entries(pds_test_ctx *t)
     harness_rmtree(dir);
 }
 
+/* sweep keeps each finished render too, and --resume loads them. */
+static void test_shards_sweep_resume_keeps_finished_entries(pds_test_ctx *t)
+{
+    char out[16384], args[1024], ref[256], dir[256], path[512], lines[4][512];
+    REQUIRE(t, harness_reference(t, ref, sizeof ref), "no reference");
+    harness_path(dir, sizeof dir, "sweep-resume");
+    harness_rmtree(dir);
+    snprintf(args, sizeof args, "sweep tests/golden/glass.scene --ref %s --method pt --param spp --values 1,2 --res 32x24 "
+             "--quiet -o %s", ref, dir);
+    REQUIRE(t, cli_run(args, out, sizeof out) == 0, "sweep: %s", out);
+    snprintf(path, sizeof path, "%s/entries/spp-2.txt", dir);
+    remove(path); /* as if the sweep had stopped while rendering spp 2 */
+    snprintf(args + strlen(args), sizeof args - strlen(args), " --resume");
+    REQUIRE(t, cli_run(args, out, sizeof out) == 0, "sweep --resume: %s", out);
+    REQUIRE(t, harness_lines(out, "sweep method=", lines, 4) == 2, "%s", out);
+    CHECK(t, strstr(lines[0], "spp=1 ") && strstr(lines[0], " resumed=1"), "spp 1 not resumed: %s", lines[0]);
+    CHECK(t, strstr(lines[1], "spp=2 ") && !strstr(lines[1], "resumed="), "spp 2 not rendered: %s", lines[1]);
+    harness_rmtree(dir);
+}
+
 static const pds_test_case tests_shards[] = {
+    {"shards_sweep_resume_keeps_finished_entries", test_shards_sweep_resume_keeps_finished_entries},
     {"shards_race_resume_keeps_finished_entries", test_shards_race_resume_keeps_finished_entries},
     {"shards_cli_checkpoints_leave_the_image_unchanged", test_shards_cli_checkpoints_leave_the_image_unchanged},
     {"shards_cli_sigint_then_resume_equals_the_whole_render", test_shards_cli_sigint_then_resume_equals_the_whole_render},
