@@ -1309,8 +1309,8 @@ static int cmd_compare(int argc, char **argv)
 
 static const char *material_type_name(pds_material_type t)
 {
-    static const char *const names[] = {"diffuse", "mirror", "conductor", "dielectric", "emissive"};
-    return (unsigned)t < 5 ? names[t] : "?";
+    static const char *const names[] = {"diffuse", "mirror", "conductor", "dielectric", "emissive", "glossy"};
+    return (unsigned)t < 6 ? names[t] : "?";
 }
 
 static const char *light_type_name(pds_light_type t)

@@ -112,7 +112,11 @@ typedef enum pds_material_type {
     PDS_MAT_MIRROR,      /* perfect mirror: reflectance */
     PDS_MAT_CONDUCTOR,   /* exact conductor Fresnel: eta + i k per RGB */
     PDS_MAT_DIELECTRIC,  /* exact dielectric Fresnel: ior, Beer absorption */
-    PDS_MAT_EMISSIVE     /* area emitter: radiance (W / m^2 / sr) */
+    PDS_MAT_EMISSIVE,    /* area emitter: radiance (W / m^2 / sr) */
+    PDS_MAT_GLOSSY       /* rough conductor: GGX microfacets of roughness
+                            alpha with Smith masking-shadowing; Fresnel the
+                            constant reflectance, or eta + i k. Glossy is
+                            non-specular: a caustic path ends on it */
 } pds_material_type;
 
 typedef enum pds_dispersion {
@@ -138,6 +142,10 @@ typedef struct pds_material {
     pds_dispersion dispersion;
     double dispersion_coef[6]; /* Cauchy A,B or Sellmeier B1..B3,C1..C3 */
     double radiance[3];    /* emissive */
+    double roughness;      /* glossy: GGX alpha in [0.001, 1] (default 0.2) */
+    int fresnel;           /* glossy: F = reflectance (default 1 1 1) times,
+                              if 1, the conductor Fresnel of eta + i k
+                              (default 0: F constant) */
 } pds_material;
 
 typedef enum pds_light_type {
