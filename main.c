@@ -59,6 +59,7 @@ typedef struct command_help {
     const char *summary;  /* one line */
     const char *details;  /* options and notes, indented six spaces; may be "" */
     int takes_options;    /* follows the option syntax of render (the footer applies) */
+    const char *more;     /* more details (a second literal), or NULL */
 } command_help;
 
 static const command_help help_table[] = {
@@ -86,7 +87,8 @@ static const command_help help_table[] = {
      "      --pass-photons N        progressive pds: photons per pass, at most (default 16384)\n"
      "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"
      "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
-     "      --debug footprint       pds: also write OUT.footprint.png, footprint anisotropy (red = needle)\n"
+     "      --debug footprint       pds: also write OUT.footprint.png, footprint anisotropy (red = needle)\n",
+     1,
      "      --k N                   pm: photons per density estimate (default 50)\n"
      "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
      "      --max-radius R          pm: largest gather radius in scene units (default: no limit)\n"
@@ -97,14 +99,6 @@ static const command_help help_table[] = {
      "                              memory: pm and pdm store every photon, so their memory grows with\n"
      "                              --photons (the final line reports map_bytes); ppm keeps one pass's\n"
      "                              photons, pds and splat none\n"
-     "      --caustics NAME         gi: the caustic method, pds (default), pm, pdm, splat or ppm, with\n"
-     "                              its own options above\n"
-     "      --global-photons N      gi: photons emitted for the global photon map (default 100000)\n"
-     "      --global-k K            gi: nearest photons per global radiance estimate (default 50)\n"
-     "      --gather N              gi: final-gather rays per eye sample (default 16)\n"
-     "      --gather-mix F          gi: share of cosine-sampled gather directions, the rest following\n"
-     "                              the global map's photons (default 0.25; 1 = cosine sampling)\n"
-     "      --no-shadow-photons     gi: a shadow ray for every light sample\n"
      "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
      "      --res WxH               resolution (default: the scene camera's)\n"
      "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
@@ -119,8 +113,15 @@ static const command_help help_table[] = {
      "      --exposure STOPS        PNG exposure in stops (default 0)\n"
      "      --progress              progress on stderr even when it is not a terminal (then one line\n"
      "                              every 2 seconds); default: a bar when stderr is a terminal\n"
-     "      --quiet                 no progress, no scene warnings\n",
-     1},
+     "      --quiet                 no progress, no scene warnings\n"
+     "      --caustics NAME         gi: the caustic method, pds (default), pm, pdm, splat or ppm, with\n"
+     "                              its own options above\n"
+     "      --global-photons N      gi: photons emitted for the global photon map (default 100000)\n"
+     "      --global-k K            gi: nearest photons per global radiance estimate (default 50)\n"
+     "      --gather N              gi: final-gather rays per eye sample (default 16)\n"
+     "      --gather-mix F          gi: share of cosine-sampled gather directions, the rest following\n"
+     "                              the global map's photons (default 0.25; 1 = cosine sampling)\n"
+     "      --no-shadow-photons     gi: a shadow ray for every light sample\n"},
     {"sweep", "sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]",
      "render once per value of one parameter and compare each with REF",
      "      --method NAME           the method swept (default pds)\n"
@@ -131,7 +132,7 @@ static const command_help help_table[] = {
      "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
      "                              (RMSE and SSIM against the parameter), one PNG per value\n"
      "      and any render option, e.g. --photons N, --res WxH, --caustics-only\n",
-     1},
+     1, NULL},
     {"race", "race SCENE --ref REF.pfm (--time T | --photons N | --budgets LIST) --methods LIST [options]",
      "every method on the same budget, side by side against REF",
      "      --methods LIST          e.g. pds,pm:k=50,pdm,splat:radius=0.05,ppm; options for one\n"
@@ -147,9 +148,9 @@ static const command_help help_table[] = {
      "                              largest luminance variance)\n"
      "      -o DIR                  output folder (default race-SCENE): index.html, race.csv, images\n"
      "      and any render option; it applies to every method it concerns\n",
-     1},
-    {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", 0},
-    {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", 0},
+     1, NULL},
+    {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", 0, NULL},
+    {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", 0, NULL},
     {"bench", "bench WHAT [ARGS]", "micro-benchmarks (figures, never pass/fail):",
      "      rays MESH [N]           BVH build and ray throughput, one thread (N rays, default 1000000)\n"
      "      pt [SCENE]              path-traced samples per second, 1 thread and all threads\n"
@@ -157,8 +158,8 @@ static const command_help help_table[] = {
      "      memory [SCENE]          PDS working memory at 1e5 and at 1e7 photons\n"
      "      filter                  eq. 12 filter matrices per second against a general 3x3 inverse\n"
      "      kdtree                  eye-path map build, range and nearest-neighbour queries per second\n",
-     0},
-    {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", 0},
+     0, NULL},
+    {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", 0, NULL},
 };
 #define N_COMMANDS (sizeof help_table / sizeof help_table[0])
 
@@ -184,6 +185,7 @@ static void print_overview(FILE *f)
         const command_help *h = &help_table[i];
         if (strlen(h->synopsis) <= 26) fprintf(f, "  %-26s  %s\n%s", h->synopsis, h->summary, h->details);
         else fprintf(f, "  %s\n%30s%s\n%s", h->synopsis, "", h->summary, h->details);
+        if (h->more) fputs(h->more, f);
     }
     fputs("  --help, -h                  this text\n"
           "  --version                   the version\n"
@@ -197,6 +199,7 @@ static void print_overview(FILE *f)
 static void print_command_help(const command_help *h, FILE *f)
 {
     fprintf(f, "usage: pds %s\n  %s\n%s", h->synopsis, h->summary, h->details);
+    if (h->more) fputs(h->more, f);
     if (h->takes_options) fputs(option_syntax_help, f);
     else fputs("      -h, --help              this text\n", f);
 }
