@@ -10988,6 +10988,7 @@ static void pds__gi_shadow_line(const pds__gi_build *b, pds__gi_buf *buf, long i
         m = &s->materials.items[hit.material];
         if (!pds__material_is_specular(m) && m->type != PDS_MAT_EMISSIVE) {
             pds__gi_shadow_photon sp;
+            memset(&sp, 0, sizeof sp); /* padding too: the maps compare bit for bit */
             pds__f3_set(sp.pos, hit.position);
             pds__f3_set(sp.ng, pds__dot(hit.ng, dir) < 0.0 ? hit.ng : pds__scale(hit.ng, -1.0));
             sp.index = i;
@@ -11033,6 +11034,7 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
         if (!pds__material_is_specular(m)) {
             pds__gi_photon p;
             if (stores == PDS__GI_MAX_STORES) return;
+            memset(&p, 0, sizeof p);
             pds__f3_set(p.pos, hit.position);
             pds__f3_set(p.dir, dir);
             pds__f3_set(p.ng, pds__dot(hit.ng, dir) < 0.0 ? hit.ng : pds__scale(hit.ng, -1.0));
