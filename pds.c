@@ -11787,6 +11787,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     pds_options copt;             /* gi: the options its caustic method sees */
     const pds_options *popt = opt; /* the options of the photon pass */
     int gi = 0, w, h, threads, max_passes, photons = 0;
+    double gi_map_s = 0.0;        /* gi: pass 1's time */
     size_t i, npix;
     pds_status st = PDS_OK;
     double *rgb;
@@ -11845,7 +11846,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
         copt.method = opt->caustics;
         popt = &copt;
         if ((st = pds__gi_map_build(&gmap, scene, opt, threads, err))) return st;
-        stats->time_map_s = pds_time_now() - tm;
+        gi_map_s = pds_time_now() - tm;
         gmap.record_only = opt->paths == PDS_PATHS_CAUSTICS_ONLY;
         job.path = pds__gi_path;
         job.path_ctx = &gmap;
@@ -11899,7 +11900,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
         }
     }
     pthread_mutex_destroy(&job.lock);
-    stats->time_eye_s = pds_time_now() - job.t0;
+    stats->time_eye_s = pds_time_now() - job.t0 - gi_map_s;
     stats->memory_bytes = npix * 3 * sizeof(double);
     /* the average of the passes, in place */
     rgb = job.sum;
@@ -11934,6 +11935,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     if (gi) {
         /* the caustic method's map (pm, pdm, ppm) and the global maps */
         size_t gbytes = pds__gi_map_bytes(&gmap);
+        stats->time_map_s += gi_map_s;
         stats->map_bytes += gbytes;
         stats->memory_bytes += gbytes;
         pds__gi_map_free(&gmap);

@@ -441,7 +441,9 @@ typedef struct pds_render_stats {
                                (tracing, and for pds and splat the splats, which
                                go with it batch by batch; for pm, pdm and ppm
                                also the two phases below) */
-    double time_map_s;      /* pm, pdm, ppm: building the photon maps */
+    double time_map_s;      /* pm, pdm, ppm: building the photon maps; gi:
+                               pass 1 (tracing and building the global and
+                               shadow maps) plus its caustic method's */
     double time_gather_s;   /* pm, pdm, ppm: gathering at the eye vertices */
     size_t map_bytes;       /* pm, pdm, ppm: peak size of the photon map;
                                gi: the global and shadow maps (plus the
