@@ -475,9 +475,12 @@ typedef struct pds_render_stats {
    work: an upper bound on the memory it holds at once beyond the scene
    (per eye vertex 252 bytes, every pixel sample taken to record one; per
    stored photon 133 bytes for pm and ppm, 176 for pdm; per pixel 36 bytes
-   plus 48 per thread for the photon methods), the pixel samples of one
-   eye pass, and the machine's physical memory (0 if unknown). With a time
-   budget the photon count is not known in advance and counts as 0. */
+   plus 48 per thread for the photon methods; gi: its caustic method's
+   needs plus, per global photon, at most 8 global-map stores of 149 bytes
+   and 5 shadow stores of 117 bytes, each counted twice while the threads'
+   arrays are merged, with the kd-tree), the pixel samples of one eye pass,
+   and the machine's physical memory (0 if unknown). With a time budget the
+   photon count is not known in advance and counts as 0. */
 typedef struct pds_render_estimate {
     double memory_bytes;
     double eye_vertices;    /* photon methods: at most */
