@@ -68,7 +68,7 @@ static const command_help help_table[] = {
      "      --method NAME           pds (photon differential splatting, default), pt (path tracing),\n"
      "                              preview (eye-light shading), or a baseline: pm (photon mapping),\n"
      "                              pdm (photon differential mapping), splat (fixed-radius photon\n"
-     "                              splatting), ppm (progressive photon mapping)\n"
+     "                              splatting), ppm (progressive p. m.), spm (streamed p. m.)\n"
      "      --photons N             photon methods: caustic photons (default 100000; ppm: per pass)\n"
      "      --smoothing S           pdm, and pds: the paper's fixed-s PDS with smoothing s (default 12;\n"
      "                              5..40); as --min-aspect and --min-width, it turns progressive PDS off\n"
@@ -85,16 +85,16 @@ static const command_help help_table[] = {
      "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"
      "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
      "      --debug footprint       pds: also write OUT.footprint.png, footprint anisotropy (red = needle)\n"
-     "      --k N                   pm: photons per density estimate (default 50)\n"
+     "      --k N                   pm: photons (spm: streams) per estimate (default 50)\n"
      "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
-     "      --max-radius R          pm: largest gather radius in scene units (default: no limit)\n"
+     "      --max-radius R          pm, spm: largest gather radius in scene units (default: no limit)\n"
+     "      --streams N             spm: streams (default photons/(stream-photons + 1))\n"
+     "      --stream-photons N      spm: associated photons per stream (default 10)\n"
      "      --max-photons N         pdm: most photons gathered per estimate (default 500)\n"
      "      --radius R              splat: splat radius; ppm: initial radius (default: from the scene)\n"
      "      --alpha A               ppm: radius reduction, 0 < A <= 1 (default 0.7)\n"
      "      --passes N              ppm: photon passes (default 10; with --time, until the time is spent)\n"
-     "                              memory: pm and pdm store every photon, so their memory grows with\n"
-     "                              --photons (the final line reports map_bytes); ppm keeps one pass's\n"
-     "                              photons, pds and splat none\n"
+     "                              memory: pm and pdm store every photon, spm every stream (map_bytes)\n"
      "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
      "      --res WxH               resolution (default: the scene camera's)\n"
      "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
@@ -113,8 +113,8 @@ static const command_help help_table[] = {
     {"sweep", "sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]",
      "render once per value of one parameter and compare each with REF",
      "      --method NAME           the method swept (default pds)\n"
-     "      --param NAME            smoothing, min-aspect, k, radius, alpha, photons, spp, max-photons\n"
-     "                              or passes\n"
+     "      --param NAME            smoothing, min-aspect, k, radius, alpha, photons, spp, max-photons,\n"
+     "                              passes, max-radius, streams or stream-photons\n"
      "      --values A,B,...        the values, comma-separated\n"
      "      --ref REF.pfm           the reference (linear PFM, the renders' resolution)\n"
      "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
@@ -599,17 +599,17 @@ typedef struct method_info {
 
 static const method_info method_table[] = {
     {"pds", PDS_METHOD_PDS}, {"pt", PDS_METHOD_PT},   {"preview", PDS_METHOD_PREVIEW}, {"pm", PDS_METHOD_PM},
-    {"pdm", PDS_METHOD_PDM}, {"splat", PDS_METHOD_SPLAT}, {"ppm", PDS_METHOD_PPM},
+    {"pdm", PDS_METHOD_PDM}, {"splat", PDS_METHOD_SPLAT}, {"ppm", PDS_METHOD_PPM}, {"spm", PDS_METHOD_SPM},
 };
 #define N_METHODS (sizeof method_table / sizeof method_table[0])
 
 #define MBIT(m) (1u << (unsigned)(m))
 #define M_PHOTON                                                                                                     \
     (MBIT(PDS_METHOD_PDS) | MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_SPLAT) |                    \
-     MBIT(PDS_METHOD_PPM))
+     MBIT(PDS_METHOD_PPM) | MBIT(PDS_METHOD_SPM))
 #define M_ALL (M_PHOTON | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW))
 /* methods that keep a photon map, whose size stats.map_bytes reports */
-#define M_MAP (MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_PPM))
+#define M_MAP (MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_PPM) | MBIT(PDS_METHOD_SPM))
 
 static const char *method_name(pds_method m)
 {
@@ -681,7 +681,7 @@ typedef struct run_cfg {
     int progress;        /* 1 on, 0 off, -1 when stderr is a terminal */
     int quiet;           /* --quiet: no progress, no scene warnings */
     int debug_footprint; /* render --debug footprint */
-    unsigned long given; /* bit i: option_table[i] was on the command line */
+    unsigned long long given; /* bit i: option_table[i] was on the command line */
 } run_cfg;
 
 typedef struct opt_spec opt_spec;
@@ -874,6 +874,7 @@ static int set_progress(const opt_spec *s, run_cfg *c, const char *shown, const 
 #define M_PDM MBIT(PDS_METHOD_PDM)
 #define M_SPLAT MBIT(PDS_METHOD_SPLAT)
 #define M_PPM MBIT(PDS_METHOD_PPM)
+#define M_SPM MBIT(PDS_METHOD_SPM)
 
 /* Every option of render, sweep and race. */
 static const opt_spec option_table[] = {
@@ -901,11 +902,15 @@ static const opt_spec option_table[] = {
     {"--pass-alpha", NULL, "pass_alpha", set_double, OPTF(pass_alpha), 0, 1, "a number above 0 and at most 1", M_PDS,
      C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--debug", NULL, "debug", set_debug, 0, 0, 0, "footprint", M_PDS, C_RENDER, F_VALUE},
-    {"--k", NULL, "k", set_int, OPTF(k), 1, 1000000, "a whole number from 1 to 1000000", M_PM, C_ALL,
+    {"--k", NULL, "k", set_int, OPTF(k), 1, 1000000, "a whole number from 1 to 1000000", M_PM | M_SPM, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--kernel", NULL, "kernel", set_kernel, 0, 0, 0, "cone, gaussian or none", M_PM, C_ALL, F_VALUE | F_PER_METHOD},
     {"--max-radius", NULL, "max_radius", set_double, OPTF(max_radius), 0, PDS_MAX_COORD,
-     "a positive distance in scene units", M_PM, C_ALL, F_VALUE | F_LO_OPEN | F_PER_METHOD},
+     "a positive distance in scene units", M_PM | M_SPM, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
+    {"--streams", NULL, "streams", set_long, OPTF(streams), 0, -1, "a whole number of 0 or more", M_SPM, C_ALL,
+     F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--stream-photons", NULL, "stream_photons", set_int, OPTF(stream_photons), 0, 10000,
+     "a whole number from 0 to 10000", M_SPM, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--max-photons", NULL, "max_photons", set_long, OPTF(max_photons), 1, 100000000,
      "a whole number from 1 to 100000000", M_PDM, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--radius", NULL, "radius", set_double, OPTF(radius), 0, PDS_MAX_COORD, "a positive distance in scene units",
@@ -932,8 +937,8 @@ static const opt_spec option_table[] = {
     {"--quiet", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
 };
 #define N_OPTIONS (sizeof option_table / sizeof option_table[0])
-/* run_cfg.given has a bit per option: the table must fit in 32 bits */
-typedef char option_table_fits_in_given[N_OPTIONS <= 32 ? 1 : -1];
+/* run_cfg.given has a bit per option: the table must fit in 64 bits */
+typedef char option_table_fits_in_given[N_OPTIONS <= 64 ? 1 : -1];
 
 static int option_index(const char *name)
 {
@@ -947,7 +952,7 @@ static int option_index(const char *name)
 static int option_given(const run_cfg *c, const char *name)
 {
     int i = option_index(name);
-    return i >= 0 && (c->given & (1ul << i)) != 0;
+    return i >= 0 && (c->given & (1ull << i)) != 0;
 }
 
 static void cfg_init(run_cfg *c)
@@ -1036,7 +1041,7 @@ static int parse_option(run_cfg *c, unsigned cmd, const char *cmd_name, int argc
     } else if (a[n] == '=') {
         return usage_error("%s takes no value, got '%s'", name, a);
     }
-    c->given |= 1ul << idx;
+    c->given |= 1ull << idx;
     return s->set(s, c, name, v);
 }
 
@@ -1057,7 +1062,7 @@ static void note_idle_options(const run_cfg *c, unsigned mask, const char *where
     size_t i;
     for (i = 0; i < N_OPTIONS; i++) {
         char list[128];
-        if (!(c->given & (1ul << i)) || (option_table[i].methods & mask)) continue;
+        if (!(c->given & (1ull << i)) || (option_table[i].methods & mask)) continue;
         method_join(option_table[i].methods, " and ", list, sizeof list);
         fprintf(stderr, "pds %s: note: %s has no effect %s (it is for %s)\n", current_command, option_table[i].name,
                 where, list);
@@ -1116,6 +1121,10 @@ static void format_params(const pds_options *o, char *buf, size_t n)
     case PDS_METHOD_PPM:
         snprintf(buf, n, " radius=%s alpha=%g", distance_text(o->radius, "auto", d, sizeof d), o->alpha);
         break;
+    case PDS_METHOD_SPM:
+        snprintf(buf, n, " stream_photons=%d k=%d max_radius=%s", o->stream_photons, o->k,
+                 distance_text(o->max_radius, "none", d, sizeof d));
+        break;
     default: break;
     }
     if (((o->method == PDS_METHOD_PDS && !o->progressive) || o->method == PDS_METHOD_PDM) && o->min_aspect > 0.0) {
@@ -1151,6 +1160,7 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
             printf(" splatted=%ld", st->splatted);
         else if (m != PDS_METHOD_PPM)
             printf(" stored=%ld", st->splatted);
+        if (m == PDS_METHOD_SPM) printf(" streams=%ld", st->streams);
         printf(" eye_vertices=%ld", st->eye_vertices);
         if (m == PDS_METHOD_PPM) printf(" passes=%d", st->passes);
         printf("%s", params);
@@ -2199,7 +2209,7 @@ static int cmd_sweep(int argc, char **argv)
         return usage_error("--param knows %s, got '%s'%s", list, param, suggest_text(&sug, hint, sizeof hint));
     }
     ps = &option_table[idx];
-    if (base.given & (1ul << idx))
+    if (base.given & (1ull << idx))
         return usage_error("%s is the parameter swept: give its values with --values, not %s", param, ps->name);
     if (!(ps->methods & MBIT(method))) {
         method_join(ps->methods, " and ", list, sizeof list);
@@ -2598,7 +2608,7 @@ static int parse_race_methods(const char *list, const run_cfg *base, race_entry 
                 rc = EXIT_USAGE;
                 break;
             }
-            r->cfg.given |= 1ul << idx; /* given: --tune keeps it */
+            r->cfg.given |= 1ull << idx; /* given: --tune keeps it */
             file_safe(eq + 1, safe, sizeof safe);
             snprintf(r->label + strlen(r->label), sizeof r->label - strlen(r->label), "-%s%s", s->key, safe);
         }
@@ -2640,7 +2650,9 @@ static void html_figure(sbuf *b, const char *src, const char *alt, const char *c
    and pixel sequence than the render reported, so the choice does not fit
    that render's own noise). A parameter given in --methods or as an option
    is kept. ppm is tuned one parameter at a time: R0 with alpha at its
-   value, then alpha with the best R0. Radii are multiples of the pixel
+   value, then alpha with the best R0; spm likewise k, then R with the best
+   k (its stream_photons only says how many photons a stream stands for:
+   under a time budget it changes nothing in the image). Radii are multiples of the pixel
    footprint at the camera's look-at distance (race_pixel_size), so the
    grid follows the scene's scale. */
 typedef struct tune_grid {
@@ -2660,6 +2672,8 @@ static const tune_grid tune_grids[] = {
     {PDS_METHOD_SPLAT, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
     {PDS_METHOD_PPM, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
     {PDS_METHOD_PPM, -1, "alpha", 3, {0.5, 0.7, 0.9}, 0},
+    {PDS_METHOD_SPM, -1, "k", 5, {10, 20, 40, 80, 160}, 0},
+    {PDS_METHOD_SPM, -1, "max-radius", 4, {4, 16, 64, 256}, 1},
 };
 #define N_TUNE_GRIDS (sizeof tune_grids / sizeof tune_grids[0])
 
@@ -2706,7 +2720,7 @@ static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_
         if (tg->progressive >= 0 && tg->progressive != (t->cfg.opt.progressive != 0)) continue;
         snprintf(name, sizeof name, "--%s", tg->key);
         idx = option_index(name);
-        if (idx < 0 || (t->cfg.given & (1ul << idx))) continue; /* given: kept as it is */
+        if (idx < 0 || (t->cfg.given & (1ull << idx))) continue; /* given: kept as it is */
         s = &option_table[idx];
         for (i = 0; i < tg->n; i++) {
             run_cfg c = t->cfg;
@@ -3241,7 +3255,8 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
                      "seed %llu of the renders shown, so the choice does not fit their own noise. Grids: pds and pdm "
                      "s in 4, 6, 8, 12, 16, 24; pm k in 10, 20, 40, 80, 160; splat R and ppm R0 in 1, 2, 4, 8, 16 "
                      "pixels (one pixel: %.4g scene units at the camera's look-at distance); ppm alpha in 0.5, 0.7, "
-                     "0.9 after R0. A value given on the command line is kept.</p>\n",
+                     "0.9 after R0; spm k as pm, then R in 4, 16, 64, 256 pixels. A value given on the command line is "
+                     "kept.</p>\n",
                   pg->base->opt.seed + 1, pg->base->opt.seed, pg->pixel_m);
     /* provenance */
     sb_printf(b, "<h2>How this page was made</h2>\n<pre class=\"cmd\" id=\"command\">");

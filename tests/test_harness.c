@@ -907,10 +907,10 @@ static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
     /* options the method does not use: a note, not an error */
     snprintf(args, sizeof args, "render tests/golden/glass.scene --method pt --k 50 --res 8x6 --spp 1 --quiet -o %s", png);
     CHECK(t, cli_run(args, out, sizeof out) == 0, "%s", out);
-    CHECK(t, strstr(out, "pds render: note: --k has no effect with --method pt (it is for pm)\n") != NULL, "%s", out);
+    CHECK(t, strstr(out, "pds render: note: --k has no effect with --method pt (it is for pm and spm)\n") != NULL, "%s", out);
     remove(png);
     CHECK(t, cli_run("--help", out, sizeof out) == 0, "--help");
-    CHECK(t, strstr(out, "pm and pdm store every photon, so their memory grows with") && strstr(out, "  sweep SCENE") &&
+    CHECK(t, strstr(out, "pm and pdm store every photon, spm every stream (map_bytes)") && strstr(out, "  sweep SCENE") &&
                  strstr(out, "  race SCENE") && strstr(out, "--max-photons N"),
           "--help describes the harness and the baselines");
 }
