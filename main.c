@@ -2673,7 +2673,7 @@ static const tune_grid tune_grids[] = {
     {PDS_METHOD_PPM, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
     {PDS_METHOD_PPM, -1, "alpha", 3, {0.5, 0.7, 0.9}, 0},
     {PDS_METHOD_SPM, -1, "k", 5, {10, 20, 40, 80, 160}, 0},
-    {PDS_METHOD_SPM, -1, "max-radius", 4, {4, 16, 64, 256}, 1},
+    {PDS_METHOD_SPM, -1, "max-radius", 5, {1, 3, 10, 30, 100}, 1},
 };
 #define N_TUNE_GRIDS (sizeof tune_grids / sizeof tune_grids[0])
 
@@ -3255,7 +3255,7 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
                      "seed %llu of the renders shown, so the choice does not fit their own noise. Grids: pds and pdm "
                      "s in 4, 6, 8, 12, 16, 24; pm k in 10, 20, 40, 80, 160; splat R and ppm R0 in 1, 2, 4, 8, 16 "
                      "pixels (one pixel: %.4g scene units at the camera's look-at distance); ppm alpha in 0.5, 0.7, "
-                     "0.9 after R0; spm k as pm, then R in 4, 16, 64, 256 pixels. A value given on the command line is "
+                     "0.9 after R0; spm k as pm, then R in 1, 3, 10, 30, 100 pixels. A value given on the command line is "
                      "kept.</p>\n",
                   pg->base->opt.seed + 1, pg->base->opt.seed, pg->pixel_m);
     /* provenance */
