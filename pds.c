@@ -10507,22 +10507,22 @@ static long pds__spm_streams(const pds_options *opt)
 
 /* eq. 2 at one eye vertex from the n <= k nearest leaders (idx, d2 sorted
    by distance): L = sum fr Ei / (pi r^2), r = the k-th distance when k
-   were found, else the search radius R (or, with no R, the farthest). */
+   were found, else the search radius R (or, with no R, the farthest);
+   times the vertex's importance. */
 static void pds__spm_estimate(const pds__gather *g, const pds__eye_vertex *v, const size_t *idx, const double *d2,
                               size_t n, double sum[3])
 {
     const pds__stored_photon *streams = (const pds__stored_photon *)g->photons;
-    const pds_material *m = &g->scene->materials.items[v->material];
-    pds__v3 x = pds__f3_get(v->pos), ng = pds__f3_get(v->ng), ns = pds__f3_get(v->ns), wo = pds__f3_get(v->wo);
+    pds__v3 gv = pds__f3_get(v->g);
     double r2 = n == g->k || !(g->radius < DBL_MAX) ? d2[n - 1] : g->radius * g->radius, area;
     size_t j;
     int c;
     if (!(r2 > 0.0)) return;
     for (j = 0; j < n; j++) {
         const pds__stored_photon *p = &streams[idx[j]];
-        double f[3], pdf;
-        if (pds__dot(pds__f3_get(p->ng), ng) <= 0.0) continue; /* another surface orientation */
-        pds__bsdf_eval(m, x, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
+        double f[3]; /* fr x the vertex's importance */
+        if (pds__dot(pds__f3_get(p->ng), gv) <= 0.0) continue; /* the surface's other side */
+        if (!pds__eye_response(g->scene, v, pds__scale(pds__f3_get(p->dir), -1.0), f)) continue;
         for (c = 0; c < 3; c++) sum[c] += f[c] * p->flux[c];
     }
     area = PDS__PI * r2;
