@@ -2771,6 +2771,13 @@ static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_
 
 /* ----------------------------------------------------------- race: budgets */
 
+/* The photons a render traced: spm's streams (its photon count is what
+   the streams stand for), the others' photons. */
+static long race_traced(const race_entry *t)
+{
+    return t->cfg.opt.method == PDS_METHOD_SPM ? t->st.streams : t->st.photons;
+}
+
 /* Set the flags of every entry (see RACE_TIME_TOLERANCE) and warn on
    stderr about each flagged one. Returns how many are flagged. */
 static int race_check_budgets(race_entry *e, int n, const race_budgets *bud)
@@ -2791,13 +2798,14 @@ static int race_check_budgets(race_entry *e, int n, const race_budgets *bud)
                     100.0 * RACE_TIME_TOLERANCE);
         if (!is_photon_method(t->cfg.opt.method) || t->cfg.opt.paths == PDS_PATHS_NO_CAUSTICS) continue;
         for (j = 0; j < n; j++)
-            if (e[j].budget == t->budget && is_photon_method(e[j].cfg.opt.method) && e[j].st.photons > most)
-                most = e[j].st.photons;
-        if (t->st.photons < RACE_MIN_PHOTONS || (double)t->st.photons < RACE_MIN_PHOTON_SHARE * (double)most) {
+            if (e[j].budget == t->budget && is_photon_method(e[j].cfg.opt.method) && race_traced(&e[j]) > most)
+                most = race_traced(&e[j]);
+        if (race_traced(t) < RACE_MIN_PHOTONS || (double)race_traced(t) < RACE_MIN_PHOTON_SHARE * (double)most) {
             t->flags |= RACE_FEW_PHOTONS;
-            fprintf(stderr, "pds race: warning: %s emitted %ld photons in its %g s (the most on that budget: %ld; "
-                    "fewer than %d or 1%% of that is too few for a useful estimate)\n", t->label, t->st.photons,
-                    budget, most, RACE_MIN_PHOTONS);
+            fprintf(stderr, "pds race: warning: %s %s %ld %s in its %g s (the most on that budget: %ld; "
+                    "fewer than %d or 1%% of that is too few for a useful estimate)\n", t->label,
+                    t->cfg.opt.method == PDS_METHOD_SPM ? "traced" : "emitted", race_traced(t),
+                    t->cfg.opt.method == PDS_METHOD_SPM ? "streams" : "photons", budget, most, RACE_MIN_PHOTONS);
         }
     }
     for (i = 0; i < n; i++) flagged += e[i].flags != 0;
