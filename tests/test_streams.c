@@ -47,6 +47,56 @@ static void test_spm_finds_the_analytic_irradiance_of_a_uniform_caustic(pds_test
     pds_image_free(&img);
 }
 
+/* eq. 2 at one eye vertex, by hand: 12 streams of energy 2 at distances
+   0.01 .. 0.12 on a white (albedo 0.5) floor, and one at 0.005 that
+   arrived from below (it counts for the search circle, not the light).
+   L = (0.5 / pi) (energy found) / dA with dA = pi r_k^2 when k streams are
+   found, pi R^2 when fewer lie within R, and the farthest's circle when
+   there is no R. */
+static void test_spm_estimate_divides_by_the_search_circle(pds_test_ctx *t)
+{
+    static const struct { size_t k; double radius, r, energy; } cases[] = {
+        {5, DBL_MAX, 0.04, 4 * 2.0},      /* k found: the 5th (0.04) */
+        {100, 0.075, 0.075, 7 * 2.0},     /* fewer than k within R: R */
+        {100, DBL_MAX, 0.12, 12 * 2.0},   /* no R, fewer than k in the map */
+    };
+    pds_error err;
+    pds_scene *s = scene_from_text("material white diffuse { albedo 0.5 }\nquad { material white }\n", &err);
+    pds__eye_vertex v;
+    pds__stored_photon ph[13];
+    pds__kdtree tree;
+    pds__gather g;
+    size_t idx[100], n, i;
+    double d2[100], one[3] = {1.0, 1.0, 1.0};
+    REQUIRE(t, s != NULL, "%s", err.text);
+    memset(&v, 0, sizeof v);
+    REQUIRE(t, pds__eye_vertex_set(&v, pds_scene_material(s, 0), pds__v(0, 0, 0), pds__v(0, 1, 0), pds__v(0, 1, 0),
+                                   pds__v(0, 1, 0), one, 0), "vertex");
+    for (i = 0; i < 13; i++) {
+        memset(&ph[i], 0, sizeof ph[i]);
+        ph[i].pos[0] = i < 12 ? 0.01f * (float)(i + 1) : 0.005f;
+        ph[i].dir[1] = i < 12 ? -1.0f : 1.0f;
+        ph[i].ng[1] = i < 12 ? 1.0f : -1.0f;
+        ph[i].flux[0] = ph[i].flux[1] = ph[i].flux[2] = 2.0f;
+        ph[i].index = (long)i;
+    }
+    REQUIRE(t, pds__kdtree_build(&tree, &ph[0].pos[0], sizeof ph[0] / sizeof(float), 13, &err) == PDS_OK, "tree");
+    memset(&g, 0, sizeof g);
+    g.scene = s;
+    g.photons = ph;
+    for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        double sum[3] = {0, 0, 0}, expect = 0.5 / PDS__PI * cases[i].energy / (PDS__PI * cases[i].r * cases[i].r);
+        g.k = cases[i].k;
+        g.radius = cases[i].radius;
+        n = pds__kdtree_knn(&tree, pds__v(0, 0, 0), g.k, g.radius, idx, d2);
+        pds__spm_estimate(&g, &v, idx, d2, n, sum);
+        CHECK(t, fabs(sum[1] / expect - 1.0) < 1e-5, "case %lu: L %.6g, expected %.6g", (unsigned long)i, sum[1],
+              expect);
+    }
+    pds__kdtree_free(&tree);
+    pds_scene_free(s);
+}
+
 /* Every stream that lands gives its energy Ei / (pi R^2) to the eye
    vertices within R (k never reached), so the caustic image holds the
    streams' flux: the light's flux through the slab times both Fresnel
@@ -159,6 +209,7 @@ static void test_spm_stream_count_and_its_limits(pds_test_ctx *t)
 static const pds_test_case tests_streams[] = {
     {"spm_finds_the_analytic_irradiance_of_a_uniform_caustic",
      test_spm_finds_the_analytic_irradiance_of_a_uniform_caustic},
+    {"spm_estimate_divides_by_the_search_circle", test_spm_estimate_divides_by_the_search_circle},
     {"spm_streams_carry_the_emitted_flux_times_the_fresnel_factors",
      test_spm_streams_carry_the_emitted_flux_times_the_fresnel_factors},
     {"spm_caustic_streams_are_pm_photons_of_the_streams_energy",
