@@ -368,9 +368,9 @@ typedef struct pds_options {
                            (default 0) */
     int photon_depth;   /* most specular bounces a photon follows (default 16) */
     /* baselines */
-    int k;              /* pm: photons per estimate (default 50) */
+    int k;              /* pm: photons, spm: streams per estimate (default 50) */
     pds_kernel kernel;  /* pm: filter (default PDS_KERNEL_CONE) */
-    double max_radius;  /* pm: largest gather radius, 0 = none (default 0) */
+    double max_radius;  /* pm, spm: largest gather radius, 0 = none (default 0) */
     double radius;      /* splat: splat radius; ppm: initial radius; 0 = from
                            the scene and the eye-path map (default 0) */
     double alpha;       /* ppm: radius reduction parameter in (0, 1] (default 0.7) */
