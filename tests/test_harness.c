@@ -282,7 +282,7 @@ static void test_harness_race_writes_every_image_its_index_shows(pds_test_ctx *t
     CHECK(t, HARNESS_STARTS(lines[0], "race method=pt label=pt photons=0 spp=1 rmse="), "%s", lines[0]);
     CHECK(t, HARNESS_STARTS(lines[1], "race method=pt label=pt-spp8 photons=0 spp=8 rmse="), "%s", lines[1]);
     /* without caustic paths the photon methods have nothing to emit */
-    CHECK(t, HARNESS_STARTS(lines[2], "race method=pds label=pds photons=0 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 split_depth=2 split_angle=0.2 rmse="), "%s", lines[2]);
+    CHECK(t, HARNESS_STARTS(lines[2], "race method=pds label=pds photons=0 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 split_depth=1 split_angle=0.2 rmse="), "%s", lines[2]);
     CHECK(t, harness_value(lines[1], "rmse") < harness_value(lines[0], "rmse"), "8 spp beat 1 spp: %s / %s",
           lines[1], lines[0]);
     last = cli_last_line(out);
@@ -297,7 +297,7 @@ static void test_harness_race_writes_every_image_its_index_shows(pds_test_ctx *t
                                  "time_eye_s,time_photons_s,time_map_s,time_gather_s,map_bytes,diff_scale,budget_flag\n"),
           "header: %s", csv);
     CHECK(t, strstr(csv, "\npt,pt,1000,0,1,1,,,") && strstr(csv, "\npt,pt-spp8,1000,0,8,1,,,") &&
-                 strstr(csv, "\npds,pds,1000,0,1,0,progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 split_depth=2 split_angle=0.2,,"),
+                 strstr(csv, "\npds,pds,1000,0,1,0,progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 split_depth=1 split_angle=0.2,,"),
           "rows: %s", csv);
     CHECK(t, harness_count(csv, ",ok\n") == 3, "a photon budget is met exactly: %s", csv);
     free(csv);
@@ -454,7 +454,7 @@ static void test_harness_race_region_of_interest_is_the_most_varied_window(pds_t
              "race tests/golden/glass.scene --ref %s --photons 200 --methods pds --res 128x96 --spp 1 --quiet -o %s",
              ref, dir);
     REQUIRE(t, cli_run(args, out, sizeof out) == 0, "race failed: %s", out);
-    CHECK(t, strstr(out, "race method=pds label=pds photons=200 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 split_depth=2 split_angle=0.2 rmse=") != NULL, "%s", out);
+    CHECK(t, strstr(out, "race method=pds label=pds photons=200 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 split_depth=1 split_angle=0.2 rmse=") != NULL, "%s", out);
     last = cli_last_line(out);
     CHECK(t, strstr(last, " roi=40,0,64,64") != NULL, "final line: %s", last);
     snprintf(path, sizeof path, "%s/ref-crop.png", dir);
@@ -489,8 +489,8 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
         {"sweep S --param spp", "sweep needs --values A,B,..."},
         {"sweep S --param spp --values 1,2", "sweep needs --ref REFERENCE.pfm"},
         {"sweep S --param foo --values 1 --ref R",
-         "--param knows photons, smoothing, min-aspect, min-width, pass-smoothing, pass-min-aspect, pass-min-width, pass-photons, split-depth, split-angle, pass-alpha, k, max-radius, streams, stream-photons, max-photons, radius, alpha, passes and spp, got 'foo'"},
-        {"sweep S --param k --values 1 --ref R", "--param k has no effect with --method pds (k is for pm and spm)"},
+         "--param knows photons, smoothing, min-aspect, min-width, pass-smoothing, pass-min-aspect, pass-min-width, pass-photons, split-depth, split-angle, pass-alpha, k, max-radius, streams, stream-photons, max-photons, radius, alpha, passes, global-photons, global-k, gather, gather-mix and spp, got 'foo'"},
+        {"sweep S --param k --values 1 --ref R", "--param k has no effect with --method pds (k is for pm, gi and spm)"},
         {"sweep S --method pt --param spp --values 1,,4 --ref R",
          "--values needs a comma-separated list of values, got '1,,4'"},
         {"sweep S --method pt --param spp --values 1,x --ref R", "spp needs a whole number from 1 to 65536, got 'x'"},
@@ -514,10 +514,10 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
         {"race S --ref R --methods pt --time 1 --tune=yes", "--tune takes no value, got '--tune=yes'"},
         {"race S --ref R --methods pt --time 1 --photons 3", "race takes one budget: --time or --photons, not both"},
         {"race S --ref R --methods pt,bogus --photons 3",
-         "unknown method 'bogus' (this version has: pds, pt, preview, pm, pdm, splat, ppm, spm)"},
+         "unknown method 'bogus' (this version has: pds, pt, preview, pm, pdm, splat, ppm, gi, spm)"},
         {"race S --ref R --methods pt, --photons 3", "--methods needs a comma-separated list of methods, got 'pt,'"},
         {"race S --ref R --methods pm:k --photons 3", "--methods: 'k' after pm needs NAME=VALUE"},
-        {"race S --ref R --methods pds:k=5 --photons 3", "--methods: k has no effect with pds (k is for pm and spm)"},
+        {"race S --ref R --methods pds:k=5 --photons 3", "--methods: k has no effect with pds (k is for pm, gi and spm)"},
         {"race S --ref R --methods pt:photons=5 --photons 3",
          "--methods: photons cannot be set for one method; give it to all with --photons"},
         {"race S --ref R --methods pt:foo=5 --photons 3", "--methods: unknown option 'foo' for pt"},
@@ -532,7 +532,7 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
         {"render S --k 0", "--k needs a whole number from 1 to 1000000, got '0'"},
         {"render S --passes 0", "--passes needs a whole number from 1 to 1000000, got '0'"},
         {"render S --max-photons 0", "--max-photons needs a whole number from 1 to 100000000, got '0'"},
-        {"render S --method xyz", "unknown method 'xyz' (this version has: pds, pt, preview, pm, pdm, splat, ppm, spm)"},
+        {"render S --method xyz", "unknown method 'xyz' (this version has: pds, pt, preview, pm, pdm, splat, ppm, gi, spm)"},
     };
     char out[8192], args[1024], expect[512], ref[256], dir[256];
     size_t i;
@@ -889,7 +889,7 @@ static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
         {"spm", "--streams 300 --stream-photons 4 --k 20 --max-radius 0.5",
          " stream_photons=4 k=20 max_radius=0.5 map_bytes="},
     };
-    char out[8192], args[1024], png[256], prefix[128];
+    char out[16384], args[1024], png[256], prefix[128];
     size_t i;
     harness_path(png, sizeof png, "baseline.png");
     for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {
@@ -909,7 +909,7 @@ static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
     /* options the method does not use: a note, not an error */
     snprintf(args, sizeof args, "render tests/golden/glass.scene --method pt --k 50 --res 8x6 --spp 1 --quiet -o %s", png);
     CHECK(t, cli_run(args, out, sizeof out) == 0, "%s", out);
-    CHECK(t, strstr(out, "pds render: note: --k has no effect with --method pt (it is for pm and spm)\n") != NULL, "%s", out);
+    CHECK(t, strstr(out, "pds render: note: --k has no effect with --method pt (it is for pm, gi and spm)\n") != NULL, "%s", out);
     remove(png);
     CHECK(t, cli_run("--help", out, sizeof out) == 0, "--help");
     CHECK(t, strstr(out, "pm and pdm store every photon, spm every stream, so their") && strstr(out, "  sweep SCENE") &&
