@@ -121,8 +121,8 @@ static const command_help help_table[] = {
      "      --progress              progress on stderr even when it is not a terminal (then one line\n"
      "                              every 2 seconds); default: a bar when stderr is a terminal\n"
      "      --quiet                 no progress, no scene warnings\n"
-     "      --caustics NAME         gi: the caustic method, pds (default), pm, pdm, splat or ppm, with\n"
-     "                              its own options above\n"
+     "      --caustics NAME         gi: the caustic method, pds (default), pm, pdm, splat, ppm or spm,\n"
+     "                              with its own options above\n"
      "      --global-photons N      gi: photons emitted for the global photon map (default 100000)\n"
      "      --global-k K            gi: nearest photons per global radiance estimate (default 50)\n"
      "      --gather N              gi: final-gather rays per eye sample (default 16)\n"
@@ -804,7 +804,7 @@ static int set_caustics(const opt_spec *s, run_cfg *c, const char *shown, const 
     pds_method m;
     (void)s;
     if (method_lookup(v, &m)) return unknown_method(v);
-    if (!is_photon_method(m)) return usage_error("%s takes pds, pm, pdm, splat or ppm, got '%s'", shown, v);
+    if (!is_photon_method(m)) return usage_error("%s takes pds, pm, pdm, splat, ppm or spm, got '%s'", shown, v);
     c->opt.caustics = m;
     return 0;
 }
