@@ -97,7 +97,7 @@ static const command_help help_table[] = {
      "                              photons, pds and splat none\n"
      "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
      "      --res WxH               resolution (default: the scene camera's)\n"
-     "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
+     "      --threads N             worker threads (default: all cores); the image is the same\n"
      "      --seed N                random seed (default 0); same seed, same image\n"
      "      --max-depth N           longest eye path in bounces (default 32) and, if given, longest\n"
      "                              photon path in specular bounces (default 16)\n"
@@ -105,10 +105,11 @@ static const command_help help_table[] = {
      "                              photon methods: one eye pass, then photons until the time is spent\n"
      "      --no-caustics           leave out caustic paths L S+ D... (what the photon methods add)\n"
      "      --caustics-only         only caustic paths (pt: the reference for photon methods)\n"
+     "      --spectral              spectral render (default: if dispersive)\n"
      "      --exposure STOPS        PNG exposure in stops (default 0)\n"
-     "      --progress              progress on stderr even when it is not a terminal (then one line\n"
-     "                              every 2 seconds); default: a bar when stderr is a terminal\n"
-     "      --quiet                 no progress, no scene warnings\n",
+     "      --progress              progress on stderr even when it is not a terminal (a line\n"
+     "                              every 2 s); default: a bar on a terminal\n"
+     "      --quiet                 no progress, no warnings\n",
      1},
     {"sweep", "sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]",
      "render once per value of one parameter and compare each with REF",
@@ -681,7 +682,7 @@ typedef struct run_cfg {
     int progress;        /* 1 on, 0 off, -1 when stderr is a terminal */
     int quiet;           /* --quiet: no progress, no scene warnings */
     int debug_footprint; /* render --debug footprint */
-    unsigned long given; /* bit i: option_table[i] was on the command line */
+    unsigned long long given; /* bit i: option_table[i] was on the command line */
 } run_cfg;
 
 typedef struct opt_spec opt_spec;
@@ -859,6 +860,17 @@ static int set_progressive(const opt_spec *s, run_cfg *c, const char *shown, con
     return 0;
 }
 
+/* --spectral: one wavelength per sample and photon even in a scene
+   without dispersion. */
+static int set_spectral(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    (void)s;
+    (void)shown;
+    (void)v;
+    c->opt.spectral = 1;
+    return 0;
+}
+
 /* --progress and --quiet: the last one given wins. */
 static int set_progress(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
@@ -926,14 +938,15 @@ static const opt_spec option_table[] = {
      F_VALUE | F_LO_OPEN},
     {"--no-caustics", NULL, "paths", set_paths, 0, 0, 0, "", M_ALL, C_ALL, 0},
     {"--caustics-only", NULL, "paths", set_paths, 0, 0, 0, "", M_ALL, C_ALL, 0},
+    {"--spectral", NULL, "spectral", set_spectral, 0, 0, 0, "", M_ALL, C_ALL, 0},
     {"--exposure", NULL, "exposure", set_double, offsetof(run_cfg, exposure), -64, 64,
      "a number of stops from -64 to 64", M_ALL, C_ALL, F_VALUE},
     {"--progress", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
     {"--quiet", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
 };
 #define N_OPTIONS (sizeof option_table / sizeof option_table[0])
-/* run_cfg.given has a bit per option: the table must fit in 32 bits */
-typedef char option_table_fits_in_given[N_OPTIONS <= 32 ? 1 : -1];
+/* run_cfg.given has a bit per option: the table must fit in 64 bits */
+typedef char option_table_fits_in_given[N_OPTIONS <= 64 ? 1 : -1];
 
 static int option_index(const char *name)
 {
@@ -947,7 +960,7 @@ static int option_index(const char *name)
 static int option_given(const run_cfg *c, const char *name)
 {
     int i = option_index(name);
-    return i >= 0 && (c->given & (1ul << i)) != 0;
+    return i >= 0 && (c->given & (1ull << i)) != 0;
 }
 
 static void cfg_init(run_cfg *c)
@@ -1036,7 +1049,7 @@ static int parse_option(run_cfg *c, unsigned cmd, const char *cmd_name, int argc
     } else if (a[n] == '=') {
         return usage_error("%s takes no value, got '%s'", name, a);
     }
-    c->given |= 1ul << idx;
+    c->given |= 1ull << idx;
     return s->set(s, c, name, v);
 }
 
@@ -1057,7 +1070,7 @@ static void note_idle_options(const run_cfg *c, unsigned mask, const char *where
     size_t i;
     for (i = 0; i < N_OPTIONS; i++) {
         char list[128];
-        if (!(c->given & (1ul << i)) || (option_table[i].methods & mask)) continue;
+        if (!(c->given & (1ull << i)) || (option_table[i].methods & mask)) continue;
         method_join(option_table[i].methods, " and ", list, sizeof list);
         fprintf(stderr, "pds %s: note: %s has no effect %s (it is for %s)\n", current_command, option_table[i].name,
                 where, list);
@@ -1159,6 +1172,7 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
     } else {
         printf(" passes=%d", st->passes);
     }
+    if (st->spectral) printf(" spectral=1");
     printf(" time_total=%.3f threads=%d saturated=%ld nonfinite=%ld output=%s\n", st->time_total_s, st->threads,
            st->saturated, st->nonfinite, output);
     if (st->saturated > 0)
@@ -2199,7 +2213,7 @@ static int cmd_sweep(int argc, char **argv)
         return usage_error("--param knows %s, got '%s'%s", list, param, suggest_text(&sug, hint, sizeof hint));
     }
     ps = &option_table[idx];
-    if (base.given & (1ul << idx))
+    if (base.given & (1ull << idx))
         return usage_error("%s is the parameter swept: give its values with --values, not %s", param, ps->name);
     if (!(ps->methods & MBIT(method))) {
         method_join(ps->methods, " and ", list, sizeof list);
@@ -2598,7 +2612,7 @@ static int parse_race_methods(const char *list, const run_cfg *base, race_entry 
                 rc = EXIT_USAGE;
                 break;
             }
-            r->cfg.given |= 1ul << idx; /* given: --tune keeps it */
+            r->cfg.given |= 1ull << idx; /* given: --tune keeps it */
             file_safe(eq + 1, safe, sizeof safe);
             snprintf(r->label + strlen(r->label), sizeof r->label - strlen(r->label), "-%s%s", s->key, safe);
         }
@@ -2706,7 +2720,7 @@ static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_
         if (tg->progressive >= 0 && tg->progressive != (t->cfg.opt.progressive != 0)) continue;
         snprintf(name, sizeof name, "--%s", tg->key);
         idx = option_index(name);
-        if (idx < 0 || (t->cfg.given & (1ul << idx))) continue; /* given: kept as it is */
+        if (idx < 0 || (t->cfg.given & (1ull << idx))) continue; /* given: kept as it is */
         s = &option_table[idx];
         for (i = 0; i < tg->n; i++) {
             run_cfg c = t->cfg;

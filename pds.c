@@ -15,6 +15,8 @@
                   revolve, heightfield
      >>bvh        binned-SAH BVH, watertight triangle test, traversal
      >>materials  Fresnel (dielectric, conductor), BSDF sampling, Beer
+     >>spectral   wavelengths, RGB -> spectrum (Smits 1999), CIE 1931 fit
+                  (Wyman et al. 2013) -> XYZ -> sRGB, dispersive materials
      >>lights     light selection, next-event sampling, photon emission
      >>kdtree     balanced kd-tree: range and k-nearest queries (eye-path map)
      >>scene      the pds_scene value and its text format parser
@@ -778,7 +780,9 @@ enum pds__rng_purpose {
     PDS__RNG_PIXEL = 1,   /* index = pixel * spp + sample, dim = 0.. */
     PDS__RNG_BENCH = 2,   /* benchmark rays */
     PDS__RNG_TEST = 3,    /* test programs */
-    PDS__RNG_PHOTON = 4   /* index = photon number, dim = 0.. */
+    PDS__RNG_PHOTON = 4,  /* index = photon number, dim = 0.. */
+    /* 5: the Halton sequence's per-seed rotation (pds__halton) */
+    PDS__RNG_WAVELENGTH = 6 /* index = pixel: its samples' wavelength rotation */
 };
 
 static uint64_t pds__mix64(uint64_t z)
@@ -4412,6 +4416,243 @@ static double pds__ior_at(const pds_material *m, double wavelength_nm)
     double n = pds__dispersion_law(m, wavelength_nm);
     if (!(n > 0.0) || !(n < 1e6)) return m->ior;
     return n;
+}
+
+/* ===================================================================== */
+/* >>spectral                                                            */
+/* ===================================================================== */
+/* Spectral light transport: light of one wavelength per path, so that
+   refraction and Fresnel can use the index n(lambda) of a dispersive
+   material (>>materials, pds__dispersion_law), and a white beam through a
+   prism fans out into a rainbow.
+
+   When. A render is spectral when the scene has a dielectric with a
+   Cauchy or Sellmeier law, or when pds_options.spectral asks for it
+   (pds__render_is_spectral); otherwise none of this runs and images are
+   those of the RGB renderer bit for bit.
+
+   Wavelengths. Every camera sample and every photon carries one
+   wavelength lambda, uniform on [380, 780] nm (pdf 1/400 per nm), drawn
+   stratified: a pixel's samples take a rotated golden-ratio sequence
+   (lambda_k = frac(u_pixel + k 0.618...)), photons the seventh Halton
+   dimension next to the six of their emission (>>rng), so a pixel's or a
+   caustic's wavelengths cover the range evenly. (Hero wavelengths, Wilkie
+   et al. 2014, carry four per path and cut colour noise further, but a
+   dispersive refraction must drop all but one of them; one per path keeps
+   every integrator's code a scalar chain.)
+
+   Colours. Scene colours stay RGB; a path at lambda turns an RGB triple
+   into a spectral value with Smits' method (B. Smits, "An RGB-to-spectrum
+   conversion for reflectances", JGT 4(4), 1999): the smallest channel
+   times a white spectrum, plus the middle minus the smallest times the
+   spectrum of the two-channel mixture (cyan, magenta or yellow), plus the
+   largest minus the middle times the one-channel spectrum (red, green or
+   blue). The seven spectra are Smits' published 10-bin tables over
+   380-720 nm (piecewise constant; above 720 nm the last bin). The map is
+   linear on each of the six orderings of the channels and homogeneous,
+   so a light's spectral power is its RGB power's uplift whatever the
+   geometric factors are. Its limits: the spectra were fitted for
+   reflectances, not illuminants, they are boxy, and the round trip RGB ->
+   spectrum -> RGB is not the identity for saturated colours (measured in
+   spectral_smits_round_trip: primaries come back within a few hundredths
+   per channel, grey exactly, since a grey triple maps to a flat spectrum
+   here by construction: Smits' white table is 1 within 0.0008, and we
+   use exactly 1 for it). Beer coefficients are uplifted as spectra of
+   their own (sigma(lambda)), so transmittance stays exp(-sigma d).
+
+   Film. The sensor integrates with the CIE 1931 2-degree colour matching
+   functions, here the multi-lobe Gaussian fit of Wyman, Sloan and Shirley
+   ("Simple analytic approximations to the CIE XYZ color matching
+   functions", JCGT 2(2), 2013, their eq. 2):
+       g(l; mu, a, b) = exp(-((l - mu) s)^2 / 2), s = a below mu, b above,
+       xbar = 1.056 g(599.8; .0264, .0323) + 0.362 g(442.0; .0624, .0374)
+              - 0.065 g(501.1; .0490, .0382)
+       ybar = 0.821 g(568.8; .0213, .0247) + 0.286 g(530.9; .0613, .0322)
+       zbar = 1.217 g(437.0; .0845, .0278) + 0.681 g(459.0; .0385, .0725)
+   (within about 0.01 of the CIE table everywhere; tested at four
+   wavelengths), then XYZ -> linear sRGB with the D65 matrix of IEC
+   61966-2-1 (as Lindbloom prints it to seven digits). A flat spectrum
+   (equal-energy white, which Smits' white is) would come out slightly
+   pink in D65 sRGB; each channel is divided by its integral over
+   [380, 780] nm, a diagonal white balance in linear sRGB, so that the
+   flat spectrum is (1, 1, 1) exactly and a white reflector under a
+   white light is as white as in the RGB renderer. A camera sample at
+   lambda with spectral radiance L therefore adds
+       W(lambda) L,   W_c(lambda) = 400 nm (M cmf(lambda))_c / N_c,
+   whose mean over the uniform lambda is (1, 1, 1). W has negative parts
+   (colours of the spectrum locus lie outside the sRGB gamut), so the
+   photon images keep their negative terms in sums of their own.
+
+   Where colours meet along a path. Materials are asked at lambda through
+   pds__spectral_material (index n(lambda) and Beer sigma(lambda)); the
+   RGB weights the BSDF returns and the lights' RGB quantities are
+   uplifted at lambda (pds__spectral_value), so a path's throughput is one
+   number times W(lambda). The photon methods meet eye paths at eye
+   vertices, each traced at its own wavelength. If the specular chain from
+   the camera to a vertex refracted through no dispersive material, its
+   geometry is the same at every wavelength: the vertex keeps the chain's
+   RGB weight (as the RGB renderer does; exact for clear glass and white
+   mirrors, an RGB filter for tinted ones) and every photon adds to it at
+   the photon's wavelength. Otherwise (a caustic seen through a prism or
+   a gem) the vertex is where it is only at its wavelength lambda_e: it
+   takes photons of the same one of PDS__SPECTRAL_BINS equal wavelength
+   bins only, each weighted by the bin count, a box kernel in wavelength
+   (consistent as bins narrow; it blurs the rainbow seen through glass by
+   one bin, 25 nm).
+
+   Photon differentials are traced at the photon's own wavelength:
+   position and direction differentials with n(lambda) (Igehy's refraction
+   with that index). No wavelength differential is added. A thin white
+   beam through a prism spreads into a fan because its photons have
+   different wavelengths: the fan is the union of many one-wavelength
+   beams, each with its own narrow footprint, and sampling wavelengths
+   over the photons fills it in, as sampling positions fills in a wide
+   beam. A wavelength differential (d lambda of the photon's share of the
+   spectrum) would stretch each footprint along the fan to smooth it with
+   fewer photons, as the positional differential does over the emitter;
+   that is a variance choice, not needed for a correct limit, and left
+   out (the screen's rainbow is smooth at the photon counts of the
+   gallery). */
+
+#define PDS__LAMBDA_MIN 380.0   /* nm: the sampled range */
+#define PDS__LAMBDA_MAX 780.0
+#define PDS__SPECTRAL_BINS 16   /* wavelength bins for eye vertices seen
+                                   through dispersive glass */
+
+/* Smits 1999, table 1: spectra of white, cyan, magenta, yellow, red,
+   green and blue in 10 bins of 34 nm from 380 to 720 nm. */
+static const double pds__smits[7][10] = {
+    {1.0000, 1.0000, 0.9999, 0.9993, 0.9992, 0.9998, 1.0000, 1.0000, 1.0000, 1.0000}, /* white */
+    {0.9710, 0.9426, 1.0007, 1.0007, 1.0007, 1.0007, 0.1564, 0.0000, 0.0000, 0.0000}, /* cyan */
+    {1.0000, 1.0000, 0.9685, 0.2229, 0.0000, 0.0458, 0.8369, 1.0000, 1.0000, 0.9959}, /* magenta */
+    {0.0001, 0.0000, 0.1088, 0.6651, 1.0000, 1.0000, 0.9996, 0.9586, 0.9685, 0.9840}, /* yellow */
+    {0.1012, 0.0515, 0.0000, 0.0000, 0.0000, 0.0000, 0.8325, 1.0149, 1.0149, 1.0149}, /* red */
+    {0.0000, 0.0000, 0.0273, 0.7937, 1.0000, 0.9418, 0.1719, 0.0000, 0.0000, 0.0025}, /* green */
+    {1.0000, 1.0000, 0.8916, 0.3323, 0.0000, 0.0000, 0.0003, 0.0369, 0.0483, 0.0496}  /* blue */
+};
+enum { PDS__SMITS_WHITE, PDS__SMITS_CYAN, PDS__SMITS_MAGENTA, PDS__SMITS_YELLOW,
+       PDS__SMITS_RED, PDS__SMITS_GREEN, PDS__SMITS_BLUE };
+
+/* The value at lambda (nm) of the spectrum Smits' method gives the RGB
+   triple rgb (negative channels count as 0). A grey triple gives the flat
+   spectrum exactly. */
+static double pds__spectral_value(const double rgb[3], double lambda_nm)
+{
+    double r = rgb[0] > 0.0 ? rgb[0] : 0.0, g = rgb[1] > 0.0 ? rgb[1] : 0.0, b = rgb[2] > 0.0 ? rgb[2] : 0.0;
+    double t = (lambda_nm - PDS__LAMBDA_MIN) / 34.0;
+    int k = t > 0.0 ? (t < 9.0 ? (int)t : 9) : 0; /* also NaN -> 0 */
+    const double(*S)[10] = pds__smits;
+    if (r == g && g == b) return r;
+    if (r <= g && r <= b) {
+        if (g <= b) return r + (g - r) * S[PDS__SMITS_CYAN][k] + (b - g) * S[PDS__SMITS_BLUE][k];
+        return r + (b - r) * S[PDS__SMITS_CYAN][k] + (g - b) * S[PDS__SMITS_GREEN][k];
+    }
+    if (g <= r && g <= b) {
+        if (r <= b) return g + (r - g) * S[PDS__SMITS_MAGENTA][k] + (b - r) * S[PDS__SMITS_BLUE][k];
+        return g + (b - g) * S[PDS__SMITS_MAGENTA][k] + (r - b) * S[PDS__SMITS_RED][k];
+    }
+    if (r <= g) return b + (r - b) * S[PDS__SMITS_YELLOW][k] + (g - r) * S[PDS__SMITS_GREEN][k];
+    return b + (g - b) * S[PDS__SMITS_YELLOW][k] + (r - g) * S[PDS__SMITS_RED][k];
+}
+
+/* Replace an RGB weight by its spectral value at lambda in all three
+   channels (lambda 0: RGB render, nothing to do). */
+static void pds__spectral_uplift(double lambda_nm, double w[3])
+{
+    double v;
+    if (!(lambda_nm > 0.0)) return;
+    v = pds__spectral_value(w, lambda_nm);
+    w[0] = w[1] = w[2] = v;
+}
+
+/* One lobe of the Wyman-Sloan-Shirley fit: piecewise Gaussian of inverse
+   widths a (below mu) and b (above), in nm^-1. */
+static double pds__cie_lobe(double l, double mu, double a, double b)
+{
+    double t = (l - mu) * (l < mu ? a : b);
+    return exp(-0.5 * t * t);
+}
+
+/* CIE 1931 colour matching functions xbar, ybar, zbar at lambda (nm):
+   Wyman, Sloan, Shirley 2013, eq. 2 (see the prologue). */
+static void pds__cie_xyz(double l, double xyz[3])
+{
+    xyz[0] = 1.056 * pds__cie_lobe(l, 599.8, 0.0264, 0.0323) + 0.362 * pds__cie_lobe(l, 442.0, 0.0624, 0.0374) -
+             0.065 * pds__cie_lobe(l, 501.1, 0.0490, 0.0382);
+    xyz[1] = 0.821 * pds__cie_lobe(l, 568.8, 0.0213, 0.0247) + 0.286 * pds__cie_lobe(l, 530.9, 0.0613, 0.0322);
+    xyz[2] = 1.217 * pds__cie_lobe(l, 437.0, 0.0845, 0.0278) + 0.681 * pds__cie_lobe(l, 459.0, 0.0385, 0.0725);
+}
+
+/* XYZ -> linear sRGB, D65 white (IEC 61966-2-1; Lindbloom's digits). */
+static void pds__xyz_to_srgb(const double xyz[3], double rgb[3])
+{
+    rgb[0] = 3.2404542 * xyz[0] - 1.5371385 * xyz[1] - 0.4985314 * xyz[2];
+    rgb[1] = -0.9692660 * xyz[0] + 1.8760108 * xyz[1] + 0.0415560 * xyz[2];
+    rgb[2] = 0.0556434 * xyz[0] - 0.2040259 * xyz[1] + 1.0572252 * xyz[2];
+}
+
+/* Integrals over [380, 780] nm of the three channels of
+   pds__xyz_to_srgb(pds__cie_xyz(lambda)), in nm (midpoint rule at
+   0.001 nm; spectral_film_weights_average_to_white recomputes them). */
+static const double pds__film_norm[3] = {128.167043732, 101.632215868, 97.036924154};
+
+/* Film weight W(lambda) of the prologue: the linear sRGB a camera sample
+   adds per unit of spectral radiance at lambda, when lambda is uniform on
+   [380, 780] nm. Its mean over that range is (1, 1, 1). */
+static void pds__film_weight(double lambda_nm, double w[3])
+{
+    double xyz[3];
+    int c;
+    pds__cie_xyz(lambda_nm, xyz);
+    pds__xyz_to_srgb(xyz, w);
+    for (c = 0; c < 3; c++) w[c] *= (PDS__LAMBDA_MAX - PDS__LAMBDA_MIN) / pds__film_norm[c];
+}
+
+/* Does the scene hold a dispersive material? */
+static int pds__material_is_dispersive(const pds_material *m)
+{
+    return m->type == PDS_MAT_DIELECTRIC && m->dispersion != PDS_DISPERSION_NONE;
+}
+
+/* The material as a path at lambda sees it: the index behind a dielectric
+   at lambda (its dispersion law), Beer coefficients uplifted to
+   sigma(lambda) on both sides. Every other field (the RGB colours the
+   BSDF returns, which the caller uplifts) is copied. */
+static void pds__spectral_material(const pds_material *m, double lambda_nm, pds_material *out)
+{
+    *out = *m;
+    if (m->type != PDS_MAT_DIELECTRIC) return;
+    out->ior = pds__ior_at(m, lambda_nm);
+    pds__spectral_uplift(lambda_nm, out->absorption);
+    pds__spectral_uplift(lambda_nm, out->outside_absorption);
+}
+
+/* lambda of camera sample `sample` of a pixel: a golden-ratio sequence
+   rotated by a per-pixel uniform. */
+static double pds__eye_wavelength(uint64_t seed, uint64_t pixel, uint64_t sample)
+{
+    double u = pds__rng_uniform(seed, PDS__RNG_WAVELENGTH, pixel, 0) + 0.6180339887498949 * (double)sample;
+    u -= floor(u);
+    return PDS__LAMBDA_MIN + (PDS__LAMBDA_MAX - PDS__LAMBDA_MIN) * u;
+}
+
+/* lambda of photon number i: the seventh Halton dimension (the first six
+   place and aim it). */
+static double pds__photon_wavelength(uint64_t seed, long i)
+{
+    return PDS__LAMBDA_MIN + (PDS__LAMBDA_MAX - PDS__LAMBDA_MIN) * pds__halton(seed, (uint64_t)i, 6);
+}
+
+/* Weight of a photon of wavelength lambda_p at an eye vertex traced at
+   lambda_e: 1 if the vertex does not depend on the wavelength (lambda_e
+   = 0: its specular chain was not dispersive), else the box kernel of the
+   prologue: the bin count if both are in the same bin, 0 if not. */
+static double pds__wavelength_match(double lambda_e, double lambda_p)
+{
+    double w = (PDS__LAMBDA_MAX - PDS__LAMBDA_MIN) / PDS__SPECTRAL_BINS;
+    if (!(lambda_e > 0.0)) return 1.0;
+    return floor((lambda_e - PDS__LAMBDA_MIN) / w) == floor((lambda_p - PDS__LAMBDA_MIN) / w) ? PDS__SPECTRAL_BINS
+                                                                                            : 0.0;
 }
 
 /* ===================================================================== */
@@ -8852,17 +9093,24 @@ static void pds__material_preview_colour(const pds_material *m, double rgb[3])
 /* An eye-path vertex: where a camera path first meets a non-specular
    surface, after any number of specular bounces. The photon methods add
    their caustic light at these points (PDS paper section 3.3: position,
-   ray direction, BRDF, importance, pixel). 76 bytes:
+   ray direction, BRDF, importance, pixel). 72 bytes:
      pos, ns, ng, wo   position, shading and geometric normal, direction
                        back along the eye path (unit), as floats
      importance        path throughput from the camera to here (Fresnel,
                        mirror and Beer factors) divided by the pixel's
                        samples, so a pixel's value is the sum over its
                        vertices of importance x reflected radiance
+     lambda            spectral renders: the wavelength (nm) the vertex
+                       holds at, when its specular chain refracted through
+                       a dispersive material (importance is then that
+                       chain's spectral throughput at lambda); 0 when the
+                       vertex holds at every wavelength (importance is the
+                       chain's RGB weight), and in RGB renders (>>spectral)
      material, pixel   indices */
 typedef struct pds__eye_vertex {
     float pos[3], ns[3], ng[3], wo[3];
     float importance[3];
+    float lambda;
     int material;
     int pixel;
 } pds__eye_vertex;
@@ -8879,12 +9127,25 @@ static pds__v3 pds__f3_get(const float f[3])
     return pds__v(f[0], f[1], f[2]);
 }
 
+/* Is this render spectral (>>spectral)? When asked for, or when some
+   material disperses light; never for the preview. */
+static int pds__render_is_spectral(const pds_scene *s, const pds_options *opt)
+{
+    size_t i;
+    if (opt->method == PDS_METHOD_PREVIEW) return 0;
+    if (opt->spectral) return 1;
+    for (i = 0; i < s->materials.count; i++)
+        if (pds__material_is_dispersive(&s->materials.items[i])) return 1;
+    return 0;
+}
+
 typedef struct pds__tracer {
     const pds_scene *scene;
     pds_paths paths;
     int max_depth, rr_depth;
     uint64_t seed;
     double eps;  /* ray offset, relative to the scene's size */
+    int spectral; /* one wavelength per camera sample (>>spectral) */
 } pds__tracer;
 
 /* Power heuristic with exponent 2. */
@@ -8893,13 +9154,15 @@ static double pds__mis_power(double a, double b)
     return a * a / (a * a + b * b);
 }
 
-/* Add w * c to acc when the contribution's class is wanted. */
-static void pds__accumulate(const pds__tracer *tr, int caustic, const double w[3], double scale, double acc[3])
+/* Add w * scale to acc when the contribution's class is wanted; film (if
+   not NULL) is the film weight W(lambda) of a spectral sample. */
+static void pds__accumulate(const pds__tracer *tr, int caustic, const double w[3], double scale, const double *film,
+                            double acc[3])
 {
     int c;
     if (tr->paths == PDS_PATHS_NO_CAUSTICS && caustic) return;
     if (tr->paths == PDS_PATHS_CAUSTICS_ONLY && !caustic) return;
-    for (c = 0; c < 3; c++) acc[c] += w[c] * scale;
+    for (c = 0; c < 3; c++) acc[c] += w[c] * scale * (film ? film[c] : 1.0);
 }
 
 /* Offset a ray origin off the surface, to the side of ng that dir leaves on. */
@@ -8931,9 +9194,12 @@ static int pds__hit_analytic_light(const pds_scene *s, pds__v3 org, pds__v3 dir,
 }
 
 /* Next-event estimation at a non-specular vertex: one light picked by
-   power, one point on it, shadow ray, MIS against BSDF sampling. */
+   power, one point on it, shadow ray, MIS against BSDF sampling. A
+   spectral sample (lambda > 0, film = W(lambda)) takes the BSDF and the
+   light at lambda. */
 static void pds__direct_light(const pds__tracer *tr, const pds_material *m, pds__v3 p, pds__v3 wo, pds__v3 ns,
-                              pds__v3 ng, const double beta[3], uint64_t idx, uint64_t dim, double acc[3])
+                              pds__v3 ng, const double beta[3], uint64_t idx, uint64_t dim, double lambda,
+                              const double *film, double acc[3])
 {
     const pds_scene *s = tr->scene;
     double pmf, f[3], pdf_bsdf, cosine, w[3], mis = 1.0;
@@ -8954,24 +9220,41 @@ static void pds__direct_light(const pds__tracer *tr, const pds_material *m, pds_
     org = pds__offset(tr, p, ng, li.wi);
     if (pds__bvh_occluded(&s->bvh, org, li.wi, 0.0, li.dist * (1.0 - 1e-4))) return;
     if (!li.delta) mis = pds__mis_power(pmf * li.pdf, pdf_bsdf);
+    pds__spectral_uplift(lambda, f);
+    pds__spectral_uplift(lambda, li.li);
     for (c = 0; c < 3; c++) w[c] = beta[c] * f[c] * li.li[c] * cosine / (pmf * li.pdf);
-    pds__accumulate(tr, 0, w, mis, acc);
+    pds__accumulate(tr, 0, w, mis, film, acc);
 }
 
 /* One camera sample: radiance along the ray (org, dir), split by class.
    If rec is not NULL, the path's first non-specular vertex is written to it
    (importance not yet divided by the samples per pixel) and 1 returned;
-   otherwise, or if the path has no such vertex, 0. */
-static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double acc[3],
-                           pds__eye_vertex *rec)
+   otherwise, or if the path has no such vertex, 0. lambda > 0: the
+   sample's wavelength in a spectral render (>>spectral): materials and
+   lights are taken at lambda and what it sees is weighted by the film's
+   W(lambda); alongside, until the first non-specular vertex, the chain's
+   RGB weight beta_rgb is kept for the vertex's importance, unless the
+   chain meets a dispersive material. */
+static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double lambda,
+                           double acc[3], pds__eye_vertex *rec)
 {
     int recorded = 0;
     const pds_scene *s = tr->scene;
     double beta[3] = {1.0, 1.0, 1.0};
+    double sigma_buf[3];
     const double *sigma = NULL;   /* Beer coefficients of the medium the ray is in */
     int depth, had_diffuse = 0, specular_since = 0;
     double prev_pdf = 0.0;        /* solid-angle pdf of the last non-specular BSDF sample */
     pds__v3 prev_p = org;
+    /* spectral only */
+    double film[3], beta_rgb[3] = {1.0, 1.0, 1.0};
+    const double *film_w = NULL, *sigma_rgb = NULL;
+    int chromatic = 0;
+    pds_material m_lambda;
+    if (lambda > 0.0) {
+        pds__film_weight(lambda, film);
+        film_w = film;
+    }
     for (depth = 0; depth <= tr->max_depth; depth++) {
         uint64_t dim = 2 + (uint64_t)depth * PDS__DIMS_PER_BOUNCE;
         pds__tri_hit th;
@@ -9001,6 +9284,7 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
                 nx = hit.ng;
                 pds__light_le(&s->lights[k], nx, pds__scale(dir, -1.0), le);
             }
+            pds__spectral_uplift(lambda, le);
             pds__beer(sigma, light_hit >= 0 ? tl : th.t, beta);
             if (had_diffuse && specular_since == 0) {
                 /* next-event estimation could have found this point too */
@@ -9009,30 +9293,47 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
                 mis = pds__mis_power(prev_pdf, pdf_light);
             }
             for (c = 0; c < 3; c++) le[c] *= beta[c];
-            pds__accumulate(tr, caustic, le, mis, acc);
+            pds__accumulate(tr, caustic, le, mis, film_w, acc);
             return recorded;
         }
         if (!found) return recorded; /* black background */
         pds__scene_fill_hit(s, &th, org, dir, &hit);
         pds__beer(sigma, th.t, beta);
+        pds__beer(sigma_rgb, th.t, beta_rgb);
         m = &s->materials.items[hit.material];
+        if (lambda > 0.0) {
+            if (!had_diffuse && pds__material_is_dispersive(m)) chromatic = 1;
+            pds__spectral_material(m, lambda, &m_lambda);
+            m = &m_lambda;
+        }
         if (!pds__material_is_specular(m)) {
             if (rec && !had_diffuse) {
+                const double *imp = lambda > 0.0 && !chromatic ? beta_rgb : beta;
                 pds__f3_set(rec->pos, hit.position);
                 pds__f3_set(rec->ns, hit.ns);
                 pds__f3_set(rec->ng, hit.ng);
                 pds__f3_set(rec->wo, pds__scale(dir, -1.0));
-                for (c = 0; c < 3; c++) rec->importance[c] = (float)beta[c];
+                for (c = 0; c < 3; c++) rec->importance[c] = (float)imp[c];
+                rec->lambda = chromatic ? (float)lambda : 0.0f;
                 rec->material = hit.material;
                 recorded = 1;
             }
-            pds__direct_light(tr, m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, beta, idx, dim, acc);
+            pds__direct_light(tr, m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, beta, idx, dim, lambda,
+                              film_w, acc);
             had_diffuse = 1;
             specular_since = 0;
         }
         if (depth == tr->max_depth) return recorded;
         for (c = 0; c < 3; c++) u[c] = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 3 + (uint64_t)c);
         if (!pds__bsdf_sample(m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, u, PDS__RADIANCE, &bs)) return recorded;
+        if (lambda > 0.0) {
+            /* the chain's RGB weight: this material's RGB weight, with its
+               RGB Beer coefficients on the side the path goes on */
+            for (c = 0; c < 3; c++) beta_rgb[c] *= bs.weight[c];
+            if (m->type == PDS_MAT_DIELECTRIC)
+                sigma_rgb = pds__medium_absorption(&s->materials.items[hit.material], bs.side);
+            pds__spectral_uplift(lambda, bs.weight);
+        }
         for (c = 0; c < 3; c++) beta[c] *= bs.weight[c];
         if (bs.delta) {
             specular_since++;
@@ -9040,13 +9341,18 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
             prev_pdf = bs.pdf;
             prev_p = hit.position;
         }
-        if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        if (m->type == PDS_MAT_DIELECTRIC) {
+            const double *a = pds__medium_absorption(m, bs.side);
+            if (a) memcpy(sigma_buf, a, sizeof sigma_buf);
+            sigma = a ? sigma_buf : NULL;
+        }
         /* Russian roulette: survive with probability min(1, max(beta)). */
         if (depth + 1 >= tr->rr_depth) {
             double b = beta[0] > beta[1] ? (beta[0] > beta[2] ? beta[0] : beta[2]) : (beta[1] > beta[2] ? beta[1] : beta[2]);
             q = b < 1.0 ? b : 1.0;
             if (!(q > 0.0) || pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 6) >= q) return recorded;
             for (c = 0; c < 3; c++) beta[c] /= q;
+            for (c = 0; c < 3; c++) beta_rgb[c] /= q;
         }
         org = pds__offset(tr, hit.position, hit.ng, bs.wi);
         dir = bs.wi;
@@ -9101,7 +9407,8 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
         double acc[3] = {0.0, 0.0, 0.0};
         if (job->method != PDS_METHOD_PREVIEW) {
             pds__eye_vertex v;
-            if (pds__trace_path(&job->tracer, job->frame.origin, dir, idx, acc, job->record_eye ? &v : NULL)) {
+            double lambda = job->tracer.spectral ? pds__eye_wavelength(job->seed, pixel, sample) : 0.0;
+            if (pds__trace_path(&job->tracer, job->frame.origin, dir, idx, lambda, acc, job->record_eye ? &v : NULL)) {
                 pds__eye_vertex **arr = &job->row_vertices[y];
                 if (pds__grow((void **)arr, &job->row_cap[y], job->row_count[y] + 1, sizeof **arr) == 0) {
                     for (c = 0; c < 3; c++) v.importance[c] /= (float)job->spp;
@@ -9406,6 +9713,9 @@ typedef struct pds__diff_photon {
 /* One thread's share of the photon pass. */
 typedef struct pds__splat_buf {
     pds__sum128 *sum;      /* 3 per pixel: radiance x unit, exact */
+    pds__sum128 *neg;      /* spectral renders: 3 per pixel, the negative
+                              terms' magnitudes (the film weight W(lambda)
+                              has negative parts); NULL in RGB renders */
     double unit;           /* pds__sum_unit of the scene */
     pds__sum128 *aniso;    /* footprint debug: 2 per pixel (sum w m_a, sum w) x 2^64; NULL if off */
     long splatted, degenerate;
@@ -9451,6 +9761,7 @@ typedef struct pds__photon_job {
     double t0;
     pds__land_fn land;         /* splat (pds, splat) or store (pm, ...) */
     int differentials;         /* trace photon differentials (pds) or not */
+    int spectral;              /* one wavelength per photon (>>spectral) */
     double fixed_radius;       /* splat: the isotropic footprint's radius */
     long index_offset;         /* ppm: the first photon number of this pass */
     double build_s, gather_s;  /* pm, pdm: time of the last map build and gather */
@@ -9469,12 +9780,14 @@ typedef struct pds__splat_ctx {
     double ep[3];              /* Ep = flux / Ap, W / m^2 */
     double plane_max;          /* topological-bias guard distance */
     double aniso;              /* m_a of this footprint (debug image) */
+    double lambda;             /* the photon's wavelength; 0 in RGB renders */
 } pds__splat_ctx;
 
-/* Add radiance v (W/(m^2 sr)) into sum i of the thread's image. */
+/* Add radiance v (W/(m^2 sr)) into sum i of the thread's image (a
+   negative v of a spectral render into the negative sums). */
 static void pds__image_add(pds__splat_buf *b, size_t i, double v)
 {
-    int r = pds__sum128_add(&b->sum[i], v * b->unit);
+    int r = b->neg && v < 0.0 ? pds__sum128_add(&b->neg[i], -v * b->unit) : pds__sum128_add(&b->sum[i], v * b->unit);
     if (r == PDS__SUM_SATURATED) b->saturated++;
     if (r == PDS__SUM_INVALID) b->invalid++;
 }
@@ -9498,7 +9811,12 @@ static void pds__splat_visit(void *vctx, size_t index, double dist2)
     r2 = y0 * y0 + y1 * y1;
     if (r2 >= 1.0) return;
     k = pds__kernel_silverman(r2);
+    if (sc->lambda > 0.0) {
+        k *= pds__wavelength_match(v->lambda, sc->lambda);
+        if (k == 0.0) return;
+    }
     pds__bsdf_eval(&s->materials.items[v->material], pds__f3_get(v->pos), pds__f3_get(v->wo), sc->wi, ns, ng, f, &pdf);
+    pds__spectral_uplift(sc->lambda, f);
     for (c = 0; c < 3; c++) {
         double val = PDS__PI * k * f[c] * sc->ep[c] * v->importance[c];
         if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
@@ -9518,7 +9836,7 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
     pds__ray_diff wide; /* a widened footprint; r may point here */
     double ap, major;
     int c;
-    (void)photon;
+    sc.lambda = job->spectral ? pds__photon_wavelength(job->seed, photon) : 0.0;
     sc.np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
     if (job->fixed_radius > 0.0) {
         /* fixed-bandwidth splatting: a disc of radius R in the tangent
@@ -9652,8 +9970,11 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
     const pds_scene *s = job->scene;
     double u[5], pmf, flux[3], pos_len, dir_len, n_light;
     const double *sigma = NULL;
+    double sigma_buf[3];
     pds__photon_start ph;
     pds__ray_diff r;
+    pds_material m_lambda;
+    double lambda = job->spectral ? pds__photon_wavelength(job->seed, i) : 0.0;
     int k, c, depth;
     /* emission from a low-discrepancy sequence (>>rng): photon i's place in
        the light's area and directions is spread evenly with the others' */
@@ -9663,6 +9984,13 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
     if (!pds__emit_caustic_photon(s, &job->target, k, u, &ph)) return;
     n_light = job->n_planned * pmf;
     for (c = 0; c < 3; c++) flux[c] = ph.flux[c] / (job->n_planned * pmf);
+    if (lambda > 0.0) {
+        /* spectral: the light's power at lambda, times the film weight
+           W(lambda) that turns spectral radiance into sRGB (>>spectral) */
+        double film[3], phi = pds__spectral_value(flux, lambda);
+        pds__film_weight(lambda, film);
+        for (c = 0; c < 3; c++) flux[c] = phi * film[c];
+    }
     pos_len = pds__photon_diff_length(job->smoothing, ph.area, n_light);
     dir_len = pds__photon_diff_length(job->smoothing, ph.solid_angle, n_light);
     pds__photon_diff_init(&r, ph.pos, ph.dir, ph.normal, pos_len, dir_len);
@@ -9684,15 +10012,24 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
             if (depth > 0 && m->type != PDS_MAT_EMISSIVE) job->land(job, buf, &r, hit.ng, flux, i);
             return;
         }
+        if (lambda > 0.0) {
+            pds__spectral_material(m, lambda, &m_lambda);
+            m = &m_lambda;
+        }
         if (depth == job->max_depth) return;
         for (c = 0; c < 3; c++)
             uu[c] = pds__rng_uniform(job->seed, PDS__RNG_PHOTON, (uint64_t)i, 8 + 4 * (uint64_t)depth + (uint64_t)c);
         if (!pds__bsdf_sample(m, hit.position, pds__scale(r.d, -1.0), hit.ns, hit.ng, uu, PDS__IMPORTANCE, &bs)) return;
+        pds__spectral_uplift(lambda, bs.weight);
         if (!pds__bsdf_frame(pds__scale(r.d, -1.0), hit.ns, hit.ng, &n, &ngw, &side)) return;
         if (!job->differentials) {
             /* the baselines trace bare photons */
             for (c = 0; c < 3; c++) flux[c] *= bs.weight[c];
-            if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+            if (m->type == PDS_MAT_DIELECTRIC) {
+            const double *a = pds__medium_absorption(m, bs.side);
+            if (a) memcpy(sigma_buf, a, sizeof sigma_buf);
+            sigma = a ? sigma_buf : NULL;
+        }
             r.d = bs.wi;
             r.p = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, r.d) >= 0.0 ? job->eps : -job->eps));
             continue;
@@ -9719,7 +10056,11 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
             pds__diff_reflect(&r, n, dndu, dndv);
         }
         for (c = 0; c < 3; c++) flux[c] *= bs.weight[c];
-        if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        if (m->type == PDS_MAT_DIELECTRIC) {
+            const double *a = pds__medium_absorption(m, bs.side);
+            if (a) memcpy(sigma_buf, a, sizeof sigma_buf);
+            sigma = a ? sigma_buf : NULL;
+        }
         r.p = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, r.d) >= 0.0 ? job->eps : -job->eps));
     }
 }
@@ -9929,6 +10270,19 @@ static int pds__photon_index_cmp(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
+/* Spectral renders: the BSDF value f (RGB) a stored photon number i meets
+   at eye vertex v, at the photon's wavelength and times the wavelength
+   match of >>spectral. Returns 0 when the photon does not count there. */
+static int pds__spectral_gather(uint64_t seed, long i, const pds__eye_vertex *v, double f[3])
+{
+    double lambda = pds__photon_wavelength(seed, i), w = pds__wavelength_match(v->lambda, lambda);
+    int c;
+    if (w == 0.0) return 0;
+    pds__spectral_uplift(lambda, f);
+    for (c = 0; c < 3; c++) f[c] *= w;
+    return 1;
+}
+
 /* The gather of the photon-map methods (pm, pdm): every eye vertex asks
    the map for its k nearest photons within a radius, a method-specific
    estimate turns them into reflected radiance, and the vertex's importance
@@ -9944,6 +10298,8 @@ typedef struct pds__gather {
     double radius;             /* search radius */
     pds_kernel kernel;         /* pm's filter */
     double plane_tolerance;    /* pdm's topological guard */
+    int spectral;              /* photons have wavelengths (>>spectral) */
+    uint64_t seed;             /* ... drawn from this seed */
     void (*estimate)(const struct pds__gather *g, const pds__eye_vertex *v, const size_t *idx, const double *d2,
                      size_t n, double sum[3]);
     pds__splat_buf *bufs;
@@ -10022,6 +10378,7 @@ static void pds__pm_estimate(const pds__gather *g, const pds__eye_vertex *v, con
         if (pds__dot(pds__f3_get(p->ng), ng) <= 0.0) continue; /* another surface orientation */
         pds__bsdf_eval(m, x, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
         w = pds__pm_weight(g->kernel, d2[j], r2);
+        if (g->spectral && !pds__spectral_gather(g->seed, p->index, v, f)) continue;
         for (c = 0; c < 3; c++) sum[c] += f[c] * p->flux[c] * w;
     }
     area = pds__pm_norm(g->kernel) * PDS__PI * r2;
@@ -10082,6 +10439,8 @@ static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, c
     g.k = (size_t)opt->k;
     g.radius = opt->max_radius > 0.0 ? opt->max_radius : DBL_MAX;
     g.kernel = opt->kernel;
+    g.spectral = job->spectral;
+    g.seed = job->seed;
     g.estimate = pds__pm_estimate;
     st = pds__gather_run(&g, job, threads, err);
     job->gather_s = pds_time_now() - tg;
@@ -10156,6 +10515,7 @@ static void pds__pdm_estimate(const pds__gather *g, const pds__eye_vertex *v, co
         if (r2 >= 1.0 || fabs(pds__dot(np, d)) > g->plane_tolerance * p->major || pds__dot(ng, np) <= 0.0) continue;
         k = pds__kernel_silverman(r2);
         pds__bsdf_eval(m, x, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
+        if (g->spectral && !pds__spectral_gather(g->seed, p->index, v, f)) continue;
         for (c = 0; c < 3; c++) sum[c] += PDS__PI * k * f[c] * p->ep[c];
     }
 }
@@ -10197,6 +10557,8 @@ static pds_status pds__pdm_gather(pds__photon_job *job, const pds_options *opt, 
     g.photons = all;
     g.k = (size_t)opt->max_photons;
     g.plane_tolerance = opt->plane_tolerance;
+    g.spectral = job->spectral;
+    g.seed = job->seed;
     for (i = 0; i < total; i++)
         if (all[i].major > g.radius) g.radius = all[i].major;
     g.estimate = pds__pdm_estimate;
@@ -10224,6 +10586,8 @@ typedef struct pds__ppm_job {
     const pds__stored_photon *photons;
     const pds__kdtree *tree;
     double alpha, photon_scale; /* photon_scale: stored flux -> flux alone */
+    int spectral;               /* photons have wavelengths (>>spectral) */
+    uint64_t seed;
     pthread_mutex_t lock;
     size_t next;                /* guarded by lock */
 } pds__ppm_job;
@@ -10246,9 +10610,12 @@ static void pds__ppm_visit(void *ctx, size_t index, double dist2)
     int c;
     (void)dist2;
     if (pds__dot(pds__f3_get(p->ng), ng) <= 0.0) return;
-    g->found++;
     pds__bsdf_eval(g->m, pds__f3_get(g->v->pos), pds__f3_get(g->v->wo), pds__scale(pds__f3_get(p->dir), -1.0),
                    pds__f3_get(g->v->ns), ng, f, &pdf);
+    /* spectral: a vertex seen through dispersive glass counts only the
+       photons of its wavelength bin, found and flux alike */
+    if (g->job->spectral && !pds__spectral_gather(g->job->seed, p->index, g->v, f)) return;
+    g->found++;
     for (c = 0; c < 3; c++) g->phi[c] += f[c] * p->flux[c] * g->job->photon_scale;
 }
 
@@ -10315,6 +10682,8 @@ static pds_status pds__ppm_update(pds__photon_job *job, const pds_options *opt, 
     pj.tree = &tree;
     pj.alpha = opt->alpha;
     pj.photon_scale = job->n_planned;
+    pj.spectral = job->spectral;
+    pj.seed = job->seed;
     pthread_mutex_init(&pj.lock, NULL);
     pds__run_threads(threads, pds__ppm_worker, &pj);
     pthread_mutex_destroy(&pj.lock);
@@ -10519,6 +10888,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.t0 = t0;
     job.land = splats ? pds__defer_splat : opt->method == PDS_METHOD_PDM ? pds__store_diff_photon : pds__store_photon;
     job.differentials = opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_PDM;
+    job.spectral = pds__render_is_spectral(s, opt);
     if (opt->method == PDS_METHOD_SPLAT) job.fixed_radius = opt->radius > 0.0 ? opt->radius : pds__default_radius(s);
     job.nbufs = threads;
     job.bufs = (pds__splat_buf *)calloc((size_t)threads, sizeof *job.bufs);
@@ -10530,7 +10900,9 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.bufs[t].sum = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
         job.bufs[t].unit = pds__sum_unit(s);
         if (footprint) job.bufs[t].aniso = (pds__sum128 *)calloc(npix * 2, sizeof(pds__sum128));
-        if (!job.bufs[t].sum || (footprint && !job.bufs[t].aniso)) st = PDS_ERR_NOMEM;
+        if (job.spectral) job.bufs[t].neg = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
+        if (!job.bufs[t].sum || (footprint && !job.bufs[t].aniso) || (job.spectral && !job.bufs[t].neg))
+            st = PDS_ERR_NOMEM;
     }
     if (!st && opt->method == PDS_METHOD_PPM) {
         st = pds__ppm_passes(&job, opt, vertices, nvertices, threads, rgb, stats, err);
@@ -10566,6 +10938,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         }
         for (t = 0; t < threads; t++) {
             memset(job.bufs[t].sum, 0, npix * 3 * sizeof(pds__sum128));
+            if (job.bufs[t].neg) memset(job.bufs[t].neg, 0, npix * 3 * sizeof(pds__sum128));
             if (job.bufs[t].aniso) memset(job.bufs[t].aniso, 0, npix * 2 * sizeof(pds__sum128));
             job.bufs[t].splatted = job.bufs[t].degenerate = job.bufs[t].saturated = job.bufs[t].invalid = 0;
             job.bufs[t].nstored = job.bufs[t].ndstored = 0;
@@ -10603,10 +10976,15 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
            n_planned, the count actually emitted corrects it. */
         long saturated = 0;
         for (i = 0; i < npix * 3; i++) {
-            pds__sum128 sum = {0, 0};
-            for (t = 0; t < job.nbufs; t++) saturated += pds__sum128_add_bits(&sum, job.bufs[t].sum[i].lo, job.bufs[t].sum[i].hi);
+            pds__sum128 sum = {0, 0}, neg = {0, 0};
+            for (t = 0; t < job.nbufs; t++) {
+                saturated += pds__sum128_add_bits(&sum, job.bufs[t].sum[i].lo, job.bufs[t].sum[i].hi);
+                if (job.spectral)
+                    saturated += pds__sum128_add_bits(&neg, job.bufs[t].neg[i].lo, job.bufs[t].neg[i].hi);
+            }
             if (emitted > 0)
-                rgb[i] += pds__sum128_value(sum) / job.bufs[0].unit * (job.n_planned / (double)emitted);
+                rgb[i] += (pds__sum128_value(sum) - pds__sum128_value(neg)) / job.bufs[0].unit *
+                          (job.n_planned / (double)emitted);
         }
         if (footprint && pds_image_alloc(footprint, width, height) == PDS_OK) {
             for (i = 0; i < npix; i++) {
@@ -10636,11 +11014,13 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             }
             stats->time_photons_s = pds_time_now() - t0;
             stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + stats->map_bytes +
-                                   (size_t)job.nbufs * npix * (3 + (footprint ? 2 : 0)) * sizeof(pds__sum128);
+                                   (size_t)job.nbufs * npix * (3 + (footprint ? 2 : 0) + (job.spectral ? 3 : 0)) *
+                                       sizeof(pds__sum128);
         }
     }
     for (t = 0; t < job.nbufs; t++) {
         free(job.bufs[t].sum);
+        free(job.bufs[t].neg);
         free(job.bufs[t].aniso);
         free(job.bufs[t].stored);
         free(job.bufs[t].dstored);
@@ -10690,6 +11070,7 @@ void pds_options_default(pds_options *opt)
     opt->alpha = 0.7;
     opt->passes = 10;
     opt->max_photons = 500;
+    opt->spectral = 0;
 }
 
 /* Methods that add caustics with photons after an eye pass. */
@@ -10783,9 +11164,9 @@ static pds__eye_vertex *pds__join_rows(pds__render_job *job, size_t *count)
 
 /* What a render will hold at once, beyond the scene, from its options
    alone (an upper bound: every eye sample is taken to record a vertex,
-   every photon emitted to be stored). Per eye vertex: the vertex (68 bytes)
-   in its row array, which grows by doubling (up to 2 x 68), and its copy in
-   the joined array, 204 bytes in all (the kd-tree's 21 bytes and the
+   every photon emitted to be stored). Per eye vertex: the vertex (72 bytes)
+   in its row array, which grows by doubling (up to 2 x 72), and its copy in
+   the joined array, 216 bytes in all (the kd-tree's 21 bytes and the
    tree-ordered copy come after the rows are freed). Per stored photon of
    pm: 56 bytes, twice while the threads' arrays are merged, plus 21 of
    kd-tree; pdm: 88 bytes, twice. */
@@ -10811,7 +11192,8 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
     if (pds__is_photon_method(opt->method) && opt->paths != PDS_PATHS_NO_CAUSTICS) {
         est->eye_vertices = est->samples;
         bytes += est->eye_vertices * vertex_bytes;
-        bytes += (double)threads * npix * (3 + (opt->footprint ? 2 : 0)) * sizeof(pds__sum128);
+        bytes += (double)threads * npix * (3 + (opt->footprint ? 2 : 0) + (pds__render_is_spectral(scene, opt) ? 3 : 0)) *
+                 sizeof(pds__sum128);
         photons = opt->time_s > 0.0 ? 0.0 : (double)opt->photons; /* a time budget: not known in advance */
         if (opt->method == PDS_METHOD_PM) est->stored_photons = photons;
         if (opt->method == PDS_METHOD_PDM) est->stored_photons = photons;
@@ -10870,6 +11252,8 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     job.tracer.rr_depth = opt->rr_depth;
     job.tracer.seed = opt->seed;
     job.tracer.eps = 1e-6 * pds__scene_scale(scene);
+    job.tracer.spectral = pds__render_is_spectral(scene, opt);
+    stats->spectral = job.tracer.spectral;
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
     if (pds__is_photon_method(opt->method)) {

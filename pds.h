@@ -380,6 +380,11 @@ typedef struct pds_options {
                            footprints are needle-like (m_a -> 0), green where
                            round (m_a -> 1), weighted by the splats' kernels;
                            black where no photon landed (default NULL) */
+    int spectral;       /* 1 = spectral light transport (one wavelength per
+                           camera sample and per photon, CIE 1931 film) even
+                           without a dispersive material; a scene with a
+                           Cauchy or Sellmeier material is always rendered
+                           spectrally (default 0) */
     double memory_limit; /* bytes: pds_render refuses (PDS_ERR_LIMIT) a render
                            whose pds_render_estimate_get memory exceeds this;
                            0 = this machine's physical memory (default 0) */
@@ -394,6 +399,7 @@ typedef struct pds_render_stats {
     int width, height;
     int spp;            /* samples per pixel actually taken (passes x spp) */
     int passes;
+    int spectral;           /* 1 if the render was spectral */
     /* photon methods */
     long photons;           /* photons emitted (including those that missed) */
     long splatted;          /* photons that reached a non-specular surface
@@ -423,9 +429,9 @@ typedef struct pds_render_stats {
 
 /* What a render will need, from the scene and options alone, before any
    work: an upper bound on the memory it holds at once beyond the scene
-   (per eye vertex 204 bytes, every pixel sample taken to record one; per
+   (per eye vertex 216 bytes, every pixel sample taken to record one; per
    stored photon 133 bytes for pm and ppm, 176 for pdm; per pixel 36 bytes
-   plus 48 per thread for the photon methods), the pixel samples of one
+   plus 48 per thread for the photon methods, 96 in spectral renders), the pixel samples of one
    eye pass, and the machine's physical memory (0 if unknown). With a time
    budget the photon count is not known in advance and counts as 0. */
 typedef struct pds_render_estimate {
