@@ -4655,6 +4655,34 @@ static double pds__wavelength_match(double lambda_e, double lambda_p)
                                                                                             : 0.0;
 }
 
+/* A photon meets an eye vertex (photon methods, spectral renders). The
+   photon is spectral (lambda_p > 0: e, its flux or flux density, is its
+   value at lambda_p times W(lambda_p)) or still RGB (lambda_p = 0); the
+   vertex holds at one wavelength (lambda_e > 0, importance at lambda_e)
+   or at all (lambda_e = 0, RGB importance). e and f (the vertex's BSDF
+   value, RGB) become what the pair adds per channel, times the vertex's
+   importance:
+     spectral photon: f at lambda_p, times the wavelength match;
+     RGB photon, vertex at lambda_e: e and f at lambda_e, times W(lambda_e);
+     both RGB: unchanged (the RGB renderer's product).
+   Returns 0 if the pair adds nothing. */
+static int pds__spectral_meet(double lambda_p, double lambda_e, double e[3], double f[3])
+{
+    int c;
+    if (lambda_p > 0.0) {
+        double w = pds__wavelength_match(lambda_e, lambda_p);
+        if (w == 0.0) return 0;
+        pds__spectral_uplift(lambda_p, f);
+        for (c = 0; c < 3; c++) f[c] *= w;
+    } else if (lambda_e > 0.0) {
+        double film[3], v = pds__spectral_value(e, lambda_e);
+        pds__film_weight(lambda_e, film);
+        for (c = 0; c < 3; c++) e[c] = v * film[c];
+        pds__spectral_uplift(lambda_e, f);
+    }
+    return 1;
+}
+
 /* ===================================================================== */
 /* >>lights                                                              */
 /* ===================================================================== */
@@ -9146,6 +9174,8 @@ typedef struct pds__tracer {
     uint64_t seed;
     double eps;  /* ray offset, relative to the scene's size */
     int spectral; /* one wavelength per camera sample (>>spectral) */
+    int spectral_all; /* ... and spectral from the camera on, not only
+                         from the first dispersive material */
 } pds__tracer;
 
 /* Power heuristic with exponent 2. */
@@ -9230,11 +9260,13 @@ static void pds__direct_light(const pds__tracer *tr, const pds_material *m, pds_
    If rec is not NULL, the path's first non-specular vertex is written to it
    (importance not yet divided by the samples per pixel) and 1 returned;
    otherwise, or if the path has no such vertex, 0. lambda > 0: the
-   sample's wavelength in a spectral render (>>spectral): materials and
-   lights are taken at lambda and what it sees is weighted by the film's
-   W(lambda); alongside, until the first non-specular vertex, the chain's
-   RGB weight beta_rgb is kept for the vertex's importance, unless the
-   chain meets a dispersive material. */
+   sample's wavelength in a spectral render (>>spectral). The path turns
+   spectral at its first dispersive material (or at once if the render
+   is spectral throughout): its RGB throughput becomes its value at
+   lambda, and from there on materials and lights are taken at lambda and
+   what it sees is weighted by the film's W(lambda). Alongside, until the
+   first non-specular vertex, the chain's RGB weight beta_rgb is kept for
+   the vertex's importance, unless the chain met a dispersive material. */
 static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double lambda,
                            double acc[3], pds__eye_vertex *rec)
 {
@@ -9246,13 +9278,15 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
     int depth, had_diffuse = 0, specular_since = 0;
     double prev_pdf = 0.0;        /* solid-angle pdf of the last non-specular BSDF sample */
     pds__v3 prev_p = org;
-    /* spectral only */
-    double film[3], beta_rgb[3] = {1.0, 1.0, 1.0};
+    /* spectral only: lam is the wavelength once the path is spectral (0
+       before), film_w then W(lam) */
+    double film[3], beta_rgb[3] = {1.0, 1.0, 1.0}, lam = 0.0;
     const double *film_w = NULL, *sigma_rgb = NULL;
     int chromatic = 0;
     pds_material m_lambda;
-    if (lambda > 0.0) {
-        pds__film_weight(lambda, film);
+    if (lambda > 0.0) pds__film_weight(lambda, film);
+    if (lambda > 0.0 && tr->spectral_all) {
+        lam = lambda;
         film_w = film;
     }
     for (depth = 0; depth <= tr->max_depth; depth++) {
@@ -9284,7 +9318,7 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
                 nx = hit.ng;
                 pds__light_le(&s->lights[k], nx, pds__scale(dir, -1.0), le);
             }
-            pds__spectral_uplift(lambda, le);
+            pds__spectral_uplift(lam, le);
             pds__beer(sigma, light_hit >= 0 ? tl : th.t, beta);
             if (had_diffuse && specular_since == 0) {
                 /* next-event estimation could have found this point too */
@@ -9301,14 +9335,24 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
         pds__beer(sigma, th.t, beta);
         pds__beer(sigma_rgb, th.t, beta_rgb);
         m = &s->materials.items[hit.material];
-        if (lambda > 0.0) {
-            if (!had_diffuse && pds__material_is_dispersive(m)) chromatic = 1;
-            pds__spectral_material(m, lambda, &m_lambda);
+        if (lambda > 0.0 && pds__material_is_dispersive(m)) {
+            if (!had_diffuse) chromatic = 1;
+            if (lam == 0.0) {
+                /* the path turns spectral here: its throughput and the
+                   medium it is in, at lambda */
+                lam = lambda;
+                film_w = film;
+                pds__spectral_uplift(lam, beta);
+                if (sigma) pds__spectral_uplift(lam, sigma_buf);
+            }
+        }
+        if (lam > 0.0) {
+            pds__spectral_material(m, lam, &m_lambda);
             m = &m_lambda;
         }
         if (!pds__material_is_specular(m)) {
             if (rec && !had_diffuse) {
-                const double *imp = lambda > 0.0 && !chromatic ? beta_rgb : beta;
+                const double *imp = lam > 0.0 && !chromatic ? beta_rgb : beta;
                 pds__f3_set(rec->pos, hit.position);
                 pds__f3_set(rec->ns, hit.ns);
                 pds__f3_set(rec->ng, hit.ng);
@@ -9318,7 +9362,7 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
                 rec->material = hit.material;
                 recorded = 1;
             }
-            pds__direct_light(tr, m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, beta, idx, dim, lambda,
+            pds__direct_light(tr, m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, beta, idx, dim, lam,
                               film_w, acc);
             had_diffuse = 1;
             specular_since = 0;
@@ -9326,13 +9370,13 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
         if (depth == tr->max_depth) return recorded;
         for (c = 0; c < 3; c++) u[c] = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 3 + (uint64_t)c);
         if (!pds__bsdf_sample(m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, u, PDS__RADIANCE, &bs)) return recorded;
-        if (lambda > 0.0) {
+        if (lam > 0.0) {
             /* the chain's RGB weight: this material's RGB weight, with its
                RGB Beer coefficients on the side the path goes on */
             for (c = 0; c < 3; c++) beta_rgb[c] *= bs.weight[c];
             if (m->type == PDS_MAT_DIELECTRIC)
                 sigma_rgb = pds__medium_absorption(&s->materials.items[hit.material], bs.side);
-            pds__spectral_uplift(lambda, bs.weight);
+            pds__spectral_uplift(lam, bs.weight);
         }
         for (c = 0; c < 3; c++) beta[c] *= bs.weight[c];
         if (bs.delta) {
@@ -9693,20 +9737,26 @@ typedef struct pds__eye_map {
 
 /* A photon where it landed, for the methods that store photons (>>baselines):
    position, travel direction, geometric normal of the surface (facing the
-   photon), flux, and its number (the store is sorted by it, so the map
-   does not depend on which thread traced what). 56 bytes. */
+   photon), flux, its wavelength (spectral renders: the photon's lambda
+   once it has met a dispersive material, its flux then that at lambda
+   times W(lambda); 0 for an RGB photon, >>spectral) and its number (the
+   store is sorted by it, so the map does not depend on which thread
+   traced what). 64 bytes. */
 typedef struct pds__stored_photon {
     float pos[3], dir[3], ng[3], flux[3];
+    float lambda;
     long index;
 } pds__stored_photon;
 
 /* A photon with its footprint, for photon differential mapping: Ep =
-   flux / Ap, the eq. 12 filter matrix (rows M[0..2], M[3..5]) and the
-   footprint's major semi-axis. 88 bytes. */
+   flux / Ap, the eq. 12 filter matrix (rows M[0..2], M[3..5]), the
+   footprint's major semi-axis, and lambda as for pds__stored_photon.
+   88 bytes. */
 typedef struct pds__diff_photon {
     float pos[3], dir[3], np[3], ep[3];
     float M[6];
     float major;
+    float lambda;
     long index;
 } pds__diff_photon;
 
@@ -9732,9 +9782,10 @@ typedef struct pds__splat_buf {
 
 struct pds__photon_job;
 /* What happens where a caustic photon lands: on a non-specular surface,
-   after >= 1 specular bounce; r is transferred to the hit point. */
+   after >= 1 specular bounce; r is transferred to the hit point. lambda:
+   the photon's wavelength if it is spectral by now, else 0 (>>spectral). */
 typedef void (*pds__land_fn)(const struct pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r,
-                             pds__v3 ng, const double flux[3], long photon);
+                             pds__v3 ng, const double flux[3], double lambda, long photon);
 
 typedef struct pds__photon_job {
     const pds_scene *scene;
@@ -9762,6 +9813,8 @@ typedef struct pds__photon_job {
     pds__land_fn land;         /* splat (pds, splat) or store (pm, ...) */
     int differentials;         /* trace photon differentials (pds) or not */
     int spectral;              /* one wavelength per photon (>>spectral) */
+    int spectral_all;          /* ... spectral from the light on, not only
+                                  from the first dispersive material */
     double fixed_radius;       /* splat: the isotropic footprint's radius */
     long index_offset;         /* ppm: the first photon number of this pass */
     double build_s, gather_s;  /* pm, pdm: time of the last map build and gather */
@@ -9799,7 +9852,7 @@ static void pds__splat_visit(void *vctx, size_t index, double dist2)
     const pds__eye_vertex *v = &sc->job->map->v[index];
     const pds_scene *s = sc->job->scene;
     pds__v3 x = pds__f3_get(v->pos), d = pds__sub(x, sc->xp), ns = pds__f3_get(v->ns), ng = pds__f3_get(v->ng);
-    double y0, y1, r2, k, f[3], pdf;
+    double y0, y1, r2, k, f[3], pdf, e[3];
     int c;
     (void)dist2;
     /* topological bias: far from the photon's tangent plane, or a surface
@@ -9811,14 +9864,11 @@ static void pds__splat_visit(void *vctx, size_t index, double dist2)
     r2 = y0 * y0 + y1 * y1;
     if (r2 >= 1.0) return;
     k = pds__kernel_silverman(r2);
-    if (sc->lambda > 0.0) {
-        k *= pds__wavelength_match(v->lambda, sc->lambda);
-        if (k == 0.0) return;
-    }
     pds__bsdf_eval(&s->materials.items[v->material], pds__f3_get(v->pos), pds__f3_get(v->wo), sc->wi, ns, ng, f, &pdf);
-    pds__spectral_uplift(sc->lambda, f);
+    for (c = 0; c < 3; c++) e[c] = sc->ep[c];
+    if ((sc->lambda > 0.0 || v->lambda > 0.0) && !pds__spectral_meet(sc->lambda, v->lambda, e, f)) return;
     for (c = 0; c < 3; c++) {
-        double val = PDS__PI * k * f[c] * sc->ep[c] * v->importance[c];
+        double val = PDS__PI * k * f[c] * e[c] * v->importance[c];
         if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
     }
     if (sc->buf->aniso) {
@@ -9830,13 +9880,14 @@ static void pds__splat_visit(void *vctx, size_t index, double dist2)
 /* Splat the photon r (already transferred to its hit on a non-specular
    surface with geometric normal ng) carrying flux. */
 static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
-                       const double flux[3], long photon)
+                       const double flux[3], double lambda, long photon)
 {
     pds__splat_ctx sc;
     pds__ray_diff wide; /* a widened footprint; r may point here */
     double ap, major;
     int c;
-    sc.lambda = job->spectral ? pds__photon_wavelength(job->seed, photon) : 0.0;
+    (void)photon;
+    sc.lambda = lambda;
     sc.np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
     if (job->fixed_radius > 0.0) {
         /* fixed-bandwidth splatting: a disc of radius R in the tangent
@@ -9899,6 +9950,7 @@ typedef struct pds__landing {
     pds__ray_diff r;
     pds__v3 ng;
     double flux[3];
+    double lambda;
     long photon;
     uint64_t key;   /* Morton code of r.p in the scene's bounds */
 } pds__landing;
@@ -9930,17 +9982,18 @@ static uint64_t pds__morton_key(const pds_scene *s, pds__v3 p)
 }
 
 static void pds__defer_splat(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
-                             const double flux[3], long photon)
+                             const double flux[3], double lambda, long photon)
 {
     pds__landing *l;
     if (pds__grow((void **)&buf->pending, &buf->cap_pending, buf->npending + 1, sizeof *buf->pending)) {
-        pds__splat(job, buf, r, ng, flux, photon); /* no room to defer: splat now */
+        pds__splat(job, buf, r, ng, flux, lambda, photon); /* no room to defer: splat now */
         return;
     }
     l = &buf->pending[buf->npending++];
     l->r = *r;
     l->ng = ng;
     memcpy(l->flux, flux, sizeof l->flux);
+    l->lambda = lambda;
     l->photon = photon;
     l->key = pds__morton_key(job->scene, r->p);
 }
@@ -9958,7 +10011,7 @@ static void pds__splat_pending(const pds__photon_job *job, pds__splat_buf *buf)
     qsort(buf->pending, buf->npending, sizeof *buf->pending, pds__landing_cmp);
     for (i = 0; i < buf->npending; i++) {
         const pds__landing *l = &buf->pending[i];
-        pds__splat(job, buf, &l->r, l->ng, l->flux, l->photon);
+        pds__splat(job, buf, &l->r, l->ng, l->flux, l->lambda, l->photon);
     }
     buf->npending = 0;
 }
@@ -9974,7 +10027,9 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
     pds__photon_start ph;
     pds__ray_diff r;
     pds_material m_lambda;
-    double lambda = job->spectral ? pds__photon_wavelength(job->seed, i) : 0.0;
+    /* lambda: the photon's wavelength (spectral renders); lam: the same
+       once the photon is spectral, 0 before (>>spectral) */
+    double lambda = job->spectral ? pds__photon_wavelength(job->seed, i) : 0.0, lam = 0.0;
     int k, c, depth;
     /* emission from a low-discrepancy sequence (>>rng): photon i's place in
        the light's area and directions is spread evenly with the others' */
@@ -9984,13 +10039,6 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
     if (!pds__emit_caustic_photon(s, &job->target, k, u, &ph)) return;
     n_light = job->n_planned * pmf;
     for (c = 0; c < 3; c++) flux[c] = ph.flux[c] / (job->n_planned * pmf);
-    if (lambda > 0.0) {
-        /* spectral: the light's power at lambda, times the film weight
-           W(lambda) that turns spectral radiance into sRGB (>>spectral) */
-        double film[3], phi = pds__spectral_value(flux, lambda);
-        pds__film_weight(lambda, film);
-        for (c = 0; c < 3; c++) flux[c] = phi * film[c];
-    }
     pos_len = pds__photon_diff_length(job->smoothing, ph.area, n_light);
     dir_len = pds__photon_diff_length(job->smoothing, ph.solid_angle, n_light);
     pds__photon_diff_init(&r, ph.pos, ph.dir, ph.normal, pos_len, dir_len);
@@ -10009,18 +10057,28 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
         pds__beer(sigma, th.t, flux);
         m = &s->materials.items[hit.material];
         if (!pds__material_is_specular(m)) {
-            if (depth > 0 && m->type != PDS_MAT_EMISSIVE) job->land(job, buf, &r, hit.ng, flux, i);
+            if (depth > 0 && m->type != PDS_MAT_EMISSIVE) job->land(job, buf, &r, hit.ng, flux, lam, i);
             return;
         }
-        if (lambda > 0.0) {
-            pds__spectral_material(m, lambda, &m_lambda);
+        if (lambda > 0.0 && lam == 0.0 && (job->spectral_all || pds__material_is_dispersive(m))) {
+            /* the photon turns spectral: its power at lambda times the
+               film weight W(lambda) that turns spectral radiance into
+               sRGB, and the medium it is in at lambda (>>spectral) */
+            double film[3], phi = pds__spectral_value(flux, lambda);
+            pds__film_weight(lambda, film);
+            for (c = 0; c < 3; c++) flux[c] = phi * film[c];
+            if (sigma) pds__spectral_uplift(lambda, sigma_buf);
+            lam = lambda;
+        }
+        if (lam > 0.0) {
+            pds__spectral_material(m, lam, &m_lambda);
             m = &m_lambda;
         }
         if (depth == job->max_depth) return;
         for (c = 0; c < 3; c++)
             uu[c] = pds__rng_uniform(job->seed, PDS__RNG_PHOTON, (uint64_t)i, 8 + 4 * (uint64_t)depth + (uint64_t)c);
         if (!pds__bsdf_sample(m, hit.position, pds__scale(r.d, -1.0), hit.ns, hit.ng, uu, PDS__IMPORTANCE, &bs)) return;
-        pds__spectral_uplift(lambda, bs.weight);
+        pds__spectral_uplift(lam, bs.weight);
         if (!pds__bsdf_frame(pds__scale(r.d, -1.0), hit.ns, hit.ng, &n, &ngw, &side)) return;
         if (!job->differentials) {
             /* the baselines trace bare photons */
@@ -10245,7 +10303,7 @@ static double pds__pm_norm(pds_kernel kernel)
 
 /* Landing: store the photon (photon-map methods). */
 static void pds__store_photon(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
-                              const double flux[3], long photon)
+                              const double flux[3], double lambda, long photon)
 {
     pds__stored_photon *p;
     (void)job;
@@ -10260,6 +10318,7 @@ static void pds__store_photon(const pds__photon_job *job, pds__splat_buf *buf, c
     p->flux[0] = (float)flux[0];
     p->flux[1] = (float)flux[1];
     p->flux[2] = (float)flux[2];
+    p->lambda = (float)lambda;
     p->index = photon;
     buf->splatted++;
 }
@@ -10268,19 +10327,6 @@ static int pds__photon_index_cmp(const void *a, const void *b)
 {
     long x = ((const pds__stored_photon *)a)->index, y = ((const pds__stored_photon *)b)->index;
     return (x > y) - (x < y);
-}
-
-/* Spectral renders: the BSDF value f (RGB) a stored photon number i meets
-   at eye vertex v, at the photon's wavelength and times the wavelength
-   match of >>spectral. Returns 0 when the photon does not count there. */
-static int pds__spectral_gather(uint64_t seed, long i, const pds__eye_vertex *v, double f[3])
-{
-    double lambda = pds__photon_wavelength(seed, i), w = pds__wavelength_match(v->lambda, lambda);
-    int c;
-    if (w == 0.0) return 0;
-    pds__spectral_uplift(lambda, f);
-    for (c = 0; c < 3; c++) f[c] *= w;
-    return 1;
 }
 
 /* The gather of the photon-map methods (pm, pdm): every eye vertex asks
@@ -10298,8 +10344,6 @@ typedef struct pds__gather {
     double radius;             /* search radius */
     pds_kernel kernel;         /* pm's filter */
     double plane_tolerance;    /* pdm's topological guard */
-    int spectral;              /* photons have wavelengths (>>spectral) */
-    uint64_t seed;             /* ... drawn from this seed */
     void (*estimate)(const struct pds__gather *g, const pds__eye_vertex *v, const size_t *idx, const double *d2,
                      size_t n, double sum[3]);
     pds__splat_buf *bufs;
@@ -10374,12 +10418,13 @@ static void pds__pm_estimate(const pds__gather *g, const pds__eye_vertex *v, con
     if (n < (g->k < 8 ? g->k : 8) || !(r2 > 0.0)) return;
     for (j = 0; j < n; j++) {
         const pds__stored_photon *p = &photons[idx[j]];
-        double f[3], pdf, w;
+        double f[3], pdf, w, e[3];
         if (pds__dot(pds__f3_get(p->ng), ng) <= 0.0) continue; /* another surface orientation */
         pds__bsdf_eval(m, x, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
         w = pds__pm_weight(g->kernel, d2[j], r2);
-        if (g->spectral && !pds__spectral_gather(g->seed, p->index, v, f)) continue;
-        for (c = 0; c < 3; c++) sum[c] += f[c] * p->flux[c] * w;
+        for (c = 0; c < 3; c++) e[c] = p->flux[c];
+        if ((p->lambda > 0.0f || v->lambda > 0.0f) && !pds__spectral_meet(p->lambda, v->lambda, e, f)) continue;
+        for (c = 0; c < 3; c++) sum[c] += f[c] * e[c] * w;
     }
     area = pds__pm_norm(g->kernel) * PDS__PI * r2;
     for (c = 0; c < 3; c++) sum[c] /= area;
@@ -10439,8 +10484,6 @@ static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, c
     g.k = (size_t)opt->k;
     g.radius = opt->max_radius > 0.0 ? opt->max_radius : DBL_MAX;
     g.kernel = opt->kernel;
-    g.spectral = job->spectral;
-    g.seed = job->seed;
     g.estimate = pds__pm_estimate;
     st = pds__gather_run(&g, job, threads, err);
     job->gather_s = pds_time_now() - tg;
@@ -10454,7 +10497,7 @@ static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, c
 
 /* Landing: store the photon with its footprint (pdm). */
 static void pds__store_diff_photon(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r,
-                                   pds__v3 ng, const double flux[3], long photon)
+                                   pds__v3 ng, const double flux[3], double lambda, long photon)
 {
     pds__diff_photon *p;
     pds__v3 np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
@@ -10486,6 +10529,7 @@ static void pds__store_diff_photon(const pds__photon_job *job, pds__splat_buf *b
         p->M[3 + k] = (float)M[1][k];
     }
     p->major = (float)major;
+    p->lambda = (float)lambda;
     p->index = photon;
     buf->splatted++;
 }
@@ -10510,13 +10554,14 @@ static void pds__pdm_estimate(const pds__gather *g, const pds__eye_vertex *v, co
         const pds__diff_photon *p = &photons[idx[j]];
         pds__v3 np = pds__f3_get(p->np), d = pds__sub(x, pds__f3_get(p->pos));
         double y0 = p->M[0] * d.x + p->M[1] * d.y + p->M[2] * d.z;
-        double y1 = p->M[3] * d.x + p->M[4] * d.y + p->M[5] * d.z, r2 = y0 * y0 + y1 * y1, f[3], pdf, k;
+        double y1 = p->M[3] * d.x + p->M[4] * d.y + p->M[5] * d.z, r2 = y0 * y0 + y1 * y1, f[3], pdf, k, e[3];
         /* the same guards as the PDS splat */
         if (r2 >= 1.0 || fabs(pds__dot(np, d)) > g->plane_tolerance * p->major || pds__dot(ng, np) <= 0.0) continue;
         k = pds__kernel_silverman(r2);
         pds__bsdf_eval(m, x, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
-        if (g->spectral && !pds__spectral_gather(g->seed, p->index, v, f)) continue;
-        for (c = 0; c < 3; c++) sum[c] += PDS__PI * k * f[c] * p->ep[c];
+        for (c = 0; c < 3; c++) e[c] = p->ep[c];
+        if ((p->lambda > 0.0f || v->lambda > 0.0f) && !pds__spectral_meet(p->lambda, v->lambda, e, f)) continue;
+        for (c = 0; c < 3; c++) sum[c] += PDS__PI * k * f[c] * e[c];
     }
 }
 
@@ -10557,8 +10602,6 @@ static pds_status pds__pdm_gather(pds__photon_job *job, const pds_options *opt, 
     g.photons = all;
     g.k = (size_t)opt->max_photons;
     g.plane_tolerance = opt->plane_tolerance;
-    g.spectral = job->spectral;
-    g.seed = job->seed;
     for (i = 0; i < total; i++)
         if (all[i].major > g.radius) g.radius = all[i].major;
     g.estimate = pds__pdm_estimate;
@@ -10586,8 +10629,6 @@ typedef struct pds__ppm_job {
     const pds__stored_photon *photons;
     const pds__kdtree *tree;
     double alpha, photon_scale; /* photon_scale: stored flux -> flux alone */
-    int spectral;               /* photons have wavelengths (>>spectral) */
-    uint64_t seed;
     pthread_mutex_t lock;
     size_t next;                /* guarded by lock */
 } pds__ppm_job;
@@ -10606,17 +10647,18 @@ static void pds__ppm_visit(void *ctx, size_t index, double dist2)
     pds__ppm_gather *g = (pds__ppm_gather *)ctx;
     const pds__stored_photon *p = &g->job->photons[index];
     pds__v3 ng = pds__f3_get(g->v->ng);
-    double f[3], pdf;
+    double f[3], pdf, e[3];
     int c;
     (void)dist2;
     if (pds__dot(pds__f3_get(p->ng), ng) <= 0.0) return;
     pds__bsdf_eval(g->m, pds__f3_get(g->v->pos), pds__f3_get(g->v->wo), pds__scale(pds__f3_get(p->dir), -1.0),
                    pds__f3_get(g->v->ns), ng, f, &pdf);
     /* spectral: a vertex seen through dispersive glass counts only the
-       photons of its wavelength bin, found and flux alike */
-    if (g->job->spectral && !pds__spectral_gather(g->job->seed, p->index, g->v, f)) return;
+       spectral photons of its wavelength bin, found and flux alike */
+    for (c = 0; c < 3; c++) e[c] = p->flux[c];
+    if ((p->lambda > 0.0f || g->v->lambda > 0.0f) && !pds__spectral_meet(p->lambda, g->v->lambda, e, f)) return;
     g->found++;
-    for (c = 0; c < 3; c++) g->phi[c] += f[c] * p->flux[c] * g->job->photon_scale;
+    for (c = 0; c < 3; c++) g->phi[c] += f[c] * e[c] * g->job->photon_scale;
 }
 
 static void *pds__ppm_worker(void *arg)
@@ -10682,8 +10724,6 @@ static pds_status pds__ppm_update(pds__photon_job *job, const pds_options *opt, 
     pj.tree = &tree;
     pj.alpha = opt->alpha;
     pj.photon_scale = job->n_planned;
-    pj.spectral = job->spectral;
-    pj.seed = job->seed;
     pthread_mutex_init(&pj.lock, NULL);
     pds__run_threads(threads, pds__ppm_worker, &pj);
     pthread_mutex_destroy(&pj.lock);
@@ -10889,6 +10929,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.land = splats ? pds__defer_splat : opt->method == PDS_METHOD_PDM ? pds__store_diff_photon : pds__store_photon;
     job.differentials = opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_PDM;
     job.spectral = pds__render_is_spectral(s, opt);
+    job.spectral_all = job.spectral && opt->spectral;
     if (opt->method == PDS_METHOD_SPLAT) job.fixed_radius = opt->radius > 0.0 ? opt->radius : pds__default_radius(s);
     job.nbufs = threads;
     job.bufs = (pds__splat_buf *)calloc((size_t)threads, sizeof *job.bufs);
@@ -11253,6 +11294,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     job.tracer.seed = opt->seed;
     job.tracer.eps = 1e-6 * pds__scene_scale(scene);
     job.tracer.spectral = pds__render_is_spectral(scene, opt);
+    job.tracer.spectral_all = job.tracer.spectral && opt->spectral;
     stats->spectral = job.tracer.spectral;
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
