@@ -66,7 +66,8 @@ references: pds
 
 # The README's gallery: every shipped scene at full size with PDS and the
 # options its README line recommends, and PDS beside pm on equal photon-pass
-# time for the refraction case, the gold ring and the pool (about 2 minutes).
+# time for the refraction case, the gold ring, the pool and the prism
+# (about 3 minutes).
 GALLERY = scenes/gallery
 gallery: pds
 	mkdir -p $(GALLERY)
@@ -79,12 +80,16 @@ gallery: pds
 	./pds render scenes/torus.scene --photons 400000 --smoothing 8 -o $(GALLERY)/torus.png
 	./pds render scenes/cornell.scene --photons 400000 --smoothing 8 -o $(GALLERY)/cornell.png
 	./pds render scenes/ring_octahedron.scene --photons 400000 --smoothing 8 -o $(GALLERY)/ring_octahedron.png
+	./pds render scenes/prism.scene --photons 1000000 -o $(GALLERY)/prism.png
+	./pds render scenes/gem.scene --photons 1000000 -o $(GALLERY)/gem.png
 	./pds render scenes/refraction.scene --smoothing 8 --time 6 -o $(GALLERY)/refraction.pds-6s.png
 	./pds render scenes/refraction.scene --method pm --k 50 --time 6 -o $(GALLERY)/refraction.pm-6s.png
 	./pds render scenes/cardioid.scene --smoothing 8 --time 4 -o $(GALLERY)/cardioid.pds-4s.png
 	./pds render scenes/cardioid.scene --method pm --k 50 --time 4 -o $(GALLERY)/cardioid.pm-4s.png
 	./pds render scenes/pool.scene --smoothing 8 --time 6 -o $(GALLERY)/pool.pds-6s.png
 	./pds render scenes/pool.scene --method pm --k 50 --max-radius 0.1 --time 6 -o $(GALLERY)/pool.pm-6s.png
+	./pds render scenes/prism.scene --time 8 -o $(GALLERY)/prism.pds-8s.png
+	./pds render scenes/prism.scene --method pm --k 50 --time 8 -o $(GALLERY)/prism.pm-8s.png
 
 render: pds
 	./pds render scenes/demo.scene -o demo.png

@@ -11209,7 +11209,7 @@ static pds__eye_vertex *pds__join_rows(pds__render_job *job, size_t *count)
    in its row array, which grows by doubling (up to 2 x 72), and its copy in
    the joined array, 216 bytes in all (the kd-tree's 21 bytes and the
    tree-ordered copy come after the rows are freed). Per stored photon of
-   pm: 56 bytes, twice while the threads' arrays are merged, plus 21 of
+   pm: 64 bytes, twice while the threads' arrays are merged, plus 21 of
    kd-tree; pdm: 88 bytes, twice. */
 pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *opt, pds_render_estimate *est,
                                    pds_error *err)
