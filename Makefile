@@ -89,7 +89,7 @@ gallery: pds
 	./pds render scenes/pool.scene --smoothing 8 --time 6 -o $(GALLERY)/pool.pds-6s.png
 	./pds render scenes/pool.scene --method pm --k 50 --max-radius 0.1 --time 6 -o $(GALLERY)/pool.pm-6s.png
 	./pds render scenes/prism.scene --time 8 -o $(GALLERY)/prism.pds-8s.png
-	./pds render scenes/prism.scene --method pm --k 50 --max-radius 0.05 --time 8 -o $(GALLERY)/prism.pm-8s.png
+	./pds render scenes/prism.scene --method pm --k 50 --max-radius 0.02 --time 8 -o $(GALLERY)/prism.pm-8s.png
 
 render: pds
 	./pds render scenes/demo.scene -o demo.png
