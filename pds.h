@@ -429,11 +429,12 @@ typedef struct pds_render_stats {
 
 /* What a render will need, from the scene and options alone, before any
    work: an upper bound on the memory it holds at once beyond the scene
-   (per eye vertex 216 bytes, every pixel sample taken to record one; per
+   (per eye vertex 264 bytes, every pixel sample taken to record one; per
    stored photon 149 bytes for pm and ppm, 176 for pdm; per pixel 36 bytes
-   plus 48 per thread for the photon methods, 96 in spectral renders), the pixel samples of one
-   eye pass, and the machine's physical memory (0 if unknown). With a time
-   budget the photon count is not known in advance and counts as 0. */
+   plus 48 per thread for the photon methods, 96 in spectral renders), the
+   pixel samples of one eye pass, and the machine's physical memory (0 if
+   unknown). With a time budget the photon count is not known in advance
+   and counts as 0. */
 typedef struct pds_render_estimate {
     double memory_bytes;
     double eye_vertices;    /* photon methods: at most */
