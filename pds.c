@@ -4429,7 +4429,8 @@ static double pds__ior_at(const pds_material *m, double wavelength_nm)
    When. A render is spectral when the scene has a dielectric with a
    Cauchy or Sellmeier law, or when pds_options.spectral asks for it
    (pds__render_is_spectral); otherwise none of this runs and images are
-   those of the RGB renderer bit for bit.
+   those of the RGB renderer bit for bit. Tested in
+   tests/test_spectral.c.
 
    Wavelengths. Every camera sample and every photon carries one
    wavelength lambda, uniform on [380, 780] nm (pdf 1/400 per nm), drawn
@@ -4454,10 +4455,10 @@ static double pds__ior_at(const pds_material *m, double wavelength_nm)
    geometric factors are. Its limits: the spectra were fitted for
    reflectances, not illuminants, they are boxy, and the round trip RGB ->
    spectrum -> RGB is not the identity for saturated colours (measured in
-   spectral_smits_round_trip: primaries come back within a few hundredths
-   per channel, grey exactly, since a grey triple maps to a flat spectrum
-   here by construction: Smits' white table is 1 within 0.0008, and we
-   use exactly 1 for it). Beer coefficients are uplifted as spectra of
+   spectral_smits_uplift_round_trips_within_its_accuracy: primaries and
+   secondaries come back within 0.013 per channel, grey exactly, since a
+   grey triple maps to a flat spectrum here by construction: Smits' white
+   table is 1 within 0.0008, and exactly 1 is used for it). Beer coefficients are uplifted as spectra of
    their own (sigma(lambda)), so transmittance stays exp(-sigma d).
 
    Film. The sensor integrates with the CIE 1931 2-degree colour matching
@@ -4469,8 +4470,7 @@ static double pds__ior_at(const pds_material *m, double wavelength_nm)
               - 0.065 g(501.1; .0490, .0382)
        ybar = 0.821 g(568.8; .0213, .0247) + 0.286 g(530.9; .0613, .0322)
        zbar = 1.217 g(437.0; .0845, .0278) + 0.681 g(459.0; .0385, .0725)
-   (within about 0.01 of the CIE table everywhere; tested at four
-   wavelengths), then XYZ -> linear sRGB with the D65 matrix of IEC
+   (within about 0.01 of the CIE table; tested at five wavelengths), then XYZ -> linear sRGB with the D65 matrix of IEC
    61966-2-1 (as Lindbloom prints it to seven digits). A flat spectrum
    (equal-energy white, which Smits' white is) would come out slightly
    pink in D65 sRGB; each channel is divided by its integral over
@@ -4483,22 +4483,31 @@ static double pds__ior_at(const pds_material *m, double wavelength_nm)
    (colours of the spectrum locus lie outside the sRGB gamut), so the
    photon images keep their negative terms in sums of their own.
 
-   Where colours meet along a path. Materials are asked at lambda through
-   pds__spectral_material (index n(lambda) and Beer sigma(lambda)); the
-   RGB weights the BSDF returns and the lights' RGB quantities are
-   uplifted at lambda (pds__spectral_value), so a path's throughput is one
-   number times W(lambda). The photon methods meet eye paths at eye
-   vertices, each traced at its own wavelength. If the specular chain from
-   the camera to a vertex refracted through no dispersive material, its
+   When a path turns spectral. A camera path or a photon carries RGB, as
+   in the RGB renderer, until it first meets a dispersive material (with
+   pds_options.spectral: from its first vertex); there its RGB throughput
+   (a photon: its flux) is replaced by its spectral value at its lambda,
+   which it keeps from then on. Light that never meets dispersion is thus
+   computed as in RGB, with no colour noise; the choice of the vertex
+   where the spectrum is taken is a sampling choice like any other (the
+   expected value of W(lambda) S(lambda) is the colour of S). From there,
+   materials are asked at lambda through pds__spectral_material (index
+   n(lambda), Beer sigma(lambda)); the RGB weights the BSDF returns and the
+   lights' RGB quantities are uplifted at lambda (pds__spectral_value), so
+   the throughput is one number times W(lambda).
+
+   Where photons meet eye vertices (pds__spectral_meet). If the specular
+   chain from the camera to a vertex met no dispersive material, its
    geometry is the same at every wavelength: the vertex keeps the chain's
    RGB weight (as the RGB renderer does; exact for clear glass and white
-   mirrors, an RGB filter for tinted ones) and every photon adds to it at
-   the photon's wavelength. Otherwise (a caustic seen through a prism or
-   a gem) the vertex is where it is only at its wavelength lambda_e: it
-   takes photons of the same one of PDS__SPECTRAL_BINS equal wavelength
-   bins only, each weighted by the bin count, a box kernel in wavelength
-   (consistent as bins narrow; it blurs the rainbow seen through glass by
-   one bin, 25 nm).
+   mirrors, an RGB filter for tinted ones) and every photon adds to it, a
+   spectral photon at its own wavelength. Otherwise (a caustic seen
+   through a prism or a gem) the vertex is where it is only at its own
+   wavelength lambda_e: an RGB photon adds its spectrum's value at
+   lambda_e; a spectral photon adds only if it is in the same one of
+   PDS__SPECTRAL_BINS equal wavelength bins, weighted by the bin count, a
+   box kernel in wavelength (consistent as bins narrow; it blurs the
+   rainbow seen through glass by one bin, 25 nm).
 
    Photon differentials are traced at the photon's own wavelength:
    position and direction differentials with n(lambda) (Igehy's refraction
@@ -4511,8 +4520,7 @@ static double pds__ior_at(const pds_material *m, double wavelength_nm)
    spectrum) would stretch each footprint along the fan to smooth it with
    fewer photons, as the positional differential does over the emitter;
    that is a variance choice, not needed for a correct limit, and left
-   out (the screen's rainbow is smooth at the photon counts of the
-   gallery). */
+   out. */
 
 #define PDS__LAMBDA_MIN 380.0   /* nm: the sampled range */
 #define PDS__LAMBDA_MAX 780.0
