@@ -111,6 +111,9 @@ static const command_help help_table[] = {
      "                              photon methods: one eye pass, then photons until the time is spent\n"
      "      --no-caustics           leave out caustic paths L S+ D... (what the photon methods add)\n"
      "      --caustics-only         only caustic paths (pt: the reference for photon methods)\n"
+     "      --spectral              one wavelength per camera sample and photon, CIE 1931 film, from the\n"
+     "                              first vertex on (a scene with a cauchy or sellmeier material is\n"
+     "                              spectral anyway, from the first dispersive material on)\n"
      "      --exposure STOPS        PNG exposure in stops (default 0)\n"
      "      --progress              progress on stderr even when it is not a terminal (then one line\n"
      "                              every 2 seconds); default: a bar when stderr is a terminal\n"
@@ -866,6 +869,17 @@ static int set_progressive(const opt_spec *s, run_cfg *c, const char *shown, con
     return 0;
 }
 
+/* --spectral: one wavelength per sample and photon even in a scene
+   without dispersion. */
+static int set_spectral(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    (void)s;
+    (void)shown;
+    (void)v;
+    c->opt.spectral = 1;
+    return 0;
+}
+
 /* --progress and --quiet: the last one given wins. */
 static int set_progress(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
@@ -937,6 +951,7 @@ static const opt_spec option_table[] = {
      F_VALUE | F_LO_OPEN},
     {"--no-caustics", NULL, "paths", set_paths, 0, 0, 0, "", M_ALL, C_ALL, 0},
     {"--caustics-only", NULL, "paths", set_paths, 0, 0, 0, "", M_ALL, C_ALL, 0},
+    {"--spectral", NULL, "spectral", set_spectral, 0, 0, 0, "", M_ALL, C_ALL, 0},
     {"--exposure", NULL, "exposure", set_double, offsetof(run_cfg, exposure), -64, 64,
      "a number of stops from -64 to 64", M_ALL, C_ALL, F_VALUE},
     {"--progress", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
@@ -1170,6 +1185,7 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
     } else {
         printf(" passes=%d", st->passes);
     }
+    if (st->spectral) printf(" spectral=1");
     printf(" time_total=%.3f threads=%d saturated=%ld nonfinite=%ld output=%s\n", st->time_total_s, st->threads,
            st->saturated, st->nonfinite, output);
     if (st->saturated > 0)
