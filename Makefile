@@ -86,6 +86,7 @@ gallery: pds
 	./pds render scenes/ring_octahedron.scene --photons 400000 --smoothing 8 -o $(GALLERY)/ring_octahedron.png
 	./pds render scenes/prism.scene --photons 1000000 -o $(GALLERY)/prism.png
 	./pds render scenes/gem.scene --photons 1000000 -o $(GALLERY)/gem.png
+	./pds render scenes/glossy.scene --method gi -o $(GALLERY)/glossy.png
 	./pds render scenes/refraction.scene --smoothing 8 --time 6 -o $(GALLERY)/refraction.pds-6s.png
 	./pds render scenes/refraction.scene --method pm --k 50 --time 6 -o $(GALLERY)/refraction.pm-6s.png
 	./pds render scenes/cardioid.scene --smoothing 8 --time 4 -o $(GALLERY)/cardioid.pds-4s.png

@@ -21,6 +21,8 @@
 #include "test_exact.c"
 #include "test_limits.c"
 #include "test_spectral.c"
+#include "test_glossy.c"
+#include "test_gi.c"
 
 int main(int argc, char **argv)
 {
@@ -42,6 +44,8 @@ int main(int argc, char **argv)
         PDS_SUITE(tests_exact),
         PDS_SUITE(tests_limits),
         PDS_SUITE(tests_spectral),
+        PDS_SUITE(tests_glossy),
+        PDS_SUITE(tests_gi),
     };
     return pds_test_run(suites, sizeof suites / sizeof suites[0], argc, argv);
 }
