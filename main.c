@@ -599,7 +599,7 @@ typedef struct method_info {
 
 static const method_info method_table[] = {
     {"pds", PDS_METHOD_PDS}, {"pt", PDS_METHOD_PT},   {"preview", PDS_METHOD_PREVIEW}, {"pm", PDS_METHOD_PM},
-    {"pdm", PDS_METHOD_PDM}, {"splat", PDS_METHOD_SPLAT}, {"ppm", PDS_METHOD_PPM},
+    {"pdm", PDS_METHOD_PDM}, {"splat", PDS_METHOD_SPLAT}, {"ppm", PDS_METHOD_PPM}, {"isc", PDS_METHOD_ISC},
 };
 #define N_METHODS (sizeof method_table / sizeof method_table[0])
 
@@ -607,7 +607,7 @@ static const method_info method_table[] = {
 #define M_PHOTON                                                                                                     \
     (MBIT(PDS_METHOD_PDS) | MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_SPLAT) |                    \
      MBIT(PDS_METHOD_PPM))
-#define M_ALL (M_PHOTON | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW))
+#define M_ALL (M_PHOTON | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW) | MBIT(PDS_METHOD_ISC))
 /* methods that keep a photon map, whose size stats.map_bytes reports */
 #define M_MAP (MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_PPM))
 
@@ -681,7 +681,8 @@ typedef struct run_cfg {
     int progress;        /* 1 on, 0 off, -1 when stderr is a terminal */
     int quiet;           /* --quiet: no progress, no scene warnings */
     int debug_footprint; /* render --debug footprint */
-    unsigned long given; /* bit i: option_table[i] was on the command line */
+    unsigned long long given; /* bit i: option_table[i] was on the command line */
+    int frames;          /* render --frames: an animation of this many frames (0: a still) */
 } run_cfg;
 
 typedef struct opt_spec opt_spec;
@@ -874,13 +875,60 @@ static int set_progress(const opt_spec *s, run_cfg *c, const char *shown, const 
 #define M_PDM MBIT(PDS_METHOD_PDM)
 #define M_SPLAT MBIT(PDS_METHOD_SPLAT)
 #define M_PPM MBIT(PDS_METHOD_PPM)
+#define M_ISC MBIT(PDS_METHOD_ISC)
+
+static const char *const gather_names[] = {"points", "quads", "eye", "light"}; /* by pds_isc_gather */
+static const char *const orbit_names[] = {"none", "light", "camera"};          /* by pds_orbit */
+
+/* A value from a short list of names (--gather, --orbit). */
+static int set_named(const char *shown, const char *v, const char *const *names, int n, int *out)
+{
+    char hint[256], list[128] = "";
+    suggestion sug;
+    int k;
+    suggest_init(&sug, v);
+    for (k = 0; k < n; k++) {
+        if (!strcmp(v, names[k])) {
+            *out = k;
+            return 0;
+        }
+        suggest_consider(&sug, names[k]);
+        snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", k ? (k + 1 == n ? " or " : ", ") : "",
+                 names[k]);
+    }
+    return usage_error("%s takes %s, got '%s'%s", shown, list, v, suggest_text(&sug, hint, sizeof hint));
+}
+
+static int set_gather(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    int k = 0, r = set_named(shown, v, gather_names, 4, &k);
+    (void)s;
+    if (!r) c->opt.isc_gather = (pds_isc_gather)k;
+    return r;
+}
+
+static int set_orbit(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    int k = 0, r = set_named(shown, v, orbit_names, 3, &k);
+    (void)s;
+    if (!r) c->opt.orbit = (pds_orbit)k;
+    return r;
+}
+
+static int set_frames(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    long n = 0;
+    if (set_whole(s, shown, v, &n)) return EXIT_USAGE;
+    c->frames = (int)n;
+    return 0;
+}
 
 /* Every option of render, sweep and race. */
 static const opt_spec option_table[] = {
     {"--output", "-o", "output", set_output, 0, 0, 0, "a file name", M_ALL, C_RENDER, F_VALUE},
     {"--method", NULL, "method", set_method, 0, 0, 0, "a method name", M_ALL, C_RENDER | C_SWEEP, F_VALUE},
-    {"--photons", NULL, "photons", set_long, OPTF(photons), 0, -1, "a whole number of 0 or more", M_PHOTON, C_ALL,
-     F_VALUE | F_SWEEP},
+    {"--photons", NULL, "photons", set_long, OPTF(photons), 0, -1, "a whole number of 0 or more", M_PHOTON | M_ISC,
+     C_ALL, F_VALUE | F_SWEEP},
     {"--smoothing", NULL, "smoothing", set_paper_double, OPTF(smoothing), 0, 1e6, "a positive number", M_PDS | M_PDM, C_ALL,
      F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--plane-tolerance", NULL, "plane_tolerance", set_double, OPTF(plane_tolerance), 0, 1e6, "a positive number",
@@ -914,7 +962,18 @@ static const opt_spec option_table[] = {
      F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--passes", NULL, "passes", set_int, OPTF(passes), 1, 1000000, "a whole number from 1 to 1000000", M_PPM, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
-    {"--spp", NULL, "spp", set_int, OPTF(spp), 1, PDS_MAX_SPP, "a whole number from 1 to 65536", M_ALL, C_ALL,
+    {"--gather", NULL, "gather", set_gather, 0, 0, 0, "points, quads, eye or light", M_ISC, C_ALL,
+     F_VALUE | F_PER_METHOD},
+    {"--light-res", NULL, "light_res", set_int, OPTF(light_resolution), 1, PDS_MAX_RESOLUTION,
+     "a whole number from 1 to 16384", M_ISC, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--history", NULL, "history", set_int, OPTF(history), 1, 64, "a whole number from 1 to 64", M_ISC, C_ALL,
+     F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--frames", NULL, "frames", set_frames, 0, 1, 1000000, "a whole number from 1 to 1000000", M_ISC, C_RENDER,
+     F_VALUE},
+    {"--orbit", NULL, "orbit", set_orbit, 0, 0, 0, "none, light or camera", M_ISC, C_RENDER, F_VALUE},
+    {"--orbit-step", NULL, "orbit_step", set_double, OPTF(orbit_deg), -360, 360, "degrees from -360 to 360", M_ISC,
+     C_RENDER, F_VALUE},
+    {"--spp", NULL, "spp", set_int, OPTF(spp), 1, PDS_MAX_SPP, "a whole number from 1 to 65536", M_ALL & ~M_ISC, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--res", NULL, "res", set_res, 0, 0, 0, "WIDTHxHEIGHT", M_ALL, C_ALL, F_VALUE},
     {"--threads", NULL, "threads", set_int, OPTF(threads), 1, 256, "a whole number from 1 to 256", M_ALL, C_ALL,
@@ -932,8 +991,8 @@ static const opt_spec option_table[] = {
     {"--quiet", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
 };
 #define N_OPTIONS (sizeof option_table / sizeof option_table[0])
-/* run_cfg.given has a bit per option: the table must fit in 32 bits */
-typedef char option_table_fits_in_given[N_OPTIONS <= 32 ? 1 : -1];
+/* run_cfg.given has a bit per option: the table must fit in 64 bits */
+typedef char option_table_fits_in_given[N_OPTIONS <= 64 ? 1 : -1];
 
 static int option_index(const char *name)
 {
@@ -947,7 +1006,7 @@ static int option_index(const char *name)
 static int option_given(const run_cfg *c, const char *name)
 {
     int i = option_index(name);
-    return i >= 0 && (c->given & (1ul << i)) != 0;
+    return i >= 0 && (c->given & (1ull << i)) != 0;
 }
 
 static void cfg_init(run_cfg *c)
@@ -1036,7 +1095,7 @@ static int parse_option(run_cfg *c, unsigned cmd, const char *cmd_name, int argc
     } else if (a[n] == '=') {
         return usage_error("%s takes no value, got '%s'", name, a);
     }
-    c->given |= 1ul << idx;
+    c->given |= 1ull << idx;
     return s->set(s, c, name, v);
 }
 
@@ -1057,7 +1116,7 @@ static void note_idle_options(const run_cfg *c, unsigned mask, const char *where
     size_t i;
     for (i = 0; i < N_OPTIONS; i++) {
         char list[128];
-        if (!(c->given & (1ul << i)) || (option_table[i].methods & mask)) continue;
+        if (!(c->given & (1ull << i)) || (option_table[i].methods & mask)) continue;
         method_join(option_table[i].methods, " and ", list, sizeof list);
         fprintf(stderr, "pds %s: note: %s has no effect %s (it is for %s)\n", current_command, option_table[i].name,
                 where, list);
@@ -1116,6 +1175,9 @@ static void format_params(const pds_options *o, char *buf, size_t n)
     case PDS_METHOD_PPM:
         snprintf(buf, n, " radius=%s alpha=%g", distance_text(o->radius, "auto", d, sizeof d), o->alpha);
         break;
+    case PDS_METHOD_ISC:
+        snprintf(buf, n, " gather=%s history=%d", gather_names[o->isc_gather], o->history);
+        break;
     default: break;
     }
     if (((o->method == PDS_METHOD_PDS && !o->progressive) || o->method == PDS_METHOD_PDM) && o->min_aspect > 0.0) {
@@ -1156,6 +1218,12 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
         printf("%s", params);
         if (MBIT(m) & M_MAP) printf(" map_bytes=%lu", (unsigned long)st->map_bytes);
         printf(" time_eye=%.3f time_photons=%.3f", st->time_eye_s, st->time_photons_s);
+    } else if (m == PDS_METHOD_ISC) {
+        char params[256];
+        format_params(&c->opt, params, sizeof params);
+        printf(" photons=%ld landed=%ld eye_vertices=%ld frames=%d%s time_eye=%.3f time_photons=%.3f time_gather=%.3f",
+               st->photons, st->splatted, st->eye_vertices, st->passes, params, st->time_eye_s, st->time_photons_s,
+               st->time_gather_s);
     } else {
         printf(" passes=%d", st->passes);
     }
@@ -2199,7 +2267,7 @@ static int cmd_sweep(int argc, char **argv)
         return usage_error("--param knows %s, got '%s'%s", list, param, suggest_text(&sug, hint, sizeof hint));
     }
     ps = &option_table[idx];
-    if (base.given & (1ul << idx))
+    if (base.given & (1ull << idx))
         return usage_error("%s is the parameter swept: give its values with --values, not %s", param, ps->name);
     if (!(ps->methods & MBIT(method))) {
         method_join(ps->methods, " and ", list, sizeof list);
@@ -2598,7 +2666,7 @@ static int parse_race_methods(const char *list, const run_cfg *base, race_entry 
                 rc = EXIT_USAGE;
                 break;
             }
-            r->cfg.given |= 1ul << idx; /* given: --tune keeps it */
+            r->cfg.given |= 1ull << idx; /* given: --tune keeps it */
             file_safe(eq + 1, safe, sizeof safe);
             snprintf(r->label + strlen(r->label), sizeof r->label - strlen(r->label), "-%s%s", s->key, safe);
         }
@@ -2706,7 +2774,7 @@ static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_
         if (tg->progressive >= 0 && tg->progressive != (t->cfg.opt.progressive != 0)) continue;
         snprintf(name, sizeof name, "--%s", tg->key);
         idx = option_index(name);
-        if (idx < 0 || (t->cfg.given & (1ul << idx))) continue; /* given: kept as it is */
+        if (idx < 0 || (t->cfg.given & (1ull << idx))) continue; /* given: kept as it is */
         s = &option_table[idx];
         for (i = 0; i < tg->n; i++) {
             run_cfg c = t->cfg;

@@ -291,8 +291,28 @@ typedef enum pds_method {
     PDS_METHOD_PDM,        /* photon differential mapping (Schjoth et al. 2007) */
     PDS_METHOD_SPLAT,      /* fixed-radius photon splatting into the eye-path map
                               (Lavignotte & Paulin 2003; Herzog et al. 2007) */
-    PDS_METHOD_PPM         /* progressive photon mapping (Hachisuka et al. 2008) */
+    PDS_METHOD_PPM,        /* progressive photon mapping (Hachisuka et al. 2008) */
+    PDS_METHOD_ISC         /* image-space caustics (Wyman and Davis 2006): a
+                              light-space photon buffer gathered in image space;
+                              interactive, approximate; point and spot lights */
 } pds_method;
+
+/* How image-space caustics turn the light-space photon buffer into light
+   (Wyman and Davis 2006, sect. 3.2). */
+typedef enum pds_isc_gather {
+    PDS_ISC_POINTS = 0, /* each photon lights the pixel it lands in */
+    PDS_ISC_QUADS,      /* caustic polygons between neighbouring photons */
+    PDS_ISC_EYE,        /* 7x7 Gaussian gather of photon counts in eye space */
+    PDS_ISC_LIGHT       /* the same in light space, projected onto the scene */
+} pds_isc_gather;
+
+/* What an animation (pds_render_frames) moves: a turn about the vertical
+   line through the camera's look-at point. */
+typedef enum pds_orbit {
+    PDS_ORBIT_NONE = 0, /* nothing: a static scene */
+    PDS_ORBIT_LIGHT,    /* every light (position and direction) */
+    PDS_ORBIT_CAMERA    /* the camera's position (it keeps looking at look_at) */
+} pds_orbit;
 
 /* Density-estimation kernel of photon mapping (Jensen 1996). */
 typedef enum pds_kernel {
@@ -380,6 +400,17 @@ typedef struct pds_options {
                            footprints are needle-like (m_a -> 0), green where
                            round (m_a -> 1), weighted by the splats' kernels;
                            black where no photon landed (default NULL) */
+    /* image-space caustics (isc) */
+    pds_isc_gather isc_gather; /* default PDS_ISC_EYE */
+    int light_resolution; /* side of the light-space photon buffer: side^2
+                           photons per light and frame; 0 = the side whose
+                           square is nearest `photons` (default 0) */
+    int history;        /* temporal filter: frames averaged, this one and the
+                           history - 1 before it, 1..64 (default 4, the
+                           paper's; 1 = off) */
+    pds_orbit orbit;    /* pds_render_frames: what turns (default PDS_ORBIT_LIGHT) */
+    double orbit_deg;   /* pds_render_frames: degrees per frame, counter-
+                           clockwise seen from above (default 2) */
     double memory_limit; /* bytes: pds_render refuses (PDS_ERR_LIMIT) a render
                            whose pds_render_estimate_get memory exceeds this;
                            0 = this machine's physical memory (default 0) */
@@ -397,7 +428,8 @@ typedef struct pds_render_stats {
     /* photon methods */
     long photons;           /* photons emitted (including those that missed) */
     long splatted;          /* photons that reached a non-specular surface
-                               after >= 1 specular bounce and were splatted */
+                               after >= 1 specular bounce and were splatted
+                               (isc: that landed so) */
     long dropped_degenerate;/* photons whose footprint had collapsed */
     long eye_vertices;      /* vertices in the eye-path map */
     long saturated;         /* terms that overflowed a pixel's exact photon
@@ -414,7 +446,10 @@ typedef struct pds_render_stats {
                                go with it batch by batch; for pm, pdm and ppm
                                also the two phases below) */
     double time_map_s;      /* pm, pdm, ppm: building the photon maps */
-    double time_gather_s;   /* pm, pdm, ppm: gathering at the eye vertices */
+    double time_gather_s;   /* pm, pdm, ppm: gathering at the eye vertices;
+                               isc: the gathers (time_photons_s: the
+                               light-space buffers, time_eye_s: the eye
+                               buffer with its shadow rays) */
     size_t map_bytes;       /* pm, pdm, ppm: peak size of the photon map */
     size_t memory_bytes;    /* largest working memory the render held at once
                                (image sums, eye-path map, per-thread images);
@@ -443,6 +478,19 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
    memory exceeds opt->memory_limit (or the machine's memory). */
 pds_status pds_render(const pds_scene *scene, const pds_options *opt,
                       pds_image *out, pds_render_stats *stats, pds_error *err);
+
+/* Called with each frame of pds_render_frames, in order; image belongs to
+   the library (copy what you keep). A status other than PDS_OK (with err
+   filled) stops the animation and is returned. */
+typedef pds_status (*pds_frame_fn)(void *user, int frame, const pds_image *image, pds_error *err);
+
+/* An animation of `frames` frames (method PDS_METHOD_ISC only): frame f
+   turns opt->orbit by f x opt->orbit_deg and shifts the light-space photon
+   grid by a sub-texel offset of its own, so the temporal filter
+   (opt->history) averages different photons even in a static scene. stats:
+   photons and times summed over the frames, passes = frames rendered. */
+pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int frames, pds_frame_fn fn,
+                             void *user, pds_render_stats *stats, pds_error *err);
 
 /* -------------------------------------------------------------- benchmarks */
 
