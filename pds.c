@@ -10844,16 +10844,17 @@ static void pds__isc_trace(const pds_scene *s, const pds_light *l, pds__v3 dir, 
     }
 }
 
-/* What the eye sees through pixel p's centre, 36 bytes:
+/* What the eye sees through pixel p's centre, 56 bytes:
      pos, n  first non-specular point, its unit geometric normal facing
              the eye path
+     ns      the shading normal there, on the same side (pds__bsdf_frame)
      fr      the eye path's throughput times the BRDF there (1/sr):
              caustic radiance = fr x irradiance
      area    eq. 5: the pixel's area on the surface (m^2), when seen
              directly; 0 otherwise
      kind    0: nothing; 1: seen directly; 2: through specular surfaces */
 typedef struct pds__isc_pixel {
-    float pos[3], n[3], fr[3];
+    float pos[3], n[3], ns[3], fr[3];
     float area;
     int kind;
 } pds__isc_pixel;
@@ -10898,6 +10899,7 @@ typedef struct pds__isc {
     long long *ph_xy;           /* quads: fixed-point screen position of each photon */
     signed char *ph_front;      /* quads: 1 if in front of the camera */
     float *dep;                 /* eye, light: 4 per cell (flux or irradiance x omega, count) */
+    unsigned char *near;        /* eye: a photon within the gather radius in the row */
     float *lmap;                /* light: the gathered map, 4 per texel */
     pds__isc_view lview;        /* light: the map's view */
     pds__isc_est *est;          /* this frame's estimate */
@@ -10976,22 +10978,24 @@ static double pds__isc_pixel_omega(const pds__camera_frame *f, int x, int y)
                                  (1.0 - 2.0 * (y + 1) / f->height) * ay, (1.0 - 2.0 * y / f->height) * ay);
 }
 
+/* The eye buffer's geometry: one ray through each pixel centre, through
+   specular surfaces on the one-path rule, to the first diffuse point. It
+   depends on the camera alone, so an animation whose camera stands still
+   traces it once. */
 static void pds__isc_eye_rows(pds__isc *ctx, long first, long last)
 {
     const pds_scene *s = ctx->scene;
     long y;
     int x, c;
-    size_t k;
     for (y = first; y < last; y++) {
         for (x = 0; x < ctx->w; x++) {
             size_t p = (size_t)y * (size_t)ctx->w + (size_t)x;
             pds__isc_pixel *out = &ctx->px[p];
             pds__v3 org = ctx->cam.origin, dir = pds__camera_dir(&ctx->cam, x + 0.5, y + 0.5);
-            double beta[3] = {1.0, 1.0, 1.0}, *direct = &ctx->direct[3 * p];
+            double beta[3] = {1.0, 1.0, 1.0};
             const double *sigma = NULL;
             int depth;
             memset(out, 0, sizeof *out);
-            direct[0] = direct[1] = direct[2] = 0.0;
             for (depth = 0; depth <= ctx->opt->max_depth; depth++) {
                 pds__tri_hit th;
                 pds_hit hit;
@@ -11013,31 +11017,47 @@ static void pds__isc_eye_rows(pds__isc *ctx, long first, long last)
                     continue;
                 }
                 if (m->type != PDS_MAT_DIFFUSE || !pds__bsdf_frame(wo, hit.ns, hit.ng, &n, &g, &side)) break;
+                /* Lambertian: f is the same for every wi above the frame
+                   normal n and in front of g, so fr serves every light */
+                pds__bsdf_eval(m, hit.position, wo, n, hit.ns, hit.ng, f, &pdf);
                 pds__f3_set(out->pos, hit.position);
                 pds__f3_set(out->n, g);
-                pds__bsdf_eval(m, hit.position, wo, n, hit.ns, hit.ng, f, &pdf);
+                pds__f3_set(out->ns, n);
                 for (c = 0; c < 3; c++) out->fr[c] = (float)(beta[c] * f[c]);
                 out->kind = depth == 0 ? 1 : 2;
                 if (depth == 0)
                     out->area = (float)(pds__isc_pixel_omega(&ctx->cam, x, (int)y) * th.t * th.t / fabs(pds__dot(dir, g)));
-                /* direct light: a shadow ray to each light */
-                for (k = 0; ctx->opt->paths != PDS_PATHS_CAUSTICS_ONLY && k < ctx->nlights; k++) {
-                    const pds_light *l = &ctx->lights[k];
-                    pds__v3 d = pds__sub(l->position, hit.position), wi;
-                    double d2 = pds__dot(d, d), I[3], cosine;
-                    if (!(d2 > 0.0)) continue;
-                    wi = pds__scale(d, 1.0 / sqrt(d2));
-                    pds__bsdf_eval(m, hit.position, wo, wi, hit.ns, hit.ng, f, &pdf);
-                    cosine = pds__dot(wi, n);
-                    if (!(cosine > 0.0) || !(f[0] + f[1] + f[2] > 0.0)) continue;
-                    if (pds__bvh_occluded(&s->bvh, pds__add(hit.position, pds__scale(g, ctx->eps)), wi, 0.0,
-                                          sqrt(d2) * (1.0 - 1e-4)))
-                        continue;
-                    pds__isc_intensity(l, pds__scale(wi, -1.0), I);
-                    for (c = 0; c < 3; c++) direct[c] += beta[c] * f[c] * I[c] * cosine / d2;
-                }
                 break;
             }
+        }
+    }
+}
+
+/* Direct light at each eye point: a shadow ray to each light,
+   fr I cos / d^2 (the exact test a shadow map approximates). */
+static void pds__isc_direct_rows(pds__isc *ctx, long first, long last)
+{
+    const pds_scene *s = ctx->scene;
+    size_t p, k;
+    int c;
+    for (p = (size_t)first * ctx->w; p < (size_t)last * ctx->w; p++) {
+        const pds__isc_pixel *px = &ctx->px[p];
+        double *direct = &ctx->direct[3 * p];
+        pds__v3 x = pds__f3_get(px->pos), g = pds__f3_get(px->n), n = pds__f3_get(px->ns);
+        direct[0] = direct[1] = direct[2] = 0.0;
+        if (!px->kind) continue;
+        for (k = 0; k < ctx->nlights; k++) {
+            const pds_light *l = &ctx->lights[k];
+            pds__v3 d = pds__sub(l->position, x), wi;
+            double d2 = pds__dot(d, d), I[3], cosine;
+            if (!(d2 > 0.0)) continue;
+            wi = pds__scale(d, 1.0 / sqrt(d2));
+            cosine = pds__dot(wi, n);
+            if (!(cosine > 0.0) || !(pds__dot(wi, g) > 0.0)) continue;
+            if (pds__bvh_occluded(&s->bvh, pds__add(x, pds__scale(g, ctx->eps)), wi, 0.0, sqrt(d2) * (1.0 - 1e-4)))
+                continue;
+            pds__isc_intensity(l, pds__scale(wi, -1.0), I);
+            for (c = 0; c < 3; c++) direct[c] += px->fr[c] * I[c] * cosine / d2;
         }
     }
 }
@@ -11141,6 +11161,25 @@ static void pds__isc_points(pds__isc *ctx, int eye)
     }
 }
 
+/* near[p]: does a pixel of p's row within the gather radius hold a
+   photon? (So the gather skips, with 7 tests, the pixels that no photon
+   is near: most of them.) */
+static void pds__isc_near_rows(pds__isc *ctx, long first, long last)
+{
+    long y;
+    int x;
+    for (y = first; y < last; y++) {
+        const float *d = &ctx->dep[4 * (size_t)y * ctx->w];
+        unsigned char *out = &ctx->near[(size_t)y * ctx->w];
+        int last_photon = -1000000;
+        for (x = 0; x < ctx->w; x++) out[x] = 0;
+        for (x = 0; x < ctx->w + PDS__ISC_RADIUS; x++) {
+            if (x < ctx->w && d[4 * x + 3] != 0.0f) last_photon = x;
+            if (x - PDS__ISC_RADIUS >= 0) out[x - PDS__ISC_RADIUS] = x - last_photon <= 2 * PDS__ISC_RADIUS;
+        }
+    }
+}
+
 /* Eye-space gather (sect. 3.2.2): each directly seen pixel sums the
    irradiance Phi_q / A_q of the pixels q of its 7x7 neighbourhood that lie
    on its surface, weighted by the normalised Gaussian, and their counts. */
@@ -11152,7 +11191,11 @@ static void pds__isc_eye_gather(pds__isc *ctx, long first, long last)
         for (x = 0; x < ctx->w; x++) {
             size_t p = (size_t)y * ctx->w + x;
             double e[3] = {0, 0, 0}, count = 0.0;
+            int any = 0;
             if (ctx->px[p].kind != 1) continue;
+            for (dy = -PDS__ISC_RADIUS; dy <= PDS__ISC_RADIUS && !any; dy++)
+                any = y + dy >= 0 && y + dy < ctx->h && ctx->near[(size_t)(y + dy) * ctx->w + x];
+            if (!any) continue;
             for (dy = -PDS__ISC_RADIUS; dy <= PDS__ISC_RADIUS; dy++) {
                 long yy = y + dy;
                 if (yy < 0 || yy >= ctx->h) continue;
@@ -11496,7 +11539,10 @@ static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
         pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_pixels);
         if (ctx->gather == PDS_ISC_EYE) memset(ctx->dep, 0, sizeof *ctx->dep * 4 * (size_t)ctx->w * ctx->h);
         pds__isc_points(ctx, ctx->gather == PDS_ISC_EYE);
-        if (ctx->gather == PDS_ISC_EYE) pds__isc_parallel(ctx, ctx->h, 8, pds__isc_eye_gather);
+        if (ctx->gather == PDS_ISC_EYE) {
+            pds__isc_parallel(ctx, ctx->h, 16, pds__isc_near_rows);
+            pds__isc_parallel(ctx, ctx->h, 8, pds__isc_eye_gather);
+        }
         break;
     case PDS_ISC_LIGHT:
         pds__isc_light_map_view(ctx);
@@ -11544,7 +11590,12 @@ static void pds__isc_frame(pds__isc *ctx, int frame, int accumulate, pds_image *
     }
     if (opt->orbit == PDS_ORBIT_CAMERA) cam.position = pds__isc_orbit(cam.position, cam.look_at, angle);
     ctx->cam = pds__camera_setup(&cam, ctx->w, ctx->h);
-    pds__isc_parallel(ctx, ctx->h, 4, pds__isc_eye_rows);
+    /* the eye buffer when the camera moved (or on the first frame), its
+       direct light when anything moved */
+    if (ctx->frames_done == 0 || (opt->orbit == PDS_ORBIT_CAMERA && angle != 0.0))
+        pds__isc_parallel(ctx, ctx->h, 4, pds__isc_eye_rows);
+    if (ctx->frames_done == 0 || (opt->orbit != PDS_ORBIT_NONE && angle != 0.0))
+        pds__isc_parallel(ctx, ctx->h, 4, pds__isc_direct_rows);
     ctx->time_eye += pds_time_now() - t0;
     memset(ctx->est, 0, sizeof *ctx->est * npix);
     if (opt->paths != PDS_PATHS_NO_CAUSTICS && ctx->target.any)
@@ -11597,6 +11648,7 @@ static void pds__isc_free(pds__isc *ctx)
     free(ctx->ph_xy);
     free(ctx->ph_front);
     free(ctx->dep);
+    free(ctx->near);
     free(ctx->lmap);
     free(ctx->est);
     free(ctx->ring);
@@ -11678,7 +11730,10 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
         ctx->nfrags = (size_t *)calloc((size_t)ctx->res, sizeof *ctx->nfrags);
         ctx->capfrags = (size_t *)calloc((size_t)ctx->res, sizeof *ctx->capfrags);
     }
-    if (ctx->gather == PDS_ISC_EYE) ctx->dep = (float *)malloc(sizeof *ctx->dep * 4 * npix);
+    if (ctx->gather == PDS_ISC_EYE) {
+        ctx->dep = (float *)malloc(sizeof *ctx->dep * 4 * npix);
+        ctx->near = (unsigned char *)malloc(npix);
+    }
     if (ctx->gather == PDS_ISC_LIGHT) {
         ctx->dep = (float *)malloc(sizeof *ctx->dep * 4 * n);
         ctx->lmap = (float *)malloc(sizeof *ctx->lmap * 4 * n);
@@ -11687,6 +11742,7 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
         !ctx->ph_pixel || (ctx->gather == PDS_ISC_QUADS && (!ctx->ph_xy || !ctx->ph_front || !ctx->frags ||
                                                           !ctx->nfrags || !ctx->capfrags)) ||
         ((ctx->gather == PDS_ISC_EYE || ctx->gather == PDS_ISC_LIGHT) && !ctx->dep) ||
+        (ctx->gather == PDS_ISC_EYE && !ctx->near) ||
         (ctx->gather == PDS_ISC_LIGHT && !ctx->lmap)) {
         pds__isc_free(ctx);
         return pds__nomem(err);
