@@ -1555,6 +1555,102 @@ static int render_pds(pds_scene *scene, long photons, int threads, int width, pd
     return 0;
 }
 
+/* --- bench isc ------------------------------------------------------------ */
+
+/* The frame callback of bench isc: wall and CPU time at each frame's end. */
+typedef struct isc_clock {
+    double wall[64], cpu[64];
+    int n;
+} isc_clock;
+
+static pds_status isc_clock_frame(void *user, int frame, const pds_image *img, pds_error *err)
+{
+    isc_clock *c = (isc_clock *)user;
+    (void)img;
+    (void)err;
+    if (frame < 64) {
+        c->wall[frame] = pds_time_now();
+        c->cpu[frame] = (double)clock() / CLOCKS_PER_SEC;
+        c->n = frame + 1;
+    }
+    return PDS_OK;
+}
+
+/* Wyman and Davis 2006, Table 1: frames per second at 512x512 (GeForce
+   7800 GTX), static then dynamic lighting, points, quads, eye gather,
+   light gather; by photon count 512^2, 1024^2, 2048^2 (0: "n/a"). */
+static const double paper_octahedron[3][8] = {{159.1, 38.1, 53.9, 61.1, 38.9, 1.5, 33.7, 18.8},
+                                              {58.4, 11.4, 35.1, 60.8, 12.4, 0.4, 15.3, 8.3},
+                                              {18.1, 0.0, 14.7, 60.5, 2.7, 0.0, 4.8, 2.6}};
+static const double paper_ring[3][8] = {{151.2, 39.6, 52.8, 59.3, 40.3, 1.5, 34.7, 18.9},
+                                        {57.6, 11.7, 35.4, 59.0, 12.5, 0.4, 16.0, 8.4},
+                                        {18.8, 0.0, 15.2, 58.3, 2.8, 0.0, 5.0, 2.6}};
+
+/* Image-space caustics' frames per second at 512x512 with 512^2, 1024^2
+   and 2048^2 photons, for each gather: an animation whose light turns 2
+   degrees a frame (the paper's dynamic lighting: photons, gathers and
+   direct light every frame; the camera stands still, so the eye buffer is
+   traced once, in the first frame, which is timed apart as "first_s").
+   Beside it the paper's Table 1 and PDS's time for one 512x512 image
+   with as many photons (1 sample per pixel). */
+static int bench_isc(int argc, char **argv)
+{
+    static const char *const gname[4] = {"points", "quads", "eye", "light"};
+    static const int frames_for[3] = {13, 7, 4};
+    const char *path = argc >= 1 ? argv[0] : "scenes/ring_octahedron.scene";
+    pds_scene *scene = NULL;
+    pds_error err;
+    int r, g, threads = pds_cpu_count();
+    if (argc > 1) return usage_error("%s", "bench isc takes at most one scene");
+    if (load_any(path, &scene, &err) != PDS_OK) {
+        fprintf(stderr, "%s\n", pds_error_string(&err));
+        return 1;
+    }
+    for (r = 0; r < 3; r++) {
+        int res = 512 << r;
+        pds_render_stats st;
+        double pds_s;
+        if (render_pds(scene, (long)res * res, threads, 512, &st)) {
+            pds_scene_free(scene);
+            return 1;
+        }
+        pds_s = st.time_total_s;
+        for (g = 0; g < 4; g++) {
+            pds_options opt;
+            isc_clock clk;
+            int n = frames_for[r];
+            double wall, cpu;
+            pds_options_default(&opt);
+            opt.method = PDS_METHOD_ISC;
+            opt.isc_gather = (pds_isc_gather)g;
+            opt.light_resolution = res;
+            opt.width = opt.height = 512;
+            opt.threads = threads;
+            opt.orbit = PDS_ORBIT_LIGHT;
+            clk.n = 0;
+            clk.wall[0] = 0.0;
+            {
+                double t0 = pds_time_now();
+                if (pds_render_frames(scene, &opt, n, isc_clock_frame, &clk, &st, &err) != PDS_OK) {
+                    fprintf(stderr, "%s\n", pds_error_string(&err));
+                    pds_scene_free(scene);
+                    return 1;
+                }
+                wall = clk.wall[n - 1] - clk.wall[0];
+                cpu = clk.cpu[n - 1] - clk.cpu[0];
+                printf("bench isc gather=%s photons=%d^2 res=512x512 frames=%d fps=%.2f cpu_s_per_frame=%.4f "
+                       "first_s=%.3f threads=%d paper_fps_dynamic=%g/%g paper_fps_static=%g/%g pds_s=%.3f\n",
+                       gname[g], res, n - 1, (n - 1) / wall, cpu / (n - 1), clk.wall[0] - t0, st.threads,
+                       paper_octahedron[r][4 + g], paper_ring[r][4 + g], paper_octahedron[r][g], paper_ring[r][g],
+                       pds_s);
+                fflush(stdout);
+            }
+        }
+    }
+    pds_scene_free(scene);
+    return 0;
+}
+
 /* Caustic photons emitted, traced and splatted per second (photon pass
    only), one thread and all threads. */
 static int bench_photons(int argc, char **argv)
@@ -1648,6 +1744,7 @@ static int cmd_bench(int argc, char **argv)
     if (!strcmp(argv[0], "pt")) return bench_pt(argc - 1, argv + 1);
     if (!strcmp(argv[0], "photons")) return bench_photons(argc - 1, argv + 1);
     if (!strcmp(argv[0], "memory")) return bench_memory(argc - 1, argv + 1);
+    if (!strcmp(argv[0], "isc")) return bench_isc(argc - 1, argv + 1);
     if (!strcmp(argv[0], "filter")) {
         pds_bench_filter_result r;
         if (pds_bench_filter(2000000, &r, &err) != PDS_OK) {
@@ -1669,14 +1766,14 @@ static int cmd_bench(int argc, char **argv)
         return 0;
     }
     {
-        static const char *const names[] = {"rays", "pt", "photons", "memory", "filter", "kdtree"};
+        static const char *const names[] = {"rays", "pt", "photons", "memory", "filter", "kdtree", "isc"};
         char hint[256];
         suggestion sug;
         size_t i;
         suggest_init(&sug, argv[0]);
         for (i = 0; i < sizeof names / sizeof names[0]; i++) suggest_consider(&sug, names[i]);
         if (!suggest_text(&sug, hint, sizeof hint)[0])
-            snprintf(hint, sizeof hint, " (rays, pt, photons, memory, filter, kdtree)");
+            snprintf(hint, sizeof hint, " (rays, pt, photons, memory, filter, kdtree, isc)");
         return usage_error("unknown benchmark '%s'%s", argv[0], hint);
     }
 }

@@ -10664,9 +10664,9 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
    scene, camera, lights and BVH of the other methods.
 
    1. Light-space photon buffer (sect. 3.1, Fig. 1c, Fig. 3): one photon per
-      texel of an R x R pinhole view from each point or spot light, aimed
-      at the bounding sphere of the specular triangles (pds__specular_target;
-      the paper used a fixed 90-degree view). Photon (i, j) leaves through
+      texel of an R x R pinhole view from each point or spot light, fitted
+      around the specular triangles as the light sees them (the paper used
+      a fixed 90-degree view). Photon (i, j) leaves through
       the image-plane point of texel coordinates (i + jx, j + jy), (jx, jy)
       this frame's sub-texel offset, and is traced through the specular
       surfaces. It stores where it first meets a non-specular surface after
@@ -10823,11 +10823,12 @@ static void pds__isc_trace(const pds_scene *s, const pds_light *l, pds__v3 dir, 
         const pds_material *m;
         pds__bsdf_result bs;
         if (!pds__bvh_intersect(&s->bvh, org, dir, 0.0, DBL_MAX, &th)) return;
+        m = &s->materials.items[s->mesh.mat[th.tri]];
+        if (depth == 0 && !pds__material_is_specular(m)) return; /* direct light, not a caustic */
         pds__scene_fill_hit(s, &th, org, dir, &hit);
         pds__beer(sigma, th.t, w);
-        m = &s->materials.items[hit.material];
         if (!pds__material_is_specular(m)) {
-            if (depth == 0 || m->type != PDS_MAT_DIFFUSE) return;
+            if (m->type != PDS_MAT_DIFFUSE) return;
             pds__f3_set(ph->pos, hit.position);
             pds__f3_set(ph->n, pds__dot(hit.ng, dir) < 0.0 ? hit.ng : pds__scale(hit.ng, -1.0));
             for (c = 0; c < 3; c++) ph->e[c] = (float)w[c];
@@ -11075,18 +11076,57 @@ static void pds__isc_photon_rows(pds__isc *ctx, long first, long last)
         }
 }
 
-/* Light k's view for this frame: aimed at the specular target, widened
-   by two texels so that the frame's offset keeps the target inside.
+/* Half-extents (in b1, b2) and centre of the specular triangles' corners
+   projected onto the view plane of v; 0 if a corner is not in front. */
+static int pds__isc_view_extent(const pds_scene *s, const pds__isc_view *v, double *u0, double *u1, double *w0,
+                                double *w1)
+{
+    size_t t;
+    int k, any = 0;
+    for (t = 0; t < s->mesh.ntris; t++) {
+        if (!pds__material_is_specular(&s->materials.items[s->mesh.mat[t]])) continue;
+        for (k = 0; k < 3; k++) {
+            pds__v3 d = pds__sub(pds__mesh_pos(&s->mesh, s->mesh.idx[3 * t + k]), v->origin);
+            double z = pds__dot(d, v->axis), u, w;
+            if (!(z > 1e-9 * pds__length(d))) return 0;
+            u = pds__dot(d, v->b1) / z;
+            w = pds__dot(d, v->b2) / z;
+            if (!any || u < *u0) *u0 = u;
+            if (!any || u > *u1) *u1 = u;
+            if (!any || w < *w0) *w0 = w;
+            if (!any || w > *w1) *w1 = w;
+            any = 1;
+        }
+    }
+    return any;
+}
+
+/* The light's view for this frame: a square frustum around the specular
+   triangles as the light sees them (their corners' projections, so every
+   photon that can meet a specular surface is in it), widened by two
+   texels so that the frame's offset keeps them inside. (Wyman and Davis
+   used a fixed 90-degree view; focusing on the specular geometry is their
+   sect. 5's future work, and puts more photons where caustics start.)
    Returns 0 when the light is inside the target sphere (one frustum
    cannot hold it; the paper would render several views). */
-static int pds__isc_view_setup(const pds__target *tg, pds__v3 pos, int res, double jx, double jy, pds__isc_view *v)
+static int pds__isc_view_setup(const pds_scene *s, const pds__target *tg, pds__v3 pos, int res, double jx, double jy,
+                               pds__isc_view *v)
 {
-    double cos_max;
+    double cos_max, u0 = 0, u1 = 0, w0 = 0, w1 = 0, half;
     memset(v, 0, sizeof *v);
     if (!pds__target_cone(tg, pos, &v->axis, &cos_max) || !(cos_max > 1e-6)) return 0;
     v->origin = pos;
     pds__onb(v->axis, &v->b1, &v->b2);
-    v->tan_half = sqrt(fmax(0.0, 1.0 - cos_max * cos_max)) / cos_max * (1.0 + 2.0 / res);
+    half = sqrt(fmax(0.0, 1.0 - cos_max * cos_max)) / cos_max;
+    if (pds__isc_view_extent(s, v, &u0, &u1, &w0, &w1)) {
+        /* aim at the middle of the projections, then measure again */
+        v->axis = pds__normalize(pds__add(v->axis, pds__add(pds__scale(v->b1, 0.5 * (u0 + u1)),
+                                                            pds__scale(v->b2, 0.5 * (w0 + w1)))));
+        pds__onb(v->axis, &v->b1, &v->b2);
+        if (pds__isc_view_extent(s, v, &u0, &u1, &w0, &w1))
+            half = fmax(fmax(-u0, u1), fmax(-w0, w1)) * 1.0001;
+    }
+    v->tan_half = half * (1.0 + 2.0 / res);
     v->res = res;
     v->jx = jx;
     v->jy = jy;
@@ -11527,7 +11567,7 @@ static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
     double jy = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)frame, 1);
     double t0 = pds_time_now(), t1;
     ctx->light = &ctx->lights[k];
-    if (!pds__isc_view_setup(&ctx->target, ctx->light->position, ctx->res, jx, jy, &ctx->view)) return;
+    if (!pds__isc_view_setup(ctx->scene, &ctx->target, ctx->light->position, ctx->res, jx, jy, &ctx->view)) return;
     pds__isc_parallel(ctx, ctx->res, 4, pds__isc_photon_rows);
     ctx->photons += (long)n;
     for (i = 0; i < n; i++) ctx->landed += ctx->ph[i].path != 0;

@@ -68,10 +68,12 @@ static double isc_floor_pixel_area(const pds_scene *s, int w, int h, int x, int 
     return 0.5 * pds__length(pds__cross(pds__sub(q[2], q[0]), pds__sub(q[3], q[1])));
 }
 
-static int isc_render(const char *text, pds_isc_gather g, int res, int threads, pds_image *img, pds_render_stats *st)
+static int isc_render(const char *text, pds_isc_gather g, int res, int size, int threads, pds_image *img,
+                      pds_render_stats *st)
 {
     pds_options opt;
     pds_options_default(&opt);
+    opt.width = opt.height = size;
     opt.method = PDS_METHOD_ISC;
     opt.paths = PDS_PATHS_CAUSTICS_ONLY;
     opt.isc_gather = g;
@@ -86,11 +88,13 @@ static const char *const isc_gather_label[] = {"points", "quads", "eye", "light"
    making any: the irradiance the image shows (L / f_r, f_r = 1/pi),
    integrated over the floor with each pixel's exact footprint, is the
    flux the mirror reflects, R I Omega. Quads lose the half-cell rim
-   between the outermost photons and the mirror's edge: about 1/N + 1/M
-   of it for N x M photons on the mirror (3.4% here). */
+   between the outermost photons and the mirror's edge, about 1/N + 1/M
+   of it for N x M photons on the mirror (1.1% here), and their cover is
+   sampled at pixel centres, up to half a pixel off along each edge of
+   the lit patch (about 1% at 192 x 192). */
 static void test_isc_gathers_conserve_flux_on_a_flat_receiver(pds_test_ctx *t)
 {
-    static const double tol[4] = {0.015, 0.05, 0.02, 0.02};
+    static const double tol[4] = {0.01, 0.03, 0.01, 0.01};
     pds_error err;
     pds_scene *s = scene_from_text(isc_mirror_scene, &err);
     double expect = isc_mirror_flux();
@@ -101,7 +105,7 @@ static void test_isc_gathers_conserve_flux_on_a_flat_receiver(pds_test_ctx *t)
         pds_render_stats st;
         double flux = 0.0;
         int x, y;
-        if (!isc_render(isc_mirror_scene, (pds_isc_gather)g, 256, 2, &img, &st)) {
+        if (!isc_render(isc_mirror_scene, (pds_isc_gather)g, 256, 192, 2, &img, &st)) {
             CHECK(t, 0, "%s: render", isc_gather_label[g]);
             continue;
         }
@@ -114,7 +118,7 @@ static void test_isc_gathers_conserve_flux_on_a_flat_receiver(pds_test_ctx *t)
         CHECK(t, st.splatted > 2000, "%s: %ld photons landed", isc_gather_label[g], st.splatted);
         CHECK(t, fabs(flux / expect - 1.0) < tol[g], "%s: flux %.5g W, the mirror reflects %.5g W (ratio %.4f)",
               isc_gather_label[g], flux, expect, flux / expect);
-        if (getenv("ISC_DBG")) printf("%s ratio %.5f\n", isc_gather_label[g], flux / expect);
+        if (getenv("ISC_DBG")) printf("%s ratio %.5f landed %ld\n", isc_gather_label[g], flux / expect, st.splatted);
         pds_image_free(&img);
     }
     pds_scene_free(s);
@@ -257,7 +261,7 @@ static void test_isc_buffer_photons_land_where_a_per_photon_tracer_does(pds_test
     double worst = 0.0, worst_w = 0.0;
     REQUIRE(t, s != NULL, "scene: %s", err.text);
     tg = pds__specular_target(s);
-    REQUIRE(t, pds__isc_view_setup(&tg, s->lights[0].position, res, 0.3, 0.7, &v), "view");
+    REQUIRE(t, pds__isc_view_setup(s, &tg, s->lights[0].position, res, 0.3, 0.7, &v), "view");
     for (j = 0; j < res; j++)
         for (i = 0; i < res; i++) {
             pds__isc_photon ph;
