@@ -59,6 +59,7 @@ typedef struct command_help {
     const char *summary;  /* one line */
     const char *details;  /* options and notes, indented six spaces; may be "" */
     int takes_options;    /* follows the option syntax of render (the footer applies) */
+    const char *more;     /* more details, printed after them; may be NULL */
 } command_help;
 
 static const command_help help_table[] = {
@@ -68,7 +69,7 @@ static const command_help help_table[] = {
      "      --method NAME           pds (photon differential splatting, default), pt (path tracing),\n"
      "                              preview (eye-light shading), or a baseline: pm (photon mapping),\n"
      "                              pdm (photon differential mapping), splat (fixed-radius photon\n"
-     "                              splatting), ppm (progressive photon mapping)\n"
+     "                              splatting), ppm (progressive photon mapping), isc (see below)\n"
      "      --photons N             photon methods: caustic photons (default 100000; ppm: per pass)\n"
      "      --smoothing S           pdm, and pds: the paper's fixed-s PDS with smoothing s (default 12;\n"
      "                              5..40); as --min-aspect and --min-width, it turns progressive PDS off\n"
@@ -109,7 +110,19 @@ static const command_help help_table[] = {
      "      --progress              progress on stderr even when it is not a terminal (then one line\n"
      "                              every 2 seconds); default: a bar when stderr is a terminal\n"
      "      --quiet                 no progress, no scene warnings\n",
-     1},
+     1,
+     /* C99 promises string literals of 4095 bytes only: the rest here */
+     "      --method isc            image-space caustics (Wyman and Davis 2006): interactive, approximate;\n"
+     "                              --photons N: a light-space buffer of side sqrt(N) per light; --time:\n"
+     "                              frames, each with its buffer offset anew, averaged until it is spent\n"
+     "      --gather G              isc: points, quads, eye (default) or light\n"
+     "      --light-res N           isc: side of the light-space photon buffer, N^2 photons per light\n"
+     "                              (default: from --photons)\n"
+     "      --history N             isc: temporal filter, the last N frames averaged (default 4; 1 = off)\n"
+     "      --frames N              isc: an animation of N frames, OUT.0000.png, OUT.0001.png, ...\n"
+     "      --orbit WHAT            --frames: light (default), camera or none turns about the vertical\n"
+     "                              line through the camera's look-at point\n"
+     "      --orbit-step DEG        --frames: degrees per frame, counter-clockwise from above (default 2)\n" },
     {"sweep", "sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]",
      "render once per value of one parameter and compare each with REF",
      "      --method NAME           the method swept (default pds)\n"
@@ -120,7 +133,7 @@ static const command_help help_table[] = {
      "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
      "                              (RMSE and SSIM against the parameter), one PNG per value\n"
      "      and any render option, e.g. --photons N, --res WxH, --caustics-only\n",
-     1},
+     1, NULL},
     {"race", "race SCENE --ref REF.pfm (--time T | --photons N | --budgets LIST) --methods LIST [options]",
      "every method on the same budget, side by side against REF",
      "      --methods LIST          e.g. pds,pm:k=50,pdm,splat:radius=0.05,ppm; options for one\n"
@@ -136,18 +149,20 @@ static const command_help help_table[] = {
      "                              largest luminance variance)\n"
      "      -o DIR                  output folder (default race-SCENE): index.html, race.csv, images\n"
      "      and any render option; it applies to every method it concerns\n",
-     1},
-    {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", 0},
-    {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", 0},
+     1, NULL},
+    {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", 0, NULL},
+    {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", 0, NULL},
     {"bench", "bench WHAT [ARGS]", "micro-benchmarks (figures, never pass/fail):",
      "      rays MESH [N]           BVH build and ray throughput, one thread (N rays, default 1000000)\n"
      "      pt [SCENE]              path-traced samples per second, 1 thread and all threads\n"
      "      photons [SCENE]         PDS caustic photons per second, 1 thread and all threads\n"
      "      memory [SCENE]          PDS working memory at 1e5 and at 1e7 photons\n"
      "      filter                  eq. 12 filter matrices per second against a general 3x3 inverse\n"
-     "      kdtree                  eye-path map build, range and nearest-neighbour queries per second\n",
-     0},
-    {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", 0},
+     "      kdtree                  eye-path map build, range and nearest-neighbour queries per second\n"
+     "      isc [SCENE]             image-space caustics: frames per second per gather at 512x512 with\n"
+     "                              512^2, 1024^2, 2048^2 photons, beside the paper's and PDS's times\n",
+     0, NULL},
+    {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", 0, NULL},
 };
 #define N_COMMANDS (sizeof help_table / sizeof help_table[0])
 
@@ -173,6 +188,7 @@ static void print_overview(FILE *f)
         const command_help *h = &help_table[i];
         if (strlen(h->synopsis) <= 26) fprintf(f, "  %-26s  %s\n%s", h->synopsis, h->summary, h->details);
         else fprintf(f, "  %s\n%30s%s\n%s", h->synopsis, "", h->summary, h->details);
+        if (h->more) fputs(h->more, f);
     }
     fputs("  --help, -h                  this text\n"
           "  --version                   the version\n"
@@ -186,6 +202,7 @@ static void print_overview(FILE *f)
 static void print_command_help(const command_help *h, FILE *f)
 {
     fprintf(f, "usage: pds %s\n  %s\n%s", h->synopsis, h->summary, h->details);
+    if (h->more) fputs(h->more, f);
     if (h->takes_options) fputs(option_syntax_help, f);
     else fputs("      -h, --help              this text\n", f);
 }
