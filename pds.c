@@ -11617,7 +11617,8 @@ static void pds__isc_frame(pds__isc *ctx, int frame, int accumulate, pds_image *
     const pds_scene *s = ctx->scene;
     const pds_options *opt = ctx->opt;
     size_t npix = (size_t)ctx->w * ctx->h, i, k;
-    double angle = frame * opt->orbit_deg * (PDS__PI / 180.0), t0 = pds_time_now();
+    /* a still's frames (time budget) do not turn */
+    double angle = accumulate ? 0.0 : frame * opt->orbit_deg * (PDS__PI / 180.0), t0 = pds_time_now();
     pds_camera cam = s->camera;
     pds__isc_est *slot;
     int c, n_hist, h, threshold = ctx->gather == PDS_ISC_EYE || ctx->gather == PDS_ISC_LIGHT;
@@ -11729,11 +11730,13 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
     memset(ctx, 0, sizeof *ctx);
     pthread_mutex_init(&ctx->lock, NULL);
     for (k = 0; k < s->nlights; k++)
-        if (s->lights[k].type != PDS_LIGHT_POINT && s->lights[k].type != PDS_LIGHT_SPOT)
+        if (s->lights[k].type != PDS_LIGHT_POINT && s->lights[k].type != PDS_LIGHT_SPOT) {
+            static const char *const kind[] = {"point", "spot", "directional", "disk", "quad", "mesh"};
             return pds__fail(err, PDS_ERR_INVALID_ARG, s->path[0] ? s->path : NULL, 0, 0,
                              "image-space caustics (--method isc) take point and spot lights only, as Wyman and "
-                             "Davis's method does; light %lu is not one",
-                             (unsigned long)k + 1);
+                             "Davis's method does; light %lu is a %s light",
+                             (unsigned long)k + 1, kind[(unsigned)s->lights[k].type % 6u]);
+        }
     ctx->scene = s;
     ctx->opt = opt;
     ctx->gather = opt->isc_gather;

@@ -1,8 +1,10 @@
 /* tests/test_isc.c - image-space caustics (Wyman and Davis 2006): the
    light-space photon buffer against a per-photon tracer, flux conservation
    of every gather and the quads' exact cover on a plane mirror's analytic
-   caustic, determinism, and the temporal filter's flicker. Uses
-   scene_from_text (test_scene.c) and render_text (test_render.c). */
+   caustic, determinism, the temporal filter's flicker, and the tool's
+   frames. Uses scene_from_text (test_scene.c), render_text
+   (test_render.c), cli_run (test_cli.c) and harness_path
+   (test_harness.c). */
 
 /* A point light at (-2, 1, 0) and a small square mirror (reflectance 0.8)
    at (0, 1, 0) facing (-1, -1, 0)/sqrt 2: the floor sees the light
@@ -443,6 +445,57 @@ static void test_isc_light_orbit_moves_the_caustic_and_returns(pds_test_ctx *t)
     pds_scene_free(s);
 }
 
+/* Mean relative error of the points gather's irradiance against the
+   mirror's analytic caustic, inside the lit patch (64 x 64 image). */
+static double isc_points_error(const pds_scene *s, const pds_image *img)
+{
+    double sum = 0.0;
+    int x, y, n = 0;
+    for (y = 0; y < 64; y++)
+        for (x = 0; x < 64; x++) {
+            pds__v3 c;
+            (void)isc_floor_pixel_area(s, 64, 64, x, y, &c);
+            if (fabs(c.x + 0.02) > 0.2 || fabs(c.z) > 0.3) continue;
+            sum += fabs(PDS__PI * img->rgb[3 * (y * 64 + x) + 1] / isc_mirror_irradiance(c) - 1.0);
+            n++;
+        }
+    return n ? sum / n : 1.0;
+}
+
+/* Under a time budget a still averages frames whose light-space grids are
+   offset differently (and nothing turns): the sparse points image
+   converges toward the analytic caustic. */
+static void test_isc_time_budget_averages_offset_frames(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text(isc_mirror_scene, &err);
+    pds_options opt;
+    pds_image one = {0, 0, NULL}, many = {0, 0, NULL};
+    pds_render_stats st;
+    REQUIRE(t, s != NULL, "scene: %s", err.text);
+    pds_options_default(&opt);
+    opt.method = PDS_METHOD_ISC;
+    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    opt.isc_gather = PDS_ISC_POINTS;
+    opt.light_resolution = 40;
+    opt.threads = 2;
+    if (pds_render(s, &opt, &one, NULL, &err) == PDS_OK) {
+        opt.time_s = 0.5;
+        if (pds_render(s, &opt, &many, &st, &err) == PDS_OK) {
+            double e1 = isc_points_error(s, &one), en = isc_points_error(s, &many);
+            CHECK(t, st.passes >= 2 && st.photons == (long)st.passes * 40 * 40, "%d frames, %ld photons", st.passes,
+                  st.photons);
+            CHECK(t, en < e1 / sqrt(st.passes > 1 ? st.passes : 1.0) * 1.5,
+                  "error %.4f after %d frames, %.4f after one", en, st.passes, e1);
+            if (getenv("ISC_DBG")) printf("frames %d error %g vs %g\n", st.passes, en, e1);
+        }
+    }
+    CHECK(t, one.rgb && many.rgb, "render: %s", err.text);
+    pds_image_free(&one);
+    pds_image_free(&many);
+    pds_scene_free(s);
+}
+
 /* What isc cannot take is refused with a message, not rendered wrong. */
 static void test_isc_refuses_what_it_cannot_render(pds_test_ctx *t)
 {
@@ -458,7 +511,7 @@ static void test_isc_refuses_what_it_cannot_render(pds_test_ctx *t)
     pds_options_default(&opt);
     opt.method = PDS_METHOD_ISC;
     CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_ERR_INVALID_ARG &&
-                 strstr(err.text, "point and spot lights only") != NULL,
+                 strstr(err.text, "point and spot lights only, as Wyman and Davis's method does; light 1 is a quad light") != NULL,
           "quad light: %s", err.text);
     opt.method = PDS_METHOD_PDS;
     CHECK(t, pds_render_frames(s, &opt, 3, isc_keep_frame, NULL, NULL, &err) == PDS_ERR_INVALID_ARG &&
@@ -471,6 +524,40 @@ static void test_isc_refuses_what_it_cannot_render(pds_test_ctx *t)
     pds_scene_free(s);
 }
 
+/* The tool: --frames writes numbered frames and one final line; isc's
+   options are checked and their mistakes named. */
+static void test_isc_cli_frames_and_options(pds_test_ctx *t)
+{
+    char out[8192], args[1024], base[256], path[300];
+    int k;
+    harness_path(base, sizeof base, "isc.png");
+    snprintf(args, sizeof args,
+             "render scenes/ring_octahedron.scene --method isc --gather quads --light-res 32 --res 16x12 --frames 3 "
+             "--orbit camera --orbit-step 10 --quiet -o %s",
+             base);
+    CHECK(t, cli_run(args, out, sizeof out) == 0, "%s", out);
+    CHECK(t, HARNESS_STARTS(cli_last_line(out), "render method=isc paths=all width=16 height=12 spp=1 photons=3072 ") &&
+                 strstr(out, " frames=3 gather=quads history=4 ") != NULL,
+          "final line: %s", out);
+    for (k = 0; k < 3; k++) {
+        snprintf(path, sizeof path, "/tmp/pds_harness_%ld_isc.%04d.png", (long)getpid(), k);
+        CHECK(t, cli_file_exists(path), "%s written", path);
+        remove(path);
+    }
+    CHECK(t, cli_run("render scenes/ring_octahedron.scene --method isc --gather eyes", out, sizeof out) == 2 &&
+                 strstr(out, "pds render: --gather takes points, quads, eye or light, got 'eyes' (did you mean 'eye'?)"),
+          "%s", out);
+    CHECK(t, cli_run("render tests/golden/glass.scene --frames 3", out, sizeof out) == 2 &&
+                 strstr(out, "--frames renders an animation with --method isc only"),
+          "%s", out);
+    CHECK(t, cli_run("render tests/golden/glass.scene --method pm --gather eye --res 8x6 --spp 1 --photons 100 --quiet "
+                     "-o /tmp/pds_isc_note.png",
+                     out, sizeof out) == 0 &&
+                 strstr(out, "pds render: note: --gather has no effect with --method pm (it is for isc)"),
+          "%s", out);
+    remove("/tmp/pds_isc_note.png");
+}
+
 static const pds_test_case tests_isc[] = {
     {"isc_buffer_photons_land_where_a_per_photon_tracer_does", test_isc_buffer_photons_land_where_a_per_photon_tracer_does},
     {"isc_gathers_conserve_flux_on_a_flat_receiver", test_isc_gathers_conserve_flux_on_a_flat_receiver},
@@ -478,5 +565,7 @@ static const pds_test_case tests_isc[] = {
     {"isc_is_identical_for_any_thread_count", test_isc_is_identical_for_any_thread_count},
     {"isc_temporal_filter_reduces_flicker", test_isc_temporal_filter_reduces_flicker},
     {"isc_light_orbit_moves_the_caustic_and_returns", test_isc_light_orbit_moves_the_caustic_and_returns},
+    {"isc_time_budget_averages_offset_frames", test_isc_time_budget_averages_offset_frames},
     {"isc_refuses_what_it_cannot_render", test_isc_refuses_what_it_cannot_render},
+    {"isc_cli_frames_and_options", test_isc_cli_frames_and_options},
 };
