@@ -1655,11 +1655,15 @@ static int bench_isc(int argc, char **argv)
                 }
                 wall = clk.wall[n - 1] - clk.wall[0];
                 cpu = clk.cpu[n - 1] - clk.cpu[0];
+                char paper[96];
+                if (paper_ring[r][g] > 0.0)
+                    snprintf(paper, sizeof paper, "paper_fps_dynamic=%g/%g paper_fps_static=%g/%g",
+                             paper_octahedron[r][4 + g], paper_ring[r][4 + g], paper_octahedron[r][g], paper_ring[r][g]);
+                else
+                    snprintf(paper, sizeof paper, "paper_fps_dynamic=n/a paper_fps_static=n/a");
                 printf("bench isc gather=%s photons=%d^2 res=512x512 frames=%d fps=%.2f cpu_s_per_frame=%.4f "
-                       "first_s=%.3f threads=%d paper_fps_dynamic=%g/%g paper_fps_static=%g/%g pds_s=%.3f\n",
-                       gname[g], res, n - 1, (n - 1) / wall, cpu / (n - 1), clk.wall[0] - t0, st.threads,
-                       paper_octahedron[r][4 + g], paper_ring[r][4 + g], paper_octahedron[r][g], paper_ring[r][g],
-                       pds_s);
+                       "first_s=%.3f threads=%d %s pds_s=%.3f\n",
+                       gname[g], res, n - 1, (n - 1) / wall, cpu / (n - 1), clk.wall[0] - t0, st.threads, paper, pds_s);
                 fflush(stdout);
             }
         }
