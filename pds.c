@@ -10904,6 +10904,8 @@ typedef struct pds__isc {
     float *lmap;                /* light: the gathered map, 4 per texel */
     pds__isc_view lview;        /* light: the map's view */
     pds__isc_est *est;          /* this frame's estimate */
+    double *rgb;                /* the frame's image before conversion to float */
+    long nonfinite;             /* image values that were NaN or beyond the float range */
     pds__isc_est *ring;         /* history frames of estimates */
     double *acc;                /* time budget: 4 per pixel, sums over every frame */
     int frames_done;
@@ -11668,9 +11670,11 @@ static void pds__isc_frame(pds__isc *ctx, int frame, int accumulate, pds_image *
         if (threshold && count < PDS__ISC_MIN_PHOTONS) e[0] = e[1] = e[2] = 0.0;
         for (c = 0; c < 3; c++) {
             double v = (opt->paths == PDS_PATHS_CAUSTICS_ONLY ? 0.0 : d[c]) + ctx->px[i].fr[c] * e[c] / n_hist;
-            out->rgb[3 * i + c] = (float)(isfinite(v) ? (v < FLT_MAX ? v : FLT_MAX) : 0.0);
+            ctx->rgb[3 * i + c] = v;
         }
     }
+    /* NaN -> 0, beyond the float range -> the largest float, counted */
+    ctx->nonfinite += pds__finite_floats(ctx->rgb, out->rgb, npix * 3);
 }
 
 static void pds__isc_free(pds__isc *ctx)
@@ -11692,6 +11696,7 @@ static void pds__isc_free(pds__isc *ctx)
     free(ctx->near);
     free(ctx->lmap);
     free(ctx->est);
+    free(ctx->rgb);
     free(ctx->ring);
     free(ctx->acc);
     pthread_mutex_destroy(&ctx->lock);
@@ -11708,14 +11713,14 @@ static int pds__isc_resolution(const pds_options *opt)
 }
 
 /* Bytes an isc render holds: per pixel the eye buffer, direct light, the
-   estimate, its history (or the time budget's sums) and the deposits;
+   image in double, the estimate, its history (or the time budget's sums) and the deposits;
    per photon the buffer and its pixel, screen position or texel; the
    light map. (Quad fragments come on top: about one per covered pixel.) */
 static double pds__isc_memory(const pds_options *opt, double npix)
 {
     double r2 = (double)pds__isc_resolution(opt) * pds__isc_resolution(opt);
     int hist = opt->time_s > 0.0 ? 2 : opt->history;
-    return npix * (sizeof(pds__isc_pixel) + 3 * sizeof(double) + (1 + hist) * sizeof(pds__isc_est) +
+    return npix * (sizeof(pds__isc_pixel) + 6 * sizeof(double) + (1 + hist) * sizeof(pds__isc_est) +
                    4 * sizeof(float) + 3 * sizeof(float)) +
            r2 * (sizeof(pds__isc_photon) + sizeof(int) + 2 * sizeof(long long) + 1 + 8 * sizeof(float));
 }
@@ -11762,6 +11767,7 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
     ctx->px = (pds__isc_pixel *)calloc(npix, sizeof *ctx->px);
     ctx->direct = (double *)calloc(npix * 3, sizeof *ctx->direct);
     ctx->est = (pds__isc_est *)calloc(npix, sizeof *ctx->est);
+    ctx->rgb = (double *)malloc(sizeof *ctx->rgb * 3 * npix);
     if (opt->time_s > 0.0) ctx->acc = (double *)calloc(npix * 4, sizeof *ctx->acc);
     else ctx->ring = (pds__isc_est *)calloc(npix * (size_t)ctx->history, sizeof *ctx->ring);
     ctx->ph = (pds__isc_photon *)malloc(sizeof *ctx->ph * n);
@@ -11781,7 +11787,7 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
         ctx->dep = (float *)malloc(sizeof *ctx->dep * 4 * n);
         ctx->lmap = (float *)malloc(sizeof *ctx->lmap * 4 * n);
     }
-    if (!ctx->lights || !ctx->px || !ctx->direct || !ctx->est || (!ctx->acc && !ctx->ring) || !ctx->ph ||
+    if (!ctx->lights || !ctx->px || !ctx->direct || !ctx->est || !ctx->rgb || (!ctx->acc && !ctx->ring) || !ctx->ph ||
         !ctx->ph_pixel || (ctx->gather == PDS_ISC_QUADS && (!ctx->ph_xy || !ctx->ph_front || !ctx->frags ||
                                                           !ctx->nfrags || !ctx->capfrags)) ||
         ((ctx->gather == PDS_ISC_EYE || ctx->gather == PDS_ISC_LIGHT) && !ctx->dep) ||
@@ -11844,6 +11850,7 @@ static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, in
         stats->memory_bytes = (size_t)pds__isc_memory(opt, (double)npix);
         for (i = 0; i < npix; i++) stats->eye_vertices += ctx.px[i].kind != 0;
         stats->spp = 1;
+        stats->nonfinite = ctx.nonfinite;
     }
     pds__isc_free(&ctx);
     if (!st && last) *last = img;
