@@ -378,8 +378,9 @@ static int isc_animate(const char *text, int history, isc_frames *f)
 
 /* The temporal filter (Wyman and Davis sect. 3.2.3): averaging the last 4
    frames' estimates makes a static scene's caustic flicker far less than
-   frame by frame (the difference of two running means of 4 has 1/8 the
-   variance of the difference of two frames, for independent offsets), and
+   frame by frame (the difference of two running means of 4 frames is a
+   quarter of the difference of two frames 4 apart: 1/16 the variance, for
+   independent offsets), and
    the first frame of an animation is the still pds_render gives. */
 static void test_isc_temporal_filter_reduces_flicker(pds_test_ctx *t)
 {
@@ -485,7 +486,9 @@ static void test_isc_time_budget_averages_offset_frames(pds_test_ctx *t)
             double e1 = isc_points_error(s, &one), en = isc_points_error(s, &many);
             CHECK(t, st.passes >= 2 && st.photons == (long)st.passes * 40 * 40, "%d frames, %ld photons", st.passes,
                   st.photons);
-            CHECK(t, en < e1 / sqrt(st.passes > 1 ? st.passes : 1.0) * 1.5,
+            /* the error falls at least as 1/sqrt(frames) would from 2 to 4
+               frames, however many the machine managed */
+            CHECK(t, en < e1 * (st.passes >= 4 ? 0.5 : 1.0 / sqrt((double)st.passes) + 0.01),
                   "error %.4f after %d frames, %.4f after one", en, st.passes, e1);
             if (getenv("ISC_DBG")) printf("frames %d error %g vs %g\n", st.passes, en, e1);
         }
