@@ -8856,19 +8856,28 @@ static void pds__material_preview_colour(const pds_material *m, double rgb[3])
 /* An eye-path vertex: where a camera path first meets a non-specular
    surface, after any number of specular bounces. The photon methods add
    their caustic light at these points (PDS paper section 3.3: position,
-   ray direction, BRDF, importance, pixel). 76 bytes:
-     pos, ns, ng, wo   position, shading and geometric normal, direction
-                       back along the eye path (unit), as floats
+   ray direction, BRDF, importance, pixel). 84 bytes:
+     pos, n, g, wo     position; the shading and geometric normals turned
+                       to the side the eye path arrived from (the frame
+                       pds__bsdf_frame gives the BSDF), so that a mesh's
+                       winding does not matter; the direction back along
+                       the eye path (unit); as floats
      importance        path throughput from the camera to here (Fresnel,
                        mirror and Beer factors) divided by the pixel's
                        samples, so a pixel's value is the sum over its
                        vertices of importance x reflected radiance
+     weight, lambert   for a Lambertian surface (lambert = 1), whose BRDF
+                       albedo(x) / pi does not depend on the directions,
+                       weight = albedo(x) / pi x importance, computed once
+                       here instead of at every photon that reaches it
      material, pixel   indices */
 typedef struct pds__eye_vertex {
-    float pos[3], ns[3], ng[3], wo[3];
+    float pos[3], n[3], g[3], wo[3];
     float importance[3];
+    float weight[3];
     int material;
     int pixel;
+    int lambert;
 } pds__eye_vertex;
 
 static void pds__f3_set(float f[3], pds__v3 v)
@@ -8881,6 +8890,49 @@ static void pds__f3_set(float f[3], pds__v3 v)
 static pds__v3 pds__f3_get(const float f[3])
 {
     return pds__v(f[0], f[1], f[2]);
+}
+
+/* Record the eye vertex at x (material m, index material) seen from wo
+   with path throughput beta. Returns 0 if wo grazes the surface (no frame:
+   nothing can be reflected toward the eye). */
+static int pds__eye_vertex_set(pds__eye_vertex *v, const pds_material *m, pds__v3 x, pds__v3 ns, pds__v3 ng,
+                               pds__v3 wo, const double beta[3], int material)
+{
+    pds__v3 n, g;
+    double albedo[3];
+    int side, c;
+    if (!pds__bsdf_frame(wo, ns, ng, &n, &g, &side)) return 0;
+    pds__f3_set(v->pos, x);
+    pds__f3_set(v->n, n);
+    pds__f3_set(v->g, g);
+    pds__f3_set(v->wo, wo);
+    v->lambert = m->type == PDS_MAT_DIFFUSE;
+    if (v->lambert) pds__albedo_at(m, x, ng, albedo);
+    for (c = 0; c < 3; c++) {
+        v->importance[c] = (float)beta[c];
+        v->weight[c] = v->lambert ? (float)(albedo[c] / PDS__PI * beta[c]) : 0.0f;
+    }
+    v->material = material;
+    return 1;
+}
+
+/* What eye vertex v passes to its pixel per unit of irradiance arriving
+   from direction wi (unit, pointing away from the surface): fr(x, wi, wo)
+   times the vertex's importance, into out[3]. 0 (and out untouched) when
+   wi is below the shading or the geometric normal. */
+static int pds__eye_response(const pds_scene *s, const pds__eye_vertex *v, pds__v3 wi, double out[3])
+{
+    pds__v3 n = pds__f3_get(v->n), g = pds__f3_get(v->g);
+    double f[3], pdf;
+    int c;
+    if (!(pds__dot(wi, n) > 0.0) || !(pds__dot(wi, g) > 0.0)) return 0;
+    if (v->lambert) {
+        for (c = 0; c < 3; c++) out[c] = v->weight[c];
+        return 1;
+    }
+    pds__bsdf_eval(&s->materials.items[v->material], pds__f3_get(v->pos), pds__f3_get(v->wo), wi, n, g, f, &pdf);
+    for (c = 0; c < 3; c++) out[c] = f[c] * v->importance[c];
+    return f[0] != 0.0 || f[1] != 0.0 || f[2] != 0.0;
 }
 
 typedef struct pds__tracer {
@@ -9022,13 +9074,8 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
         m = &s->materials.items[hit.material];
         if (!pds__material_is_specular(m)) {
             if (rec && !had_diffuse) {
-                pds__f3_set(rec->pos, hit.position);
-                pds__f3_set(rec->ns, hit.ns);
-                pds__f3_set(rec->ng, hit.ng);
-                pds__f3_set(rec->wo, pds__scale(dir, -1.0));
-                for (c = 0; c < 3; c++) rec->importance[c] = (float)beta[c];
-                rec->material = hit.material;
-                recorded = 1;
+                recorded = pds__eye_vertex_set(rec, m, hit.position, hit.ns, hit.ng, pds__scale(dir, -1.0), beta,
+                                               hit.material);
             }
             pds__direct_light(tr, m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, beta, idx, dim, acc);
             had_diffuse = 1;
@@ -9108,7 +9155,10 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
             if (pds__trace_path(&job->tracer, job->frame.origin, dir, idx, acc, job->record_eye ? &v : NULL)) {
                 pds__eye_vertex **arr = &job->row_vertices[y];
                 if (pds__grow((void **)arr, &job->row_cap[y], job->row_count[y] + 1, sizeof **arr) == 0) {
-                    for (c = 0; c < 3; c++) v.importance[c] /= (float)job->spp;
+                    for (c = 0; c < 3; c++) {
+                        v.importance[c] /= (float)job->spp;
+                        v.weight[c] /= (float)job->spp;
+                    }
                     v.pixel = (int)pixel;
                     (*arr)[job->row_count[y]++] = v;
                 } else {
@@ -9488,23 +9538,22 @@ static void pds__splat_visit(void *vctx, size_t index, double dist2)
 {
     pds__splat_ctx *sc = (pds__splat_ctx *)vctx;
     const pds__eye_vertex *v = &sc->job->map->v[index];
-    const pds_scene *s = sc->job->scene;
-    pds__v3 x = pds__f3_get(v->pos), d = pds__sub(x, sc->xp), ns = pds__f3_get(v->ns), ng = pds__f3_get(v->ng);
-    double y0, y1, r2, k, f[3], pdf;
+    pds__v3 x = pds__f3_get(v->pos), d = pds__sub(x, sc->xp);
+    double y0, y1, r2, k, w[3];
     int c;
     (void)dist2;
     /* topological bias: far from the photon's tangent plane, or a surface
-       facing the other way (the back of a thin wall) */
+       seen from the other side (the back of a thin wall) */
     if (fabs(pds__dot(sc->np, d)) > sc->plane_max) return;
-    if (pds__dot(ng, sc->np) <= 0.0) return;
+    if (pds__dot(pds__f3_get(v->g), sc->np) <= 0.0) return;
     y0 = sc->M[0][0] * d.x + sc->M[0][1] * d.y + sc->M[0][2] * d.z;
     y1 = sc->M[1][0] * d.x + sc->M[1][1] * d.y + sc->M[1][2] * d.z;
     r2 = y0 * y0 + y1 * y1;
     if (r2 >= 1.0) return;
+    if (!pds__eye_response(sc->job->scene, v, sc->wi, w)) return;
     k = pds__kernel_silverman(r2);
-    pds__bsdf_eval(&s->materials.items[v->material], pds__f3_get(v->pos), pds__f3_get(v->wo), sc->wi, ns, ng, f, &pdf);
     for (c = 0; c < 3; c++) {
-        double val = PDS__PI * k * f[c] * sc->ep[c] * v->importance[c];
+        double val = PDS__PI * k * w[c] * sc->ep[c];
         if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
     }
     if (sc->buf->aniso) {
@@ -9990,7 +10039,7 @@ static void *pds__gather_worker(void *arg)
             if (n == 0) continue;
             g->estimate(g, v, idx, d2, n, sum);
             for (c = 0; c < 3; c++)
-                if (sum[c] != 0.0) pds__image_add(buf, 3 * (size_t)v->pixel + (size_t)c, v->importance[c] * sum[c]);
+                if (sum[c] != 0.0) pds__image_add(buf, 3 * (size_t)v->pixel + (size_t)c, sum[c]);
         }
     }
     free(idx);
@@ -10014,17 +10063,16 @@ static void pds__pm_estimate(const pds__gather *g, const pds__eye_vertex *v, con
                              size_t n, double sum[3])
 {
     const pds__stored_photon *photons = (const pds__stored_photon *)g->photons;
-    const pds_material *m = &g->scene->materials.items[v->material];
-    pds__v3 x = pds__f3_get(v->pos), ng = pds__f3_get(v->ng), ns = pds__f3_get(v->ns), wo = pds__f3_get(v->wo);
+    pds__v3 gv = pds__f3_get(v->g);
     double r2 = d2[n - 1], area;
     size_t j;
     int c;
     if (n < (g->k < 8 ? g->k : 8) || !(r2 > 0.0)) return;
     for (j = 0; j < n; j++) {
         const pds__stored_photon *p = &photons[idx[j]];
-        double f[3], pdf, w;
-        if (pds__dot(pds__f3_get(p->ng), ng) <= 0.0) continue; /* another surface orientation */
-        pds__bsdf_eval(m, x, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
+        double f[3], w;
+        if (pds__dot(pds__f3_get(p->ng), gv) <= 0.0) continue; /* the surface's other side */
+        if (!pds__eye_response(g->scene, v, pds__scale(pds__f3_get(p->dir), -1.0), f)) continue;
         w = pds__pm_weight(g->kernel, d2[j], r2);
         for (c = 0; c < 3; c++) sum[c] += f[c] * p->flux[c] * w;
     }
@@ -10146,8 +10194,7 @@ static void pds__pdm_estimate(const pds__gather *g, const pds__eye_vertex *v, co
                               size_t n, double sum[3])
 {
     const pds__diff_photon *photons = (const pds__diff_photon *)g->photons;
-    const pds_material *m = &g->scene->materials.items[v->material];
-    pds__v3 x = pds__f3_get(v->pos), ng = pds__f3_get(v->ng), ns = pds__f3_get(v->ns), wo = pds__f3_get(v->wo);
+    pds__v3 x = pds__f3_get(v->pos), gv = pds__f3_get(v->g);
     size_t j;
     int c;
     (void)d2;
@@ -10155,11 +10202,11 @@ static void pds__pdm_estimate(const pds__gather *g, const pds__eye_vertex *v, co
         const pds__diff_photon *p = &photons[idx[j]];
         pds__v3 np = pds__f3_get(p->np), d = pds__sub(x, pds__f3_get(p->pos));
         double y0 = p->M[0] * d.x + p->M[1] * d.y + p->M[2] * d.z;
-        double y1 = p->M[3] * d.x + p->M[4] * d.y + p->M[5] * d.z, r2 = y0 * y0 + y1 * y1, f[3], pdf, k;
+        double y1 = p->M[3] * d.x + p->M[4] * d.y + p->M[5] * d.z, r2 = y0 * y0 + y1 * y1, f[3], k;
         /* the same guards as the PDS splat */
-        if (r2 >= 1.0 || fabs(pds__dot(np, d)) > g->plane_tolerance * p->major || pds__dot(ng, np) <= 0.0) continue;
+        if (r2 >= 1.0 || fabs(pds__dot(np, d)) > g->plane_tolerance * p->major || pds__dot(gv, np) <= 0.0) continue;
+        if (!pds__eye_response(g->scene, v, pds__scale(pds__f3_get(p->dir), -1.0), f)) continue;
         k = pds__kernel_silverman(r2);
-        pds__bsdf_eval(m, x, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
         for (c = 0; c < 3; c++) sum[c] += PDS__PI * k * f[c] * p->ep[c];
     }
 }
@@ -10215,7 +10262,8 @@ static pds_status pds__pdm_gather(pds__photon_job *job, const pds_options *opt, 
 /* --- progressive photon mapping ----------------------------------------- */
 
 /* Per eye vertex: R^2, N, tau (RGB, in the flux of one photon emitted
-   alone, so the radiance is tau / (pi R^2 N_emitted)). */
+   alone, with the vertex's importance, so that its pixel gets
+   tau / (pi R^2 N_emitted)). */
 typedef struct pds__ppm_state {
     double r2, n, tau[3];
 } pds__ppm_state;
@@ -10236,7 +10284,6 @@ typedef struct pds__ppm_job {
 typedef struct pds__ppm_gather {
     const pds__ppm_job *job;
     const pds__eye_vertex *v;
-    const pds_material *m;
     long found;
     double phi[3];
 } pds__ppm_gather;
@@ -10245,14 +10292,12 @@ static void pds__ppm_visit(void *ctx, size_t index, double dist2)
 {
     pds__ppm_gather *g = (pds__ppm_gather *)ctx;
     const pds__stored_photon *p = &g->job->photons[index];
-    pds__v3 ng = pds__f3_get(g->v->ng);
-    double f[3], pdf;
+    double f[3];
     int c;
     (void)dist2;
-    if (pds__dot(pds__f3_get(p->ng), ng) <= 0.0) return;
+    if (pds__dot(pds__f3_get(p->ng), pds__f3_get(g->v->g)) <= 0.0) return;
     g->found++;
-    pds__bsdf_eval(g->m, pds__f3_get(g->v->pos), pds__f3_get(g->v->wo), pds__scale(pds__f3_get(p->dir), -1.0),
-                   pds__f3_get(g->v->ns), ng, f, &pdf);
+    if (!pds__eye_response(g->job->scene, g->v, pds__scale(pds__f3_get(p->dir), -1.0), f)) return;
     for (c = 0; c < 3; c++) g->phi[c] += f[c] * p->flux[c] * g->job->photon_scale;
 }
 
@@ -10274,7 +10319,6 @@ static void *pds__ppm_worker(void *arg)
             int c;
             g.job = job;
             g.v = &job->v[i];
-            g.m = &job->scene->materials.items[g.v->material];
             g.found = 0;
             g.phi[0] = g.phi[1] = g.phi[2] = 0.0;
             pds__kdtree_range(job->tree, pds__f3_get(g.v->pos), sqrt(s->r2), pds__ppm_visit, &g);
@@ -10369,7 +10413,7 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
             if (!(state[i].r2 > 0.0)) continue;
             for (c = 0; c < 3; c++)
                 rgb[3 * (size_t)v[i].pixel + (size_t)c] +=
-                    v[i].importance[c] * state[i].tau[c] / (PDS__PI * state[i].r2 * (double)emitted);
+                    state[i].tau[c] / (PDS__PI * state[i].r2 * (double)emitted);
         }
     }
     if (stats) {
@@ -12008,9 +12052,9 @@ static pds__eye_vertex *pds__join_rows(pds__render_job *job, size_t *count)
 
 /* What a render will hold at once, beyond the scene, from its options
    alone (an upper bound: every eye sample is taken to record a vertex,
-   every photon emitted to be stored). Per eye vertex: the vertex (68 bytes)
-   in its row array, which grows by doubling (up to 2 x 68), and its copy in
-   the joined array, 204 bytes in all (the kd-tree's 21 bytes and the
+   every photon emitted to be stored). Per eye vertex: the vertex (84 bytes)
+   in its row array, which grows by doubling (up to 2 x 84), and its copy in
+   the joined array, 252 bytes in all (the kd-tree's 21 bytes and the
    tree-ordered copy come after the rows are freed). Per stored photon of
    pm: 56 bytes, twice while the threads' arrays are merged, plus 21 of
    kd-tree; pdm: 88 bytes, twice. */

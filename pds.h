@@ -458,7 +458,7 @@ typedef struct pds_render_stats {
 
 /* What a render will need, from the scene and options alone, before any
    work: an upper bound on the memory it holds at once beyond the scene
-   (per eye vertex 204 bytes, every pixel sample taken to record one; per
+   (per eye vertex 252 bytes, every pixel sample taken to record one; per
    stored photon 133 bytes for pm and ppm, 176 for pdm; per pixel 36 bytes
    plus 48 per thread for the photon methods), the pixel samples of one
    eye pass, and the machine's physical memory (0 if unknown). With a time
