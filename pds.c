@@ -10939,6 +10939,7 @@ typedef struct pds__isc {
     pds__isc_pixel *px;         /* w x h */
     double *direct;             /* 3 per pixel: direct radiance */
     pds__isc_photon *ph;        /* res x res, one light at a time */
+    unsigned char *mask;        /* res x res: may the photon meet a specular surface first? */
     pds__isc_view view;         /* that light's view */
     int *ph_pixel;              /* points, eye: the pixel each photon deposits into, -1 none */
     long long *ph_xy;           /* quads: fixed-point screen position of each photon */
@@ -11111,14 +11112,65 @@ static void pds__isc_direct_rows(pds__isc *ctx, long first, long last)
 
 /* --- the light-space photon buffer ---------------------------------------- */
 
+/* mask[k]: can photon k meet a specular triangle first? Each specular
+   triangle, all of whose corners are in front of the light, projects
+   inside the box of its corners' projections; the photons whose image-
+   plane points fall in that box (give or take a texel) are marked. A photon
+   outside every box meets a diffuse surface or nothing first: no caustic,
+   and no ray needed (the paper's sect. 5 asks for "avoiding processing on
+   uninteresting photons"). The same photons as tracing them all. */
+static void pds__isc_mask(pds__isc *ctx)
+{
+    const pds_scene *s = ctx->scene;
+    const pds__isc_view *v = &ctx->view;
+    size_t t, n = (size_t)v->res * (size_t)v->res;
+    int k;
+    memset(ctx->mask, 0, n);
+    for (t = 0; t < s->mesh.ntris; t++) {
+        double u0 = 0, u1 = 0, w0 = 0, w1 = 0;
+        long i0, i1, j0, j1, i, j;
+        if (!pds__material_is_specular(&s->materials.items[s->mesh.mat[t]])) continue;
+        for (k = 0; k < 3; k++) {
+            pds__v3 d = pds__sub(pds__mesh_pos(&s->mesh, s->mesh.idx[3 * t + k]), v->origin);
+            double z = pds__dot(d, v->axis), u, w;
+            if (!(z > 1e-9 * pds__length(d))) {
+                memset(ctx->mask, 1, n); /* behind the light: trace everything */
+                return;
+            }
+            /* texel coordinates: photon (i, j) is at (i + jx, j + jy) */
+            u = (pds__dot(d, v->b1) / z / v->tan_half + 1.0) * 0.5 * v->res - v->jx;
+            w = (pds__dot(d, v->b2) / z / v->tan_half + 1.0) * 0.5 * v->res - v->jy;
+            if (k == 0 || u < u0) u0 = u;
+            if (k == 0 || u > u1) u1 = u;
+            if (k == 0 || w < w0) w0 = w;
+            if (k == 0 || w > w1) w1 = w;
+        }
+        if (!(u1 >= -1.0 && w1 >= -1.0 && u0 <= v->res && w0 <= v->res)) continue;
+        i0 = u0 < 0.0 ? 0 : (long)u0 - 1;
+        j0 = w0 < 0.0 ? 0 : (long)w0 - 1;
+        i1 = u1 >= v->res - 1 ? v->res - 1 : (long)u1 + 1;
+        j1 = w1 >= v->res - 1 ? v->res - 1 : (long)w1 + 1;
+        if (i0 < 0) i0 = 0;
+        if (j0 < 0) j0 = 0;
+        for (j = j0; j <= j1; j++)
+            for (i = i0; i <= i1; i++) ctx->mask[(size_t)j * v->res + (size_t)i] = 1;
+    }
+}
+
 static void pds__isc_photon_rows(pds__isc *ctx, long first, long last)
 {
     long j;
     int i;
     for (j = first; j < last; j++)
         for (i = 0; i < ctx->res; i++) {
-            pds__v3 dir = pds__isc_view_dir(&ctx->view, i + ctx->view.jx, j + ctx->view.jy);
-            pds__isc_trace(ctx->scene, ctx->light, dir, ctx->opt->photon_depth, ctx->eps, &ctx->ph[(size_t)j * ctx->res + i]);
+            size_t k = (size_t)j * ctx->res + i;
+            pds__v3 dir;
+            if (!ctx->mask[k]) {
+                memset(&ctx->ph[k], 0, sizeof ctx->ph[k]);
+                continue;
+            }
+            dir = pds__isc_view_dir(&ctx->view, i + ctx->view.jx, j + ctx->view.jy);
+            pds__isc_trace(ctx->scene, ctx->light, dir, ctx->opt->photon_depth, ctx->eps, &ctx->ph[k]);
         }
 }
 
@@ -11614,6 +11666,7 @@ static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
     double t0 = pds_time_now(), t1;
     ctx->light = &ctx->lights[k];
     if (!pds__isc_view_setup(ctx->scene, &ctx->target, ctx->light->position, ctx->res, jx, jy, &ctx->view)) return;
+    pds__isc_mask(ctx);
     pds__isc_parallel(ctx, ctx->res, 4, pds__isc_photon_rows);
     ctx->photons += (long)n;
     for (i = 0; i < n; i++) ctx->landed += ctx->ph[i].path != 0;
@@ -11733,6 +11786,7 @@ static void pds__isc_free(pds__isc *ctx)
     free(ctx->px);
     free(ctx->direct);
     free(ctx->ph);
+    free(ctx->mask);
     free(ctx->ph_pixel);
     free(ctx->ph_xy);
     free(ctx->ph_front);
@@ -11766,7 +11820,7 @@ static double pds__isc_memory(const pds_options *opt, double npix)
     int hist = opt->time_s > 0.0 ? 2 : opt->history;
     return npix * (sizeof(pds__isc_pixel) + 6 * sizeof(double) + (1 + hist) * sizeof(pds__isc_est) +
                    4 * sizeof(float) + 3 * sizeof(float)) +
-           r2 * (sizeof(pds__isc_photon) + sizeof(int) + 2 * sizeof(long long) + 1 + 8 * sizeof(float));
+           r2 * (sizeof(pds__isc_photon) + sizeof(int) + 2 * sizeof(long long) + 2 + 8 * sizeof(float));
 }
 
 /* Set up a render of w x h pixels; the light checks of the method. */
@@ -11815,6 +11869,7 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
     if (opt->time_s > 0.0) ctx->acc = (double *)calloc(npix * 4, sizeof *ctx->acc);
     else ctx->ring = (pds__isc_est *)calloc(npix * (size_t)ctx->history, sizeof *ctx->ring);
     ctx->ph = (pds__isc_photon *)malloc(sizeof *ctx->ph * n);
+    ctx->mask = (unsigned char *)malloc(n);
     ctx->ph_pixel = (int *)malloc(sizeof *ctx->ph_pixel * n);
     if (ctx->gather == PDS_ISC_QUADS) {
         ctx->ph_xy = (long long *)malloc(sizeof *ctx->ph_xy * 2 * n);
@@ -11831,7 +11886,7 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
         ctx->dep = (float *)malloc(sizeof *ctx->dep * 4 * n);
         ctx->lmap = (float *)malloc(sizeof *ctx->lmap * 4 * n);
     }
-    if (!ctx->lights || !ctx->px || !ctx->direct || !ctx->est || !ctx->rgb || (!ctx->acc && !ctx->ring) || !ctx->ph ||
+    if (!ctx->lights || !ctx->px || !ctx->direct || !ctx->est || !ctx->rgb || !ctx->mask || (!ctx->acc && !ctx->ring) || !ctx->ph ||
         !ctx->ph_pixel || (ctx->gather == PDS_ISC_QUADS && (!ctx->ph_xy || !ctx->ph_front || !ctx->frags ||
                                                           !ctx->nfrags || !ctx->capfrags)) ||
         ((ctx->gather == PDS_ISC_EYE || ctx->gather == PDS_ISC_LIGHT) && !ctx->dep) ||

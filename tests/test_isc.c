@@ -252,43 +252,60 @@ static int isc_reference_photon(const pds_scene *s, pds__v3 o, pds__v3 d, pds__v
 
 /* The light-space buffer holds, for each texel's direction, the photon a
    per-photon tracer finds: the same landing point, the same path weight,
-   and no photon where the tracer finds none. */
+   and no photon where the tracer finds none (also where the mask of
+   texels that can see a specular triangle spared the ray). */
 static void test_isc_buffer_photons_land_where_a_per_photon_tracer_does(pds_test_ctx *t)
 {
     pds_error err;
     pds_scene *s = scene_from_text(isc_glass_scene, &err);
-    pds__target tg;
-    pds__isc_view v;
-    int i, j, both = 0, mismatched = 0, res = 96, refracted = 0;
+    pds_options opt;
+    pds__isc ctx;
+    int i, j, both = 0, mismatched = 0, res = 96, refracted = 0, masked = 0;
     double worst = 0.0, worst_w = 0.0;
     REQUIRE(t, s != NULL, "scene: %s", err.text);
-    tg = pds__specular_target(s);
-    REQUIRE(t, pds__isc_view_setup(s, &tg, s->lights[0].position, res, 0.3, 0.7, &v), "view");
+    pds_options_default(&opt);
+    opt.method = PDS_METHOD_ISC;
+    opt.light_resolution = res;
+    if (pds__isc_init(&ctx, s, &opt, 32, 32, 2, &err) != PDS_OK) {
+        pds_scene_free(s);
+        REQUIRE(t, 0, "init: %s", err.text);
+    }
+    ctx.lights[0] = s->lights[0];
+    ctx.light = &ctx.lights[0];
+    if (!pds__isc_view_setup(s, &ctx.target, ctx.light->position, res, 0.3, 0.7, &ctx.view)) {
+        pds__isc_free(&ctx);
+        pds_scene_free(s);
+        REQUIRE(t, 0, "view");
+    }
+    pds__isc_mask(&ctx);
+    pds__isc_parallel(&ctx, res, 4, pds__isc_photon_rows);
     for (j = 0; j < res; j++)
         for (i = 0; i < res; i++) {
-            pds__isc_photon ph;
-            pds__v3 d = pds__isc_view_dir(&v, i + v.jx, j + v.jy), land;
+            const pds__isc_photon *ph = &ctx.ph[j * res + i];
+            pds__v3 d = pds__isc_view_dir(&ctx.view, i + ctx.view.jx, j + ctx.view.jy), land;
             double w;
             int glass, ref = isc_reference_photon(s, s->lights[0].position, d, &land, &w, &glass);
-            pds__isc_trace(s, &s->lights[0], d, 16, 1e-6 * pds__scene_scale(s), &ph);
-            if (!ref || !ph.path) {
-                mismatched += !ref != !ph.path;
+            masked += !ctx.mask[j * res + i];
+            if (!ref || !ph->path) {
+                mismatched += !ref != !ph->path;
                 continue;
             }
             both++;
             refracted += glass > 0;
             {
-                double dist = pds__length(pds__sub(pds__f3_get(ph.pos), land));
-                double rel = fabs(ph.e[1] / (50.0 / (4.0 * PDS__PI)) / w - 1.0); /* I = P / 4 pi */
+                double dist = pds__length(pds__sub(pds__f3_get(ph->pos), land));
+                double rel = fabs(ph->e[1] / (50.0 / (4.0 * PDS__PI)) / w - 1.0); /* I = P / 4 pi */
                 if (dist > worst) worst = dist;
                 if (rel > worst_w) worst_w = rel;
             }
         }
     CHECK(t, both > 500 && refracted > 100, "%d photons landed (%d through glass)", both, refracted);
-    if (getenv("ISC_DBG")) printf("both %d refracted %d mismatched %d worst %g %g\n", both, refracted, mismatched, worst, worst_w);
+    CHECK(t, masked > res * res / 10, "only %d of %d texels spared", masked, res * res);
+    if (getenv("ISC_DBG")) printf("both %d refracted %d mismatched %d masked %d worst %g %g\n", both, refracted, mismatched, masked, worst, worst_w);
     CHECK(t, mismatched <= res * res / 2000, "%d texels where one tracer lands a photon and the other not", mismatched);
     CHECK(t, worst < 1e-4, "landing points differ by up to %g", worst);
     CHECK(t, worst_w < 1e-5, "path weights differ by up to %g (relative)", worst_w);
+    pds__isc_free(&ctx);
     pds_scene_free(s);
 }
 
