@@ -782,7 +782,8 @@ enum pds__rng_purpose {
     PDS__RNG_BENCH = 2,   /* benchmark rays */
     PDS__RNG_TEST = 3,    /* test programs */
     PDS__RNG_PHOTON = 4,  /* index = photon number, dim = 0.. */
-    PDS__RNG_ISC = 6      /* isc: index = frame, dim 0, 1 = the light-space grid's offset */
+    PDS__RNG_SPLAT = 6,   /* index = photon number, dim = a hash of where it landed */
+    PDS__RNG_ISC = 7      /* isc: index = frame, dim 0, 1 = the light-space grid's offset */
 };
 
 static uint64_t pds__mix64(uint64_t z)
@@ -5228,6 +5229,7 @@ typedef struct pds__kdtree {
     size_t *perm;         /* tree slot -> caller's index */
     unsigned char *axis;  /* split axis at inner-node medians */
     size_t n;
+    double lo[3], hi[3];  /* bounding box of the points (NaN coordinates left out) */
 } pds__kdtree;
 
 typedef void (*pds__kd_visit)(void *ctx, size_t index, double dist2);
@@ -5401,6 +5403,15 @@ static pds_status pds__kdtree_build(pds__kdtree *kd, const float *pos, size_t st
         kd->perm[i] = i;
     }
     kd->n = n;
+    for (i = 0; i < 3; i++) {
+        kd->lo[i] = DBL_MAX;
+        kd->hi[i] = -DBL_MAX;
+    }
+    for (i = 0; i < 3 * n; i++) {
+        double x = kd->pts[i];
+        if (x < kd->lo[i % 3]) kd->lo[i % 3] = x;
+        if (x > kd->hi[i % 3]) kd->hi[i % 3] = x;
+    }
     pds__kd_build_node(kd, 0, n, &counter);
     return PDS_OK;
 }
@@ -5523,6 +5534,115 @@ static void pds__kdtree_range(const pds__kdtree *kd, pds__v3 c, double r, pds__k
         ox = stk[sp].o[0];
         oy = stk[sp].o[1];
         oz = stk[sp].o[2];
+    }
+}
+
+/* The splat's query: every point x within r of c whose offset d = x - c
+   lies in the slab |n . d| <= tol and in the elliptic cylinder
+   y0^2 + y1^2 < 1, y = M d (M: the 2 x 3 matrix that maps an ellipse
+   around c onto the unit disc, eq. 12 of the PDS paper); fn(ctx, caller's
+   index, y0^2 + y1^2). The points reported are exactly those a range
+   query of radius r would find and then keep by the slab and ellipse
+   tests (the distance is the same pds__kd_dist2), but a needle-shaped
+   ellipse is not searched as the ball of its major axis: a cell is
+   skipped when its box [b_lo, b_hi] (centre b, half-widths h) lies
+   beyond the ball, or outside the slab or either strip |y_j| < 1, which
+   for a linear form w . d over the box spans w . (b - c) +- sum_k |w_k|
+   h_k. A relative margin of 1e-9 keeps rounding from dropping a point on
+   a cell's edge. Each entry of the explicit stack is a cell and its box;
+   a node pushes at most two, so the depth (< 64) bounds it. */
+#define PDS__KD_SLAB_STACK (2 * PDS__KD_STACK)
+
+typedef struct pds__kd_cell {
+    size_t lo, hi;
+    double bl[3], bh[3];
+} pds__kd_cell;
+
+typedef struct pds__kd_slab {
+    double c[3], r2, w[3][3], bound[3]; /* rows n, M0, M1 and their bounds tol, 1, 1 */
+} pds__kd_slab;
+
+/* 1 if no point of the cell's box can pass the query. */
+static int pds__kd_cell_outside(const pds__kd_slab *q, const pds__kd_cell *cell)
+{
+    double b[3], h[3], d2 = 0.0;
+    int k, j;
+    for (k = 0; k < 3; k++) {
+        double below = cell->bl[k] - q->c[k], above = q->c[k] - cell->bh[k];
+        double out = below > 0.0 ? below : above > 0.0 ? above : 0.0;
+        d2 += out * out;
+        b[k] = 0.5 * (cell->bl[k] + cell->bh[k]) - q->c[k];
+        h[k] = 0.5 * (cell->bh[k] - cell->bl[k]);
+    }
+    if (d2 > q->r2 * (1.0 + 1e-9)) return 1;
+    for (j = 0; j < 3; j++) {
+        const double *w = q->w[j];
+        double centre = fabs(w[0] * b[0] + w[1] * b[1] + w[2] * b[2]);
+        double spread = fabs(w[0]) * h[0] + fabs(w[1]) * h[1] + fabs(w[2]) * h[2];
+        if (centre - spread > q->bound[j] * (1.0 + 1e-9) + 1e-9 * spread) return 1;
+    }
+    return 0;
+}
+
+/* Test the point in tree slot i; report it if it passes. */
+static void pds__kd_slab_point(const pds__kdtree *kd, const pds__kd_slab *q, size_t i, pds__kd_visit fn, void *ctx)
+{
+    const float *p = kd->pts + 3 * i;
+    double d[3], y0, y1;
+    if (!(pds__kd_dist2(p, q->c[0], q->c[1], q->c[2]) <= q->r2)) return;
+    d[0] = (double)p[0] - q->c[0];
+    d[1] = (double)p[1] - q->c[1];
+    d[2] = (double)p[2] - q->c[2];
+    if (fabs(q->w[0][0] * d[0] + q->w[0][1] * d[1] + q->w[0][2] * d[2]) > q->bound[0]) return;
+    y0 = q->w[1][0] * d[0] + q->w[1][1] * d[1] + q->w[1][2] * d[2];
+    y1 = q->w[2][0] * d[0] + q->w[2][1] * d[1] + q->w[2][2] * d[2];
+    if (y0 * y0 + y1 * y1 < 1.0) fn(ctx, kd->perm[i], y0 * y0 + y1 * y1);
+}
+
+static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r, const double M[2][3], pds__v3 n,
+                                      double tol, pds__kd_visit fn, void *ctx)
+{
+    pds__kd_cell stk[PDS__KD_SLAB_STACK];
+    pds__kd_slab q;
+    int sp = 0, k;
+    if (!kd || kd->n == 0 || !(r >= 0.0) || !(tol >= 0.0) || !pds__kd_query_ok(c)) return;
+    q.c[0] = c.x;
+    q.c[1] = c.y;
+    q.c[2] = c.z;
+    q.r2 = r * r;
+    for (k = 0; k < 3; k++) {
+        q.w[0][k] = pds__v3_get(n, k);
+        q.w[1][k] = M[0][k];
+        q.w[2][k] = M[1][k];
+    }
+    q.bound[0] = tol;
+    q.bound[1] = q.bound[2] = 1.0;
+    stk[0].lo = 0;
+    stk[0].hi = kd->n;
+    memcpy(stk[0].bl, kd->lo, sizeof stk[0].bl);
+    memcpy(stk[0].bh, kd->hi, sizeof stk[0].bh);
+    sp = 1;
+    while (sp > 0) {
+        pds__kd_cell cell = stk[--sp];
+        size_t i, m;
+        int a;
+        if (pds__kd_cell_outside(&q, &cell)) continue;
+        if (cell.hi - cell.lo <= PDS__KD_LEAF) {
+            for (i = cell.lo; i < cell.hi; i++) pds__kd_slab_point(kd, &q, i, fn, ctx);
+            continue;
+        }
+        m = cell.lo + (cell.hi - cell.lo) / 2;
+        a = kd->axis[m];
+        pds__kd_slab_point(kd, &q, m, fn, ctx);
+        /* children: [lo, m) below the split, [m + 1, hi) above it */
+        stk[sp] = cell;
+        stk[sp].hi = m;
+        stk[sp].bh[a] = kd->pts[3 * m + a];
+        sp++;
+        stk[sp] = cell;
+        stk[sp].lo = m + 1;
+        stk[sp].bl[a] = kd->pts[3 * m + a];
+        sp++;
     }
 }
 
@@ -9260,6 +9380,11 @@ static int pds__run_threads(int n, void *(*fn)(void *), void *arg)
 
 #define PDS__PHOTON_BATCH 1024
 
+/* Progressive PDS splats a footprint over more eye samples than this
+   (about a 32 x 32 pixel patch at 4 samples per pixel) by Russian roulette
+   (pds__splat). */
+#define PDS__SPLAT_ROULETTE 4096.0
+
 /* Units per W/(m^2 sr) of the photon images' exact sums (>>util): a power
    of two near 2^64 / L, L the radiance of a diffuse white surface that
    spreads the lights' mean power per channel over the square of the
@@ -9463,6 +9588,8 @@ typedef struct pds__splat_buf {
     double unit;           /* pds__sum_unit of the scene */
     pds__sum128 *aniso;    /* footprint debug: 2 per pixel (sum w m_a, sum w) x 2^64; NULL if off */
     long splatted, degenerate;
+    long split;            /* photons (and sub-photons) split into four */
+    long roulette;         /* splats skipped by the cost roulette */
     long saturated;        /* terms that saturated a pixel's sum */
     long invalid;          /* negative, infinite or NaN terms, dropped */
     pds__stored_photon *stored;   /* photon-map methods: landed photons */
@@ -9491,6 +9618,9 @@ typedef struct pds__photon_job {
     pds__v3 eye;               /* camera position */
     double sample_angle;       /* angle between neighbouring eye samples */
     int max_depth;
+    int split_depth;           /* pds: most times a photon is split (0 = never) */
+    double split_angle;        /* pds: split above this normal turn over the footprint (rad) */
+    double roulette_vertices;  /* pds: a splat over more eye samples plays roulette (0 = never) */
     double n_planned;          /* photon count for eqs. 5-6 */
     long n_total;              /* photons to emit (upper bound in time mode) */
     double deadline;           /* pds_time_now() limit, 0 = none */
@@ -9533,23 +9663,18 @@ static void pds__image_add(pds__splat_buf *b, size_t i, double v)
     if (r == PDS__SUM_INVALID) b->invalid++;
 }
 
-/* eq. 10 for one eye vertex: pi K(|Mp (x - xp)|) fr(x, wi, wo) Ep. */
-static void pds__splat_visit(void *vctx, size_t index, double dist2)
+/* eq. 10 for one eye vertex x inside the footprint ellipse, r2 =
+   |Mp (x - xp)|^2 < 1 (and near the photon's tangent plane: the query
+   checked both): pi K(|Mp (x - xp)|) fr(x, wi, wo) Ep. */
+static void pds__splat_visit(void *vctx, size_t index, double r2)
 {
     pds__splat_ctx *sc = (pds__splat_ctx *)vctx;
     const pds__eye_vertex *v = &sc->job->map->v[index];
-    pds__v3 x = pds__f3_get(v->pos), d = pds__sub(x, sc->xp);
-    double y0, y1, r2, k, w[3];
+    double k, w[3];
     int c;
-    (void)dist2;
-    /* topological bias: far from the photon's tangent plane, or a surface
-       seen from the other side (the back of a thin wall) */
-    if (fabs(pds__dot(sc->np, d)) > sc->plane_max) return;
+    /* topological bias: a surface seen from the other side (the back of a
+       thin wall) */
     if (pds__dot(pds__f3_get(v->g), sc->np) <= 0.0) return;
-    y0 = sc->M[0][0] * d.x + sc->M[0][1] * d.y + sc->M[0][2] * d.z;
-    y1 = sc->M[1][0] * d.x + sc->M[1][1] * d.y + sc->M[1][2] * d.z;
-    r2 = y0 * y0 + y1 * y1;
-    if (r2 >= 1.0) return;
     if (!pds__eye_response(sc->job->scene, v, sc->wi, w)) return;
     k = pds__kernel_silverman(r2);
     for (c = 0; c < 3; c++) {
@@ -9569,9 +9694,8 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
 {
     pds__splat_ctx sc;
     pds__ray_diff wide; /* a widened footprint; r may point here */
-    double ap, major;
+    double ap, major, spacing, keep = 1.0;
     int c;
-    (void)photon;
     sc.np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
     if (job->fixed_radius > 0.0) {
         /* fixed-bandwidth splatting: a disc of radius R in the tangent
@@ -9586,19 +9710,17 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
             sc.M[1][k] = pds__v3_get(t2, k) / major;
         }
     } else {
+        /* the spacing of the eye samples where the photon landed, seen
+           straight from the camera: distance times the angle between
+           samples, stretched by the tilt (the geometric mean of the two
+           directions' spacings) */
+        pds__v3 to_eye = pds__sub(job->eye, r->p);
+        double dist = pds__length(to_eye), tilt = dist > 0.0 ? fabs(pds__dot(to_eye, sc.np)) / dist : 1.0;
+        spacing = dist * job->sample_angle / sqrt(fmax(tilt, 0.05));
         if (job->min_aspect > 0.0 || job->min_width > 0.0) {
-            /* the spacing of the eye samples where the photon landed, seen
-               straight from the camera: distance times the angle between
-               samples, stretched by the tilt (the geometric mean of the
-               two directions' spacings) */
-            double width = 0.0;
-            if (job->min_width > 0.0) {
-                pds__v3 to_eye = pds__sub(job->eye, r->p);
-                double d = pds__length(to_eye), c = d > 0.0 ? fabs(pds__dot(to_eye, sc.np)) / d : 1.0;
-                width = job->min_width * d * job->sample_angle / sqrt(fmax(c, 0.05));
-            }
             wide = *r;
-            if (pds__footprint_widen_to(&wide.dpdu, &wide.dpdv, sc.np, job->min_aspect, width)) r = &wide;
+            if (pds__footprint_widen_to(&wide.dpdu, &wide.dpdv, sc.np, job->min_aspect, job->min_width * spacing))
+                r = &wide;
         }
         ap = pds__footprint_area(r->dpdu, r->dpdv);
         if (!(ap > 0.0) || !isfinite(ap) || !pds__filter_matrix(r->dpdu, r->dpdv, sc.np, sc.M)) {
@@ -9610,16 +9732,42 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
             buf->degenerate++;
             return;
         }
+        if (job->roulette_vertices > 0.0 && spacing > 0.0) {
+            /* Russian roulette on the splat's cost: a footprint over more
+               eye samples than roulette_vertices (from its area and their
+               spacing) is splatted with probability p = roulette_vertices /
+               samples and its irradiance divided by p. The expectation is
+               unchanged, the cost bounded; the variance it adds, ~ Ep^2
+               (1/p - 1), is that of a faint footprint (Ep = flux / Ap is
+               small where Ap is large). The number comes from the photon's
+               number and where it landed (sub-photons land apart). */
+            double samples = ap / (spacing * spacing), u;
+            if (samples > job->roulette_vertices) {
+                uint64_t bits[3], h;
+                memcpy(&bits[0], &r->p.x, sizeof bits[0]);
+                memcpy(&bits[1], &r->p.y, sizeof bits[1]);
+                memcpy(&bits[2], &r->p.z, sizeof bits[2]);
+                h = pds__mix64(bits[0] ^ pds__mix64(bits[1] ^ pds__mix64(bits[2])));
+                u = pds__rng_uniform(job->seed, PDS__RNG_SPLAT, (uint64_t)photon, h);
+                keep = job->roulette_vertices / samples;
+                if (u >= keep) {
+                    buf->roulette++;
+                    return;
+                }
+            }
+        }
     }
     sc.job = job;
     sc.buf = buf;
     sc.xp = r->p;
     sc.wi = pds__scale(r->d, -1.0);
-    for (c = 0; c < 3; c++) sc.ep[c] = flux[c] / ap;
+    for (c = 0; c < 3; c++) sc.ep[c] = flux[c] / (ap * keep);
     sc.plane_max = job->plane_tolerance * major;
     sc.aniso = !buf->aniso ? 0.0 : job->fixed_radius > 0.0 ? 1.0 : pds__footprint_anisotropy(r->dpdu, r->dpdv);
     buf->splatted++;
-    pds__kdtree_range(&job->map->tree, r->p, major, pds__splat_visit, &sc);
+    /* the eye vertices within the major semi-axis that are inside the
+       ellipse and near the tangent plane (topological bias) */
+    pds__kdtree_range_ellipse(&job->map->tree, r->p, major, (const double(*)[3])sc.M, sc.np, sc.plane_max, pds__splat_visit, &sc);
 }
 
 /* Splatting in the order photons land jumps about the eye-path map; each
@@ -9698,27 +9846,95 @@ static void pds__splat_pending(const pds__photon_job *job, pds__splat_buf *buf)
     buf->npending = 0;
 }
 
-/* Trace photon number i: emission, specular bounces with the differential,
-   splat at the first non-specular surface after >= 1 specular bounce. */
-static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, long i)
+/* --- adaptive splitting ----------------------------------------------------
+   Eqs. 7-9 carry the footprint to first order: across the footprint the
+   surface normal is taken to turn linearly, n(p + a DP) ~ n + a DN for
+   |a| <= 1/2 (the footprint's conjugate semi-diameters are DP / 2, eq. 4).
+   Where the normal turns by a large angle over the footprint that is no
+   longer true (a strongly curved or coarsely tessellated surface, or a
+   scanned mesh whose interpolated normals turn by a tenth of a radian per
+   triangle: there DN is the curvature of one triangle, not of the
+   surface), and the footprint can grow without bound. The paper's remedy
+   (sect. 5) is adaptive splitting: such a photon is split into sub-photons
+   that are re-traced from the light with their own, smaller differentials,
+   adaptive quadrature over the emission domain. Here the photon's share of
+   that domain is the parallelogram its two differentials span about its
+   start (its footprint's conjugate diameters, eq. 4); the four sub-photons
+   start at its quarters' centres, x + a DuX + b DvX and omega + a Du omega
+   + b Dv omega (a, b = +-1/4), with half the differentials and a quarter
+   of the flux each, and follow their own paths (the same random numbers
+   choose reflection or refraction, so each is an unbiased photon). The
+   four together carry the parent's flux exactly and, where the optics is
+   linear, cover the same footprint. A photon splits when at a specular
+   event the normal's predicted turn over its footprint,
+   tau = max(|DN_u|, |DN_v|) / 2, exceeds split_angle, or the spread of its
+   direction afterwards, max(|DD_u|, |DD_v|) / 2, exceeds twice that; at
+   most split_depth times (4^split_depth sub-photons). The default 0.2 rad
+   keeps the neglected second-order term, ~ tau^2 / 2 of the turn, near 2%.
+   A sub-photon at the last level that is still not linear takes the
+   surface as flat over its (small) footprint (DN = 0) and its direction's
+   spread is held at twice split_angle: at that scale the photons'
+   positions, not their differentials, carry the focusing, as in photon
+   mapping. Measured on the glass Stanford bunny (69,666 triangles, 20,000
+   photons, against a 24M-photon ppm reference): RMSE 0.101 unsplit, 0.085
+   with the defaults, 0.074 at split_angle 0.1 (pm: 0.117); on the shipped
+   water surface the defaults split nothing, while 0.1 splits its focal
+   regions at 20,000 photons and costs RMSE there (0.082 -> 0.102). */
+
+/* Sub-photon (a, b) of r: start moved by a, b times the differentials,
+   differentials halved (the directional ones kept perpendicular to the
+   new direction). */
+static pds__ray_diff pds__sub_photon(const pds__ray_diff *r, double a, double b)
+{
+    pds__ray_diff q;
+    q.p = pds__add(r->p, pds__add(pds__scale(r->dpdu, a), pds__scale(r->dpdv, b)));
+    q.d = pds__normalize(pds__add(r->d, pds__add(pds__scale(r->dddu, a), pds__scale(r->dddv, b))));
+    q.dpdu = pds__scale(r->dpdu, 0.5);
+    q.dpdv = pds__scale(r->dpdv, 0.5);
+    q.dddu = pds__scale(r->dddu, 0.5);
+    q.dddv = pds__scale(r->dddv, 0.5);
+    q.dddu = pds__sub(q.dddu, pds__scale(q.d, pds__dot(q.dddu, q.d)));
+    q.dddv = pds__sub(q.dddv, pds__scale(q.d, pds__dot(q.dddv, q.d)));
+    return q;
+}
+
+/* Half the larger of two differentials' lengths: the spread over the
+   footprint's semi-diameters. */
+static double pds__half_spread(pds__v3 a, pds__v3 b)
+{
+    return 0.5 * fmax(pds__length(a), pds__length(b));
+}
+
+static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *start,
+                            const double flux0[3], long i, int level);
+
+/* Split the photon that left the light as (start, flux0) into four. */
+static void pds__split_photon(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *start,
+                              const double flux0[3], long i, int level)
+{
+    static const double at[4][2] = {{-0.25, -0.25}, {0.25, -0.25}, {-0.25, 0.25}, {0.25, 0.25}};
+    double flux[3];
+    int k, c;
+    for (c = 0; c < 3; c++) flux[c] = 0.25 * flux0[c];
+    buf->split++;
+    for (k = 0; k < 4; k++) {
+        pds__ray_diff q = pds__sub_photon(start, at[k][0], at[k][1]);
+        pds__trace_from(job, buf, &q, flux, i, level + 1);
+    }
+}
+
+/* Trace photon i (or its sub-photon at split level `level`) from where it
+   left the light: specular bounces with the differential, splat at the
+   first non-specular surface after >= 1 specular bounce. */
+static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *start,
+                            const double flux0[3], long i, int level)
 {
     const pds_scene *s = job->scene;
-    double u[5], pmf, flux[3], pos_len, dir_len, n_light;
     const double *sigma = NULL;
-    pds__photon_start ph;
-    pds__ray_diff r;
-    int k, c, depth;
-    /* emission from a low-discrepancy sequence (>>rng): photon i's place in
-       the light's area and directions is spread evenly with the others' */
-    for (c = 0; c < 5; c++) u[c] = pds__halton(job->seed, (uint64_t)i, c);
-    k = pds__lights_pick(&s->light_table, pds__halton(job->seed, (uint64_t)i, 5), &pmf);
-    if (k < 0 || !(pmf > 0.0)) return;
-    if (!pds__emit_caustic_photon(s, &job->target, k, u, &ph)) return;
-    n_light = job->n_planned * pmf;
-    for (c = 0; c < 3; c++) flux[c] = ph.flux[c] / (job->n_planned * pmf);
-    pos_len = pds__photon_diff_length(job->smoothing, ph.area, n_light);
-    dir_len = pds__photon_diff_length(job->smoothing, ph.solid_angle, n_light);
-    pds__photon_diff_init(&r, ph.pos, ph.dir, ph.normal, pos_len, dir_len);
+    double flux[3];
+    pds__ray_diff r = *start;
+    int c, depth, can_split = job->differentials && level < job->split_depth;
+    for (c = 0; c < 3; c++) flux[c] = flux0[c];
     for (depth = 0; depth <= job->max_depth; depth++) {
         pds__tri_hit th;
         pds_hit hit;
@@ -9765,16 +9981,56 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
                 dndu = dndv = pds__v(0.0, 0.0, 0.0);
             }
         }
+        if (job->split_depth > 0 && pds__half_spread(dndu, dndv) > job->split_angle) {
+            if (can_split) {
+                pds__split_photon(job, buf, start, flux0, i, level);
+                return;
+            }
+            dndu = dndv = pds__v(0.0, 0.0, 0.0); /* the last level: flat at this scale */
+        }
         if (bs.transmitted) {
             double eta_i = side > 0 ? m->outside_ior : m->ior, eta_t = side > 0 ? m->ior : m->outside_ior;
             if (!pds__diff_refract(&r, n, dndu, dndv, eta_i / eta_t)) return;
         } else {
             pds__diff_reflect(&r, n, dndu, dndv);
         }
+        if (job->split_depth > 0 && pds__half_spread(r.dddu, r.dddv) > 2.0 * job->split_angle) {
+            double keep;
+            if (can_split) {
+                pds__split_photon(job, buf, start, flux0, i, level);
+                return;
+            }
+            /* the last level: the spread is limited to what is still linear */
+            keep = 2.0 * job->split_angle / pds__half_spread(r.dddu, r.dddv);
+            r.dddu = pds__scale(r.dddu, keep);
+            r.dddv = pds__scale(r.dddv, keep);
+        }
         for (c = 0; c < 3; c++) flux[c] *= bs.weight[c];
         if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
         r.p = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, r.d) >= 0.0 ? job->eps : -job->eps));
     }
+}
+
+/* Trace photon number i: emission (eqs. 2-6), then pds__trace_from. */
+static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, long i)
+{
+    const pds_scene *s = job->scene;
+    double u[5], pmf, flux[3], pos_len, dir_len, n_light;
+    pds__photon_start ph;
+    pds__ray_diff r;
+    int k, c;
+    /* emission from a low-discrepancy sequence (>>rng): photon i's place in
+       the light's area and directions is spread evenly with the others' */
+    for (c = 0; c < 5; c++) u[c] = pds__halton(job->seed, (uint64_t)i, c);
+    k = pds__lights_pick(&s->light_table, pds__halton(job->seed, (uint64_t)i, 5), &pmf);
+    if (k < 0 || !(pmf > 0.0)) return;
+    if (!pds__emit_caustic_photon(s, &job->target, k, u, &ph)) return;
+    n_light = job->n_planned * pmf;
+    for (c = 0; c < 3; c++) flux[c] = ph.flux[c] / (job->n_planned * pmf);
+    pos_len = pds__photon_diff_length(job->smoothing, ph.area, n_light);
+    dir_len = pds__photon_diff_length(job->smoothing, ph.solid_angle, n_light);
+    pds__photon_diff_init(&r, ph.pos, ph.dir, ph.normal, pos_len, dir_len);
+    pds__trace_from(job, buf, &r, flux, i, 0);
 }
 
 static void *pds__photon_worker(void *arg)
@@ -10559,6 +10815,11 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
                        sqrt((double)(opt->spp > 0 ? opt->spp : s->camera.spp > 0 ? s->camera.spp : 1));
     job.eps = 1e-6 * pds__scene_scale(s);
     job.max_depth = opt->photon_depth;
+    if (opt->method == PDS_METHOD_PDS && progressive) {
+        job.split_depth = opt->split_depth;
+        job.split_angle = opt->split_angle;
+        job.roulette_vertices = PDS__SPLAT_ROULETTE;
+    }
     job.n_total = opt->photons;
     job.n_planned = (double)opt->photons;
     job.caller = pthread_self();
@@ -10679,6 +10940,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             for (t = 0; t < job.nbufs; t++) {
                 if (opt->method != PDS_METHOD_PM && opt->method != PDS_METHOD_PPM) stats->splatted += job.bufs[t].splatted;
                 stats->dropped_degenerate += job.bufs[t].degenerate;
+                stats->split += job.bufs[t].split;
                 stats->saturated += job.bufs[t].saturated;
                 stats->dropped_invalid += job.bufs[t].invalid;
             }
@@ -11987,6 +12249,8 @@ void pds_options_default(pds_options *opt)
     opt->min_width = 0.0;
     opt->plane_tolerance = 0.25;
     opt->photon_depth = 16;
+    opt->split_depth = 2;
+    opt->split_angle = 0.2;
     opt->footprint = NULL;
     opt->k = 50;
     opt->kernel = PDS_KERNEL_CONE;
@@ -12056,6 +12320,10 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "minimum width must be between 0 and 1e6");
     if (!(opt->min_aspect >= 0.0) || opt->min_aspect > 1.0)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "minimum aspect must be between 0 and 1");
+    if (opt->split_depth < 0 || opt->split_depth > 8)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "split depth %d is outside 0..8", opt->split_depth);
+    if (!(opt->split_angle > 0.0) || opt->split_angle > 10.0)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "split angle must be above 0 and at most 10 radians");
     if (opt->photon_depth < 1 || opt->photon_depth > 1000)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photon depth %d is outside 1..1000", opt->photon_depth);
     if (opt->k < 1 || opt->k > 100000)
