@@ -12175,6 +12175,7 @@ static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, in
 {
     pds__isc ctx;
     pds_image img;
+    pds_error spare; /* the callback always gets somewhere to say why */
     pds_status st;
     double t0 = pds_time_now();
     int f, accumulate = opt->time_s > 0.0 && !fn;
@@ -12190,7 +12191,7 @@ static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, in
             break;
         }
         if (opt->progress && !accumulate) opt->progress(opt->progress_user, (double)(f + 1) / frames, pds_time_now() - t0);
-        if (fn && (st = fn(user, f, &img, err)) != PDS_OK) break;
+        if (fn && (st = fn(user, f, &img, err ? err : &spare)) != PDS_OK) break;
         if (accumulate) {
             double el = pds_time_now() - t0;
             if (opt->progress) opt->progress(opt->progress_user, el / opt->time_s < 1.0 ? el / opt->time_s : 1.0, el);

@@ -490,8 +490,8 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt,
                       pds_image *out, pds_render_stats *stats, pds_error *err);
 
 /* Called with each frame of pds_render_frames, in order; image belongs to
-   the library (copy what you keep). A status other than PDS_OK (with err
-   filled) stops the animation and is returned. */
+   the library (copy what you keep); err is never NULL. A status other than
+   PDS_OK (with err filled) stops the animation and is returned. */
 typedef pds_status (*pds_frame_fn)(void *user, int frame, const pds_image *image, pds_error *err);
 
 /* An animation of `frames` frames (method PDS_METHOD_ISC only): frame f
