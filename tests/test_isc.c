@@ -516,6 +516,35 @@ static void test_isc_time_budget_averages_offset_frames(pds_test_ctx *t)
     pds_scene_free(s);
 }
 
+/* A frame callback that fails stops the animation with its status. */
+static pds_status isc_fail_second(void *user, int frame, const pds_image *img, pds_error *err)
+{
+    (void)img;
+    ++*(int *)user;
+    if (frame < 1) return PDS_OK;
+    snprintf(err->text, sizeof err->text, "disk full");
+    err->status = PDS_ERR_IO;
+    return PDS_ERR_IO;
+}
+
+static void test_isc_frames_stop_when_the_callback_fails(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text(isc_mirror_scene, &err);
+    pds_options opt;
+    pds_render_stats st;
+    int calls = 0;
+    REQUIRE(t, s != NULL, "scene: %s", err.text);
+    pds_options_default(&opt);
+    opt.method = PDS_METHOD_ISC;
+    opt.light_resolution = 16;
+    opt.threads = 2;
+    CHECK(t, pds_render_frames(s, &opt, 5, isc_fail_second, &calls, &st, NULL) == PDS_ERR_IO && calls == 2 &&
+                 st.passes == 1,
+          "calls %d, frames %d", calls, st.passes);
+    pds_scene_free(s);
+}
+
 /* What isc cannot take is refused with a message, not rendered wrong. */
 static void test_isc_refuses_what_it_cannot_render(pds_test_ctx *t)
 {
@@ -586,6 +615,7 @@ static const pds_test_case tests_isc[] = {
     {"isc_temporal_filter_reduces_flicker", test_isc_temporal_filter_reduces_flicker},
     {"isc_light_orbit_moves_the_caustic_and_returns", test_isc_light_orbit_moves_the_caustic_and_returns},
     {"isc_time_budget_averages_offset_frames", test_isc_time_budget_averages_offset_frames},
+    {"isc_frames_stop_when_the_callback_fails", test_isc_frames_stop_when_the_callback_fails},
     {"isc_refuses_what_it_cannot_render", test_isc_refuses_what_it_cannot_render},
     {"isc_cli_frames_and_options", test_isc_cli_frames_and_options},
 };
