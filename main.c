@@ -70,9 +70,10 @@ static const command_help help_table[] = {
      "      --method NAME           pds (photon differential splatting, default), pt (path tracing),\n"
      "                              preview (eye-light shading), or a baseline: pm (photon mapping),\n"
      "                              pdm (photon differential mapping), splat (fixed-radius photon\n"
-     "                              splatting), ppm (progressive photon mapping), or gi (Jensen's\n"
-     "                              two-pass global illumination: global photon map, final gather,\n"
-     "                              shadow photons, caustics from --caustics)\n"
+     "                              splatting), ppm (progressive photon mapping), spm (streamed\n"
+     "                              photon mapping), or gi (Jensen's two-pass global illumination:\n"
+     "                              global photon map, final gather, shadow photons, caustics from\n"
+     "                              --caustics)\n"
      "                              isc: image-space caustics (see below)\n"
      "      --photons N             photon methods: caustic photons (default 100000; ppm: per pass)\n"
      "      --smoothing S           pdm, and pds: the paper's fixed-s PDS with smoothing s (default 12;\n"
@@ -94,16 +95,18 @@ static const command_help help_table[] = {
      "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"
      "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
      "      --debug footprint       pds: also write OUT.footprint.png, footprint anisotropy (red = needle)\n"
-     "      --k N                   pm: photons per density estimate (default 50)\n"
+     "      --k N                   pm: photons (spm: streams) per estimate (default 50)\n"
      "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
-     "      --max-radius R          pm: largest gather radius in scene units (default: no limit)\n"
+     "      --max-radius R          pm, spm: largest gather radius in scene units (default: no limit)\n"
+     "      --streams N             spm: streams (default: photons / (stream-photons + 1))\n"
+     "      --stream-photons N      spm: associated photons per stream (default 10)\n"
      "      --max-photons N         pdm: most photons gathered per estimate (default 500)\n"
      "      --radius R              splat: splat radius; ppm: initial radius (default: from the scene)\n"
      "      --alpha A               ppm: radius reduction, 0 < A <= 1 (default 0.7)\n"
      "      --passes N              ppm: photon passes (default 10; with --time, until the time is spent)\n"
-     "                              memory: pm and pdm store every photon, so their memory grows with\n"
-     "                              --photons (the final line reports map_bytes); ppm keeps one pass's\n"
-     "                              photons, pds and splat none\n",
+     "                              memory: pm and pdm store every photon, spm every stream, so their\n"
+     "                              memory grows with --photons (the final line reports map_bytes); ppm\n"
+     "                              keeps one pass's photons, pds and splat none\n",
      "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
      "      --res WxH               resolution (default: the scene camera's)\n"
      "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
@@ -119,8 +122,8 @@ static const command_help help_table[] = {
      "      --progress              progress on stderr even when it is not a terminal (then one line\n"
      "                              every 2 seconds); default: a bar when stderr is a terminal\n"
      "      --quiet                 no progress, no scene warnings\n"
-     "      --caustics NAME         gi: the caustic method, pds (default), pm, pdm, splat or ppm, with\n"
-     "                              its own options above\n"
+     "      --caustics NAME         gi: the caustic method, pds (default), pm, pdm, splat, ppm or spm,\n"
+     "                              with its own options above\n"
      "      --global-photons N      gi: photons emitted for the global photon map (default 100000)\n"
      "      --global-k K            gi: nearest photons per global radiance estimate (default 50)\n"
      "      --gather N              gi: final-gather rays per eye sample (default 16)\n"
@@ -142,8 +145,8 @@ static const command_help help_table[] = {
     {"sweep", "sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]",
      "render once per value of one parameter and compare each with REF",
      "      --method NAME           the method swept (default pds)\n"
-     "      --param NAME            smoothing, min-aspect, k, radius, alpha, photons, spp, max-photons\n"
-     "                              or passes\n"
+     "      --param NAME            smoothing, min-aspect, k, radius, alpha, photons, spp, max-photons,\n"
+     "                              passes, max-radius, streams or stream-photons\n"
      "      --values A,B,...        the values, comma-separated\n"
      "      --ref REF.pfm           the reference (linear PFM, the renders' resolution)\n"
      "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
@@ -632,6 +635,7 @@ typedef struct method_info {
 static const method_info method_table[] = {
     {"pds", PDS_METHOD_PDS}, {"pt", PDS_METHOD_PT},   {"preview", PDS_METHOD_PREVIEW}, {"pm", PDS_METHOD_PM},
     {"pdm", PDS_METHOD_PDM}, {"splat", PDS_METHOD_SPLAT}, {"ppm", PDS_METHOD_PPM}, {"gi", PDS_METHOD_GI},
+    {"spm", PDS_METHOD_SPM},
     {"isc", PDS_METHOD_ISC},
 };
 #define N_METHODS (sizeof method_table / sizeof method_table[0])
@@ -639,11 +643,11 @@ static const method_info method_table[] = {
 #define MBIT(m) (1u << (unsigned)(m))
 #define M_PHOTON                                                                                                     \
     (MBIT(PDS_METHOD_PDS) | MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_SPLAT) |                    \
-     MBIT(PDS_METHOD_PPM))
+     MBIT(PDS_METHOD_PPM) | MBIT(PDS_METHOD_SPM))
 #define M_GI MBIT(PDS_METHOD_GI)
 #define M_ALL (M_PHOTON | M_GI | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW) | MBIT(PDS_METHOD_ISC))
 /* methods that keep a photon map, whose size stats.map_bytes reports */
-#define M_MAP (MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_PPM))
+#define M_MAP (MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_PPM) | MBIT(PDS_METHOD_SPM))
 
 static const char *method_name(pds_method m)
 {
@@ -816,7 +820,7 @@ static int set_caustics(const opt_spec *s, run_cfg *c, const char *shown, const 
     pds_method m;
     (void)s;
     if (method_lookup(v, &m)) return unknown_method(v);
-    if (!is_photon_method(m)) return usage_error("%s takes pds, pm, pdm, splat or ppm, got '%s'", shown, v);
+    if (!is_photon_method(m)) return usage_error("%s takes pds, pm, pdm, splat, ppm or spm, got '%s'", shown, v);
     c->opt.caustics = m;
     return 0;
 }
@@ -930,6 +934,7 @@ static int set_progress(const opt_spec *s, run_cfg *c, const char *shown, const 
 #define M_PDM MBIT(PDS_METHOD_PDM)
 #define M_SPLAT MBIT(PDS_METHOD_SPLAT)
 #define M_PPM MBIT(PDS_METHOD_PPM)
+#define M_SPM MBIT(PDS_METHOD_SPM)
 #define M_ISC MBIT(PDS_METHOD_ISC)
 
 static const char *const gather_names[] = {"points", "quads", "eye", "light"}; /* by pds_isc_gather */
@@ -1010,11 +1015,15 @@ static const opt_spec option_table[] = {
     {"--pass-alpha", NULL, "pass_alpha", set_double, OPTF(pass_alpha), 0, 1, "a number above 0 and at most 1", M_PDS | M_GI,
      C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--debug", NULL, "debug", set_debug, 0, 0, 0, "footprint", M_PDS, C_RENDER, F_VALUE},
-    {"--k", NULL, "k", set_int, OPTF(k), 1, 1000000, "a whole number from 1 to 1000000", M_PM | M_GI, C_ALL,
+    {"--k", NULL, "k", set_int, OPTF(k), 1, 1000000, "a whole number from 1 to 1000000", M_PM | M_SPM | M_GI, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--kernel", NULL, "kernel", set_kernel, 0, 0, 0, "cone, gaussian or none", M_PM | M_GI, C_ALL, F_VALUE | F_PER_METHOD},
     {"--max-radius", NULL, "max_radius", set_double, OPTF(max_radius), 0, PDS_MAX_COORD,
-     "a positive distance in scene units", M_PM | M_GI, C_ALL, F_VALUE | F_LO_OPEN | F_PER_METHOD},
+     "a positive distance in scene units", M_PM | M_SPM | M_GI, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
+    {"--streams", NULL, "streams", set_long, OPTF(streams), 0, -1, "a whole number of 0 or more", M_SPM, C_ALL,
+     F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--stream-photons", NULL, "stream_photons", set_int, OPTF(stream_photons), 0, 10000,
+     "a whole number from 0 to 10000", M_SPM, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--max-photons", NULL, "max_photons", set_long, OPTF(max_photons), 1, 100000000,
      "a whole number from 1 to 100000000", M_PDM | M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--radius", NULL, "radius", set_double, OPTF(radius), 0, PDS_MAX_COORD, "a positive distance in scene units",
@@ -1245,6 +1254,10 @@ static void format_params(const pds_options *o, char *buf, size_t n)
     case PDS_METHOD_PPM:
         snprintf(buf, n, " radius=%s alpha=%g", distance_text(o->radius, "auto", d, sizeof d), o->alpha);
         break;
+    case PDS_METHOD_SPM:
+        snprintf(buf, n, " stream_photons=%d k=%d max_radius=%s", o->stream_photons, o->k,
+                 distance_text(o->max_radius, "none", d, sizeof d));
+        break;
     case PDS_METHOD_ISC:
         snprintf(buf, n, " gather=%s history=%d", gather_names[o->isc_gather], o->history);
         break;
@@ -1283,6 +1296,7 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
             printf(" splatted=%ld", st->splatted);
         else if (m != PDS_METHOD_PPM)
             printf(" stored=%ld", st->splatted);
+        if (m == PDS_METHOD_SPM) printf(" streams=%ld", st->streams);
         printf(" eye_vertices=%ld", st->eye_vertices);
         if (m == PDS_METHOD_PPM) printf(" passes=%d", st->passes);
         printf("%s", params);
@@ -2495,7 +2509,7 @@ static const char *const sweep_own_options[] = {"--param", "--values", "--ref", 
 static int cmd_sweep(int argc, char **argv)
 {
     const char *scene_path = NULL, *param = NULL, *values = NULL, *ref_path = NULL, *dir = NULL;
-    char dir_buf[1024], stem[256], where[64], name[64], list[256];
+    char dir_buf[1024], stem[256], where[64], name[64], list[512];
     run_cfg base;
     const opt_spec *ps;
     sweep_row *rows = NULL;
@@ -2992,7 +3006,9 @@ static void html_figure(sbuf *b, const char *src, const char *alt, const char *c
    and pixel sequence than the render reported, so the choice does not fit
    that render's own noise). A parameter given in --methods or as an option
    is kept. ppm is tuned one parameter at a time: R0 with alpha at its
-   value, then alpha with the best R0. Radii are multiples of the pixel
+   value, then alpha with the best R0; spm likewise k, then R with the best
+   k (its stream_photons only says how many photons a stream stands for:
+   under a time budget it changes nothing in the image). Radii are multiples of the pixel
    footprint at the camera's look-at distance (race_pixel_size), so the
    grid follows the scene's scale. */
 typedef struct tune_grid {
@@ -3012,6 +3028,8 @@ static const tune_grid tune_grids[] = {
     {PDS_METHOD_SPLAT, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
     {PDS_METHOD_PPM, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
     {PDS_METHOD_PPM, -1, "alpha", 3, {0.5, 0.7, 0.9}, 0},
+    {PDS_METHOD_SPM, -1, "k", 5, {10, 20, 40, 80, 160}, 0},
+    {PDS_METHOD_SPM, -1, "max-radius", 5, {1, 3, 10, 30, 100}, 1},
 };
 #define N_TUNE_GRIDS (sizeof tune_grids / sizeof tune_grids[0])
 
@@ -3109,6 +3127,13 @@ static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_
 
 /* ----------------------------------------------------------- race: budgets */
 
+/* The photons a render traced: spm's streams (its photon count is what
+   the streams stand for), the others' photons. */
+static long race_traced(const race_entry *t)
+{
+    return t->cfg.opt.method == PDS_METHOD_SPM ? t->st.streams : t->st.photons;
+}
+
 /* Set the flags of every entry (see RACE_TIME_TOLERANCE) and warn on
    stderr about each flagged one. Returns how many are flagged. */
 static int race_check_budgets(race_entry *e, int n, const race_budgets *bud)
@@ -3129,13 +3154,14 @@ static int race_check_budgets(race_entry *e, int n, const race_budgets *bud)
                     100.0 * RACE_TIME_TOLERANCE);
         if (!is_photon_method(t->cfg.opt.method) || t->cfg.opt.paths == PDS_PATHS_NO_CAUSTICS) continue;
         for (j = 0; j < n; j++)
-            if (e[j].budget == t->budget && is_photon_method(e[j].cfg.opt.method) && e[j].st.photons > most)
-                most = e[j].st.photons;
-        if (t->st.photons < RACE_MIN_PHOTONS || (double)t->st.photons < RACE_MIN_PHOTON_SHARE * (double)most) {
+            if (e[j].budget == t->budget && is_photon_method(e[j].cfg.opt.method) && race_traced(&e[j]) > most)
+                most = race_traced(&e[j]);
+        if (race_traced(t) < RACE_MIN_PHOTONS || (double)race_traced(t) < RACE_MIN_PHOTON_SHARE * (double)most) {
             t->flags |= RACE_FEW_PHOTONS;
-            fprintf(stderr, "pds race: warning: %s emitted %ld photons in its %g s (the most on that budget: %ld; "
-                    "fewer than %d or 1%% of that is too few for a useful estimate)\n", t->label, t->st.photons,
-                    budget, most, RACE_MIN_PHOTONS);
+            fprintf(stderr, "pds race: warning: %s %s %ld %s in its %g s (the most on that budget: %ld; "
+                    "fewer than %d or 1%% of that is too few for a useful estimate)\n", t->label,
+                    t->cfg.opt.method == PDS_METHOD_SPM ? "traced" : "emitted", race_traced(t),
+                    t->cfg.opt.method == PDS_METHOD_SPM ? "streams" : "photons", budget, most, RACE_MIN_PHOTONS);
         }
     }
     for (i = 0; i < n; i++) flagged += e[i].flags != 0;
@@ -3593,7 +3619,8 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
                      "seed %llu of the renders shown, so the choice does not fit their own noise. Grids: pds and pdm "
                      "s in 4, 6, 8, 12, 16, 24; pm k in 10, 20, 40, 80, 160; splat R and ppm R0 in 1, 2, 4, 8, 16 "
                      "pixels (one pixel: %.4g scene units at the camera's look-at distance); ppm alpha in 0.5, 0.7, "
-                     "0.9 after R0. A value given on the command line is kept.</p>\n",
+                     "0.9 after R0; spm k as pm, then R in 1, 3, 10, 30, 100 pixels. A value given on the command line is "
+                     "kept.</p>\n",
                   pg->base->opt.seed + 1, pg->base->opt.seed, pg->pixel_m);
     /* provenance */
     sb_printf(b, "<h2>How this page was made</h2>\n<pre class=\"cmd\" id=\"command\">");
@@ -3928,6 +3955,7 @@ static int cmd_race(int argc, char **argv)
         printf("race method=%s label=%s photons=%ld spp=%d%s", method_name(t->cfg.opt.method), t->label,
                t->st.photons, t->st.spp, t->params);
         if (t->cfg.opt.method == PDS_METHOD_PPM) printf(" passes=%d", t->st.passes);
+        if (t->cfg.opt.method == PDS_METHOD_SPM) printf(" streams=%ld", t->st.streams);
         if (MBIT(t->cfg.opt.method) & M_MAP) printf(" map_bytes=%lu", (unsigned long)t->st.map_bytes);
         printf(" rmse=%.6f ssim=%.6f time=%.3f budget=%s", t->m.rmse, t->m.ssim, t->st.time_total_s,
                bud.text[t->budget]);

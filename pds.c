@@ -25,8 +25,12 @@
      >>render     camera, path tracer and eye pass, preview, row scheduler
      >>pds        photon differential splatting: aimed caustic photons,
                   tracing with differentials, splatting into the eye-path map
-     >>baselines  pm, pdm, splat, ppm, and the photon pass all photon
-                  methods share
+     >>baselines  pm, pdm, splat, ppm
+     >>streams    streamed photon mapping (spm): streams of a leading photon
+                  and associated photons, concentrated at specular surfaces,
+                  gathered stream by stream (eqs. 1-2)
+     >>photonpass the photon pass all photon methods share: time planning,
+                  tracing threads, gathers, the caustic image
      >>gi         Jensen's two-pass global illumination: global photon map,
                   shadow photons, importance-sampled final gather, caustics
                   from any caustic method
@@ -10346,7 +10350,8 @@ static long pds__pds_passes(pds__photon_job *job, const pds_options *opt, int th
           the reference where a path tracer cannot go (point and directional
           lights).
 
-   At the end, the photon pass every photon method shares. */
+   The photon pass these methods share comes after streamed photon
+   mapping (>>photonpass). */
 
 /* Exact integral of Jensen's Gaussian filter over the disc, over pi r^2:
    a [1 - (1 - (2/b)(1 - e^(-b/2))) / (1 - e^(-b))]. */
@@ -10525,10 +10530,15 @@ static pds__stored_photon *pds__merge_photons(pds__splat_buf *bufs, int nbufs, s
     return all;
 }
 
-/* Photon mapping's second half: the caustic map and the gather into the
-   threads' exact images. */
-static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
-                                 int threads, pds_render_stats *stats, pds_error *err)
+/* The estimate of one eye vertex from its nearest stored photons. */
+typedef void (*pds__estimate_fn)(const pds__gather *g, const pds__eye_vertex *v, const size_t *idx,
+                                 const double *d2, size_t n, double sum[3]);
+
+/* Photon mapping's second half: the map of the stored photons (pm: the
+   caustic map; spm: the stream map) and the gather into the threads'
+   exact images with `estimate`. */
+static pds_status pds__stored_gather(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
+                                     int threads, pds_render_stats *stats, pds_error *err, pds__estimate_fn estimate)
 {
     pds__gather g;
     pds__kdtree tree;
@@ -10558,13 +10568,19 @@ static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, c
     g.k = (size_t)opt->k;
     g.radius = opt->max_radius > 0.0 ? opt->max_radius : DBL_MAX;
     g.kernel = opt->kernel;
-    g.estimate = pds__pm_estimate;
+    g.estimate = estimate;
     st = pds__gather_run(&g, job, threads, err);
     job->gather_s = pds_time_now() - tg;
     job->gather_found = g.found;
     pds__kdtree_free(&tree);
     free(photons);
     return st;
+}
+
+static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
+                                 int threads, pds_render_stats *stats, pds_error *err)
+{
+    return pds__stored_gather(job, opt, v, nv, threads, stats, err, pds__pm_estimate);
 }
 
 /* --- photon differential mapping --------------------------------------- */
@@ -10848,6 +10864,113 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
     return st == PDS_ERR_NOMEM ? pds__nomem(err) : st;
 }
 
+/* ===================================================================== */
+/* >>streams                                                             */
+/* ===================================================================== */
+/* Streamed photon mapping (Guzek, Napieralski, "Efficient rendering of
+   caustics with streamed photon mapping", Bull. Pol. Acad. Sci. Tech. Sci.
+   65(3), 2017; seed paper 003), on the same eye pass, aimed photons and
+   exact images as the other methods.
+
+   The paper's method, sect. 3:
+   - nfs streams leave the light; a stream is a leading photon, which
+     gives the stream its direction, and nfa associated photons whose
+     directions deviate from the leader's within a radius rs. A stream
+     carries Es = Ez / nfs (eq. 1, Ez the light's energy), shared equally
+     by its nfa + 1 photons.
+   - Sect. 3.1, step 3: where the leader meets a diffuse surface, each
+     associated photon gets a random point within rs of the leader's hit
+     and the leader bounces diffusely (at most mr times); where the leader
+     meets a specular or refractive surface, "all associated photons are
+     eliminated and the sum of their energy values is assigned to the
+     leading photon", which then reflects or refracts; this concentration
+     is what makes caustics bright "without increasing the number of
+     photons in a photon map".
+   - Sect. 3.2: every diffuse hit of a leader is stored in a kd-tree of
+     streams; the gather finds the k nearest leaders within R and
+       L(x, wr) = 1/dA sum_{i=1..k} fr(x, wi, wr) Ei            (eq. 2)
+     Ei the stream's energy (the sum of its photons'), dA the area of the
+     circle of the search radius.
+
+   In PDS the photon methods compute only the caustic paths L S+ D (the
+   eye pass computes the rest, including everything a stream does after
+   a diffuse bounce). A caustic path's first event is specular, so by the
+   rule above every stream that makes a caustic has lost its associated
+   photons before they did anything: it travels on as its leader alone
+   with the whole Es, is reflected and refracted with the Fresnel weights
+   of the shared photon tracing, and is stored where it lands. So here:
+   - stream s is pds's photon number s (the shared aimed emission, >>pds):
+     its leader carries Es = flux / nfs, which is eq. 1 per light (the
+     light chosen with probability pmf, Es = Phi / (pmf nfs));
+   - a stream that lands is stored as one record, its leader with the
+     stream's energy (56 bytes; it has no associated photons left);
+   - the gather is eq. 2 over those records (pds__spm_estimate).
+   What nfa and rs shape (streams whose leader first meets a diffuse
+   surface: direct light and what follows it) is the eye pass's part here,
+   so rs does not enter the caustic image at all, and nfa only says how
+   many photons a stream stands for: a render of nfs streams counts
+   nfs (nfa + 1) emitted photons, and with no stream count given spm emits
+   photons / (nfa + 1) streams, as many photons as pm would.
+
+   Ambiguities and the choices made (README, "Streamed photon mapping"):
+   - dA: "the circle with a radius equal to radius R of the nearest leading
+     photons search sphere". Taken as in Jensen's photon map code: the
+     sphere shrinks to the k-th leader once k are found, so dA = pi r_k^2
+     when k leaders lie within R, else pi R^2 (R = max_radius; with no R
+     and fewer than k leaders in the whole map, the farthest one found).
+   - The kernel: none (eq. 2 is a plain sum; the paper leaves Gauss or
+     Epanechnikov kernels to future work).
+   - Like pm, only leaders that arrived on the vertex's side of a surface
+     facing the same way count (Jensen's code; the paper does not say).
+   - Photons per stream: nfa + 1 as sect. 3 says ("equally divided among
+     all the photons in the stream (nfa+1)"), although Table 1 counts
+     nfs x nfa photons. */
+
+/* nfs: the streams a render without a time budget emits. */
+static long pds__spm_streams(const pds_options *opt)
+{
+    if (opt->streams > 0) return opt->streams;
+    return opt->photons / ((long)opt->stream_photons + 1);
+}
+
+/* eq. 2 at one eye vertex from the n <= k nearest leaders (idx, d2 sorted
+   by distance): L = sum fr Ei / (pi r^2), r = the k-th distance when k
+   were found, else the search radius R (or, with no R, the farthest);
+   times the vertex's importance. */
+static void pds__spm_estimate(const pds__gather *g, const pds__eye_vertex *v, const size_t *idx, const double *d2,
+                              size_t n, double sum[3])
+{
+    const pds__stored_photon *streams = (const pds__stored_photon *)g->photons;
+    pds__v3 gv = pds__f3_get(v->g);
+    double r2 = n == g->k || !(g->radius < DBL_MAX) ? d2[n - 1] : g->radius * g->radius, area;
+    size_t j;
+    int c;
+    if (!(r2 > 0.0)) return;
+    for (j = 0; j < n; j++) {
+        const pds__stored_photon *p = &streams[idx[j]];
+        double f[3]; /* fr x the vertex's importance */
+        if (pds__dot(pds__f3_get(p->ng), gv) <= 0.0) continue; /* the surface's other side */
+        if (!pds__eye_response(g->scene, v, pds__scale(pds__f3_get(p->dir), -1.0), f)) continue;
+        for (c = 0; c < 3; c++) sum[c] += f[c] * p->flux[c];
+    }
+    area = PDS__PI * r2;
+    for (c = 0; c < 3; c++) sum[c] /= area;
+}
+
+/* The stream map of the landed leaders and the gather of eq. 2. */
+static pds_status pds__spm_gather(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
+                                  int threads, pds_render_stats *stats, pds_error *err)
+{
+    return pds__stored_gather(job, opt, v, nv, threads, stats, err, pds__spm_estimate);
+}
+
+/* ===================================================================== */
+/* >>photonpass                                                          */
+/* ===================================================================== */
+/* The photon pass every photon method shares: the time planning of the
+   map methods, the threads tracing photons, the methods' second halves,
+   and the caustic image. */
+
 /* pm and pdm under a time budget: the map build and the gather come after
    the last photon, so the tracing must stop early enough for them. Probe
    them on the calibration photons (already stored in job->bufs) with every
@@ -10910,8 +11033,9 @@ static double pds__map_budget(pds__photon_job *job, const pds_options *opt, cons
     /* one thread: a probe of tens of milliseconds on one core is not at
        the mercy of the other threads' scheduling (a 1 ms probe on two
        threads of a busy machine planned no tracing at all) */
-    st = opt->method == PDS_METHOD_PM ? pds__pm_gather(job, opt, sub, nsub, 1, NULL, &ignored)
-                                      : pds__pdm_gather(job, opt, sub, nsub, 1, NULL, &ignored);
+    st = opt->method == PDS_METHOD_PM    ? pds__pm_gather(job, opt, sub, nsub, 1, NULL, &ignored)
+         : opt->method == PDS_METHOD_SPM ? pds__spm_gather(job, opt, sub, nsub, 1, NULL, &ignored)
+                                         : pds__pdm_gather(job, opt, sub, nsub, 1, NULL, &ignored);
     free(sub);
     if (st || job->map_photons < 2 || nsub == 0) return remaining;
     p.build_s = job->build_s;
@@ -10927,7 +11051,8 @@ static double pds__map_budget(pds__photon_job *job, const pds_options *opt, cons
        time the render reports) */
     return fmax(0.25 * remaining,
                 pds__map_plan(&p, opt->method == PDS_METHOD_PDM,
-                              (double)(opt->method == PDS_METHOD_PM ? opt->k : opt->max_photons), nv, rate, remaining));
+                              (double)(opt->method == PDS_METHOD_PDM ? opt->max_photons : opt->k), nv, rate,
+                              remaining));
 }
 
 /* --- the photon pass --------------------------------------------------- */
@@ -10988,8 +11113,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.split_angle = opt->split_angle;
         job.roulette_vertices = PDS__SPLAT_ROULETTE;
     }
-    job.n_total = opt->photons;
-    job.n_planned = (double)opt->photons;
+    job.n_total = opt->method == PDS_METHOD_SPM ? pds__spm_streams(opt) : opt->photons;
+    job.n_planned = (double)job.n_total;
     job.caller = pthread_self();
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
@@ -11036,7 +11161,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         pthread_mutex_destroy(&job.lock);
         rate = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6) * threads;
         remaining = opt->time_s - (pds_time_now() - t0);
-        if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM) {
+        if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPM) {
             double tp = pds_time_now();
             remaining = pds__map_budget(&job, opt, vertices, nvertices, threads, rate, fmax(remaining, 0.0));
             remaining -= pds_time_now() - tp; /* the probe's own time */
@@ -11071,7 +11196,9 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     }
     if (!st && opt->method == PDS_METHOD_PM) st = pds__pm_gather(&job, opt, vertices, nvertices, threads, stats, err);
     if (!st && opt->method == PDS_METHOD_PDM) st = pds__pdm_gather(&job, opt, vertices, nvertices, threads, stats, err);
-    if (!st && stats && (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM)) {
+    if (!st && opt->method == PDS_METHOD_SPM) st = pds__spm_gather(&job, opt, vertices, nvertices, threads, stats, err);
+    if (!st && stats &&
+        (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPM)) {
         stats->time_map_s = job.build_s;
         stats->time_gather_s = job.gather_s;
     }
@@ -11103,10 +11230,16 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         }
         if (stats) {
             if (opt->method != PDS_METHOD_PPM) stats->photons = emitted;
+            if (opt->method == PDS_METHOD_SPM) {
+                /* a stream stands for its leader and nfa associated photons */
+                stats->streams = emitted;
+                stats->photons = emitted * ((long)opt->stream_photons + 1);
+            }
             stats->eye_vertices = (long)nvertices;
             stats->saturated += saturated;
             for (t = 0; t < job.nbufs; t++) {
-                if (opt->method != PDS_METHOD_PM && opt->method != PDS_METHOD_PPM) stats->splatted += job.bufs[t].splatted;
+                if (opt->method != PDS_METHOD_PM && opt->method != PDS_METHOD_PPM && opt->method != PDS_METHOD_SPM)
+                    stats->splatted += job.bufs[t].splatted;
                 stats->dropped_degenerate += job.bufs[t].degenerate;
                 stats->split += job.bufs[t].split;
                 stats->saturated += job.bufs[t].saturated;
@@ -13183,13 +13316,15 @@ void pds_options_default(pds_options *opt)
     opt->gather = 16;
     opt->gather_mix = 0.25;
     opt->shadow_photons = 1;
+    opt->streams = 0;
+    opt->stream_photons = 10;
 }
 
 /* Methods that add caustics with photons after an eye pass. */
 static int pds__is_photon_method(pds_method m)
 {
     return m == PDS_METHOD_PDS || m == PDS_METHOD_PM || m == PDS_METHOD_PDM || m == PDS_METHOD_SPLAT ||
-           m == PDS_METHOD_PPM;
+           m == PDS_METHOD_PPM || m == PDS_METHOD_SPM;
 }
 
 const char *pds_method_name(pds_method method)
@@ -13204,6 +13339,7 @@ const char *pds_method_name(pds_method method)
     case PDS_METHOD_PPM: return "ppm";
     case PDS_METHOD_ISC: return "isc";
     case PDS_METHOD_GI: return "gi";
+    case PDS_METHOD_SPM: return "spm";
     }
     return "unknown";
 }
@@ -13254,6 +13390,12 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "alpha must be above 0 and at most 1");
     if (opt->passes < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "passes must be at least 1");
     if (opt->max_photons < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "max photons must be at least 1");
+    if (opt->stream_photons < 0 || opt->stream_photons > 10000)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "associated photons per stream %d is outside 0..10000",
+                         opt->stream_photons);
+    if (opt->streams < 0 || opt->streams > (LONG_MAX - PDS__PHOTON_BATCH) / (opt->stream_photons + 1L))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "stream count %ld is outside 0..%ld", opt->streams,
+                         (LONG_MAX - PDS__PHOTON_BATCH) / (opt->stream_photons + 1L));
     if (!(opt->max_radius >= 0.0) || !(opt->radius >= 0.0) || opt->max_radius > 1e12 || opt->radius > 1e12)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "radii must be between 0 and 1e12");
     if ((unsigned)opt->isc_gather > (unsigned)PDS_ISC_LIGHT)
@@ -13356,6 +13498,7 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
         photons = opt->time_s > 0.0 ? 0.0 : (double)opt->photons; /* a time budget: not known in advance */
         if (opt->method == PDS_METHOD_PM) est->stored_photons = photons;
         if (opt->method == PDS_METHOD_PDM) est->stored_photons = photons;
+        if (opt->method == PDS_METHOD_SPM && opt->time_s <= 0.0) est->stored_photons = (double)pds__spm_streams(opt);
         if (opt->method == PDS_METHOD_PPM) {
             est->stored_photons = (double)opt->photons;
             bytes += est->eye_vertices * sizeof(pds__ppm_state);

@@ -303,6 +303,8 @@ typedef enum pds_method {
     PDS_METHOD_GI,         /* Jensen's two-pass global illumination (Jensen
                               1996): global photon map, shadow photons, final
                               gather, caustics from a caustic method */
+    PDS_METHOD_SPM,        /* streamed photon mapping: streams of a leading photon and
+                              associated photons, gathered stream by stream */
     PDS_METHOD_ISC         /* image-space caustics (Wyman and Davis 2006): a
                               light-space photon buffer gathered in image space;
                               interactive, approximate; point and spot lights */
@@ -408,15 +410,22 @@ typedef struct pds_options {
                            direction spreads by more than twice it
                            (default 0.2) */
     /* baselines */
-    int k;              /* pm: photons per estimate (default 50) */
+    int k;              /* pm: photons, spm: streams per estimate (default 50) */
     pds_kernel kernel;  /* pm: filter (default PDS_KERNEL_CONE) */
-    double max_radius;  /* pm: largest gather radius, 0 = none (default 0) */
+    double max_radius;  /* pm, spm: largest gather radius, 0 = none (default 0) */
     double radius;      /* splat: splat radius; ppm: initial radius; 0 = from
                            the scene and the eye-path map (default 0) */
     double alpha;       /* ppm: radius reduction parameter in (0, 1] (default 0.7) */
     int passes;         /* ppm: photon passes of `photons` each; with time_s > 0
                            passes run until the time is spent (default 10) */
     long max_photons;   /* pdm: most photons gathered per estimate (default 500) */
+    long streams;       /* spm: streams nfs; 0 = photons / (stream_photons + 1),
+                           the streams that emit as many photons as pm
+                           would (default 0); with time_s > 0 streams are
+                           emitted until the time is spent instead */
+    int stream_photons; /* spm: associated photons per stream nfa, 0..10000; a
+                           stream is nfa + 1 photons of one nfa+1-th of its
+                           energy each (default 10, the paper's comparison) */
     pds_image *footprint; /* if not NULL, PDS writes here an image of photon
                            footprint anisotropy (paper appendix B): red where
                            footprints are needle-like (m_a -> 0), green where
@@ -485,14 +494,14 @@ typedef struct pds_render_stats {
                                (tracing, and for pds and splat the splats, which
                                go with it batch by batch; for pm, pdm and ppm
                                also the two phases below) */
-    double time_map_s;      /* pm, pdm, ppm: building the photon maps; gi:
+    double time_map_s;      /* pm, pdm, ppm, spm: building the photon maps; gi:
                                pass 1 (tracing and building the global and
                                shadow maps) plus its caustic method's */
-    double time_gather_s;   /* pm, pdm, ppm: gathering at the eye vertices;
+    double time_gather_s;   /* pm, pdm, ppm, spm: gathering at the eye vertices;
                                isc: the gathers (time_photons_s: the
                                light-space buffers, time_eye_s: the eye
                                buffer with its shadow rays) */
-    size_t map_bytes;       /* pm, pdm, ppm: peak size of the photon map;
+    size_t map_bytes;       /* pm, pdm, ppm, spm: peak size of the photon map;
                                gi: the global and shadow maps (plus the
                                caustic method's map) */
     long global_stored;     /* gi: photons stored in the global map */
@@ -501,6 +510,8 @@ typedef struct pds_render_stats {
     long shadow_rays_saved; /* gi: light samples the shadow photons decided
                                without a shadow ray */
     long gather_rays;       /* gi: final-gather rays traced */
+    long streams;           /* spm: streams emitted; photons = streams x
+                               (stream_photons + 1) */
     size_t memory_bytes;    /* largest working memory the render held at once
                                (image sums, eye-path map, per-thread images);
                                does not grow with the photon count */
@@ -519,7 +530,7 @@ typedef struct pds_render_stats {
 typedef struct pds_render_estimate {
     double memory_bytes;
     double eye_vertices;    /* photon methods: at most */
-    double stored_photons;  /* pm, pdm: at most; ppm: per pass */
+    double stored_photons;  /* pm, pdm: at most; ppm: per pass; spm: streams */
     double samples;         /* pixel samples of one eye pass */
     double available_bytes; /* physical memory, 0 if unknown */
 } pds_render_estimate;

@@ -18,6 +18,7 @@
 #include "test_differentials.c"
 #include "test_pds.c"
 #include "test_baselines.c"
+#include "test_streams.c"
 #include "test_exact.c"
 #include "test_limits.c"
 #include "test_glossy.c"
@@ -41,6 +42,7 @@ int main(int argc, char **argv)
         PDS_SUITE(tests_differentials),
         PDS_SUITE(tests_pds),
         PDS_SUITE(tests_baselines),
+        PDS_SUITE(tests_streams),
         PDS_SUITE(tests_exact),
         PDS_SUITE(tests_limits),
         PDS_SUITE(tests_glossy),
