@@ -36,6 +36,9 @@
      >>gi         Jensen's two-pass global illumination: global photon map,
                   shadow photons, importance-sampled final gather, caustics
                   from any caustic method
+     >>isc        image-space caustics (Wyman and Davis 2006): light-space
+                  photon buffer, points, quads, eye- and light-space
+                  gathers, temporal filter, animation frames
      >>api        public entry points: render, options, benchmarks
 */
 
@@ -793,7 +796,8 @@ enum pds__rng_purpose {
     PDS__RNG_SPLAT = 6,   /* index = photon number, dim = a hash of where it landed */
     PDS__RNG_GLOBAL = 7,  /* gi's global photons: index = photon number */
     PDS__RNG_GATHER = 8,  /* gi's final gather: index = camera sample */
-    PDS__RNG_WAVELENGTH = 9 /* index = pixel: its samples' wavelength rotation */
+    PDS__RNG_WAVELENGTH = 9, /* index = pixel: its samples' wavelength rotation */
+    PDS__RNG_ISC = 10     /* isc: index = frame, dim 0, 1 = the light-space grid's offset */
 };
 
 static uint64_t pds__mix64(uint64_t z)
@@ -12445,6 +12449,1264 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
 }
 
 /* ===================================================================== */
+/* >>isc                                                                 */
+/* ===================================================================== */
+/* Image-space caustics (Wyman and Davis, "Interactive Image-Space
+   Techniques for Approximating Caustics", I3D 2006), on the CPU, on the
+   scene, camera, lights and BVH of the other methods.
+
+   1. Light-space photon buffer (sect. 3.1, Fig. 1c, Fig. 3): one photon per
+      texel of an R x R pinhole view from each point or spot light, fitted
+      around the specular triangles as the light sees them (the paper used
+      a fixed 90-degree view). Photon (i, j) leaves through
+      the image-plane point of texel coordinates (i + jx, j + jy), (jx, jy)
+      this frame's sub-texel offset, and is traced through the specular
+      surfaces. It stores where it first meets a non-specular surface after
+      at least one specular bounce, that surface's normal, the light's
+      intensity in its direction times the Fresnel and Beer factors of its
+      path (W/sr), and a hash of its specular path. One path per texel, as
+      a rasteriser draws one: a dielectric refracts (reflects only under
+      total internal reflection), weighted by the Fresnel transmittance;
+      the paper notes that both branches "would require multiple rendering
+      passes".
+   2. Eye buffer: one ray per pixel centre, through specular surfaces on
+      the same one-path rule, to the first non-specular point. Direct light
+      there comes from a shadow ray to each light (exact, where the paper
+      used a shadow map); caustic radiance is the BRDF times the caustic
+      irradiance E a gather gives, times the eye path's throughput.
+   3. Gathers (each gives E in W/m^2 per pixel, and a photon count):
+      points  each photon adds its flux to the pixel it projects to,
+              E = sum Phi / A_p (sect. 3.2, Fig. 4), A_p the pixel's area
+              on the surface, eq. 5: A_p = omega_V d_V^2 / (-V . N).
+      quads   neighbouring photons (i,j), (i+1,j), (i+1,j+1), (i,j+1) that
+              followed the same specular path span a caustic polygon P;
+              the beam B between their four directions carries
+              Phi_B = I omega_B (eq. 1 with E_L = 4 pi I), and P's
+              irradiance is Phi_B / A_P: eqs. 2-3's ratio of solid angles
+              R = omega_B / omega_P times the direct irradiance I omega_P /
+              A_P. P is rasterised into the eye image (two triangles,
+              fixed-point edge functions with a top-left rule, so shared
+              edges are covered exactly once).
+      eye     photons are counted into the eye-space pixels they project
+              to; each pixel gathers its 7x7 neighbourhood with Gaussian
+              weights (sect. 3.2.2 steps 1-4): E = sum_q G(q - p) Phi_q /
+              A_q, only neighbours on the same surface counting, and no
+              caustic where fewer than 3 photons hit the neighbourhood
+              (step 5).
+      light   the same in a light-space map (same light view, widened to
+              hold every landing point, R x R): a texel's irradiance is
+              sum Phi |cos| / (omega_texel d^2) (eqs. 6 and 8: the area a
+              texel covers is omega d^2 / cos), smoothed 7x7, and looked
+              up bilinearly at every eye point like a projective texture;
+              eye points seen in mirrors or through glass get it too.
+   4. Temporal filter (sect. 3.2.3): the estimates of the last H frames
+      (H = history, the paper's 4) are averaged per pixel and the 3-photon
+      threshold is applied to their summed counts. Each frame shifts the
+      light-space grid by its own sub-texel offset, so a static scene's
+      frames sample different photons and the filter averages them; with a
+      moving light or camera it lags (ghosting), as the paper says.
+
+   Approximations (README "Image-space caustics"): point and spot lights
+   only; one specular path per photon and per pixel; no indirect diffuse
+   light; points, quads and eye see only caustics on surfaces seen
+   directly; the light map has no depth (a receiver behind another along a
+   light ray gets the front one's caustic); aliasing at the light-space
+   and eye-space resolutions.
+
+   Determinism: the only random numbers are the frame offsets, (seed,
+   PDS__RNG_ISC, frame). Work is split over threads in fixed chunks that
+   write only their own outputs; every sum over photons is done by one
+   thread in photon order. So images do not depend on the thread count. */
+
+/* The light's view: square pinhole frustum from origin along axis, image
+   plane at distance 1 spanned by the unit vectors b1 (texel i) and b2
+   (texel j), half-width tan_half; res texels per side. */
+typedef struct pds__isc_view {
+    pds__v3 origin, axis, b1, b2;
+    double tan_half;
+    int res;
+    double jx, jy; /* this frame's photon offset in texels, [0, 1) */
+} pds__isc_view;
+
+/* Image-plane coordinate of texel coordinate u (texel i spans [i, i+1)). */
+static double pds__isc_plane(const pds__isc_view *v, double u)
+{
+    return (2.0 * u / v->res - 1.0) * v->tan_half;
+}
+
+static pds__v3 pds__isc_view_dir(const pds__isc_view *v, double u, double w)
+{
+    return pds__normalize(pds__add(v->axis, pds__add(pds__scale(v->b1, pds__isc_plane(v, u)),
+                                                     pds__scale(v->b2, pds__isc_plane(v, w)))));
+}
+
+/* Solid angle of the rectangle [x0,x1] x [y0,y1] of the plane at distance
+   1 from the eye, the plane's foot at (0,0): the rectangle [0,a] x [0,b]
+   subtends atan(a b / sqrt(1 + a^2 + b^2)) (the solid angle of a
+   rectangular pyramid, e.g. Mathar, "Solid angle of a rectangular plate",
+   2014), which is odd in a and in b, so any rectangle is four such terms. */
+static double pds__rect_solid_angle(double x0, double x1, double y0, double y1)
+{
+    double a = atan(x1 * y1 / sqrt(1.0 + x1 * x1 + y1 * y1)), b = atan(x0 * y1 / sqrt(1.0 + x0 * x0 + y1 * y1));
+    double c = atan(x1 * y0 / sqrt(1.0 + x1 * x1 + y0 * y0)), d = atan(x0 * y0 / sqrt(1.0 + x0 * x0 + y0 * y0));
+    return fabs(a - b - c + d);
+}
+
+/* Intensity (W/sr per channel) of a point or spot light toward unit dir. */
+static void pds__isc_intensity(const pds_light *l, pds__v3 dir, double I[3])
+{
+    int c;
+    for (c = 0; c < 3; c++) {
+        if (l->type == PDS_LIGHT_SPOT) {
+            double ci, co;
+            pds__light_spot_cones(l, &ci, &co);
+            I[c] = pds__light_spot_i0(l, c, ci, co) *
+                   pds__light_spot_falloff(pds__dot(dir, pds__normalize(l->direction)), ci, co);
+        } else {
+            I[c] = l->power[c] / (4.0 * PDS__PI);
+        }
+    }
+}
+
+/* The one specular continuation ISC follows (a rasteriser's single path):
+   mirrors and conductors reflect, dielectrics refract, or reflect under
+   total internal reflection. It is pds__bsdf_sample's event with the
+   choice fixed (u0 just below 1 picks reflection only when F = 1), and
+   the throughput of that event, weight x probability. Returns 0 when the
+   path ends (absorbed, or a direction on the wrong side). */
+static int pds__isc_specular(const pds_material *m, const pds_hit *hit, pds__v3 dir, pds__transport mode,
+                             pds__bsdf_result *bs)
+{
+    const double u[3] = {1.0 - DBL_EPSILON, 0.5, 0.5};
+    int c;
+    if (!pds__bsdf_sample(m, hit->position, pds__scale(dir, -1.0), hit->ns, hit->ng, u, mode, bs)) return 0;
+    for (c = 0; c < 3; c++) bs->weight[c] *= bs->pdf;
+    return bs->weight[0] > 0.0 || bs->weight[1] > 0.0 || bs->weight[2] > 0.0;
+}
+
+/* A photon of the light-space buffer, 40 bytes:
+     pos   where it landed (first non-specular surface after >= 1
+           specular bounce)
+     n     unit geometric normal there, on the side it arrived from
+     e     W/sr: the light's intensity in its direction times the Fresnel
+           and Beer factors of its path; its flux is e x the solid angle
+           it stands for
+     path  hash of its specular path (materials and sides); 0: no caustic
+           photon (it missed, hit a non-specular surface first, or died) */
+typedef struct pds__isc_photon {
+    float pos[3], n[3], e[3];
+    unsigned path;
+} pds__isc_photon;
+
+/* Trace the photon leaving light l's position in unit direction dir. */
+static void pds__isc_trace(const pds_scene *s, const pds_light *l, pds__v3 dir, int max_depth, double eps,
+                           pds__isc_photon *ph)
+{
+    double w[3];
+    const double *sigma = NULL;
+    pds__v3 org = l->position;
+    unsigned path = 2166136261u; /* FNV-1a offset basis */
+    int depth, c;
+    memset(ph, 0, sizeof *ph);
+    pds__isc_intensity(l, dir, w);
+    for (depth = 0; depth <= max_depth; depth++) {
+        pds__tri_hit th;
+        pds_hit hit;
+        const pds_material *m;
+        pds__bsdf_result bs;
+        if (!pds__bvh_intersect(&s->bvh, org, dir, 0.0, DBL_MAX, &th)) return;
+        m = &s->materials.items[s->mesh.mat[th.tri]];
+        if (depth == 0 && !pds__material_is_specular(m)) return; /* direct light, not a caustic */
+        pds__scene_fill_hit(s, &th, org, dir, &hit);
+        pds__beer(sigma, th.t, w);
+        if (!pds__material_is_specular(m)) {
+            if (m->type != PDS_MAT_DIFFUSE) return;
+            pds__f3_set(ph->pos, hit.position);
+            pds__f3_set(ph->n, pds__dot(hit.ng, dir) < 0.0 ? hit.ng : pds__scale(hit.ng, -1.0));
+            for (c = 0; c < 3; c++) ph->e[c] = (float)w[c];
+            ph->path = path ? path : 1u;
+            return;
+        }
+        if (depth == max_depth || !pds__isc_specular(m, &hit, dir, PDS__IMPORTANCE, &bs)) return;
+        for (c = 0; c < 3; c++) w[c] *= bs.weight[c];
+        if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        path = (path ^ (unsigned)(2 * hit.material + bs.transmitted)) * 16777619u;
+        path = (path ^ (unsigned)(bs.side > 0)) * 16777619u;
+        org = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, bs.wi) >= 0.0 ? eps : -eps));
+        dir = bs.wi;
+    }
+}
+
+/* What the eye sees through pixel p's centre, 56 bytes:
+     pos, n  first non-specular point, its unit geometric normal facing
+             the eye path
+     ns      the shading normal there, on the same side (pds__bsdf_frame)
+     fr      the eye path's throughput times the BRDF there (1/sr):
+             caustic radiance = fr x irradiance
+     area    eq. 5: the pixel's area on the surface (m^2), when seen
+             directly; 0 otherwise
+     kind    0: nothing; 1: seen directly; 2: through specular surfaces */
+typedef struct pds__isc_pixel {
+    float pos[3], n[3], ns[3], fr[3];
+    float area;
+    int kind;
+} pds__isc_pixel;
+
+/* Per pixel and frame: caustic irradiance (W/m^2) and the photons behind it. */
+typedef struct pds__isc_est {
+    float e[3];
+    float count;
+} pds__isc_est;
+
+/* A fragment of the quads gather: pixel and irradiance. */
+typedef struct pds__isc_frag {
+    int pixel;
+    float e[3];
+} pds__isc_frag;
+
+#define PDS__ISC_MAX_HISTORY 64
+#define PDS__ISC_RADIUS 3         /* the 7x7 neighbourhood */
+#define PDS__ISC_SIGMA 1.5        /* its Gaussian, in pixels (the paper gives none) */
+#define PDS__ISC_MIN_PHOTONS 3.0  /* sect. 3.2.2 step 5 */
+#define PDS__ISC_QUAD_MAX_PIXELS 4096 /* a quad's screen box larger than this is skipped */
+#define PDS__ISC_SUB 256          /* fixed-point subpixels of the quad rasteriser */
+
+/* A render of one or more frames: the buffers live across frames (the
+   temporal filter's history among them). */
+typedef struct pds__isc {
+    const pds_scene *scene;
+    const pds_options *opt;
+    pds_isc_gather gather;
+    int w, h, threads, res, history;
+    double eps, omega_pixel_scale;
+    pds__camera_frame cam;
+    pds__target target;
+    pds_light *lights;          /* this frame's lights (orbit applied) */
+    size_t nlights;
+    const pds_light *light;     /* the light whose photons are in ph */
+    pds__isc_pixel *px;         /* w x h */
+    double *direct;             /* 3 per pixel: direct radiance */
+    pds__isc_photon *ph;        /* res x res, one light at a time */
+    unsigned char *mask;        /* res x res: may the photon meet a specular surface first? */
+    pds__isc_view view;         /* that light's view */
+    int *ph_pixel;              /* points, eye: the pixel each photon deposits into, -1 none */
+    long long *ph_xy;           /* quads: fixed-point screen position of each photon */
+    signed char *ph_front;      /* quads: 1 if in front of the camera */
+    float *dep;                 /* eye, light: 4 per cell (flux or irradiance x omega, count) */
+    unsigned char *near;        /* eye: a photon within the gather radius in the row */
+    float *lmap;                /* light: the gathered map, 4 per texel */
+    pds__isc_view lview;        /* light: the map's view */
+    pds__isc_est *est;          /* this frame's estimate */
+    double *rgb;                /* the frame's image before conversion to float */
+    long nonfinite;             /* image values that were NaN or beyond the float range */
+    pds__isc_est *ring;         /* history frames of estimates */
+    double *acc;                /* time budget: 4 per pixel, sums over every frame */
+    int frames_done;
+    pds__isc_frag **frags;      /* quads: one array per light-space row */
+    size_t *nfrags, *capfrags;
+    double gauss[2 * PDS__ISC_RADIUS + 1][2 * PDS__ISC_RADIUS + 1];
+    long photons, landed, fragments;
+    int out_of_memory;
+    double time_eye, time_photons, time_gather;
+    pthread_mutex_t lock;
+} pds__isc;
+
+/* --- a parallel loop over fixed chunks ---------------------------------- */
+
+typedef struct pds__isc_par {
+    pds__isc *ctx;
+    void (*fn)(pds__isc *ctx, long first, long last);
+    long n, chunk, next;
+    pthread_mutex_t lock;
+} pds__isc_par;
+
+static void *pds__isc_par_worker(void *arg)
+{
+    pds__isc_par *p = (pds__isc_par *)arg;
+    for (;;) {
+        long first;
+        pthread_mutex_lock(&p->lock);
+        first = p->next;
+        p->next += p->chunk;
+        pthread_mutex_unlock(&p->lock);
+        if (first >= p->n) break;
+        p->fn(p->ctx, first, first + p->chunk < p->n ? first + p->chunk : p->n);
+    }
+    return NULL;
+}
+
+/* fn(ctx, first, last) over [0, n) in chunks; each item's output must not
+   depend on which thread runs it. */
+static void pds__isc_parallel(pds__isc *ctx, long n, long chunk, void (*fn)(pds__isc *, long, long))
+{
+    pds__isc_par p;
+    p.ctx = ctx;
+    p.fn = fn;
+    p.n = n;
+    p.chunk = chunk > 0 ? chunk : 1;
+    p.next = 0;
+    pthread_mutex_init(&p.lock, NULL);
+    pds__run_threads(ctx->threads < 1 ? 1 : ctx->threads, pds__isc_par_worker, &p);
+    pthread_mutex_destroy(&p.lock);
+}
+
+/* --- the eye buffer --------------------------------------------------- */
+
+/* Pixel (x, y) of the camera frame, (0,0) top left: its point, camera
+   coordinates, and back. px, py in pixels. Returns 0 behind the camera. */
+static int pds__isc_project(const pds__camera_frame *f, pds__v3 x, double *px, double *py)
+{
+    pds__v3 v = pds__sub(x, f->origin);
+    double z = pds__dot(v, f->forward), sx, sy;
+    if (!(z > 0.0)) return 0;
+    sx = pds__dot(v, f->right) / z;
+    sy = pds__dot(v, f->up) / z;
+    *px = (sx / (f->tan_half_fov * f->aspect) + 1.0) * 0.5 * f->width;
+    *py = (1.0 - sy / f->tan_half_fov) * 0.5 * f->height;
+    return isfinite(*px) && isfinite(*py);
+}
+
+/* Solid angle of pixel (x, y) seen from the camera. */
+static double pds__isc_pixel_omega(const pds__camera_frame *f, int x, int y)
+{
+    double ax = f->tan_half_fov * f->aspect, ay = f->tan_half_fov;
+    return pds__rect_solid_angle((2.0 * x / f->width - 1.0) * ax, (2.0 * (x + 1) / f->width - 1.0) * ax,
+                                 (1.0 - 2.0 * (y + 1) / f->height) * ay, (1.0 - 2.0 * y / f->height) * ay);
+}
+
+/* The eye buffer's geometry: one ray through each pixel centre, through
+   specular surfaces on the one-path rule, to the first diffuse point. It
+   depends on the camera alone, so an animation whose camera stands still
+   traces it once. */
+static void pds__isc_eye_rows(pds__isc *ctx, long first, long last)
+{
+    const pds_scene *s = ctx->scene;
+    long y;
+    int x, c;
+    for (y = first; y < last; y++) {
+        for (x = 0; x < ctx->w; x++) {
+            size_t p = (size_t)y * (size_t)ctx->w + (size_t)x;
+            pds__isc_pixel *out = &ctx->px[p];
+            pds__v3 org = ctx->cam.origin, dir = pds__camera_dir(&ctx->cam, x + 0.5, y + 0.5);
+            double beta[3] = {1.0, 1.0, 1.0};
+            const double *sigma = NULL;
+            int depth;
+            memset(out, 0, sizeof *out);
+            for (depth = 0; depth <= ctx->opt->max_depth; depth++) {
+                pds__tri_hit th;
+                pds_hit hit;
+                const pds_material *m;
+                pds__bsdf_result bs;
+                pds__v3 wo = pds__scale(dir, -1.0), n, g;
+                double f[3], pdf;
+                int side;
+                if (!pds__bvh_intersect(&s->bvh, org, dir, 0.0, DBL_MAX, &th)) break;
+                pds__scene_fill_hit(s, &th, org, dir, &hit);
+                pds__beer(sigma, th.t, beta);
+                m = &s->materials.items[hit.material];
+                if (pds__material_is_specular(m)) {
+                    if (depth == ctx->opt->max_depth || !pds__isc_specular(m, &hit, dir, PDS__RADIANCE, &bs)) break;
+                    for (c = 0; c < 3; c++) beta[c] *= bs.weight[c];
+                    if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+                    org = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, bs.wi) >= 0.0 ? ctx->eps : -ctx->eps));
+                    dir = bs.wi;
+                    continue;
+                }
+                if (m->type != PDS_MAT_DIFFUSE || !pds__bsdf_frame(wo, hit.ns, hit.ng, &n, &g, &side)) break;
+                /* Lambertian: f is the same for every wi above the frame
+                   normal n and in front of g, so fr serves every light */
+                pds__bsdf_eval(m, hit.position, wo, n, hit.ns, hit.ng, f, &pdf);
+                pds__f3_set(out->pos, hit.position);
+                pds__f3_set(out->n, g);
+                pds__f3_set(out->ns, n);
+                for (c = 0; c < 3; c++) out->fr[c] = (float)(beta[c] * f[c]);
+                out->kind = depth == 0 ? 1 : 2;
+                if (depth == 0)
+                    out->area = (float)(pds__isc_pixel_omega(&ctx->cam, x, (int)y) * th.t * th.t / fabs(pds__dot(dir, g)));
+                break;
+            }
+        }
+    }
+}
+
+/* Direct light at each eye point: a shadow ray to each light,
+   fr I cos / d^2 (the exact test a shadow map approximates). */
+static void pds__isc_direct_rows(pds__isc *ctx, long first, long last)
+{
+    const pds_scene *s = ctx->scene;
+    size_t p, k;
+    int c;
+    for (p = (size_t)first * ctx->w; p < (size_t)last * ctx->w; p++) {
+        const pds__isc_pixel *px = &ctx->px[p];
+        double *direct = &ctx->direct[3 * p];
+        pds__v3 x = pds__f3_get(px->pos), g = pds__f3_get(px->n), n = pds__f3_get(px->ns);
+        direct[0] = direct[1] = direct[2] = 0.0;
+        if (!px->kind) continue;
+        for (k = 0; k < ctx->nlights; k++) {
+            const pds_light *l = &ctx->lights[k];
+            pds__v3 d = pds__sub(l->position, x), wi;
+            double d2 = pds__dot(d, d), I[3], cosine;
+            if (!(d2 > 0.0)) continue;
+            wi = pds__scale(d, 1.0 / sqrt(d2));
+            cosine = pds__dot(wi, n);
+            if (!(cosine > 0.0) || !(pds__dot(wi, g) > 0.0)) continue;
+            if (pds__bvh_occluded(&s->bvh, pds__add(x, pds__scale(g, ctx->eps)), wi, 0.0, sqrt(d2) * (1.0 - 1e-4)))
+                continue;
+            pds__isc_intensity(l, pds__scale(wi, -1.0), I);
+            for (c = 0; c < 3; c++) direct[c] += px->fr[c] * I[c] * cosine / d2;
+        }
+    }
+}
+
+/* --- the light-space photon buffer ---------------------------------------- */
+
+/* mask[k]: can photon k meet a specular triangle first? Each specular
+   triangle, all of whose corners are in front of the light, projects
+   inside the box of its corners' projections; the photons whose image-
+   plane points fall in that box (give or take a texel) are marked. A photon
+   outside every box meets a diffuse surface or nothing first: no caustic,
+   and no ray needed (the paper's sect. 5 asks for "avoiding processing on
+   uninteresting photons"). The same photons as tracing them all. */
+static void pds__isc_mask(pds__isc *ctx)
+{
+    const pds_scene *s = ctx->scene;
+    const pds__isc_view *v = &ctx->view;
+    size_t t, n = (size_t)v->res * (size_t)v->res;
+    int k;
+    memset(ctx->mask, 0, n);
+    for (t = 0; t < s->mesh.ntris; t++) {
+        double u0 = 0, u1 = 0, w0 = 0, w1 = 0;
+        long i0, i1, j0, j1, i, j;
+        if (!pds__material_is_specular(&s->materials.items[s->mesh.mat[t]])) continue;
+        for (k = 0; k < 3; k++) {
+            pds__v3 d = pds__sub(pds__mesh_pos(&s->mesh, s->mesh.idx[3 * t + k]), v->origin);
+            double z = pds__dot(d, v->axis), u, w;
+            if (!(z > 1e-9 * pds__length(d))) {
+                memset(ctx->mask, 1, n); /* behind the light: trace everything */
+                return;
+            }
+            /* texel coordinates: photon (i, j) is at (i + jx, j + jy) */
+            u = (pds__dot(d, v->b1) / z / v->tan_half + 1.0) * 0.5 * v->res - v->jx;
+            w = (pds__dot(d, v->b2) / z / v->tan_half + 1.0) * 0.5 * v->res - v->jy;
+            if (k == 0 || u < u0) u0 = u;
+            if (k == 0 || u > u1) u1 = u;
+            if (k == 0 || w < w0) w0 = w;
+            if (k == 0 || w > w1) w1 = w;
+        }
+        if (!(u1 >= -1.0 && w1 >= -1.0 && u0 <= v->res && w0 <= v->res)) continue;
+        i0 = u0 < 0.0 ? 0 : (long)u0 - 1;
+        j0 = w0 < 0.0 ? 0 : (long)w0 - 1;
+        i1 = u1 >= v->res - 1 ? v->res - 1 : (long)u1 + 1;
+        j1 = w1 >= v->res - 1 ? v->res - 1 : (long)w1 + 1;
+        if (i0 < 0) i0 = 0;
+        if (j0 < 0) j0 = 0;
+        for (j = j0; j <= j1; j++)
+            for (i = i0; i <= i1; i++) ctx->mask[(size_t)j * v->res + (size_t)i] = 1;
+    }
+}
+
+static void pds__isc_photon_rows(pds__isc *ctx, long first, long last)
+{
+    long j;
+    int i;
+    for (j = first; j < last; j++)
+        for (i = 0; i < ctx->res; i++) {
+            size_t k = (size_t)j * ctx->res + i;
+            pds__v3 dir;
+            if (!ctx->mask[k]) {
+                memset(&ctx->ph[k], 0, sizeof ctx->ph[k]);
+                continue;
+            }
+            dir = pds__isc_view_dir(&ctx->view, i + ctx->view.jx, j + ctx->view.jy);
+            pds__isc_trace(ctx->scene, ctx->light, dir, ctx->opt->photon_depth, ctx->eps, &ctx->ph[k]);
+        }
+}
+
+/* Half-extents (in b1, b2) and centre of the specular triangles' corners
+   projected onto the view plane of v; 0 if a corner is not in front. */
+static int pds__isc_view_extent(const pds_scene *s, const pds__isc_view *v, double *u0, double *u1, double *w0,
+                                double *w1)
+{
+    size_t t;
+    int k, any = 0;
+    for (t = 0; t < s->mesh.ntris; t++) {
+        if (!pds__material_is_specular(&s->materials.items[s->mesh.mat[t]])) continue;
+        for (k = 0; k < 3; k++) {
+            pds__v3 d = pds__sub(pds__mesh_pos(&s->mesh, s->mesh.idx[3 * t + k]), v->origin);
+            double z = pds__dot(d, v->axis), u, w;
+            if (!(z > 1e-9 * pds__length(d))) return 0;
+            u = pds__dot(d, v->b1) / z;
+            w = pds__dot(d, v->b2) / z;
+            if (!any || u < *u0) *u0 = u;
+            if (!any || u > *u1) *u1 = u;
+            if (!any || w < *w0) *w0 = w;
+            if (!any || w > *w1) *w1 = w;
+            any = 1;
+        }
+    }
+    return any;
+}
+
+/* The light's view for this frame: a square frustum around the specular
+   triangles as the light sees them (their corners' projections, so every
+   photon that can meet a specular surface is in it), widened by two
+   texels so that the frame's offset keeps them inside. (Wyman and Davis
+   used a fixed 90-degree view; focusing on the specular geometry is their
+   sect. 5's future work, and puts more photons where caustics start.)
+   Returns 0 when the light is inside the target sphere (one frustum
+   cannot hold it; the paper would render several views). */
+static int pds__isc_view_setup(const pds_scene *s, const pds__target *tg, pds__v3 pos, int res, double jx, double jy,
+                               pds__isc_view *v)
+{
+    double cos_max, u0 = 0, u1 = 0, w0 = 0, w1 = 0, half;
+    memset(v, 0, sizeof *v);
+    if (!pds__target_cone(tg, pos, &v->axis, &cos_max) || !(cos_max > 1e-6)) return 0;
+    v->origin = pos;
+    pds__onb(v->axis, &v->b1, &v->b2);
+    half = sqrt(fmax(0.0, 1.0 - cos_max * cos_max)) / cos_max;
+    if (pds__isc_view_extent(s, v, &u0, &u1, &w0, &w1)) {
+        /* aim at the middle of the projections, then measure again */
+        v->axis = pds__normalize(pds__add(v->axis, pds__add(pds__scale(v->b1, 0.5 * (u0 + u1)),
+                                                            pds__scale(v->b2, 0.5 * (w0 + w1)))));
+        pds__onb(v->axis, &v->b1, &v->b2);
+        if (pds__isc_view_extent(s, v, &u0, &u1, &w0, &w1))
+            half = fmax(fmax(-u0, u1), fmax(-w0, w1)) * 1.0001;
+    }
+    v->tan_half = half * (1.0 + 2.0 / res);
+    v->res = res;
+    v->jx = jx;
+    v->jy = jy;
+    return 1;
+}
+
+/* The solid angle photon (i, j) stands for: the texel-sized cell centred
+   on its image-plane point (the cells tile the plane, so the photons
+   share the view's solid angle exactly). */
+static double pds__isc_cell_omega(const pds__isc_view *v, int i, int j)
+{
+    double u = i + v->jx, w = j + v->jy;
+    return pds__rect_solid_angle(pds__isc_plane(v, u - 0.5), pds__isc_plane(v, u + 0.5), pds__isc_plane(v, w - 0.5),
+                                 pds__isc_plane(v, w + 0.5));
+}
+
+/* Is the point x (unit normal n) on the surface that pixel p sees
+   directly? Normals within 60 degrees, and x within a slope of 1/4 of
+   p's tangent plane give or take one pixel's size (a shadow map's bias,
+   relative to the distance). */
+static int pds__isc_same_surface(const pds__isc_pixel *p, pds__v3 x, pds__v3 n)
+{
+    pds__v3 pn, d;
+    if (p->kind != 1) return 0;
+    pn = pds__f3_get(p->n);
+    d = pds__sub(x, pds__f3_get(p->pos));
+    if (pds__dot(pn, n) < 0.5) return 0;
+    return fabs(pds__dot(pn, d)) <= 0.25 * pds__length(d) + sqrt((double)p->area);
+}
+
+/* --- points and eye: photons into the eye-space pixels ----------------- */
+
+/* Each photon's pixel (-1: none, or not on the surface seen there) and
+   flux (W, in e's place: the gathers after this one need no intensity). */
+static void pds__isc_to_pixels(pds__isc *ctx, long first, long last)
+{
+    long j;
+    int i, c;
+    for (j = first; j < last; j++)
+        for (i = 0; i < ctx->res; i++) {
+            size_t k = (size_t)j * ctx->res + i;
+            pds__isc_photon *ph = &ctx->ph[k];
+            double px, py, omega;
+            long q;
+            ctx->ph_pixel[k] = -1;
+            if (!ph->path) continue;
+            omega = pds__isc_cell_omega(&ctx->view, i, (int)j);
+            for (c = 0; c < 3; c++) ph->e[c] = (float)(ph->e[c] * omega);
+            if (!pds__isc_project(&ctx->cam, pds__f3_get(ph->pos), &px, &py)) continue;
+            if (!(px >= 0.0 && py >= 0.0 && px < ctx->w && py < ctx->h)) continue;
+            q = (long)py * ctx->w + (long)px;
+            if (pds__isc_same_surface(&ctx->px[q], pds__f3_get(ph->pos), pds__f3_get(ph->n))) ctx->ph_pixel[k] = (int)q;
+        }
+}
+
+/* Points (Fig. 4): E = sum Phi / A_p in the photons' pixels, in photon
+   order. Eye: the same photons counted into dep for the 7x7 gather. */
+static void pds__isc_points(pds__isc *ctx, int eye)
+{
+    size_t k, n = (size_t)ctx->res * (size_t)ctx->res;
+    int c;
+    for (k = 0; k < n; k++) {
+        int q = ctx->ph_pixel[k];
+        if (q < 0) continue;
+        if (eye) {
+            for (c = 0; c < 3; c++) ctx->dep[4 * (size_t)q + c] += ctx->ph[k].e[c];
+            ctx->dep[4 * (size_t)q + 3] += 1.0f;
+        } else {
+            for (c = 0; c < 3; c++) ctx->est[q].e[c] += ctx->ph[k].e[c] / ctx->px[q].area;
+            ctx->est[q].count += 1.0f;
+        }
+    }
+}
+
+/* near[p]: does a pixel of p's row within the gather radius hold a
+   photon? (So the gather skips, with 7 tests, the pixels that no photon
+   is near: most of them.) */
+static void pds__isc_near_rows(pds__isc *ctx, long first, long last)
+{
+    long y;
+    int x;
+    for (y = first; y < last; y++) {
+        const float *d = &ctx->dep[4 * (size_t)y * ctx->w];
+        unsigned char *out = &ctx->near[(size_t)y * ctx->w];
+        int last_photon = -1000000;
+        for (x = 0; x < ctx->w; x++) out[x] = 0;
+        for (x = 0; x < ctx->w + PDS__ISC_RADIUS; x++) {
+            if (x < ctx->w && d[4 * x + 3] != 0.0f) last_photon = x;
+            if (x - PDS__ISC_RADIUS >= 0) out[x - PDS__ISC_RADIUS] = x - last_photon <= 2 * PDS__ISC_RADIUS;
+        }
+    }
+}
+
+/* Eye-space gather (sect. 3.2.2): each directly seen pixel sums the
+   irradiance Phi_q / A_q of the pixels q of its 7x7 neighbourhood that lie
+   on its surface, weighted by the normalised Gaussian, and their counts. */
+static void pds__isc_eye_gather(pds__isc *ctx, long first, long last)
+{
+    long y;
+    int x, dx, dy, c;
+    for (y = first; y < last; y++)
+        for (x = 0; x < ctx->w; x++) {
+            size_t p = (size_t)y * ctx->w + x;
+            double e[3] = {0, 0, 0}, count = 0.0;
+            int any = 0;
+            if (ctx->px[p].kind != 1) continue;
+            for (dy = -PDS__ISC_RADIUS; dy <= PDS__ISC_RADIUS && !any; dy++)
+                any = y + dy >= 0 && y + dy < ctx->h && ctx->near[(size_t)(y + dy) * ctx->w + x];
+            if (!any) continue;
+            for (dy = -PDS__ISC_RADIUS; dy <= PDS__ISC_RADIUS; dy++) {
+                long yy = y + dy;
+                if (yy < 0 || yy >= ctx->h) continue;
+                for (dx = -PDS__ISC_RADIUS; dx <= PDS__ISC_RADIUS; dx++) {
+                    long xx = x + dx;
+                    size_t q;
+                    double g;
+                    if (xx < 0 || xx >= ctx->w) continue;
+                    q = (size_t)yy * ctx->w + (size_t)xx;
+                    if (ctx->dep[4 * q + 3] == 0.0f) continue;
+                    if (q != p && !pds__isc_same_surface(&ctx->px[p], pds__f3_get(ctx->px[q].pos), pds__f3_get(ctx->px[q].n)))
+                        continue;
+                    g = ctx->gauss[dy + PDS__ISC_RADIUS][dx + PDS__ISC_RADIUS] / ctx->px[q].area;
+                    for (c = 0; c < 3; c++) e[c] += g * ctx->dep[4 * q + c];
+                    count += ctx->dep[4 * q + 3];
+                }
+            }
+            for (c = 0; c < 3; c++) ctx->est[p].e[c] += (float)e[c];
+            ctx->est[p].count += (float)count;
+        }
+}
+
+/* --- light: the light-space gather ------------------------------------- */
+
+/* Each photon's texel of the light map (-1: none) and its
+   Phi |cos| / d^2 (in e's place; the map divides by the texel's solid
+   angle: eq. 6's area omega d^2 / cos). */
+static void pds__isc_to_texels(pds__isc *ctx, long first, long last)
+{
+    const pds__isc_view *v = &ctx->lview;
+    long j;
+    int i, c;
+    for (j = first; j < last; j++)
+        for (i = 0; i < ctx->res; i++) {
+            size_t k = (size_t)j * ctx->res + i;
+            pds__isc_photon *ph = &ctx->ph[k];
+            pds__v3 d = pds__sub(pds__f3_get(ph->pos), v->origin);
+            double z = pds__dot(d, v->axis), d2 = pds__dot(d, d), u, w, cosine, omega;
+            ctx->ph_pixel[k] = -1;
+            if (!ph->path || !(z > 0.0)) continue;
+            u = (pds__dot(d, v->b1) / z / v->tan_half + 1.0) * 0.5 * v->res;
+            w = (pds__dot(d, v->b2) / z / v->tan_half + 1.0) * 0.5 * v->res;
+            if (!(u >= 0.0 && w >= 0.0 && u < v->res && w < v->res)) continue;
+            omega = pds__isc_cell_omega(&ctx->view, i, (int)j);
+            cosine = fabs(pds__dot(pds__f3_get(ph->n), d)) / sqrt(d2);
+            for (c = 0; c < 3; c++) ph->e[c] = (float)(ph->e[c] * omega * cosine / d2);
+            ctx->ph_pixel[k] = (int)((long)w * v->res + (long)u);
+        }
+}
+
+/* Texel irradiance: the deposits over the texels' solid angles. */
+static void pds__isc_texel_irradiance(pds__isc *ctx, long first, long last)
+{
+    const pds__isc_view *v = &ctx->lview;
+    long j;
+    int i, c;
+    for (j = first; j < last; j++)
+        for (i = 0; i < v->res; i++) {
+            size_t m = (size_t)j * v->res + i;
+            double omega;
+            if (ctx->dep[4 * m + 3] == 0.0f) continue;
+            omega = pds__rect_solid_angle(pds__isc_plane(v, i), pds__isc_plane(v, i + 1), pds__isc_plane(v, j),
+                                          pds__isc_plane(v, j + 1));
+            for (c = 0; c < 3; c++) ctx->dep[4 * m + c] = (float)(ctx->dep[4 * m + c] / omega);
+        }
+}
+
+/* The 7x7 Gaussian gather over the light map. */
+static void pds__isc_light_gather(pds__isc *ctx, long first, long last)
+{
+    int res = ctx->lview.res, i, di, dj, c;
+    long j;
+    for (j = first; j < last; j++)
+        for (i = 0; i < res; i++) {
+            double e[3] = {0, 0, 0}, count = 0.0;
+            float *out = &ctx->lmap[4 * ((size_t)j * res + i)];
+            for (dj = -PDS__ISC_RADIUS; dj <= PDS__ISC_RADIUS; dj++) {
+                long jj = j + dj;
+                if (jj < 0 || jj >= res) continue;
+                for (di = -PDS__ISC_RADIUS; di <= PDS__ISC_RADIUS; di++) {
+                    long ii = i + di;
+                    size_t m;
+                    double g;
+                    if (ii < 0 || ii >= res) continue;
+                    m = (size_t)jj * res + (size_t)ii;
+                    if (ctx->dep[4 * m + 3] == 0.0f) continue;
+                    g = ctx->gauss[dj + PDS__ISC_RADIUS][di + PDS__ISC_RADIUS];
+                    for (c = 0; c < 3; c++) e[c] += g * ctx->dep[4 * m + c];
+                    count += ctx->dep[4 * m + 3];
+                }
+            }
+            for (c = 0; c < 3; c++) out[c] = (float)e[c];
+            out[3] = (float)count;
+        }
+}
+
+/* Look the gathered map up at every eye point, bilinearly (a projective
+   texture). */
+static void pds__isc_light_lookup(pds__isc *ctx, long first, long last)
+{
+    const pds__isc_view *v = &ctx->lview;
+    long y;
+    int x, c, a, b;
+    for (y = first; y < last; y++)
+        for (x = 0; x < ctx->w; x++) {
+            size_t p = (size_t)y * ctx->w + x;
+            pds__v3 d;
+            double z, u, w, fu, fw, acc[4] = {0, 0, 0, 0};
+            long i0, j0;
+            if (!ctx->px[p].kind) continue;
+            d = pds__sub(pds__f3_get(ctx->px[p].pos), v->origin);
+            z = pds__dot(d, v->axis);
+            if (!(z > 0.0)) continue;
+            u = (pds__dot(d, v->b1) / z / v->tan_half + 1.0) * 0.5 * v->res - 0.5;
+            w = (pds__dot(d, v->b2) / z / v->tan_half + 1.0) * 0.5 * v->res - 0.5;
+            if (!(u > -1.0 && w > -1.0 && u < v->res && w < v->res)) continue;
+            i0 = (long)floor(u);
+            j0 = (long)floor(w);
+            fu = u - i0;
+            fw = w - j0;
+            for (b = 0; b < 2; b++)
+                for (a = 0; a < 2; a++) {
+                    long ii = i0 + a, jj = j0 + b;
+                    double wt = (a ? fu : 1.0 - fu) * (b ? fw : 1.0 - fw);
+                    const float *t;
+                    if (ii < 0 || jj < 0 || ii >= v->res || jj >= v->res || wt == 0.0) continue;
+                    t = &ctx->lmap[4 * ((size_t)jj * v->res + (size_t)ii)];
+                    for (c = 0; c < 4; c++) acc[c] += wt * t[c];
+                }
+            for (c = 0; c < 3; c++) ctx->est[p].e[c] += (float)acc[c];
+            ctx->est[p].count += (float)acc[3];
+        }
+}
+
+/* The light map's view: the photon view's axes, widened to hold every
+   landing point in front of the light (at most 64 times as wide). */
+static void pds__isc_light_map_view(pds__isc *ctx)
+{
+    size_t k, n = (size_t)ctx->res * (size_t)ctx->res;
+    double t = ctx->view.tan_half, cap = 64.0 * ctx->view.tan_half;
+    ctx->lview = ctx->view;
+    ctx->lview.jx = ctx->lview.jy = 0.0;
+    for (k = 0; k < n; k++) {
+        pds__v3 d;
+        double z, a, b;
+        if (!ctx->ph[k].path) continue;
+        d = pds__sub(pds__f3_get(ctx->ph[k].pos), ctx->view.origin);
+        z = pds__dot(d, ctx->view.axis);
+        if (!(z > 0.0)) continue;
+        a = fabs(pds__dot(d, ctx->view.b1)) / z;
+        b = fabs(pds__dot(d, ctx->view.b2)) / z;
+        if (a > t && a <= cap) t = a;
+        if (b > t && b <= cap) t = b;
+    }
+    ctx->lview.tan_half = t * (1.0 + 2.0 / ctx->res);
+}
+
+/* --- quads: caustic polygons ------------------------------------------- */
+
+/* Fixed-point screen position of each photon (PDS__ISC_SUB units per
+   pixel; 0 in ph_front when behind the camera or absurdly far off). */
+static void pds__isc_to_screen(pds__isc *ctx, long first, long last)
+{
+    long j;
+    int i;
+    for (j = first; j < last; j++)
+        for (i = 0; i < ctx->res; i++) {
+            size_t k = (size_t)j * ctx->res + i;
+            double px, py, lim = 268435456.0; /* 2^28: edge products stay below 2^62 */
+            ctx->ph_front[k] = 0;
+            if (!ctx->ph[k].path || !pds__isc_project(&ctx->cam, pds__f3_get(ctx->ph[k].pos), &px, &py)) continue;
+            px *= PDS__ISC_SUB;
+            py *= PDS__ISC_SUB;
+            if (!(fabs(px) < lim && fabs(py) < lim)) continue;
+            ctx->ph_xy[2 * k] = (long long)floor(px + 0.5);
+            ctx->ph_xy[2 * k + 1] = (long long)floor(py + 0.5);
+            ctx->ph_front[k] = 1;
+        }
+}
+
+/* Twice the signed area of (a, b, p) in fixed point, positive when p is
+   to the left of a -> b in a y-down image... (b - a) x (p - a). */
+static long long pds__isc_edge(const long long *a, const long long *b, long long px, long long py)
+{
+    return (b[0] - a[0]) * (py - a[1]) - (b[1] - a[1]) * (px - a[0]);
+}
+
+/* Does edge a -> b of a positively oriented triangle own the pixel
+   centres exactly on it? Of an edge and its reverse exactly one does, so
+   triangles that share an edge never both cover a centre on it. */
+static int pds__isc_edge_owns(const long long *a, const long long *b)
+{
+    long long dy = b[1] - a[1], dx = b[0] - a[0];
+    return dy > 0 || (dy == 0 && dx < 0);
+}
+
+/* Rasterise triangle (a, b, c) (fixed-point screen corners) with
+   irradiance e on the surface through x0 with normal n0: a fragment for
+   each pixel whose centre is inside and whose eye point is on that
+   surface. Appends to row j's fragments. */
+static void pds__isc_raster(pds__isc *ctx, long j, const long long *a, const long long *b, const long long *c,
+                            const float e[3], pds__v3 x0, pds__v3 n0)
+{
+    long long area = pds__isc_edge(a, b, c[0], c[1]), x0p, x1p, y0p, y1p, xs, ys;
+    long long minx, maxx, miny, maxy;
+    int ob, oc, oa;
+    if (area == 0) return;
+    if (area < 0) {
+        const long long *t = b;
+        b = c;
+        c = t;
+    }
+    minx = a[0] < b[0] ? (a[0] < c[0] ? a[0] : c[0]) : (b[0] < c[0] ? b[0] : c[0]);
+    maxx = a[0] > b[0] ? (a[0] > c[0] ? a[0] : c[0]) : (b[0] > c[0] ? b[0] : c[0]);
+    miny = a[1] < b[1] ? (a[1] < c[1] ? a[1] : c[1]) : (b[1] < c[1] ? b[1] : c[1]);
+    maxy = a[1] > b[1] ? (a[1] > c[1] ? a[1] : c[1]) : (b[1] > c[1] ? b[1] : c[1]);
+    /* pixel x's centre is at (x + 1/2) SUB: the pixels whose centres may be inside */
+    x0p = (minx - PDS__ISC_SUB / 2 + PDS__ISC_SUB - 1) / PDS__ISC_SUB;
+    if (minx - PDS__ISC_SUB / 2 < 0) x0p = -((PDS__ISC_SUB / 2 - minx) / PDS__ISC_SUB);
+    x1p = (maxx - PDS__ISC_SUB / 2) >= 0 ? (maxx - PDS__ISC_SUB / 2) / PDS__ISC_SUB : -1;
+    y0p = (miny - PDS__ISC_SUB / 2 + PDS__ISC_SUB - 1) / PDS__ISC_SUB;
+    if (miny - PDS__ISC_SUB / 2 < 0) y0p = -((PDS__ISC_SUB / 2 - miny) / PDS__ISC_SUB);
+    y1p = (maxy - PDS__ISC_SUB / 2) >= 0 ? (maxy - PDS__ISC_SUB / 2) / PDS__ISC_SUB : -1;
+    if ((x1p - x0p + 1) * (y1p - y0p + 1) > PDS__ISC_QUAD_MAX_PIXELS) return;
+    if (x0p < 0) x0p = 0;
+    if (y0p < 0) y0p = 0;
+    if (x1p >= ctx->w) x1p = ctx->w - 1;
+    if (y1p >= ctx->h) y1p = ctx->h - 1;
+    oa = pds__isc_edge_owns(b, c);
+    ob = pds__isc_edge_owns(c, a);
+    oc = pds__isc_edge_owns(a, b);
+    for (ys = y0p; ys <= y1p; ys++)
+        for (xs = x0p; xs <= x1p; xs++) {
+            long long px = xs * PDS__ISC_SUB + PDS__ISC_SUB / 2, py = ys * PDS__ISC_SUB + PDS__ISC_SUB / 2;
+            long long ea = pds__isc_edge(b, c, px, py), eb = pds__isc_edge(c, a, px, py), ec = pds__isc_edge(a, b, px, py);
+            size_t q;
+            pds__isc_frag *f;
+            if (ea < 0 || eb < 0 || ec < 0 || (ea == 0 && !oa) || (eb == 0 && !ob) || (ec == 0 && !oc)) continue;
+            q = (size_t)ys * ctx->w + (size_t)xs;
+            if (!pds__isc_same_surface(&ctx->px[q], x0, n0)) continue;
+            if (pds__grow((void **)&ctx->frags[j], &ctx->capfrags[j], ctx->nfrags[j] + 1, sizeof **ctx->frags)) {
+                pthread_mutex_lock(&ctx->lock);
+                ctx->out_of_memory = 1;
+                pthread_mutex_unlock(&ctx->lock);
+                return;
+            }
+            f = &ctx->frags[j][ctx->nfrags[j]++];
+            f->pixel = (int)q;
+            f->e[0] = e[0];
+            f->e[1] = e[1];
+            f->e[2] = e[2];
+        }
+}
+
+/* The caustic polygons of light-space rows j and j + 1: quad (i, j) joins
+   photons (i,j), (i+1,j), (i+1,j+1), (i,j+1) when all four followed the
+   same specular path to surfaces facing the same way (Sect. 3.2.1: quads
+   that stretch between surfaces are culled). Its irradiance: the beam's
+   flux Phi_B = I omega_B (eq. 1; I the mean of the corners' e) over the
+   polygon's area (eqs. 2-3). */
+static void pds__isc_quad_rows(pds__isc *ctx, long first, long last)
+{
+    const pds__isc_view *v = &ctx->view;
+    long j;
+    int i, c, r;
+    for (j = first; j < last; j++) {
+        ctx->nfrags[j] = 0;
+        for (i = 0; i + 1 < ctx->res; i++) {
+            size_t k[4];
+            pds__v3 x[4], n0;
+            double omega, area, e[3] = {0, 0, 0};
+            float ef[3];
+            int ok = 1;
+            k[0] = (size_t)j * ctx->res + i;
+            k[1] = k[0] + 1;
+            k[2] = k[1] + (size_t)ctx->res;
+            k[3] = k[0] + (size_t)ctx->res;
+            for (r = 0; r < 4 && ok; r++)
+                ok = ctx->ph[k[r]].path == ctx->ph[k[0]].path && ctx->ph[k[r]].path != 0 && ctx->ph_front[k[r]];
+            if (!ok) continue;
+            n0 = pds__f3_get(ctx->ph[k[0]].n);
+            for (r = 0; r < 4 && ok; r++) {
+                x[r] = pds__f3_get(ctx->ph[k[r]].pos);
+                ok = pds__dot(pds__f3_get(ctx->ph[k[r]].n), n0) >= 0.9;
+                for (c = 0; c < 3; c++) e[c] += 0.25 * ctx->ph[k[r]].e[c];
+            }
+            if (!ok) continue;
+            area = 0.5 * (pds__length(pds__cross(pds__sub(x[1], x[0]), pds__sub(x[2], x[0]))) +
+                          pds__length(pds__cross(pds__sub(x[2], x[0]), pds__sub(x[3], x[0]))));
+            if (!(area > 0.0)) continue;
+            omega = pds__rect_solid_angle(pds__isc_plane(v, i + v->jx), pds__isc_plane(v, i + 1 + v->jx),
+                                          pds__isc_plane(v, j + v->jy), pds__isc_plane(v, j + 1 + v->jy));
+            for (c = 0; c < 3; c++) ef[c] = (float)(e[c] * omega / area);
+            pds__isc_raster(ctx, j, &ctx->ph_xy[2 * k[0]], &ctx->ph_xy[2 * k[1]], &ctx->ph_xy[2 * k[2]], ef, x[0], n0);
+            pds__isc_raster(ctx, j, &ctx->ph_xy[2 * k[0]], &ctx->ph_xy[2 * k[2]], &ctx->ph_xy[2 * k[3]], ef, x[0], n0);
+        }
+    }
+}
+
+/* The quads' fragments into the estimate, row by row (photon order). */
+static void pds__isc_quads_add(pds__isc *ctx)
+{
+    long j;
+    size_t f;
+    int c;
+    for (j = 0; j + 1 < ctx->res; j++)
+        for (f = 0; f < ctx->nfrags[j]; f++) {
+            const pds__isc_frag *fr = &ctx->frags[j][f];
+            for (c = 0; c < 3; c++) ctx->est[fr->pixel].e[c] += fr->e[c];
+            ctx->est[fr->pixel].count += 1.0f;
+            ctx->fragments++;
+        }
+}
+
+/* --- frames -------------------------------------------------------------- */
+
+/* Rotate p about the vertical line through c by angle a (radians). */
+static pds__v3 pds__isc_orbit(pds__v3 p, pds__v3 c, double a)
+{
+    double dx = p.x - c.x, dz = p.z - c.z;
+    return pds__v(c.x + cos(a) * dx + sin(a) * dz, p.y, c.z - sin(a) * dx + cos(a) * dz);
+}
+
+/* Photons of light k for this frame, gathered into ctx->est. */
+static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
+{
+    size_t n = (size_t)ctx->res * (size_t)ctx->res, i;
+    double jx = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)frame, 0);
+    double jy = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)frame, 1);
+    double t0 = pds_time_now(), t1;
+    ctx->light = &ctx->lights[k];
+    if (!pds__isc_view_setup(ctx->scene, &ctx->target, ctx->light->position, ctx->res, jx, jy, &ctx->view)) return;
+    pds__isc_mask(ctx);
+    pds__isc_parallel(ctx, ctx->res, 4, pds__isc_photon_rows);
+    ctx->photons += (long)n;
+    for (i = 0; i < n; i++) ctx->landed += ctx->ph[i].path != 0;
+    t1 = pds_time_now();
+    ctx->time_photons += t1 - t0;
+    switch (ctx->gather) {
+    case PDS_ISC_POINTS:
+    case PDS_ISC_EYE:
+        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_pixels);
+        if (ctx->gather == PDS_ISC_EYE) memset(ctx->dep, 0, sizeof *ctx->dep * 4 * (size_t)ctx->w * ctx->h);
+        pds__isc_points(ctx, ctx->gather == PDS_ISC_EYE);
+        if (ctx->gather == PDS_ISC_EYE) {
+            pds__isc_parallel(ctx, ctx->h, 16, pds__isc_near_rows);
+            pds__isc_parallel(ctx, ctx->h, 8, pds__isc_eye_gather);
+        }
+        break;
+    case PDS_ISC_LIGHT:
+        pds__isc_light_map_view(ctx);
+        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_texels);
+        memset(ctx->dep, 0, sizeof *ctx->dep * 4 * n);
+        for (i = 0; i < n; i++) {
+            int m = ctx->ph_pixel[i], c;
+            if (m < 0) continue;
+            for (c = 0; c < 3; c++) ctx->dep[4 * (size_t)m + c] += ctx->ph[i].e[c];
+            ctx->dep[4 * (size_t)m + 3] += 1.0f;
+        }
+        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_texel_irradiance);
+        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_light_gather);
+        pds__isc_parallel(ctx, ctx->h, 8, pds__isc_light_lookup);
+        break;
+    case PDS_ISC_QUADS:
+        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_screen);
+        pds__isc_parallel(ctx, ctx->res - 1, 4, pds__isc_quad_rows);
+        pds__isc_quads_add(ctx);
+        break;
+    }
+    ctx->time_gather += pds_time_now() - t1;
+}
+
+/* Render frame `frame` into out (allocated by the caller, w x h): the
+   orbit's lights and camera, the eye buffer, each light's photons and
+   gather, the temporal filter, direct + caustic radiance. accumulate:
+   average every frame so far instead of the last `history` (the time
+   budget of a still). */
+static void pds__isc_frame(pds__isc *ctx, int frame, int accumulate, pds_image *out)
+{
+    const pds_scene *s = ctx->scene;
+    const pds_options *opt = ctx->opt;
+    size_t npix = (size_t)ctx->w * ctx->h, i, k;
+    /* a still's frames (time budget) do not turn */
+    double angle = accumulate ? 0.0 : frame * opt->orbit_deg * (PDS__PI / 180.0), t0 = pds_time_now();
+    pds_camera cam = s->camera;
+    pds__isc_est *slot;
+    int c, n_hist, h, threshold = ctx->gather == PDS_ISC_EYE || ctx->gather == PDS_ISC_LIGHT;
+    for (k = 0; k < ctx->nlights; k++) {
+        ctx->lights[k] = s->lights[k];
+        if (opt->orbit == PDS_ORBIT_LIGHT) {
+            ctx->lights[k].position = pds__isc_orbit(s->lights[k].position, cam.look_at, angle);
+            ctx->lights[k].direction = pds__isc_orbit(s->lights[k].direction, pds__v(0, 0, 0), angle);
+        }
+    }
+    if (opt->orbit == PDS_ORBIT_CAMERA) cam.position = pds__isc_orbit(cam.position, cam.look_at, angle);
+    ctx->cam = pds__camera_setup(&cam, ctx->w, ctx->h);
+    /* the eye buffer when the camera moved (or on the first frame), its
+       direct light when anything moved */
+    if (ctx->frames_done == 0 || (opt->orbit == PDS_ORBIT_CAMERA && angle != 0.0))
+        pds__isc_parallel(ctx, ctx->h, 4, pds__isc_eye_rows);
+    if (ctx->frames_done == 0 || (opt->orbit != PDS_ORBIT_NONE && angle != 0.0))
+        pds__isc_parallel(ctx, ctx->h, 4, pds__isc_direct_rows);
+    ctx->time_eye += pds_time_now() - t0;
+    memset(ctx->est, 0, sizeof *ctx->est * npix);
+    if (opt->paths != PDS_PATHS_NO_CAUSTICS && ctx->target.any)
+        for (k = 0; k < ctx->nlights; k++) pds__isc_light_photons(ctx, k, frame);
+    /* the temporal filter (sect. 3.2.3) */
+    if (accumulate) {
+        for (i = 0; i < npix; i++) {
+            for (c = 0; c < 3; c++) ctx->acc[4 * i + c] += ctx->est[i].e[c];
+            ctx->acc[4 * i + 3] += ctx->est[i].count;
+        }
+    } else {
+        slot = &ctx->ring[(size_t)(frame % ctx->history) * npix];
+        memcpy(slot, ctx->est, sizeof *slot * npix);
+    }
+    ctx->frames_done++;
+    n_hist = accumulate ? ctx->frames_done : (ctx->frames_done < ctx->history ? ctx->frames_done : ctx->history);
+    for (i = 0; i < npix; i++) {
+        double e[3] = {0, 0, 0}, count = 0.0, *d = &ctx->direct[3 * i];
+        if (accumulate) {
+            for (c = 0; c < 3; c++) e[c] = ctx->acc[4 * i + c];
+            count = ctx->acc[4 * i + 3];
+        } else {
+            for (h = 0; h < n_hist; h++) {
+                const pds__isc_est *r = &ctx->ring[(size_t)((frame - h) % ctx->history) * npix + i];
+                for (c = 0; c < 3; c++) e[c] += r->e[c];
+                count += r->count;
+            }
+        }
+        if (threshold && count < PDS__ISC_MIN_PHOTONS) e[0] = e[1] = e[2] = 0.0;
+        for (c = 0; c < 3; c++) {
+            double v = (opt->paths == PDS_PATHS_CAUSTICS_ONLY ? 0.0 : d[c]) + ctx->px[i].fr[c] * e[c] / n_hist;
+            ctx->rgb[3 * i + c] = v;
+        }
+    }
+    /* NaN -> 0, beyond the float range -> the largest float, counted */
+    ctx->nonfinite += pds__finite_floats(ctx->rgb, out->rgb, npix * 3);
+}
+
+static void pds__isc_free(pds__isc *ctx)
+{
+    long j;
+    if (ctx->frags)
+        for (j = 0; j < ctx->res; j++) free(ctx->frags[j]);
+    free(ctx->frags);
+    free(ctx->nfrags);
+    free(ctx->capfrags);
+    free(ctx->lights);
+    free(ctx->px);
+    free(ctx->direct);
+    free(ctx->ph);
+    free(ctx->mask);
+    free(ctx->ph_pixel);
+    free(ctx->ph_xy);
+    free(ctx->ph_front);
+    free(ctx->dep);
+    free(ctx->near);
+    free(ctx->lmap);
+    free(ctx->est);
+    free(ctx->rgb);
+    free(ctx->ring);
+    free(ctx->acc);
+    pthread_mutex_destroy(&ctx->lock);
+}
+
+/* The light-space buffer's side: light_resolution, or the side whose
+   square is nearest the photon count. */
+static int pds__isc_resolution(const pds_options *opt)
+{
+    long r;
+    if (opt->light_resolution > 0) return opt->light_resolution;
+    r = (long)floor(sqrt((double)opt->photons) + 0.5);
+    return r < 2 ? 2 : r > PDS_MAX_RESOLUTION ? PDS_MAX_RESOLUTION : (int)r;
+}
+
+/* Bytes an isc render holds: per pixel the eye buffer, direct light, the
+   image in double, the estimate, its history (or the time budget's sums) and the deposits;
+   per photon the buffer and its pixel, screen position or texel; the
+   light map. (Quad fragments come on top: about one per covered pixel.) */
+static double pds__isc_memory(const pds_options *opt, double npix)
+{
+    double r2 = (double)pds__isc_resolution(opt) * pds__isc_resolution(opt);
+    int hist = opt->time_s > 0.0 ? 2 : opt->history;
+    return npix * (sizeof(pds__isc_pixel) + 6 * sizeof(double) + (1 + hist) * sizeof(pds__isc_est) +
+                   4 * sizeof(float) + 3 * sizeof(float)) +
+           r2 * (sizeof(pds__isc_photon) + sizeof(int) + 2 * sizeof(long long) + 2 + 8 * sizeof(float));
+}
+
+/* Set up a render of w x h pixels; the light checks of the method. */
+static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_options *opt, int w, int h, int threads,
+                                pds_error *err)
+{
+    size_t npix = (size_t)w * h, n, k;
+    int x, y;
+    double sum = 0.0;
+    memset(ctx, 0, sizeof *ctx);
+    pthread_mutex_init(&ctx->lock, NULL);
+    for (k = 0; k < s->nlights; k++)
+        if (s->lights[k].type != PDS_LIGHT_POINT && s->lights[k].type != PDS_LIGHT_SPOT) {
+            static const char *const kind[] = {"point", "spot", "directional", "disk", "quad", "mesh"};
+            return pds__fail(err, PDS_ERR_INVALID_ARG, s->path[0] ? s->path : NULL, 0, 0,
+                             "image-space caustics (--method isc) take point and spot lights only, as Wyman and "
+                             "Davis's method does; light %lu is a %s light",
+                             (unsigned long)k + 1, kind[(unsigned)s->lights[k].type % 6u]);
+        }
+    ctx->scene = s;
+    ctx->opt = opt;
+    ctx->gather = opt->isc_gather;
+    ctx->w = w;
+    ctx->h = h;
+    ctx->threads = threads;
+    ctx->res = pds__isc_resolution(opt);
+    ctx->history = opt->history;
+    ctx->eps = 1e-6 * pds__scene_scale(s);
+    ctx->target = pds__specular_target(s);
+    ctx->nlights = s->nlights;
+    for (k = 0; ctx->target.any && k < s->nlights; k++) {
+        pds__v3 axis;
+        double cm;
+        if (opt->paths != PDS_PATHS_NO_CAUSTICS && !pds__target_cone(&ctx->target, s->lights[k].position, &axis, &cm))
+            return pds__fail(err, PDS_ERR_INVALID_ARG, s->path[0] ? s->path : NULL, 0, 0,
+                             "--method isc: light %lu is inside the bounding sphere of the specular objects, which "
+                             "one light-space view cannot hold",
+                             (unsigned long)k + 1);
+    }
+    n = (size_t)ctx->res * ctx->res;
+    ctx->lights = (pds_light *)malloc(sizeof *ctx->lights * (s->nlights ? s->nlights : 1));
+    ctx->px = (pds__isc_pixel *)calloc(npix, sizeof *ctx->px);
+    ctx->direct = (double *)calloc(npix * 3, sizeof *ctx->direct);
+    ctx->est = (pds__isc_est *)calloc(npix, sizeof *ctx->est);
+    ctx->rgb = (double *)malloc(sizeof *ctx->rgb * 3 * npix);
+    if (opt->time_s > 0.0) ctx->acc = (double *)calloc(npix * 4, sizeof *ctx->acc);
+    else ctx->ring = (pds__isc_est *)calloc(npix * (size_t)ctx->history, sizeof *ctx->ring);
+    ctx->ph = (pds__isc_photon *)malloc(sizeof *ctx->ph * n);
+    ctx->mask = (unsigned char *)malloc(n);
+    ctx->ph_pixel = (int *)malloc(sizeof *ctx->ph_pixel * n);
+    if (ctx->gather == PDS_ISC_QUADS) {
+        ctx->ph_xy = (long long *)malloc(sizeof *ctx->ph_xy * 2 * n);
+        ctx->ph_front = (signed char *)malloc(n);
+        ctx->frags = (pds__isc_frag **)calloc((size_t)ctx->res, sizeof *ctx->frags);
+        ctx->nfrags = (size_t *)calloc((size_t)ctx->res, sizeof *ctx->nfrags);
+        ctx->capfrags = (size_t *)calloc((size_t)ctx->res, sizeof *ctx->capfrags);
+    }
+    if (ctx->gather == PDS_ISC_EYE) {
+        ctx->dep = (float *)malloc(sizeof *ctx->dep * 4 * npix);
+        ctx->near = (unsigned char *)malloc(npix);
+    }
+    if (ctx->gather == PDS_ISC_LIGHT) {
+        ctx->dep = (float *)malloc(sizeof *ctx->dep * 4 * n);
+        ctx->lmap = (float *)malloc(sizeof *ctx->lmap * 4 * n);
+    }
+    if (!ctx->lights || !ctx->px || !ctx->direct || !ctx->est || !ctx->rgb || !ctx->mask || (!ctx->acc && !ctx->ring) || !ctx->ph ||
+        !ctx->ph_pixel || (ctx->gather == PDS_ISC_QUADS && (!ctx->ph_xy || !ctx->ph_front || !ctx->frags ||
+                                                          !ctx->nfrags || !ctx->capfrags)) ||
+        ((ctx->gather == PDS_ISC_EYE || ctx->gather == PDS_ISC_LIGHT) && !ctx->dep) ||
+        (ctx->gather == PDS_ISC_EYE && !ctx->near) ||
+        (ctx->gather == PDS_ISC_LIGHT && !ctx->lmap)) {
+        pds__isc_free(ctx);
+        return pds__nomem(err);
+    }
+    /* the normalised 7x7 Gaussian */
+    for (y = -PDS__ISC_RADIUS; y <= PDS__ISC_RADIUS; y++)
+        for (x = -PDS__ISC_RADIUS; x <= PDS__ISC_RADIUS; x++)
+            sum += ctx->gauss[y + PDS__ISC_RADIUS][x + PDS__ISC_RADIUS] =
+                exp(-(x * x + y * y) / (2.0 * PDS__ISC_SIGMA * PDS__ISC_SIGMA));
+    for (y = 0; y < 2 * PDS__ISC_RADIUS + 1; y++)
+        for (x = 0; x < 2 * PDS__ISC_RADIUS + 1; x++) ctx->gauss[y][x] /= sum;
+    return PDS_OK;
+}
+
+/* Render `frames` frames (fn gets each; fn NULL: only the last into
+   *last), or with a time budget one still from as many frames as fit. */
+static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, int w, int h, int threads, int frames,
+                                  pds_frame_fn fn, void *user, pds_image *last, pds_render_stats *stats,
+                                  pds_error *err)
+{
+    pds__isc ctx;
+    pds_image img;
+    pds_error spare; /* the callback always gets somewhere to say why */
+    pds_status st;
+    double t0 = pds_time_now();
+    int f, accumulate = opt->time_s > 0.0 && !fn;
+    if ((st = pds__isc_init(&ctx, s, opt, w, h, threads, err))) return st;
+    if ((st = pds_image_alloc(&img, w, h)) != PDS_OK) {
+        pds__isc_free(&ctx);
+        return pds__nomem(err);
+    }
+    for (f = 0; accumulate || f < frames; f++) {
+        pds__isc_frame(&ctx, f, accumulate, &img);
+        if (ctx.out_of_memory) {
+            st = pds__nomem(err);
+            break;
+        }
+        if (opt->progress && !accumulate) opt->progress(opt->progress_user, (double)(f + 1) / frames, pds_time_now() - t0);
+        if (fn && (st = fn(user, f, &img, err ? err : &spare)) != PDS_OK) break;
+        if (accumulate) {
+            double el = pds_time_now() - t0;
+            if (opt->progress) opt->progress(opt->progress_user, el / opt->time_s < 1.0 ? el / opt->time_s : 1.0, el);
+            if (el >= opt->time_s) {
+                f++;
+                break;
+            }
+        }
+    }
+    if (stats) {
+        size_t i, npix = (size_t)w * h;
+        stats->passes = f;
+        stats->photons = ctx.photons;
+        stats->splatted = ctx.landed;
+        stats->time_eye_s = ctx.time_eye;
+        stats->time_photons_s = ctx.time_photons;
+        stats->time_gather_s = ctx.time_gather;
+        stats->memory_bytes = (size_t)pds__isc_memory(opt, (double)npix);
+        for (i = 0; i < npix; i++) stats->eye_vertices += ctx.px[i].kind != 0;
+        stats->spp = 1;
+        stats->nonfinite = ctx.nonfinite;
+    }
+    pds__isc_free(&ctx);
+    if (!st && last) *last = img;
+    else pds_image_free(&img);
+    return st;
+}
+
+/* ===================================================================== */
 /* >>api                                                                 */
 /* ===================================================================== */
 
@@ -12485,6 +13747,11 @@ void pds_options_default(pds_options *opt)
     opt->passes = 10;
     opt->max_photons = 500;
     opt->spectral = 0;
+    opt->isc_gather = PDS_ISC_EYE;
+    opt->light_resolution = 0;
+    opt->history = 4;
+    opt->orbit = PDS_ORBIT_LIGHT;
+    opt->orbit_deg = 2.0;
     opt->caustics = PDS_METHOD_PDS;
     opt->global_photons = 100000;
     opt->global_k = 50;
@@ -12512,6 +13779,7 @@ const char *pds_method_name(pds_method method)
     case PDS_METHOD_SPLAT: return "splat";
     case PDS_METHOD_PDM: return "pdm";
     case PDS_METHOD_PPM: return "ppm";
+    case PDS_METHOD_ISC: return "isc";
     case PDS_METHOD_GI: return "gi";
     case PDS_METHOD_SPM: return "spm";
     }
@@ -12572,7 +13840,20 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
                          (LONG_MAX - PDS__PHOTON_BATCH) / (opt->stream_photons + 1L));
     if (!(opt->max_radius >= 0.0) || !(opt->radius >= 0.0) || opt->max_radius > 1e12 || opt->radius > 1e12)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "radii must be between 0 and 1e12");
-    if (opt->method != PDS_METHOD_PT && opt->method != PDS_METHOD_PREVIEW && opt->method != PDS_METHOD_GI &&
+    if ((unsigned)opt->isc_gather > (unsigned)PDS_ISC_LIGHT)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown isc gather %d", (int)opt->isc_gather);
+    if (opt->light_resolution < 0 || opt->light_resolution > PDS_MAX_RESOLUTION)
+        return pds__fail(err, PDS_ERR_LIMIT, NULL, 0, 0, "light-space resolution %d is outside 0..%d",
+                         opt->light_resolution, PDS_MAX_RESOLUTION);
+    if (opt->history < 1 || opt->history > PDS__ISC_MAX_HISTORY)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "history %d is outside 1..%d", opt->history,
+                         PDS__ISC_MAX_HISTORY);
+    if ((unsigned)opt->orbit > (unsigned)PDS_ORBIT_CAMERA)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown orbit %d", (int)opt->orbit);
+    if (!(fabs(opt->orbit_deg) <= 360.0))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "orbit step must be between -360 and 360 degrees");
+    if (opt->method != PDS_METHOD_PT && opt->method != PDS_METHOD_PREVIEW && opt->method != PDS_METHOD_ISC &&
+        opt->method != PDS_METHOD_GI &&
         !pds__is_photon_method(opt->method))
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown rendering method %d", (int)opt->method);
     if (opt->method == PDS_METHOD_GI && !pds__is_photon_method(opt->caustics))
@@ -12668,6 +13949,10 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
         if (opt->method == PDS_METHOD_PDM) bytes += est->stored_photons * 2.0 * sizeof(pds__diff_photon);
         else bytes += est->stored_photons * (2.0 * sizeof(pds__stored_photon) + 21.0);
     }
+    if (opt->method == PDS_METHOD_ISC) {
+        est->samples = npix;
+        bytes = npix * 3.0 * sizeof(float) + pds__isc_memory(opt, npix);
+    }
     est->memory_bytes = bytes;
     est->available_bytes = pds__physical_memory();
     return PDS_OK;
@@ -12706,6 +13991,18 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     }
     if (!stats) stats = &local;
     memset(stats, 0, sizeof *stats);
+    if (opt->method == PDS_METHOD_ISC) {
+        double t0 = pds_time_now();
+        threads = opt->threads > 0 ? opt->threads : pds_cpu_count();
+        st = pds__isc_render(scene, opt, w, h, threads, 1, NULL, NULL, out, stats, err);
+        if (st) return st;
+        if (opt->progress) opt->progress(opt->progress_user, 1.0, pds_time_now() - t0);
+        stats->time_total_s = pds_time_now() - t0;
+        stats->threads = threads;
+        stats->width = w;
+        stats->height = h;
+        return PDS_OK;
+    }
     memset(&job, 0, sizeof job);
     job.t0 = pds_time_now();
     job.scene = scene;
@@ -12855,6 +14152,47 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     if (popt->method != PDS_METHOD_PPM && !(popt->method == PDS_METHOD_PDS && popt->progressive))
         stats->passes = job.pass; /* ppm and progressive pds: their photon passes */
     return PDS_OK;
+}
+
+pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int frames, pds_frame_fn fn,
+                             void *user, pds_render_stats *stats, pds_error *err)
+{
+    pds_render_stats local;
+    pds_options o;
+    int w, h, threads;
+    double t0 = pds_time_now();
+    pds_status st;
+    if (!scene || !opt || !fn) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render_frames: NULL argument");
+    if (opt->method != PDS_METHOD_ISC)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                         "animation frames are rendered by image-space caustics (method isc) only, not %s",
+                         pds_method_name(opt->method));
+    if (frames < 1 || frames > 1000000)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "frame count %d is outside 1..1000000", frames);
+    w = opt->width > 0 ? opt->width : scene->camera.width;
+    h = opt->height > 0 ? opt->height : scene->camera.height;
+    if ((st = pds__options_check(opt, w, h, err))) return st;
+    o = *opt;
+    o.time_s = 0.0; /* frames, not a still's time budget */
+    {
+        pds_render_estimate est;
+        double limit;
+        if ((st = pds_render_estimate_get(scene, &o, &est, err))) return st;
+        limit = o.memory_limit > 0.0 ? o.memory_limit : est.available_bytes;
+        if (limit > 0.0 && est.memory_bytes > limit)
+            return pds__fail(err, PDS_ERR_LIMIT, NULL, 0, 0, "these frames need up to %.1f GB but %s %.1f GB",
+                             est.memory_bytes / 1e9, o.memory_limit > 0.0 ? "the memory limit is" : "this machine has",
+                             limit / 1e9);
+    }
+    if (!stats) stats = &local;
+    memset(stats, 0, sizeof *stats);
+    threads = o.threads > 0 ? o.threads : pds_cpu_count();
+    st = pds__isc_render(scene, &o, w, h, threads, frames, fn, user, NULL, stats, err);
+    stats->time_total_s = pds_time_now() - t0;
+    stats->threads = threads;
+    stats->width = w;
+    stats->height = h;
+    return st;
 }
 
 /* `pds bench rays`: the rays are made before the clock starts, so only

@@ -303,9 +303,29 @@ typedef enum pds_method {
     PDS_METHOD_GI,         /* Jensen's two-pass global illumination (Jensen
                               1996): global photon map, shadow photons, final
                               gather, caustics from a caustic method */
-    PDS_METHOD_SPM         /* streamed photon mapping: streams of a leading photon and
+    PDS_METHOD_SPM,        /* streamed photon mapping: streams of a leading photon and
                               associated photons, gathered stream by stream */
+    PDS_METHOD_ISC         /* image-space caustics (Wyman and Davis 2006): a
+                              light-space photon buffer gathered in image space;
+                              interactive, approximate; point and spot lights */
 } pds_method;
+
+/* How image-space caustics turn the light-space photon buffer into light
+   (Wyman and Davis 2006, sect. 3.2). */
+typedef enum pds_isc_gather {
+    PDS_ISC_POINTS = 0, /* each photon lights the pixel it lands in */
+    PDS_ISC_QUADS,      /* caustic polygons between neighbouring photons */
+    PDS_ISC_EYE,        /* 7x7 Gaussian gather of photon counts in eye space */
+    PDS_ISC_LIGHT       /* the same in light space, projected onto the scene */
+} pds_isc_gather;
+
+/* What an animation (pds_render_frames) moves: a turn about the vertical
+   line through the camera's look-at point. */
+typedef enum pds_orbit {
+    PDS_ORBIT_NONE = 0, /* nothing: a static scene */
+    PDS_ORBIT_LIGHT,    /* every light (position and direction) */
+    PDS_ORBIT_CAMERA    /* the camera's position (it keeps looking at look_at) */
+} pds_orbit;
 
 /* Density-estimation kernel of photon mapping (Jensen 1996). */
 typedef enum pds_kernel {
@@ -433,6 +453,17 @@ typedef struct pds_options {
     int shadow_photons; /* gi: 1 = shadow photons decide where shadow rays are
                            needed, 0 = a shadow ray for every light sample
                            (default 1) */
+    /* image-space caustics (isc) */
+    pds_isc_gather isc_gather; /* default PDS_ISC_EYE */
+    int light_resolution; /* side of the light-space photon buffer: side^2
+                           photons per light and frame; 0 = the side whose
+                           square is nearest `photons` (default 0) */
+    int history;        /* temporal filter: frames averaged, this one and the
+                           history - 1 before it, 1..64 (default 4, the
+                           paper's; 1 = off) */
+    pds_orbit orbit;    /* pds_render_frames: what turns (default PDS_ORBIT_LIGHT) */
+    double orbit_deg;   /* pds_render_frames: degrees per frame, counter-
+                           clockwise seen from above (default 2) */
     double memory_limit; /* bytes: pds_render refuses (PDS_ERR_LIMIT) a render
                            whose pds_render_estimate_get memory exceeds this;
                            0 = this machine's physical memory (default 0) */
@@ -451,7 +482,8 @@ typedef struct pds_render_stats {
     /* photon methods */
     long photons;           /* photons emitted (including those that missed) */
     long splatted;          /* photons that reached a non-specular surface
-                               after >= 1 specular bounce and were splatted */
+                               after >= 1 specular bounce and were splatted
+                               (isc: that landed so) */
     long dropped_degenerate;/* photons whose footprint had collapsed */
     long split;             /* pds: photons and sub-photons split in four */
     long eye_vertices;      /* vertices in the eye-path map */
@@ -471,7 +503,10 @@ typedef struct pds_render_stats {
     double time_map_s;      /* pm, pdm, ppm, spm: building the photon maps; gi:
                                pass 1 (tracing and building the global and
                                shadow maps) plus its caustic method's */
-    double time_gather_s;   /* pm, pdm, ppm, spm: gathering at the eye vertices */
+    double time_gather_s;   /* pm, pdm, ppm, spm: gathering at the eye vertices;
+                               isc: the gathers (time_photons_s: the
+                               light-space buffers, time_eye_s: the eye
+                               buffer with its shadow rays) */
     size_t map_bytes;       /* pm, pdm, ppm, spm: peak size of the photon map;
                                gi: the global and shadow maps (plus the
                                caustic method's map) */
@@ -514,6 +549,19 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
    memory exceeds opt->memory_limit (or the machine's memory). */
 pds_status pds_render(const pds_scene *scene, const pds_options *opt,
                       pds_image *out, pds_render_stats *stats, pds_error *err);
+
+/* Called with each frame of pds_render_frames, in order; image belongs to
+   the library (copy what you keep); err is never NULL. A status other than
+   PDS_OK (with err filled) stops the animation and is returned. */
+typedef pds_status (*pds_frame_fn)(void *user, int frame, const pds_image *image, pds_error *err);
+
+/* An animation of `frames` frames (method PDS_METHOD_ISC only): frame f
+   turns opt->orbit by f x opt->orbit_deg and shifts the light-space photon
+   grid by a sub-texel offset of its own, so the temporal filter
+   (opt->history) averages different photons even in a static scene. stats:
+   photons and times summed over the frames, passes = frames rendered. */
+pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int frames, pds_frame_fn fn,
+                             void *user, pds_render_stats *stats, pds_error *err);
 
 /* -------------------------------------------------------------- benchmarks */
 

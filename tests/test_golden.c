@@ -80,6 +80,8 @@ static const golden_case golden_cases[] = {
     {"scenes/prism.scene", "prism", PDS_METHOD_PM, 96, 2, 20000, 30},
     {"scenes/gem.scene", "gem", PDS_METHOD_PDS, 96, 2, 20000, 0},
     {"scenes/gem.scene", "gem", PDS_METHOD_PT, 96, 16, 0, 0},
+    /* image-space caustics: 65,536 photons is a 256 x 256 light-space buffer */
+    {"scenes/ring_octahedron.scene", "ring_octahedron", PDS_METHOD_ISC, 96, 0, 65536, 0},
 };
 
 #define GOLDEN_NCASES (sizeof golden_cases / sizeof golden_cases[0])

@@ -24,6 +24,7 @@
 #include "test_spectral.c"
 #include "test_glossy.c"
 #include "test_gi.c"
+#include "test_isc.c"
 
 int main(int argc, char **argv)
 {
@@ -48,6 +49,7 @@ int main(int argc, char **argv)
         PDS_SUITE(tests_spectral),
         PDS_SUITE(tests_glossy),
         PDS_SUITE(tests_gi),
+        PDS_SUITE(tests_isc),
     };
     return pds_test_run(suites, sizeof suites / sizeof suites[0], argc, argv);
 }
