@@ -304,9 +304,29 @@ typedef enum pds_method {
     PDS_METHOD_GI,         /* Jensen's two-pass global illumination (Jensen
                               1996): global photon map, shadow photons, final
                               gather, caustics from a caustic method */
-    PDS_METHOD_SPM         /* streamed photon mapping: streams of a leading photon and
+    PDS_METHOD_SPM,        /* streamed photon mapping: streams of a leading photon and
                               associated photons, gathered stream by stream */
+    PDS_METHOD_ISC         /* image-space caustics (Wyman and Davis 2006): a
+                              light-space photon buffer gathered in image space;
+                              interactive, approximate; point and spot lights */
 } pds_method;
+
+/* How image-space caustics turn the light-space photon buffer into light
+   (Wyman and Davis 2006, sect. 3.2). */
+typedef enum pds_isc_gather {
+    PDS_ISC_POINTS = 0, /* each photon lights the pixel it lands in */
+    PDS_ISC_QUADS,      /* caustic polygons between neighbouring photons */
+    PDS_ISC_EYE,        /* 7x7 Gaussian gather of photon counts in eye space */
+    PDS_ISC_LIGHT       /* the same in light space, projected onto the scene */
+} pds_isc_gather;
+
+/* What an animation (pds_render_frames) moves: a turn about the vertical
+   line through the camera's look-at point. */
+typedef enum pds_orbit {
+    PDS_ORBIT_NONE = 0, /* nothing: a static scene */
+    PDS_ORBIT_LIGHT,    /* every light (position and direction) */
+    PDS_ORBIT_CAMERA    /* the camera's position (it keeps looking at look_at) */
+} pds_orbit;
 
 /* Density-estimation kernel of photon mapping (Jensen 1996). */
 typedef enum pds_kernel {
@@ -424,6 +444,11 @@ typedef struct pds_options {
                            footprints are needle-like (m_a -> 0), green where
                            round (m_a -> 1), weighted by the splats' kernels;
                            black where no photon landed (default NULL) */
+    int spectral;       /* 1 = spectral light transport (one wavelength per
+                           camera sample and per photon, CIE 1931 film) even
+                           without a dispersive material; a scene with a
+                           Cauchy or Sellmeier material is always rendered
+                           spectrally (default 0) */
     /* gi (Jensen 1996) */
     pds_method caustics; /* gi: the method that adds the caustics seen at the
                            eye path's first non-specular vertex: pds, pm,
@@ -441,6 +466,17 @@ typedef struct pds_options {
     int shadow_photons; /* gi: 1 = shadow photons decide where shadow rays are
                            needed, 0 = a shadow ray for every light sample
                            (default 1) */
+    /* image-space caustics (isc) */
+    pds_isc_gather isc_gather; /* default PDS_ISC_EYE */
+    int light_resolution; /* side of the light-space photon buffer: side^2
+                           photons per light and frame; 0 = the side whose
+                           square is nearest `photons` (default 0) */
+    int history;        /* temporal filter: frames averaged, this one and the
+                           history - 1 before it, 1..64 (default 4, the
+                           paper's; 1 = off) */
+    pds_orbit orbit;    /* pds_render_frames: what turns (default PDS_ORBIT_LIGHT) */
+    double orbit_deg;   /* pds_render_frames: degrees per frame, counter-
+                           clockwise seen from above (default 2) */
     double memory_limit; /* bytes: pds_render refuses (PDS_ERR_LIMIT) a render
                            whose pds_render_estimate_get memory exceeds this;
                            0 = this machine's physical memory (default 0) */
@@ -459,10 +495,12 @@ typedef struct pds_render_stats {
     int width, height;
     int spp;            /* samples per pixel actually taken (passes x spp) */
     int passes;
+    int spectral;           /* 1 if the render was spectral */
     /* photon methods */
     long photons;           /* photons emitted (including those that missed) */
     long splatted;          /* photons that reached a non-specular surface
-                               after >= 1 specular bounce and were splatted */
+                               after >= 1 specular bounce and were splatted
+                               (isc: that landed so) */
     long dropped_degenerate;/* photons whose footprint had collapsed */
     long split;             /* pds: photons and sub-photons split in four */
     long eye_vertices;      /* vertices in the eye-path map */
@@ -482,7 +520,10 @@ typedef struct pds_render_stats {
     double time_map_s;      /* pm, pdm, ppm, spm: building the photon maps; gi:
                                pass 1 (tracing and building the global and
                                shadow maps) plus its caustic method's */
-    double time_gather_s;   /* pm, pdm, ppm, spm: gathering at the eye vertices */
+    double time_gather_s;   /* pm, pdm, ppm, spm: gathering at the eye vertices;
+                               isc: the gathers (time_photons_s: the
+                               light-space buffers, time_eye_s: the eye
+                               buffer with its shadow rays) */
     size_t map_bytes;       /* pm, pdm, ppm, spm: peak size of the photon map;
                                gi: the global and shadow maps (plus the
                                caustic method's map) */
@@ -506,14 +547,16 @@ typedef struct pds_render_stats {
 
 /* What a render will need, from the scene and options alone, before any
    work: an upper bound on the memory it holds at once beyond the scene
-   (per eye vertex 252 bytes, every pixel sample taken to record one; per
-   stored photon 133 bytes for pm and ppm, 176 for pdm; per pixel 60 bytes,
-   and for the photon methods 48 more plus 48 per thread; gi: its caustic
-   method's needs plus, per global photon, at most 8 global-map stores of
-   149 bytes and 5 shadow stores of 117 bytes, each counted twice while the
-   threads' arrays are merged, with the kd-tree), the pixel samples of one
-   eye pass, and the machine's physical memory (0 if unknown). With a time
-   budget the photon count is not known in advance and counts as 0. */
+   (per eye vertex 264 bytes, every pixel sample taken to record one; per
+   stored photon 149 bytes for pm and ppm, 176 for pdm; per pixel 60 bytes,
+   and for the photon methods 96 more (the partial state's two exact
+   sums) plus 48 per thread, 96 per thread in spectral renders; gi: its
+   caustic method's needs plus, per global photon, at most 8 global-map
+   stores of 149 bytes and 5 shadow stores of 117 bytes, each counted
+   twice while the threads' arrays are merged, with the kd-tree), the
+   pixel samples of one eye pass, and the machine's physical memory (0 if
+   unknown). With a time budget the photon count is not known in advance
+   and counts as 0. */
 typedef struct pds_render_estimate {
     double memory_bytes;
     double eye_vertices;    /* photon methods: at most */
@@ -548,7 +591,11 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt,
      pm, pdm, ppm: an estimate needs every photon, so every shard traces
        all photons and gathers at the eye vertices of rows I, I + N, ...
        only (the photon part is one unit: done or not).
-   A render with a time budget (time_s > 0) cannot be split or continued.
+   A render with a time budget (time_s > 0) cannot be split or continued;
+   nor, for now, can gi, spm or isc (their own options are not in the
+   partial file; isc's part holds its whole image as eye rows). A spectral
+   render's photon part is two exact sums, of the positive and of the
+   negative splats, and is split, continued and merged like an RGB one.
 
    pds_render_part renders (or continues) a part; the progress callback
    may stop it at a batch boundary, and a later call continues it. The
@@ -594,6 +641,19 @@ void pds_partial_options(const pds_partial *part, pds_options *opt);
 void pds_partial_free(pds_partial *part);
 /* The content hash pds_partial_info reports, of a loaded scene. */
 unsigned long long pds_scene_hash(const pds_scene *scene);
+
+/* Called with each frame of pds_render_frames, in order; image belongs to
+   the library (copy what you keep); err is never NULL. A status other than
+   PDS_OK (with err filled) stops the animation and is returned. */
+typedef pds_status (*pds_frame_fn)(void *user, int frame, const pds_image *image, pds_error *err);
+
+/* An animation of `frames` frames (method PDS_METHOD_ISC only): frame f
+   turns opt->orbit by f x opt->orbit_deg and shifts the light-space photon
+   grid by a sub-texel offset of its own, so the temporal filter
+   (opt->history) averages different photons even in a static scene. stats:
+   photons and times summed over the frames, passes = frames rendered. */
+pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int frames, pds_frame_fn fn,
+                             void *user, pds_render_stats *stats, pds_error *err);
 
 /* -------------------------------------------------------------- benchmarks */
 

@@ -490,7 +490,7 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
         {"sweep S --param spp", "sweep needs --values A,B,..."},
         {"sweep S --param spp --values 1,2", "sweep needs --ref REFERENCE.pfm"},
         {"sweep S --param foo --values 1 --ref R",
-         "--param knows photons, smoothing, min-aspect, min-width, pass-smoothing, pass-min-aspect, pass-min-width, pass-photons, split-depth, split-angle, pass-alpha, k, max-radius, streams, stream-photons, max-photons, radius, alpha, passes, global-photons, global-k, gather, gather-mix and spp, got 'foo'"},
+         "--param knows photons, smoothing, min-aspect, min-width, pass-smoothing, pass-min-aspect, pass-min-width, pass-photons, split-depth, split-angle, pass-alpha, k, max-radius, streams, stream-photons, max-photons, radius, alpha, passes, global-photons, global-k, gather, gather-mix, light-res, history and spp, got 'foo'"},
         {"sweep S --param k --values 1 --ref R", "--param k has no effect with --method pds (k is for pm, gi and spm)"},
         {"sweep S --method pt --param spp --values 1,,4 --ref R",
          "--values needs a comma-separated list of values, got '1,,4'"},
@@ -515,7 +515,7 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
         {"race S --ref R --methods pt --time 1 --tune=yes", "--tune takes no value, got '--tune=yes'"},
         {"race S --ref R --methods pt --time 1 --photons 3", "race takes one budget: --time or --photons, not both"},
         {"race S --ref R --methods pt,bogus --photons 3",
-         "unknown method 'bogus' (this version has: pds, pt, preview, pm, pdm, splat, ppm, gi, spm)"},
+         "unknown method 'bogus' (this version has: pds, pt, preview, pm, pdm, splat, ppm, gi, spm, isc)"},
         {"race S --ref R --methods pt, --photons 3", "--methods needs a comma-separated list of methods, got 'pt,'"},
         {"race S --ref R --methods pm:k --photons 3", "--methods: 'k' after pm needs NAME=VALUE"},
         {"race S --ref R --methods pds:k=5 --photons 3", "--methods: k has no effect with pds (k is for pm, gi and spm)"},
@@ -533,7 +533,7 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
         {"render S --k 0", "--k needs a whole number from 1 to 1000000, got '0'"},
         {"render S --passes 0", "--passes needs a whole number from 1 to 1000000, got '0'"},
         {"render S --max-photons 0", "--max-photons needs a whole number from 1 to 100000000, got '0'"},
-        {"render S --method xyz", "unknown method 'xyz' (this version has: pds, pt, preview, pm, pdm, splat, ppm, gi, spm)"},
+        {"render S --method xyz", "unknown method 'xyz' (this version has: pds, pt, preview, pm, pdm, splat, ppm, gi, spm, isc)"},
     };
     char out[8192], args[1024], expect[512], ref[256], dir[256];
     size_t i;

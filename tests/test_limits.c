@@ -227,7 +227,7 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
     REQUIRE(t, pds_render_estimate_get(s, &opt, &est, &err) == PDS_OK, "estimate: %s", err.text);
     CHECK(t, est.eye_vertices == pixels * 4 && est.stored_photons == 5000 && est.samples == pixels * 4,
           "counts %g %g %g", est.eye_vertices, est.stored_photons, est.samples);
-    CHECK(t, est.memory_bytes == pixels * 60 + pixels * 4 * 252 + 3 * pixels * 48 + 5000.0 * 133,
+    CHECK(t, est.memory_bytes == pixels * 60 + pixels * 4 * 264 + pixels * 96 + 2 * pixels * 48 + 5000.0 * 149,
           "bytes %.0f", est.memory_bytes);
     REQUIRE(t, pds_render(s, &opt, &img, &st, &err) == PDS_OK, "render: %s", err.text);
     CHECK(t, (double)st.memory_bytes <= est.memory_bytes, "the render held %lu bytes, over the estimate %.0f",

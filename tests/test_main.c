@@ -21,9 +21,11 @@
 #include "test_streams.c"
 #include "test_exact.c"
 #include "test_limits.c"
+#include "test_spectral.c"
 #include "test_glossy.c"
 #include "test_gi.c"
 #include "test_shards.c"
+#include "test_isc.c"
 
 int main(int argc, char **argv)
 {
@@ -45,9 +47,11 @@ int main(int argc, char **argv)
         PDS_SUITE(tests_streams),
         PDS_SUITE(tests_exact),
         PDS_SUITE(tests_limits),
+        PDS_SUITE(tests_spectral),
         PDS_SUITE(tests_glossy),
         PDS_SUITE(tests_gi),
         PDS_SUITE(tests_shards),
+        PDS_SUITE(tests_isc),
     };
     return pds_test_run(suites, sizeof suites / sizeof suites[0], argc, argv);
 }

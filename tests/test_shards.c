@@ -105,6 +105,71 @@ static void test_shards_merge_equals_the_single_run_bit_for_bit(pds_test_ctx *t)
     pds_scene_free(s);
 }
 
+/* A spectral render (scenes/prism.scene: dispersive glass, so one
+   wavelength per photon): its photon part is a positive and a negative
+   exact sum (>>spectral's XYZ-to-RGB matrix has negative entries). Three
+   shards of pds and pm, each through its partial file, merge to the single
+   run bit for bit, and a pds shard's file holds negative sums (else the
+   test would not exercise them). */
+static unsigned char *shards_slurp(const char *path, size_t *n);
+
+static void test_shards_spectral_merge_equals_the_single_run(pds_test_ctx *t)
+{
+    static const pds_method methods[] = {PDS_METHOD_PDS, PDS_METHOD_PM};
+    pds_error err;
+    pds_scene *s = NULL;
+    char path[128];
+    size_t m;
+    REQUIRE(t, pds_scene_load("scenes/prism.scene", &s, &err) == PDS_OK, "load: %s", err.text);
+    snprintf(path, sizeof path, "/tmp/pds_test_spectral_%ld.pdsp", (long)getpid());
+    for (m = 0; m < sizeof methods / sizeof methods[0]; m++) {
+        pds_options opt;
+        pds_image full = {0, 0, NULL}, merged = {0, 0, NULL};
+        pds_partial *parts[3] = {NULL, NULL, NULL};
+        const char *name = m == 0 ? "pds" : "pm";
+        int i, negative = 0;
+        pds_options_default(&opt);
+        opt.method = methods[m];
+        opt.progressive = 0;
+        opt.width = 24;
+        opt.height = 16;
+        opt.spp = 1;
+        opt.photons = 6000;
+        opt.k = 20;
+        opt.threads = 2;
+        REQUIRE(t, pds_render(s, &opt, &full, NULL, &err) == PDS_OK, "%s: render: %s", name, err.text);
+        for (i = 0; i < 3; i++) {
+            pds_partial *p = NULL;
+            opt.shard_index = i;
+            opt.shard_count = 3;
+            opt.threads = i == 1 ? 2 : 1;
+            CHECK(t, pds_render_part(s, &opt, &p, NULL, &err) == PDS_OK, "%s: shard %d: %s", name, i, err.text);
+            CHECK(t, p && pds_partial_write(path, p, &err) == PDS_OK, "%s: write: %s", name, err.text);
+            CHECK(t, pds_partial_read(path, &parts[i], &err) == PDS_OK, "%s: read: %s", name, err.text);
+            if (m == 0 && i == 0) {
+                /* the file's S- sums: after the eye rows and S+, before the check */
+                size_t n = 0, k, sums = 24 * 16 * 3 * 16;
+                unsigned char *bytes = shards_slurp(path, &n);
+                if (bytes && n > sums + 8)
+                    for (k = n - 8 - sums; k < n - 8; k++) negative |= bytes[k] != 0;
+                free(bytes);
+                CHECK(t, negative, "pds: the spectral shard holds no negative sums");
+            }
+            pds_partial_free(p);
+        }
+        remove(path);
+        if (parts[0] && parts[1] && parts[2]) {
+            CHECK(t, shards_merge(parts, 3, 0, &merged, NULL, &err) == PDS_OK, "%s: merge: %s", name, err.text);
+            CHECK(t, merged.rgb && shards_same(&merged, &full), "%s: the merged spectral shards differ from the single run",
+                  name);
+        }
+        for (i = 0; i < 3; i++) pds_partial_free(parts[i]);
+        pds_image_free(&full);
+        pds_image_free(&merged);
+    }
+    pds_scene_free(s);
+}
+
 /* A progress callback that asks to stop at its stop_at-th call, and
    records the phases it saw. */
 typedef struct shards_stopper {
@@ -372,18 +437,18 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     back = NULL;
     bytes = shards_slurp(path, &n);
     REQUIRE(t, bytes != NULL && n > 920, "slurp");
-    /* 912 header bytes, 8 rows of 24 x 3 doubles, 24 x 16 x 3 sums, check */
-    CHECK(t, n == 912 + 8 * 24 * 3 * 8 + 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
-    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 1 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
+    /* 920 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
+    CHECK(t, n == 920 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
+    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 2 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
                  bytes[548] == 24 && bytes[552] == 16 && bytes[556] == 1 && bytes[560] == 2 && bytes[564] == 1,
           "layout");
     copy = (unsigned char *)malloc(n);
     REQUIRE(t, copy != NULL, "malloc");
     memcpy(copy, bytes, n);
-    copy[8] = 2;
+    copy[8] = 1;
     shards_spit(bad, copy, n);
     CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE &&
-                 strstr(err.text, ": partial file format version 2; this pds reads version 1"),
+                 strstr(err.text, ": partial file format version 1; this pds reads version 2"),
           "format version: %s", err.text);
     memcpy(copy, bytes, n);
     memcpy(copy + 12, "9.9.9", 5);
@@ -650,6 +715,7 @@ static const pds_test_case tests_shards[] = {
     {"shards_cli_sigint_then_resume_equals_the_whole_render", test_shards_cli_sigint_then_resume_equals_the_whole_render},
     {"shards_cli_shards_and_merge", test_shards_cli_shards_and_merge},
     {"shards_merge_equals_the_single_run_bit_for_bit", test_shards_merge_equals_the_single_run_bit_for_bit},
+    {"shards_spectral_merge_equals_the_single_run", test_shards_spectral_merge_equals_the_single_run},
     {"shards_interrupt_and_resume_equal_the_uninterrupted_render",
      test_shards_interrupt_and_resume_equal_the_uninterrupted_render},
     {"shards_progress_names_the_phases_in_order", test_shards_progress_names_the_phases_in_order},
