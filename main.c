@@ -84,7 +84,8 @@ static const command_help help_table[] = {
      "      --pass-photons N        progressive pds: photons per pass, at most (default 16384)\n"
      "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"
      "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
-     "      --debug footprint       pds: also write OUT.footprint.png, footprint anisotropy (red = needle)\n"
+     "      --debug NAME            write a view OUT.NAME.png: footprint, landings, ellipses[=N], splats,\n"
+     "                              eye, paths[=N] (.obj); several allowed (README: Teaching views)\n"
      "      --k N                   pm: photons per density estimate (default 50)\n"
      "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
      "      --max-radius R          pm: largest gather radius in scene units (default: no limit)\n"
@@ -92,9 +93,8 @@ static const command_help help_table[] = {
      "      --radius R              splat: splat radius; ppm: initial radius (default: from the scene)\n"
      "      --alpha A               ppm: radius reduction, 0 < A <= 1 (default 0.7)\n"
      "      --passes N              ppm: photon passes (default 10; with --time, until the time is spent)\n"
-     "                              memory: pm and pdm store every photon, so their memory grows with\n"
-     "                              --photons (the final line reports map_bytes); ppm keeps one pass's\n"
-     "                              photons, pds and splat none\n"
+     "                              memory: pm and pdm store every photon (map_bytes on the last line);\n"
+     "                              ppm one pass's photons, pds and splat none\n"
      "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
      "      --res WxH               resolution (default: the scene camera's)\n"
      "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
@@ -138,6 +138,18 @@ static const command_help help_table[] = {
      "      and any render option; it applies to every method it concerns\n",
      1},
     {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", 0},
+    {"trace-photon", "trace-photon SCENE --photon I [options]",
+     "one caustic photon's path with its differentials beside finite differences",
+     "      --photon I              the photon's number (0 = the first the renderer emits)\n"
+     "      --photons N             N of the paper's eqs. 5-6 (default 100000)\n"
+     "      --smoothing S           s of eqs. 5-6 (default 12)\n"
+     "      --seed N                random seed (default 0)\n"
+     "      --max-depth N           most specular bounces (default 16)\n"
+     "      at every vertex: position x, direction omega, Du x, Dv x (positional, after the first\n"
+     "      bounce Du x + Dtheta x and Dv x + Dphi x, eq. 7), Dtheta omega, Dphi omega, each beside\n"
+     "      the central difference of neighbouring photons traced by the renderer (x +- h Du x,\n"
+     "      omega +- h Dtheta omega), and the footprint's semi-axes and area (eq. 4)\n",
+     0},
     {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", 0},
     {"bench", "bench WHAT [ARGS]", "micro-benchmarks (figures, never pass/fail):",
      "      rays MESH [N]           BVH build and ray throughput, one thread (N rays, default 1000000)\n"
@@ -319,7 +331,7 @@ static const char *suggest_text(const suggestion *s, char *buf, size_t n)
    a slot: the names and flags are volatile, a slot's name is complete
    before its flag says so, and a name is never changed while armed. */
 
-#define TEMP_SLOTS 2 /* render writes at most two files: the image, its footprint image */
+#define TEMP_SLOTS 13 /* render writes at most the image, two files per debug view and the paths */
 
 static volatile char temp_name[TEMP_SLOTS][PATH_MAX_LEN + 32];
 static volatile sig_atomic_t temp_armed[TEMP_SLOTS];
@@ -680,7 +692,7 @@ typedef struct run_cfg {
     const char *output;  /* render: the image file, NULL for the default */
     int progress;        /* 1 on, 0 off, -1 when stderr is a terminal */
     int quiet;           /* --quiet: no progress, no scene warnings */
-    int debug_footprint; /* render --debug footprint */
+    pds_debug debug;     /* render --debug NAME: the views asked for */
     unsigned long given; /* bit i: option_table[i] was on the command line */
 } run_cfg;
 
@@ -830,11 +842,30 @@ static int set_max_depth(const opt_spec *s, run_cfg *c, const char *shown, const
     return 0;
 }
 
+/* --debug NAME, NAME=N for ellipses (every N-th photon) and paths (the
+   first N photons). */
 static int set_debug(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
+    const char *eq = strchr(v, '=');
+    size_t len = eq ? (size_t)(eq - v) : strlen(v);
+    int k;
     (void)s;
-    if (strcmp(v, "footprint") != 0) return usage_error("%s knows 'footprint', got '%s'", shown, v);
-    c->debug_footprint = 1;
+    for (k = 0; k < PDS_DEBUG_VIEWS; k++) {
+        const char *name = pds_debug_view_name((pds_debug_view)k);
+        if (strlen(name) == len && !strncmp(v, name, len)) break;
+    }
+    if (k == PDS_DEBUG_VIEWS)
+        return usage_error("%s knows footprint, landings, ellipses[=N], splats, eye and paths[=N], got '%s'", shown, v);
+    if (eq) {
+        long n;
+        if (k != PDS_DEBUG_ELLIPSES && k != PDS_DEBUG_PATHS)
+            return usage_error("%s %.*s takes no number, got '%s'", shown, (int)len, v, v);
+        if (parse_count(eq + 1, 1, 1000000, &n))
+            return usage_error("%s %.*s=N needs a whole number from 1 to 1000000, got '%s'", shown, (int)len, v, eq + 1);
+        if (k == PDS_DEBUG_ELLIPSES) c->debug.ellipse_every = n;
+        else c->debug.path_photons = n;
+    }
+    c->debug.views |= 1u << k;
     return 0;
 }
 
@@ -900,7 +931,7 @@ static const opt_spec option_table[] = {
      M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--pass-alpha", NULL, "pass_alpha", set_double, OPTF(pass_alpha), 0, 1, "a number above 0 and at most 1", M_PDS,
      C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
-    {"--debug", NULL, "debug", set_debug, 0, 0, 0, "footprint", M_PDS, C_RENDER, F_VALUE},
+    {"--debug", NULL, "debug", set_debug, 0, 0, 0, "a view name", M_PHOTON, C_RENDER, F_VALUE},
     {"--k", NULL, "k", set_int, OPTF(k), 1, 1000000, "a whole number from 1 to 1000000", M_PM, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--kernel", NULL, "kernel", set_kernel, 0, 0, 0, "cone, gaussian or none", M_PM, C_ALL, F_VALUE | F_PER_METHOD},
@@ -954,6 +985,7 @@ static void cfg_init(run_cfg *c)
 {
     memset(c, 0, sizeof *c);
     pds_options_default(&c->opt);
+    pds_debug_init(&c->debug);
     c->opt.method = PDS_METHOD_PDS;
     c->progress = -1;
 }
@@ -1217,18 +1249,63 @@ static void warn_about_the_cost(const pds_scene *scene, const pds_options *opt)
                 est.memory_bytes / 1e9, est.available_bytes / 1e9);
 }
 
+/* Write len bytes of text to path through its temporary name (armed in
+   temp slot `slot` meanwhile). 0, or 1 after printing why not. */
+static int write_text_file(int slot, const char *path, const char *text, size_t len)
+{
+    char tmp[PATH_MAX_LEN + 32];
+    FILE *f;
+    int ok, e;
+    if (temp_arm(slot, path)) return 1;
+    temp_path(path, tmp, sizeof tmp); /* the name just armed: it fits */
+    f = fopen(tmp, "wb");
+    if (!f) {
+        e = errno;
+        temp_disarm(slot);
+        return fail("%s: cannot write: %s", path, strerror(e));
+    }
+    ok = fwrite(text, 1, len, f) == len;
+    ok = (fclose(f) == 0) && ok;
+    if (ok && rename(tmp, path) == 0) {
+        temp_disarm(slot);
+        return 0;
+    }
+    e = errno;
+    remove(tmp);
+    temp_disarm(slot);
+    return fail("%s: cannot write: %s", path, strerror(e));
+}
+
+/* The methods each debug view is made for, and the file it goes to beside
+   OUT ("OUT.NAME.png"; paths: "OUT.paths.obj"). */
+static unsigned debug_methods(pds_debug_view v)
+{
+    switch (v) {
+    case PDS_DEBUG_FOOTPRINT:
+    case PDS_DEBUG_ELLIPSES: return MBIT(PDS_METHOD_PDS);
+    case PDS_DEBUG_LANDINGS:
+    case PDS_DEBUG_SPLATS: return MBIT(PDS_METHOD_PDS) | MBIT(PDS_METHOD_SPLAT);
+    default: return M_PHOTON;
+    }
+}
+
+static void debug_path(const char *output, pds_debug_view v, const char *ext, char *out, size_t n)
+{
+    const char *dot = strrchr(output, '.');
+    snprintf(out, n, "%.*s.%s%s", (int)(dot - output), output, pds_debug_view_name(v), ext);
+}
+
 static int cmd_render(int argc, char **argv)
 {
     const char *scene_path = NULL, *output;
-    pds_image footprint = {0, 0, NULL};
-    char footprint_path[1100], default_out[1024], where[64];
+    char dpath[PDS_DEBUG_VIEWS][2][1100], default_out[1024], where[64];
     run_cfg c;
     pds_scene *scene = NULL;
     pds_image img = {0, 0, NULL};
     pds_render_stats stats;
     pds_error err;
     pds_status st;
-    int i, r, rc = 0;
+    int i, r, k, rc = 0, pfm;
     cfg_init(&c);
     for (i = 0; i < argc; i++) {
         const char *a = argv[i];
@@ -1242,8 +1319,12 @@ static int cmd_render(int argc, char **argv)
         if (r) return r;
     }
     if (!scene_path) return usage_error("%s", "render needs a scene file");
-    if (c.debug_footprint && c.opt.method != PDS_METHOD_PDS)
-        return usage_error("%s", "--debug footprint needs --method pds");
+    for (k = 0; k < PDS_DEBUG_VIEWS; k++) {
+        char names[128];
+        if (!(c.debug.views & (1u << k)) || (debug_methods((pds_debug_view)k) & MBIT(c.opt.method))) continue;
+        method_join(debug_methods((pds_debug_view)k), "or", names, sizeof names);
+        return usage_error("--debug %s needs --method %s", pds_debug_view_name((pds_debug_view)k), names);
+    }
     output = c.output;
     if (!output) {
         default_output(scene_path, default_out, sizeof default_out);
@@ -1251,14 +1332,16 @@ static int cmd_render(int argc, char **argv)
     }
     if (!has_ext(output, ".png") && !has_ext(output, ".pfm"))
         return usage_error("output must end in .png or .pfm, got '%s'", output);
-    if (c.debug_footprint) {
-        /* OUT.png -> OUT.footprint.png */
-        const char *dot = strrchr(output, '.');
-        snprintf(footprint_path, sizeof footprint_path, "%.*s.footprint%s", (int)(dot - output), output, dot);
-        c.opt.footprint = &footprint;
-    }
+    pfm = has_ext(output, ".pfm");
+    if (c.debug.views) c.opt.debug = &c.debug;
     /* a typo in -o costs nothing: it is found before the render, not after */
-    if (check_out_file(output) || (c.debug_footprint && check_out_file(footprint_path))) return 1;
+    if (check_out_file(output)) return 1;
+    for (k = 0; k < PDS_DEBUG_VIEWS; k++) {
+        if (!(c.debug.views & (1u << k))) continue;
+        debug_path(output, (pds_debug_view)k, k == PDS_DEBUG_PATHS ? ".obj" : ".png", dpath[k][0], sizeof dpath[k][0]);
+        debug_path(output, (pds_debug_view)k, ".pfm", dpath[k][1], sizeof dpath[k][1]);
+        if (check_out_file(dpath[k][0]) || (pfm && k != PDS_DEBUG_PATHS && check_out_file(dpath[k][1]))) return 1;
+    }
     snprintf(where, sizeof where, "with --method %s", method_name(c.opt.method));
     note_idle_options(&c, MBIT(c.opt.method), where);
     cfg_apply_progress(&c);
@@ -1274,17 +1357,29 @@ static int cmd_render(int argc, char **argv)
     if (st != PDS_OK) rc = fail("%s", pds_error_string(&err));
     /* from here until they are in place a signal removes the images'
        temporary files */
-    else if (temp_arm(0, output) || (c.debug_footprint && temp_arm(1, footprint_path)))
+    else if (temp_arm(0, output))
         rc = 1;
-    else if (pds_image_write(output, &img, c.exposure, &err) != PDS_OK ||
-             (c.debug_footprint && pds_image_write(footprint_path, &footprint, 0.0, &err) != PDS_OK))
+    else if (pds_image_write(output, &img, c.exposure, &err) != PDS_OK)
         rc = fail("%s", pds_error_string(&err));
     temp_disarm(0);
-    temp_disarm(1);
+    for (k = 0; k < PDS_DEBUG_VIEWS && rc == 0; k++) {
+        if (!(c.debug.views & (1u << k))) continue;
+        if (k == PDS_DEBUG_PATHS) {
+            const char *text = c.debug.paths_obj ? c.debug.paths_obj : "";
+            rc = write_text_file(1 + 2 * k, dpath[k][0], text, strlen(text));
+            continue;
+        }
+        if (temp_arm(1 + 2 * k, dpath[k][0]) || (pfm && temp_arm(2 + 2 * k, dpath[k][1]))) rc = 1;
+        else if (pds_image_write(dpath[k][0], &c.debug.picture[k], 0.0, &err) != PDS_OK ||
+                 (pfm && pds_image_write(dpath[k][1], &c.debug.value[k], 0.0, &err) != PDS_OK))
+            rc = fail("%s", pds_error_string(&err));
+        temp_disarm(1 + 2 * k);
+        temp_disarm(2 + 2 * k);
+    }
     pds_image_free(&img);
-    pds_image_free(&footprint);
     pds_scene_free(scene);
     if (rc == 0) print_render_line(&c, &stats, output);
+    pds_debug_free(&c.debug);
     return rc;
 }
 
@@ -1317,6 +1412,101 @@ static const char *light_type_name(pds_light_type t)
 {
     static const char *const names[] = {"point", "spot", "directional", "disk", "quad", "mesh"};
     return (unsigned)t < 6 ? names[t] : "?";
+}
+
+static const char *trace_event_name(pds_trace_event e)
+{
+    static const char *const names[] = {"emitted", "reflected", "refracted", "landed"};
+    return (int)e >= 0 && (int)e < 4 ? names[e] : "?";
+}
+
+/* One differential beside its finite difference; returns the relative
+   difference (0 when both vanish). */
+static double trace_row(const char *name, pds_vec3 a, pds_vec3 fd, int valid)
+{
+    double dx = a.x - fd.x, dy = a.y - fd.y, dz = a.z - fd.z;
+    double na = sqrt(a.x * a.x + a.y * a.y + a.z * a.z), nd = sqrt(dx * dx + dy * dy + dz * dz);
+    double rel = na > 0.0 ? nd / na : nd > 0.0 ? 1.0 : 0.0;
+    printf("  %-9s (% .6e, % .6e, % .6e)", name, a.x, a.y, a.z);
+    if (valid) printf("   fd (% .6e, % .6e, % .6e)   rel %.1e\n", fd.x, fd.y, fd.z, rel);
+    else printf("   fd n/a\n");
+    return valid ? rel : 0.0;
+}
+
+static int cmd_trace_photon(int argc, char **argv)
+{
+    const char *scene_path = NULL;
+    pds_options opt;
+    pds_scene *scene = NULL;
+    pds_trace tr;
+    pds_error err;
+    long photon = -1, n;
+    double worst = 0.0;
+    int i, k, landed = 0;
+    pds_options_default(&opt);
+    for (i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        double x;
+        if (a[0] != '-') {
+            if (scene_path) return usage_error("trace-photon takes one scene, got another: '%s'", a);
+            scene_path = a;
+            continue;
+        }
+        if (i + 1 >= argc) return usage_error("%s needs a value", a);
+        if (!strcmp(a, "--photon")) {
+            if (parse_count(argv[++i], 0, LONG_MAX / 2, &photon)) return usage_error("--photon needs a whole number of 0 or more, got '%s'", argv[i]);
+        } else if (!strcmp(a, "--photons")) {
+            if (parse_count(argv[++i], 1, LONG_MAX / 2, &opt.photons)) return usage_error("--photons needs a whole number of 1 or more, got '%s'", argv[i]);
+        } else if (!strcmp(a, "--smoothing")) {
+            if (parse_double(argv[++i], &x) || !(x > 0.0) || x > 1e6) return usage_error("--smoothing needs a positive number, got '%s'", argv[i]);
+            opt.smoothing = x;
+        } else if (!strcmp(a, "--seed")) {
+            if (parse_count(argv[++i], 0, LONG_MAX, &n)) return usage_error("--seed needs a non-negative whole number, got '%s'", argv[i]);
+            opt.seed = (unsigned long long)n;
+        } else if (!strcmp(a, "--max-depth")) {
+            if (parse_int(argv[++i], 1, 1000, &n)) return usage_error("--max-depth needs a whole number from 1 to 1000, got '%s'", argv[i]);
+            opt.photon_depth = (int)n;
+        } else {
+            return usage_error("trace-photon knows --photon, --photons, --smoothing, --seed and --max-depth, got '%s'", a);
+        }
+    }
+    if (!scene_path) return usage_error("%s", "trace-photon needs a scene file");
+    if (photon < 0) return usage_error("%s", "trace-photon needs --photon I");
+    if (load_any(scene_path, &scene, &err) != PDS_OK) {
+        fprintf(stderr, "%s\n", pds_error_string(&err));
+        return 1;
+    }
+    if (pds_trace_photon(scene, &opt, photon, &tr, &err) != PDS_OK) {
+        pds_scene_free(scene);
+        return fail("%s", pds_error_string(&err));
+    }
+    printf("photon %ld: N = %.0f photons, s = %g (eqs. 5-6); finite differences with h = %.3e\n", photon, tr.photons,
+           tr.smoothing, tr.step);
+    for (k = 0; k < tr.count; k++) {
+        const pds_trace_vertex *v = &tr.v[k];
+        const pds_material *m = v->material >= 0 ? pds_scene_material(scene, v->material) : NULL;
+        double rel;
+        printf("vertex %d: %s", k, trace_event_name(v->event));
+        if (m) printf(" on '%s' (triangle %ld)", m->name, v->triangle);
+        printf("\n  x         (% .6e, % .6e, % .6e)\n  omega     (% .6e, % .6e, % .6e)\n", v->position.x,
+               v->position.y, v->position.z, v->direction.x, v->direction.y, v->direction.z);
+        rel = trace_row("Du x", v->dxdu, v->fd_dxdu, v->fd_valid);
+        worst = rel > worst ? rel : worst;
+        rel = trace_row("Dv x", v->dxdv, v->fd_dxdv, v->fd_valid);
+        worst = rel > worst ? rel : worst;
+        rel = trace_row("Dtheta w", v->dwdu, v->fd_dwdu, v->fd_valid);
+        worst = rel > worst ? rel : worst;
+        rel = trace_row("Dphi w", v->dwdv, v->fd_dwdv, v->fd_valid);
+        worst = rel > worst ? rel : worst;
+        printf("  footprint semi-axes %.6e, %.6e; area %.6e (eq. 4: pi/4 |Du x X Dv x|); flux %.4e %.4e %.4e W\n",
+               v->major, v->minor, v->area, v->flux[0], v->flux[1], v->flux[2]);
+        if (v->event == PDS_TRACE_LAND) landed = 1;
+    }
+    if (tr.count == 0) printf("(this photon carries no flux)\n");
+    printf("trace-photon photon=%ld vertices=%d landed=%d max_rel_diff=%.3e\n", photon, tr.count, landed, worst);
+    pds_trace_free(&tr);
+    pds_scene_free(scene);
+    return 0;
 }
 
 static int cmd_info(int argc, char **argv)
@@ -1653,29 +1843,10 @@ static int join_path(char *out, size_t n, const char *dir, const char *name)
 /* Write the buffer to dir/name under a temporary name, then rename it. */
 static int write_text(const char *dir, const char *name, const sbuf *b)
 {
-    char path[PATH_MAX_LEN], tmp[PATH_MAX_LEN + 32];
-    FILE *f;
-    int ok, e;
+    char path[PATH_MAX_LEN];
     if (join_path(path, sizeof path, dir, name)) return 1;
     if (b->nomem) return fail("%s: out of memory", path);
-    if (temp_arm(0, path)) return 1;
-    temp_path(path, tmp, sizeof tmp); /* the name just armed: it fits */
-    f = fopen(tmp, "wb");
-    if (!f) {
-        e = errno;
-        temp_disarm(0);
-        return fail("%s: cannot write: %s", path, strerror(e));
-    }
-    ok = fwrite(b->s ? b->s : "", 1, b->len, f) == b->len;
-    ok = (fclose(f) == 0) && ok;
-    if (ok && rename(tmp, path) == 0) {
-        temp_disarm(0);
-        return 0;
-    }
-    e = errno;
-    remove(tmp);
-    temp_disarm(0);
-    return fail("%s: cannot write: %s", path, strerror(e));
+    return write_text_file(0, path, b->s ? b->s : "", b->len);
 }
 
 static int write_image(const char *dir, const char *name, const pds_image *img, double exposure)
@@ -3729,7 +3900,7 @@ int main(int argc, char **argv)
         int (*run)(int argc, char **argv);
     } commands[] = {
         {"render", cmd_render}, {"sweep", cmd_sweep}, {"race", cmd_race},   {"compare", cmd_compare},
-        {"info", cmd_info},     {"bench", cmd_bench}, {"help", cmd_help},
+        {"info", cmd_info},     {"bench", cmd_bench}, {"help", cmd_help}, {"trace-photon", cmd_trace_photon},
     };
     size_t k;
     int i;

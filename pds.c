@@ -844,8 +844,9 @@ static double pds__halton(uint64_t seed, uint64_t index, int dim)
      there), vt u [v [w]] (checked and counted, not stored), vn x y z, f/fo
      with v, v/vt, v//vn, v/vt/vn corners (mixable in one face; negative
      indices count back from the last element read so far), o, g (any
-     number of names), s (off, 0, on, N), usemtl, mtllib. Known OBJ
-     statements PDS has no use for (l, p, vp, curv, surf, cstype, ...) are
+     number of names), s (off, 0, on, N), usemtl, mtllib; l (polylines)
+     are counted, not stored. Known OBJ
+     statements PDS has no use for (p, vp, curv, surf, cstype, ...) are
      skipped silently; unknown statements are skipped and counted.
    - Error locations are FILE:LINE:COLUMN of the offending token (1-based,
      bytes, CRLF is one line break). A token on a continuation line carries
@@ -914,6 +915,8 @@ typedef struct pds__obj_stats {
     long triangles;            /* triangles added to the mesh */
     long degenerate_dropped;   /* zero-area triangles refused */
     long groups, objects;      /* g and o statements */
+    long line_segments;        /* segments of l (polyline) statements:
+                                  corners - 1 each, counted, not stored */
     int mtl_materials;         /* newmtl statements in all MTL files read */
     long ignored_statements;   /* unknown statements skipped (OBJ and MTL) */
     long unknown_materials;    /* distinct usemtl names that fell back to
@@ -2254,7 +2257,7 @@ static pds_status pds__obj_vec3(pds__obj_state *s, pds__obj_lexer *lx, const pds
 static int pds__obj_known_unused(const pds__obj_token *kw)
 {
     static const char *const words[] = {
-        "l", "p", "vp", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim",
+        "p", "vp", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim",
         "hole", "scrv", "sp", "end", "con", "mg", "bevel", "c_interp", "d_interp", "lod",
         "shadow_obj", "trace_obj", "ctech", "stech", "maplib", "usemap", "call", "csh", "res"};
     size_t i;
@@ -2348,6 +2351,13 @@ static pds_status pds__obj_statement(pds__obj_state *s, pds__obj_lexer *lx, cons
         s->st->groups++;
     } else if (pds__obj_is(kw, "o")) {
         s->st->objects++;
+    } else if (pds__obj_is(kw, "l")) {
+        /* a polyline v1 v2 ... (v/vt corners): not geometry PDS renders;
+           its segments are counted (the paths debug view writes them) */
+        long n = 0;
+        while (pds__obj_next(lx, &t)) n++;
+        if (n < 2) return pds__obj_err(s, kw, "a line needs at least 2 vertices, got %ld", n);
+        s->st->line_segments += n - 1;
     } else if (!pds__obj_known_unused(kw)) {
         pds__obj_ignore(s, s->path, kw);
     }
@@ -9168,6 +9178,484 @@ static int pds__run_threads(int n, void *(*fn)(void *), void *arg)
 
 
 /* ===================================================================== */
+/* >>debug                                                               */
+/* ===================================================================== */
+/* Teaching views (pds_options.debug, `pds render --debug NAME`): pictures
+   of what the method does, each with a colour bar and its scale drawn in a
+   strip under the image, and the path recorder behind `pds trace-photon`
+   and the paths view.
+
+   None of it runs in a render that does not ask for it: the photon tracer
+   and the splats test one pointer (NULL when off) per bounce and per
+   splat term, and everything else happens after the render.
+
+   Pictures are linear RGB in [0, 1]. Points in the scene are projected
+   straight through the pinhole camera (>>render's camera_dir inverted),
+   ignoring occlusion and any specular surface on the way: a landing point
+   under a glass sphere is drawn where it would be seen without the glass.
+   Counts are exact integers, summed per thread and merged, so every view
+   is the same for any thread count. */
+
+/* --- a 3x5 bitmap font for the legends -------------------------------- */
+
+static const char pds__font_chars[] = "0123456789.-+e/x ";
+/* rows top to bottom, 3 bits each, the left pixel the high bit */
+static const unsigned short pds__font_bits[] = {
+    075557, 026227, 071747, 071717, 055711, 074717, 074757, 071111, 075757, 075717,
+    000002, 000700, 002720, 007746, 011244, 005250, 000000};
+
+/* Draw text at (x, y) (its top left pixel) in colour rgb; characters the
+   font lacks are blanks. Clipped to the picture. */
+static void pds__draw_text(pds_image *img, int x, int y, const char *text, const float rgb[3])
+{
+    for (; *text; text++, x += 4) {
+        const char *f = strchr(pds__font_chars, *text);
+        unsigned bits = f ? pds__font_bits[f - pds__font_chars] : 0u;
+        int row, col, c;
+        for (row = 0; row < 5; row++)
+            for (col = 0; col < 3; col++) {
+                int px = x + col, py = y + row;
+                if (!((bits >> (3 * (4 - row) + (2 - col))) & 1u)) continue;
+                if (px < 0 || py < 0 || px >= img->width || py >= img->height) continue;
+                for (c = 0; c < 3; c++) img->rgb[3 * ((size_t)py * img->width + px) + c] = rgb[c];
+            }
+    }
+}
+
+/* --- colour maps ------------------------------------------------------- */
+
+/* Counts and densities: black -> red -> yellow -> white over t in [0, 1]. */
+static void pds__colour_heat(double t, float rgb[3])
+{
+    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+    rgb[0] = (float)fmin(1.0, 3.0 * t);
+    rgb[1] = (float)fmin(1.0, fmax(0.0, 3.0 * t - 1.0));
+    rgb[2] = (float)fmin(1.0, fmax(0.0, 3.0 * t - 2.0));
+}
+
+/* Anisotropy m_a in [0, 1]: red (needle) to green (round). */
+static void pds__colour_aniso(double t, float rgb[3])
+{
+    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+    rgb[0] = (float)(1.0 - t);
+    rgb[1] = (float)t;
+    rgb[2] = 0.0f;
+}
+
+/* Format v in at most 7 characters the font has ("0.25", "1.2e+04"). */
+static void pds__legend_number(double v, char *buf, size_t n)
+{
+    if (v == floor(v) && fabs(v) < 1e6) snprintf(buf, n, "%.0f", v);
+    else if (fabs(v) >= 0.01 && fabs(v) < 1e4) snprintf(buf, n, "%.3g", v);
+    else snprintf(buf, n, "%.1e", v);
+}
+
+/* Allocate picture as width x (h + PDS_DEBUG_LEGEND_ROWS) and draw the
+   legend strip: a colour bar from map(0) to map(1) across the width, a
+   tick and label at each of the nticks fractions ticks[] (value
+   ticks[i] * vmax), and the bar's two ends labelled 0 and vmax. */
+static pds_status pds__picture_alloc(pds_image *pic, int w, int h, void (*map)(double, float[3]), double vmax,
+                                     const double *ticks, int nticks)
+{
+    static const float white[3] = {1.0f, 1.0f, 1.0f};
+    int x, y, c, i, bar0 = h + 2, bar1 = h + 6;
+    char label[32];
+    if (pds_image_alloc(pic, w, h + PDS_DEBUG_LEGEND_ROWS) != PDS_OK) return PDS_ERR_NOMEM;
+    for (x = 0; x < w; x++) {
+        float rgb[3];
+        map(w > 1 ? (double)x / (w - 1) : 1.0, rgb);
+        for (y = bar0; y < bar1; y++)
+            for (c = 0; c < 3; c++) pic->rgb[3 * ((size_t)y * w + x) + c] = rgb[c];
+    }
+    pds__draw_text(pic, 0, bar1 + 2, "0", white);
+    pds__legend_number(vmax, label, sizeof label);
+    pds__draw_text(pic, w - 4 * (int)strlen(label) + 1, bar1 + 2, label, white);
+    for (i = 0; i < nticks; i++) {
+        x = (int)floor(ticks[i] * (w - 1) + 0.5);
+        if (x < 0 || x >= w) continue;
+        for (y = bar0 - 1; y <= bar1; y++)
+            for (c = 0; c < 3; c++) pic->rgb[3 * ((size_t)y * w + x) + c] = 1.0f;
+        pds__legend_number(ticks[i] * vmax, label, sizeof label);
+        if (label[0] == '0' && label[1] == '.') memmove(label, label + 1, strlen(label)); /* ".1" */
+        pds__draw_text(pic, x - 2 * (int)strlen(label) + 1, bar1 + 2, label, white);
+    }
+    return PDS_OK;
+}
+
+/* A count image (value rgb all the count) as a heat picture, scaled to
+   its largest count. */
+static pds_status pds__picture_counts(const pds_image *val, pds_image *pic, double *vmax)
+{
+    size_t i, n = (size_t)val->width * val->height;
+    double mx = 0.0;
+    for (i = 0; i < n; i++) mx = fmax(mx, val->rgb[3 * i]);
+    *vmax = mx;
+    if (pds__picture_alloc(pic, val->width, val->height, pds__colour_heat, mx, NULL, 0)) return PDS_ERR_NOMEM;
+    for (i = 0; i < n; i++)
+        if (val->rgb[3 * i] > 0.0f) pds__colour_heat(val->rgb[3 * i] / mx, &pic->rgb[3 * i]);
+    return PDS_OK;
+}
+
+/* --- projection and lines ---------------------------------------------- */
+
+/* Image position (pixels, (0,0) the top left corner) of scene point p seen
+   through the pinhole camera f: the inverse of pds__camera_dir. 0 when p
+   is not in front of the camera. */
+static int pds__camera_project(const pds__camera_frame *f, pds__v3 p, double *px, double *py)
+{
+    pds__v3 d = pds__sub(p, f->origin);
+    double z = pds__dot(d, f->forward), sx, sy;
+    if (!(z > 0.0)) return 0;
+    sx = pds__dot(d, f->right) / z;
+    sy = pds__dot(d, f->up) / z;
+    *px = (sx / (f->tan_half_fov * f->aspect) + 1.0) * 0.5 * f->width;
+    *py = (1.0 - sy / f->tan_half_fov) * 0.5 * f->height;
+    return isfinite(*px) && isfinite(*py);
+}
+
+/* Pixel index of p, or -1 when it is outside the image. */
+static long pds__camera_pixel(const pds__camera_frame *f, pds__v3 p)
+{
+    double px, py;
+    if (!pds__camera_project(f, p, &px, &py)) return -1;
+    if (!(px >= 0.0 && px < f->width && py >= 0.0 && py < f->height)) return -1;
+    return (long)floor(py) * f->width + (long)floor(px);
+}
+
+/* --- per-thread buffers of the views fed by the splats ------------------- */
+
+/* A footprint to draw: photon number, centre, conjugate semi-diameters. */
+typedef struct pds__ellipse {
+    long photon;
+    pds__v3 c, a, b;
+} pds__ellipse;
+
+typedef struct pds__debug_buf {
+    pds__sum128 *aniso;     /* footprint: 2 per pixel, sum K m_a and sum K, x 2^64 */
+    uint64_t *splats;       /* splats: terms per pixel */
+    uint64_t *landings;     /* landings: photons per pixel */
+    long landed, landed_in_frame;
+    long ellipse_every;     /* ellipses: 0 = off */
+    pds__ellipse *ell;
+    size_t nell, cap_ell;
+    int out_of_memory;
+} pds__debug_buf;
+
+/* One splat term reached eye vertex `pixel` with kernel value k; m_a is the
+   footprint's anisotropy. */
+static void pds__debug_visit(pds__debug_buf *d, int pixel, double k, double m_a)
+{
+    if (d->aniso) {
+        pds__sum128_add(&d->aniso[2 * (size_t)pixel], k * m_a * PDS__TWO64);
+        pds__sum128_add(&d->aniso[2 * (size_t)pixel + 1], k * PDS__TWO64);
+    }
+    if (d->splats) d->splats[pixel]++;
+}
+
+/* Photon number `photon` landed at p with the footprint (du, dv) it is
+   splatted with. */
+static void pds__debug_landing(pds__debug_buf *d, const pds__camera_frame *f, long photon, pds__v3 p, pds__v3 du,
+                               pds__v3 dv)
+{
+    long px = pds__camera_pixel(f, p);
+    d->landed++;
+    if (px >= 0) {
+        d->landed_in_frame++;
+        if (d->landings) d->landings[px]++;
+    }
+    if (d->ellipse_every > 0 && photon % d->ellipse_every == 0) {
+        pds__ellipse *e;
+        if (pds__grow((void **)&d->ell, &d->cap_ell, d->nell + 1, sizeof *d->ell)) {
+            d->out_of_memory = 1;
+            return;
+        }
+        e = &d->ell[d->nell++];
+        e->photon = photon;
+        e->c = p;
+        e->a = pds__scale(du, 0.5);
+        e->b = pds__scale(dv, 0.5);
+    }
+}
+
+static int pds__ellipse_cmp(const void *a, const void *b)
+{
+    const pds__ellipse *x = (const pds__ellipse *)a, *y = (const pds__ellipse *)b;
+    return (x->photon > y->photon) - (x->photon < y->photon);
+}
+
+/* Draw the ellipse c + a cos t + b sin t as 64 projected segments into
+   the first h rows of pic (colour rgb), counting in cnt (w x h, may be
+   NULL) the pixels it passes through, once per ellipse. Returns 1 if any
+   of it is in the image. */
+static int pds__draw_ellipse(pds_image *pic, int h, float *cnt, const pds__camera_frame *f, const pds__ellipse *e,
+                             const float rgb[3])
+{
+    int k, any = 0, w = pic->width;
+    double x0 = 0.0, y0 = 0.0;
+    int ok0 = 0;
+    for (k = 0; k <= 64; k++) {
+        double t = 2.0 * PDS__PI * k / 64.0, x1, y1;
+        pds__v3 p = pds__add(e->c, pds__add(pds__scale(e->a, cos(t)), pds__scale(e->b, sin(t))));
+        int ok1 = pds__camera_project(f, p, &x1, &y1);
+        if (ok0 && ok1) {
+            /* a DDA line from (x0,y0) to (x1,y1), at most 4 w + 4 h steps */
+            double dx = x1 - x0, dy = y1 - y0, len = fmax(fabs(dx), fabs(dy));
+            int n = (int)fmin(ceil(len), 4.0 * (w + h)), j, c;
+            for (j = 0; j <= n; j++) {
+                double s = n > 0 ? (double)j / n : 0.0;
+                long px = (long)floor(x0 + s * dx), py = (long)floor(y0 + s * dy);
+                size_t i;
+                if (px < 0 || py < 0 || px >= w || py >= h) continue;
+                i = (size_t)py * w + (size_t)px;
+                any = 1;
+                for (c = 0; c < 3; c++) pic->rgb[3 * i + c] = rgb[c];
+                if (cnt && cnt[3 * i + 1] != (float)(e->photon + 1)) {
+                    /* green channel: the last ellipse counted here */
+                    cnt[3 * i] += 1.0f;
+                    cnt[3 * i + 1] = (float)(e->photon + 1);
+                }
+            }
+        }
+        x0 = x1;
+        y0 = y1;
+        ok0 = ok1;
+    }
+    return any;
+}
+
+/* --- the path recorder -------------------------------------------------- */
+
+/* What `pds trace-photon` and the paths view see of a photon, recorded by
+   the tracing loop when buf->path is set (NULL in every other render, so
+   the loop pays one untaken branch per bounce). An event is a vertex of
+   the path: the emission point, each specular bounce (position and
+   positional differentials transferred to the hit, direction and
+   directional differentials as they leave it) and the landing. */
+typedef struct pds__path_event {
+    long photon;
+    int seq;            /* vertex number along the photon's path */
+    int event;          /* pds_trace_event */
+    int material;       /* -1 at emission */
+    long triangle;      /* -1 at emission */
+    pds__ray_diff r;
+    double flux[3];
+} pds__path_event;
+
+typedef struct pds__path_rec {
+    long photon_end;    /* record photons with numbers below this */
+    pds__path_event *ev;
+    size_t n, cap;
+    int out_of_memory;
+} pds__path_rec;
+
+static void pds__path_note(pds__path_rec *rec, long photon, int seq, int event, int material, long tri,
+                           const pds__ray_diff *r, const double flux[3])
+{
+    pds__path_event *e;
+    if (pds__grow((void **)&rec->ev, &rec->cap, rec->n + 1, sizeof *rec->ev)) {
+        rec->out_of_memory = 1;
+        return;
+    }
+    e = &rec->ev[rec->n++];
+    e->photon = photon;
+    e->seq = seq;
+    e->event = event;
+    e->material = material;
+    e->triangle = tri;
+    e->r = *r;
+    memcpy(e->flux, flux, sizeof e->flux);
+}
+
+static int pds__path_event_cmp(const void *a, const void *b)
+{
+    const pds__path_event *x = (const pds__path_event *)a, *y = (const pds__path_event *)b;
+    if (x->photon != y->photon) return x->photon < y->photon ? -1 : 1;
+    return (x->seq > y->seq) - (x->seq < y->seq);
+}
+
+/* The recorded paths (events sorted by photon and vertex) as OBJ text:
+   per photon an `o photon_I`, its vertices and one `l` polyline through
+   them; a photon with a single vertex (it met nothing) is left out.
+   Returns NULL when memory runs out. */
+static char *pds__paths_obj(const pds__path_event *ev, size_t n, long *paths, long *segments)
+{
+    char *text = NULL;
+    size_t len = 0, cap = 0, i = 0, j, k;
+    long vbase = 0;
+    *paths = *segments = 0;
+    /* at most 200 bytes per vertex line, per polyline corner and per header */
+    if (pds__grow((void **)&text, &cap, 256 + n * 400, 1)) return NULL;
+    len += (size_t)snprintf(text + len, cap - len, "# photon paths written by pds: emission, specular bounces, landing\n");
+    while (i < n) {
+        for (j = i; j < n && ev[j].photon == ev[i].photon; j++) continue;
+        if (j - i >= 2) {
+            len += (size_t)snprintf(text + len, cap - len, "o photon_%ld\n", ev[i].photon);
+            for (k = i; k < j; k++)
+                len += (size_t)snprintf(text + len, cap - len, "v %.9g %.9g %.9g\n", ev[k].r.p.x, ev[k].r.p.y,
+                                        ev[k].r.p.z);
+            len += (size_t)snprintf(text + len, cap - len, "l");
+            for (k = i; k < j; k++) len += (size_t)snprintf(text + len, cap - len, " %ld", vbase + (long)(k - i) + 1);
+            len += (size_t)snprintf(text + len, cap - len, "\n");
+            vbase += (long)(j - i);
+            *paths += 1;
+            *segments += (long)(j - i) - 1;
+        }
+        i = j;
+    }
+    return text;
+}
+
+/* --- assembling the views ------------------------------------------------ */
+
+static int pds__debug_wants(const pds_debug *d, pds_debug_view v)
+{
+    return d && (d->views & (1u << v)) != 0;
+}
+
+/* Allocate the threads' buffers for the views d asks of a photon pass of
+   method m (w x h pixels). Returns 0 when memory runs out. */
+static int pds__debug_bufs_init(pds__debug_buf *b, const pds_debug *d, pds_method m, long photons, size_t npix)
+{
+    int splats = m == PDS_METHOD_PDS || m == PDS_METHOD_SPLAT;
+    memset(b, 0, sizeof *b);
+    if (m == PDS_METHOD_PDS && pds__debug_wants(d, PDS_DEBUG_FOOTPRINT))
+        if (!(b->aniso = (pds__sum128 *)calloc(npix * 2, sizeof *b->aniso))) return 0;
+    if (splats && pds__debug_wants(d, PDS_DEBUG_SPLATS))
+        if (!(b->splats = (uint64_t *)calloc(npix, sizeof *b->splats))) return 0;
+    if (splats && pds__debug_wants(d, PDS_DEBUG_LANDINGS))
+        if (!(b->landings = (uint64_t *)calloc(npix, sizeof *b->landings))) return 0;
+    if (m == PDS_METHOD_PDS && pds__debug_wants(d, PDS_DEBUG_ELLIPSES)) {
+        b->ellipse_every = d->ellipse_every > 0 ? d->ellipse_every : photons / 100;
+        if (b->ellipse_every < 1) b->ellipse_every = 1;
+    }
+    return 1;
+}
+
+/* Forget what was recorded (a calibration run before the real pass). */
+static void pds__debug_bufs_clear(pds__debug_buf *b, size_t npix)
+{
+    if (b->aniso) memset(b->aniso, 0, npix * 2 * sizeof *b->aniso);
+    if (b->splats) memset(b->splats, 0, npix * sizeof *b->splats);
+    if (b->landings) memset(b->landings, 0, npix * sizeof *b->landings);
+    b->landed = b->landed_in_frame = 0;
+    b->nell = 0;
+}
+
+static void pds__debug_bufs_free(pds__debug_buf *b)
+{
+    free(b->aniso);
+    free(b->splats);
+    free(b->landings);
+    free(b->ell);
+}
+
+/* A count image from the threads' counts (an offset into each buffer's
+   arrays picks the view). */
+static pds_status pds__debug_count_view(pds_debug *d, pds_debug_view view, const pds__debug_buf *b, int nb, int w,
+                                        int h, int landings)
+{
+    size_t i, n = (size_t)w * h;
+    int t;
+    if (pds_image_alloc(&d->value[view], w, h) != PDS_OK) return PDS_ERR_NOMEM;
+    for (i = 0; i < n; i++) {
+        uint64_t sum = 0;
+        for (t = 0; t < nb; t++) sum += landings ? b[t].landings[i] : b[t].splats[i];
+        d->value[view].rgb[3 * i] = d->value[view].rgb[3 * i + 1] = d->value[view].rgb[3 * i + 2] = (float)sum;
+    }
+    return pds__picture_counts(&d->value[view], &d->picture[view], &d->scale_max[view]);
+}
+
+/* After the photon pass: the views fed by the splats, from the threads'
+   buffers b[0..nb); rgb (w x h x 3, the whole image) for the ellipses. */
+static pds_status pds__debug_finish(pds_debug *d, pds__debug_buf *b, int nb, int w, int h, const double *rgb,
+                                    const pds__camera_frame *f)
+{
+    size_t i, n = (size_t)w * h;
+    int t;
+    static const float yellow[3] = {1.0f, 1.0f, 0.0f}, white[3] = {1.0f, 1.0f, 1.0f};
+    d->landings = d->landings_in_frame = 0;
+    for (t = 0; t < nb; t++) {
+        if (b[t].out_of_memory) return PDS_ERR_NOMEM;
+        d->landings += b[t].landed;
+        d->landings_in_frame += b[t].landed_in_frame;
+    }
+    if (b[0].aniso) {
+        static const double tick[1] = {0.1}; /* appendix B: below 0.1 "highly anisotropic" */
+        pds_image *val = &d->value[PDS_DEBUG_FOOTPRINT], *pic = &d->picture[PDS_DEBUG_FOOTPRINT];
+        if (pds_image_alloc(val, w, h) != PDS_OK ||
+            pds__picture_alloc(pic, w, h, pds__colour_aniso, 1.0, tick, 1) != PDS_OK)
+            return PDS_ERR_NOMEM;
+        d->scale_max[PDS_DEBUG_FOOTPRINT] = 1.0;
+        for (i = 0; i < n; i++) {
+            pds__sum128 swm = {0, 0}, sw = {0, 0};
+            double wm, wk;
+            for (t = 0; t < nb; t++) {
+                pds__sum128_add_bits(&swm, b[t].aniso[2 * i].lo, b[t].aniso[2 * i].hi);
+                pds__sum128_add_bits(&sw, b[t].aniso[2 * i + 1].lo, b[t].aniso[2 * i + 1].hi);
+            }
+            wm = pds__sum128_value(swm);
+            wk = pds__sum128_value(sw);
+            if (wk > 0.0) {
+                val->rgb[3 * i] = (float)(1.0 - wm / wk);
+                val->rgb[3 * i + 1] = (float)(wm / wk);
+                val->rgb[3 * i + 2] = (float)(wk / PDS__TWO64);
+                pds__colour_aniso(wm / wk, &pic->rgb[3 * i]);
+            }
+        }
+    }
+    if (b[0].landings && pds__debug_count_view(d, PDS_DEBUG_LANDINGS, b, nb, w, h, 1)) return PDS_ERR_NOMEM;
+    if (b[0].splats && pds__debug_count_view(d, PDS_DEBUG_SPLATS, b, nb, w, h, 0)) return PDS_ERR_NOMEM;
+    if (b[0].ellipse_every > 0) {
+        pds_image *val = &d->value[PDS_DEBUG_ELLIPSES], *pic = &d->picture[PDS_DEBUG_ELLIPSES];
+        pds__ellipse *all = NULL;
+        size_t total = 0, k;
+        char label[48];
+        for (t = 0; t < nb; t++) total += b[t].nell;
+        all = (pds__ellipse *)malloc(sizeof *all * (total ? total : 1));
+        if (!all || pds_image_alloc(val, w, h) != PDS_OK ||
+            pds_image_alloc(pic, w, h + PDS_DEBUG_LEGEND_ROWS) != PDS_OK) {
+            free(all);
+            return PDS_ERR_NOMEM;
+        }
+        for (t = 0, total = 0; t < nb; t++) {
+            memcpy(all + total, b[t].ell, sizeof *all * b[t].nell);
+            total += b[t].nell;
+        }
+        qsort(all, total, sizeof *all, pds__ellipse_cmp);
+        for (i = 0; i < n * 3; i++) pic->rgb[i] = (float)(rgb[i] > 0.0 ? (rgb[i] < 1.0 ? rgb[i] : 1.0) : 0.0);
+        d->ellipses = 0;
+        for (k = 0; k < total; k++) d->ellipses += pds__draw_ellipse(pic, h, val->rgb, f, &all[k], yellow);
+        for (i = 0; i < n; i++) val->rgb[3 * i + 1] = val->rgb[3 * i + 2] = val->rgb[3 * i];
+        d->scale_max[PDS_DEBUG_ELLIPSES] = (double)b[0].ellipse_every;
+        /* legend: "1/N" (every N-th photon) and the number drawn */
+        snprintf(label, sizeof label, "1/%ld", b[0].ellipse_every);
+        pds__draw_text(pic, 0, h + 2, label, yellow);
+        snprintf(label, sizeof label, "%ld", d->ellipses);
+        pds__draw_text(pic, w - 4 * (int)strlen(label) + 1, h + 2, label, white);
+        free(all);
+    }
+    return PDS_OK;
+}
+
+/* The eye-path view: every eye vertex projected into the camera. */
+static pds_status pds__debug_eye(pds_debug *d, const pds__camera_frame *f, const pds__eye_vertex *v, size_t nv,
+                                 int w, int h)
+{
+    pds_image *val = &d->value[PDS_DEBUG_EYE];
+    size_t i;
+    if (pds_image_alloc(val, w, h) != PDS_OK) return PDS_ERR_NOMEM;
+    d->eye_vertices_in_frame = 0;
+    for (i = 0; i < nv; i++) {
+        long px = pds__camera_pixel(f, pds__f3_get(v[i].pos));
+        if (px < 0) continue;
+        d->eye_vertices_in_frame++;
+        val->rgb[3 * px] += 1.0f;
+    }
+    for (i = 0; i < (size_t)w * h; i++) val->rgb[3 * i + 1] = val->rgb[3 * i + 2] = val->rgb[3 * i];
+    return pds__picture_counts(val, &d->picture[PDS_DEBUG_EYE], &d->scale_max[PDS_DEBUG_EYE]);
+}
+
+/* ===================================================================== */
 /* >>pds                                                                 */
 /* ===================================================================== */
 /* Photon differential splatting (Frisvad, Schjoth, Erleben, Sporring,
@@ -9407,7 +9895,6 @@ typedef struct pds__diff_photon {
 typedef struct pds__splat_buf {
     pds__sum128 *sum;      /* 3 per pixel: radiance x unit, exact */
     double unit;           /* pds__sum_unit of the scene */
-    pds__sum128 *aniso;    /* footprint debug: 2 per pixel (sum w m_a, sum w) x 2^64; NULL if off */
     long splatted, degenerate;
     long saturated;        /* terms that saturated a pixel's sum */
     long invalid;          /* negative, infinite or NaN terms, dropped */
@@ -9417,6 +9904,8 @@ typedef struct pds__splat_buf {
     size_t ndstored, cap_dstored;
     struct pds__landing *pending; /* pds, splat: this batch's landings */
     size_t npending, cap_pending;
+    pds__path_rec *path;   /* paths debug view, trace-photon; NULL if off */
+    pds__debug_buf *dbg;   /* debug views fed by the splats; NULL if off */
     int out_of_memory;
 } pds__splat_buf;
 
@@ -9435,6 +9924,7 @@ typedef struct pds__photon_job {
     double min_aspect;         /* pds, pdm: footprint widening (0 = off) */
     double min_width;          /* pds: widen to this many eye-sample spacings (0 = off) */
     pds__v3 eye;               /* camera position */
+    pds__camera_frame frame;   /* the camera, for the debug views */
     double sample_angle;       /* angle between neighbouring eye samples */
     int max_depth;
     double n_planned;          /* photon count for eqs. 5-6 */
@@ -9468,7 +9958,7 @@ typedef struct pds__splat_ctx {
     double M[2][3];            /* eq. 12 */
     double ep[3];              /* Ep = flux / Ap, W / m^2 */
     double plane_max;          /* topological-bias guard distance */
-    double aniso;              /* m_a of this footprint (debug image) */
+    double aniso;              /* m_a of this footprint (debug views) */
 } pds__splat_ctx;
 
 /* Add radiance v (W/(m^2 sr)) into sum i of the thread's image. */
@@ -9503,10 +9993,7 @@ static void pds__splat_visit(void *vctx, size_t index, double dist2)
         double val = PDS__PI * k * f[c] * sc->ep[c] * v->importance[c];
         if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
     }
-    if (sc->buf->aniso) {
-        pds__sum128_add(&sc->buf->aniso[2 * (size_t)v->pixel], k * sc->aniso * PDS__TWO64);
-        pds__sum128_add(&sc->buf->aniso[2 * (size_t)v->pixel + 1], k * PDS__TWO64);
-    }
+    if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, v->pixel, k, sc->aniso);
 }
 
 /* Splat the photon r (already transferred to its hit on a non-specular
@@ -9518,7 +10005,6 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
     pds__ray_diff wide; /* a widened footprint; r may point here */
     double ap, major;
     int c;
-    (void)photon;
     sc.np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
     if (job->fixed_radius > 0.0) {
         /* fixed-bandwidth splatting: a disc of radius R in the tangent
@@ -9564,8 +10050,9 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
     sc.wi = pds__scale(r->d, -1.0);
     for (c = 0; c < 3; c++) sc.ep[c] = flux[c] / ap;
     sc.plane_max = job->plane_tolerance * major;
-    sc.aniso = !buf->aniso ? 0.0 : job->fixed_radius > 0.0 ? 1.0 : pds__footprint_anisotropy(r->dpdu, r->dpdv);
+    sc.aniso = !buf->dbg ? 0.0 : job->fixed_radius > 0.0 ? 1.0 : pds__footprint_anisotropy(r->dpdu, r->dpdv);
     buf->splatted++;
+    if (buf->dbg) pds__debug_landing(buf->dbg, &job->frame, photon, r->p, r->dpdu, r->dpdv);
     pds__kdtree_range(&job->map->tree, r->p, major, pds__splat_visit, &sc);
 }
 
@@ -9645,28 +10132,19 @@ static void pds__splat_pending(const pds__photon_job *job, pds__splat_buf *buf)
     buf->npending = 0;
 }
 
-/* Trace photon number i: emission, specular bounces with the differential,
-   splat at the first non-specular surface after >= 1 specular bounce. */
-static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, long i)
+/* Follow photon number i from r (at its emission point or anywhere along
+   its way) carrying flux: specular bounces with the differential, splat at
+   the first non-specular surface after >= 1 specular bounce (depth counts
+   the bounces behind r). Neighbouring photons for finite differences go
+   through here too, so they meet the same code and random numbers. */
+static void pds__trace_photon_from(const pds__photon_job *job, pds__splat_buf *buf, long i, pds__ray_diff r,
+                                   double flux[3], int depth0)
 {
     const pds_scene *s = job->scene;
-    double u[5], pmf, flux[3], pos_len, dir_len, n_light;
     const double *sigma = NULL;
-    pds__photon_start ph;
-    pds__ray_diff r;
-    int k, c, depth;
-    /* emission from a low-discrepancy sequence (>>rng): photon i's place in
-       the light's area and directions is spread evenly with the others' */
-    for (c = 0; c < 5; c++) u[c] = pds__halton(job->seed, (uint64_t)i, c);
-    k = pds__lights_pick(&s->light_table, pds__halton(job->seed, (uint64_t)i, 5), &pmf);
-    if (k < 0 || !(pmf > 0.0)) return;
-    if (!pds__emit_caustic_photon(s, &job->target, k, u, &ph)) return;
-    n_light = job->n_planned * pmf;
-    for (c = 0; c < 3; c++) flux[c] = ph.flux[c] / (job->n_planned * pmf);
-    pos_len = pds__photon_diff_length(job->smoothing, ph.area, n_light);
-    dir_len = pds__photon_diff_length(job->smoothing, ph.solid_angle, n_light);
-    pds__photon_diff_init(&r, ph.pos, ph.dir, ph.normal, pos_len, dir_len);
-    for (depth = 0; depth <= job->max_depth; depth++) {
+    pds__path_rec *rec = buf->path && i < buf->path->photon_end ? buf->path : NULL;
+    int c, depth;
+    for (depth = depth0; depth <= job->max_depth; depth++) {
         pds__tri_hit th;
         pds_hit hit;
         const pds_material *m;
@@ -9681,7 +10159,10 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
         pds__beer(sigma, th.t, flux);
         m = &s->materials.items[hit.material];
         if (!pds__material_is_specular(m)) {
-            if (depth > 0 && m->type != PDS_MAT_EMISSIVE) job->land(job, buf, &r, hit.ng, flux, i);
+            if (depth > 0 && m->type != PDS_MAT_EMISSIVE) {
+                if (rec) pds__path_note(rec, i, depth + 1, PDS_TRACE_LAND, hit.material, th.tri, &r, flux);
+                job->land(job, buf, &r, hit.ng, flux, i);
+            }
             return;
         }
         if (depth == job->max_depth) return;
@@ -9694,6 +10175,9 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
             for (c = 0; c < 3; c++) flux[c] *= bs.weight[c];
             if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
             r.d = bs.wi;
+            if (rec)
+                pds__path_note(rec, i, depth + 1, bs.transmitted ? PDS_TRACE_REFRACT : PDS_TRACE_REFLECT,
+                               hit.material, th.tri, &r, flux);
             r.p = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, r.d) >= 0.0 ? job->eps : -job->eps));
             continue;
         }
@@ -9720,8 +10204,44 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
         }
         for (c = 0; c < 3; c++) flux[c] *= bs.weight[c];
         if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        if (rec)
+            pds__path_note(rec, i, depth + 1, bs.transmitted ? PDS_TRACE_REFRACT : PDS_TRACE_REFLECT, hit.material,
+                           th.tri, &r, flux);
         r.p = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, r.d) >= 0.0 ? job->eps : -job->eps));
     }
+}
+
+/* Emit photon number i with its differential (eqs. 2-6) into *r and *flux;
+   0 if it carries nothing (it still counts as emitted). */
+static int pds__emit_photon(const pds__photon_job *job, long i, pds__ray_diff *r, double flux[3])
+{
+    const pds_scene *s = job->scene;
+    double u[5], pmf, pos_len, dir_len, n_light;
+    pds__photon_start ph;
+    int k, c;
+    /* emission from a low-discrepancy sequence (>>rng): photon i's place in
+       the light's area and directions is spread evenly with the others' */
+    for (c = 0; c < 5; c++) u[c] = pds__halton(job->seed, (uint64_t)i, c);
+    k = pds__lights_pick(&s->light_table, pds__halton(job->seed, (uint64_t)i, 5), &pmf);
+    if (k < 0 || !(pmf > 0.0)) return 0;
+    if (!pds__emit_caustic_photon(s, &job->target, k, u, &ph)) return 0;
+    n_light = job->n_planned * pmf;
+    for (c = 0; c < 3; c++) flux[c] = ph.flux[c] / (job->n_planned * pmf);
+    pos_len = pds__photon_diff_length(job->smoothing, ph.area, n_light);
+    dir_len = pds__photon_diff_length(job->smoothing, ph.solid_angle, n_light);
+    pds__photon_diff_init(r, ph.pos, ph.dir, ph.normal, pos_len, dir_len);
+    return 1;
+}
+
+/* Trace photon number i: emission, specular bounces with the differential,
+   splat at the first non-specular surface after >= 1 specular bounce. */
+static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, long i)
+{
+    pds__ray_diff r;
+    double flux[3];
+    if (!pds__emit_photon(job, i, &r, flux)) return;
+    if (buf->path && i < buf->path->photon_end) pds__path_note(buf->path, i, 0, PDS_TRACE_EMIT, -1, -1, &r, flux);
+    pds__trace_photon_from(job, buf, i, r, flux, 0);
 }
 
 static void *pds__photon_worker(void *arg)
@@ -10462,10 +10982,10 @@ static double pds__map_budget(pds__photon_job *job, const pds_options *opt, cons
 
 /* After the eye pass: emit and trace the caustic photons for method m and
    add the caustic image into rgb (importance already carries 1/spp).
-   footprint, if not NULL, receives PDS's anisotropy image. */
+   debug, if not NULL, receives the teaching views it asks for (>>debug). */
 static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, pds__eye_vertex *vertices,
                                    size_t nvertices, int width, int height, int threads, double *rgb,
-                                   pds_image *footprint, pds_render_stats *stats, pds_error *err)
+                                   pds_debug *debug, pds_render_stats *stats, pds_error *err)
 {
     pds__eye_map map;
     pds__photon_job job;
@@ -10475,7 +10995,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     int progressive = opt->method == PDS_METHOD_PDS && opt->progressive;
     pds_status st = PDS_OK;
     double t0 = pds_time_now();
-    if (opt->method != PDS_METHOD_PDS) footprint = NULL;
+    pds__debug_buf *dbg = NULL;          /* one per thread, if debug views are on */
+    pds__path_rec *paths = NULL;         /* one per thread, if the paths view is on */
     memset(&map, 0, sizeof map);
     memset(&job, 0, sizeof job);
     map.v = vertices;
@@ -10507,6 +11028,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.min_aspect = progressive ? opt->pass_min_aspect : opt->min_aspect;
     job.min_width = progressive ? opt->pass_min_width : opt->method == PDS_METHOD_PDS ? opt->min_width : 0.0;
     job.eye = pds__v(s->camera.position.x, s->camera.position.y, s->camera.position.z);
+    job.frame = pds__camera_setup(&s->camera, width, height);
     job.sample_angle = 2.0 * tan(0.5 * s->camera.fov_deg * PDS__PI / 180.0) / height /
                        sqrt((double)(opt->spp > 0 ? opt->spp : s->camera.spp > 0 ? s->camera.spp : 1));
     job.eps = 1e-6 * pds__scene_scale(s);
@@ -10526,11 +11048,26 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         pds__kdtree_free(&map.tree);
         return pds__nomem(err);
     }
+    if (debug && (debug->views & ~(1u << PDS_DEBUG_EYE) & ~(1u << PDS_DEBUG_PATHS))) {
+        dbg = (pds__debug_buf *)calloc((size_t)threads, sizeof *dbg);
+        if (!dbg) st = PDS_ERR_NOMEM;
+    }
+    if (pds__debug_wants(debug, PDS_DEBUG_PATHS)) {
+        paths = (pds__path_rec *)calloc((size_t)threads, sizeof *paths);
+        if (!paths) st = PDS_ERR_NOMEM;
+    }
     for (t = 0; t < threads; t++) {
         job.bufs[t].sum = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
         job.bufs[t].unit = pds__sum_unit(s);
-        if (footprint) job.bufs[t].aniso = (pds__sum128 *)calloc(npix * 2, sizeof(pds__sum128));
-        if (!job.bufs[t].sum || (footprint && !job.bufs[t].aniso)) st = PDS_ERR_NOMEM;
+        if (!job.bufs[t].sum) st = PDS_ERR_NOMEM;
+        if (dbg) {
+            job.bufs[t].dbg = &dbg[t];
+            if (!pds__debug_bufs_init(&dbg[t], debug, opt->method, opt->photons, npix)) st = PDS_ERR_NOMEM;
+        }
+        if (paths) {
+            job.bufs[t].path = &paths[t];
+            paths[t].photon_end = debug->path_photons;
+        }
     }
     if (!st && opt->method == PDS_METHOD_PPM) {
         st = pds__ppm_passes(&job, opt, vertices, nvertices, threads, rgb, stats, err);
@@ -10566,7 +11103,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         }
         for (t = 0; t < threads; t++) {
             memset(job.bufs[t].sum, 0, npix * 3 * sizeof(pds__sum128));
-            if (job.bufs[t].aniso) memset(job.bufs[t].aniso, 0, npix * 2 * sizeof(pds__sum128));
+            if (dbg) pds__debug_bufs_clear(&dbg[t], npix);
+            if (paths) paths[t].n = 0;
             job.bufs[t].splatted = job.bufs[t].degenerate = job.bufs[t].saturated = job.bufs[t].invalid = 0;
             job.bufs[t].nstored = job.bufs[t].ndstored = 0;
         }
@@ -10608,22 +11146,31 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             if (emitted > 0)
                 rgb[i] += pds__sum128_value(sum) / job.bufs[0].unit * (job.n_planned / (double)emitted);
         }
-        if (footprint && pds_image_alloc(footprint, width, height) == PDS_OK) {
-            for (i = 0; i < npix; i++) {
-                pds__sum128 swm = {0, 0}, sw = {0, 0};
-                double wm, w;
-                for (t = 0; t < job.nbufs; t++) {
-                    pds__sum128_add_bits(&swm, job.bufs[t].aniso[2 * i].lo, job.bufs[t].aniso[2 * i].hi);
-                    pds__sum128_add_bits(&sw, job.bufs[t].aniso[2 * i + 1].lo, job.bufs[t].aniso[2 * i + 1].hi);
-                }
-                wm = pds__sum128_value(swm);
-                w = pds__sum128_value(sw);
-                if (w > 0.0) {
-                    footprint->rgb[3 * i] = (float)(1.0 - wm / w);
-                    footprint->rgb[3 * i + 1] = (float)(wm / w);
-                }
+        if (dbg && pds__debug_finish(debug, dbg, job.nbufs, width, height, rgb, &job.frame)) st = PDS_ERR_NOMEM;
+        if (!st && paths) {
+            /* the threads' events, merged in photon and vertex order */
+            size_t total = 0, k;
+            pds__path_event *all;
+            for (t = 0; t < job.nbufs; t++) {
+                if (paths[t].out_of_memory) st = PDS_ERR_NOMEM;
+                total += paths[t].n;
             }
+            all = (pds__path_event *)malloc(sizeof *all * (total ? total : 1));
+            if (!all) st = PDS_ERR_NOMEM;
+            for (t = 0, k = 0; !st && t < job.nbufs; t++) {
+                memcpy(all + k, paths[t].ev, sizeof *all * paths[t].n);
+                k += paths[t].n;
+            }
+            if (!st) {
+                qsort(all, total, sizeof *all, pds__path_event_cmp);
+                debug->paths_obj = pds__paths_obj(all, total, &debug->paths, &debug->path_segments);
+                if (!debug->paths_obj) st = PDS_ERR_NOMEM;
+            }
+            free(all);
         }
+        if (!st && pds__debug_wants(debug, PDS_DEBUG_EYE) &&
+            pds__debug_eye(debug, &job.frame, vertices, nvertices, width, height))
+            st = PDS_ERR_NOMEM;
         if (stats) {
             if (opt->method != PDS_METHOD_PPM) stats->photons = emitted;
             stats->eye_vertices = (long)nvertices;
@@ -10636,17 +11183,20 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             }
             stats->time_photons_s = pds_time_now() - t0;
             stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + stats->map_bytes +
-                                   (size_t)job.nbufs * npix * (3 + (footprint ? 2 : 0)) * sizeof(pds__sum128);
+                                   (size_t)job.nbufs * npix * (3 + (dbg && dbg[0].aniso ? 2 : 0)) * sizeof(pds__sum128);
         }
     }
     for (t = 0; t < job.nbufs; t++) {
         free(job.bufs[t].sum);
-        free(job.bufs[t].aniso);
+        if (dbg) pds__debug_bufs_free(&dbg[t]);
+        if (paths) free(paths[t].ev);
         free(job.bufs[t].stored);
         free(job.bufs[t].dstored);
         free(job.bufs[t].pending);
     }
     free(job.bufs);
+    free(dbg);
+    free(paths);
     pds__kdtree_free(&map.tree);
     if (st == PDS_ERR_NOMEM) return pds__nomem(err);
     return st;
@@ -10682,7 +11232,7 @@ void pds_options_default(pds_options *opt)
     opt->min_width = 0.0;
     opt->plane_tolerance = 0.25;
     opt->photon_depth = 16;
-    opt->footprint = NULL;
+    opt->debug = NULL;
     opt->k = 50;
     opt->kernel = PDS_KERNEL_CONE;
     opt->max_radius = 0.0;
@@ -10690,6 +11240,185 @@ void pds_options_default(pds_options *opt)
     opt->alpha = 0.7;
     opt->passes = 10;
     opt->max_photons = 500;
+}
+
+void pds_debug_init(pds_debug *d)
+{
+    memset(d, 0, sizeof *d);
+    d->views = 0;
+    d->ellipse_every = 0;
+    d->path_photons = 100;
+}
+
+void pds_debug_free(pds_debug *d)
+{
+    int v;
+    if (!d) return;
+    for (v = 0; v < PDS_DEBUG_VIEWS; v++) {
+        pds_image_free(&d->value[v]);
+        pds_image_free(&d->picture[v]);
+        d->scale_max[v] = 0.0;
+    }
+    free(d->paths_obj);
+    d->paths_obj = NULL;
+    d->landings = d->landings_in_frame = d->ellipses = d->eye_vertices_in_frame = 0;
+    d->paths = d->path_segments = 0;
+}
+
+const char *pds_debug_view_name(pds_debug_view view)
+{
+    static const char *const names[PDS_DEBUG_VIEWS] = {"footprint", "landings", "ellipses", "splats", "eye", "paths"};
+    return (int)view >= 0 && view < PDS_DEBUG_VIEWS ? names[view] : "unknown";
+}
+
+/* --- one photon, for students: `pds trace-photon` -------------------------- */
+
+/* Landing for a photon that is only watched: nothing to splat. */
+static void pds__land_nowhere(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
+                              const double flux[3], long photon)
+{
+    (void)job, (void)buf, (void)r, (void)ng, (void)flux, (void)photon;
+}
+
+/* Trace from start (differentials ignored: zero) with the production loop
+   and record its vertices into rec (emptied first). */
+static void pds__trace_watch(const pds__photon_job *job, long photon, pds__v3 p, pds__v3 d, const double flux[3],
+                             pds__path_rec *rec)
+{
+    pds__splat_buf buf;
+    pds__ray_diff r;
+    double f[3];
+    memset(&buf, 0, sizeof buf);
+    memset(&r, 0, sizeof r);
+    r.p = p;
+    r.d = pds__normalize(d);
+    memcpy(f, flux, sizeof f);
+    rec->n = 0;
+    rec->photon_end = LONG_MAX;
+    buf.path = rec;
+    pds__path_note(rec, photon, 0, PDS_TRACE_EMIT, -1, -1, &r, f);
+    pds__trace_photon_from(job, &buf, photon, r, f, 0);
+}
+
+static pds_vec3 pds__vec_out(pds__v3 v)
+{
+    pds_vec3 o;
+    o.x = v.x;
+    o.y = v.y;
+    o.z = v.z;
+    return o;
+}
+
+/* Central difference (a - b) / (2h) of two recorded vertices. */
+static pds_vec3 pds__vec_fd(pds__v3 a, pds__v3 b, double h)
+{
+    return pds__vec_out(pds__scale(pds__sub(a, b), 0.5 / h));
+}
+
+pds_status pds_trace_photon(const pds_scene *scene, const pds_options *opt, long photon, pds_trace *out,
+                            pds_error *err)
+{
+    pds__photon_job job;
+    pds__path_rec base, nb[4];  /* neighbours +u, -u, +v, -v */
+    pds__ray_diff r;
+    double flux[3], scale, big;
+    pds_status st = PDS_OK;
+    size_t k;
+    int j;
+    if (!scene || !opt || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_trace_photon: NULL argument");
+    memset(out, 0, sizeof *out);
+    if (photon < 0) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photon number %ld is negative", photon);
+    if (opt->photons < 1 || !(opt->smoothing > 0.0) || !isfinite(opt->smoothing))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photons and smoothing must be positive");
+    if (opt->photon_depth < 1 || opt->photon_depth > 1000)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photon depth %d is outside 1..1000", opt->photon_depth);
+    memset(&job, 0, sizeof job);
+    job.scene = scene;
+    job.target = pds__specular_target(scene);
+    job.seed = opt->seed;
+    job.smoothing = opt->smoothing;
+    job.n_planned = (double)opt->photons;
+    job.max_depth = opt->photon_depth;
+    scale = pds__scene_scale(scene);
+    job.eps = 1e-6 * scale;
+    job.differentials = 1;
+    job.land = pds__land_nowhere;
+    out->photon = photon;
+    out->smoothing = opt->smoothing;
+    out->photons = (double)opt->photons;
+    memset(&base, 0, sizeof base);
+    memset(nb, 0, sizeof nb);
+    if (!pds__emit_photon(&job, photon, &r, flux)) return PDS_OK; /* it carries nothing: no vertex */
+    {
+        pds__splat_buf buf;
+        memset(&buf, 0, sizeof buf);
+        base.photon_end = LONG_MAX;
+        buf.path = &base;
+        pds__path_note(&base, photon, 0, PDS_TRACE_EMIT, -1, -1, &r, flux);
+        pds__trace_photon_from(&job, &buf, photon, r, flux, 0);
+    }
+    /* the step h: the neighbours start 1e-6 scene sizes away (or turned by
+       1e-6 radians) along the larger differential */
+    big = fmax(fmax(pds__length(r.dpdu), pds__length(r.dpdv)),
+               scale * fmax(pds__length(r.dddu), pds__length(r.dddv)));
+    out->step = big > 0.0 ? 1e-6 * scale / big : 0.0;
+    if (out->step > 0.0) {
+        double h = out->step;
+        pds__trace_watch(&job, photon, pds__add(r.p, pds__scale(r.dpdu, h)), pds__add(r.d, pds__scale(r.dddu, h)), flux, &nb[0]);
+        pds__trace_watch(&job, photon, pds__sub(r.p, pds__scale(r.dpdu, h)), pds__sub(r.d, pds__scale(r.dddu, h)), flux, &nb[1]);
+        pds__trace_watch(&job, photon, pds__add(r.p, pds__scale(r.dpdv, h)), pds__add(r.d, pds__scale(r.dddv, h)), flux, &nb[2]);
+        pds__trace_watch(&job, photon, pds__sub(r.p, pds__scale(r.dpdv, h)), pds__sub(r.d, pds__scale(r.dddv, h)), flux, &nb[3]);
+    }
+    for (j = 0; j < 4; j++)
+        if (nb[j].out_of_memory) st = PDS_ERR_NOMEM;
+    if (base.out_of_memory) st = PDS_ERR_NOMEM;
+    if (!st && base.n > 0) {
+        out->v = (pds_trace_vertex *)calloc(base.n, sizeof *out->v);
+        if (!out->v) st = PDS_ERR_NOMEM;
+    }
+    for (k = 0; !st && k < base.n; k++) {
+        const pds__path_event *e = &base.ev[k];
+        pds_trace_vertex *v = &out->v[k];
+        int same = out->step > 0.0;
+        v->event = (pds_trace_event)e->event;
+        v->material = e->material;
+        v->triangle = e->triangle;
+        v->position = pds__vec_out(e->r.p);
+        v->direction = pds__vec_out(e->r.d);
+        v->dxdu = pds__vec_out(e->r.dpdu);
+        v->dxdv = pds__vec_out(e->r.dpdv);
+        v->dwdu = pds__vec_out(e->r.dddu);
+        v->dwdv = pds__vec_out(e->r.dddv);
+        v->area = pds__footprint_area(e->r.dpdu, e->r.dpdv);
+        v->major = pds__footprint_major_axis(e->r.dpdu, e->r.dpdv);
+        v->minor = v->major > 0.0 ? v->area / (PDS__PI * v->major) : 0.0; /* area = pi A B */
+        memcpy(v->flux, e->flux, sizeof v->flux);
+        for (j = 0; j < 4 && same; j++)
+            same = k < nb[j].n && nb[j].ev[k].event == e->event && nb[j].ev[k].triangle == e->triangle;
+        v->fd_valid = same;
+        if (same) {
+            v->fd_dxdu = pds__vec_fd(nb[0].ev[k].r.p, nb[1].ev[k].r.p, out->step);
+            v->fd_dwdu = pds__vec_fd(nb[0].ev[k].r.d, nb[1].ev[k].r.d, out->step);
+            v->fd_dxdv = pds__vec_fd(nb[2].ev[k].r.p, nb[3].ev[k].r.p, out->step);
+            v->fd_dwdv = pds__vec_fd(nb[2].ev[k].r.d, nb[3].ev[k].r.d, out->step);
+        }
+    }
+    if (!st) out->count = (int)base.n;
+    free(base.ev);
+    for (j = 0; j < 4; j++) free(nb[j].ev);
+    if (st) {
+        pds_trace_free(out);
+        return pds__nomem(err);
+    }
+    return PDS_OK;
+}
+
+void pds_trace_free(pds_trace *t)
+{
+    if (!t) return;
+    free(t->v);
+    t->v = NULL;
+    t->count = 0;
 }
 
 /* Methods that add caustics with photons after an eye pass. */
@@ -10761,6 +11490,16 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown rendering method %d", (int)opt->method);
     if ((unsigned)opt->paths > (unsigned)PDS_PATHS_CAUSTICS_ONLY)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown light path selection %d", (int)opt->paths);
+    if (opt->debug) {
+        if (opt->debug->views >= (1u << PDS_DEBUG_VIEWS))
+            return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown debug view in 0x%x", opt->debug->views);
+        if (opt->debug->ellipse_every < 0)
+            return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "ellipse_every %ld is negative",
+                             opt->debug->ellipse_every);
+        if (opt->debug->path_photons < 0 || opt->debug->path_photons > 1000000)
+            return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "path_photons %ld is outside 0..1000000",
+                             opt->debug->path_photons);
+    }
     return PDS_OK;
 }
 
@@ -10811,7 +11550,7 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
     if (pds__is_photon_method(opt->method) && opt->paths != PDS_PATHS_NO_CAUSTICS) {
         est->eye_vertices = est->samples;
         bytes += est->eye_vertices * vertex_bytes;
-        bytes += (double)threads * npix * (3 + (opt->footprint ? 2 : 0)) * sizeof(pds__sum128);
+        bytes += (double)threads * npix * (3 + (pds__debug_wants(opt->debug, PDS_DEBUG_FOOTPRINT) ? 2 : 0)) * sizeof(pds__sum128);
         photons = opt->time_s > 0.0 ? 0.0 : (double)opt->photons; /* a time budget: not known in advance */
         if (opt->method == PDS_METHOD_PM) est->stored_photons = photons;
         if (opt->method == PDS_METHOD_PDM) est->stored_photons = photons;
@@ -10842,6 +11581,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     w = opt->width > 0 ? opt->width : cam->width;
     h = opt->height > 0 ? opt->height : cam->height;
     if ((st = pds__options_check(opt, w, h, err))) return st;
+    if (opt->debug) pds_debug_free(opt->debug); /* a previous render's views */
     {
         pds_render_estimate est;
         double limit;
@@ -10940,7 +11680,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
             for (y = 0; y < h; y++) free(job.row_vertices[y]);
         }
         if (!verts) st = pds__nomem(err);
-        else st = pds__photon_pass(scene, opt, verts, nv, w, h, threads, rgb, opt->footprint, stats, err);
+        else st = pds__photon_pass(scene, opt, verts, nv, w, h, threads, rgb, opt->debug, stats, err);
         free(verts);
         free(job.row_vertices);
         free(job.row_count);
@@ -10949,6 +11689,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     if (st) {
         free(job.sum);
         pds_image_free(out);
+        if (opt->debug) pds_debug_free(opt->debug);
         return st;
     }
     stats->nonfinite = pds__finite_floats(rgb, out->rgb, npix * 3);
