@@ -20,7 +20,9 @@
    file. SIGINT, SIGTERM and SIGHUP are caught (>>signals): the handler
    removes the temporary file being written, if any, clears the progress
    bar and dies by the same signal. */
+#ifndef _WIN32
 #define _POSIX_C_SOURCE 200809L /* isatty, fileno, mkdir, access, strdup, sigaction */
+#endif
 #include "pds.h"
 
 #include <errno.h>
@@ -32,12 +34,38 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/types.h>
-#include <sys/utsname.h>
 #include <time.h>
+#ifdef _WIN32
+/* Windows (MinGW-w64, MSVC): the POSIX calls below under their Microsoft
+   C runtime names; no SIGHUP, no peak memory figure, no uname. */
+#include <direct.h>
+#include <io.h>
+#include <process.h>
+#define getpid _getpid
+#define isatty _isatty
+#define fileno _fileno
+#define unlink _unlink
+#define access _access
+#define strdup _strdup
+#define mkdir(path, mode) _mkdir(path)
+#define write(fd, buf, n) _write(fd, buf, (unsigned)(n))
+#ifndef W_OK
+#define W_OK 2
+#endif
+#ifndef X_OK
+#define X_OK 0 /* _access knows no execute bit: 0 checks existence */
+#endif
+#define STDERR_FILENO 2
+#ifdef _MSC_VER
+typedef long ssize_t;
+#endif
+#else
+#include <sys/resource.h>
+#include <sys/utsname.h>
 #include <unistd.h>
+#endif
 
 #define EXIT_USAGE 2
 #define PATH_MAX_LEN 4096
@@ -138,17 +166,14 @@ static const command_help help_table[] = {
      "      and any render option; it applies to every method it concerns\n",
      1},
     {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", 0},
+    {"pixel", "pixel IMAGE.pfm X Y [R]", "mean value of the pixels within R (default 0) of pixel X,Y", "", 0},
     {"trace-photon", "trace-photon SCENE --photon I [options]",
      "one caustic photon's path with its differentials beside finite differences",
      "      --photon I              the photon's number (0 = the first the renderer emits)\n"
      "      --photons N             N of the paper's eqs. 5-6 (default 100000)\n"
      "      --smoothing S           s of eqs. 5-6 (default 12)\n"
      "      --seed N                random seed (default 0)\n"
-     "      --max-depth N           most specular bounces (default 16)\n"
-     "      at every vertex: position x, direction omega, Du x, Dv x (positional, after the first\n"
-     "      bounce Du x + Dtheta x and Dv x + Dphi x, eq. 7), Dtheta omega, Dphi omega, each beside\n"
-     "      the central difference of neighbouring photons traced by the renderer (x +- h Du x,\n"
-     "      omega +- h Dtheta omega), and the footprint's semi-axes and area (eq. 4)\n",
+     "      --max-depth N           most specular bounces (default 16)\n",
      0},
     {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", 0},
     {"bench", "bench WHAT [ARGS]", "micro-benchmarks (figures, never pass/fail):",
@@ -386,7 +411,16 @@ static void on_fatal_signal(int sig)
 }
 
 /* Catch the signals that end a run, except those ignored when pds started
-   (nohup, background jobs of a non-interactive shell): they stay ignored. */
+   (nohup, background jobs of a non-interactive shell): they stay ignored.
+   Windows has neither sigaction nor SIGHUP: Ctrl-C (SIGINT) and SIGTERM by
+   signal(). */
+#ifdef _WIN32
+static void catch_fatal_signals(void)
+{
+    signal(SIGINT, on_fatal_signal);
+    signal(SIGTERM, on_fatal_signal);
+}
+#else
 static void catch_fatal_signals(void)
 {
     static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
@@ -403,6 +437,7 @@ static void catch_fatal_signals(void)
         sigaction(sigs[i], &sa, NULL);
     }
 }
+#endif
 
 /* ---------------------------------------------------------------- parsing */
 
@@ -1402,6 +1437,40 @@ static int cmd_compare(int argc, char **argv)
     return rc;
 }
 
+/* pds pixel IMAGE.pfm X Y [R]: the mean of the (2R+1)^2 pixels around
+   (X, Y) (x right, y down from the top left, clipped to the image), for
+   checking a render against a value worked out by hand. */
+static int cmd_pixel(int argc, char **argv)
+{
+    pds_image img = {0, 0, NULL};
+    pds_error err;
+    long x, y, r = 0, i, j, n = 0;
+    double sum[3] = {0, 0, 0};
+    if (argc != 3 && argc != 4) return usage_error("%s", "pixel needs IMAGE.pfm X Y [R]");
+    if (parse_int(argv[1], 0, PDS_MAX_RESOLUTION - 1, &x) || parse_int(argv[2], 0, PDS_MAX_RESOLUTION - 1, &y) ||
+        (argc == 4 && parse_int(argv[3], 0, PDS_MAX_RESOLUTION, &r)))
+        return usage_error("pixel needs whole numbers X Y [R] from 0 to %d", PDS_MAX_RESOLUTION - 1);
+    if (pds_image_read_pfm(argv[0], &img, &err) != PDS_OK) {
+        fprintf(stderr, "%s\n", pds_error_string(&err));
+        return 1;
+    }
+    if (x >= img.width || y >= img.height) {
+        pds_image_free(&img);
+        return usage_error("pixel %ld,%ld is outside the %dx%d image", x, y, img.width, img.height);
+    }
+    for (j = y - r; j <= y + r; j++)
+        for (i = x - r; i <= x + r; i++) {
+            int c;
+            if (i < 0 || j < 0 || i >= img.width || j >= img.height) continue;
+            for (c = 0; c < 3; c++) sum[c] += img.rgb[3 * ((size_t)j * img.width + (size_t)i) + c];
+            n++;
+        }
+    printf("pixel x=%ld y=%ld radius=%ld pixels=%ld r=%.6g g=%.6g b=%.6g\n", x, y, r, n, sum[0] / n, sum[1] / n,
+           sum[2] / n);
+    pds_image_free(&img);
+    return 0;
+}
+
 static const char *material_type_name(pds_material_type t)
 {
     static const char *const names[] = {"diffuse", "mirror", "conductor", "dielectric", "emissive"};
@@ -1674,20 +1743,26 @@ static int bench_memory(int argc, char **argv)
         fprintf(stderr, "%s\n", pds_error_string(&err));
         return 1;
     }
+    long rss_a = 0, rss_b = 0; /* peak resident memory, KiB (not measured on Windows) */
+#ifndef _WIN32
     struct rusage ru;
-    long rss_a, rss_b;
+#endif
     if (render_pds(scene, 100000, 0, 256, &a)) {
         pds_scene_free(scene);
         return 1;
     }
+#ifndef _WIN32
     getrusage(RUSAGE_SELF, &ru);
     rss_a = ru.ru_maxrss;
+#endif
     if (render_pds(scene, 10000000, 0, 256, &b)) {
         pds_scene_free(scene);
         return 1;
     }
+#ifndef _WIN32
     getrusage(RUSAGE_SELF, &ru);
     rss_b = ru.ru_maxrss;
+#endif
     pds_scene_free(scene);
     /* ru_maxrss is the process's peak so far (KiB on Linux): if the second,
        100 times larger render needed more, the peak would have grown */
@@ -3351,7 +3426,9 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
     sbuf c = {NULL, 0, 0, 0};
     time_t now = time(NULL);
     struct tm *utc = gmtime(&now);
+#ifndef _WIN32
     struct utsname un;
+#endif
     for (i = 0; i < bud->n; i++) best_r[i] = best_s[i] = -1;
     for (i = 0; i < n; i++) {
         int k = e[i].budget;
@@ -3429,6 +3506,9 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
               pg->tuned ? " (tuning renders: the seed + 1)" : "");
     sb_printf(b, "<tr><th class=\"l\">threads</th><td class=\"l\">%d used (%s)</td></tr>\n", n > 0 ? e[0].st.threads : 0,
               pg->base->opt.threads > 0 ? "given with --threads" : "all cores");
+#ifdef _WIN32
+    sb_printf(b, "<tr><th class=\"l\">machine</th><td class=\"l\" id=\"machine\">Windows</td></tr>\n");
+#else
     if (uname(&un) == 0) {
         sb_printf(b, "<tr><th class=\"l\">machine</th><td class=\"l\" id=\"machine\">");
         sb_xml(b, un.sysname);
@@ -3440,6 +3520,7 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
         sb_xml(b, un.machine);
         sb_printf(b, "</td></tr>\n");
     }
+#endif
     cpu_model(text, sizeof text);
     sb_printf(b, "<tr><th class=\"l\">CPU</th><td class=\"l\">");
     sb_xml(b, text);
@@ -3901,6 +3982,7 @@ int main(int argc, char **argv)
     } commands[] = {
         {"render", cmd_render}, {"sweep", cmd_sweep}, {"race", cmd_race},   {"compare", cmd_compare},
         {"info", cmd_info},     {"bench", cmd_bench}, {"help", cmd_help}, {"trace-photon", cmd_trace_photon},
+        {"pixel", cmd_pixel},
     };
     size_t k;
     int i;

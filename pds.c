@@ -33,9 +33,14 @@
 /* ===================================================================== */
 /* >>config                                                              */
 /* ===================================================================== */
-/* POSIX is needed for clock_gettime, sysconf and the threads; everything
-   else is C99. */
+/* Everything is C99 but a few system services, each behind one small
+   function in >>util (the thread layer, the clock, the processor count,
+   the physical memory, reading a file and the process id): POSIX
+   (open/fstat, clock_gettime, sysconf, pthreads) by default, Win32 when
+   _WIN32 is defined (MinGW-w64 and MSVC). */
+#ifndef _WIN32
 #define _POSIX_C_SOURCE 200809L
+#endif
 
 #include "pds.h"
 
@@ -44,17 +49,25 @@
 #include <float.h>
 #include <limits.h>
 #include <math.h>
-#include <pthread.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-#include <unistd.h>
-#include <fcntl.h>
 #include <sys/stat.h>
 #include <sys/types.h>
+#ifdef _WIN32
+#define WIN32_LEAN_AND_MEAN
+#include <windows.h>
+#include <fcntl.h>
+#include <io.h>
+#include <process.h>
+#else
+#include <fcntl.h>
+#include <pthread.h>
+#include <unistd.h>
+#endif
 
 #define PDS__PI 3.14159265358979323846
 
@@ -148,6 +161,102 @@ static void pds__strlcpy(char *dst, const char *src, size_t n)
     dst[len] = '\0';
 }
 
+/* --- the system layer ------------------------------------------------------
+   The few calls C99 lacks, for POSIX and for Windows (MinGW-w64, MSVC). */
+
+#ifdef _WIN32
+#define PDS__S_ISREG(m) (((m) & _S_IFMT) == _S_IFREG)
+#define PDS__S_ISDIR(m) (((m) & _S_IFMT) == _S_IFDIR)
+typedef struct _stat64 pds__stat;
+static int pds__open_read(const char *path) { return _open(path, _O_RDONLY | _O_BINARY); }
+static int pds__fstat(int fd, pds__stat *sb) { return _fstat64(fd, sb); }
+static void pds__close(int fd) { _close(fd); }
+static long pds__read_some(int fd, char *buf, size_t n)
+{
+    return (long)_read(fd, buf, (unsigned)(n > 0x40000000u ? 0x40000000u : n));
+}
+static long pds__process_id(void) { return (long)_getpid(); }
+#else
+#define PDS__S_ISREG(m) S_ISREG(m)
+#define PDS__S_ISDIR(m) S_ISDIR(m)
+typedef struct stat pds__stat;
+/* non-blocking, so that even a FIFO does not stall before it is refused */
+static int pds__open_read(const char *path) { return open(path, O_RDONLY | O_NONBLOCK); }
+static int pds__fstat(int fd, pds__stat *sb) { return fstat(fd, sb); }
+static void pds__close(int fd) { close(fd); }
+static long pds__read_some(int fd, char *buf, size_t n) { return (long)read(fd, buf, n); }
+static long pds__process_id(void) { return (long)getpid(); }
+#endif
+
+/* Threads: a mutex, the calling thread's identity, and n threads running
+   one function (pds__threads_run). POSIX threads, or Win32 threads and
+   critical sections. Nothing in PDS needs atomics: shared counters are
+   guarded by a mutex. */
+#ifdef _WIN32
+typedef CRITICAL_SECTION pds__mutex;
+typedef DWORD pds__thread_id;
+static void pds__mutex_init(pds__mutex *m) { InitializeCriticalSection(m); }
+static void pds__mutex_destroy(pds__mutex *m) { DeleteCriticalSection(m); }
+static void pds__mutex_lock(pds__mutex *m) { EnterCriticalSection(m); }
+static void pds__mutex_unlock(pds__mutex *m) { LeaveCriticalSection(m); }
+static pds__thread_id pds__thread_self(void) { return GetCurrentThreadId(); }
+static int pds__thread_equal(pds__thread_id a, pds__thread_id b) { return a == b; }
+typedef struct pds__win_start { void *(*fn)(void *); void *arg; } pds__win_start;
+static DWORD WINAPI pds__win_thread(LPVOID p)
+{
+    const pds__win_start *w = (const pds__win_start *)p;
+    w->fn(w->arg);
+    return 0;
+}
+#else
+typedef pthread_mutex_t pds__mutex;
+typedef pthread_t pds__thread_id;
+static void pds__mutex_init(pds__mutex *m) { pthread_mutex_init(m, NULL); }
+static void pds__mutex_destroy(pds__mutex *m) { pthread_mutex_destroy(m); }
+static void pds__mutex_lock(pds__mutex *m) { pthread_mutex_lock(m); }
+static void pds__mutex_unlock(pds__mutex *m) { pthread_mutex_unlock(m); }
+static pds__thread_id pds__thread_self(void) { return pthread_self(); }
+static int pds__thread_equal(pds__thread_id a, pds__thread_id b) { return pthread_equal(a, b) != 0; }
+#endif
+
+/* Run fn(arg) on n threads, at most 256 (the caller's thread is one of
+   them). Returns the number of threads that ran. */
+static int pds__threads_run(int n, void *(*fn)(void *), void *arg)
+{
+#ifdef _WIN32
+    HANDLE tid[256];
+    pds__win_start start;
+#else
+    pthread_t tid[256];
+#endif
+    int started = 0, i;
+    if (n > 256) n = 256;
+#ifdef _WIN32
+    start.fn = fn;
+    start.arg = arg;
+    for (i = 1; i < n; i++) {
+        tid[started] = CreateThread(NULL, 0, pds__win_thread, &start, 0, NULL);
+        if (!tid[started]) break;
+        started++;
+    }
+#else
+    for (i = 1; i < n; i++) {
+        if (pthread_create(&tid[started], NULL, fn, arg) != 0) break;
+        started++;
+    }
+#endif
+    fn(arg);
+#ifdef _WIN32
+    for (i = 0; i < started; i++) {
+        WaitForSingleObject(tid[i], INFINITE);
+        CloseHandle(tid[i]);
+    }
+#else
+    for (i = 0; i < started; i++) pthread_join(tid[i], NULL);
+#endif
+    return started + 1;
+}
+
 /* Read a whole file into a NUL-terminated buffer, refusing what cannot be
    read in bounded time and memory: anything that is not a regular file (a
    FIFO would block forever, /dev/zero never ends; opened non-blocking so
@@ -157,48 +266,48 @@ static void pds__strlcpy(char *dst, const char *src, size_t n)
 static pds_status pds__read_file(const char *path, size_t max_bytes, const char *kind, char **out, size_t *size,
                                  pds_error *err)
 {
-    struct stat sb;
+    pds__stat sb;
     char *buf;
     size_t len = 0, want;
     int fd;
     *out = NULL;
-    fd = open(path, O_RDONLY | O_NONBLOCK);
+    fd = pds__open_read(path);
     if (fd < 0) return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot open: %s", strerror(errno));
-    if (fstat(fd, &sb) != 0) {
+    if (pds__fstat(fd, &sb) != 0) {
         int e = errno;
-        close(fd);
+        pds__close(fd);
         return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot read: %s", strerror(e));
     }
-    if (!S_ISREG(sb.st_mode)) {
-        close(fd);
-        return pds__fail(err, PDS_ERR_IO, path, 0, 0, "%s", S_ISDIR(sb.st_mode) ? "is a directory" : "not a regular file");
+    if (!PDS__S_ISREG(sb.st_mode)) {
+        pds__close(fd);
+        return pds__fail(err, PDS_ERR_IO, path, 0, 0, "%s", PDS__S_ISDIR(sb.st_mode) ? "is a directory" : "not a regular file");
     }
     if (sb.st_size < 0 || (unsigned long long)sb.st_size > (unsigned long long)max_bytes) {
-        close(fd);
+        pds__close(fd);
         return pds__fail(err, PDS_ERR_LIMIT, path, 0, 0, "%.0f bytes is larger than the limit of %.0f bytes for a %s",
                          (double)sb.st_size, (double)max_bytes, kind);
     }
     want = (size_t)sb.st_size;
     buf = (char *)malloc(want + 2);
     if (!buf) {
-        close(fd);
+        pds__close(fd);
         return pds__nomem(err);
     }
     /* one byte more than the size: a file that grew while being read is
        refused rather than read in part */
     while (len < want + 1) {
-        ssize_t n = read(fd, buf + len, want + 1 - len);
+        long n = pds__read_some(fd, buf + len, want + 1 - len);
         if (n < 0 && errno == EINTR) continue;
         if (n < 0) {
             int e = errno;
-            close(fd);
+            pds__close(fd);
             free(buf);
             return pds__fail(err, PDS_ERR_IO, path, 0, 0, "read error: %s", strerror(e));
         }
         if (n == 0) break;
         len += (size_t)n;
     }
-    close(fd);
+    pds__close(fd);
     if (len != want) {
         free(buf);
         return pds__fail(err, PDS_ERR_IO, path, 0, 0, "the file changed while it was read");
@@ -214,9 +323,13 @@ static pds_status pds__read_file(const char *path, size_t max_bytes, const char 
    Never opens the file, so a FIFO cannot block it. */
 static int pds__input_file_check(const char *path)
 {
-    struct stat sb;
+    pds__stat sb;
+#ifdef _WIN32
+    if (_stat64(path, &sb) != 0) return errno ? errno : ENOENT;
+#else
     if (stat(path, &sb) != 0) return errno ? errno : ENOENT;
-    return S_ISREG(sb.st_mode) ? 0 : -1;
+#endif
+    return PDS__S_ISREG(sb.st_mode) ? 0 : -1;
 }
 
 /* The reason pds__input_file_check gave, as text. */
@@ -257,7 +370,7 @@ static pds_status pds__write_file_atomic(const char *path, const void *data, siz
     static const char suffix[] = ".tmp-";
     if (strlen(path) + sizeof suffix + 24 > sizeof tmp)
         return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "output path too long");
-    snprintf(tmp, sizeof tmp, "%s%s%ld", path, suffix, (long)getpid());
+    snprintf(tmp, sizeof tmp, "%s%s%ld", path, suffix, pds__process_id());
     f = fopen(tmp, "wb");
     if (!f) return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot write: %s", strerror(errno));
     ok = fwrite(data, 1, size, f) == size;
@@ -266,8 +379,14 @@ static pds_status pds__write_file_atomic(const char *path, const void *data, siz
         remove(tmp);
         return pds__fail(err, PDS_ERR_IO, path, 0, 0, "write failed: %s", strerror(errno));
     }
+#ifdef _WIN32
+    /* Windows' rename refuses an existing target: replace it in one call */
+    if (!MoveFileExA(tmp, path, MOVEFILE_REPLACE_EXISTING)) {
+        int e = EACCES;
+#else
     if (rename(tmp, path) != 0) {
         int e = errno;
+#endif
         remove(tmp);
         return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot rename into place: %s", strerror(e));
     }
@@ -473,7 +592,11 @@ static long pds__finite_floats(const double *in, float *out, size_t n)
 /* Physical memory of this machine in bytes, 0 if the system does not say. */
 static double pds__physical_memory(void)
 {
-#if defined(_SC_PHYS_PAGES) && defined(_SC_PAGESIZE)
+#ifdef _WIN32
+    MEMORYSTATUSEX ms;
+    ms.dwLength = sizeof ms;
+    if (GlobalMemoryStatusEx(&ms)) return (double)ms.ullTotalPhys;
+#elif defined(_SC_PHYS_PAGES) && defined(_SC_PAGESIZE)
     long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
     if (pages > 0 && page > 0) return (double)pages * (double)page;
 #endif
@@ -482,14 +605,28 @@ static double pds__physical_memory(void)
 
 double pds_time_now(void)
 {
+#ifdef _WIN32
+    LARGE_INTEGER f, c;
+    QueryPerformanceFrequency(&f);
+    QueryPerformanceCounter(&c);
+    return (double)c.QuadPart / (double)f.QuadPart;
+#else
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+#endif
 }
 
 int pds_cpu_count(void)
 {
+#ifdef _WIN32
+    SYSTEM_INFO si;
+    long n;
+    GetSystemInfo(&si);
+    n = (long)si.dwNumberOfProcessors;
+#else
     long n = sysconf(_SC_NPROCESSORS_ONLN);
+#endif
     if (n < 1) return 1;
     if (n > 256) return 256;
     return (int)n;
@@ -6134,17 +6271,17 @@ static int pds__is_shape_kind(const char *w);
 
 static pds_status pds__unknown_key(pds__parser *P, const char *what)
 {
-    const char *w = P->tok.text, *near = NULL;
+    const char *w = P->tok.text, *closest = NULL;
     int i, best = 3;
     for (i = 0; i < P->nkeys; i++) {
         int d = pds__edit_distance(w, P->keys[i]);
         if (d < best) {
             best = d;
-            near = P->keys[i];
+            closest = P->keys[i];
         }
     }
-    if (near && best <= (strlen(w) > 4 ? 2 : 1))
-        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown keyword '%s' in %s (did you mean '%s'?)", w, what, near);
+    if (closest && best <= (strlen(w) > 4 ? 2 : 1))
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown keyword '%s' in %s (did you mean '%s'?)", w, what, closest);
     if (!strcmp(w, "camera") || !strcmp(w, "material") || !strcmp(w, "light") || pds__is_shape_kind(w))
         /* a statement inside a block: the block's '}' is most likely missing */
         return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' starts a statement, but %s opened at %d:%d is not closed "
@@ -9080,10 +9217,10 @@ typedef struct pds__render_job {
     int spp, pass, total_spp_max;
     pds_filter filter;
     uint64_t seed;
-    pthread_mutex_t lock;
+    pds__mutex lock;
     int next_row;          /* guarded by lock */
     int rows_done;         /* guarded by lock */
-    pthread_t caller;
+    pds__thread_id caller;
     pds_progress_fn progress;
     void *progress_user;
     double t0, progress_scale, progress_base;
@@ -9118,9 +9255,9 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
                     v.pixel = (int)pixel;
                     (*arr)[job->row_count[y]++] = v;
                 } else {
-                    pthread_mutex_lock(&job->lock);
+                    pds__mutex_lock(&job->lock);
                     job->out_of_memory = 1;
-                    pthread_mutex_unlock(&job->lock);
+                    pds__mutex_unlock(&job->lock);
                 }
             }
         } else {
@@ -9141,18 +9278,18 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
 static void *pds__render_worker(void *arg)
 {
     pds__render_job *job = (pds__render_job *)arg;
-    int is_caller = pthread_equal(pthread_self(), job->caller);
+    int is_caller = pds__thread_equal(pds__thread_self(), job->caller);
     for (;;) {
         int y, x, done;
-        pthread_mutex_lock(&job->lock);
+        pds__mutex_lock(&job->lock);
         y = job->next_row++;
-        pthread_mutex_unlock(&job->lock);
+        pds__mutex_unlock(&job->lock);
         if (y >= job->frame.height) break;
         for (x = 0; x < job->frame.width; x++)
             pds__render_pixel(job, x, y, &job->sum[3 * ((size_t)y * job->frame.width + x)]);
-        pthread_mutex_lock(&job->lock);
+        pds__mutex_lock(&job->lock);
         done = ++job->rows_done;
-        pthread_mutex_unlock(&job->lock);
+        pds__mutex_unlock(&job->lock);
         if (is_caller && job->progress)
             job->progress(job->progress_user, job->progress_base + job->progress_scale * done / job->frame.height,
                           pds_time_now() - job->t0);
@@ -9164,16 +9301,7 @@ static void *pds__render_worker(void *arg)
    the number of threads that ran. */
 static int pds__run_threads(int n, void *(*fn)(void *), void *arg)
 {
-    pthread_t tid[256];
-    int started = 0, i;
-    if (n > 256) n = 256;
-    for (i = 1; i < n; i++) {
-        if (pthread_create(&tid[started], NULL, fn, arg) != 0) break;
-        started++;
-    }
-    fn(arg);
-    for (i = 0; i < started; i++) pthread_join(tid[i], NULL);
-    return started + 1;
+    return pds__threads_run(n, fn, arg);
 }
 
 
@@ -9930,12 +10058,12 @@ typedef struct pds__photon_job {
     double n_planned;          /* photon count for eqs. 5-6 */
     long n_total;              /* photons to emit (upper bound in time mode) */
     double deadline;           /* pds_time_now() limit, 0 = none */
-    pthread_mutex_t lock;
+    pds__mutex lock;
     long next_batch, batches_done;   /* guarded by lock */
     int stop;                        /* guarded by lock */
     pds__splat_buf *bufs;
     int nbufs, next_buf;             /* guarded by lock */
-    pthread_t caller;
+    pds__thread_id caller;
     pds_progress_fn progress;
     void *progress_user;
     double t0;
@@ -10247,26 +10375,26 @@ static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, l
 static void *pds__photon_worker(void *arg)
 {
     pds__photon_job *job = (pds__photon_job *)arg;
-    int is_caller = pthread_equal(pthread_self(), job->caller);
+    int is_caller = pds__thread_equal(pds__thread_self(), job->caller);
     pds__splat_buf *buf;
-    pthread_mutex_lock(&job->lock);
+    pds__mutex_lock(&job->lock);
     buf = &job->bufs[job->next_buf++];
-    pthread_mutex_unlock(&job->lock);
+    pds__mutex_unlock(&job->lock);
     for (;;) {
         long b, i, first, last, done;
-        pthread_mutex_lock(&job->lock);
+        pds__mutex_lock(&job->lock);
         if (job->deadline > 0.0 && pds_time_now() >= job->deadline) job->stop = 1;
         b = job->stop ? -1 : job->next_batch++;
         if (b >= 0 && b * (long)PDS__PHOTON_BATCH >= job->n_total) b = -1;
-        pthread_mutex_unlock(&job->lock);
+        pds__mutex_unlock(&job->lock);
         if (b < 0) break;
         first = b * (long)PDS__PHOTON_BATCH;
         last = first + PDS__PHOTON_BATCH < job->n_total ? first + PDS__PHOTON_BATCH : job->n_total;
         for (i = first; i < last; i++) pds__trace_photon(job, buf, job->index_offset + i);
         if (buf->npending) pds__splat_pending(job, buf);
-        pthread_mutex_lock(&job->lock);
+        pds__mutex_lock(&job->lock);
         done = ++job->batches_done;
-        pthread_mutex_unlock(&job->lock);
+        pds__mutex_unlock(&job->lock);
         if (is_caller && job->progress) {
             double frac = job->deadline > 0.0 ? (pds_time_now() - job->t0) / (job->deadline - job->t0)
                                               : (double)done * PDS__PHOTON_BATCH / (double)job->n_total;
@@ -10307,9 +10435,9 @@ static void pds__photon_run(pds__photon_job *job, int threads, long index_offset
     job->next_batch = job->batches_done = 0;
     job->stop = 0;
     job->next_buf = 0;
-    pthread_mutex_init(&job->lock, NULL);
+    pds__mutex_init(&job->lock);
     pds__run_threads(threads, pds__photon_worker, job);
-    pthread_mutex_destroy(&job->lock);
+    pds__mutex_destroy(&job->lock);
 }
 
 /* s_i of pass i (from 1). */
@@ -10467,7 +10595,7 @@ typedef struct pds__gather {
     void (*estimate)(const struct pds__gather *g, const pds__eye_vertex *v, const size_t *idx, const double *d2,
                      size_t n, double sum[3]);
     pds__splat_buf *bufs;
-    pthread_mutex_t lock;
+    pds__mutex lock;
     size_t next;               /* guarded by lock: next vertex chunk */
     int next_buf;              /* guarded by lock */
     int out_of_memory;         /* guarded by lock */
@@ -10483,18 +10611,18 @@ static void *pds__gather_worker(void *arg)
     size_t *idx = (size_t *)malloc(sizeof *idx * g->k);
     double *d2 = (double *)malloc(sizeof *d2 * g->k);
     size_t found = 0;
-    pthread_mutex_lock(&g->lock);
+    pds__mutex_lock(&g->lock);
     buf = &g->bufs[g->next_buf++];
     if (!idx || !d2) g->out_of_memory = 1;
-    pthread_mutex_unlock(&g->lock);
+    pds__mutex_unlock(&g->lock);
     for (;;) {
         size_t first, last, i;
-        pthread_mutex_lock(&g->lock);
+        pds__mutex_lock(&g->lock);
         g->found += (double)found;
         found = 0;
         first = g->out_of_memory ? g->nv : g->next;
         g->next = first + PDS__GATHER_CHUNK;
-        pthread_mutex_unlock(&g->lock);
+        pds__mutex_unlock(&g->lock);
         if (first >= g->nv) break;
         last = first + PDS__GATHER_CHUNK < g->nv ? first + PDS__GATHER_CHUNK : g->nv;
         for (i = first; i < last; i++) {
@@ -10518,9 +10646,9 @@ static void *pds__gather_worker(void *arg)
 static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int threads, pds_error *err)
 {
     g->bufs = job->bufs;
-    pthread_mutex_init(&g->lock, NULL);
+    pds__mutex_init(&g->lock);
     pds__run_threads(threads < job->nbufs ? threads : job->nbufs, pds__gather_worker, g);
-    pthread_mutex_destroy(&g->lock);
+    pds__mutex_destroy(&g->lock);
     return g->out_of_memory ? pds__nomem(err) : PDS_OK;
 }
 
@@ -10744,7 +10872,7 @@ typedef struct pds__ppm_job {
     const pds__stored_photon *photons;
     const pds__kdtree *tree;
     double alpha, photon_scale; /* photon_scale: stored flux -> flux alone */
-    pthread_mutex_t lock;
+    pds__mutex lock;
     size_t next;                /* guarded by lock */
 } pds__ppm_job;
 
@@ -10777,10 +10905,10 @@ static void *pds__ppm_worker(void *arg)
     pds__ppm_job *job = (pds__ppm_job *)arg;
     for (;;) {
         size_t first, last, i;
-        pthread_mutex_lock(&job->lock);
+        pds__mutex_lock(&job->lock);
         first = job->next;
         job->next = first + PDS__GATHER_CHUNK;
-        pthread_mutex_unlock(&job->lock);
+        pds__mutex_unlock(&job->lock);
         if (first >= job->nv) break;
         last = first + PDS__GATHER_CHUNK < job->nv ? first + PDS__GATHER_CHUNK : job->nv;
         for (i = first; i < last; i++) {
@@ -10835,9 +10963,9 @@ static pds_status pds__ppm_update(pds__photon_job *job, const pds_options *opt, 
     pj.tree = &tree;
     pj.alpha = opt->alpha;
     pj.photon_scale = job->n_planned;
-    pthread_mutex_init(&pj.lock, NULL);
+    pds__mutex_init(&pj.lock);
     pds__run_threads(threads, pds__ppm_worker, &pj);
-    pthread_mutex_destroy(&pj.lock);
+    pds__mutex_destroy(&pj.lock);
     if (stats) stats->time_gather_s += pds_time_now() - tg;
     pds__kdtree_free(&tree);
     free(photons);
@@ -11035,7 +11163,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.max_depth = opt->photon_depth;
     job.n_total = opt->photons;
     job.n_planned = (double)opt->photons;
-    job.caller = pthread_self();
+    job.caller = pds__thread_self();
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
     job.t0 = t0;
@@ -11087,13 +11215,13 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
            For every method the image is normalised by the photons actually
            emitted before the deadline. */
         double rate, tc = pds_time_now(), remaining;
-        pthread_mutex_init(&job.lock, NULL);
+        pds__mutex_init(&job.lock);
         job.n_total = 2 * PDS__PHOTON_BATCH;
         job.next_buf = 0;
         job.progress = NULL; /* the calibration is not the pass the caller waits for */
         pds__run_threads(1, pds__photon_worker, &job);
         job.progress = opt->progress;
-        pthread_mutex_destroy(&job.lock);
+        pds__mutex_destroy(&job.lock);
         rate = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6) * threads;
         remaining = opt->time_s - (pds_time_now() - t0);
         if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM) {
@@ -11121,10 +11249,10 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.stop = 0;
     }
     if (!st && opt->method != PDS_METHOD_PPM && !progressive) {
-        pthread_mutex_init(&job.lock, NULL);
+        pds__mutex_init(&job.lock);
         job.next_buf = 0;
         threads = pds__run_threads(threads, pds__photon_worker, &job);
-        pthread_mutex_destroy(&job.lock);
+        pds__mutex_destroy(&job.lock);
         emitted = job.batches_done * (long)PDS__PHOTON_BATCH;
         if (emitted > job.n_total) emitted = job.n_total;
         for (t = 0; t < job.nbufs; t++)
@@ -11640,8 +11768,8 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
         free(job.row_cap);
         return pds__nomem(err);
     }
-    pthread_mutex_init(&job.lock, NULL);
-    job.caller = pthread_self();
+    pds__mutex_init(&job.lock);
+    job.caller = pds__thread_self();
     threads = opt->threads > 0 ? opt->threads : pds_cpu_count();
     if (threads > h) threads = h;
     for (job.pass = 0; job.pass < max_passes; job.pass++) {
@@ -11664,7 +11792,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
             break;
         }
     }
-    pthread_mutex_destroy(&job.lock);
+    pds__mutex_destroy(&job.lock);
     stats->time_eye_s = pds_time_now() - job.t0;
     stats->memory_bytes = npix * 3 * sizeof(double);
     /* the average of the passes, in place */

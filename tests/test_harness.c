@@ -910,7 +910,7 @@ static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
     CHECK(t, strstr(out, "pds render: note: --k has no effect with --method pt (it is for pm)\n") != NULL, "%s", out);
     remove(png);
     CHECK(t, cli_run("--help", out, sizeof out) == 0, "--help");
-    CHECK(t, strstr(out, "pm and pdm store every photon, so their memory grows with") && strstr(out, "  sweep SCENE") &&
+    CHECK(t, strstr(out, "pm and pdm store every photon (map_bytes on the last line)") && strstr(out, "  sweep SCENE") &&
                  strstr(out, "  race SCENE") && strstr(out, "--max-photons N"),
           "--help describes the harness and the baselines");
 }
