@@ -42,6 +42,22 @@
 #define _POSIX_C_SOURCE 200809L
 #endif
 
+/* The small core (README "A small core"): -DPDS_CORE leaves out the
+   first three extras below; each can also be left out alone. What stays
+   is the method: scenes, OBJ geometry, BVH, materials, lights, the eye
+   pass and path tracer, photon differentials, splatting, PFM images,
+   metrics and the teaching views.
+     PDS_NO_PNG        the PNG writer and its deflate coder (write .pfm)
+     PDS_NO_BASELINES  pm, pdm, splat and ppm (pds and pt stay)
+     PDS_NO_BENCH      pds_bench_* (they return PDS_ERR_INVALID_ARG)
+     PDS_NO_MTL        MTL material libraries (OBJ faces get the default
+                       material) */
+#ifdef PDS_CORE
+#define PDS_NO_PNG 1
+#define PDS_NO_BASELINES 1
+#define PDS_NO_BENCH 1
+#endif
+
 #include "pds.h"
 
 #include <ctype.h>
@@ -644,7 +660,9 @@ static pds__v3 pds__v(double x, double y, double z) { pds__v3 r; r.x = x; r.y = 
 static pds__v3 pds__add(pds__v3 a, pds__v3 b) { return pds__v(a.x + b.x, a.y + b.y, a.z + b.z); }
 static pds__v3 pds__sub(pds__v3 a, pds__v3 b) { return pds__v(a.x - b.x, a.y - b.y, a.z - b.z); }
 static pds__v3 pds__scale(pds__v3 a, double s) { return pds__v(a.x * s, a.y * s, a.z * s); }
+#ifndef PDS_NO_BENCH
 static pds__v3 pds__mul(pds__v3 a, pds__v3 b) { return pds__v(a.x * b.x, a.y * b.y, a.z * b.z); }
+#endif
 static double pds__dot(pds__v3 a, pds__v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 static pds__v3 pds__cross(pds__v3 a, pds__v3 b)
 {
@@ -1398,6 +1416,7 @@ static int pds__obj_rest(pds__obj_state *s, pds__obj_lexer *lx, char *buf, size_
     return 0;
 }
 
+#ifndef PDS_NO_MTL
 /* ------------------------------------------------------------------ MTL */
 
 /* An MTL material as read, before mapping to a pds_material. */
@@ -1643,6 +1662,8 @@ static pds_status pds__obj_mtllib(pds__obj_state *s, pds__obj_lexer *lx)
     free(names);
     return st;
 }
+
+#endif /* PDS_NO_MTL */
 
 /* ------------------------------------------------------- triangulation */
 
@@ -2483,7 +2504,11 @@ static pds_status pds__obj_statement(pds__obj_state *s, pds__obj_lexer *lx, cons
         }
         s->slot = slot;
     } else if (pds__obj_is(kw, "mtllib")) {
+#ifdef PDS_NO_MTL
+        return PDS_OK; /* a build without MTL libraries: default materials */
+#else
         return pds__obj_mtllib(s, lx);
+#endif
     } else if (pds__obj_is(kw, "g")) {
         s->st->groups++;
     } else if (pds__obj_is(kw, "o")) {
@@ -5669,6 +5694,7 @@ static void pds__kdtree_range(const pds__kdtree *kd, pds__v3 c, double r, pds__k
     }
 }
 
+#if !(defined(PDS_NO_BASELINES) && defined(PDS_NO_BENCH)) || defined(PDS_TEST)
 /* Heap order on (dist2, index): 1 if a ranks after b. Written with &
    and | so that it compiles to flag arithmetic, not two branches: the
    outcome is unpredictable, so branches would mostly mispredict. */
@@ -5812,6 +5838,7 @@ static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double
     }
     return cnt;
 }
+#endif
 
 /* ===================================================================== */
 /* >>scene                                                               */
@@ -7484,6 +7511,7 @@ static int pds__filter_matrix(pds__v3 dpdu, pds__v3 dpdv, pds__v3 np, double M[2
     return 1;
 }
 
+#if !defined(PDS_NO_BENCH) || defined(PDS_TEST)
 /* The slow reference for eq 12: the general 3x3 inverse of
    B = [Du/2, Dv/2, np] (columns) by cofactors, B^-1 = adj(B) / det(B),
    keeping its top two rows. Same contract as pds__filter_matrix; used by
@@ -7517,6 +7545,7 @@ static int pds__filter_matrix_general(pds__v3 dpdu, pds__v3 dpdv, pds__v3 np, do
         for (j = 0; j < 3; j++) M[i][j] = C[j][i] * inv;
     return 1;
 }
+#endif
 
 /* Silverman's second-order kernel, eq 11, as a function of r^2 >= 0:
    3/pi (1 - r^2)^2 inside the unit disc, 0 outside (and for NaN). Its
@@ -7573,10 +7602,12 @@ static int pds__footprint_widen_to(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, dou
     return 1;
 }
 
+#if !defined(PDS_NO_BASELINES) || defined(PDS_TEST)
 static int pds__footprint_widen(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double min_aspect)
 {
     return pds__footprint_widen_to(dpdu, dpdv, np, min_aspect, 0.0);
 }
+#endif
 
 /* Anisotropy metric m_a of appendix B: with Dmax / Dmin the longer /
    shorter positional vector, the part of Dmin perpendicular to Dmax over
@@ -8004,6 +8035,7 @@ static double pds__srgb_encode(double linear)
     return 1.055 * pow(c, 1.0 / 2.4) - 0.055;
 }
 
+#ifndef PDS_NO_PNG
 /* CRC-32 as used by PNG and zlib (ISO 3309 / ITU-T V.42): reflected
    polynomial 0xEDB88320, register preset to all ones and inverted at the
    end. Continue a running CRC by passing the previous result; start with 0.
@@ -8675,6 +8707,15 @@ pds_status pds_image_write_png(const char *path, const pds_image *img,
     free(o.buf);
     return st;
 }
+
+#else
+pds_status pds_image_write_png(const char *path, const pds_image *img,
+                               double exposure_stops, pds_error *err)
+{
+    (void)img, (void)exposure_stops;
+    return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "this build leaves PNG out (PDS_NO_PNG): write a .pfm");
+}
+#endif /* PDS_NO_PNG */
 
 /* ASCII-only lower case, independent of the locale. */
 static int pds__ascii_lower(int c)
@@ -10480,6 +10521,7 @@ static long pds__pds_passes(pds__photon_job *job, const pds_options *opt, int th
     return k * m;
 }
 
+#ifndef PDS_NO_BASELINES
 /* ===================================================================== */
 /* >>baselines                                                           */
 /* ===================================================================== */
@@ -11106,6 +11148,8 @@ static double pds__map_budget(pds__photon_job *job, const pds_options *opt, cons
                               (double)(opt->method == PDS_METHOD_PM ? opt->k : opt->max_photons), nv, rate, remaining));
 }
 
+#endif /* PDS_NO_BASELINES */
+
 /* --- the photon pass --------------------------------------------------- */
 
 /* After the eye pass: emit and trace the caustic photons for method m and
@@ -11167,9 +11211,13 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
     job.t0 = t0;
+#ifdef PDS_NO_BASELINES
+    job.land = pds__defer_splat; /* pds alone (pds__options_check) */
+#else
     job.land = splats ? pds__defer_splat : opt->method == PDS_METHOD_PDM ? pds__store_diff_photon : pds__store_photon;
-    job.differentials = opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_PDM;
     if (opt->method == PDS_METHOD_SPLAT) job.fixed_radius = opt->radius > 0.0 ? opt->radius : pds__default_radius(s);
+#endif
+    job.differentials = opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_PDM;
     job.nbufs = threads;
     job.bufs = (pds__splat_buf *)calloc((size_t)threads, sizeof *job.bufs);
     if (!job.bufs) {
@@ -11197,10 +11245,13 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             paths[t].photon_end = debug->path_photons;
         }
     }
+#ifndef PDS_NO_BASELINES
     if (!st && opt->method == PDS_METHOD_PPM) {
         st = pds__ppm_passes(&job, opt, vertices, nvertices, threads, rgb, stats, err);
         emitted = 0; /* the passes added their image themselves */
-    } else if (!st && progressive) {
+    } else
+#endif
+    if (!st && progressive) {
         long passes = 0;
         job.progress = NULL; /* the passes report progress themselves */
         emitted = pds__pds_passes(&job, opt, threads, opt->time_s > 0.0 ? t0 + opt->time_s : 0.0, &passes);
@@ -11224,11 +11275,13 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         pds__mutex_destroy(&job.lock);
         rate = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6) * threads;
         remaining = opt->time_s - (pds_time_now() - t0);
+#ifndef PDS_NO_BASELINES
         if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM) {
             double tp = pds_time_now();
             remaining = pds__map_budget(&job, opt, vertices, nvertices, threads, rate, fmax(remaining, 0.0));
             remaining -= pds_time_now() - tp; /* the probe's own time */
         }
+#endif
         for (t = 0; t < threads; t++) {
             memset(job.bufs[t].sum, 0, npix * 3 * sizeof(pds__sum128));
             if (dbg) pds__debug_bufs_clear(&dbg[t], npix);
@@ -11258,8 +11311,10 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         for (t = 0; t < job.nbufs; t++)
             if (job.bufs[t].out_of_memory) st = PDS_ERR_NOMEM;
     }
+#ifndef PDS_NO_BASELINES
     if (!st && opt->method == PDS_METHOD_PM) st = pds__pm_gather(&job, opt, vertices, nvertices, threads, stats, err);
     if (!st && opt->method == PDS_METHOD_PDM) st = pds__pdm_gather(&job, opt, vertices, nvertices, threads, stats, err);
+#endif
     if (!st && stats && (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM)) {
         stats->time_map_s = job.build_s;
         stats->time_gather_s = job.gather_s;
@@ -11618,6 +11673,12 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown rendering method %d", (int)opt->method);
     if ((unsigned)opt->paths > (unsigned)PDS_PATHS_CAUSTICS_ONLY)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown light path selection %d", (int)opt->paths);
+#ifdef PDS_NO_BASELINES
+    if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPLAT ||
+        opt->method == PDS_METHOD_PPM)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "this build leaves the baselines out (PDS_NO_BASELINES): "
+                         "method %s is not in it", pds_method_name(opt->method));
+#endif
     if (opt->debug) {
         if (opt->debug->views >= (1u << PDS_DEBUG_VIEWS))
             return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown debug view in 0x%x", opt->debug->views);
@@ -11682,10 +11743,12 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
         photons = opt->time_s > 0.0 ? 0.0 : (double)opt->photons; /* a time budget: not known in advance */
         if (opt->method == PDS_METHOD_PM) est->stored_photons = photons;
         if (opt->method == PDS_METHOD_PDM) est->stored_photons = photons;
+#ifndef PDS_NO_BASELINES
         if (opt->method == PDS_METHOD_PPM) {
             est->stored_photons = (double)opt->photons;
             bytes += est->eye_vertices * sizeof(pds__ppm_state);
         }
+#endif
         if (opt->method == PDS_METHOD_PDM) bytes += est->stored_photons * 2.0 * sizeof(pds__diff_photon);
         else bytes += est->stored_photons * (2.0 * sizeof(pds__stored_photon) + 21.0);
     }
@@ -11833,6 +11896,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     return PDS_OK;
 }
 
+#ifndef PDS_NO_BENCH
 /* `pds bench rays`: the rays are made before the clock starts, so only
    traversal is timed (best of three passes after a warm-up). Primary: an n x n grid from the bounding box centre
    + (0, 0, 1.5 x largest extent), looking down -z, 60 degree square field
@@ -12038,3 +12102,24 @@ pds_status pds_bench_kdtree(long points, pds_bench_kdtree_result *out, pds_error
     free(d2);
     return PDS_OK;
 }
+#else
+static pds_status pds__no_bench(pds_error *err)
+{
+    return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "this build leaves the benchmarks out (PDS_NO_BENCH)");
+}
+pds_status pds_bench_rays(const char *path, long rays, pds_bench_rays_result *out, pds_error *err)
+{
+    (void)path, (void)rays, (void)out;
+    return pds__no_bench(err);
+}
+pds_status pds_bench_filter(long filters, pds_bench_filter_result *out, pds_error *err)
+{
+    (void)filters, (void)out;
+    return pds__no_bench(err);
+}
+pds_status pds_bench_kdtree(long points, pds_bench_kdtree_result *out, pds_error *err)
+{
+    (void)points, (void)out;
+    return pds__no_bench(err);
+}
+#endif /* PDS_NO_BENCH */

@@ -1,6 +1,7 @@
 /* tests/test_main.c - the PDS test program. It includes the library itself,
    so static functions are testable, then every test file; each file
    contributes one table of tests. Usage: test_pds [NAME-SUBSTRING...]. */
+#define PDS_TEST 1 /* keep the helpers the tests use in any build (pds.c >>config) */
 #include "pds.c"
 #include "runner.h"
 
