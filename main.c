@@ -1455,8 +1455,9 @@ static int cmd_pixel(int argc, char **argv)
         return 1;
     }
     if (x >= img.width || y >= img.height) {
+        int w = img.width, h = img.height;
         pds_image_free(&img);
-        return usage_error("pixel %ld,%ld is outside the %dx%d image", x, y, img.width, img.height);
+        return usage_error("pixel %ld,%ld is outside the %dx%d image", x, y, w, h);
     }
     for (j = y - r; j <= y + r; j++)
         for (i = x - r; i <= x + r; i++) {

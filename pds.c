@@ -5,8 +5,10 @@
    Table of contents (grep for the tag); each section uses only those
    above it:
      >>config     feature macros, includes, limits
-     >>util       status strings, error reporting, growable arrays, bounded
-                  file reading, string map, exact order-free sums, time
+     >>util       status strings, error reporting, growable arrays, the
+                  system layer (threads, clock, files: POSIX or Win32),
+                  bounded file reading, string map, exact order-free sums,
+                  time
      >>math       3-vectors in double precision, orthonormal bases, transforms
      >>mesh       the triangle store every shape ends up in; material table
      >>rng        counter-based random numbers: f(seed, purpose, index, dim)
@@ -23,11 +25,15 @@
      >>image      PFM read/write, PNG write, tone mapping
      >>metrics    RMSE and SSIM
      >>render     camera, path tracer and eye pass, preview, row scheduler
+     >>debug      teaching views: colour bars and a bitmap font, camera
+                  projection, the views' per-thread counts, the photon
+                  path recorder and the paths OBJ
      >>pds        photon differential splatting: aimed caustic photons,
                   tracing with differentials, splatting into the eye-path map
      >>baselines  pm, pdm, splat, ppm, and the photon pass all photon
                   methods share
-     >>api        public entry points: render, options, benchmarks
+     >>api        public entry points: render, options, teaching views,
+                  trace-photon, benchmarks
 */
 
 /* ===================================================================== */
@@ -9787,7 +9793,7 @@ static pds_status pds__debug_finish(pds_debug *d, pds__debug_buf *b, int nb, int
             return PDS_ERR_NOMEM;
         }
         for (t = 0, total = 0; t < nb; t++) {
-            memcpy(all + total, b[t].ell, sizeof *all * b[t].nell);
+            if (b[t].nell) memcpy(all + total, b[t].ell, sizeof *all * b[t].nell);
             total += b[t].nell;
         }
         qsort(all, total, sizeof *all, pds__ellipse_cmp);
@@ -11341,7 +11347,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             all = (pds__path_event *)malloc(sizeof *all * (total ? total : 1));
             if (!all) st = PDS_ERR_NOMEM;
             for (t = 0, k = 0; !st && t < job.nbufs; t++) {
-                memcpy(all + k, paths[t].ev, sizeof *all * paths[t].n);
+                if (paths[t].n) memcpy(all + k, paths[t].ev, sizeof *all * paths[t].n);
                 k += paths[t].n;
             }
             if (!st) {

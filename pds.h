@@ -26,6 +26,9 @@
        }
 
    Build:   cc -std=c99 -O2 -o pds main.c pds.c -lm -lpthread
+            (Windows: x86_64-w64-mingw32-gcc -std=c99 -O2 -o pds.exe main.c
+            pds.c, or cl /O2 /std:c11 /Fe:pds.exe main.c pds.c; the small
+            core: -DPDS_CORE, see README.md)
 
    Thread safety: a loaded pds_scene is immutable; any number of threads may
    call the query functions on it at once. Loading, freeing and writing images

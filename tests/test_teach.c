@@ -225,6 +225,27 @@ static void test_cli_trace_photon_prints_differentials_and_their_check(pds_test_
     CHECK(t, cli_run("trace-photon scenes/refraction.scene", out, sizeof out) == 2, "no --photon: %s", out);
     CHECK(t, strstr(out, "trace-photon needs --photon I") != NULL, "message: %s", out);
 }
+
+/* pds pixel: the mean of a window, clipped at the image's edge. */
+static void test_cli_pixel_prints_the_mean_of_a_window(pds_test_ctx *t)
+{
+    char out[4096], path[128], args[256];
+    pds_image img = {0, 0, NULL};
+    pds_error err;
+    int i;
+    snprintf(path, sizeof path, "/tmp/pds_teach_pixel_%ld.pfm", (long)getpid());
+    REQUIRE(t, pds_image_alloc(&img, 4, 3) == PDS_OK, "alloc");
+    for (i = 0; i < 12; i++) img.rgb[3 * i] = img.rgb[3 * i + 1] = img.rgb[3 * i + 2] = (float)i; /* value = x + 4 y */
+    REQUIRE(t, pds_image_write_pfm(path, &img, &err) == PDS_OK, "%s", err.text);
+    snprintf(args, sizeof args, "pixel %s 1 1 1", path);
+    CHECK(t, cli_run(args, out, sizeof out) == 0 && strstr(out, "pixel x=1 y=1 radius=1 pixels=9 r=5 g=5 b=5"), "%s", out);
+    snprintf(args, sizeof args, "pixel %s 0 0 1", path); /* (0,1,4,5) */
+    CHECK(t, cli_run(args, out, sizeof out) == 0 && strstr(out, "pixels=4 r=2.5 "), "%s", out);
+    snprintf(args, sizeof args, "pixel %s 4 0", path);
+    CHECK(t, cli_run(args, out, sizeof out) == 2 && strstr(out, "pixel 4,0 is outside the 4x3 image"), "%s", out);
+    remove(path);
+    pds_image_free(&img);
+}
 #endif
 
 static const pds_test_case tests_teach[] = {
@@ -236,5 +257,6 @@ static const pds_test_case tests_teach[] = {
     {"trace_photon_differentials_match_finite_differences", test_trace_photon_differentials_match_finite_differences},
 #ifdef PDS_TEST_POSIX
     {"cli_trace_photon_prints_differentials_and_their_check", test_cli_trace_photon_prints_differentials_and_their_check},
+    {"cli_pixel_prints_the_mean_of_a_window", test_cli_pixel_prints_the_mean_of_a_window},
 #endif
 };
