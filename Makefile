@@ -150,6 +150,7 @@ $(BUNNY):
 bench: pds $(BUNNY)
 	./pds bench rays $(BUNNY) 4000000
 	./pds bench pt
+	./pds bench pass scenes/*.scene
 
 # Fuzzing (README "Fuzzing"): one libFuzzer harness per reader in
 # tests/fuzz/, built with clang and every sanitizer that applies. All of

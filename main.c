@@ -86,6 +86,8 @@ typedef struct command_help {
     const char *synopsis; /* "render SCENE [options]" */
     const char *summary;  /* one line */
     const char *details;  /* options and notes, indented six spaces; may be "" */
+    const char *more;     /* their continuation (a C99 compiler need not take a
+                             string literal longer than 4095 characters) */
     int takes_options;    /* follows the option syntax of render (the footer applies) */
 } command_help;
 
@@ -110,6 +112,10 @@ static const command_help help_table[] = {
      "      --pass-min-aspect A     progressive pds: as --min-aspect (default 0.15)\n"
      "      --pass-min-width W      progressive pds: as --min-width (default 1.5)\n"
      "      --pass-photons N        progressive pds: photons per pass, at most (default 16384)\n"
+     "      --split-depth N         progressive pds: split a photon whose footprint the surface's curvature\n"
+     "                              makes non-linear into 4 sub-photons, at most N times (default 2; 0 = never)\n"
+     "      --split-angle A         progressive pds: split above a normal turn of A radians over the\n"
+     "                              footprint (default 0.2)\n"
      "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"
      "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
      "      --debug NAME            write a view OUT.NAME.png: footprint, landings, ellipses[=N], splats,\n"
@@ -121,8 +127,9 @@ static const command_help help_table[] = {
      "      --radius R              splat: splat radius; ppm: initial radius (default: from the scene)\n"
      "      --alpha A               ppm: radius reduction, 0 < A <= 1 (default 0.7)\n"
      "      --passes N              ppm: photon passes (default 10; with --time, until the time is spent)\n"
-     "                              memory: pm and pdm store every photon (map_bytes on the last line);\n"
-     "                              ppm one pass's photons, pds and splat none\n"
+     "                              memory: pm and pdm store every photon, so their memory grows with\n"
+     "                              --photons (the final line reports map_bytes); ppm keeps one pass's\n"
+     "                              photons, pds and splat none\n",
      "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
      "      --res WxH               resolution (default: the scene camera's)\n"
      "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
@@ -148,7 +155,7 @@ static const command_help help_table[] = {
      "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
      "                              (RMSE and SSIM against the parameter), one PNG per value\n"
      "      and any render option, e.g. --photons N, --res WxH, --caustics-only\n",
-     1},
+     "", 1},
     {"race", "race SCENE --ref REF.pfm (--time T | --photons N | --budgets LIST) --methods LIST [options]",
      "every method on the same budget, side by side against REF",
      "      --methods LIST          e.g. pds,pm:k=50,pdm,splat:radius=0.05,ppm; options for one\n"
@@ -164,27 +171,32 @@ static const command_help help_table[] = {
      "                              largest luminance variance)\n"
      "      -o DIR                  output folder (default race-SCENE): index.html, race.csv, images\n"
      "      and any render option; it applies to every method it concerns\n",
-     1},
-    {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", 0},
-    {"pixel", "pixel IMAGE.pfm X Y [R]", "mean value of the pixels within R (default 0) of pixel X,Y", "", 0},
+     "", 1},
+    {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", "", 0},
+    {"pixel", "pixel IMAGE.pfm X Y [R]", "mean value of the pixels within R (default 0) of pixel X,Y", "", "", 0},
     {"trace-photon", "trace-photon SCENE --photon I [options]",
      "one caustic photon's path with its differentials beside finite differences",
      "      --photon I              the photon's number (0 = the first the renderer emits)\n"
      "      --photons N             N of the paper's eqs. 5-6 (default 100000)\n"
      "      --smoothing S           s of eqs. 5-6 (default 12)\n"
      "      --seed N                random seed (default 0)\n"
-     "      --max-depth N           most specular bounces (default 16)\n",
-     0},
-    {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", 0},
+     "      --max-depth N           most specular bounces (default 16)\n"
+     "      at every vertex: position x, direction omega, Du x, Dv x (positional; after the first\n"
+     "      bounce Du x + Dtheta x and Dv x + Dphi x, eq. 7), Dtheta omega, Dphi omega, each beside\n"
+     "      the central difference of neighbouring photons traced by the renderer, and the\n"
+     "      footprint's semi-axes and area (eq. 4)\n",
+     "", 0},
+    {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", "", 0},
     {"bench", "bench WHAT [ARGS]", "micro-benchmarks (figures, never pass/fail):",
      "      rays MESH [N]           BVH build and ray throughput, one thread (N rays, default 1000000)\n"
      "      pt [SCENE]              path-traced samples per second, 1 thread and all threads\n"
      "      photons [SCENE]         PDS caustic photons per second, 1 thread and all threads\n"
+     "      pass [SCENE...]         PDS's photon pass against pm's at 400k photons, 1 thread\n"
      "      memory [SCENE]          PDS working memory at 1e5 and at 1e7 photons\n"
      "      filter                  eq. 12 filter matrices per second against a general 3x3 inverse\n"
      "      kdtree                  eye-path map build, range and nearest-neighbour queries per second\n",
-     0},
-    {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", 0},
+     "", 0},
+    {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", "", 0},
 };
 #define N_COMMANDS (sizeof help_table / sizeof help_table[0])
 
@@ -208,8 +220,8 @@ static void print_overview(FILE *f)
     fputs("usage: pds COMMAND [ARGS]     (pds COMMAND --help: one command's options)\n\ncommands:\n", f);
     for (i = 0; i < N_COMMANDS; i++) {
         const command_help *h = &help_table[i];
-        if (strlen(h->synopsis) <= 26) fprintf(f, "  %-26s  %s\n%s", h->synopsis, h->summary, h->details);
-        else fprintf(f, "  %s\n%30s%s\n%s", h->synopsis, "", h->summary, h->details);
+        if (strlen(h->synopsis) <= 26) fprintf(f, "  %-26s  %s\n%s%s", h->synopsis, h->summary, h->details, h->more);
+        else fprintf(f, "  %s\n%30s%s\n%s%s", h->synopsis, "", h->summary, h->details, h->more);
     }
     fputs("  --help, -h                  this text\n"
           "  --version                   the version\n"
@@ -222,7 +234,7 @@ static void print_overview(FILE *f)
 /* `pds COMMAND --help`. */
 static void print_command_help(const command_help *h, FILE *f)
 {
-    fprintf(f, "usage: pds %s\n  %s\n%s", h->synopsis, h->summary, h->details);
+    fprintf(f, "usage: pds %s\n  %s\n%s%s", h->synopsis, h->summary, h->details, h->more);
     if (h->takes_options) fputs(option_syntax_help, f);
     else fputs("      -h, --help              this text\n", f);
 }
@@ -728,7 +740,7 @@ typedef struct run_cfg {
     int progress;        /* 1 on, 0 off, -1 when stderr is a terminal */
     int quiet;           /* --quiet: no progress, no scene warnings */
     pds_debug debug;     /* render --debug NAME: the views asked for */
-    unsigned long given; /* bit i: option_table[i] was on the command line */
+    unsigned char given[128]; /* given[i]: option_table[i] was on the command line */
 } run_cfg;
 
 typedef struct opt_spec opt_spec;
@@ -964,6 +976,10 @@ static const opt_spec option_table[] = {
      M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--pass-photons", NULL, "pass_photons", set_long, OPTF(pass_photons), 1, 1e9, "a whole number from 1 to 1e9",
      M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--split-depth", NULL, "split_depth", set_int, OPTF(split_depth), 0, 8, "a whole number from 0 to 8", M_PDS,
+     C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--split-angle", NULL, "split_angle", set_double, OPTF(split_angle), 0, 10, "an angle above 0 and at most 10 radians",
+     M_PDS, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--pass-alpha", NULL, "pass_alpha", set_double, OPTF(pass_alpha), 0, 1, "a number above 0 and at most 1", M_PDS,
      C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--debug", NULL, "debug", set_debug, 0, 0, 0, "a view name", M_PHOTON, C_RENDER, F_VALUE},
@@ -998,8 +1014,8 @@ static const opt_spec option_table[] = {
     {"--quiet", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
 };
 #define N_OPTIONS (sizeof option_table / sizeof option_table[0])
-/* run_cfg.given has a bit per option: the table must fit in 32 bits */
-typedef char option_table_fits_in_given[N_OPTIONS <= 32 ? 1 : -1];
+/* run_cfg.given has a flag per option */
+typedef char option_table_fits_in_given[N_OPTIONS <= sizeof ((run_cfg *)0)->given ? 1 : -1];
 
 static int option_index(const char *name)
 {
@@ -1013,7 +1029,7 @@ static int option_index(const char *name)
 static int option_given(const run_cfg *c, const char *name)
 {
     int i = option_index(name);
-    return i >= 0 && (c->given & (1ul << i)) != 0;
+    return i >= 0 && c->given[i] != 0;
 }
 
 static void cfg_init(run_cfg *c)
@@ -1103,7 +1119,7 @@ static int parse_option(run_cfg *c, unsigned cmd, const char *cmd_name, int argc
     } else if (a[n] == '=') {
         return usage_error("%s takes no value, got '%s'", name, a);
     }
-    c->given |= 1ul << idx;
+    c->given[idx] = 1;
     return s->set(s, c, name, v);
 }
 
@@ -1124,7 +1140,7 @@ static void note_idle_options(const run_cfg *c, unsigned mask, const char *where
     size_t i;
     for (i = 0; i < N_OPTIONS; i++) {
         char list[128];
-        if (!(c->given & (1ul << i)) || (option_table[i].methods & mask)) continue;
+        if (!c->given[i] || (option_table[i].methods & mask)) continue;
         method_join(option_table[i].methods, " and ", list, sizeof list);
         fprintf(stderr, "pds %s: note: %s has no effect %s (it is for %s)\n", current_command, option_table[i].name,
                 where, list);
@@ -1169,8 +1185,8 @@ static void format_params(const pds_options *o, char *buf, size_t n)
     case PDS_METHOD_PDS:
         if (o->progressive)
             snprintf(buf, n, " progressive=1 pass_smoothing=%g pass_photons=%ld pass_alpha=%g pass_min_aspect=%g"
-                     " pass_min_width=%g", o->pass_smoothing, o->pass_photons, o->pass_alpha, o->pass_min_aspect,
-                     o->pass_min_width);
+                     " pass_min_width=%g split_depth=%d split_angle=%g", o->pass_smoothing, o->pass_photons,
+                     o->pass_alpha, o->pass_min_aspect, o->pass_min_width, o->split_depth, o->split_angle);
         else
             snprintf(buf, n, " smoothing=%g", o->smoothing);
         break;
@@ -1213,7 +1229,7 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
            in the map (pm, pdm); ppm keeps no count of its own */
         printf(" photons=%ld", st->photons);
         if (m == PDS_METHOD_PDS)
-            printf(" splatted=%ld dropped_degenerate=%ld", st->splatted, st->dropped_degenerate);
+            printf(" splatted=%ld dropped_degenerate=%ld split=%ld", st->splatted, st->dropped_degenerate, st->split);
         else if (m == PDS_METHOD_SPLAT)
             printf(" splatted=%ld", st->splatted);
         else if (m != PDS_METHOD_PPM)
@@ -1732,6 +1748,57 @@ static int bench_photons(int argc, char **argv)
     return 0;
 }
 
+/* The photon pass of PDS (default settings) against photon mapping's
+   (tracing, map build and k-nearest gather; k 50) at equal photons, one
+   thread, caustics only, 256 pixels wide at the scene's aspect and spp:
+   the best of three runs of each, and their ratio. */
+static int bench_pass(int argc, char **argv)
+{
+    static const char *defaults[] = {"scenes/refraction.scene", "scenes/reflection.scene"};
+    const char **paths = argc > 0 ? (const char **)argv : defaults;
+    int n = argc > 0 ? argc : 2, i;
+    long photons = 400000;
+    printf("bench pass photons=%ld threads=1 (photon pass seconds, best of 3)\n", photons);
+    for (i = 0; i < n; i++) {
+        pds_scene *scene = NULL;
+        pds_error err;
+        double best[2] = {0.0, 0.0};
+        long splatted = 0;
+        int k, rep;
+        if (load_any(paths[i], &scene, &err) != PDS_OK) {
+            fprintf(stderr, "%s\n", pds_error_string(&err));
+            return 1;
+        }
+        for (rep = 0; rep < 3; rep++) {
+            for (k = 0; k < 2; k++) {
+                pds_options opt;
+                pds_image img = {0, 0, NULL};
+                pds_render_stats st;
+                const pds_camera *cam = pds_scene_camera(scene);
+                pds_options_default(&opt);
+                opt.method = k == 0 ? PDS_METHOD_PDS : PDS_METHOD_PM;
+                opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+                opt.photons = photons;
+                opt.threads = 1;
+                opt.width = 256;
+                opt.height = cam->height * 256 / cam->width > 0 ? cam->height * 256 / cam->width : 1;
+                if (pds_render(scene, &opt, &img, &st, &err) != PDS_OK) {
+                    fprintf(stderr, "%s\n", pds_error_string(&err));
+                    pds_scene_free(scene);
+                    return 1;
+                }
+                pds_image_free(&img);
+                if (rep == 0 || st.time_photons_s < best[k]) best[k] = st.time_photons_s;
+                if (k == 1) splatted = st.splatted;
+            }
+        }
+        printf("bench pass scene=%s landed=%ld pds_s=%.3f pm_s=%.3f pds_over_pm=%.2f\n", paths[i], splatted, best[0],
+               best[1], best[0] / (best[1] > 0.0 ? best[1] : 1e-9));
+        pds_scene_free(scene);
+    }
+    return 0;
+}
+
 /* Peak memory of a PDS render at 1e5 and at 1e7 photons. */
 static int bench_memory(int argc, char **argv)
 {
@@ -1796,6 +1863,7 @@ static int cmd_bench(int argc, char **argv)
     }
     if (!strcmp(argv[0], "pt")) return bench_pt(argc - 1, argv + 1);
     if (!strcmp(argv[0], "photons")) return bench_photons(argc - 1, argv + 1);
+    if (!strcmp(argv[0], "pass")) return bench_pass(argc - 1, argv + 1);
     if (!strcmp(argv[0], "memory")) return bench_memory(argc - 1, argv + 1);
     if (!strcmp(argv[0], "filter")) {
         pds_bench_filter_result r;
@@ -1818,7 +1886,7 @@ static int cmd_bench(int argc, char **argv)
         return 0;
     }
     {
-        static const char *const names[] = {"rays", "pt", "photons", "memory", "filter", "kdtree"};
+        static const char *const names[] = {"rays", "pt", "photons", "pass", "memory", "filter", "kdtree"};
         char hint[256];
         suggestion sug;
         size_t i;
@@ -2446,7 +2514,7 @@ static int cmd_sweep(int argc, char **argv)
         return usage_error("--param knows %s, got '%s'%s", list, param, suggest_text(&sug, hint, sizeof hint));
     }
     ps = &option_table[idx];
-    if (base.given & (1ul << idx))
+    if (base.given[idx])
         return usage_error("%s is the parameter swept: give its values with --values, not %s", param, ps->name);
     if (!(ps->methods & MBIT(method))) {
         method_join(ps->methods, " and ", list, sizeof list);
@@ -2845,7 +2913,7 @@ static int parse_race_methods(const char *list, const run_cfg *base, race_entry 
                 rc = EXIT_USAGE;
                 break;
             }
-            r->cfg.given |= 1ul << idx; /* given: --tune keeps it */
+            r->cfg.given[idx] = 1; /* given: --tune keeps it */
             file_safe(eq + 1, safe, sizeof safe);
             snprintf(r->label + strlen(r->label), sizeof r->label - strlen(r->label), "-%s%s", s->key, safe);
         }
@@ -2953,7 +3021,7 @@ static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_
         if (tg->progressive >= 0 && tg->progressive != (t->cfg.opt.progressive != 0)) continue;
         snprintf(name, sizeof name, "--%s", tg->key);
         idx = option_index(name);
-        if (idx < 0 || (t->cfg.given & (1ul << idx))) continue; /* given: kept as it is */
+        if (idx < 0 || t->cfg.given[idx]) continue; /* given: kept as it is */
         s = &option_table[idx];
         for (i = 0; i < tg->n; i++) {
             run_cfg c = t->cfg;

@@ -368,6 +368,15 @@ typedef struct pds_options {
                            samples, for the tilt), flux unchanged; 0 = never
                            (default 0) */
     int photon_depth;   /* most specular bounces a photon follows (default 16) */
+    int split_depth;    /* pds: adaptive splitting (the paper's sect. 5): a
+                           photon whose footprint the surface's curvature
+                           makes non-linear is re-traced as four sub-photons
+                           with half its differentials, at most this many
+                           times over (0 = never; default 2, at most 8) */
+    double split_angle; /* pds: split when the surface normal turns by more
+                           than this over the footprint (radians), or the
+                           direction spreads by more than twice it
+                           (default 0.2) */
     /* baselines */
     int k;              /* pm: photons per estimate (default 50) */
     pds_kernel kernel;  /* pm: filter (default PDS_KERNEL_CONE) */
@@ -498,6 +507,7 @@ typedef struct pds_render_stats {
     long splatted;          /* photons that reached a non-specular surface
                                after >= 1 specular bounce and were splatted */
     long dropped_degenerate;/* photons whose footprint had collapsed */
+    long split;             /* pds: photons and sub-photons split in four */
     long eye_vertices;      /* vertices in the eye-path map */
     long saturated;         /* terms that overflowed a pixel's exact photon
                                sum (2^128 units, some 10^18 times the scene's
@@ -522,7 +532,7 @@ typedef struct pds_render_stats {
 
 /* What a render will need, from the scene and options alone, before any
    work: an upper bound on the memory it holds at once beyond the scene
-   (per eye vertex 204 bytes, every pixel sample taken to record one; per
+   (per eye vertex 252 bytes, every pixel sample taken to record one; per
    stored photon 133 bytes for pm and ppm, 176 for pdm; per pixel 36 bytes
    plus 48 per thread for the photon methods), the pixel samples of one
    eye pass, and the machine's physical memory (0 if unknown). With a time

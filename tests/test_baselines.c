@@ -180,9 +180,11 @@ static void test_ppm_updates_follow_the_published_recurrence(pds_test_ctx *t)
     int i, inside;
     REQUIRE(t, s != NULL, "%s", err.text);
     memset(&v, 0, sizeof v);
-    v.ns[1] = v.ng[1] = v.wo[1] = 1.0f;
-    v.importance[0] = v.importance[1] = v.importance[2] = 1.0f;
-    v.material = 0;
+    {
+        double one[3] = {1.0, 1.0, 1.0};
+        REQUIRE(t, pds__eye_vertex_set(&v, pds_scene_material(s, 0), pds__v(0, 0, 0), pds__v(0, 1, 0), pds__v(0, 1, 0),
+                                       pds__v(0, 1, 0), one, 0), "vertex");
+    }
     for (i = 0; i < 12; i++) {
         /* photons at distances 0.01 .. 0.12 from the vertex, flux 2 each */
         memset(&ph[i], 0, sizeof ph[i]);
@@ -325,6 +327,38 @@ static void ppm_budget(pds_options *o)
 
 /* ppm under --time runs whole passes until the time is spent, whatever
    --passes says, and counts every photon of them. */
+/* A receiver's winding must not matter: the plane mirror's floor with its
+   triangles facing down (rotated 180 degrees about x, the same plane) gets
+   the same caustic from every photon method as the floor facing up. (It
+   used to get none: the eye vertices kept the mesh's normal as stored.) */
+static void test_photon_methods_light_a_receiver_of_either_winding(pds_test_ctx *t)
+{
+    static const pds_method methods[] = {PDS_METHOD_PDS, PDS_METHOD_PM, PDS_METHOD_PDM, PDS_METHOD_SPLAT,
+                                         PDS_METHOD_PPM};
+    const char *up = "quad { material floor size 8 8 }\n";
+    const char *at = strstr(mirror_scene, up);
+    char flipped[2048];
+    size_t i, head;
+    REQUIRE(t, at != NULL, "the mirror scene has its floor");
+    head = (size_t)(at - mirror_scene);
+    snprintf(flipped, sizeof flipped, "%.*squad { material floor size 8 8 rotate 180 1 0 0 }\n%s", (int)head,
+             mirror_scene, at + strlen(up));
+    for (i = 0; i < sizeof methods / sizeof methods[0]; i++) {
+        pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+        double mean = 0.0;
+        size_t k;
+        REQUIRE(t, photon_render_text(mirror_scene, methods[i], 20000, 8.0, PDS_PATHS_CAUSTICS_ONLY, 2, &a, NULL, NULL),
+                "render");
+        REQUIRE(t, photon_render_text(flipped, methods[i], 20000, 8.0, PDS_PATHS_CAUSTICS_ONLY, 2, &b, NULL, NULL),
+                "render flipped");
+        for (k = 0; k < (size_t)a.width * a.height * 3; k++) mean += a.rgb[k] / ((double)a.width * a.height * 3);
+        CHECK(t, mean > 0.0 && pds_image_rmse(&b, &a) < 1e-4 * mean, "%s: mean %g, rmse between windings %g",
+              pds_method_name(methods[i]), mean, pds_image_rmse(&b, &a));
+        pds_image_free(&a);
+        pds_image_free(&b);
+    }
+}
+
 static void test_ppm_under_a_time_budget_runs_whole_passes(pds_test_ctx *t)
 {
     pds_image img = {0, 0, NULL};
@@ -348,4 +382,5 @@ static const pds_test_case tests_baselines[] = {
     {"map_plan_leaves_time_for_the_build_and_gather", test_map_plan_leaves_time_for_the_build_and_gather},
     {"pdm_max_photons_caps_each_gather", test_pdm_max_photons_caps_each_gather},
     {"ppm_under_a_time_budget_runs_whole_passes", test_ppm_under_a_time_budget_runs_whole_passes},
+    {"photon_methods_light_a_receiver_of_either_winding", test_photon_methods_light_a_receiver_of_either_winding},
 };

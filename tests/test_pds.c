@@ -434,6 +434,101 @@ static void test_progressive_pds_under_a_time_budget_runs_whole_passes(pds_test_
     pds_image_free(&counted);
 }
 
+/* Sub-photons tile their parent's share of the emission domain: their
+   starts and directions are the parent's moved by +-1/4 of its
+   differentials (their mean is the parent), their differentials are half
+   the parent's, the directional ones perpendicular to their own
+   direction. */
+static void test_pds_sub_photons_tile_the_parent(pds_test_ctx *t)
+{
+    pds__ray_diff r, q[4];
+    pds__v3 mean = pds__v(0, 0, 0), dmean = pds__v(0, 0, 0);
+    static const double at[4][2] = {{-0.25, -0.25}, {0.25, -0.25}, {-0.25, 0.25}, {0.25, 0.25}};
+    int k;
+    pds__photon_diff_init(&r, pds__v(1, 2, 3), pds__normalize(pds__v(0.2, -1, 0.1)), pds__v(0, -1, 0), 0.08, 0.05);
+    for (k = 0; k < 4; k++) {
+        q[k] = pds__sub_photon(&r, at[k][0], at[k][1]);
+        mean = pds__add(mean, pds__scale(q[k].p, 0.25));
+        dmean = pds__add(dmean, pds__scale(q[k].d, 0.25));
+        CHECK(t, fabs(pds__length(q[k].dpdu) - 0.5 * pds__length(r.dpdu)) < 1e-12 &&
+                     fabs(pds__length(q[k].dpdv) - 0.5 * pds__length(r.dpdv)) < 1e-12,
+              "sub-photon %d: positional differentials %g %g of %g", k, pds__length(q[k].dpdu), pds__length(q[k].dpdv),
+              pds__length(r.dpdu));
+        CHECK(t, fabs(pds__dot(q[k].dddu, q[k].d)) < 1e-12 && fabs(pds__dot(q[k].dddv, q[k].d)) < 1e-12 &&
+                     fabs(pds__length(q[k].dddu) - 0.025) < 1e-3,
+              "sub-photon %d: directional differential %g, along d %g", k, pds__length(q[k].dddu),
+              pds__dot(q[k].dddu, q[k].d));
+    }
+    CHECK(t, pds__length(pds__sub(mean, r.p)) < 1e-12, "mean start off by %g", pds__length(pds__sub(mean, r.p)));
+    CHECK(t, pds__length(pds__sub(pds__normalize(dmean), r.d)) < 1e-6, "mean direction off by %g",
+          pds__length(pds__sub(pds__normalize(dmean), r.d)));
+    CHECK(t, pds__length(pds__sub(q[3].p, q[0].p)) > 0.0, "sub-photons start apart");
+}
+
+/* The mirror scene's photons all leave the point light with the same
+   directional differential length d_i in pass i (eqs. 5-6: s_i over the
+   light's 4 pi), s_i = 3 i^(-1/6) over the 20 passes of
+   40960 photons, so d_i >= 0.6 d_1. Their direction's spread is d_i / 2
+   (a plane mirror keeps it), a sub-photon's d_i / 4: split angle
+   0.14 d_1 splits every photon once (d_i / 2 > 0.28 d_1) and no
+   sub-photon (d_i / 4 < 0.28 d_1). */
+static double split_angle_once;
+
+static void split_every_photon(pds_options *o)
+{
+    progressive_small_passes(o);
+    o->split_depth = 1;
+    o->split_angle = split_angle_once;
+}
+
+static void split_never(pds_options *o)
+{
+    progressive_small_passes(o);
+    o->split_depth = 0;
+}
+
+/* Splitting conserves flux and, where the optics is linear (a plane
+   mirror), the four sub-photons' footprints cover their parent's: every
+   photon split once gives the same caustic, within the noise, as no
+   splitting, and both match the analytic one. */
+static void test_pds_split_photons_carry_their_parents_flux(pds_test_ctx *t)
+{
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    pds_render_stats sa, sb;
+    double ta = 0.0, tb = 0.0, cos_max;
+    size_t i;
+    pds_error err;
+    pds_scene *s = scene_from_text(mirror_scene, &err);
+    pds__target tg;
+    pds__v3 axis;
+    REQUIRE(t, s != NULL, "%s", err.text);
+    tg = pds__specular_target(s);
+    /* the light is inside the mirror's bounding sphere: it emits into all
+       4 pi */
+    REQUIRE(t, !pds__target_cone(&tg, pds__v(0, 1, 0), &axis, &cos_max), "the light is inside the target");
+    split_angle_once = 0.14 * pds__photon_diff_length(3.0, 4.0 * PDS__PI, 2048.0);
+    pds_scene_free(s);
+    REQUIRE(t, photon_render_text(mirror_scene, PDS_METHOD_PDS, 40960, 3.0, PDS_PATHS_CAUSTICS_ONLY, 2, &a, &sa,
+                                  split_every_photon),
+            "render split");
+    REQUIRE(t, photon_render_text(mirror_scene, PDS_METHOD_PDS, 40960, 3.0, PDS_PATHS_CAUSTICS_ONLY, 2, &b, &sb,
+                                  split_never),
+            "render unsplit");
+    for (i = 0; i < (size_t)a.width * a.height * 3; i++) {
+        ta += a.rgb[i];
+        tb += b.rgb[i];
+    }
+    /* a few sub-photons of photons at the mirror's edges miss it */
+    CHECK(t, sb.split == 0 && sa.split >= sb.splatted && sa.splatted > 4 * sb.splatted * 0.94 &&
+                 sa.splatted <= 4 * sb.splatted && sa.splatted <= 4 * sa.split,
+          "split %ld photons into %ld splats (unsplit: %ld splats)", sa.split, sa.splatted, sb.splatted);
+    CHECK(t, fabs(ta / tb - 1.0) < 0.01, "image total split %g, unsplit %g", ta, tb);
+    CHECK(t, mirror_caustic_error(&a) < 0.05 && mirror_caustic_error(&b) < 0.05, "error split %g, unsplit %g",
+          mirror_caustic_error(&a), mirror_caustic_error(&b));
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+
 static const pds_test_case tests_pds[] = {
     {"pds_footprint_width_floor_raises_both_semi_axes", test_pds_footprint_width_floor_raises_both_semi_axes},
     {"progressive_pds_schedule_shrinks_footprint_areas_as_i_to_alpha_minus_1",
@@ -451,4 +546,6 @@ static const pds_test_case tests_pds[] = {
     {"pds_image_is_identical_for_any_thread_count", test_pds_image_is_identical_for_any_thread_count},
     {"pds_full_image_is_eye_pass_plus_splats", test_pds_full_image_is_eye_pass_plus_splats},
     {"pds_footprint_debug_image_shows_anisotropy", test_pds_footprint_debug_image_shows_anisotropy},
+    {"pds_sub_photons_tile_the_parent", test_pds_sub_photons_tile_the_parent},
+    {"pds_split_photons_carry_their_parents_flux", test_pds_split_photons_carry_their_parents_flux},
 };
