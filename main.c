@@ -113,7 +113,7 @@ static const command_help help_table[] = {
      "      --pass-min-width W      progressive pds: as --min-width (default 1.5)\n"
      "      --pass-photons N        progressive pds: photons per pass, at most (default 16384)\n"
      "      --split-depth N         progressive pds: split a photon whose footprint the surface's curvature\n"
-     "                              makes non-linear into 4 sub-photons, at most N times (default 2; 0 = never)\n"
+     "                              makes non-linear into 4 sub-photons, at most N times (default 1; 0 = never)\n"
      "      --split-angle A         progressive pds: split above a normal turn of A radians over the\n"
      "                              footprint (default 0.2)\n"
      "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"

@@ -10534,15 +10534,16 @@ static void pds__splat_pending(const pds__photon_job *job, pds__splat_buf *buf)
    direction afterwards, max(|DD_u|, |DD_v|) / 2, exceeds twice that; at
    most split_depth times (4^split_depth sub-photons). The default 0.2 rad
    keeps the neglected second-order term, ~ tau^2 / 2 of the turn, near 2%.
-   A sub-photon at the last level that is still not linear takes the
-   surface as flat over its (small) footprint (DN = 0) and its direction's
-   spread is held at twice split_angle: at that scale the photons'
-   positions, not their differentials, carry the focusing, as in photon
-   mapping. Measured on the glass Stanford bunny (69,666 triangles, 20,000
-   photons, against a 24M-photon ppm reference): RMSE 0.101 unsplit, 0.085
-   with the defaults, 0.074 at split_angle 0.1 (pm: 0.117); on the shipped
-   water surface the defaults split nothing, while 0.1 splits its focal
-   regions at 20,000 photons and costs RMSE there (0.082 -> 0.102). */
+   At the last level a sub-photon that is still not linear keeps a normal
+   turn of split_angle and a direction spread of twice it (its DN and DD
+   scaled down to those bounds): at that scale the photons' positions, not
+   their differentials, carry the focusing, as in photon mapping. Measured
+   on the glass Stanford bunny (69,666 triangles, 20,000 photons, against a
+   24M-photon ppm reference): RMSE 0.101 unsplit, 0.090 split once (the
+   default), 0.083 split twice at 4x the photon pass's time (pm: 0.117); on
+   the shipped water surface the defaults split nothing, while 0.1 rad
+   splits its focal regions at 20,000 photons and costs RMSE there
+   (0.082 -> 0.102). */
 
 /* Sub-photon (a, b) of r: start moved by a, b times the differentials,
    differentials halved (the directional ones kept perpendicular to the
@@ -10653,12 +10654,16 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
                 dndu = dndv = pds__v(0.0, 0.0, 0.0);
             }
         }
-        if (job->split_depth > 0 && pds__half_spread(dndu, dndv) > job->split_angle) {
+        if (job->split_angle > 0.0 && pds__half_spread(dndu, dndv) > job->split_angle) {
+            double keep;
             if (can_split) {
                 pds__split_photon(job, buf, start, flux0, i, level);
                 return;
             }
-            dndu = dndv = pds__v(0.0, 0.0, 0.0); /* the last level: flat at this scale */
+            /* the last level: the normal's turn is held at split_angle */
+            keep = job->split_angle / pds__half_spread(dndu, dndv);
+            dndu = pds__scale(dndu, keep);
+            dndv = pds__scale(dndv, keep);
         }
         if (bs.transmitted) {
             double eta_i = side > 0 ? m->outside_ior : m->ior, eta_t = side > 0 ? m->ior : m->outside_ior;
@@ -10666,7 +10671,7 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
         } else {
             pds__diff_reflect(&r, n, dndu, dndv);
         }
-        if (job->split_depth > 0 && pds__half_spread(r.dddu, r.dddv) > 2.0 * job->split_angle) {
+        if (job->split_angle > 0.0 && pds__half_spread(r.dddu, r.dddv) > 2.0 * job->split_angle) {
             double keep;
             if (can_split) {
                 pds__split_photon(job, buf, start, flux0, i, level);
@@ -11721,7 +11726,7 @@ void pds_options_default(pds_options *opt)
     opt->min_width = 0.0;
     opt->plane_tolerance = 0.25;
     opt->photon_depth = 16;
-    opt->split_depth = 2;
+    opt->split_depth = 1;
     opt->split_angle = 0.2;
     opt->debug = NULL;
     opt->k = 50;

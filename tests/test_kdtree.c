@@ -182,6 +182,69 @@ static void test_kdtree_range_random(pds_test_ctx *t)
     }
 }
 
+/* The splat's query (an elliptic disc thickened to a slab, within the
+   ball of its major axis) against brute force: random footprints of every
+   shape, from round to needles 1000:1, at random orientations, over
+   uniform, duplicate and planar point sets. The reported set (each point
+   once) and the value |M d|^2 must be those of testing every point. */
+static void test_kdtree_ellipse_query_matches_brute_force(pds_test_ctx *t)
+{
+    static const int kinds[] = {TKD_UNIFORM, TKD_DUPLICATES, TKD_PLANE};
+    size_t n = 20000, q, i, bad = 0, hits = 0, visited_total = 0;
+    int ki;
+    for (ki = 0; ki < 3; ki++) {
+        pds__kdtree kd;
+        tkd_hits h;
+        float *pos = tkd_points(kinds[ki], n, 3, 40 + (uint64_t)ki);
+        REQUIRE(t, pos && tkd_hits_alloc(&h, n), "out of memory");
+        REQUIRE(t, pds__kdtree_build(&kd, pos, 3, n, NULL) == PDS_OK, "build failed");
+        for (q = 0; q < 200; q++) {
+            uint64_t sd = 900 + (uint64_t)ki;
+            pds__v3 c = tkd_query(pos, 3, n, sd, q), nrm, t1, t2, a1, a2;
+            double M[2][3], major, tol, aspect = pow(10.0, -3.0 * pds__rng_uniform(sd, PDS__RNG_TEST, q, 20));
+            double len = tkd_rand(sd, q, 21, 0.01, 0.8), ang = tkd_rand(sd, q, 22, 0.0, PDS__PI);
+            nrm = pds__normalize(pds__v(tkd_rand(sd, q, 23, -1, 1), tkd_rand(sd, q, 24, -1, 1), tkd_rand(sd, q, 25, -1, 1)));
+            if (ki == 2 && q % 2 == 0) nrm = pds__v(0, 0, 1); /* in the plane of the points */
+            pds__onb(nrm, &t1, &t2);
+            a1 = pds__scale(pds__add(pds__scale(t1, cos(ang)), pds__scale(t2, sin(ang))), len);
+            a2 = pds__scale(pds__add(pds__scale(t1, -sin(ang)), pds__scale(t2, cos(ang))), len * aspect);
+            /* conjugate diameters 2 a1, 2 a2: the footprint of eq. 4 */
+            REQUIRE(t, pds__filter_matrix(pds__scale(a1, 2.0), pds__scale(a2, 2.0), nrm, M), "filter matrix");
+            major = pds__footprint_major_axis(pds__scale(a1, 2.0), pds__scale(a2, 2.0));
+            tol = 0.25 * major;
+            memset(h.count, 0, n * sizeof *h.count);
+            h.n = n;
+            h.total = 0;
+            h.out_of_range = 0;
+            pds__kdtree_range_ellipse(&kd, c, major, (const double(*)[3])M, nrm, tol, tkd_collect, &h);
+            bad += h.out_of_range;
+            visited_total += h.total;
+            for (i = 0; i < n; i++) {
+                const float *p = pos + 3 * i;
+                double d[3], y0, y1, r2;
+                int want;
+                d[0] = (double)p[0] - c.x;
+                d[1] = (double)p[1] - c.y;
+                d[2] = (double)p[2] - c.z;
+                y0 = M[0][0] * d[0] + M[0][1] * d[1] + M[0][2] * d[2];
+                y1 = M[1][0] * d[0] + M[1][1] * d[1] + M[1][2] * d[2];
+                r2 = y0 * y0 + y1 * y1;
+                want = pds__kd_dist2(p, c.x, c.y, c.z) <= major * major &&
+                       fabs(nrm.x * d[0] + nrm.y * d[1] + nrm.z * d[2]) <= tol && r2 < 1.0;
+                if (h.count[i] > 1 || (unsigned)want != h.count[i]) bad++;
+                else if (want && h.d2[i] != r2) bad++;
+                hits += (size_t)want;
+            }
+        }
+        pds__kdtree_free(&kd);
+        tkd_hits_free(&h);
+        free(pos);
+    }
+    CHECK(t, bad == 0, "%lu mismatches against brute force", (unsigned long)bad);
+    CHECK(t, hits > 1000 && visited_total == hits, "%lu hits, %lu reported", (unsigned long)hits,
+          (unsigned long)visited_total);
+}
+
 static void test_kdtree_range_degenerate(pds_test_ctx *t)
 {
     static const size_t sizes[] = {1, 7, 100, 5000};
@@ -533,6 +596,7 @@ static void test_kdtree_edge_cases(pds_test_ctx *t)
 }
 
 static const pds_test_case tests_kdtree[] = {
+    {"kdtree_ellipse_query_matches_brute_force", test_kdtree_ellipse_query_matches_brute_force},
     {"kdtree_range_matches_brute_force_on_random_points", test_kdtree_range_random},
     {"kdtree_range_matches_brute_force_on_duplicates_lines_and_planes", test_kdtree_range_degenerate},
     {"kdtree_knn_matches_a_full_sort_including_ties_and_rmax", test_kdtree_knn},
