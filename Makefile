@@ -87,6 +87,7 @@ gallery: pds
 	./pds render scenes/torus.scene --photons 400000 --smoothing 8 -o $(GALLERY)/torus.png
 	./pds render scenes/cornell.scene --photons 400000 --smoothing 8 -o $(GALLERY)/cornell.png
 	./pds render scenes/ring_octahedron.scene --photons 400000 --smoothing 8 -o $(GALLERY)/ring_octahedron.png
+	./pds render scenes/glossy.scene --method gi -o $(GALLERY)/glossy.png
 	./pds render scenes/refraction.scene --smoothing 8 --time 6 -o $(GALLERY)/refraction.pds-6s.png
 	./pds render scenes/refraction.scene --method pm --k 50 --time 6 -o $(GALLERY)/refraction.pm-6s.png
 	./pds render scenes/cardioid.scene --smoothing 8 --time 4 -o $(GALLERY)/cardioid.pds-4s.png

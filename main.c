@@ -98,7 +98,9 @@ static const command_help help_table[] = {
      "      --method NAME           pds (photon differential splatting, default), pt (path tracing),\n"
      "                              preview (eye-light shading), or a baseline: pm (photon mapping),\n"
      "                              pdm (photon differential mapping), splat (fixed-radius photon\n"
-     "                              splatting), ppm (progressive photon mapping)\n"
+     "                              splatting), ppm (progressive photon mapping), or gi (Jensen's\n"
+     "                              two-pass global illumination: global photon map, final gather,\n"
+     "                              shadow photons, caustics from --caustics)\n"
      "      --photons N             photon methods: caustic photons (default 100000; ppm: per pass)\n"
      "      --smoothing S           pdm, and pds: the paper's fixed-s PDS with smoothing s (default 12;\n"
      "                              5..40); as --min-aspect and --min-width, it turns progressive PDS off\n"
@@ -137,13 +139,22 @@ static const command_help help_table[] = {
      "      --max-depth N           longest eye path in bounces (default 32) and, if given, longest\n"
      "                              photon path in specular bounces (default 16)\n"
      "      --time SECONDS          pt: passes of --spp samples until the time is spent;\n"
-     "                              photon methods: one eye pass, then photons until the time is spent\n"
+     "                              photon methods and gi: one eye pass, then caustic photons until the\n"
+     "                              time is spent\n"
      "      --no-caustics           leave out caustic paths L S+ D... (what the photon methods add)\n"
      "      --caustics-only         only caustic paths (pt: the reference for photon methods)\n"
      "      --exposure STOPS        PNG exposure in stops (default 0)\n"
      "      --progress              progress on stderr even when it is not a terminal (then one line\n"
      "                              every 2 seconds); default: a bar when stderr is a terminal\n"
-     "      --quiet                 no progress, no scene warnings\n",
+     "      --quiet                 no progress, no scene warnings\n"
+     "      --caustics NAME         gi: the caustic method, pds (default), pm, pdm, splat or ppm, with\n"
+     "                              its own options above\n"
+     "      --global-photons N      gi: photons emitted for the global photon map (default 100000)\n"
+     "      --global-k K            gi: nearest photons per global radiance estimate (default 50)\n"
+     "      --gather N              gi: final-gather rays per eye sample (default 16)\n"
+     "      --gather-mix F          gi: share of cosine-sampled gather directions, the rest following\n"
+     "                              the global map's photons (default 0.25; 1 = cosine sampling)\n"
+     "      --no-shadow-photons     gi: a shadow ray for every light sample\n",
      1},
     {"sweep", "sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]",
      "render once per value of one parameter and compare each with REF",
@@ -658,7 +669,7 @@ typedef struct method_info {
 
 static const method_info method_table[] = {
     {"pds", PDS_METHOD_PDS}, {"pt", PDS_METHOD_PT},   {"preview", PDS_METHOD_PREVIEW}, {"pm", PDS_METHOD_PM},
-    {"pdm", PDS_METHOD_PDM}, {"splat", PDS_METHOD_SPLAT}, {"ppm", PDS_METHOD_PPM},
+    {"pdm", PDS_METHOD_PDM}, {"splat", PDS_METHOD_SPLAT}, {"ppm", PDS_METHOD_PPM}, {"gi", PDS_METHOD_GI},
 };
 #define N_METHODS (sizeof method_table / sizeof method_table[0])
 
@@ -666,7 +677,8 @@ static const method_info method_table[] = {
 #define M_PHOTON                                                                                                     \
     (MBIT(PDS_METHOD_PDS) | MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_SPLAT) |                    \
      MBIT(PDS_METHOD_PPM))
-#define M_ALL (M_PHOTON | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW))
+#define M_GI MBIT(PDS_METHOD_GI)
+#define M_ALL (M_PHOTON | M_GI | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW))
 /* methods that keep a photon map, whose size stats.map_bytes reports */
 #define M_MAP (MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_PPM))
 
@@ -834,6 +846,27 @@ static int set_method(const opt_spec *s, run_cfg *c, const char *shown, const ch
     return method_lookup(v, &c->opt.method) ? unknown_method(v) : 0;
 }
 
+/* --caustics: gi's caustic method, one of the photon methods. */
+static int set_caustics(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    pds_method m;
+    (void)s;
+    if (method_lookup(v, &m)) return unknown_method(v);
+    if (!is_photon_method(m)) return usage_error("%s takes pds, pm, pdm, splat or ppm, got '%s'", shown, v);
+    c->opt.caustics = m;
+    return 0;
+}
+
+/* --no-shadow-photons: a shadow ray for every light sample. */
+static int set_no_shadow_photons(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    (void)s;
+    (void)shown;
+    (void)v;
+    c->opt.shadow_photons = 0;
+    return 0;
+}
+
 static int set_kernel(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
     char hint[256];
@@ -957,45 +990,55 @@ static int set_progress(const opt_spec *s, run_cfg *c, const char *shown, const 
 static const opt_spec option_table[] = {
     {"--output", "-o", "output", set_output, 0, 0, 0, "a file name", M_ALL, C_RENDER, F_VALUE},
     {"--method", NULL, "method", set_method, 0, 0, 0, "a method name", M_ALL, C_RENDER | C_SWEEP, F_VALUE},
-    {"--photons", NULL, "photons", set_long, OPTF(photons), 0, -1, "a whole number of 0 or more", M_PHOTON, C_ALL,
+    {"--photons", NULL, "photons", set_long, OPTF(photons), 0, -1, "a whole number of 0 or more", M_PHOTON | M_GI, C_ALL,
      F_VALUE | F_SWEEP},
-    {"--smoothing", NULL, "smoothing", set_paper_double, OPTF(smoothing), 0, 1e6, "a positive number", M_PDS | M_PDM, C_ALL,
+    {"--smoothing", NULL, "smoothing", set_paper_double, OPTF(smoothing), 0, 1e6, "a positive number", M_PDS | M_PDM | M_GI, C_ALL,
      F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--plane-tolerance", NULL, "plane_tolerance", set_double, OPTF(plane_tolerance), 0, 1e6, "a positive number",
-     M_PDS | M_PDM | M_SPLAT, C_ALL, F_VALUE | F_LO_OPEN | F_PER_METHOD},
-    {"--min-aspect", NULL, "min_aspect", set_paper_double, OPTF(min_aspect), 0, 1, "a number from 0 to 1", M_PDS | M_PDM,
+     M_PDS | M_PDM | M_SPLAT | M_GI, C_ALL, F_VALUE | F_LO_OPEN | F_PER_METHOD},
+    {"--min-aspect", NULL, "min_aspect", set_paper_double, OPTF(min_aspect), 0, 1, "a number from 0 to 1", M_PDS | M_PDM | M_GI,
      C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
-    {"--progressive", NULL, "progressive", set_progressive, 0, 0, 0, "", M_PDS, C_ALL, F_PER_METHOD},
-    {"--min-width", NULL, "min_width", set_paper_double, OPTF(min_width), 0, 1e6, "a number from 0 to 1e6", M_PDS, C_ALL,
+    {"--progressive", NULL, "progressive", set_progressive, 0, 0, 0, "", M_PDS | M_GI, C_ALL, F_PER_METHOD},
+    {"--min-width", NULL, "min_width", set_paper_double, OPTF(min_width), 0, 1e6, "a number from 0 to 1e6", M_PDS | M_GI, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
-    {"--pass-smoothing", NULL, "pass_smoothing", set_double, OPTF(pass_smoothing), 0, 1e6, "a positive number", M_PDS,
+    {"--pass-smoothing", NULL, "pass_smoothing", set_double, OPTF(pass_smoothing), 0, 1e6, "a positive number", M_PDS | M_GI,
      C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--pass-min-aspect", NULL, "pass_min_aspect", set_double, OPTF(pass_min_aspect), 0, 1, "a number from 0 to 1",
-     M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+     M_PDS | M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--pass-min-width", NULL, "pass_min_width", set_double, OPTF(pass_min_width), 0, 1e6, "a number from 0 to 1e6",
-     M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+     M_PDS | M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--pass-photons", NULL, "pass_photons", set_long, OPTF(pass_photons), 1, 1e9, "a whole number from 1 to 1e9",
-     M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
-    {"--split-depth", NULL, "split_depth", set_int, OPTF(split_depth), 0, 8, "a whole number from 0 to 8", M_PDS,
+     M_PDS | M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--split-depth", NULL, "split_depth", set_int, OPTF(split_depth), 0, 8, "a whole number from 0 to 8", M_PDS | M_GI,
      C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--split-angle", NULL, "split_angle", set_double, OPTF(split_angle), 0, 10, "an angle above 0 and at most 10 radians",
-     M_PDS, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
-    {"--pass-alpha", NULL, "pass_alpha", set_double, OPTF(pass_alpha), 0, 1, "a number above 0 and at most 1", M_PDS,
+     M_PDS | M_GI, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
+    {"--pass-alpha", NULL, "pass_alpha", set_double, OPTF(pass_alpha), 0, 1, "a number above 0 and at most 1", M_PDS | M_GI,
      C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--debug", NULL, "debug", set_debug, 0, 0, 0, "a view name", M_PHOTON, C_RENDER, F_VALUE},
-    {"--k", NULL, "k", set_int, OPTF(k), 1, 1000000, "a whole number from 1 to 1000000", M_PM, C_ALL,
+    {"--k", NULL, "k", set_int, OPTF(k), 1, 1000000, "a whole number from 1 to 1000000", M_PM | M_GI, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
-    {"--kernel", NULL, "kernel", set_kernel, 0, 0, 0, "cone, gaussian or none", M_PM, C_ALL, F_VALUE | F_PER_METHOD},
+    {"--kernel", NULL, "kernel", set_kernel, 0, 0, 0, "cone, gaussian or none", M_PM | M_GI, C_ALL, F_VALUE | F_PER_METHOD},
     {"--max-radius", NULL, "max_radius", set_double, OPTF(max_radius), 0, PDS_MAX_COORD,
-     "a positive distance in scene units", M_PM, C_ALL, F_VALUE | F_LO_OPEN | F_PER_METHOD},
+     "a positive distance in scene units", M_PM | M_GI, C_ALL, F_VALUE | F_LO_OPEN | F_PER_METHOD},
     {"--max-photons", NULL, "max_photons", set_long, OPTF(max_photons), 1, 100000000,
-     "a whole number from 1 to 100000000", M_PDM, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+     "a whole number from 1 to 100000000", M_PDM | M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--radius", NULL, "radius", set_double, OPTF(radius), 0, PDS_MAX_COORD, "a positive distance in scene units",
-     M_SPLAT | M_PPM, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
-    {"--alpha", NULL, "alpha", set_double, OPTF(alpha), 0, 1, "a number above 0 and at most 1", M_PPM, C_ALL,
+     M_SPLAT | M_PPM | M_GI, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
+    {"--alpha", NULL, "alpha", set_double, OPTF(alpha), 0, 1, "a number above 0 and at most 1", M_PPM | M_GI, C_ALL,
      F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
-    {"--passes", NULL, "passes", set_int, OPTF(passes), 1, 1000000, "a whole number from 1 to 1000000", M_PPM, C_ALL,
+    {"--passes", NULL, "passes", set_int, OPTF(passes), 1, 1000000, "a whole number from 1 to 1000000", M_PPM | M_GI, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--caustics", NULL, "caustics", set_caustics, 0, 0, 0, "a caustic method", M_GI, C_ALL, F_VALUE | F_PER_METHOD},
+    {"--global-photons", NULL, "global_photons", set_long, OPTF(global_photons), 0, 1e9,
+     "a whole number from 0 to 1e9", M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--global-k", NULL, "global_k", set_int, OPTF(global_k), 1, 1000, "a whole number from 1 to 1000", M_GI, C_ALL,
+     F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--gather", NULL, "gather", set_int, OPTF(gather), 0, 4096, "a whole number from 0 to 4096", M_GI, C_ALL,
+     F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--gather-mix", NULL, "gather_mix", set_double, OPTF(gather_mix), 0, 1, "a number above 0 and at most 1", M_GI,
+     C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
+    {"--no-shadow-photons", NULL, "shadow_photons", set_no_shadow_photons, 0, 0, 0, "", M_GI, C_ALL, F_PER_METHOD},
     {"--spp", NULL, "spp", set_int, OPTF(spp), 1, PDS_MAX_SPP, "a whole number from 1 to 65536", M_ALL, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--res", NULL, "res", set_res, 0, 0, 0, "WIDTHxHEIGHT", M_ALL, C_ALL, F_VALUE},
@@ -1239,6 +1282,18 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
         printf("%s", params);
         if (MBIT(m) & M_MAP) printf(" map_bytes=%lu", (unsigned long)st->map_bytes);
         printf(" time_eye=%.3f time_photons=%.3f", st->time_eye_s, st->time_photons_s);
+    } else if (m == PDS_METHOD_GI) {
+        char params[256];
+        pds_options co = c->opt;
+        co.method = c->opt.caustics;
+        format_params(&co, params, sizeof params);
+        printf(" caustics=%s photons=%ld eye_vertices=%ld%s global_photons=%ld global_k=%d gather=%d gather_mix=%g"
+               " shadow_photons=%d global_stored=%ld shadow_stored=%ld shadow_rays=%ld shadow_rays_saved=%ld"
+               " gather_rays=%ld map_bytes=%lu time_map=%.3f time_eye=%.3f time_photons=%.3f",
+               method_name(co.method), st->photons, st->eye_vertices, params, c->opt.global_photons,
+               c->opt.global_k, c->opt.gather, c->opt.gather_mix, c->opt.shadow_photons, st->global_stored,
+               st->shadow_stored, st->shadow_rays, st->shadow_rays_saved, st->gather_rays,
+               (unsigned long)st->map_bytes, st->time_map_s, st->time_eye_s, st->time_photons_s);
     } else {
         printf(" passes=%d", st->passes);
     }
@@ -1490,8 +1545,8 @@ static int cmd_pixel(int argc, char **argv)
 
 static const char *material_type_name(pds_material_type t)
 {
-    static const char *const names[] = {"diffuse", "mirror", "conductor", "dielectric", "emissive"};
-    return (unsigned)t < 5 ? names[t] : "?";
+    static const char *const names[] = {"diffuse", "mirror", "conductor", "dielectric", "emissive", "glossy"};
+    return (unsigned)t < 6 ? names[t] : "?";
 }
 
 static const char *light_type_name(pds_light_type t)

@@ -115,7 +115,11 @@ typedef enum pds_material_type {
     PDS_MAT_MIRROR,      /* perfect mirror: reflectance */
     PDS_MAT_CONDUCTOR,   /* exact conductor Fresnel: eta + i k per RGB */
     PDS_MAT_DIELECTRIC,  /* exact dielectric Fresnel: ior, Beer absorption */
-    PDS_MAT_EMISSIVE     /* area emitter: radiance (W / m^2 / sr) */
+    PDS_MAT_EMISSIVE,    /* area emitter: radiance (W / m^2 / sr) */
+    PDS_MAT_GLOSSY       /* rough conductor: GGX microfacets of roughness
+                            alpha with Smith masking-shadowing; Fresnel the
+                            constant reflectance, or eta + i k. Glossy is
+                            non-specular: a caustic path ends on it */
 } pds_material_type;
 
 typedef enum pds_dispersion {
@@ -141,6 +145,10 @@ typedef struct pds_material {
     pds_dispersion dispersion;
     double dispersion_coef[6]; /* Cauchy A,B or Sellmeier B1..B3,C1..C3 */
     double radiance[3];    /* emissive */
+    double roughness;      /* glossy: GGX alpha in [0.001, 1] (default 0.2) */
+    int fresnel;           /* glossy: F = reflectance (default 1 1 1) times,
+                              if 1, the conductor Fresnel of eta + i k
+                              (default 0: F constant) */
 } pds_material;
 
 typedef enum pds_light_type {
@@ -294,7 +302,10 @@ typedef enum pds_method {
     PDS_METHOD_PDM,        /* photon differential mapping (Schjoth et al. 2007) */
     PDS_METHOD_SPLAT,      /* fixed-radius photon splatting into the eye-path map
                               (Lavignotte & Paulin 2003; Herzog et al. 2007) */
-    PDS_METHOD_PPM         /* progressive photon mapping (Hachisuka et al. 2008) */
+    PDS_METHOD_PPM,        /* progressive photon mapping (Hachisuka et al. 2008) */
+    PDS_METHOD_GI          /* Jensen's two-pass global illumination (Jensen
+                              1996): global photon map, shadow photons, final
+                              gather, caustics from a caustic method */
 } pds_method;
 
 /* Density-estimation kernel of photon mapping (Jensen 1996). */
@@ -392,6 +403,23 @@ typedef struct pds_options {
     struct pds_debug *debug; /* if not NULL, the teaching views it asks for
                            are made along with the render (see pds_debug;
                            default NULL: none, and no cost) */
+    /* gi (Jensen 1996) */
+    pds_method caustics; /* gi: the method that adds the caustics seen at the
+                           eye path's first non-specular vertex: pds, pm,
+                           pdm, splat or ppm, with their own options
+                           (default PDS_METHOD_PDS) */
+    long global_photons; /* gi: photons emitted for the global map (default 100000) */
+    int global_k;       /* gi: nearest photons per global radiance estimate,
+                           1..1000 (default 50) */
+    int gather;         /* gi: final-gather rays per eye sample, 0..4096
+                           (default 16) */
+    double gather_mix;  /* gi: share of cosine sampling in the final gather's
+                           directions, (0, 1]; the rest follows the global
+                           map's incoming photons (default 0.25; 1 = plain
+                           cosine sampling) */
+    int shadow_photons; /* gi: 1 = shadow photons decide where shadow rays are
+                           needed, 0 = a shadow ray for every light sample
+                           (default 1) */
     double memory_limit; /* bytes: pds_render refuses (PDS_ERR_LIMIT) a render
                            whose pds_render_estimate_get memory exceeds this;
                            0 = this machine's physical memory (default 0) */
@@ -524,9 +552,19 @@ typedef struct pds_render_stats {
                                (tracing, and for pds and splat the splats, which
                                go with it batch by batch; for pm, pdm and ppm
                                also the two phases below) */
-    double time_map_s;      /* pm, pdm, ppm: building the photon maps */
+    double time_map_s;      /* pm, pdm, ppm: building the photon maps; gi:
+                               pass 1 (tracing and building the global and
+                               shadow maps) plus its caustic method's */
     double time_gather_s;   /* pm, pdm, ppm: gathering at the eye vertices */
-    size_t map_bytes;       /* pm, pdm, ppm: peak size of the photon map */
+    size_t map_bytes;       /* pm, pdm, ppm: peak size of the photon map;
+                               gi: the global and shadow maps (plus the
+                               caustic method's map) */
+    long global_stored;     /* gi: photons stored in the global map */
+    long shadow_stored;     /* gi: direct and shadow photons stored */
+    long shadow_rays;       /* gi: shadow rays traced */
+    long shadow_rays_saved; /* gi: light samples the shadow photons decided
+                               without a shadow ray */
+    long gather_rays;       /* gi: final-gather rays traced */
     size_t memory_bytes;    /* largest working memory the render held at once
                                (image sums, eye-path map, per-thread images);
                                does not grow with the photon count */
@@ -536,9 +574,12 @@ typedef struct pds_render_stats {
    work: an upper bound on the memory it holds at once beyond the scene
    (per eye vertex 252 bytes, every pixel sample taken to record one; per
    stored photon 133 bytes for pm and ppm, 176 for pdm; per pixel 36 bytes
-   plus 48 per thread for the photon methods), the pixel samples of one
-   eye pass, and the machine's physical memory (0 if unknown). With a time
-   budget the photon count is not known in advance and counts as 0. */
+   plus 48 per thread for the photon methods; gi: its caustic method's
+   needs plus, per global photon, at most 8 global-map stores of 149 bytes
+   and 5 shadow stores of 117 bytes, each counted twice while the threads'
+   arrays are merged, with the kd-tree), the pixel samples of one eye pass,
+   and the machine's physical memory (0 if unknown). With a time budget the
+   photon count is not known in advance and counts as 0. */
 typedef struct pds_render_estimate {
     double memory_bytes;
     double eye_vertices;    /* photon methods: at most */

@@ -36,6 +36,8 @@
 #include "test_baselines.c"
 #include "test_exact.c"
 #include "test_limits.c"
+#include "test_glossy.c"
+#include "test_gi.c"
 #include "test_teach.c"
 
 int main(int argc, char **argv)
@@ -59,6 +61,8 @@ int main(int argc, char **argv)
         PDS_SUITE(tests_baselines),
         PDS_SUITE(tests_exact),
         PDS_SUITE(tests_limits),
+        PDS_SUITE(tests_glossy),
+        PDS_SUITE(tests_gi),
         PDS_SUITE(tests_teach),
     };
     return pds_test_run(suites, sizeof suites / sizeof suites[0], argc, argv);
