@@ -5751,7 +5751,6 @@ typedef struct pds__kd_entry {
     double rd;
 } pds__kd_entry;
 
-#if !(defined(PDS_NO_BASELINES) && defined(PDS_NO_BENCH)) || defined(PDS_TEST)
 /* Both queries' descent from node [lo, hi) (offset (ox, oy, oz) from the
    query to the cell) down to the leaf holding the query q: at each median
    m, the far child [.. ) waits on the stack with m itself and its offset,
@@ -5788,9 +5787,7 @@ static int pds__kd_descend(const float *pts, const unsigned char *axis, const do
     *phi = hi;
     return sp;
 }
-#endif
 
-#if !(defined(PDS_NO_BASELINES) && defined(PDS_NO_BENCH)) || defined(PDS_TEST)
 /* Call fn(ctx, caller's index, dist2) for every point with dist2 <= r*r
    (dist2 as pds__kd_dist2). Each point is reported exactly once; the
    order is that of the traversal (nearer child first), a function of the
@@ -5850,7 +5847,6 @@ static void pds__kdtree_range(const pds__kdtree *kd, pds__v3 c, double r, pds__k
         oz = stk[sp].o[2];
     }
 }
-#endif
 
 /* The splat's query: every point x within r of c whose offset d = x - c
    lies in the slab |n . d| <= tol and in the elliptic cylinder
@@ -5961,7 +5957,6 @@ static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r
     }
 }
 
-#if !(defined(PDS_NO_BASELINES) && defined(PDS_NO_BENCH)) || defined(PDS_TEST)
 /* Heap order on (dist2, index): 1 if a ranks after b. Written with &
    and | so that it compiles to flag arithmetic, not two branches: the
    outcome is unpredictable, so branches would mostly mispredict. */
@@ -6105,7 +6100,6 @@ static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double
     }
     return cnt;
 }
-#endif
 
 /* ===================================================================== */
 /* >>scene                                                               */
