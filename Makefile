@@ -59,12 +59,16 @@ update-golden: tests/test_pds
 # progressive photon mapping with 32 x 1M photons from a small initial
 # radius (0.004, about a pixel on the floor), as the paper used 10M-photon
 # photon mapping. The gold ring's come from path tracing; the glass
-# bunny's (a scanned mesh, fetched) from ppm with 24 x 1M photons.
+# bunny's (a scanned mesh, fetched) from ppm with 24 x 1M photons. The ring
+# and octahedron (a point light) gets ppm with 128 x 2M photons at its full
+# 512 x 512, the image-space caustics' benchmark size (some 15 minutes).
 references: pds
 	./pds render scenes/refraction.scene --method ppm --caustics-only --photons 1000000 --passes 32 \
 	  --radius 0.004 --res 256x256 --spp 4 --quiet -o scenes/refraction.ref.pfm
 	./pds render scenes/reflection.scene --method ppm --caustics-only --photons 1000000 --passes 32 \
 	  --radius 0.004 --res 256x256 --spp 4 --quiet -o scenes/reflection.ref.pfm
+	./pds render scenes/ring_octahedron.scene --method ppm --caustics-only --photons 2000000 --passes 128 \
+	  --radius 0.008 --spp 4 --quiet -o scenes/ring_octahedron.ref.pfm
 	./pds render scenes/cardioid.scene --method pt --spp 4096 --res 256x192 --quiet -o scenes/cardioid.ref.pfm
 	./pds render scenes/cardioid.scene --method pt --caustics-only --spp 4096 --res 256x192 --quiet \
 	  -o scenes/cardioid.caustics.ref.pfm
@@ -74,7 +78,8 @@ references: pds
 
 # The README's gallery: every shipped scene at full size with PDS and the
 # options its README line recommends, and PDS beside pm on equal photon-pass
-# time for the refraction case, the gold ring and the pool (about 2 minutes).
+# time for the refraction case, the gold ring, the pool and the prism
+# (about 3 minutes).
 GALLERY = scenes/gallery
 gallery: pds
 	mkdir -p $(GALLERY)
@@ -87,6 +92,8 @@ gallery: pds
 	./pds render scenes/torus.scene --photons 400000 --smoothing 8 -o $(GALLERY)/torus.png
 	./pds render scenes/cornell.scene --photons 400000 --smoothing 8 -o $(GALLERY)/cornell.png
 	./pds render scenes/ring_octahedron.scene --photons 400000 --smoothing 8 -o $(GALLERY)/ring_octahedron.png
+	./pds render scenes/prism.scene --photons 1000000 -o $(GALLERY)/prism.png
+	./pds render scenes/gem.scene --photons 1000000 -o $(GALLERY)/gem.png
 	./pds render scenes/glossy.scene --method gi -o $(GALLERY)/glossy.png
 	./pds render scenes/refraction.scene --smoothing 8 --time 6 -o $(GALLERY)/refraction.pds-6s.png
 	./pds render scenes/refraction.scene --method pm --k 50 --time 6 -o $(GALLERY)/refraction.pm-6s.png
@@ -94,6 +101,8 @@ gallery: pds
 	./pds render scenes/cardioid.scene --method pm --k 50 --time 4 -o $(GALLERY)/cardioid.pm-4s.png
 	./pds render scenes/pool.scene --smoothing 8 --time 6 -o $(GALLERY)/pool.pds-6s.png
 	./pds render scenes/pool.scene --method pm --k 50 --max-radius 0.1 --time 6 -o $(GALLERY)/pool.pm-6s.png
+	./pds render scenes/prism.scene --time 8 -o $(GALLERY)/prism.pds-8s.png
+	./pds render scenes/prism.scene --method pm --k 50 --max-radius 0.02 --time 8 -o $(GALLERY)/prism.pm-8s.png
 
 render: pds
 	./pds render scenes/demo.scene -o demo.png

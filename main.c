@@ -98,9 +98,11 @@ static const command_help help_table[] = {
      "      --method NAME           pds (photon differential splatting, default), pt (path tracing),\n"
      "                              preview (eye-light shading), or a baseline: pm (photon mapping),\n"
      "                              pdm (photon differential mapping), splat (fixed-radius photon\n"
-     "                              splatting), ppm (progressive photon mapping), or gi (Jensen's\n"
-     "                              two-pass global illumination: global photon map, final gather,\n"
-     "                              shadow photons, caustics from --caustics)\n"
+     "                              splatting), ppm (progressive photon mapping), spm (streamed\n"
+     "                              photon mapping), or gi (Jensen's two-pass global illumination:\n"
+     "                              global photon map, final gather, shadow photons, caustics from\n"
+     "                              --caustics)\n"
+     "                              isc: image-space caustics (see below)\n"
      "      --photons N             photon methods: caustic photons (default 100000; ppm: per pass)\n"
      "      --smoothing S           pdm, and pds: the paper's fixed-s PDS with smoothing s (default 12;\n"
      "                              5..40); as --min-aspect and --min-width, it turns progressive PDS off\n"
@@ -122,16 +124,18 @@ static const command_help help_table[] = {
      "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
      "      --debug NAME            write a view OUT.NAME.png: footprint, landings, ellipses[=N], splats,\n"
      "                              eye, paths[=N] (.obj); several allowed (README: Teaching views)\n"
-     "      --k N                   pm: photons per density estimate (default 50)\n"
+     "      --k N                   pm: photons (spm: streams) per estimate (default 50)\n"
      "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
-     "      --max-radius R          pm: largest gather radius in scene units (default: no limit)\n"
+     "      --max-radius R          pm, spm: largest gather radius in scene units (default: no limit)\n"
+     "      --streams N             spm: streams (default: photons / (stream-photons + 1))\n"
+     "      --stream-photons N      spm: associated photons per stream (default 10)\n"
      "      --max-photons N         pdm: most photons gathered per estimate (default 500)\n"
      "      --radius R              splat: splat radius; ppm: initial radius (default: from the scene)\n"
      "      --alpha A               ppm: radius reduction, 0 < A <= 1 (default 0.7)\n"
      "      --passes N              ppm: photon passes (default 10; with --time, until the time is spent)\n"
-     "                              memory: pm and pdm store every photon, so their memory grows with\n"
-     "                              --photons (the final line reports map_bytes); ppm keeps one pass's\n"
-     "                              photons, pds and splat none\n",
+     "                              memory: pm and pdm store every photon, spm every stream, so their\n"
+     "                              memory grows with --photons (the final line reports map_bytes); ppm\n"
+     "                              keeps one pass's photons, pds and splat none\n",
      "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
      "      --res WxH               resolution (default: the scene camera's)\n"
      "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
@@ -143,24 +147,38 @@ static const command_help help_table[] = {
      "                              time is spent\n"
      "      --no-caustics           leave out caustic paths L S+ D... (what the photon methods add)\n"
      "      --caustics-only         only caustic paths (pt: the reference for photon methods)\n"
+     "      --spectral              one wavelength per camera sample and photon, CIE 1931 film, from the\n"
+     "                              first vertex on (a scene with a cauchy or sellmeier material is\n"
+     "                              spectral anyway, from the first dispersive material on)\n"
      "      --exposure STOPS        PNG exposure in stops (default 0)\n"
      "      --progress              progress on stderr even when it is not a terminal (then one line\n"
      "                              every 2 seconds); default: a bar when stderr is a terminal\n"
      "      --quiet                 no progress, no scene warnings\n"
-     "      --caustics NAME         gi: the caustic method, pds (default), pm, pdm, splat or ppm, with\n"
-     "                              its own options above\n"
+     "      --caustics NAME         gi: the caustic method, pds (default), pm, pdm, splat, ppm or spm,\n"
+     "                              with its own options above\n"
      "      --global-photons N      gi: photons emitted for the global photon map (default 100000)\n"
      "      --global-k K            gi: nearest photons per global radiance estimate (default 50)\n"
      "      --gather N              gi: final-gather rays per eye sample (default 16)\n"
      "      --gather-mix F          gi: share of cosine-sampled gather directions, the rest following\n"
      "                              the global map's photons (default 0.25; 1 = cosine sampling)\n"
-     "      --no-shadow-photons     gi: a shadow ray for every light sample\n",
+     "      --no-shadow-photons     gi: a shadow ray for every light sample\n"
+     "      --method isc            image-space caustics (Wyman and Davis 2006): interactive, approximate;\n"
+     "                              --photons N: a light-space buffer of side sqrt(N) per light; --time:\n"
+     "                              frames, each with its buffer offset anew, averaged until it is spent\n"
+     "      --gather G              isc: points, quads, eye (default) or light (gi: a number)\n"
+     "      --light-res N           isc: side of the light-space photon buffer, N^2 photons per light\n"
+     "                              (default: from --photons)\n"
+     "      --history N             isc: temporal filter, the last N frames averaged (default 4; 1 = off)\n"
+     "      --frames N              isc: an animation of N frames, OUT.0000.png, OUT.0001.png, ...\n"
+     "      --orbit WHAT            --frames: light (default), camera or none turns about the vertical\n"
+     "                              line through the camera's look-at point\n"
+     "      --orbit-step DEG        --frames: degrees per frame, counter-clockwise from above (default 2)\n",
      1},
     {"sweep", "sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]",
      "render once per value of one parameter and compare each with REF",
      "      --method NAME           the method swept (default pds)\n"
-     "      --param NAME            smoothing, min-aspect, k, radius, alpha, photons, spp, max-photons\n"
-     "                              or passes\n"
+     "      --param NAME            smoothing, min-aspect, k, radius, alpha, photons, spp, max-photons,\n"
+     "                              passes, max-radius, streams or stream-photons\n"
      "      --values A,B,...        the values, comma-separated\n"
      "      --ref REF.pfm           the reference (linear PFM, the renders' resolution)\n"
      "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
@@ -205,7 +223,9 @@ static const command_help help_table[] = {
      "      pass [SCENE...]         PDS's photon pass against pm's at 400k photons, 1 thread\n"
      "      memory [SCENE]          PDS working memory at 1e5 and at 1e7 photons\n"
      "      filter                  eq. 12 filter matrices per second against a general 3x3 inverse\n"
-     "      kdtree                  eye-path map build, range and nearest-neighbour queries per second\n",
+     "      kdtree                  eye-path map build, range and nearest-neighbour queries per second\n"
+     "      isc [SCENE]             image-space caustics: frames per second per gather at 512x512 with\n"
+     "                              512^2, 1024^2, 2048^2 photons, beside the paper's and PDS's times\n",
      "", 0},
     {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", "", 0},
 };
@@ -670,17 +690,19 @@ typedef struct method_info {
 static const method_info method_table[] = {
     {"pds", PDS_METHOD_PDS}, {"pt", PDS_METHOD_PT},   {"preview", PDS_METHOD_PREVIEW}, {"pm", PDS_METHOD_PM},
     {"pdm", PDS_METHOD_PDM}, {"splat", PDS_METHOD_SPLAT}, {"ppm", PDS_METHOD_PPM}, {"gi", PDS_METHOD_GI},
+    {"spm", PDS_METHOD_SPM},
+    {"isc", PDS_METHOD_ISC},
 };
 #define N_METHODS (sizeof method_table / sizeof method_table[0])
 
 #define MBIT(m) (1u << (unsigned)(m))
 #define M_PHOTON                                                                                                     \
     (MBIT(PDS_METHOD_PDS) | MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_SPLAT) |                    \
-     MBIT(PDS_METHOD_PPM))
+     MBIT(PDS_METHOD_PPM) | MBIT(PDS_METHOD_SPM))
 #define M_GI MBIT(PDS_METHOD_GI)
-#define M_ALL (M_PHOTON | M_GI | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW))
+#define M_ALL (M_PHOTON | M_GI | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW) | MBIT(PDS_METHOD_ISC))
 /* methods that keep a photon map, whose size stats.map_bytes reports */
-#define M_MAP (MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_PPM))
+#define M_MAP (MBIT(PDS_METHOD_PM) | MBIT(PDS_METHOD_PDM) | MBIT(PDS_METHOD_PPM) | MBIT(PDS_METHOD_SPM))
 
 static const char *method_name(pds_method m)
 {
@@ -753,6 +775,7 @@ typedef struct run_cfg {
     int quiet;           /* --quiet: no progress, no scene warnings */
     pds_debug debug;     /* render --debug NAME: the views asked for */
     unsigned char given[128]; /* given[i]: option_table[i] was on the command line */
+    int frames;          /* render --frames: an animation of this many frames (0: a still) */
 } run_cfg;
 
 typedef struct opt_spec opt_spec;
@@ -852,7 +875,7 @@ static int set_caustics(const opt_spec *s, run_cfg *c, const char *shown, const 
     pds_method m;
     (void)s;
     if (method_lookup(v, &m)) return unknown_method(v);
-    if (!is_photon_method(m)) return usage_error("%s takes pds, pm, pdm, splat or ppm, got '%s'", shown, v);
+    if (!is_photon_method(m)) return usage_error("%s takes pds, pm, pdm, splat, ppm or spm, got '%s'", shown, v);
     c->opt.caustics = m;
     return 0;
 }
@@ -970,6 +993,17 @@ static int set_progressive(const opt_spec *s, run_cfg *c, const char *shown, con
     return 0;
 }
 
+/* --spectral: one wavelength per sample and photon even in a scene
+   without dispersion. */
+static int set_spectral(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    (void)s;
+    (void)shown;
+    (void)v;
+    c->opt.spectral = 1;
+    return 0;
+}
+
 /* --progress and --quiet: the last one given wins. */
 static int set_progress(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
@@ -985,12 +1019,62 @@ static int set_progress(const opt_spec *s, run_cfg *c, const char *shown, const 
 #define M_PDM MBIT(PDS_METHOD_PDM)
 #define M_SPLAT MBIT(PDS_METHOD_SPLAT)
 #define M_PPM MBIT(PDS_METHOD_PPM)
+#define M_SPM MBIT(PDS_METHOD_SPM)
+#define M_ISC MBIT(PDS_METHOD_ISC)
+
+static const char *const gather_names[] = {"points", "quads", "eye", "light"}; /* by pds_isc_gather */
+static const char *const orbit_names[] = {"none", "light", "camera"};          /* by pds_orbit */
+
+/* A value from a short list of names (--gather, --orbit). */
+static int set_named(const char *shown, const char *v, const char *const *names, int n, int *out)
+{
+    char hint[256], list[128] = "";
+    suggestion sug;
+    int k;
+    suggest_init(&sug, v);
+    for (k = 0; k < n; k++) {
+        if (!strcmp(v, names[k])) {
+            *out = k;
+            return 0;
+        }
+        suggest_consider(&sug, names[k]);
+        snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", k ? (k + 1 == n ? " or " : ", ") : "",
+                 names[k]);
+    }
+    return usage_error("%s takes %s, got '%s'%s", shown, list, v, suggest_text(&sug, hint, sizeof hint));
+}
+
+/* --gather: isc's gather by name, or gi's final-gather rays as a count. */
+static int set_gather(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    int k = 0;
+    if (v[0] >= '0' && v[0] <= '9') return set_int(s, c, shown, v);
+    if (set_named(shown, v, gather_names, 4, &k)) return EXIT_USAGE;
+    c->opt.isc_gather = (pds_isc_gather)k;
+    return 0;
+}
+
+static int set_orbit(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    int k = 0, r = set_named(shown, v, orbit_names, 3, &k);
+    (void)s;
+    if (!r) c->opt.orbit = (pds_orbit)k;
+    return r;
+}
+
+static int set_frames(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    long n = 0;
+    if (set_whole(s, shown, v, &n)) return EXIT_USAGE;
+    c->frames = (int)n;
+    return 0;
+}
 
 /* Every option of render, sweep and race. */
 static const opt_spec option_table[] = {
     {"--output", "-o", "output", set_output, 0, 0, 0, "a file name", M_ALL, C_RENDER, F_VALUE},
     {"--method", NULL, "method", set_method, 0, 0, 0, "a method name", M_ALL, C_RENDER | C_SWEEP, F_VALUE},
-    {"--photons", NULL, "photons", set_long, OPTF(photons), 0, -1, "a whole number of 0 or more", M_PHOTON | M_GI, C_ALL,
+    {"--photons", NULL, "photons", set_long, OPTF(photons), 0, -1, "a whole number of 0 or more", M_PHOTON | M_GI | M_ISC, C_ALL,
      F_VALUE | F_SWEEP},
     {"--smoothing", NULL, "smoothing", set_paper_double, OPTF(smoothing), 0, 1e6, "a positive number", M_PDS | M_PDM | M_GI, C_ALL,
      F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
@@ -1016,11 +1100,15 @@ static const opt_spec option_table[] = {
     {"--pass-alpha", NULL, "pass_alpha", set_double, OPTF(pass_alpha), 0, 1, "a number above 0 and at most 1", M_PDS | M_GI,
      C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--debug", NULL, "debug", set_debug, 0, 0, 0, "a view name", M_PHOTON, C_RENDER, F_VALUE},
-    {"--k", NULL, "k", set_int, OPTF(k), 1, 1000000, "a whole number from 1 to 1000000", M_PM | M_GI, C_ALL,
+    {"--k", NULL, "k", set_int, OPTF(k), 1, 1000000, "a whole number from 1 to 1000000", M_PM | M_SPM | M_GI, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--kernel", NULL, "kernel", set_kernel, 0, 0, 0, "cone, gaussian or none", M_PM | M_GI, C_ALL, F_VALUE | F_PER_METHOD},
     {"--max-radius", NULL, "max_radius", set_double, OPTF(max_radius), 0, PDS_MAX_COORD,
-     "a positive distance in scene units", M_PM | M_GI, C_ALL, F_VALUE | F_LO_OPEN | F_PER_METHOD},
+     "a positive distance in scene units", M_PM | M_SPM | M_GI, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
+    {"--streams", NULL, "streams", set_long, OPTF(streams), 0, -1, "a whole number of 0 or more", M_SPM, C_ALL,
+     F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--stream-photons", NULL, "stream_photons", set_int, OPTF(stream_photons), 0, 10000,
+     "a whole number from 0 to 10000", M_SPM, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--max-photons", NULL, "max_photons", set_long, OPTF(max_photons), 1, 100000000,
      "a whole number from 1 to 100000000", M_PDM | M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--radius", NULL, "radius", set_double, OPTF(radius), 0, PDS_MAX_COORD, "a positive distance in scene units",
@@ -1034,12 +1122,22 @@ static const opt_spec option_table[] = {
      "a whole number from 0 to 1e9", M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--global-k", NULL, "global_k", set_int, OPTF(global_k), 1, 1000, "a whole number from 1 to 1000", M_GI, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
-    {"--gather", NULL, "gather", set_int, OPTF(gather), 0, 4096, "a whole number from 0 to 4096", M_GI, C_ALL,
+    {"--gather", NULL, "gather", set_gather, OPTF(gather), 0, 4096,
+     "points, quads, eye or light (isc), or a whole number from 0 to 4096 (gi)", M_GI | M_ISC, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--gather-mix", NULL, "gather_mix", set_double, OPTF(gather_mix), 0, 1, "a number above 0 and at most 1", M_GI,
      C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--no-shadow-photons", NULL, "shadow_photons", set_no_shadow_photons, 0, 0, 0, "", M_GI, C_ALL, F_PER_METHOD},
-    {"--spp", NULL, "spp", set_int, OPTF(spp), 1, PDS_MAX_SPP, "a whole number from 1 to 65536", M_ALL, C_ALL,
+    {"--light-res", NULL, "light_res", set_int, OPTF(light_resolution), 1, PDS_MAX_RESOLUTION,
+     "a whole number from 1 to 16384", M_ISC, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--history", NULL, "history", set_int, OPTF(history), 1, 64, "a whole number from 1 to 64", M_ISC, C_ALL,
+     F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--frames", NULL, "frames", set_frames, 0, 1, 1000000, "a whole number from 1 to 1000000", M_ISC, C_RENDER,
+     F_VALUE},
+    {"--orbit", NULL, "orbit", set_orbit, 0, 0, 0, "none, light or camera", M_ISC, C_RENDER, F_VALUE},
+    {"--orbit-step", NULL, "orbit_step", set_double, OPTF(orbit_deg), -360, 360, "degrees from -360 to 360", M_ISC,
+     C_RENDER, F_VALUE},
+    {"--spp", NULL, "spp", set_int, OPTF(spp), 1, PDS_MAX_SPP, "a whole number from 1 to 65536", M_ALL & ~M_ISC, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--res", NULL, "res", set_res, 0, 0, 0, "WIDTHxHEIGHT", M_ALL, C_ALL, F_VALUE},
     {"--threads", NULL, "threads", set_int, OPTF(threads), 1, 256, "a whole number from 1 to 256", M_ALL, C_ALL,
@@ -1051,6 +1149,7 @@ static const opt_spec option_table[] = {
      F_VALUE | F_LO_OPEN},
     {"--no-caustics", NULL, "paths", set_paths, 0, 0, 0, "", M_ALL, C_ALL, 0},
     {"--caustics-only", NULL, "paths", set_paths, 0, 0, 0, "", M_ALL, C_ALL, 0},
+    {"--spectral", NULL, "spectral", set_spectral, 0, 0, 0, "", M_ALL, C_ALL, 0},
     {"--exposure", NULL, "exposure", set_double, offsetof(run_cfg, exposure), -64, 64,
      "a number of stops from -64 to 64", M_ALL, C_ALL, F_VALUE},
     {"--progress", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
@@ -1170,7 +1269,7 @@ static int parse_option(run_cfg *c, unsigned cmd, const char *cmd_name, int argc
    only: the options sweep may vary). */
 static double option_number(const opt_spec *s, const run_cfg *c)
 {
-    if (s->set == set_int) return *FIELD(c, s, int);
+    if (s->set == set_int || s->set == set_gather) return *FIELD(c, s, int); /* gather: gi's count */
     if (s->set == set_long) return (double)*FIELD(c, s, long);
     return *FIELD(c, s, double);
 }
@@ -1242,6 +1341,13 @@ static void format_params(const pds_options *o, char *buf, size_t n)
     case PDS_METHOD_PPM:
         snprintf(buf, n, " radius=%s alpha=%g", distance_text(o->radius, "auto", d, sizeof d), o->alpha);
         break;
+    case PDS_METHOD_SPM:
+        snprintf(buf, n, " stream_photons=%d k=%d max_radius=%s", o->stream_photons, o->k,
+                 distance_text(o->max_radius, "none", d, sizeof d));
+        break;
+    case PDS_METHOD_ISC:
+        snprintf(buf, n, " gather=%s history=%d", gather_names[o->isc_gather], o->history);
+        break;
     default: break;
     }
     if (((o->method == PDS_METHOD_PDS && !o->progressive) || o->method == PDS_METHOD_PDM) && o->min_aspect > 0.0) {
@@ -1277,6 +1383,7 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
             printf(" splatted=%ld", st->splatted);
         else if (m != PDS_METHOD_PPM)
             printf(" stored=%ld", st->splatted);
+        if (m == PDS_METHOD_SPM) printf(" streams=%ld", st->streams);
         printf(" eye_vertices=%ld", st->eye_vertices);
         if (m == PDS_METHOD_PPM) printf(" passes=%d", st->passes);
         printf("%s", params);
@@ -1294,9 +1401,16 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
                c->opt.global_k, c->opt.gather, c->opt.gather_mix, c->opt.shadow_photons, st->global_stored,
                st->shadow_stored, st->shadow_rays, st->shadow_rays_saved, st->gather_rays,
                (unsigned long)st->map_bytes, st->time_map_s, st->time_eye_s, st->time_photons_s);
+    } else if (m == PDS_METHOD_ISC) {
+        char params[256];
+        format_params(&c->opt, params, sizeof params);
+        printf(" photons=%ld landed=%ld eye_vertices=%ld frames=%d%s time_eye=%.3f time_photons=%.3f time_gather=%.3f",
+               st->photons, st->splatted, st->eye_vertices, st->passes, params, st->time_eye_s, st->time_photons_s,
+               st->time_gather_s);
     } else {
         printf(" passes=%d", st->passes);
     }
+    if (st->spectral) printf(" spectral=1");
     printf(" time_total=%.3f threads=%d saturated=%ld nonfinite=%ld output=%s\n", st->time_total_s, st->threads,
            st->saturated, st->nonfinite, output);
     if (st->saturated > 0)
@@ -1401,6 +1515,36 @@ static void debug_path(const char *output, pds_debug_view v, const char *ext, ch
     snprintf(out, n, "%.*s.%s%s", (int)(dot - output), output, pds_debug_view_name(v), ext);
 }
 
+/* OUT.png -> OUT.0007.png: frame f of an animation (at least 4 digits). */
+static void frame_path(const char *output, int frame, char *buf, size_t n)
+{
+    const char *dot = strrchr(output, '.');
+    snprintf(buf, n, "%.*s.%04d%s", (int)(dot - output), output, frame, dot);
+}
+
+typedef struct frame_writer {
+    const char *output;
+    double exposure;
+} frame_writer;
+
+/* pds_render_frames' callback: each frame to its numbered file, through a
+   temporary name as every image. */
+static pds_status write_frame(void *user, int frame, const pds_image *img, pds_error *err)
+{
+    const frame_writer *fw = (const frame_writer *)user;
+    char path[1100];
+    pds_status st;
+    frame_path(fw->output, frame, path, sizeof path);
+    if (temp_arm(0, path)) {
+        snprintf(err->text, sizeof err->text, "%.900s: cannot write frame %d", path, frame);
+        err->status = PDS_ERR_IO;
+        return PDS_ERR_IO;
+    }
+    st = pds_image_write(path, img, fw->exposure, err);
+    temp_disarm(0);
+    return st;
+}
+
 static int cmd_render(int argc, char **argv)
 {
     const char *scene_path = NULL, *output;
@@ -1431,6 +1575,10 @@ static int cmd_render(int argc, char **argv)
         method_join(debug_methods((pds_debug_view)k), "or", names, sizeof names);
         return usage_error("--debug %s needs --method %s", pds_debug_view_name((pds_debug_view)k), names);
     }
+    if (c.frames > 0 && c.opt.method != PDS_METHOD_ISC)
+        return usage_error("%s", "--frames renders an animation with --method isc only");
+    if (c.frames > 0 && c.opt.time_s > 0.0)
+        return usage_error("%s", "--frames and --time exclude each other (a time budget is for a still)");
     output = c.output;
     if (!output) {
         default_output(scene_path, default_out, sizeof default_out);
@@ -1457,6 +1605,21 @@ static int cmd_render(int argc, char **argv)
     }
     print_scene_warnings(scene, &c);
     if (!c.quiet) warn_about_the_cost(scene, &c.opt);
+    if (c.frames > 0) {
+        /* an animation: numbered frames, written as they come */
+        frame_writer fw;
+        char pattern[1100];
+        fw.output = output;
+        fw.exposure = c.exposure;
+        if (c.progress) progress_begin(NULL, 0.0);
+        st = pds_render_frames(scene, &c.opt, c.frames, write_frame, &fw, &stats, &err);
+        if (c.progress) progress_end(st == PDS_OK);
+        pds_scene_free(scene);
+        if (st != PDS_OK) return fail("%s", pds_error_string(&err));
+        frame_path(output, 0, pattern, sizeof pattern);
+        print_render_line(&c, &stats, pattern);
+        return 0;
+    }
     if (c.progress) progress_begin(NULL, c.opt.time_s);
     st = pds_render(scene, &c.opt, &img, &stats, &err);
     if (c.progress) progress_end(st == PDS_OK);
@@ -1769,6 +1932,106 @@ static int render_pds(pds_scene *scene, long photons, int threads, int width, pd
     return 0;
 }
 
+/* --- bench isc ------------------------------------------------------------ */
+
+/* The frame callback of bench isc: wall and CPU time at each frame's end. */
+typedef struct isc_clock {
+    double wall[64], cpu[64];
+    int n;
+} isc_clock;
+
+static pds_status isc_clock_frame(void *user, int frame, const pds_image *img, pds_error *err)
+{
+    isc_clock *c = (isc_clock *)user;
+    (void)img;
+    (void)err;
+    if (frame < 64) {
+        c->wall[frame] = pds_time_now();
+        c->cpu[frame] = (double)clock() / CLOCKS_PER_SEC;
+        c->n = frame + 1;
+    }
+    return PDS_OK;
+}
+
+/* Wyman and Davis 2006, Table 1: frames per second at 512x512 (GeForce
+   7800 GTX), static then dynamic lighting, points, quads, eye gather,
+   light gather; by photon count 512^2, 1024^2, 2048^2 (0: "n/a"). */
+static const double paper_octahedron[3][8] = {{159.1, 38.1, 53.9, 61.1, 38.9, 1.5, 33.7, 18.8},
+                                              {58.4, 11.4, 35.1, 60.8, 12.4, 0.4, 15.3, 8.3},
+                                              {18.1, 0.0, 14.7, 60.5, 2.7, 0.0, 4.8, 2.6}};
+static const double paper_ring[3][8] = {{151.2, 39.6, 52.8, 59.3, 40.3, 1.5, 34.7, 18.9},
+                                        {57.6, 11.7, 35.4, 59.0, 12.5, 0.4, 16.0, 8.4},
+                                        {18.8, 0.0, 15.2, 58.3, 2.8, 0.0, 5.0, 2.6}};
+
+/* Image-space caustics' frames per second at 512x512 with 512^2, 1024^2
+   and 2048^2 photons, for each gather: an animation whose light turns 2
+   degrees a frame (the paper's dynamic lighting: photons, gathers and
+   direct light every frame; the camera stands still, so the eye buffer is
+   traced once, in the first frame, which is timed apart as "first_s").
+   Beside it the paper's Table 1 and PDS's time for one 512x512 image
+   with as many photons (1 sample per pixel). */
+static int bench_isc(int argc, char **argv)
+{
+    static const char *const gname[4] = {"points", "quads", "eye", "light"};
+    static const int frames_for[3] = {13, 7, 4};
+    const char *path = argc >= 1 ? argv[0] : "scenes/ring_octahedron.scene";
+    pds_scene *scene = NULL;
+    pds_error err;
+    int r, g, threads = pds_cpu_count();
+    if (argc > 1) return usage_error("%s", "bench isc takes at most one scene");
+    if (load_any(path, &scene, &err) != PDS_OK) {
+        fprintf(stderr, "%s\n", pds_error_string(&err));
+        return 1;
+    }
+    for (r = 0; r < 3; r++) {
+        int res = 512 << r;
+        pds_render_stats st;
+        double pds_s;
+        if (render_pds(scene, (long)res * res, threads, 512, &st)) {
+            pds_scene_free(scene);
+            return 1;
+        }
+        pds_s = st.time_total_s;
+        for (g = 0; g < 4; g++) {
+            pds_options opt;
+            isc_clock clk;
+            int n = frames_for[r];
+            double wall, cpu;
+            pds_options_default(&opt);
+            opt.method = PDS_METHOD_ISC;
+            opt.isc_gather = (pds_isc_gather)g;
+            opt.light_resolution = res;
+            opt.width = opt.height = 512;
+            opt.threads = threads;
+            opt.orbit = PDS_ORBIT_LIGHT;
+            clk.n = 0;
+            clk.wall[0] = 0.0;
+            {
+                double t0 = pds_time_now();
+                if (pds_render_frames(scene, &opt, n, isc_clock_frame, &clk, &st, &err) != PDS_OK) {
+                    fprintf(stderr, "%s\n", pds_error_string(&err));
+                    pds_scene_free(scene);
+                    return 1;
+                }
+                wall = clk.wall[n - 1] - clk.wall[0];
+                cpu = clk.cpu[n - 1] - clk.cpu[0];
+                char paper[96];
+                if (paper_ring[r][g] > 0.0)
+                    snprintf(paper, sizeof paper, "paper_fps_dynamic=%g/%g paper_fps_static=%g/%g",
+                             paper_octahedron[r][4 + g], paper_ring[r][4 + g], paper_octahedron[r][g], paper_ring[r][g]);
+                else
+                    snprintf(paper, sizeof paper, "paper_fps_dynamic=n/a paper_fps_static=n/a");
+                printf("bench isc gather=%s photons=%d^2 res=512x512 frames=%d fps=%.2f cpu_s_per_frame=%.4f "
+                       "first_s=%.3f threads=%d %s pds_s=%.3f\n",
+                       gname[g], res, n - 1, (n - 1) / wall, cpu / (n - 1), clk.wall[0] - t0, st.threads, paper, pds_s);
+                fflush(stdout);
+            }
+        }
+    }
+    pds_scene_free(scene);
+    return 0;
+}
+
 /* Caustic photons emitted, traced and splatted per second (photon pass
    only), one thread and all threads. */
 static int bench_photons(int argc, char **argv)
@@ -1920,6 +2183,7 @@ static int cmd_bench(int argc, char **argv)
     if (!strcmp(argv[0], "photons")) return bench_photons(argc - 1, argv + 1);
     if (!strcmp(argv[0], "pass")) return bench_pass(argc - 1, argv + 1);
     if (!strcmp(argv[0], "memory")) return bench_memory(argc - 1, argv + 1);
+    if (!strcmp(argv[0], "isc")) return bench_isc(argc - 1, argv + 1);
     if (!strcmp(argv[0], "filter")) {
         pds_bench_filter_result r;
         if (pds_bench_filter(2000000, &r, &err) != PDS_OK) {
@@ -1941,14 +2205,14 @@ static int cmd_bench(int argc, char **argv)
         return 0;
     }
     {
-        static const char *const names[] = {"rays", "pt", "photons", "pass", "memory", "filter", "kdtree"};
+        static const char *const names[] = {"rays", "pt", "photons", "pass", "memory", "filter", "kdtree", "isc"};
         char hint[256];
         suggestion sug;
         size_t i;
         suggest_init(&sug, argv[0]);
         for (i = 0; i < sizeof names / sizeof names[0]; i++) suggest_consider(&sug, names[i]);
         if (!suggest_text(&sug, hint, sizeof hint)[0])
-            snprintf(hint, sizeof hint, " (rays, pt, photons, memory, filter, kdtree)");
+            snprintf(hint, sizeof hint, " (rays, pt, photons, pass, memory, filter, kdtree, isc)");
         return usage_error("unknown benchmark '%s'%s", argv[0], hint);
     }
 }
@@ -2513,7 +2777,7 @@ static const char *const sweep_own_options[] = {"--param", "--values", "--ref", 
 static int cmd_sweep(int argc, char **argv)
 {
     const char *scene_path = NULL, *param = NULL, *values = NULL, *ref_path = NULL, *dir = NULL;
-    char dir_buf[1024], stem[256], where[64], name[64], list[256];
+    char dir_buf[1024], stem[256], where[64], name[64], list[512];
     run_cfg base;
     const opt_spec *ps;
     sweep_row *rows = NULL;
@@ -3010,7 +3274,9 @@ static void html_figure(sbuf *b, const char *src, const char *alt, const char *c
    and pixel sequence than the render reported, so the choice does not fit
    that render's own noise). A parameter given in --methods or as an option
    is kept. ppm is tuned one parameter at a time: R0 with alpha at its
-   value, then alpha with the best R0. Radii are multiples of the pixel
+   value, then alpha with the best R0; spm likewise k, then R with the best
+   k (its stream_photons only says how many photons a stream stands for:
+   under a time budget it changes nothing in the image). Radii are multiples of the pixel
    footprint at the camera's look-at distance (race_pixel_size), so the
    grid follows the scene's scale. */
 typedef struct tune_grid {
@@ -3030,6 +3296,8 @@ static const tune_grid tune_grids[] = {
     {PDS_METHOD_SPLAT, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
     {PDS_METHOD_PPM, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
     {PDS_METHOD_PPM, -1, "alpha", 3, {0.5, 0.7, 0.9}, 0},
+    {PDS_METHOD_SPM, -1, "k", 5, {10, 20, 40, 80, 160}, 0},
+    {PDS_METHOD_SPM, -1, "max-radius", 5, {1, 3, 10, 30, 100}, 1},
 };
 #define N_TUNE_GRIDS (sizeof tune_grids / sizeof tune_grids[0])
 
@@ -3127,6 +3395,13 @@ static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_
 
 /* ----------------------------------------------------------- race: budgets */
 
+/* The photons a render traced: spm's streams (its photon count is what
+   the streams stand for), the others' photons. */
+static long race_traced(const race_entry *t)
+{
+    return t->cfg.opt.method == PDS_METHOD_SPM ? t->st.streams : t->st.photons;
+}
+
 /* Set the flags of every entry (see RACE_TIME_TOLERANCE) and warn on
    stderr about each flagged one. Returns how many are flagged. */
 static int race_check_budgets(race_entry *e, int n, const race_budgets *bud)
@@ -3147,13 +3422,14 @@ static int race_check_budgets(race_entry *e, int n, const race_budgets *bud)
                     100.0 * RACE_TIME_TOLERANCE);
         if (!is_photon_method(t->cfg.opt.method) || t->cfg.opt.paths == PDS_PATHS_NO_CAUSTICS) continue;
         for (j = 0; j < n; j++)
-            if (e[j].budget == t->budget && is_photon_method(e[j].cfg.opt.method) && e[j].st.photons > most)
-                most = e[j].st.photons;
-        if (t->st.photons < RACE_MIN_PHOTONS || (double)t->st.photons < RACE_MIN_PHOTON_SHARE * (double)most) {
+            if (e[j].budget == t->budget && is_photon_method(e[j].cfg.opt.method) && race_traced(&e[j]) > most)
+                most = race_traced(&e[j]);
+        if (race_traced(t) < RACE_MIN_PHOTONS || (double)race_traced(t) < RACE_MIN_PHOTON_SHARE * (double)most) {
             t->flags |= RACE_FEW_PHOTONS;
-            fprintf(stderr, "pds race: warning: %s emitted %ld photons in its %g s (the most on that budget: %ld; "
-                    "fewer than %d or 1%% of that is too few for a useful estimate)\n", t->label, t->st.photons,
-                    budget, most, RACE_MIN_PHOTONS);
+            fprintf(stderr, "pds race: warning: %s %s %ld %s in its %g s (the most on that budget: %ld; "
+                    "fewer than %d or 1%% of that is too few for a useful estimate)\n", t->label,
+                    t->cfg.opt.method == PDS_METHOD_SPM ? "traced" : "emitted", race_traced(t),
+                    t->cfg.opt.method == PDS_METHOD_SPM ? "streams" : "photons", budget, most, RACE_MIN_PHOTONS);
         }
     }
     for (i = 0; i < n; i++) flagged += e[i].flags != 0;
@@ -3613,7 +3889,8 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
                      "seed %llu of the renders shown, so the choice does not fit their own noise. Grids: pds and pdm "
                      "s in 4, 6, 8, 12, 16, 24; pm k in 10, 20, 40, 80, 160; splat R and ppm R0 in 1, 2, 4, 8, 16 "
                      "pixels (one pixel: %.4g scene units at the camera's look-at distance); ppm alpha in 0.5, 0.7, "
-                     "0.9 after R0. A value given on the command line is kept.</p>\n",
+                     "0.9 after R0; spm k as pm, then R in 1, 3, 10, 30, 100 pixels. A value given on the command line is "
+                     "kept.</p>\n",
                   pg->base->opt.seed + 1, pg->base->opt.seed, pg->pixel_m);
     /* provenance */
     sb_printf(b, "<h2>How this page was made</h2>\n<pre class=\"cmd\" id=\"command\">");
@@ -3952,6 +4229,7 @@ static int cmd_race(int argc, char **argv)
         printf("race method=%s label=%s photons=%ld spp=%d%s", method_name(t->cfg.opt.method), t->label,
                t->st.photons, t->st.spp, t->params);
         if (t->cfg.opt.method == PDS_METHOD_PPM) printf(" passes=%d", t->st.passes);
+        if (t->cfg.opt.method == PDS_METHOD_SPM) printf(" streams=%ld", t->st.streams);
         if (MBIT(t->cfg.opt.method) & M_MAP) printf(" map_bytes=%lu", (unsigned long)t->st.map_bytes);
         printf(" rmse=%.6f ssim=%.6f time=%.3f budget=%s", t->m.rmse, t->m.ssim, t->st.time_total_s,
                bud.text[t->budget]);

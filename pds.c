@@ -17,6 +17,8 @@
                   revolve, heightfield
      >>bvh        binned-SAH BVH, watertight triangle test, traversal
      >>materials  Fresnel (dielectric, conductor), BSDF sampling, Beer
+     >>spectral   wavelengths, RGB -> spectrum (Smits 1999), CIE 1931 fit
+                  (Wyman et al. 2013) -> XYZ -> sRGB, dispersive materials
      >>lights     light selection, next-event sampling, photon emission
      >>kdtree     balanced kd-tree: range and k-nearest queries (eye-path map)
      >>scene      the pds_scene value and its text format parser
@@ -30,11 +32,18 @@
                   path recorder and the paths OBJ
      >>pds        photon differential splatting: aimed caustic photons,
                   tracing with differentials, splatting into the eye-path map
-     >>baselines  pm, pdm, splat, ppm, and the photon pass all photon
-                  methods share
+     >>baselines  pm, pdm, splat, ppm
+     >>streams    streamed photon mapping (spm): streams of a leading photon
+                  and associated photons, concentrated at specular surfaces,
+                  gathered stream by stream (eqs. 1-2)
+     >>photonpass the photon pass all photon methods share: time planning,
+                  tracing threads, gathers, the caustic image
      >>gi         Jensen's two-pass global illumination: global photon map,
                   shadow photons, importance-sampled final gather, caustics
                   from any caustic method
+     >>isc        image-space caustics (Wyman and Davis 2006): light-space
+                  photon buffer, points, quads, eye- and light-space
+                  gathers, temporal filter, animation frames
      >>api        public entry points: render, options, teaching views,
                   trace-photon, benchmarks
 */
@@ -57,7 +66,7 @@
    pass and path tracer, photon differentials, splatting, PFM images,
    metrics and the teaching views.
      PDS_NO_PNG        the PNG writer and its deflate coder (write .pfm)
-     PDS_NO_BASELINES  pm, pdm, splat and ppm (pds and pt stay)
+     PDS_NO_BASELINES  pm, pdm, splat, ppm and spm (pds, pt, gi and isc stay)
      PDS_NO_BENCH      pds_bench_* (they return PDS_ERR_INVALID_ARG)
      PDS_NO_MTL        MTL material libraries (OBJ faces get the default
                        material) */
@@ -947,7 +956,9 @@ enum pds__rng_purpose {
     /* 5: the Halton sequence's per-seed offsets (pds__halton) */
     PDS__RNG_SPLAT = 6,   /* index = photon number, dim = a hash of where it landed */
     PDS__RNG_GLOBAL = 7,  /* gi's global photons: index = photon number */
-    PDS__RNG_GATHER = 8   /* gi's final gather: index = camera sample */
+    PDS__RNG_GATHER = 8,  /* gi's final gather: index = camera sample */
+    PDS__RNG_WAVELENGTH = 9, /* index = pixel: its samples' wavelength rotation */
+    PDS__RNG_ISC = 10     /* isc: index = frame, dim 0, 1 = the light-space grid's offset */
 };
 
 static uint64_t pds__mix64(uint64_t z)
@@ -4728,6 +4739,279 @@ static double pds__ior_at(const pds_material *m, double wavelength_nm)
     double n = pds__dispersion_law(m, wavelength_nm);
     if (!(n > 0.0) || !(n < 1e6)) return m->ior;
     return n;
+}
+
+/* ===================================================================== */
+/* >>spectral                                                            */
+/* ===================================================================== */
+/* Spectral light transport: light of one wavelength per path, so that
+   refraction and Fresnel can use the index n(lambda) of a dispersive
+   material (>>materials, pds__dispersion_law), and a white beam through a
+   prism fans out into a rainbow.
+
+   When. A render is spectral when the scene has a dielectric with a
+   Cauchy or Sellmeier law, or when pds_options.spectral asks for it
+   (pds__render_is_spectral); otherwise none of this runs and images are
+   those of the RGB renderer bit for bit. Tested in
+   tests/test_spectral.c.
+
+   Wavelengths. Every camera sample and every photon carries one
+   wavelength lambda, uniform on [380, 780] nm (pdf 1/400 per nm), drawn
+   stratified: a pixel's samples take a rotated golden-ratio sequence
+   (lambda_k = frac(u_pixel + k 0.618...)), photons the seventh Halton
+   dimension next to the six of their emission (>>rng), so a pixel's or a
+   caustic's wavelengths cover the range evenly. (Hero wavelengths, Wilkie
+   et al. 2014, carry four per path and cut colour noise further, but a
+   dispersive refraction must drop all but one of them; one per path keeps
+   every integrator's code a scalar chain.)
+
+   Colours. Scene colours stay RGB; a path at lambda turns an RGB triple
+   into a spectral value with Smits' method (B. Smits, "An RGB-to-spectrum
+   conversion for reflectances", JGT 4(4), 1999): the smallest channel
+   times a white spectrum, plus the middle minus the smallest times the
+   spectrum of the two-channel mixture (cyan, magenta or yellow), plus the
+   largest minus the middle times the one-channel spectrum (red, green or
+   blue). The seven spectra are Smits' published 10-bin tables over
+   380-720 nm (piecewise constant; above 720 nm the last bin). The map is
+   linear on each of the six orderings of the channels and homogeneous,
+   so a light's spectral power is its RGB power's uplift whatever the
+   geometric factors are. Its limits: the spectra were fitted for
+   reflectances, not illuminants, they are boxy, and the round trip RGB ->
+   spectrum -> RGB is not the identity for saturated colours (measured in
+   spectral_smits_uplift_round_trips_within_its_accuracy: primaries and
+   secondaries come back within 0.013 per channel, grey exactly, since a
+   grey triple maps to a flat spectrum here by construction: Smits' white
+   table is 1 within 0.0008, and exactly 1 is used for it). Beer coefficients are uplifted as spectra of
+   their own (sigma(lambda)), so transmittance stays exp(-sigma d).
+
+   Film. The sensor integrates with the CIE 1931 2-degree colour matching
+   functions, here the multi-lobe Gaussian fit of Wyman, Sloan and Shirley
+   ("Simple analytic approximations to the CIE XYZ color matching
+   functions", JCGT 2(2), 2013, their eq. 2):
+       g(l; mu, a, b) = exp(-((l - mu) s)^2 / 2), s = a below mu, b above,
+       xbar = 1.056 g(599.8; .0264, .0323) + 0.362 g(442.0; .0624, .0374)
+              - 0.065 g(501.1; .0490, .0382)
+       ybar = 0.821 g(568.8; .0213, .0247) + 0.286 g(530.9; .0613, .0322)
+       zbar = 1.217 g(437.0; .0845, .0278) + 0.681 g(459.0; .0385, .0725)
+   (within about 0.01 of the CIE table; tested at five wavelengths), then XYZ -> linear sRGB with the D65 matrix of IEC
+   61966-2-1 (as Lindbloom prints it to seven digits). A flat spectrum
+   (equal-energy white, which Smits' white is) would come out slightly
+   pink in D65 sRGB; each channel is divided by its integral over
+   [380, 780] nm, a diagonal white balance in linear sRGB, so that the
+   flat spectrum is (1, 1, 1) exactly and a white reflector under a
+   white light is as white as in the RGB renderer. A camera sample at
+   lambda with spectral radiance L therefore adds
+       W(lambda) L,   W_c(lambda) = 400 nm (M cmf(lambda))_c / N_c,
+   whose mean over the uniform lambda is (1, 1, 1). W has negative parts
+   (colours of the spectrum locus lie outside the sRGB gamut), so the
+   photon images keep their negative terms in sums of their own.
+
+   When a path turns spectral. A camera path or a photon carries RGB, as
+   in the RGB renderer, until it first meets a dispersive material (with
+   pds_options.spectral: from its first vertex); there its RGB throughput
+   (a photon: its flux) is replaced by its spectral value at its lambda,
+   which it keeps from then on. Light that never meets dispersion is thus
+   computed as in RGB, with no colour noise; the choice of the vertex
+   where the spectrum is taken is a sampling choice like any other (the
+   expected value of W(lambda) S(lambda) is the colour of S). From there,
+   materials are asked at lambda through pds__spectral_material (index
+   n(lambda), Beer sigma(lambda)); the RGB weights the BSDF returns and the
+   lights' RGB quantities are uplifted at lambda (pds__spectral_value), so
+   the throughput is one number times W(lambda).
+
+   Where photons meet eye vertices (pds__spectral_meet). If the specular
+   chain from the camera to a vertex met no dispersive material, its
+   geometry is the same at every wavelength: the vertex keeps the chain's
+   RGB weight (as the RGB renderer does; exact for clear glass and white
+   mirrors, an RGB filter for tinted ones) and every photon adds to it, a
+   spectral photon at its own wavelength. Otherwise (a caustic seen
+   through a prism or a gem) the vertex is where it is only at its own
+   wavelength lambda_e: an RGB photon adds its spectrum's value at
+   lambda_e; a spectral photon adds only if it is in the same one of
+   PDS__SPECTRAL_BINS equal wavelength bins, weighted by the bin count, a
+   box kernel in wavelength (consistent as bins narrow; it blurs the
+   rainbow seen through glass by one bin, 25 nm).
+
+   Photon differentials are traced at the photon's own wavelength:
+   position and direction differentials with n(lambda) (Igehy's refraction
+   with that index). No wavelength differential is added. A thin white
+   beam through a prism spreads into a fan because its photons have
+   different wavelengths: the fan is the union of many one-wavelength
+   beams, each with its own narrow footprint, and sampling wavelengths
+   over the photons fills it in, as sampling positions fills in a wide
+   beam. A wavelength differential (d lambda of the photon's share of the
+   spectrum) would stretch each footprint along the fan to smooth it with
+   fewer photons, as the positional differential does over the emitter;
+   that is a variance choice, not needed for a correct limit, and left
+   out. */
+
+#define PDS__LAMBDA_MIN 380.0   /* nm: the sampled range */
+#define PDS__LAMBDA_MAX 780.0
+#define PDS__SPECTRAL_BINS 16   /* wavelength bins for eye vertices seen
+                                   through dispersive glass */
+
+/* Smits 1999, table 1: spectra of white, cyan, magenta, yellow, red,
+   green and blue in 10 bins of 34 nm from 380 to 720 nm. */
+static const double pds__smits[7][10] = {
+    {1.0000, 1.0000, 0.9999, 0.9993, 0.9992, 0.9998, 1.0000, 1.0000, 1.0000, 1.0000}, /* white */
+    {0.9710, 0.9426, 1.0007, 1.0007, 1.0007, 1.0007, 0.1564, 0.0000, 0.0000, 0.0000}, /* cyan */
+    {1.0000, 1.0000, 0.9685, 0.2229, 0.0000, 0.0458, 0.8369, 1.0000, 1.0000, 0.9959}, /* magenta */
+    {0.0001, 0.0000, 0.1088, 0.6651, 1.0000, 1.0000, 0.9996, 0.9586, 0.9685, 0.9840}, /* yellow */
+    {0.1012, 0.0515, 0.0000, 0.0000, 0.0000, 0.0000, 0.8325, 1.0149, 1.0149, 1.0149}, /* red */
+    {0.0000, 0.0000, 0.0273, 0.7937, 1.0000, 0.9418, 0.1719, 0.0000, 0.0000, 0.0025}, /* green */
+    {1.0000, 1.0000, 0.8916, 0.3323, 0.0000, 0.0000, 0.0003, 0.0369, 0.0483, 0.0496}  /* blue */
+};
+enum { PDS__SMITS_WHITE, PDS__SMITS_CYAN, PDS__SMITS_MAGENTA, PDS__SMITS_YELLOW,
+       PDS__SMITS_RED, PDS__SMITS_GREEN, PDS__SMITS_BLUE };
+
+/* The value at lambda (nm) of the spectrum Smits' method gives the RGB
+   triple rgb (negative channels count as 0). A grey triple gives the flat
+   spectrum exactly. */
+static double pds__spectral_value(const double rgb[3], double lambda_nm)
+{
+    double r = rgb[0] > 0.0 ? rgb[0] : 0.0, g = rgb[1] > 0.0 ? rgb[1] : 0.0, b = rgb[2] > 0.0 ? rgb[2] : 0.0;
+    double t = (lambda_nm - PDS__LAMBDA_MIN) / 34.0;
+    int k = t > 0.0 ? (t < 9.0 ? (int)t : 9) : 0; /* also NaN -> 0 */
+    const double(*S)[10] = pds__smits;
+    if (r == g && g == b) return r;
+    if (r <= g && r <= b) {
+        if (g <= b) return r + (g - r) * S[PDS__SMITS_CYAN][k] + (b - g) * S[PDS__SMITS_BLUE][k];
+        return r + (b - r) * S[PDS__SMITS_CYAN][k] + (g - b) * S[PDS__SMITS_GREEN][k];
+    }
+    if (g <= r && g <= b) {
+        if (r <= b) return g + (r - g) * S[PDS__SMITS_MAGENTA][k] + (b - r) * S[PDS__SMITS_BLUE][k];
+        return g + (b - g) * S[PDS__SMITS_MAGENTA][k] + (r - b) * S[PDS__SMITS_RED][k];
+    }
+    if (r <= g) return b + (r - b) * S[PDS__SMITS_YELLOW][k] + (g - r) * S[PDS__SMITS_GREEN][k];
+    return b + (g - b) * S[PDS__SMITS_YELLOW][k] + (r - g) * S[PDS__SMITS_RED][k];
+}
+
+/* Replace an RGB weight by its spectral value at lambda in all three
+   channels (lambda 0: RGB render, nothing to do). */
+static void pds__spectral_uplift(double lambda_nm, double w[3])
+{
+    double v;
+    if (!(lambda_nm > 0.0)) return;
+    v = pds__spectral_value(w, lambda_nm);
+    w[0] = w[1] = w[2] = v;
+}
+
+/* One lobe of the Wyman-Sloan-Shirley fit: piecewise Gaussian of inverse
+   widths a (below mu) and b (above), in nm^-1. */
+static double pds__cie_lobe(double l, double mu, double a, double b)
+{
+    double t = (l - mu) * (l < mu ? a : b);
+    return exp(-0.5 * t * t);
+}
+
+/* CIE 1931 colour matching functions xbar, ybar, zbar at lambda (nm):
+   Wyman, Sloan, Shirley 2013, eq. 2 (see the prologue). */
+static void pds__cie_xyz(double l, double xyz[3])
+{
+    xyz[0] = 1.056 * pds__cie_lobe(l, 599.8, 0.0264, 0.0323) + 0.362 * pds__cie_lobe(l, 442.0, 0.0624, 0.0374) -
+             0.065 * pds__cie_lobe(l, 501.1, 0.0490, 0.0382);
+    xyz[1] = 0.821 * pds__cie_lobe(l, 568.8, 0.0213, 0.0247) + 0.286 * pds__cie_lobe(l, 530.9, 0.0613, 0.0322);
+    xyz[2] = 1.217 * pds__cie_lobe(l, 437.0, 0.0845, 0.0278) + 0.681 * pds__cie_lobe(l, 459.0, 0.0385, 0.0725);
+}
+
+/* XYZ -> linear sRGB, D65 white (IEC 61966-2-1; Lindbloom's digits). */
+static void pds__xyz_to_srgb(const double xyz[3], double rgb[3])
+{
+    rgb[0] = 3.2404542 * xyz[0] - 1.5371385 * xyz[1] - 0.4985314 * xyz[2];
+    rgb[1] = -0.9692660 * xyz[0] + 1.8760108 * xyz[1] + 0.0415560 * xyz[2];
+    rgb[2] = 0.0556434 * xyz[0] - 0.2040259 * xyz[1] + 1.0572252 * xyz[2];
+}
+
+/* Integrals over [380, 780] nm of the three channels of
+   pds__xyz_to_srgb(pds__cie_xyz(lambda)), in nm (midpoint rule at
+   0.001 nm; spectral_film_weights_average_to_white recomputes them). */
+static const double pds__film_norm[3] = {128.167043732, 101.632215868, 97.036924154};
+
+/* Film weight W(lambda) of the prologue: the linear sRGB a camera sample
+   adds per unit of spectral radiance at lambda, when lambda is uniform on
+   [380, 780] nm. Its mean over that range is (1, 1, 1). */
+static void pds__film_weight(double lambda_nm, double w[3])
+{
+    double xyz[3];
+    int c;
+    pds__cie_xyz(lambda_nm, xyz);
+    pds__xyz_to_srgb(xyz, w);
+    for (c = 0; c < 3; c++) w[c] *= (PDS__LAMBDA_MAX - PDS__LAMBDA_MIN) / pds__film_norm[c];
+}
+
+/* Does the scene hold a dispersive material? */
+static int pds__material_is_dispersive(const pds_material *m)
+{
+    return m->type == PDS_MAT_DIELECTRIC && m->dispersion != PDS_DISPERSION_NONE;
+}
+
+/* The material as a path at lambda sees it: the index behind a dielectric
+   at lambda (its dispersion law), Beer coefficients uplifted to
+   sigma(lambda) on both sides. Every other field (the RGB colours the
+   BSDF returns, which the caller uplifts) is copied. */
+static void pds__spectral_material(const pds_material *m, double lambda_nm, pds_material *out)
+{
+    *out = *m;
+    if (m->type != PDS_MAT_DIELECTRIC) return;
+    out->ior = pds__ior_at(m, lambda_nm);
+    pds__spectral_uplift(lambda_nm, out->absorption);
+    pds__spectral_uplift(lambda_nm, out->outside_absorption);
+}
+
+/* lambda of camera sample `sample` of a pixel: a golden-ratio sequence
+   rotated by a per-pixel uniform. */
+static double pds__eye_wavelength(uint64_t seed, uint64_t pixel, uint64_t sample)
+{
+    double u = pds__rng_uniform(seed, PDS__RNG_WAVELENGTH, pixel, 0) + 0.6180339887498949 * (double)sample;
+    u -= floor(u);
+    return PDS__LAMBDA_MIN + (PDS__LAMBDA_MAX - PDS__LAMBDA_MIN) * u;
+}
+
+/* lambda of photon number i: the seventh Halton dimension (the first six
+   place and aim it). */
+static double pds__photon_wavelength(uint64_t seed, long i)
+{
+    return PDS__LAMBDA_MIN + (PDS__LAMBDA_MAX - PDS__LAMBDA_MIN) * pds__halton(seed, (uint64_t)i, 6);
+}
+
+/* Weight of a photon of wavelength lambda_p at an eye vertex traced at
+   lambda_e: 1 if the vertex does not depend on the wavelength (lambda_e
+   = 0: its specular chain was not dispersive), else the box kernel of the
+   prologue: the bin count if both are in the same bin, 0 if not. */
+static double pds__wavelength_match(double lambda_e, double lambda_p)
+{
+    double w = (PDS__LAMBDA_MAX - PDS__LAMBDA_MIN) / PDS__SPECTRAL_BINS;
+    if (!(lambda_e > 0.0)) return 1.0;
+    return floor((lambda_e - PDS__LAMBDA_MIN) / w) == floor((lambda_p - PDS__LAMBDA_MIN) / w) ? PDS__SPECTRAL_BINS
+                                                                                            : 0.0;
+}
+
+/* A photon meets an eye vertex (photon methods, spectral renders). The
+   photon is spectral (lambda_p > 0: e, its flux or flux density, is its
+   value at lambda_p times W(lambda_p)) or still RGB (lambda_p = 0); the
+   vertex holds at one wavelength (lambda_e > 0, importance at lambda_e)
+   or at all (lambda_e = 0, RGB importance). e and f (the vertex's BSDF
+   value, RGB) become what the pair adds per channel, times the vertex's
+   importance:
+     spectral photon: f at lambda_p, times the wavelength match;
+     RGB photon, vertex at lambda_e: e and f at lambda_e, times W(lambda_e);
+     both RGB: unchanged (the RGB renderer's product).
+   Returns 0 if the pair adds nothing. */
+static int pds__spectral_meet(double lambda_p, double lambda_e, double e[3], double f[3])
+{
+    int c;
+    if (lambda_p > 0.0) {
+        double w = pds__wavelength_match(lambda_e, lambda_p);
+        if (w == 0.0) return 0;
+        pds__spectral_uplift(lambda_p, f);
+        for (c = 0; c < 3; c++) f[c] *= w;
+    } else if (lambda_e > 0.0) {
+        double film[3], v = pds__spectral_value(e, lambda_e);
+        pds__film_weight(lambda_e, film);
+        for (c = 0; c < 3; c++) e[c] = v * film[c];
+        pds__spectral_uplift(lambda_e, f);
+    }
+    return 1;
 }
 
 /* ===================================================================== */
@@ -9314,7 +9598,7 @@ static void pds__material_preview_colour(const pds_material *m, double rgb[3])
 /* An eye-path vertex: where a camera path first meets a non-specular
    surface, after any number of specular bounces. The photon methods add
    their caustic light at these points (PDS paper section 3.3: position,
-   ray direction, BRDF, importance, pixel). 84 bytes:
+   ray direction, BRDF, importance, pixel). 88 bytes:
      pos, n, g, wo     position; the shading and geometric normals turned
                        to the side the eye path arrived from (the frame
                        pds__bsdf_frame gives the BSDF), so that a mesh's
@@ -9328,11 +9612,18 @@ static void pds__material_preview_colour(const pds_material *m, double rgb[3])
                        albedo(x) / pi does not depend on the directions,
                        weight = albedo(x) / pi x importance, computed once
                        here instead of at every photon that reaches it
+     lambda            spectral renders: the wavelength (nm) the vertex
+                       holds at, when its specular chain refracted through
+                       a dispersive material (importance is then that
+                       chain's spectral throughput at lambda); 0 when the
+                       vertex holds at every wavelength (importance is the
+                       chain's RGB weight), and in RGB renders (>>spectral)
      material, pixel   indices */
 typedef struct pds__eye_vertex {
     float pos[3], n[3], g[3], wo[3];
     float importance[3];
     float weight[3];
+    float lambda;
     int material;
     int pixel;
     int lambert;
@@ -9348,6 +9639,18 @@ static void pds__f3_set(float f[3], pds__v3 v)
 static pds__v3 pds__f3_get(const float f[3])
 {
     return pds__v(f[0], f[1], f[2]);
+}
+
+/* Is this render spectral (>>spectral)? When asked for, or when some
+   material disperses light; never for the preview. */
+static int pds__render_is_spectral(const pds_scene *s, const pds_options *opt)
+{
+    size_t i;
+    if (opt->method == PDS_METHOD_PREVIEW) return 0;
+    if (opt->spectral) return 1;
+    for (i = 0; i < s->materials.count; i++)
+        if (pds__material_is_dispersive(&s->materials.items[i])) return 1;
+    return 0;
 }
 
 /* Record the eye vertex at x (material m, index material) seen from wo
@@ -9377,13 +9680,23 @@ static int pds__eye_vertex_set(pds__eye_vertex *v, const pds_material *m, pds__v
 /* What eye vertex v passes to its pixel per unit of irradiance arriving
    from direction wi (unit, pointing away from the surface): fr(x, wi, wo)
    times the vertex's importance, into out[3]. 0 (and out untouched) when
-   wi is below the shading or the geometric normal. */
-static int pds__eye_response(const pds_scene *s, const pds__eye_vertex *v, pds__v3 wi, double out[3])
+   wi is below the shading or the geometric normal. Spectral renders: the
+   photon's wavelength lambda_p (0 for an RGB photon) and its flux or flux
+   density e[3], which may be changed, meet the vertex as
+   pds__spectral_meet says (>>spectral); 0 if they do not meet. */
+static int pds__eye_response(const pds_scene *s, const pds__eye_vertex *v, pds__v3 wi, double lambda_p, double e[3],
+                             double out[3])
 {
     pds__v3 n = pds__f3_get(v->n), g = pds__f3_get(v->g);
     double f[3], pdf;
     int c;
     if (!(pds__dot(wi, n) > 0.0) || !(pds__dot(wi, g) > 0.0)) return 0;
+    if (lambda_p > 0.0 || v->lambda > 0.0f) {
+        pds__bsdf_eval(&s->materials.items[v->material], pds__f3_get(v->pos), pds__f3_get(v->wo), wi, n, g, f, &pdf);
+        if (!pds__spectral_meet(lambda_p, v->lambda, e, f)) return 0;
+        for (c = 0; c < 3; c++) out[c] = f[c] * v->importance[c];
+        return f[0] != 0.0 || f[1] != 0.0 || f[2] != 0.0;
+    }
     if (v->lambert) {
         for (c = 0; c < 3; c++) out[c] = v->weight[c];
         return 1;
@@ -9399,6 +9712,9 @@ typedef struct pds__tracer {
     int max_depth, rr_depth;
     uint64_t seed;
     double eps;  /* ray offset, relative to the scene's size */
+    int spectral; /* one wavelength per camera sample (>>spectral) */
+    int spectral_all; /* ... and spectral from the camera on, not only
+                         from the first dispersive material */
 } pds__tracer;
 
 /* Power heuristic with exponent 2. */
@@ -9407,13 +9723,15 @@ static double pds__mis_power(double a, double b)
     return a * a / (a * a + b * b);
 }
 
-/* Add w * c to acc when the contribution's class is wanted. */
-static void pds__accumulate(const pds__tracer *tr, int caustic, const double w[3], double scale, double acc[3])
+/* Add w * scale to acc when the contribution's class is wanted; film (if
+   not NULL) is the film weight W(lambda) of a spectral sample. */
+static void pds__accumulate(const pds__tracer *tr, int caustic, const double w[3], double scale, const double *film,
+                            double acc[3])
 {
     int c;
     if (tr->paths == PDS_PATHS_NO_CAUSTICS && caustic) return;
     if (tr->paths == PDS_PATHS_CAUSTICS_ONLY && !caustic) return;
-    for (c = 0; c < 3; c++) acc[c] += w[c] * scale;
+    for (c = 0; c < 3; c++) acc[c] += w[c] * scale * (film ? film[c] : 1.0);
 }
 
 /* Offset a ray origin off the surface, to the side of ng that dir leaves on. */
@@ -9445,9 +9763,12 @@ static int pds__hit_analytic_light(const pds_scene *s, pds__v3 org, pds__v3 dir,
 }
 
 /* Next-event estimation at a non-specular vertex: one light picked by
-   power, one point on it, shadow ray, MIS against BSDF sampling. */
+   power, one point on it, shadow ray, MIS against BSDF sampling. A
+   spectral sample (lambda > 0, film = W(lambda)) takes the BSDF and the
+   light at lambda. */
 static void pds__direct_light(const pds__tracer *tr, const pds_material *m, pds__v3 p, pds__v3 wo, pds__v3 ns,
-                              pds__v3 ng, const double beta[3], uint64_t idx, uint64_t dim, double acc[3])
+                              pds__v3 ng, const double beta[3], uint64_t idx, uint64_t dim, double lambda,
+                              const double *film, double acc[3])
 {
     const pds_scene *s = tr->scene;
     double pmf, f[3], pdf_bsdf, cosine, w[3], mis = 1.0;
@@ -9468,24 +9789,45 @@ static void pds__direct_light(const pds__tracer *tr, const pds_material *m, pds_
     org = pds__offset(tr, p, ng, li.wi);
     if (pds__bvh_occluded(&s->bvh, org, li.wi, 0.0, li.dist * (1.0 - 1e-4))) return;
     if (!li.delta) mis = pds__mis_power(pmf * li.pdf, pdf_bsdf);
+    pds__spectral_uplift(lambda, f);
+    pds__spectral_uplift(lambda, li.li);
     for (c = 0; c < 3; c++) w[c] = beta[c] * f[c] * li.li[c] * cosine / (pmf * li.pdf);
-    pds__accumulate(tr, 0, w, mis, acc);
+    pds__accumulate(tr, 0, w, mis, film, acc);
 }
 
 /* One camera sample: radiance along the ray (org, dir), split by class.
    If rec is not NULL, the path's first non-specular vertex is written to it
    (importance not yet divided by the samples per pixel) and 1 returned;
-   otherwise, or if the path has no such vertex, 0. */
-static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double acc[3],
-                           pds__eye_vertex *rec)
+   otherwise, or if the path has no such vertex, 0. lambda > 0: the
+   sample's wavelength in a spectral render (>>spectral). The path turns
+   spectral at its first dispersive material (or at once if the render
+   is spectral throughout): its RGB throughput becomes its value at
+   lambda, and from there on materials and lights are taken at lambda and
+   what it sees is weighted by the film's W(lambda). Alongside, until the
+   first non-specular vertex, the chain's RGB weight beta_rgb is kept for
+   the vertex's importance, unless the chain met a dispersive material. */
+static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double lambda,
+                           double acc[3], pds__eye_vertex *rec)
 {
     int recorded = 0;
     const pds_scene *s = tr->scene;
     double beta[3] = {1.0, 1.0, 1.0};
+    double sigma_buf[3];
     const double *sigma = NULL;   /* Beer coefficients of the medium the ray is in */
     int depth, had_diffuse = 0, specular_since = 0;
     double prev_pdf = 0.0;        /* solid-angle pdf of the last non-specular BSDF sample */
     pds__v3 prev_p = org;
+    /* spectral only: lam is the wavelength once the path is spectral (0
+       before), film_w then W(lam) */
+    double film[3], beta_rgb[3] = {1.0, 1.0, 1.0}, lam = 0.0;
+    const double *film_w = NULL, *sigma_rgb = NULL;
+    int chromatic = 0;
+    pds_material m_lambda;
+    if (lambda > 0.0) pds__film_weight(lambda, film);
+    if (lambda > 0.0 && tr->spectral_all) {
+        lam = lambda;
+        film_w = film;
+    }
     for (depth = 0; depth <= tr->max_depth; depth++) {
         uint64_t dim = 2 + (uint64_t)depth * PDS__DIMS_PER_BOUNCE;
         pds__tri_hit th;
@@ -9515,6 +9857,7 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
                 nx = hit.ng;
                 pds__light_le(&s->lights[k], nx, pds__scale(dir, -1.0), le);
             }
+            pds__spectral_uplift(lam, le);
             pds__beer(sigma, light_hit >= 0 ? tl : th.t, beta);
             if (had_diffuse && specular_since == 0) {
                 /* next-event estimation could have found this point too */
@@ -9523,25 +9866,52 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
                 mis = pds__mis_power(prev_pdf, pdf_light);
             }
             for (c = 0; c < 3; c++) le[c] *= beta[c];
-            pds__accumulate(tr, caustic, le, mis, acc);
+            pds__accumulate(tr, caustic, le, mis, film_w, acc);
             return recorded;
         }
         if (!found) return recorded; /* black background */
         pds__scene_fill_hit(s, &th, org, dir, &hit);
         pds__beer(sigma, th.t, beta);
+        pds__beer(sigma_rgb, th.t, beta_rgb);
         m = &s->materials.items[hit.material];
+        if (lambda > 0.0 && pds__material_is_dispersive(m)) {
+            if (!had_diffuse) chromatic = 1;
+            if (lam == 0.0) {
+                /* the path turns spectral here: its throughput and the
+                   medium it is in, at lambda */
+                lam = lambda;
+                film_w = film;
+                pds__spectral_uplift(lam, beta);
+                if (sigma) pds__spectral_uplift(lam, sigma_buf);
+            }
+        }
+        if (lam > 0.0) {
+            pds__spectral_material(m, lam, &m_lambda);
+            m = &m_lambda;
+        }
         if (!pds__material_is_specular(m)) {
             if (rec && !had_diffuse) {
-                recorded = pds__eye_vertex_set(rec, m, hit.position, hit.ns, hit.ng, pds__scale(dir, -1.0), beta,
+                const double *imp = lam > 0.0 && !chromatic ? beta_rgb : beta;
+                recorded = pds__eye_vertex_set(rec, m, hit.position, hit.ns, hit.ng, pds__scale(dir, -1.0), imp,
                                                hit.material);
+                rec->lambda = chromatic ? (float)lambda : 0.0f;
             }
-            pds__direct_light(tr, m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, beta, idx, dim, acc);
+            pds__direct_light(tr, m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, beta, idx, dim, lam,
+                              film_w, acc);
             had_diffuse = 1;
             specular_since = 0;
         }
         if (depth == tr->max_depth) return recorded;
         for (c = 0; c < 3; c++) u[c] = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 3 + (uint64_t)c);
         if (!pds__bsdf_sample(m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, u, PDS__RADIANCE, &bs)) return recorded;
+        if (lam > 0.0) {
+            /* the chain's RGB weight: this material's RGB weight, with its
+               RGB Beer coefficients on the side the path goes on */
+            for (c = 0; c < 3; c++) beta_rgb[c] *= bs.weight[c];
+            if (m->type == PDS_MAT_DIELECTRIC)
+                sigma_rgb = pds__medium_absorption(&s->materials.items[hit.material], bs.side);
+            pds__spectral_uplift(lam, bs.weight);
+        }
         for (c = 0; c < 3; c++) beta[c] *= bs.weight[c];
         if (bs.delta) {
             specular_since++;
@@ -9549,13 +9919,18 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
             prev_pdf = bs.pdf;
             prev_p = hit.position;
         }
-        if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        if (m->type == PDS_MAT_DIELECTRIC) {
+            const double *a = pds__medium_absorption(m, bs.side);
+            if (a) memcpy(sigma_buf, a, sizeof sigma_buf);
+            sigma = a ? sigma_buf : NULL;
+        }
         /* Russian roulette: survive with probability min(1, max(beta)). */
         if (depth + 1 >= tr->rr_depth) {
             double b = beta[0] > beta[1] ? (beta[0] > beta[2] ? beta[0] : beta[2]) : (beta[1] > beta[2] ? beta[1] : beta[2]);
             q = b < 1.0 ? b : 1.0;
             if (!(q > 0.0) || pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 6) >= q) return recorded;
             for (c = 0; c < 3; c++) beta[c] /= q;
+            for (c = 0; c < 3; c++) beta_rgb[c] /= q;
         }
         org = pds__offset(tr, hit.position, hit.ng, bs.wi);
         dir = bs.wi;
@@ -9619,10 +9994,13 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
         double acc[3] = {0.0, 0.0, 0.0};
         if (job->method != PDS_METHOD_PREVIEW) {
             pds__eye_vertex v;
-            int recorded = job->path ? job->path(job->path_ctx, &job->tracer, job->frame.origin, dir, idx, acc,
-                                                 job->record_eye ? &v : NULL, &job->row_counts[4 * (size_t)y])
-                                     : pds__trace_path(&job->tracer, job->frame.origin, dir, idx, acc,
-                                                       job->record_eye ? &v : NULL);
+            double lambda = job->tracer.spectral ? pds__eye_wavelength(job->seed, pixel, sample) : 0.0;
+            int recorded;
+            v.lambda = 0.0f; /* gi's eye paths are RGB (>>spectral) */
+            recorded = job->path ? job->path(job->path_ctx, &job->tracer, job->frame.origin, dir, idx, acc,
+                                             job->record_eye ? &v : NULL, &job->row_counts[4 * (size_t)y])
+                                 : pds__trace_path(&job->tracer, job->frame.origin, dir, idx, lambda, acc,
+                                                   job->record_eye ? &v : NULL);
             if (recorded) {
                 pds__eye_vertex **arr = &job->row_vertices[y];
                 if (pds__grow((void **)arr, &job->row_cap[y], job->row_count[y] + 1, sizeof **arr) == 0) {
@@ -10385,26 +10763,35 @@ typedef struct pds__eye_map {
 
 /* A photon where it landed, for the methods that store photons (>>baselines):
    position, travel direction, geometric normal of the surface (facing the
-   photon), flux, and its number (the store is sorted by it, so the map
-   does not depend on which thread traced what). 56 bytes. */
+   photon), flux, its wavelength (spectral renders: the photon's lambda
+   once it has met a dispersive material, its flux then that at lambda
+   times W(lambda); 0 for an RGB photon, >>spectral) and its number (the
+   store is sorted by it, so the map does not depend on which thread
+   traced what). 64 bytes where long has 64 bits, 56 where it has 32. */
 typedef struct pds__stored_photon {
     float pos[3], dir[3], ng[3], flux[3];
+    float lambda;
     long index;
 } pds__stored_photon;
 
 /* A photon with its footprint, for photon differential mapping: Ep =
-   flux / Ap, the eq. 12 filter matrix (rows M[0..2], M[3..5]) and the
-   footprint's major semi-axis. 88 bytes. */
+   flux / Ap, the eq. 12 filter matrix (rows M[0..2], M[3..5]), the
+   footprint's major semi-axis, and lambda as for pds__stored_photon.
+   88 bytes. */
 typedef struct pds__diff_photon {
     float pos[3], dir[3], np[3], ep[3];
     float M[6];
     float major;
+    float lambda;
     long index;
 } pds__diff_photon;
 
 /* One thread's share of the photon pass. */
 typedef struct pds__splat_buf {
     pds__sum128 *sum;      /* 3 per pixel: radiance x unit, exact */
+    pds__sum128 *neg;      /* spectral renders: 3 per pixel, the negative
+                              terms' magnitudes (the film weight W(lambda)
+                              has negative parts); NULL in RGB renders */
     double unit;           /* pds__sum_unit of the scene */
     long splatted, degenerate;
     long split;            /* photons (and sub-photons) split into four */
@@ -10424,9 +10811,10 @@ typedef struct pds__splat_buf {
 
 struct pds__photon_job;
 /* What happens where a caustic photon lands: on a non-specular surface,
-   after >= 1 specular bounce; r is transferred to the hit point. */
+   after >= 1 specular bounce; r is transferred to the hit point. lambda:
+   the photon's wavelength if it is spectral by now, else 0 (>>spectral). */
 typedef void (*pds__land_fn)(const struct pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r,
-                             pds__v3 ng, const double flux[3], long photon);
+                             pds__v3 ng, const double flux[3], double lambda, long photon);
 
 typedef struct pds__photon_job {
     const pds_scene *scene;
@@ -10457,6 +10845,9 @@ typedef struct pds__photon_job {
     double t0;
     pds__land_fn land;         /* splat (pds, splat) or store (pm, ...) */
     int differentials;         /* trace photon differentials (pds) or not */
+    int spectral;              /* one wavelength per photon (>>spectral) */
+    int spectral_all;          /* ... spectral from the light on, not only
+                                  from the first dispersive material */
     double fixed_radius;       /* splat: the isotropic footprint's radius */
     long index_offset;         /* ppm: the first photon number of this pass */
     double build_s, gather_s;  /* pm, pdm: time of the last map build and gather */
@@ -10475,12 +10866,14 @@ typedef struct pds__splat_ctx {
     double ep[3];              /* Ep = flux / Ap, W / m^2 */
     double plane_max;          /* topological-bias guard distance */
     double aniso;              /* m_a of this footprint (debug views) */
+    double lambda;             /* the photon's wavelength; 0 in RGB renders */
 } pds__splat_ctx;
 
-/* Add radiance v (W/(m^2 sr)) into sum i of the thread's image. */
+/* Add radiance v (W/(m^2 sr)) into sum i of the thread's image (a
+   negative v of a spectral render into the negative sums). */
 static void pds__image_add(pds__splat_buf *b, size_t i, double v)
 {
-    int r = pds__sum128_add(&b->sum[i], v * b->unit);
+    int r = b->neg && v < 0.0 ? pds__sum128_add(&b->neg[i], -v * b->unit) : pds__sum128_add(&b->sum[i], v * b->unit);
     if (r == PDS__SUM_SATURATED) b->saturated++;
     if (r == PDS__SUM_INVALID) b->invalid++;
 }
@@ -10492,15 +10885,16 @@ static void pds__splat_visit(void *vctx, size_t index, double r2)
 {
     pds__splat_ctx *sc = (pds__splat_ctx *)vctx;
     const pds__eye_vertex *v = &sc->job->map->v[index];
-    double k, w[3];
+    double k, w[3], e[3];
     int c;
     /* topological bias: a surface seen from the other side (the back of a
        thin wall) */
     if (pds__dot(pds__f3_get(v->g), sc->np) <= 0.0) return;
-    if (!pds__eye_response(sc->job->scene, v, sc->wi, w)) return;
+    for (c = 0; c < 3; c++) e[c] = sc->ep[c];
+    if (!pds__eye_response(sc->job->scene, v, sc->wi, sc->lambda, e, w)) return;
     k = pds__kernel_silverman(r2);
     for (c = 0; c < 3; c++) {
-        double val = PDS__PI * k * w[c] * sc->ep[c];
+        double val = PDS__PI * k * w[c] * e[c];
         if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
     }
     if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, v->pixel, k, sc->aniso);
@@ -10509,12 +10903,13 @@ static void pds__splat_visit(void *vctx, size_t index, double r2)
 /* Splat the photon r (already transferred to its hit on a non-specular
    surface with geometric normal ng) carrying flux. */
 static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
-                       const double flux[3], long photon)
+                       const double flux[3], double lambda, long photon)
 {
     pds__splat_ctx sc;
     pds__ray_diff wide; /* a widened footprint; r may point here */
     double ap, major, spacing, keep = 1.0;
     int c;
+    sc.lambda = lambda;
     sc.np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
     if (job->fixed_radius > 0.0) {
         /* fixed-bandwidth splatting: a disc of radius R in the tangent
@@ -10602,6 +10997,7 @@ typedef struct pds__landing {
     pds__ray_diff r;
     pds__v3 ng;
     double flux[3];
+    double lambda;
     long photon;
     uint64_t key;   /* Morton code of r.p in the scene's bounds */
 } pds__landing;
@@ -10633,17 +11029,18 @@ static uint64_t pds__morton_key(const pds_scene *s, pds__v3 p)
 }
 
 static void pds__defer_splat(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
-                             const double flux[3], long photon)
+                             const double flux[3], double lambda, long photon)
 {
     pds__landing *l;
     if (pds__grow((void **)&buf->pending, &buf->cap_pending, buf->npending + 1, sizeof *buf->pending)) {
-        pds__splat(job, buf, r, ng, flux, photon); /* no room to defer: splat now */
+        pds__splat(job, buf, r, ng, flux, lambda, photon); /* no room to defer: splat now */
         return;
     }
     l = &buf->pending[buf->npending++];
     l->r = *r;
     l->ng = ng;
     memcpy(l->flux, flux, sizeof l->flux);
+    l->lambda = lambda;
     l->photon = photon;
     l->key = pds__morton_key(job->scene, r->p);
 }
@@ -10661,7 +11058,7 @@ static void pds__splat_pending(const pds__photon_job *job, pds__splat_buf *buf)
     qsort(buf->pending, buf->npending, sizeof *buf->pending, pds__landing_cmp);
     for (i = 0; i < buf->npending; i++) {
         const pds__landing *l = &buf->pending[i];
-        pds__splat(job, buf, &l->r, l->ng, l->flux, l->photon);
+        pds__splat(job, buf, &l->r, l->ng, l->flux, l->lambda, l->photon);
     }
     buf->npending = 0;
 }
@@ -10752,8 +11149,14 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
 {
     const pds_scene *s = job->scene;
     const double *sigma = NULL;
+    double sigma_buf[3];
     double flux[3];
     pds__ray_diff r = *start;
+    pds_material m_lambda;
+    /* lambda: the photon's wavelength (spectral renders; its sub-photons
+       share it); lam: the same once the photon is spectral, 0 before
+       (>>spectral) */
+    double lambda = job->spectral ? pds__photon_wavelength(job->seed, i) : 0.0, lam = 0.0;
     int c, depth, can_split = job->differentials && level < job->split_depth;
     /* the path recorder (>>debug) follows the photon, not its sub-photons:
        a split photon's recorded path ends where it split */
@@ -10776,19 +11179,38 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
         if (!pds__material_is_specular(m)) {
             if (depth > 0 && m->type != PDS_MAT_EMISSIVE) {
                 if (rec) pds__path_note(rec, i, depth + 1, PDS_TRACE_LAND, hit.material, th.tri, &r, flux);
-                job->land(job, buf, &r, hit.ng, flux, i);
+                job->land(job, buf, &r, hit.ng, flux, lam, i);
             }
             return;
+        }
+        if (lambda > 0.0 && lam == 0.0 && (job->spectral_all || pds__material_is_dispersive(m))) {
+            /* the photon turns spectral: its power at lambda times the
+               film weight W(lambda) that turns spectral radiance into
+               sRGB, and the medium it is in at lambda (>>spectral) */
+            double film[3], phi = pds__spectral_value(flux, lambda);
+            pds__film_weight(lambda, film);
+            for (c = 0; c < 3; c++) flux[c] = phi * film[c];
+            if (sigma) pds__spectral_uplift(lambda, sigma_buf);
+            lam = lambda;
+        }
+        if (lam > 0.0) {
+            pds__spectral_material(m, lam, &m_lambda);
+            m = &m_lambda;
         }
         if (depth == job->max_depth) return;
         for (c = 0; c < 3; c++)
             uu[c] = pds__rng_uniform(job->seed, PDS__RNG_PHOTON, (uint64_t)i, 8 + 4 * (uint64_t)depth + (uint64_t)c);
         if (!pds__bsdf_sample(m, hit.position, pds__scale(r.d, -1.0), hit.ns, hit.ng, uu, PDS__IMPORTANCE, &bs)) return;
+        pds__spectral_uplift(lam, bs.weight);
         if (!pds__bsdf_frame(pds__scale(r.d, -1.0), hit.ns, hit.ng, &n, &ngw, &side)) return;
         if (!job->differentials) {
             /* the baselines trace bare photons */
             for (c = 0; c < 3; c++) flux[c] *= bs.weight[c];
-            if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+            if (m->type == PDS_MAT_DIELECTRIC) {
+                const double *a = pds__medium_absorption(m, bs.side);
+                if (a) memcpy(sigma_buf, a, sizeof sigma_buf);
+                sigma = a ? sigma_buf : NULL;
+            }
             r.d = bs.wi;
             if (rec)
                 pds__path_note(rec, i, depth + 1, bs.transmitted ? PDS_TRACE_REFRACT : PDS_TRACE_REFLECT,
@@ -10840,7 +11262,11 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
             r.dddv = pds__scale(r.dddv, keep);
         }
         for (c = 0; c < 3; c++) flux[c] *= bs.weight[c];
-        if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        if (m->type == PDS_MAT_DIELECTRIC) {
+            const double *a = pds__medium_absorption(m, bs.side);
+            if (a) memcpy(sigma_buf, a, sizeof sigma_buf);
+            sigma = a ? sigma_buf : NULL;
+        }
         if (rec)
             pds__path_note(rec, i, depth + 1, bs.transmitted ? PDS_TRACE_REFRACT : PDS_TRACE_REFLECT, hit.material,
                            th.tri, &r, flux);
@@ -11026,7 +11452,8 @@ static long pds__pds_passes(pds__photon_job *job, const pds_options *opt, int th
           the reference where a path tracer cannot go (point and directional
           lights).
 
-   At the end, the photon pass every photon method shares. */
+   The photon pass these methods share comes after streamed photon
+   mapping (>>photonpass). */
 
 /* Exact integral of Jensen's Gaussian filter over the disc, over pi r^2:
    a [1 - (1 - (2/b)(1 - e^(-b/2))) / (1 - e^(-b))]. */
@@ -11061,7 +11488,7 @@ static double pds__pm_norm(pds_kernel kernel)
 
 /* Landing: store the photon (photon-map methods). */
 static void pds__store_photon(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
-                              const double flux[3], long photon)
+                              const double flux[3], double lambda, long photon)
 {
     pds__stored_photon *p;
     (void)job;
@@ -11076,6 +11503,7 @@ static void pds__store_photon(const pds__photon_job *job, pds__splat_buf *buf, c
     p->flux[0] = (float)flux[0];
     p->flux[1] = (float)flux[1];
     p->flux[2] = (float)flux[2];
+    p->lambda = (float)lambda;
     p->index = photon;
     buf->splatted++;
 }
@@ -11174,11 +11602,14 @@ static void pds__pm_estimate(const pds__gather *g, const pds__eye_vertex *v, con
     if (n < (g->k < 8 ? g->k : 8) || !(r2 > 0.0)) return;
     for (j = 0; j < n; j++) {
         const pds__stored_photon *p = &photons[idx[j]];
-        double f[3], w;
+        double f[3], w, e[3];
         if (pds__dot(pds__f3_get(p->ng), gv) <= 0.0) continue; /* the surface's other side */
-        if (!pds__eye_response(g->scene, v, pds__scale(pds__f3_get(p->dir), -1.0), f)) continue;
+        for (c = 0; c < 3; c++) e[c] = p->flux[c];
+        if (!pds__eye_response(g->scene, v, pds__scale(pds__f3_get(p->dir), -1.0), p->lambda, e, f)) continue;
         w = pds__pm_weight(g->kernel, d2[j], r2);
-        for (c = 0; c < 3; c++) sum[c] += f[c] * p->flux[c] * w;
+        for (c = 0; c < 3; c++) e[c] = p->flux[c];
+        if ((p->lambda > 0.0f || v->lambda > 0.0f) && !pds__spectral_meet(p->lambda, v->lambda, e, f)) continue;
+        for (c = 0; c < 3; c++) sum[c] += f[c] * e[c] * w;
     }
     area = pds__pm_norm(g->kernel) * PDS__PI * r2;
     for (c = 0; c < 3; c++) sum[c] /= area;
@@ -11205,10 +11636,15 @@ static pds__stored_photon *pds__merge_photons(pds__splat_buf *bufs, int nbufs, s
     return all;
 }
 
-/* Photon mapping's second half: the caustic map and the gather into the
-   threads' exact images. */
-static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
-                                 int threads, pds_render_stats *stats, pds_error *err)
+/* The estimate of one eye vertex from its nearest stored photons. */
+typedef void (*pds__estimate_fn)(const pds__gather *g, const pds__eye_vertex *v, const size_t *idx,
+                                 const double *d2, size_t n, double sum[3]);
+
+/* Photon mapping's second half: the map of the stored photons (pm: the
+   caustic map; spm: the stream map) and the gather into the threads'
+   exact images with `estimate`. */
+static pds_status pds__stored_gather(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
+                                     int threads, pds_render_stats *stats, pds_error *err, pds__estimate_fn estimate)
 {
     pds__gather g;
     pds__kdtree tree;
@@ -11238,7 +11674,7 @@ static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, c
     g.k = (size_t)opt->k;
     g.radius = opt->max_radius > 0.0 ? opt->max_radius : DBL_MAX;
     g.kernel = opt->kernel;
-    g.estimate = pds__pm_estimate;
+    g.estimate = estimate;
     st = pds__gather_run(&g, job, threads, err);
     job->gather_s = pds_time_now() - tg;
     job->gather_found = g.found;
@@ -11247,11 +11683,17 @@ static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, c
     return st;
 }
 
+static pds_status pds__pm_gather(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
+                                 int threads, pds_render_stats *stats, pds_error *err)
+{
+    return pds__stored_gather(job, opt, v, nv, threads, stats, err, pds__pm_estimate);
+}
+
 /* --- photon differential mapping --------------------------------------- */
 
 /* Landing: store the photon with its footprint (pdm). */
 static void pds__store_diff_photon(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r,
-                                   pds__v3 ng, const double flux[3], long photon)
+                                   pds__v3 ng, const double flux[3], double lambda, long photon)
 {
     pds__diff_photon *p;
     pds__v3 np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
@@ -11283,6 +11725,7 @@ static void pds__store_diff_photon(const pds__photon_job *job, pds__splat_buf *b
         p->M[3 + k] = (float)M[1][k];
     }
     p->major = (float)major;
+    p->lambda = (float)lambda;
     p->index = photon;
     buf->splatted++;
 }
@@ -11306,12 +11749,13 @@ static void pds__pdm_estimate(const pds__gather *g, const pds__eye_vertex *v, co
         const pds__diff_photon *p = &photons[idx[j]];
         pds__v3 np = pds__f3_get(p->np), d = pds__sub(x, pds__f3_get(p->pos));
         double y0 = p->M[0] * d.x + p->M[1] * d.y + p->M[2] * d.z;
-        double y1 = p->M[3] * d.x + p->M[4] * d.y + p->M[5] * d.z, r2 = y0 * y0 + y1 * y1, f[3], k;
+        double y1 = p->M[3] * d.x + p->M[4] * d.y + p->M[5] * d.z, r2 = y0 * y0 + y1 * y1, f[3], k, e[3];
         /* the same guards as the PDS splat */
         if (r2 >= 1.0 || fabs(pds__dot(np, d)) > g->plane_tolerance * p->major || pds__dot(gv, np) <= 0.0) continue;
-        if (!pds__eye_response(g->scene, v, pds__scale(pds__f3_get(p->dir), -1.0), f)) continue;
+        for (c = 0; c < 3; c++) e[c] = p->ep[c];
+        if (!pds__eye_response(g->scene, v, pds__scale(pds__f3_get(p->dir), -1.0), p->lambda, e, f)) continue;
         k = pds__kernel_silverman(r2);
-        for (c = 0; c < 3; c++) sum[c] += PDS__PI * k * f[c] * p->ep[c];
+        for (c = 0; c < 3; c++) sum[c] += PDS__PI * k * f[c] * e[c];
     }
 }
 
@@ -11396,13 +11840,17 @@ static void pds__ppm_visit(void *ctx, size_t index, double dist2)
 {
     pds__ppm_gather *g = (pds__ppm_gather *)ctx;
     const pds__stored_photon *p = &g->job->photons[index];
-    double f[3];
+    double f[3], e[3];
     int c;
     (void)dist2;
     if (pds__dot(pds__f3_get(p->ng), pds__f3_get(g->v->g)) <= 0.0) return;
+    /* spectral: a vertex seen through dispersive glass counts only the
+       spectral photons of its wavelength bin, found and flux alike */
+    if (p->lambda > 0.0f && pds__wavelength_match(g->v->lambda, p->lambda) == 0.0) return;
     g->found++;
-    if (!pds__eye_response(g->job->scene, g->v, pds__scale(pds__f3_get(p->dir), -1.0), f)) return;
-    for (c = 0; c < 3; c++) g->phi[c] += f[c] * p->flux[c] * g->job->photon_scale;
+    for (c = 0; c < 3; c++) e[c] = p->flux[c];
+    if (!pds__eye_response(g->job->scene, g->v, pds__scale(pds__f3_get(p->dir), -1.0), p->lambda, e, f)) return;
+    for (c = 0; c < 3; c++) g->phi[c] += f[c] * e[c] * g->job->photon_scale;
 }
 
 static void *pds__ppm_worker(void *arg)
@@ -11528,6 +11976,114 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
     return st == PDS_ERR_NOMEM ? pds__nomem(err) : st;
 }
 
+/* ===================================================================== */
+/* >>streams                                                             */
+/* ===================================================================== */
+/* Streamed photon mapping (Guzek, Napieralski, "Efficient rendering of
+   caustics with streamed photon mapping", Bull. Pol. Acad. Sci. Tech. Sci.
+   65(3), 2017; seed paper 003), on the same eye pass, aimed photons and
+   exact images as the other methods.
+
+   The paper's method, sect. 3:
+   - nfs streams leave the light; a stream is a leading photon, which
+     gives the stream its direction, and nfa associated photons whose
+     directions deviate from the leader's within a radius rs. A stream
+     carries Es = Ez / nfs (eq. 1, Ez the light's energy), shared equally
+     by its nfa + 1 photons.
+   - Sect. 3.1, step 3: where the leader meets a diffuse surface, each
+     associated photon gets a random point within rs of the leader's hit
+     and the leader bounces diffusely (at most mr times); where the leader
+     meets a specular or refractive surface, "all associated photons are
+     eliminated and the sum of their energy values is assigned to the
+     leading photon", which then reflects or refracts; this concentration
+     is what makes caustics bright "without increasing the number of
+     photons in a photon map".
+   - Sect. 3.2: every diffuse hit of a leader is stored in a kd-tree of
+     streams; the gather finds the k nearest leaders within R and
+       L(x, wr) = 1/dA sum_{i=1..k} fr(x, wi, wr) Ei            (eq. 2)
+     Ei the stream's energy (the sum of its photons'), dA the area of the
+     circle of the search radius.
+
+   In PDS the photon methods compute only the caustic paths L S+ D (the
+   eye pass computes the rest, including everything a stream does after
+   a diffuse bounce). A caustic path's first event is specular, so by the
+   rule above every stream that makes a caustic has lost its associated
+   photons before they did anything: it travels on as its leader alone
+   with the whole Es, is reflected and refracted with the Fresnel weights
+   of the shared photon tracing, and is stored where it lands. So here:
+   - stream s is pds's photon number s (the shared aimed emission, >>pds):
+     its leader carries Es = flux / nfs, which is eq. 1 per light (the
+     light chosen with probability pmf, Es = Phi / (pmf nfs));
+   - a stream that lands is stored as one record, its leader with the
+     stream's energy (56 bytes; it has no associated photons left);
+   - the gather is eq. 2 over those records (pds__spm_estimate).
+   What nfa and rs shape (streams whose leader first meets a diffuse
+   surface: direct light and what follows it) is the eye pass's part here,
+   so rs does not enter the caustic image at all, and nfa only says how
+   many photons a stream stands for: a render of nfs streams counts
+   nfs (nfa + 1) emitted photons, and with no stream count given spm emits
+   photons / (nfa + 1) streams, as many photons as pm would.
+
+   Ambiguities and the choices made (README, "Streamed photon mapping"):
+   - dA: "the circle with a radius equal to radius R of the nearest leading
+     photons search sphere". Taken as in Jensen's photon map code: the
+     sphere shrinks to the k-th leader once k are found, so dA = pi r_k^2
+     when k leaders lie within R, else pi R^2 (R = max_radius; with no R
+     and fewer than k leaders in the whole map, the farthest one found).
+   - The kernel: none (eq. 2 is a plain sum; the paper leaves Gauss or
+     Epanechnikov kernels to future work).
+   - Like pm, only leaders that arrived on the vertex's side of a surface
+     facing the same way count (Jensen's code; the paper does not say).
+   - Photons per stream: nfa + 1 as sect. 3 says ("equally divided among
+     all the photons in the stream (nfa+1)"), although Table 1 counts
+     nfs x nfa photons. */
+
+/* nfs: the streams a render without a time budget emits. */
+static long pds__spm_streams(const pds_options *opt)
+{
+    if (opt->streams > 0) return opt->streams;
+    return opt->photons / ((long)opt->stream_photons + 1);
+}
+
+/* eq. 2 at one eye vertex from the n <= k nearest leaders (idx, d2 sorted
+   by distance): L = sum fr Ei / (pi r^2), r = the k-th distance when k
+   were found, else the search radius R (or, with no R, the farthest);
+   times the vertex's importance. */
+static void pds__spm_estimate(const pds__gather *g, const pds__eye_vertex *v, const size_t *idx, const double *d2,
+                              size_t n, double sum[3])
+{
+    const pds__stored_photon *streams = (const pds__stored_photon *)g->photons;
+    pds__v3 gv = pds__f3_get(v->g);
+    double r2 = n == g->k || !(g->radius < DBL_MAX) ? d2[n - 1] : g->radius * g->radius, area;
+    size_t j;
+    int c;
+    if (!(r2 > 0.0)) return;
+    for (j = 0; j < n; j++) {
+        const pds__stored_photon *p = &streams[idx[j]];
+        double f[3], e[3]; /* fr x the vertex's importance; the flux, at the vertex (>>spectral) */
+        if (pds__dot(pds__f3_get(p->ng), gv) <= 0.0) continue; /* the surface's other side */
+        for (c = 0; c < 3; c++) e[c] = p->flux[c];
+        if (!pds__eye_response(g->scene, v, pds__scale(pds__f3_get(p->dir), -1.0), p->lambda, e, f)) continue;
+        for (c = 0; c < 3; c++) sum[c] += f[c] * e[c];
+    }
+    area = PDS__PI * r2;
+    for (c = 0; c < 3; c++) sum[c] /= area;
+}
+
+/* The stream map of the landed leaders and the gather of eq. 2. */
+static pds_status pds__spm_gather(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
+                                  int threads, pds_render_stats *stats, pds_error *err)
+{
+    return pds__stored_gather(job, opt, v, nv, threads, stats, err, pds__spm_estimate);
+}
+
+/* ===================================================================== */
+/* >>photonpass                                                          */
+/* ===================================================================== */
+/* The photon pass every photon method shares: the time planning of the
+   map methods, the threads tracing photons, the methods' second halves,
+   and the caustic image. */
+
 /* pm and pdm under a time budget: the map build and the gather come after
    the last photon, so the tracing must stop early enough for them. Probe
    them on the calibration photons (already stored in job->bufs) with every
@@ -11590,8 +12146,9 @@ static double pds__map_budget(pds__photon_job *job, const pds_options *opt, cons
     /* one thread: a probe of tens of milliseconds on one core is not at
        the mercy of the other threads' scheduling (a 1 ms probe on two
        threads of a busy machine planned no tracing at all) */
-    st = opt->method == PDS_METHOD_PM ? pds__pm_gather(job, opt, sub, nsub, 1, NULL, &ignored)
-                                      : pds__pdm_gather(job, opt, sub, nsub, 1, NULL, &ignored);
+    st = opt->method == PDS_METHOD_PM    ? pds__pm_gather(job, opt, sub, nsub, 1, NULL, &ignored)
+         : opt->method == PDS_METHOD_SPM ? pds__spm_gather(job, opt, sub, nsub, 1, NULL, &ignored)
+                                         : pds__pdm_gather(job, opt, sub, nsub, 1, NULL, &ignored);
     free(sub);
     if (st || job->map_photons < 2 || nsub == 0) return remaining;
     p.build_s = job->build_s;
@@ -11607,7 +12164,8 @@ static double pds__map_budget(pds__photon_job *job, const pds_options *opt, cons
        time the render reports) */
     return fmax(0.25 * remaining,
                 pds__map_plan(&p, opt->method == PDS_METHOD_PDM,
-                              (double)(opt->method == PDS_METHOD_PM ? opt->k : opt->max_photons), nv, rate, remaining));
+                              (double)(opt->method == PDS_METHOD_PDM ? opt->max_photons : opt->k), nv, rate,
+                              remaining));
 }
 
 #endif /* PDS_NO_BASELINES */
@@ -11672,8 +12230,12 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.split_angle = opt->split_angle;
         job.roulette_vertices = PDS__SPLAT_ROULETTE;
     }
+#ifndef PDS_NO_BASELINES
+    job.n_total = opt->method == PDS_METHOD_SPM ? pds__spm_streams(opt) : opt->photons;
+#else
     job.n_total = opt->photons;
-    job.n_planned = (double)opt->photons;
+#endif
+    job.n_planned = (double)job.n_total;
     job.caller = pds__thread_self();
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
@@ -11685,6 +12247,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     if (opt->method == PDS_METHOD_SPLAT) job.fixed_radius = opt->radius > 0.0 ? opt->radius : pds__default_radius(s);
 #endif
     job.differentials = opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_PDM;
+    job.spectral = pds__render_is_spectral(s, opt);
+    job.spectral_all = job.spectral && opt->spectral;
     job.nbufs = threads;
     job.bufs = (pds__splat_buf *)calloc((size_t)threads, sizeof *job.bufs);
     if (!job.bufs) {
@@ -11702,7 +12266,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     for (t = 0; t < threads; t++) {
         job.bufs[t].sum = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
         job.bufs[t].unit = pds__sum_unit(s);
-        if (!job.bufs[t].sum) st = PDS_ERR_NOMEM;
+        if (job.spectral) job.bufs[t].neg = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
+        if (!job.bufs[t].sum || (job.spectral && !job.bufs[t].neg)) st = PDS_ERR_NOMEM;
         if (dbg) {
             job.bufs[t].dbg = &dbg[t];
             if (!pds__debug_bufs_init(&dbg[t], debug, opt->method, opt->photons, npix)) st = PDS_ERR_NOMEM;
@@ -11743,7 +12308,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         rate = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6) * threads;
         remaining = opt->time_s - (pds_time_now() - t0);
 #ifndef PDS_NO_BASELINES
-        if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM) {
+        if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPM) {
             double tp = pds_time_now();
             remaining = pds__map_budget(&job, opt, vertices, nvertices, threads, rate, fmax(remaining, 0.0));
             remaining -= pds_time_now() - tp; /* the probe's own time */
@@ -11751,6 +12316,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
 #endif
         for (t = 0; t < threads; t++) {
             memset(job.bufs[t].sum, 0, npix * 3 * sizeof(pds__sum128));
+            if (job.bufs[t].neg) memset(job.bufs[t].neg, 0, npix * 3 * sizeof(pds__sum128));
             if (dbg) pds__debug_bufs_clear(&dbg[t], npix);
             if (paths) paths[t].n = 0;
             job.bufs[t].splatted = job.bufs[t].degenerate = job.bufs[t].saturated = job.bufs[t].invalid = 0;
@@ -11781,8 +12347,10 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
 #ifndef PDS_NO_BASELINES
     if (!st && opt->method == PDS_METHOD_PM) st = pds__pm_gather(&job, opt, vertices, nvertices, threads, stats, err);
     if (!st && opt->method == PDS_METHOD_PDM) st = pds__pdm_gather(&job, opt, vertices, nvertices, threads, stats, err);
+    if (!st && opt->method == PDS_METHOD_SPM) st = pds__spm_gather(&job, opt, vertices, nvertices, threads, stats, err);
 #endif
-    if (!st && stats && (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM)) {
+    if (!st && stats &&
+        (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPM)) {
         stats->time_map_s = job.build_s;
         stats->time_gather_s = job.gather_s;
     }
@@ -11791,10 +12359,15 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
            n_planned, the count actually emitted corrects it. */
         long saturated = 0;
         for (i = 0; i < npix * 3; i++) {
-            pds__sum128 sum = {0, 0};
-            for (t = 0; t < job.nbufs; t++) saturated += pds__sum128_add_bits(&sum, job.bufs[t].sum[i].lo, job.bufs[t].sum[i].hi);
+            pds__sum128 sum = {0, 0}, neg = {0, 0};
+            for (t = 0; t < job.nbufs; t++) {
+                saturated += pds__sum128_add_bits(&sum, job.bufs[t].sum[i].lo, job.bufs[t].sum[i].hi);
+                if (job.spectral)
+                    saturated += pds__sum128_add_bits(&neg, job.bufs[t].neg[i].lo, job.bufs[t].neg[i].hi);
+            }
             if (emitted > 0)
-                rgb[i] += pds__sum128_value(sum) / job.bufs[0].unit * (job.n_planned / (double)emitted);
+                rgb[i] += (pds__sum128_value(sum) - pds__sum128_value(neg)) / job.bufs[0].unit *
+                          (job.n_planned / (double)emitted);
         }
         if (dbg && pds__debug_finish(debug, dbg, job.nbufs, width, height, rgb, &job.frame)) st = PDS_ERR_NOMEM;
         if (!st && paths) {
@@ -11823,10 +12396,16 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             st = PDS_ERR_NOMEM;
         if (stats) {
             if (opt->method != PDS_METHOD_PPM) stats->photons = emitted;
+            if (opt->method == PDS_METHOD_SPM) {
+                /* a stream stands for its leader and nfa associated photons */
+                stats->streams = emitted;
+                stats->photons = emitted * ((long)opt->stream_photons + 1);
+            }
             stats->eye_vertices = (long)nvertices;
             stats->saturated += saturated;
             for (t = 0; t < job.nbufs; t++) {
-                if (opt->method != PDS_METHOD_PM && opt->method != PDS_METHOD_PPM) stats->splatted += job.bufs[t].splatted;
+                if (opt->method != PDS_METHOD_PM && opt->method != PDS_METHOD_PPM && opt->method != PDS_METHOD_SPM)
+                    stats->splatted += job.bufs[t].splatted;
                 stats->dropped_degenerate += job.bufs[t].degenerate;
                 stats->split += job.bufs[t].split;
                 stats->saturated += job.bufs[t].saturated;
@@ -11834,11 +12413,13 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             }
             stats->time_photons_s = pds_time_now() - t0;
             stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + stats->map_bytes +
-                                   (size_t)job.nbufs * npix * (3 + (dbg && dbg[0].aniso ? 2 : 0)) * sizeof(pds__sum128);
+                                   (size_t)job.nbufs * npix * (3 + (dbg && dbg[0].aniso ? 2 : 0) + (job.spectral ? 3 : 0)) *
+                                       sizeof(pds__sum128);
         }
     }
     for (t = 0; t < job.nbufs; t++) {
         free(job.bufs[t].sum);
+        free(job.bufs[t].neg);
         if (dbg) pds__debug_bufs_free(&dbg[t]);
         if (paths) free(paths[t].ev);
         free(job.bufs[t].stored);
@@ -12598,6 +13179,1264 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
 }
 
 /* ===================================================================== */
+/* >>isc                                                                 */
+/* ===================================================================== */
+/* Image-space caustics (Wyman and Davis, "Interactive Image-Space
+   Techniques for Approximating Caustics", I3D 2006), on the CPU, on the
+   scene, camera, lights and BVH of the other methods.
+
+   1. Light-space photon buffer (sect. 3.1, Fig. 1c, Fig. 3): one photon per
+      texel of an R x R pinhole view from each point or spot light, fitted
+      around the specular triangles as the light sees them (the paper used
+      a fixed 90-degree view). Photon (i, j) leaves through
+      the image-plane point of texel coordinates (i + jx, j + jy), (jx, jy)
+      this frame's sub-texel offset, and is traced through the specular
+      surfaces. It stores where it first meets a non-specular surface after
+      at least one specular bounce, that surface's normal, the light's
+      intensity in its direction times the Fresnel and Beer factors of its
+      path (W/sr), and a hash of its specular path. One path per texel, as
+      a rasteriser draws one: a dielectric refracts (reflects only under
+      total internal reflection), weighted by the Fresnel transmittance;
+      the paper notes that both branches "would require multiple rendering
+      passes".
+   2. Eye buffer: one ray per pixel centre, through specular surfaces on
+      the same one-path rule, to the first non-specular point. Direct light
+      there comes from a shadow ray to each light (exact, where the paper
+      used a shadow map); caustic radiance is the BRDF times the caustic
+      irradiance E a gather gives, times the eye path's throughput.
+   3. Gathers (each gives E in W/m^2 per pixel, and a photon count):
+      points  each photon adds its flux to the pixel it projects to,
+              E = sum Phi / A_p (sect. 3.2, Fig. 4), A_p the pixel's area
+              on the surface, eq. 5: A_p = omega_V d_V^2 / (-V . N).
+      quads   neighbouring photons (i,j), (i+1,j), (i+1,j+1), (i,j+1) that
+              followed the same specular path span a caustic polygon P;
+              the beam B between their four directions carries
+              Phi_B = I omega_B (eq. 1 with E_L = 4 pi I), and P's
+              irradiance is Phi_B / A_P: eqs. 2-3's ratio of solid angles
+              R = omega_B / omega_P times the direct irradiance I omega_P /
+              A_P. P is rasterised into the eye image (two triangles,
+              fixed-point edge functions with a top-left rule, so shared
+              edges are covered exactly once).
+      eye     photons are counted into the eye-space pixels they project
+              to; each pixel gathers its 7x7 neighbourhood with Gaussian
+              weights (sect. 3.2.2 steps 1-4): E = sum_q G(q - p) Phi_q /
+              A_q, only neighbours on the same surface counting, and no
+              caustic where fewer than 3 photons hit the neighbourhood
+              (step 5).
+      light   the same in a light-space map (same light view, widened to
+              hold every landing point, R x R): a texel's irradiance is
+              sum Phi |cos| / (omega_texel d^2) (eqs. 6 and 8: the area a
+              texel covers is omega d^2 / cos), smoothed 7x7, and looked
+              up bilinearly at every eye point like a projective texture;
+              eye points seen in mirrors or through glass get it too.
+   4. Temporal filter (sect. 3.2.3): the estimates of the last H frames
+      (H = history, the paper's 4) are averaged per pixel and the 3-photon
+      threshold is applied to their summed counts. Each frame shifts the
+      light-space grid by its own sub-texel offset, so a static scene's
+      frames sample different photons and the filter averages them; with a
+      moving light or camera it lags (ghosting), as the paper says.
+
+   Approximations (README "Image-space caustics"): point and spot lights
+   only; one specular path per photon and per pixel; no indirect diffuse
+   light; points, quads and eye see only caustics on surfaces seen
+   directly; the light map has no depth (a receiver behind another along a
+   light ray gets the front one's caustic); aliasing at the light-space
+   and eye-space resolutions.
+
+   Determinism: the only random numbers are the frame offsets, (seed,
+   PDS__RNG_ISC, frame). Work is split over threads in fixed chunks that
+   write only their own outputs; every sum over photons is done by one
+   thread in photon order. So images do not depend on the thread count. */
+
+/* The light's view: square pinhole frustum from origin along axis, image
+   plane at distance 1 spanned by the unit vectors b1 (texel i) and b2
+   (texel j), half-width tan_half; res texels per side. */
+typedef struct pds__isc_view {
+    pds__v3 origin, axis, b1, b2;
+    double tan_half;
+    int res;
+    double jx, jy; /* this frame's photon offset in texels, [0, 1) */
+} pds__isc_view;
+
+/* Image-plane coordinate of texel coordinate u (texel i spans [i, i+1)). */
+static double pds__isc_plane(const pds__isc_view *v, double u)
+{
+    return (2.0 * u / v->res - 1.0) * v->tan_half;
+}
+
+static pds__v3 pds__isc_view_dir(const pds__isc_view *v, double u, double w)
+{
+    return pds__normalize(pds__add(v->axis, pds__add(pds__scale(v->b1, pds__isc_plane(v, u)),
+                                                     pds__scale(v->b2, pds__isc_plane(v, w)))));
+}
+
+/* Solid angle of the rectangle [x0,x1] x [y0,y1] of the plane at distance
+   1 from the eye, the plane's foot at (0,0): the rectangle [0,a] x [0,b]
+   subtends atan(a b / sqrt(1 + a^2 + b^2)) (the solid angle of a
+   rectangular pyramid, e.g. Mathar, "Solid angle of a rectangular plate",
+   2014), which is odd in a and in b, so any rectangle is four such terms. */
+static double pds__rect_solid_angle(double x0, double x1, double y0, double y1)
+{
+    double a = atan(x1 * y1 / sqrt(1.0 + x1 * x1 + y1 * y1)), b = atan(x0 * y1 / sqrt(1.0 + x0 * x0 + y1 * y1));
+    double c = atan(x1 * y0 / sqrt(1.0 + x1 * x1 + y0 * y0)), d = atan(x0 * y0 / sqrt(1.0 + x0 * x0 + y0 * y0));
+    return fabs(a - b - c + d);
+}
+
+/* Intensity (W/sr per channel) of a point or spot light toward unit dir. */
+static void pds__isc_intensity(const pds_light *l, pds__v3 dir, double I[3])
+{
+    int c;
+    for (c = 0; c < 3; c++) {
+        if (l->type == PDS_LIGHT_SPOT) {
+            double ci, co;
+            pds__light_spot_cones(l, &ci, &co);
+            I[c] = pds__light_spot_i0(l, c, ci, co) *
+                   pds__light_spot_falloff(pds__dot(dir, pds__normalize(l->direction)), ci, co);
+        } else {
+            I[c] = l->power[c] / (4.0 * PDS__PI);
+        }
+    }
+}
+
+/* The one specular continuation ISC follows (a rasteriser's single path):
+   mirrors and conductors reflect, dielectrics refract, or reflect under
+   total internal reflection. It is pds__bsdf_sample's event with the
+   choice fixed (u0 just below 1 picks reflection only when F = 1), and
+   the throughput of that event, weight x probability. Returns 0 when the
+   path ends (absorbed, or a direction on the wrong side). */
+static int pds__isc_specular(const pds_material *m, const pds_hit *hit, pds__v3 dir, pds__transport mode,
+                             pds__bsdf_result *bs)
+{
+    const double u[3] = {1.0 - DBL_EPSILON, 0.5, 0.5};
+    int c;
+    if (!pds__bsdf_sample(m, hit->position, pds__scale(dir, -1.0), hit->ns, hit->ng, u, mode, bs)) return 0;
+    for (c = 0; c < 3; c++) bs->weight[c] *= bs->pdf;
+    return bs->weight[0] > 0.0 || bs->weight[1] > 0.0 || bs->weight[2] > 0.0;
+}
+
+/* A photon of the light-space buffer, 40 bytes:
+     pos   where it landed (first non-specular surface after >= 1
+           specular bounce)
+     n     unit geometric normal there, on the side it arrived from
+     e     W/sr: the light's intensity in its direction times the Fresnel
+           and Beer factors of its path; its flux is e x the solid angle
+           it stands for
+     path  hash of its specular path (materials and sides); 0: no caustic
+           photon (it missed, hit a non-specular surface first, or died) */
+typedef struct pds__isc_photon {
+    float pos[3], n[3], e[3];
+    unsigned path;
+} pds__isc_photon;
+
+/* Trace the photon leaving light l's position in unit direction dir. */
+static void pds__isc_trace(const pds_scene *s, const pds_light *l, pds__v3 dir, int max_depth, double eps,
+                           pds__isc_photon *ph)
+{
+    double w[3];
+    const double *sigma = NULL;
+    pds__v3 org = l->position;
+    unsigned path = 2166136261u; /* FNV-1a offset basis */
+    int depth, c;
+    memset(ph, 0, sizeof *ph);
+    pds__isc_intensity(l, dir, w);
+    for (depth = 0; depth <= max_depth; depth++) {
+        pds__tri_hit th;
+        pds_hit hit;
+        const pds_material *m;
+        pds__bsdf_result bs;
+        if (!pds__bvh_intersect(&s->bvh, org, dir, 0.0, DBL_MAX, &th)) return;
+        m = &s->materials.items[s->mesh.mat[th.tri]];
+        if (depth == 0 && !pds__material_is_specular(m)) return; /* direct light, not a caustic */
+        pds__scene_fill_hit(s, &th, org, dir, &hit);
+        pds__beer(sigma, th.t, w);
+        if (!pds__material_is_specular(m)) {
+            if (m->type != PDS_MAT_DIFFUSE) return;
+            pds__f3_set(ph->pos, hit.position);
+            pds__f3_set(ph->n, pds__dot(hit.ng, dir) < 0.0 ? hit.ng : pds__scale(hit.ng, -1.0));
+            for (c = 0; c < 3; c++) ph->e[c] = (float)w[c];
+            ph->path = path ? path : 1u;
+            return;
+        }
+        if (depth == max_depth || !pds__isc_specular(m, &hit, dir, PDS__IMPORTANCE, &bs)) return;
+        for (c = 0; c < 3; c++) w[c] *= bs.weight[c];
+        if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        path = (path ^ (unsigned)(2 * hit.material + bs.transmitted)) * 16777619u;
+        path = (path ^ (unsigned)(bs.side > 0)) * 16777619u;
+        org = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, bs.wi) >= 0.0 ? eps : -eps));
+        dir = bs.wi;
+    }
+}
+
+/* What the eye sees through pixel p's centre, 56 bytes:
+     pos, n  first non-specular point, its unit geometric normal facing
+             the eye path
+     ns      the shading normal there, on the same side (pds__bsdf_frame)
+     fr      the eye path's throughput times the BRDF there (1/sr):
+             caustic radiance = fr x irradiance
+     area    eq. 5: the pixel's area on the surface (m^2), when seen
+             directly; 0 otherwise
+     kind    0: nothing; 1: seen directly; 2: through specular surfaces */
+typedef struct pds__isc_pixel {
+    float pos[3], n[3], ns[3], fr[3];
+    float area;
+    int kind;
+} pds__isc_pixel;
+
+/* Per pixel and frame: caustic irradiance (W/m^2) and the photons behind it. */
+typedef struct pds__isc_est {
+    float e[3];
+    float count;
+} pds__isc_est;
+
+/* A fragment of the quads gather: pixel and irradiance. */
+typedef struct pds__isc_frag {
+    int pixel;
+    float e[3];
+} pds__isc_frag;
+
+#define PDS__ISC_MAX_HISTORY 64
+#define PDS__ISC_RADIUS 3         /* the 7x7 neighbourhood */
+#define PDS__ISC_SIGMA 1.5        /* its Gaussian, in pixels (the paper gives none) */
+#define PDS__ISC_MIN_PHOTONS 3.0  /* sect. 3.2.2 step 5 */
+#define PDS__ISC_QUAD_MAX_PIXELS 4096 /* a quad's screen box larger than this is skipped */
+#define PDS__ISC_SUB 256          /* fixed-point subpixels of the quad rasteriser */
+
+/* A render of one or more frames: the buffers live across frames (the
+   temporal filter's history among them). */
+typedef struct pds__isc {
+    const pds_scene *scene;
+    const pds_options *opt;
+    pds_isc_gather gather;
+    int w, h, threads, res, history;
+    double eps, omega_pixel_scale;
+    pds__camera_frame cam;
+    pds__target target;
+    pds_light *lights;          /* this frame's lights (orbit applied) */
+    size_t nlights;
+    const pds_light *light;     /* the light whose photons are in ph */
+    pds__isc_pixel *px;         /* w x h */
+    double *direct;             /* 3 per pixel: direct radiance */
+    pds__isc_photon *ph;        /* res x res, one light at a time */
+    unsigned char *mask;        /* res x res: may the photon meet a specular surface first? */
+    pds__isc_view view;         /* that light's view */
+    int *ph_pixel;              /* points, eye: the pixel each photon deposits into, -1 none */
+    long long *ph_xy;           /* quads: fixed-point screen position of each photon */
+    signed char *ph_front;      /* quads: 1 if in front of the camera */
+    float *dep;                 /* eye, light: 4 per cell (flux or irradiance x omega, count) */
+    unsigned char *near_row;    /* eye: a photon within the gather radius in the row */
+    float *lmap;                /* light: the gathered map, 4 per texel */
+    pds__isc_view lview;        /* light: the map's view */
+    pds__isc_est *est;          /* this frame's estimate */
+    double *rgb;                /* the frame's image before conversion to float */
+    long nonfinite;             /* image values that were NaN or beyond the float range */
+    pds__isc_est *ring;         /* history frames of estimates */
+    double *acc;                /* time budget: 4 per pixel, sums over every frame */
+    int frames_done;
+    pds__isc_frag **frags;      /* quads: one array per light-space row */
+    size_t *nfrags, *capfrags;
+    double gauss[2 * PDS__ISC_RADIUS + 1][2 * PDS__ISC_RADIUS + 1];
+    long photons, landed, fragments;
+    int out_of_memory;
+    double time_eye, time_photons, time_gather;
+    pds__mutex lock;
+} pds__isc;
+
+/* --- a parallel loop over fixed chunks ---------------------------------- */
+
+typedef struct pds__isc_par {
+    pds__isc *ctx;
+    void (*fn)(pds__isc *ctx, long first, long last);
+    long n, chunk, next;
+    pds__mutex lock;
+} pds__isc_par;
+
+static void *pds__isc_par_worker(void *arg)
+{
+    pds__isc_par *p = (pds__isc_par *)arg;
+    for (;;) {
+        long first;
+        pds__mutex_lock(&p->lock);
+        first = p->next;
+        p->next += p->chunk;
+        pds__mutex_unlock(&p->lock);
+        if (first >= p->n) break;
+        p->fn(p->ctx, first, first + p->chunk < p->n ? first + p->chunk : p->n);
+    }
+    return NULL;
+}
+
+/* fn(ctx, first, last) over [0, n) in chunks; each item's output must not
+   depend on which thread runs it. */
+static void pds__isc_parallel(pds__isc *ctx, long n, long chunk, void (*fn)(pds__isc *, long, long))
+{
+    pds__isc_par p;
+    p.ctx = ctx;
+    p.fn = fn;
+    p.n = n;
+    p.chunk = chunk > 0 ? chunk : 1;
+    p.next = 0;
+    pds__mutex_init(&p.lock);
+    pds__run_threads(ctx->threads < 1 ? 1 : ctx->threads, pds__isc_par_worker, &p);
+    pds__mutex_destroy(&p.lock);
+}
+
+/* --- the eye buffer --------------------------------------------------- */
+
+/* Pixel (x, y) of the camera frame, (0,0) top left: its point, camera
+   coordinates, and back. px, py in pixels. Returns 0 behind the camera. */
+static int pds__isc_project(const pds__camera_frame *f, pds__v3 x, double *px, double *py)
+{
+    pds__v3 v = pds__sub(x, f->origin);
+    double z = pds__dot(v, f->forward), sx, sy;
+    if (!(z > 0.0)) return 0;
+    sx = pds__dot(v, f->right) / z;
+    sy = pds__dot(v, f->up) / z;
+    *px = (sx / (f->tan_half_fov * f->aspect) + 1.0) * 0.5 * f->width;
+    *py = (1.0 - sy / f->tan_half_fov) * 0.5 * f->height;
+    return isfinite(*px) && isfinite(*py);
+}
+
+/* Solid angle of pixel (x, y) seen from the camera. */
+static double pds__isc_pixel_omega(const pds__camera_frame *f, int x, int y)
+{
+    double ax = f->tan_half_fov * f->aspect, ay = f->tan_half_fov;
+    return pds__rect_solid_angle((2.0 * x / f->width - 1.0) * ax, (2.0 * (x + 1) / f->width - 1.0) * ax,
+                                 (1.0 - 2.0 * (y + 1) / f->height) * ay, (1.0 - 2.0 * y / f->height) * ay);
+}
+
+/* The eye buffer's geometry: one ray through each pixel centre, through
+   specular surfaces on the one-path rule, to the first diffuse point. It
+   depends on the camera alone, so an animation whose camera stands still
+   traces it once. */
+static void pds__isc_eye_rows(pds__isc *ctx, long first, long last)
+{
+    const pds_scene *s = ctx->scene;
+    long y;
+    int x, c;
+    for (y = first; y < last; y++) {
+        for (x = 0; x < ctx->w; x++) {
+            size_t p = (size_t)y * (size_t)ctx->w + (size_t)x;
+            pds__isc_pixel *out = &ctx->px[p];
+            pds__v3 org = ctx->cam.origin, dir = pds__camera_dir(&ctx->cam, x + 0.5, y + 0.5);
+            double beta[3] = {1.0, 1.0, 1.0};
+            const double *sigma = NULL;
+            int depth;
+            memset(out, 0, sizeof *out);
+            for (depth = 0; depth <= ctx->opt->max_depth; depth++) {
+                pds__tri_hit th;
+                pds_hit hit;
+                const pds_material *m;
+                pds__bsdf_result bs;
+                pds__v3 wo = pds__scale(dir, -1.0), n, g;
+                double f[3], pdf;
+                int side;
+                if (!pds__bvh_intersect(&s->bvh, org, dir, 0.0, DBL_MAX, &th)) break;
+                pds__scene_fill_hit(s, &th, org, dir, &hit);
+                pds__beer(sigma, th.t, beta);
+                m = &s->materials.items[hit.material];
+                if (pds__material_is_specular(m)) {
+                    if (depth == ctx->opt->max_depth || !pds__isc_specular(m, &hit, dir, PDS__RADIANCE, &bs)) break;
+                    for (c = 0; c < 3; c++) beta[c] *= bs.weight[c];
+                    if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+                    org = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, bs.wi) >= 0.0 ? ctx->eps : -ctx->eps));
+                    dir = bs.wi;
+                    continue;
+                }
+                if (m->type != PDS_MAT_DIFFUSE || !pds__bsdf_frame(wo, hit.ns, hit.ng, &n, &g, &side)) break;
+                /* Lambertian: f is the same for every wi above the frame
+                   normal n and in front of g, so fr serves every light */
+                pds__bsdf_eval(m, hit.position, wo, n, hit.ns, hit.ng, f, &pdf);
+                pds__f3_set(out->pos, hit.position);
+                pds__f3_set(out->n, g);
+                pds__f3_set(out->ns, n);
+                for (c = 0; c < 3; c++) out->fr[c] = (float)(beta[c] * f[c]);
+                out->kind = depth == 0 ? 1 : 2;
+                if (depth == 0)
+                    out->area = (float)(pds__isc_pixel_omega(&ctx->cam, x, (int)y) * th.t * th.t / fabs(pds__dot(dir, g)));
+                break;
+            }
+        }
+    }
+}
+
+/* Direct light at each eye point: a shadow ray to each light,
+   fr I cos / d^2 (the exact test a shadow map approximates). */
+static void pds__isc_direct_rows(pds__isc *ctx, long first, long last)
+{
+    const pds_scene *s = ctx->scene;
+    size_t p, k;
+    int c;
+    for (p = (size_t)first * ctx->w; p < (size_t)last * ctx->w; p++) {
+        const pds__isc_pixel *px = &ctx->px[p];
+        double *direct = &ctx->direct[3 * p];
+        pds__v3 x = pds__f3_get(px->pos), g = pds__f3_get(px->n), n = pds__f3_get(px->ns);
+        direct[0] = direct[1] = direct[2] = 0.0;
+        if (!px->kind) continue;
+        for (k = 0; k < ctx->nlights; k++) {
+            const pds_light *l = &ctx->lights[k];
+            pds__v3 d = pds__sub(l->position, x), wi;
+            double d2 = pds__dot(d, d), I[3], cosine;
+            if (!(d2 > 0.0)) continue;
+            wi = pds__scale(d, 1.0 / sqrt(d2));
+            cosine = pds__dot(wi, n);
+            if (!(cosine > 0.0) || !(pds__dot(wi, g) > 0.0)) continue;
+            if (pds__bvh_occluded(&s->bvh, pds__add(x, pds__scale(g, ctx->eps)), wi, 0.0, sqrt(d2) * (1.0 - 1e-4)))
+                continue;
+            pds__isc_intensity(l, pds__scale(wi, -1.0), I);
+            for (c = 0; c < 3; c++) direct[c] += px->fr[c] * I[c] * cosine / d2;
+        }
+    }
+}
+
+/* --- the light-space photon buffer ---------------------------------------- */
+
+/* mask[k]: can photon k meet a specular triangle first? Each specular
+   triangle, all of whose corners are in front of the light, projects
+   inside the box of its corners' projections; the photons whose image-
+   plane points fall in that box (give or take a texel) are marked. A photon
+   outside every box meets a diffuse surface or nothing first: no caustic,
+   and no ray needed (the paper's sect. 5 asks for "avoiding processing on
+   uninteresting photons"). The same photons as tracing them all. */
+static void pds__isc_mask(pds__isc *ctx)
+{
+    const pds_scene *s = ctx->scene;
+    const pds__isc_view *v = &ctx->view;
+    size_t t, n = (size_t)v->res * (size_t)v->res;
+    int k;
+    memset(ctx->mask, 0, n);
+    for (t = 0; t < s->mesh.ntris; t++) {
+        double u0 = 0, u1 = 0, w0 = 0, w1 = 0;
+        long i0, i1, j0, j1, i, j;
+        if (!pds__material_is_specular(&s->materials.items[s->mesh.mat[t]])) continue;
+        for (k = 0; k < 3; k++) {
+            pds__v3 d = pds__sub(pds__mesh_pos(&s->mesh, s->mesh.idx[3 * t + k]), v->origin);
+            double z = pds__dot(d, v->axis), u, w;
+            if (!(z > 1e-9 * pds__length(d))) {
+                memset(ctx->mask, 1, n); /* behind the light: trace everything */
+                return;
+            }
+            /* texel coordinates: photon (i, j) is at (i + jx, j + jy) */
+            u = (pds__dot(d, v->b1) / z / v->tan_half + 1.0) * 0.5 * v->res - v->jx;
+            w = (pds__dot(d, v->b2) / z / v->tan_half + 1.0) * 0.5 * v->res - v->jy;
+            if (k == 0 || u < u0) u0 = u;
+            if (k == 0 || u > u1) u1 = u;
+            if (k == 0 || w < w0) w0 = w;
+            if (k == 0 || w > w1) w1 = w;
+        }
+        if (!(u1 >= -1.0 && w1 >= -1.0 && u0 <= v->res && w0 <= v->res)) continue;
+        i0 = u0 < 0.0 ? 0 : (long)u0 - 1;
+        j0 = w0 < 0.0 ? 0 : (long)w0 - 1;
+        i1 = u1 >= v->res - 1 ? v->res - 1 : (long)u1 + 1;
+        j1 = w1 >= v->res - 1 ? v->res - 1 : (long)w1 + 1;
+        if (i0 < 0) i0 = 0;
+        if (j0 < 0) j0 = 0;
+        for (j = j0; j <= j1; j++)
+            for (i = i0; i <= i1; i++) ctx->mask[(size_t)j * v->res + (size_t)i] = 1;
+    }
+}
+
+static void pds__isc_photon_rows(pds__isc *ctx, long first, long last)
+{
+    long j;
+    int i;
+    for (j = first; j < last; j++)
+        for (i = 0; i < ctx->res; i++) {
+            size_t k = (size_t)j * ctx->res + i;
+            pds__v3 dir;
+            if (!ctx->mask[k]) {
+                memset(&ctx->ph[k], 0, sizeof ctx->ph[k]);
+                continue;
+            }
+            dir = pds__isc_view_dir(&ctx->view, i + ctx->view.jx, j + ctx->view.jy);
+            pds__isc_trace(ctx->scene, ctx->light, dir, ctx->opt->photon_depth, ctx->eps, &ctx->ph[k]);
+        }
+}
+
+/* Half-extents (in b1, b2) and centre of the specular triangles' corners
+   projected onto the view plane of v; 0 if a corner is not in front. */
+static int pds__isc_view_extent(const pds_scene *s, const pds__isc_view *v, double *u0, double *u1, double *w0,
+                                double *w1)
+{
+    size_t t;
+    int k, any = 0;
+    for (t = 0; t < s->mesh.ntris; t++) {
+        if (!pds__material_is_specular(&s->materials.items[s->mesh.mat[t]])) continue;
+        for (k = 0; k < 3; k++) {
+            pds__v3 d = pds__sub(pds__mesh_pos(&s->mesh, s->mesh.idx[3 * t + k]), v->origin);
+            double z = pds__dot(d, v->axis), u, w;
+            if (!(z > 1e-9 * pds__length(d))) return 0;
+            u = pds__dot(d, v->b1) / z;
+            w = pds__dot(d, v->b2) / z;
+            if (!any || u < *u0) *u0 = u;
+            if (!any || u > *u1) *u1 = u;
+            if (!any || w < *w0) *w0 = w;
+            if (!any || w > *w1) *w1 = w;
+            any = 1;
+        }
+    }
+    return any;
+}
+
+/* The light's view for this frame: a square frustum around the specular
+   triangles as the light sees them (their corners' projections, so every
+   photon that can meet a specular surface is in it), widened by two
+   texels so that the frame's offset keeps them inside. (Wyman and Davis
+   used a fixed 90-degree view; focusing on the specular geometry is their
+   sect. 5's future work, and puts more photons where caustics start.)
+   Returns 0 when the light is inside the target sphere (one frustum
+   cannot hold it; the paper would render several views). */
+static int pds__isc_view_setup(const pds_scene *s, const pds__target *tg, pds__v3 pos, int res, double jx, double jy,
+                               pds__isc_view *v)
+{
+    double cos_max, u0 = 0, u1 = 0, w0 = 0, w1 = 0, half;
+    memset(v, 0, sizeof *v);
+    if (!pds__target_cone(tg, pos, &v->axis, &cos_max) || !(cos_max > 1e-6)) return 0;
+    v->origin = pos;
+    pds__onb(v->axis, &v->b1, &v->b2);
+    half = sqrt(fmax(0.0, 1.0 - cos_max * cos_max)) / cos_max;
+    if (pds__isc_view_extent(s, v, &u0, &u1, &w0, &w1)) {
+        /* aim at the middle of the projections, then measure again */
+        v->axis = pds__normalize(pds__add(v->axis, pds__add(pds__scale(v->b1, 0.5 * (u0 + u1)),
+                                                            pds__scale(v->b2, 0.5 * (w0 + w1)))));
+        pds__onb(v->axis, &v->b1, &v->b2);
+        if (pds__isc_view_extent(s, v, &u0, &u1, &w0, &w1))
+            half = fmax(fmax(-u0, u1), fmax(-w0, w1)) * 1.0001;
+    }
+    v->tan_half = half * (1.0 + 2.0 / res);
+    v->res = res;
+    v->jx = jx;
+    v->jy = jy;
+    return 1;
+}
+
+/* The solid angle photon (i, j) stands for: the texel-sized cell centred
+   on its image-plane point (the cells tile the plane, so the photons
+   share the view's solid angle exactly). */
+static double pds__isc_cell_omega(const pds__isc_view *v, int i, int j)
+{
+    double u = i + v->jx, w = j + v->jy;
+    return pds__rect_solid_angle(pds__isc_plane(v, u - 0.5), pds__isc_plane(v, u + 0.5), pds__isc_plane(v, w - 0.5),
+                                 pds__isc_plane(v, w + 0.5));
+}
+
+/* Is the point x (unit normal n) on the surface that pixel p sees
+   directly? Normals within 60 degrees, and x within a slope of 1/4 of
+   p's tangent plane give or take one pixel's size (a shadow map's bias,
+   relative to the distance). */
+static int pds__isc_same_surface(const pds__isc_pixel *p, pds__v3 x, pds__v3 n)
+{
+    pds__v3 pn, d;
+    if (p->kind != 1) return 0;
+    pn = pds__f3_get(p->n);
+    d = pds__sub(x, pds__f3_get(p->pos));
+    if (pds__dot(pn, n) < 0.5) return 0;
+    return fabs(pds__dot(pn, d)) <= 0.25 * pds__length(d) + sqrt((double)p->area);
+}
+
+/* --- points and eye: photons into the eye-space pixels ----------------- */
+
+/* Each photon's pixel (-1: none, or not on the surface seen there) and
+   flux (W, in e's place: the gathers after this one need no intensity). */
+static void pds__isc_to_pixels(pds__isc *ctx, long first, long last)
+{
+    long j;
+    int i, c;
+    for (j = first; j < last; j++)
+        for (i = 0; i < ctx->res; i++) {
+            size_t k = (size_t)j * ctx->res + i;
+            pds__isc_photon *ph = &ctx->ph[k];
+            double px, py, omega;
+            long q;
+            ctx->ph_pixel[k] = -1;
+            if (!ph->path) continue;
+            omega = pds__isc_cell_omega(&ctx->view, i, (int)j);
+            for (c = 0; c < 3; c++) ph->e[c] = (float)(ph->e[c] * omega);
+            if (!pds__isc_project(&ctx->cam, pds__f3_get(ph->pos), &px, &py)) continue;
+            if (!(px >= 0.0 && py >= 0.0 && px < ctx->w && py < ctx->h)) continue;
+            q = (long)py * ctx->w + (long)px;
+            if (pds__isc_same_surface(&ctx->px[q], pds__f3_get(ph->pos), pds__f3_get(ph->n))) ctx->ph_pixel[k] = (int)q;
+        }
+}
+
+/* Points (Fig. 4): E = sum Phi / A_p in the photons' pixels, in photon
+   order. Eye: the same photons counted into dep for the 7x7 gather. */
+static void pds__isc_points(pds__isc *ctx, int eye)
+{
+    size_t k, n = (size_t)ctx->res * (size_t)ctx->res;
+    int c;
+    for (k = 0; k < n; k++) {
+        int q = ctx->ph_pixel[k];
+        if (q < 0) continue;
+        if (eye) {
+            for (c = 0; c < 3; c++) ctx->dep[4 * (size_t)q + c] += ctx->ph[k].e[c];
+            ctx->dep[4 * (size_t)q + 3] += 1.0f;
+        } else {
+            for (c = 0; c < 3; c++) ctx->est[q].e[c] += ctx->ph[k].e[c] / ctx->px[q].area;
+            ctx->est[q].count += 1.0f;
+        }
+    }
+}
+
+/* near_row[p]: does a pixel of p's row within the gather radius hold a
+   photon? (So the gather skips, with 7 tests, the pixels that no photon
+   is near: most of them.) */
+static void pds__isc_near_rows(pds__isc *ctx, long first, long last)
+{
+    long y;
+    int x;
+    for (y = first; y < last; y++) {
+        const float *d = &ctx->dep[4 * (size_t)y * ctx->w];
+        unsigned char *out = &ctx->near_row[(size_t)y * ctx->w];
+        int last_photon = -1000000;
+        for (x = 0; x < ctx->w; x++) out[x] = 0;
+        for (x = 0; x < ctx->w + PDS__ISC_RADIUS; x++) {
+            if (x < ctx->w && d[4 * x + 3] != 0.0f) last_photon = x;
+            if (x - PDS__ISC_RADIUS >= 0) out[x - PDS__ISC_RADIUS] = x - last_photon <= 2 * PDS__ISC_RADIUS;
+        }
+    }
+}
+
+/* Eye-space gather (sect. 3.2.2): each directly seen pixel sums the
+   irradiance Phi_q / A_q of the pixels q of its 7x7 neighbourhood that lie
+   on its surface, weighted by the normalised Gaussian, and their counts. */
+static void pds__isc_eye_gather(pds__isc *ctx, long first, long last)
+{
+    long y;
+    int x, dx, dy, c;
+    for (y = first; y < last; y++)
+        for (x = 0; x < ctx->w; x++) {
+            size_t p = (size_t)y * ctx->w + x;
+            double e[3] = {0, 0, 0}, count = 0.0;
+            int any = 0;
+            if (ctx->px[p].kind != 1) continue;
+            for (dy = -PDS__ISC_RADIUS; dy <= PDS__ISC_RADIUS && !any; dy++)
+                any = y + dy >= 0 && y + dy < ctx->h && ctx->near_row[(size_t)(y + dy) * ctx->w + x];
+            if (!any) continue;
+            for (dy = -PDS__ISC_RADIUS; dy <= PDS__ISC_RADIUS; dy++) {
+                long yy = y + dy;
+                if (yy < 0 || yy >= ctx->h) continue;
+                for (dx = -PDS__ISC_RADIUS; dx <= PDS__ISC_RADIUS; dx++) {
+                    long xx = x + dx;
+                    size_t q;
+                    double g;
+                    if (xx < 0 || xx >= ctx->w) continue;
+                    q = (size_t)yy * ctx->w + (size_t)xx;
+                    if (ctx->dep[4 * q + 3] == 0.0f) continue;
+                    if (q != p && !pds__isc_same_surface(&ctx->px[p], pds__f3_get(ctx->px[q].pos), pds__f3_get(ctx->px[q].n)))
+                        continue;
+                    g = ctx->gauss[dy + PDS__ISC_RADIUS][dx + PDS__ISC_RADIUS] / ctx->px[q].area;
+                    for (c = 0; c < 3; c++) e[c] += g * ctx->dep[4 * q + c];
+                    count += ctx->dep[4 * q + 3];
+                }
+            }
+            for (c = 0; c < 3; c++) ctx->est[p].e[c] += (float)e[c];
+            ctx->est[p].count += (float)count;
+        }
+}
+
+/* --- light: the light-space gather ------------------------------------- */
+
+/* Each photon's texel of the light map (-1: none) and its
+   Phi |cos| / d^2 (in e's place; the map divides by the texel's solid
+   angle: eq. 6's area omega d^2 / cos). */
+static void pds__isc_to_texels(pds__isc *ctx, long first, long last)
+{
+    const pds__isc_view *v = &ctx->lview;
+    long j;
+    int i, c;
+    for (j = first; j < last; j++)
+        for (i = 0; i < ctx->res; i++) {
+            size_t k = (size_t)j * ctx->res + i;
+            pds__isc_photon *ph = &ctx->ph[k];
+            pds__v3 d = pds__sub(pds__f3_get(ph->pos), v->origin);
+            double z = pds__dot(d, v->axis), d2 = pds__dot(d, d), u, w, cosine, omega;
+            ctx->ph_pixel[k] = -1;
+            if (!ph->path || !(z > 0.0)) continue;
+            u = (pds__dot(d, v->b1) / z / v->tan_half + 1.0) * 0.5 * v->res;
+            w = (pds__dot(d, v->b2) / z / v->tan_half + 1.0) * 0.5 * v->res;
+            if (!(u >= 0.0 && w >= 0.0 && u < v->res && w < v->res)) continue;
+            omega = pds__isc_cell_omega(&ctx->view, i, (int)j);
+            cosine = fabs(pds__dot(pds__f3_get(ph->n), d)) / sqrt(d2);
+            for (c = 0; c < 3; c++) ph->e[c] = (float)(ph->e[c] * omega * cosine / d2);
+            ctx->ph_pixel[k] = (int)((long)w * v->res + (long)u);
+        }
+}
+
+/* Texel irradiance: the deposits over the texels' solid angles. */
+static void pds__isc_texel_irradiance(pds__isc *ctx, long first, long last)
+{
+    const pds__isc_view *v = &ctx->lview;
+    long j;
+    int i, c;
+    for (j = first; j < last; j++)
+        for (i = 0; i < v->res; i++) {
+            size_t m = (size_t)j * v->res + i;
+            double omega;
+            if (ctx->dep[4 * m + 3] == 0.0f) continue;
+            omega = pds__rect_solid_angle(pds__isc_plane(v, i), pds__isc_plane(v, i + 1), pds__isc_plane(v, j),
+                                          pds__isc_plane(v, j + 1));
+            for (c = 0; c < 3; c++) ctx->dep[4 * m + c] = (float)(ctx->dep[4 * m + c] / omega);
+        }
+}
+
+/* The 7x7 Gaussian gather over the light map. */
+static void pds__isc_light_gather(pds__isc *ctx, long first, long last)
+{
+    int res = ctx->lview.res, i, di, dj, c;
+    long j;
+    for (j = first; j < last; j++)
+        for (i = 0; i < res; i++) {
+            double e[3] = {0, 0, 0}, count = 0.0;
+            float *out = &ctx->lmap[4 * ((size_t)j * res + i)];
+            for (dj = -PDS__ISC_RADIUS; dj <= PDS__ISC_RADIUS; dj++) {
+                long jj = j + dj;
+                if (jj < 0 || jj >= res) continue;
+                for (di = -PDS__ISC_RADIUS; di <= PDS__ISC_RADIUS; di++) {
+                    long ii = i + di;
+                    size_t m;
+                    double g;
+                    if (ii < 0 || ii >= res) continue;
+                    m = (size_t)jj * res + (size_t)ii;
+                    if (ctx->dep[4 * m + 3] == 0.0f) continue;
+                    g = ctx->gauss[dj + PDS__ISC_RADIUS][di + PDS__ISC_RADIUS];
+                    for (c = 0; c < 3; c++) e[c] += g * ctx->dep[4 * m + c];
+                    count += ctx->dep[4 * m + 3];
+                }
+            }
+            for (c = 0; c < 3; c++) out[c] = (float)e[c];
+            out[3] = (float)count;
+        }
+}
+
+/* Look the gathered map up at every eye point, bilinearly (a projective
+   texture). */
+static void pds__isc_light_lookup(pds__isc *ctx, long first, long last)
+{
+    const pds__isc_view *v = &ctx->lview;
+    long y;
+    int x, c, a, b;
+    for (y = first; y < last; y++)
+        for (x = 0; x < ctx->w; x++) {
+            size_t p = (size_t)y * ctx->w + x;
+            pds__v3 d;
+            double z, u, w, fu, fw, acc[4] = {0, 0, 0, 0};
+            long i0, j0;
+            if (!ctx->px[p].kind) continue;
+            d = pds__sub(pds__f3_get(ctx->px[p].pos), v->origin);
+            z = pds__dot(d, v->axis);
+            if (!(z > 0.0)) continue;
+            u = (pds__dot(d, v->b1) / z / v->tan_half + 1.0) * 0.5 * v->res - 0.5;
+            w = (pds__dot(d, v->b2) / z / v->tan_half + 1.0) * 0.5 * v->res - 0.5;
+            if (!(u > -1.0 && w > -1.0 && u < v->res && w < v->res)) continue;
+            i0 = (long)floor(u);
+            j0 = (long)floor(w);
+            fu = u - i0;
+            fw = w - j0;
+            for (b = 0; b < 2; b++)
+                for (a = 0; a < 2; a++) {
+                    long ii = i0 + a, jj = j0 + b;
+                    double wt = (a ? fu : 1.0 - fu) * (b ? fw : 1.0 - fw);
+                    const float *t;
+                    if (ii < 0 || jj < 0 || ii >= v->res || jj >= v->res || wt == 0.0) continue;
+                    t = &ctx->lmap[4 * ((size_t)jj * v->res + (size_t)ii)];
+                    for (c = 0; c < 4; c++) acc[c] += wt * t[c];
+                }
+            for (c = 0; c < 3; c++) ctx->est[p].e[c] += (float)acc[c];
+            ctx->est[p].count += (float)acc[3];
+        }
+}
+
+/* The light map's view: the photon view's axes, widened to hold every
+   landing point in front of the light (at most 64 times as wide). */
+static void pds__isc_light_map_view(pds__isc *ctx)
+{
+    size_t k, n = (size_t)ctx->res * (size_t)ctx->res;
+    double t = ctx->view.tan_half, cap = 64.0 * ctx->view.tan_half;
+    ctx->lview = ctx->view;
+    ctx->lview.jx = ctx->lview.jy = 0.0;
+    for (k = 0; k < n; k++) {
+        pds__v3 d;
+        double z, a, b;
+        if (!ctx->ph[k].path) continue;
+        d = pds__sub(pds__f3_get(ctx->ph[k].pos), ctx->view.origin);
+        z = pds__dot(d, ctx->view.axis);
+        if (!(z > 0.0)) continue;
+        a = fabs(pds__dot(d, ctx->view.b1)) / z;
+        b = fabs(pds__dot(d, ctx->view.b2)) / z;
+        if (a > t && a <= cap) t = a;
+        if (b > t && b <= cap) t = b;
+    }
+    ctx->lview.tan_half = t * (1.0 + 2.0 / ctx->res);
+}
+
+/* --- quads: caustic polygons ------------------------------------------- */
+
+/* Fixed-point screen position of each photon (PDS__ISC_SUB units per
+   pixel; 0 in ph_front when behind the camera or absurdly far off). */
+static void pds__isc_to_screen(pds__isc *ctx, long first, long last)
+{
+    long j;
+    int i;
+    for (j = first; j < last; j++)
+        for (i = 0; i < ctx->res; i++) {
+            size_t k = (size_t)j * ctx->res + i;
+            double px, py, lim = 268435456.0; /* 2^28: edge products stay below 2^62 */
+            ctx->ph_front[k] = 0;
+            if (!ctx->ph[k].path || !pds__isc_project(&ctx->cam, pds__f3_get(ctx->ph[k].pos), &px, &py)) continue;
+            px *= PDS__ISC_SUB;
+            py *= PDS__ISC_SUB;
+            if (!(fabs(px) < lim && fabs(py) < lim)) continue;
+            ctx->ph_xy[2 * k] = (long long)floor(px + 0.5);
+            ctx->ph_xy[2 * k + 1] = (long long)floor(py + 0.5);
+            ctx->ph_front[k] = 1;
+        }
+}
+
+/* Twice the signed area of (a, b, p) in fixed point, positive when p is
+   to the left of a -> b in a y-down image... (b - a) x (p - a). */
+static long long pds__isc_edge(const long long *a, const long long *b, long long px, long long py)
+{
+    return (b[0] - a[0]) * (py - a[1]) - (b[1] - a[1]) * (px - a[0]);
+}
+
+/* Does edge a -> b of a positively oriented triangle own the pixel
+   centres exactly on it? Of an edge and its reverse exactly one does, so
+   triangles that share an edge never both cover a centre on it. */
+static int pds__isc_edge_owns(const long long *a, const long long *b)
+{
+    long long dy = b[1] - a[1], dx = b[0] - a[0];
+    return dy > 0 || (dy == 0 && dx < 0);
+}
+
+/* Rasterise triangle (a, b, c) (fixed-point screen corners) with
+   irradiance e on the surface through x0 with normal n0: a fragment for
+   each pixel whose centre is inside and whose eye point is on that
+   surface. Appends to row j's fragments. */
+static void pds__isc_raster(pds__isc *ctx, long j, const long long *a, const long long *b, const long long *c,
+                            const float e[3], pds__v3 x0, pds__v3 n0)
+{
+    long long area = pds__isc_edge(a, b, c[0], c[1]), x0p, x1p, y0p, y1p, xs, ys;
+    long long minx, maxx, miny, maxy;
+    int ob, oc, oa;
+    if (area == 0) return;
+    if (area < 0) {
+        const long long *t = b;
+        b = c;
+        c = t;
+    }
+    minx = a[0] < b[0] ? (a[0] < c[0] ? a[0] : c[0]) : (b[0] < c[0] ? b[0] : c[0]);
+    maxx = a[0] > b[0] ? (a[0] > c[0] ? a[0] : c[0]) : (b[0] > c[0] ? b[0] : c[0]);
+    miny = a[1] < b[1] ? (a[1] < c[1] ? a[1] : c[1]) : (b[1] < c[1] ? b[1] : c[1]);
+    maxy = a[1] > b[1] ? (a[1] > c[1] ? a[1] : c[1]) : (b[1] > c[1] ? b[1] : c[1]);
+    /* pixel x's centre is at (x + 1/2) SUB: the pixels whose centres may be inside */
+    x0p = (minx - PDS__ISC_SUB / 2 + PDS__ISC_SUB - 1) / PDS__ISC_SUB;
+    if (minx - PDS__ISC_SUB / 2 < 0) x0p = -((PDS__ISC_SUB / 2 - minx) / PDS__ISC_SUB);
+    x1p = (maxx - PDS__ISC_SUB / 2) >= 0 ? (maxx - PDS__ISC_SUB / 2) / PDS__ISC_SUB : -1;
+    y0p = (miny - PDS__ISC_SUB / 2 + PDS__ISC_SUB - 1) / PDS__ISC_SUB;
+    if (miny - PDS__ISC_SUB / 2 < 0) y0p = -((PDS__ISC_SUB / 2 - miny) / PDS__ISC_SUB);
+    y1p = (maxy - PDS__ISC_SUB / 2) >= 0 ? (maxy - PDS__ISC_SUB / 2) / PDS__ISC_SUB : -1;
+    if ((x1p - x0p + 1) * (y1p - y0p + 1) > PDS__ISC_QUAD_MAX_PIXELS) return;
+    if (x0p < 0) x0p = 0;
+    if (y0p < 0) y0p = 0;
+    if (x1p >= ctx->w) x1p = ctx->w - 1;
+    if (y1p >= ctx->h) y1p = ctx->h - 1;
+    oa = pds__isc_edge_owns(b, c);
+    ob = pds__isc_edge_owns(c, a);
+    oc = pds__isc_edge_owns(a, b);
+    for (ys = y0p; ys <= y1p; ys++)
+        for (xs = x0p; xs <= x1p; xs++) {
+            long long px = xs * PDS__ISC_SUB + PDS__ISC_SUB / 2, py = ys * PDS__ISC_SUB + PDS__ISC_SUB / 2;
+            long long ea = pds__isc_edge(b, c, px, py), eb = pds__isc_edge(c, a, px, py), ec = pds__isc_edge(a, b, px, py);
+            size_t q;
+            pds__isc_frag *f;
+            if (ea < 0 || eb < 0 || ec < 0 || (ea == 0 && !oa) || (eb == 0 && !ob) || (ec == 0 && !oc)) continue;
+            q = (size_t)ys * ctx->w + (size_t)xs;
+            if (!pds__isc_same_surface(&ctx->px[q], x0, n0)) continue;
+            if (pds__grow((void **)&ctx->frags[j], &ctx->capfrags[j], ctx->nfrags[j] + 1, sizeof **ctx->frags)) {
+                pds__mutex_lock(&ctx->lock);
+                ctx->out_of_memory = 1;
+                pds__mutex_unlock(&ctx->lock);
+                return;
+            }
+            f = &ctx->frags[j][ctx->nfrags[j]++];
+            f->pixel = (int)q;
+            f->e[0] = e[0];
+            f->e[1] = e[1];
+            f->e[2] = e[2];
+        }
+}
+
+/* The caustic polygons of light-space rows j and j + 1: quad (i, j) joins
+   photons (i,j), (i+1,j), (i+1,j+1), (i,j+1) when all four followed the
+   same specular path to surfaces facing the same way (Sect. 3.2.1: quads
+   that stretch between surfaces are culled). Its irradiance: the beam's
+   flux Phi_B = I omega_B (eq. 1; I the mean of the corners' e) over the
+   polygon's area (eqs. 2-3). */
+static void pds__isc_quad_rows(pds__isc *ctx, long first, long last)
+{
+    const pds__isc_view *v = &ctx->view;
+    long j;
+    int i, c, r;
+    for (j = first; j < last; j++) {
+        ctx->nfrags[j] = 0;
+        for (i = 0; i + 1 < ctx->res; i++) {
+            size_t k[4];
+            pds__v3 x[4], n0;
+            double omega, area, e[3] = {0, 0, 0};
+            float ef[3];
+            int ok = 1;
+            k[0] = (size_t)j * ctx->res + i;
+            k[1] = k[0] + 1;
+            k[2] = k[1] + (size_t)ctx->res;
+            k[3] = k[0] + (size_t)ctx->res;
+            for (r = 0; r < 4 && ok; r++)
+                ok = ctx->ph[k[r]].path == ctx->ph[k[0]].path && ctx->ph[k[r]].path != 0 && ctx->ph_front[k[r]];
+            if (!ok) continue;
+            n0 = pds__f3_get(ctx->ph[k[0]].n);
+            for (r = 0; r < 4 && ok; r++) {
+                x[r] = pds__f3_get(ctx->ph[k[r]].pos);
+                ok = pds__dot(pds__f3_get(ctx->ph[k[r]].n), n0) >= 0.9;
+                for (c = 0; c < 3; c++) e[c] += 0.25 * ctx->ph[k[r]].e[c];
+            }
+            if (!ok) continue;
+            area = 0.5 * (pds__length(pds__cross(pds__sub(x[1], x[0]), pds__sub(x[2], x[0]))) +
+                          pds__length(pds__cross(pds__sub(x[2], x[0]), pds__sub(x[3], x[0]))));
+            if (!(area > 0.0)) continue;
+            omega = pds__rect_solid_angle(pds__isc_plane(v, i + v->jx), pds__isc_plane(v, i + 1 + v->jx),
+                                          pds__isc_plane(v, j + v->jy), pds__isc_plane(v, j + 1 + v->jy));
+            for (c = 0; c < 3; c++) ef[c] = (float)(e[c] * omega / area);
+            pds__isc_raster(ctx, j, &ctx->ph_xy[2 * k[0]], &ctx->ph_xy[2 * k[1]], &ctx->ph_xy[2 * k[2]], ef, x[0], n0);
+            pds__isc_raster(ctx, j, &ctx->ph_xy[2 * k[0]], &ctx->ph_xy[2 * k[2]], &ctx->ph_xy[2 * k[3]], ef, x[0], n0);
+        }
+    }
+}
+
+/* The quads' fragments into the estimate, row by row (photon order). */
+static void pds__isc_quads_add(pds__isc *ctx)
+{
+    long j;
+    size_t f;
+    int c;
+    for (j = 0; j + 1 < ctx->res; j++)
+        for (f = 0; f < ctx->nfrags[j]; f++) {
+            const pds__isc_frag *fr = &ctx->frags[j][f];
+            for (c = 0; c < 3; c++) ctx->est[fr->pixel].e[c] += fr->e[c];
+            ctx->est[fr->pixel].count += 1.0f;
+            ctx->fragments++;
+        }
+}
+
+/* --- frames -------------------------------------------------------------- */
+
+/* Rotate p about the vertical line through c by angle a (radians). */
+static pds__v3 pds__isc_orbit(pds__v3 p, pds__v3 c, double a)
+{
+    double dx = p.x - c.x, dz = p.z - c.z;
+    return pds__v(c.x + cos(a) * dx + sin(a) * dz, p.y, c.z - sin(a) * dx + cos(a) * dz);
+}
+
+/* Photons of light k for this frame, gathered into ctx->est. */
+static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
+{
+    size_t n = (size_t)ctx->res * (size_t)ctx->res, i;
+    double jx = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)frame, 0);
+    double jy = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)frame, 1);
+    double t0 = pds_time_now(), t1;
+    ctx->light = &ctx->lights[k];
+    if (!pds__isc_view_setup(ctx->scene, &ctx->target, ctx->light->position, ctx->res, jx, jy, &ctx->view)) return;
+    pds__isc_mask(ctx);
+    pds__isc_parallel(ctx, ctx->res, 4, pds__isc_photon_rows);
+    ctx->photons += (long)n;
+    for (i = 0; i < n; i++) ctx->landed += ctx->ph[i].path != 0;
+    t1 = pds_time_now();
+    ctx->time_photons += t1 - t0;
+    switch (ctx->gather) {
+    case PDS_ISC_POINTS:
+    case PDS_ISC_EYE:
+        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_pixels);
+        if (ctx->gather == PDS_ISC_EYE) memset(ctx->dep, 0, sizeof *ctx->dep * 4 * (size_t)ctx->w * ctx->h);
+        pds__isc_points(ctx, ctx->gather == PDS_ISC_EYE);
+        if (ctx->gather == PDS_ISC_EYE) {
+            pds__isc_parallel(ctx, ctx->h, 16, pds__isc_near_rows);
+            pds__isc_parallel(ctx, ctx->h, 8, pds__isc_eye_gather);
+        }
+        break;
+    case PDS_ISC_LIGHT:
+        pds__isc_light_map_view(ctx);
+        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_texels);
+        memset(ctx->dep, 0, sizeof *ctx->dep * 4 * n);
+        for (i = 0; i < n; i++) {
+            int m = ctx->ph_pixel[i], c;
+            if (m < 0) continue;
+            for (c = 0; c < 3; c++) ctx->dep[4 * (size_t)m + c] += ctx->ph[i].e[c];
+            ctx->dep[4 * (size_t)m + 3] += 1.0f;
+        }
+        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_texel_irradiance);
+        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_light_gather);
+        pds__isc_parallel(ctx, ctx->h, 8, pds__isc_light_lookup);
+        break;
+    case PDS_ISC_QUADS:
+        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_screen);
+        pds__isc_parallel(ctx, ctx->res - 1, 4, pds__isc_quad_rows);
+        pds__isc_quads_add(ctx);
+        break;
+    }
+    ctx->time_gather += pds_time_now() - t1;
+}
+
+/* Render frame `frame` into out (allocated by the caller, w x h): the
+   orbit's lights and camera, the eye buffer, each light's photons and
+   gather, the temporal filter, direct + caustic radiance. accumulate:
+   average every frame so far instead of the last `history` (the time
+   budget of a still). */
+static void pds__isc_frame(pds__isc *ctx, int frame, int accumulate, pds_image *out)
+{
+    const pds_scene *s = ctx->scene;
+    const pds_options *opt = ctx->opt;
+    size_t npix = (size_t)ctx->w * ctx->h, i, k;
+    /* a still's frames (time budget) do not turn */
+    double angle = accumulate ? 0.0 : frame * opt->orbit_deg * (PDS__PI / 180.0), t0 = pds_time_now();
+    pds_camera cam = s->camera;
+    pds__isc_est *slot;
+    int c, n_hist, h, threshold = ctx->gather == PDS_ISC_EYE || ctx->gather == PDS_ISC_LIGHT;
+    for (k = 0; k < ctx->nlights; k++) {
+        ctx->lights[k] = s->lights[k];
+        if (opt->orbit == PDS_ORBIT_LIGHT) {
+            ctx->lights[k].position = pds__isc_orbit(s->lights[k].position, cam.look_at, angle);
+            ctx->lights[k].direction = pds__isc_orbit(s->lights[k].direction, pds__v(0, 0, 0), angle);
+        }
+    }
+    if (opt->orbit == PDS_ORBIT_CAMERA) cam.position = pds__isc_orbit(cam.position, cam.look_at, angle);
+    ctx->cam = pds__camera_setup(&cam, ctx->w, ctx->h);
+    /* the eye buffer when the camera moved (or on the first frame), its
+       direct light when anything moved */
+    if (ctx->frames_done == 0 || (opt->orbit == PDS_ORBIT_CAMERA && angle != 0.0))
+        pds__isc_parallel(ctx, ctx->h, 4, pds__isc_eye_rows);
+    if (ctx->frames_done == 0 || (opt->orbit != PDS_ORBIT_NONE && angle != 0.0))
+        pds__isc_parallel(ctx, ctx->h, 4, pds__isc_direct_rows);
+    ctx->time_eye += pds_time_now() - t0;
+    memset(ctx->est, 0, sizeof *ctx->est * npix);
+    if (opt->paths != PDS_PATHS_NO_CAUSTICS && ctx->target.any)
+        for (k = 0; k < ctx->nlights; k++) pds__isc_light_photons(ctx, k, frame);
+    /* the temporal filter (sect. 3.2.3) */
+    if (accumulate) {
+        for (i = 0; i < npix; i++) {
+            for (c = 0; c < 3; c++) ctx->acc[4 * i + c] += ctx->est[i].e[c];
+            ctx->acc[4 * i + 3] += ctx->est[i].count;
+        }
+    } else {
+        slot = &ctx->ring[(size_t)(frame % ctx->history) * npix];
+        memcpy(slot, ctx->est, sizeof *slot * npix);
+    }
+    ctx->frames_done++;
+    n_hist = accumulate ? ctx->frames_done : (ctx->frames_done < ctx->history ? ctx->frames_done : ctx->history);
+    for (i = 0; i < npix; i++) {
+        double e[3] = {0, 0, 0}, count = 0.0, *d = &ctx->direct[3 * i];
+        if (accumulate) {
+            for (c = 0; c < 3; c++) e[c] = ctx->acc[4 * i + c];
+            count = ctx->acc[4 * i + 3];
+        } else {
+            for (h = 0; h < n_hist; h++) {
+                const pds__isc_est *r = &ctx->ring[(size_t)((frame - h) % ctx->history) * npix + i];
+                for (c = 0; c < 3; c++) e[c] += r->e[c];
+                count += r->count;
+            }
+        }
+        if (threshold && count < PDS__ISC_MIN_PHOTONS) e[0] = e[1] = e[2] = 0.0;
+        for (c = 0; c < 3; c++) {
+            double v = (opt->paths == PDS_PATHS_CAUSTICS_ONLY ? 0.0 : d[c]) + ctx->px[i].fr[c] * e[c] / n_hist;
+            ctx->rgb[3 * i + c] = v;
+        }
+    }
+    /* NaN -> 0, beyond the float range -> the largest float, counted */
+    ctx->nonfinite += pds__finite_floats(ctx->rgb, out->rgb, npix * 3);
+}
+
+static void pds__isc_free(pds__isc *ctx)
+{
+    long j;
+    if (ctx->frags)
+        for (j = 0; j < ctx->res; j++) free(ctx->frags[j]);
+    free(ctx->frags);
+    free(ctx->nfrags);
+    free(ctx->capfrags);
+    free(ctx->lights);
+    free(ctx->px);
+    free(ctx->direct);
+    free(ctx->ph);
+    free(ctx->mask);
+    free(ctx->ph_pixel);
+    free(ctx->ph_xy);
+    free(ctx->ph_front);
+    free(ctx->dep);
+    free(ctx->near_row);
+    free(ctx->lmap);
+    free(ctx->est);
+    free(ctx->rgb);
+    free(ctx->ring);
+    free(ctx->acc);
+    pds__mutex_destroy(&ctx->lock);
+}
+
+/* The light-space buffer's side: light_resolution, or the side whose
+   square is nearest the photon count. */
+static int pds__isc_resolution(const pds_options *opt)
+{
+    long r;
+    if (opt->light_resolution > 0) return opt->light_resolution;
+    r = (long)floor(sqrt((double)opt->photons) + 0.5);
+    return r < 2 ? 2 : r > PDS_MAX_RESOLUTION ? PDS_MAX_RESOLUTION : (int)r;
+}
+
+/* Bytes an isc render holds: per pixel the eye buffer, direct light, the
+   image in double, the estimate, its history (or the time budget's sums) and the deposits;
+   per photon the buffer and its pixel, screen position or texel; the
+   light map. (Quad fragments come on top: about one per covered pixel.) */
+static double pds__isc_memory(const pds_options *opt, double npix)
+{
+    double r2 = (double)pds__isc_resolution(opt) * pds__isc_resolution(opt);
+    int hist = opt->time_s > 0.0 ? 2 : opt->history;
+    return npix * (sizeof(pds__isc_pixel) + 6 * sizeof(double) + (1 + hist) * sizeof(pds__isc_est) +
+                   4 * sizeof(float) + 3 * sizeof(float)) +
+           r2 * (sizeof(pds__isc_photon) + sizeof(int) + 2 * sizeof(long long) + 2 + 8 * sizeof(float));
+}
+
+/* Set up a render of w x h pixels; the light checks of the method. */
+static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_options *opt, int w, int h, int threads,
+                                pds_error *err)
+{
+    size_t npix = (size_t)w * h, n, k;
+    int x, y;
+    double sum = 0.0;
+    memset(ctx, 0, sizeof *ctx);
+    pds__mutex_init(&ctx->lock);
+    for (k = 0; k < s->nlights; k++)
+        if (s->lights[k].type != PDS_LIGHT_POINT && s->lights[k].type != PDS_LIGHT_SPOT) {
+            static const char *const kind[] = {"point", "spot", "directional", "disk", "quad", "mesh"};
+            return pds__fail(err, PDS_ERR_INVALID_ARG, s->path[0] ? s->path : NULL, 0, 0,
+                             "image-space caustics (--method isc) take point and spot lights only, as Wyman and "
+                             "Davis's method does; light %lu is a %s light",
+                             (unsigned long)k + 1, kind[(unsigned)s->lights[k].type % 6u]);
+        }
+    ctx->scene = s;
+    ctx->opt = opt;
+    ctx->gather = opt->isc_gather;
+    ctx->w = w;
+    ctx->h = h;
+    ctx->threads = threads;
+    ctx->res = pds__isc_resolution(opt);
+    ctx->history = opt->history;
+    ctx->eps = 1e-6 * pds__scene_scale(s);
+    ctx->target = pds__specular_target(s);
+    ctx->nlights = s->nlights;
+    for (k = 0; ctx->target.any && k < s->nlights; k++) {
+        pds__v3 axis;
+        double cm;
+        if (opt->paths != PDS_PATHS_NO_CAUSTICS && !pds__target_cone(&ctx->target, s->lights[k].position, &axis, &cm))
+            return pds__fail(err, PDS_ERR_INVALID_ARG, s->path[0] ? s->path : NULL, 0, 0,
+                             "--method isc: light %lu is inside the bounding sphere of the specular objects, which "
+                             "one light-space view cannot hold",
+                             (unsigned long)k + 1);
+    }
+    n = (size_t)ctx->res * ctx->res;
+    ctx->lights = (pds_light *)malloc(sizeof *ctx->lights * (s->nlights ? s->nlights : 1));
+    ctx->px = (pds__isc_pixel *)calloc(npix, sizeof *ctx->px);
+    ctx->direct = (double *)calloc(npix * 3, sizeof *ctx->direct);
+    ctx->est = (pds__isc_est *)calloc(npix, sizeof *ctx->est);
+    ctx->rgb = (double *)malloc(sizeof *ctx->rgb * 3 * npix);
+    if (opt->time_s > 0.0) ctx->acc = (double *)calloc(npix * 4, sizeof *ctx->acc);
+    else ctx->ring = (pds__isc_est *)calloc(npix * (size_t)ctx->history, sizeof *ctx->ring);
+    ctx->ph = (pds__isc_photon *)malloc(sizeof *ctx->ph * n);
+    ctx->mask = (unsigned char *)malloc(n);
+    ctx->ph_pixel = (int *)malloc(sizeof *ctx->ph_pixel * n);
+    if (ctx->gather == PDS_ISC_QUADS) {
+        ctx->ph_xy = (long long *)malloc(sizeof *ctx->ph_xy * 2 * n);
+        ctx->ph_front = (signed char *)malloc(n);
+        ctx->frags = (pds__isc_frag **)calloc((size_t)ctx->res, sizeof *ctx->frags);
+        ctx->nfrags = (size_t *)calloc((size_t)ctx->res, sizeof *ctx->nfrags);
+        ctx->capfrags = (size_t *)calloc((size_t)ctx->res, sizeof *ctx->capfrags);
+    }
+    if (ctx->gather == PDS_ISC_EYE) {
+        ctx->dep = (float *)malloc(sizeof *ctx->dep * 4 * npix);
+        ctx->near_row = (unsigned char *)malloc(npix);
+    }
+    if (ctx->gather == PDS_ISC_LIGHT) {
+        ctx->dep = (float *)malloc(sizeof *ctx->dep * 4 * n);
+        ctx->lmap = (float *)malloc(sizeof *ctx->lmap * 4 * n);
+    }
+    if (!ctx->lights || !ctx->px || !ctx->direct || !ctx->est || !ctx->rgb || !ctx->mask || (!ctx->acc && !ctx->ring) || !ctx->ph ||
+        !ctx->ph_pixel || (ctx->gather == PDS_ISC_QUADS && (!ctx->ph_xy || !ctx->ph_front || !ctx->frags ||
+                                                          !ctx->nfrags || !ctx->capfrags)) ||
+        ((ctx->gather == PDS_ISC_EYE || ctx->gather == PDS_ISC_LIGHT) && !ctx->dep) ||
+        (ctx->gather == PDS_ISC_EYE && !ctx->near_row) ||
+        (ctx->gather == PDS_ISC_LIGHT && !ctx->lmap)) {
+        pds__isc_free(ctx);
+        return pds__nomem(err);
+    }
+    /* the normalised 7x7 Gaussian */
+    for (y = -PDS__ISC_RADIUS; y <= PDS__ISC_RADIUS; y++)
+        for (x = -PDS__ISC_RADIUS; x <= PDS__ISC_RADIUS; x++)
+            sum += ctx->gauss[y + PDS__ISC_RADIUS][x + PDS__ISC_RADIUS] =
+                exp(-(x * x + y * y) / (2.0 * PDS__ISC_SIGMA * PDS__ISC_SIGMA));
+    for (y = 0; y < 2 * PDS__ISC_RADIUS + 1; y++)
+        for (x = 0; x < 2 * PDS__ISC_RADIUS + 1; x++) ctx->gauss[y][x] /= sum;
+    return PDS_OK;
+}
+
+/* Render `frames` frames (fn gets each; fn NULL: only the last into
+   *last), or with a time budget one still from as many frames as fit. */
+static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, int w, int h, int threads, int frames,
+                                  pds_frame_fn fn, void *user, pds_image *last, pds_render_stats *stats,
+                                  pds_error *err)
+{
+    pds__isc ctx;
+    pds_image img;
+    pds_error spare; /* the callback always gets somewhere to say why */
+    pds_status st;
+    double t0 = pds_time_now();
+    int f, accumulate = opt->time_s > 0.0 && !fn;
+    if ((st = pds__isc_init(&ctx, s, opt, w, h, threads, err))) return st;
+    if ((st = pds_image_alloc(&img, w, h)) != PDS_OK) {
+        pds__isc_free(&ctx);
+        return pds__nomem(err);
+    }
+    for (f = 0; accumulate || f < frames; f++) {
+        pds__isc_frame(&ctx, f, accumulate, &img);
+        if (ctx.out_of_memory) {
+            st = pds__nomem(err);
+            break;
+        }
+        if (opt->progress && !accumulate) opt->progress(opt->progress_user, (double)(f + 1) / frames, pds_time_now() - t0);
+        if (fn && (st = fn(user, f, &img, err ? err : &spare)) != PDS_OK) break;
+        if (accumulate) {
+            double el = pds_time_now() - t0;
+            if (opt->progress) opt->progress(opt->progress_user, el / opt->time_s < 1.0 ? el / opt->time_s : 1.0, el);
+            if (el >= opt->time_s) {
+                f++;
+                break;
+            }
+        }
+    }
+    if (stats) {
+        size_t i, npix = (size_t)w * h;
+        stats->passes = f;
+        stats->photons = ctx.photons;
+        stats->splatted = ctx.landed;
+        stats->time_eye_s = ctx.time_eye;
+        stats->time_photons_s = ctx.time_photons;
+        stats->time_gather_s = ctx.time_gather;
+        stats->memory_bytes = (size_t)pds__isc_memory(opt, (double)npix);
+        for (i = 0; i < npix; i++) stats->eye_vertices += ctx.px[i].kind != 0;
+        stats->spp = 1;
+        stats->nonfinite = ctx.nonfinite;
+    }
+    pds__isc_free(&ctx);
+    if (!st && last) *last = img;
+    else pds_image_free(&img);
+    return st;
+}
+
+/* ===================================================================== */
 /* >>api                                                                 */
 /* ===================================================================== */
 
@@ -12637,12 +14476,20 @@ void pds_options_default(pds_options *opt)
     opt->alpha = 0.7;
     opt->passes = 10;
     opt->max_photons = 500;
+    opt->spectral = 0;
+    opt->isc_gather = PDS_ISC_EYE;
+    opt->light_resolution = 0;
+    opt->history = 4;
+    opt->orbit = PDS_ORBIT_LIGHT;
+    opt->orbit_deg = 2.0;
     opt->caustics = PDS_METHOD_PDS;
     opt->global_photons = 100000;
     opt->global_k = 50;
     opt->gather = 16;
     opt->gather_mix = 0.25;
     opt->shadow_photons = 1;
+    opt->streams = 0;
+    opt->stream_photons = 10;
 }
 
 void pds_debug_init(pds_debug *d)
@@ -12678,9 +14525,9 @@ const char *pds_debug_view_name(pds_debug_view view)
 
 /* Landing for a photon that is only watched: nothing to splat. */
 static void pds__land_nowhere(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
-                              const double flux[3], long photon)
+                              const double flux[3], double lambda, long photon)
 {
-    (void)job, (void)buf, (void)r, (void)ng, (void)flux, (void)photon;
+    (void)job, (void)buf, (void)r, (void)ng, (void)flux, (void)lambda, (void)photon;
 }
 
 /* Trace from start (differentials ignored: zero) with the production loop
@@ -12828,7 +14675,7 @@ void pds_trace_free(pds_trace *t)
 static int pds__is_photon_method(pds_method m)
 {
     return m == PDS_METHOD_PDS || m == PDS_METHOD_PM || m == PDS_METHOD_PDM || m == PDS_METHOD_SPLAT ||
-           m == PDS_METHOD_PPM;
+           m == PDS_METHOD_PPM || m == PDS_METHOD_SPM;
 }
 
 const char *pds_method_name(pds_method method)
@@ -12841,7 +14688,9 @@ const char *pds_method_name(pds_method method)
     case PDS_METHOD_SPLAT: return "splat";
     case PDS_METHOD_PDM: return "pdm";
     case PDS_METHOD_PPM: return "ppm";
+    case PDS_METHOD_ISC: return "isc";
     case PDS_METHOD_GI: return "gi";
+    case PDS_METHOD_SPM: return "spm";
     }
     return "unknown";
 }
@@ -12892,9 +14741,28 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "alpha must be above 0 and at most 1");
     if (opt->passes < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "passes must be at least 1");
     if (opt->max_photons < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "max photons must be at least 1");
+    if (opt->stream_photons < 0 || opt->stream_photons > 10000)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "associated photons per stream %d is outside 0..10000",
+                         opt->stream_photons);
+    if (opt->streams < 0 || opt->streams > (LONG_MAX - PDS__PHOTON_BATCH) / (opt->stream_photons + 1L))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "stream count %ld is outside 0..%ld", opt->streams,
+                         (LONG_MAX - PDS__PHOTON_BATCH) / (opt->stream_photons + 1L));
     if (!(opt->max_radius >= 0.0) || !(opt->radius >= 0.0) || opt->max_radius > 1e12 || opt->radius > 1e12)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "radii must be between 0 and 1e12");
-    if (opt->method != PDS_METHOD_PT && opt->method != PDS_METHOD_PREVIEW && opt->method != PDS_METHOD_GI &&
+    if ((unsigned)opt->isc_gather > (unsigned)PDS_ISC_LIGHT)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown isc gather %d", (int)opt->isc_gather);
+    if (opt->light_resolution < 0 || opt->light_resolution > PDS_MAX_RESOLUTION)
+        return pds__fail(err, PDS_ERR_LIMIT, NULL, 0, 0, "light-space resolution %d is outside 0..%d",
+                         opt->light_resolution, PDS_MAX_RESOLUTION);
+    if (opt->history < 1 || opt->history > PDS__ISC_MAX_HISTORY)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "history %d is outside 1..%d", opt->history,
+                         PDS__ISC_MAX_HISTORY);
+    if ((unsigned)opt->orbit > (unsigned)PDS_ORBIT_CAMERA)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown orbit %d", (int)opt->orbit);
+    if (!(fabs(opt->orbit_deg) <= 360.0))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "orbit step must be between -360 and 360 degrees");
+    if (opt->method != PDS_METHOD_PT && opt->method != PDS_METHOD_PREVIEW && opt->method != PDS_METHOD_ISC &&
+        opt->method != PDS_METHOD_GI &&
         !pds__is_photon_method(opt->method))
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown rendering method %d", (int)opt->method);
     if (opt->method == PDS_METHOD_GI && !pds__is_photon_method(opt->caustics))
@@ -12915,7 +14783,7 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown light path selection %d", (int)opt->paths);
 #ifdef PDS_NO_BASELINES
     if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPLAT ||
-        opt->method == PDS_METHOD_PPM)
+        opt->method == PDS_METHOD_PPM || opt->method == PDS_METHOD_SPM)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "this build leaves the baselines out (PDS_NO_BASELINES): "
                          "method %s is not in it", pds_method_name(opt->method));
 #endif
@@ -12951,11 +14819,11 @@ static pds__eye_vertex *pds__join_rows(pds__render_job *job, size_t *count)
 
 /* What a render will hold at once, beyond the scene, from its options
    alone (an upper bound: every eye sample is taken to record a vertex,
-   every photon emitted to be stored). Per eye vertex: the vertex (84 bytes)
-   in its row array, which grows by doubling (up to 2 x 84), and its copy in
-   the joined array, 252 bytes in all (the kd-tree's 21 bytes and the
+   every photon emitted to be stored). Per eye vertex: the vertex (88 bytes)
+   in its row array, which grows by doubling (up to 2 x 88), and its copy in
+   the joined array, 264 bytes in all (the kd-tree's 21 bytes and the
    tree-ordered copy come after the rows are freed). Per stored photon of
-   pm: 56 bytes, twice while the threads' arrays are merged, plus 21 of
+   pm: 64 bytes, twice while the threads' arrays are merged, plus 21 of
    kd-tree; pdm: 88 bytes, twice. */
 pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *opt, pds_render_estimate *est,
                                    pds_error *err)
@@ -12993,11 +14861,15 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
     if (pds__is_photon_method(opt->method) && opt->paths != PDS_PATHS_NO_CAUSTICS) {
         est->eye_vertices = est->samples;
         bytes += est->eye_vertices * vertex_bytes;
-        bytes += (double)threads * npix * (3 + (pds__debug_wants(opt->debug, PDS_DEBUG_FOOTPRINT) ? 2 : 0)) * sizeof(pds__sum128);
+        bytes += (double)threads * npix *
+                 (3 + (pds__debug_wants(opt->debug, PDS_DEBUG_FOOTPRINT) ? 2 : 0) +
+                  (pds__render_is_spectral(scene, opt) ? 3 : 0)) *
+                 sizeof(pds__sum128);
         photons = opt->time_s > 0.0 ? 0.0 : (double)opt->photons; /* a time budget: not known in advance */
         if (opt->method == PDS_METHOD_PM) est->stored_photons = photons;
         if (opt->method == PDS_METHOD_PDM) est->stored_photons = photons;
 #ifndef PDS_NO_BASELINES
+        if (opt->method == PDS_METHOD_SPM && opt->time_s <= 0.0) est->stored_photons = (double)pds__spm_streams(opt);
         if (opt->method == PDS_METHOD_PPM) {
             est->stored_photons = (double)opt->photons;
             bytes += est->eye_vertices * sizeof(pds__ppm_state);
@@ -13005,6 +14877,10 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
 #endif
         if (opt->method == PDS_METHOD_PDM) bytes += est->stored_photons * 2.0 * sizeof(pds__diff_photon);
         else bytes += est->stored_photons * (2.0 * sizeof(pds__stored_photon) + 21.0);
+    }
+    if (opt->method == PDS_METHOD_ISC) {
+        est->samples = npix;
+        bytes = npix * 3.0 * sizeof(float) + pds__isc_memory(opt, npix);
     }
     est->memory_bytes = bytes;
     est->available_bytes = pds__physical_memory();
@@ -13045,6 +14921,18 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     }
     if (!stats) stats = &local;
     memset(stats, 0, sizeof *stats);
+    if (opt->method == PDS_METHOD_ISC) {
+        double t0 = pds_time_now();
+        threads = opt->threads > 0 ? opt->threads : pds_cpu_count();
+        st = pds__isc_render(scene, opt, w, h, threads, 1, NULL, NULL, out, stats, err);
+        if (st) return st;
+        if (opt->progress) opt->progress(opt->progress_user, 1.0, pds_time_now() - t0);
+        stats->time_total_s = pds_time_now() - t0;
+        stats->threads = threads;
+        stats->width = w;
+        stats->height = h;
+        return PDS_OK;
+    }
     memset(&job, 0, sizeof job);
     job.t0 = pds_time_now();
     job.scene = scene;
@@ -13059,6 +14947,9 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     job.tracer.rr_depth = opt->rr_depth;
     job.tracer.seed = opt->seed;
     job.tracer.eps = 1e-6 * pds__scene_scale(scene);
+    job.tracer.spectral = pds__render_is_spectral(scene, opt);
+    job.tracer.spectral_all = job.tracer.spectral && opt->spectral;
+    stats->spectral = job.tracer.spectral;
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
     memset(&gmap, 0, sizeof gmap);
@@ -13192,6 +15083,47 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     if (popt->method != PDS_METHOD_PPM && !(popt->method == PDS_METHOD_PDS && popt->progressive))
         stats->passes = job.pass; /* ppm and progressive pds: their photon passes */
     return PDS_OK;
+}
+
+pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int frames, pds_frame_fn fn,
+                             void *user, pds_render_stats *stats, pds_error *err)
+{
+    pds_render_stats local;
+    pds_options o;
+    int w, h, threads;
+    double t0 = pds_time_now();
+    pds_status st;
+    if (!scene || !opt || !fn) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render_frames: NULL argument");
+    if (opt->method != PDS_METHOD_ISC)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                         "animation frames are rendered by image-space caustics (method isc) only, not %s",
+                         pds_method_name(opt->method));
+    if (frames < 1 || frames > 1000000)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "frame count %d is outside 1..1000000", frames);
+    w = opt->width > 0 ? opt->width : scene->camera.width;
+    h = opt->height > 0 ? opt->height : scene->camera.height;
+    if ((st = pds__options_check(opt, w, h, err))) return st;
+    o = *opt;
+    o.time_s = 0.0; /* frames, not a still's time budget */
+    {
+        pds_render_estimate est;
+        double limit;
+        if ((st = pds_render_estimate_get(scene, &o, &est, err))) return st;
+        limit = o.memory_limit > 0.0 ? o.memory_limit : est.available_bytes;
+        if (limit > 0.0 && est.memory_bytes > limit)
+            return pds__fail(err, PDS_ERR_LIMIT, NULL, 0, 0, "these frames need up to %.1f GB but %s %.1f GB",
+                             est.memory_bytes / 1e9, o.memory_limit > 0.0 ? "the memory limit is" : "this machine has",
+                             limit / 1e9);
+    }
+    if (!stats) stats = &local;
+    memset(stats, 0, sizeof *stats);
+    threads = o.threads > 0 ? o.threads : pds_cpu_count();
+    st = pds__isc_render(scene, &o, w, h, threads, frames, fn, user, NULL, stats, err);
+    stats->time_total_s = pds_time_now() - t0;
+    stats->threads = threads;
+    stats->width = w;
+    stats->height = h;
+    return st;
 }
 
 #ifndef PDS_NO_BENCH

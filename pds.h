@@ -303,10 +303,32 @@ typedef enum pds_method {
     PDS_METHOD_SPLAT,      /* fixed-radius photon splatting into the eye-path map
                               (Lavignotte & Paulin 2003; Herzog et al. 2007) */
     PDS_METHOD_PPM,        /* progressive photon mapping (Hachisuka et al. 2008) */
-    PDS_METHOD_GI          /* Jensen's two-pass global illumination (Jensen
+    PDS_METHOD_GI,         /* Jensen's two-pass global illumination (Jensen
                               1996): global photon map, shadow photons, final
                               gather, caustics from a caustic method */
+    PDS_METHOD_SPM,        /* streamed photon mapping: streams of a leading photon and
+                              associated photons, gathered stream by stream */
+    PDS_METHOD_ISC         /* image-space caustics (Wyman and Davis 2006): a
+                              light-space photon buffer gathered in image space;
+                              interactive, approximate; point and spot lights */
 } pds_method;
+
+/* How image-space caustics turn the light-space photon buffer into light
+   (Wyman and Davis 2006, sect. 3.2). */
+typedef enum pds_isc_gather {
+    PDS_ISC_POINTS = 0, /* each photon lights the pixel it lands in */
+    PDS_ISC_QUADS,      /* caustic polygons between neighbouring photons */
+    PDS_ISC_EYE,        /* 7x7 Gaussian gather of photon counts in eye space */
+    PDS_ISC_LIGHT       /* the same in light space, projected onto the scene */
+} pds_isc_gather;
+
+/* What an animation (pds_render_frames) moves: a turn about the vertical
+   line through the camera's look-at point. */
+typedef enum pds_orbit {
+    PDS_ORBIT_NONE = 0, /* nothing: a static scene */
+    PDS_ORBIT_LIGHT,    /* every light (position and direction) */
+    PDS_ORBIT_CAMERA    /* the camera's position (it keeps looking at look_at) */
+} pds_orbit;
 
 /* Density-estimation kernel of photon mapping (Jensen 1996). */
 typedef enum pds_kernel {
@@ -391,18 +413,30 @@ typedef struct pds_options {
                            direction spreads by more than twice it
                            (default 0.2) */
     /* baselines */
-    int k;              /* pm: photons per estimate (default 50) */
+    int k;              /* pm: photons, spm: streams per estimate (default 50) */
     pds_kernel kernel;  /* pm: filter (default PDS_KERNEL_CONE) */
-    double max_radius;  /* pm: largest gather radius, 0 = none (default 0) */
+    double max_radius;  /* pm, spm: largest gather radius, 0 = none (default 0) */
     double radius;      /* splat: splat radius; ppm: initial radius; 0 = from
                            the scene and the eye-path map (default 0) */
     double alpha;       /* ppm: radius reduction parameter in (0, 1] (default 0.7) */
     int passes;         /* ppm: photon passes of `photons` each; with time_s > 0
                            passes run until the time is spent (default 10) */
     long max_photons;   /* pdm: most photons gathered per estimate (default 500) */
+    long streams;       /* spm: streams nfs; 0 = photons / (stream_photons + 1),
+                           the streams that emit as many photons as pm
+                           would (default 0); with time_s > 0 streams are
+                           emitted until the time is spent instead */
+    int stream_photons; /* spm: associated photons per stream nfa, 0..10000; a
+                           stream is nfa + 1 photons of one nfa+1-th of its
+                           energy each (default 10, the paper's comparison) */
     struct pds_debug *debug; /* if not NULL, the teaching views it asks for
                            are made along with the render (see pds_debug;
                            default NULL: none, and no cost) */
+    int spectral;       /* 1 = spectral light transport (one wavelength per
+                           camera sample and per photon, CIE 1931 film) even
+                           without a dispersive material; a scene with a
+                           Cauchy or Sellmeier material is always rendered
+                           spectrally (default 0) */
     /* gi (Jensen 1996) */
     pds_method caustics; /* gi: the method that adds the caustics seen at the
                            eye path's first non-specular vertex: pds, pm,
@@ -420,6 +454,17 @@ typedef struct pds_options {
     int shadow_photons; /* gi: 1 = shadow photons decide where shadow rays are
                            needed, 0 = a shadow ray for every light sample
                            (default 1) */
+    /* image-space caustics (isc) */
+    pds_isc_gather isc_gather; /* default PDS_ISC_EYE */
+    int light_resolution; /* side of the light-space photon buffer: side^2
+                           photons per light and frame; 0 = the side whose
+                           square is nearest `photons` (default 0) */
+    int history;        /* temporal filter: frames averaged, this one and the
+                           history - 1 before it, 1..64 (default 4, the
+                           paper's; 1 = off) */
+    pds_orbit orbit;    /* pds_render_frames: what turns (default PDS_ORBIT_LIGHT) */
+    double orbit_deg;   /* pds_render_frames: degrees per frame, counter-
+                           clockwise seen from above (default 2) */
     double memory_limit; /* bytes: pds_render refuses (PDS_ERR_LIMIT) a render
                            whose pds_render_estimate_get memory exceeds this;
                            0 = this machine's physical memory (default 0) */
@@ -532,10 +577,12 @@ typedef struct pds_render_stats {
     int width, height;
     int spp;            /* samples per pixel actually taken (passes x spp) */
     int passes;
+    int spectral;           /* 1 if the render was spectral */
     /* photon methods */
     long photons;           /* photons emitted (including those that missed) */
     long splatted;          /* photons that reached a non-specular surface
-                               after >= 1 specular bounce and were splatted */
+                               after >= 1 specular bounce and were splatted
+                               (isc: that landed so) */
     long dropped_degenerate;/* photons whose footprint had collapsed */
     long split;             /* pds: photons and sub-photons split in four */
     long eye_vertices;      /* vertices in the eye-path map */
@@ -552,11 +599,14 @@ typedef struct pds_render_stats {
                                (tracing, and for pds and splat the splats, which
                                go with it batch by batch; for pm, pdm and ppm
                                also the two phases below) */
-    double time_map_s;      /* pm, pdm, ppm: building the photon maps; gi:
+    double time_map_s;      /* pm, pdm, ppm, spm: building the photon maps; gi:
                                pass 1 (tracing and building the global and
                                shadow maps) plus its caustic method's */
-    double time_gather_s;   /* pm, pdm, ppm: gathering at the eye vertices */
-    size_t map_bytes;       /* pm, pdm, ppm: peak size of the photon map;
+    double time_gather_s;   /* pm, pdm, ppm, spm: gathering at the eye vertices;
+                               isc: the gathers (time_photons_s: the
+                               light-space buffers, time_eye_s: the eye
+                               buffer with its shadow rays) */
+    size_t map_bytes;       /* pm, pdm, ppm, spm: peak size of the photon map;
                                gi: the global and shadow maps (plus the
                                caustic method's map) */
     long global_stored;     /* gi: photons stored in the global map */
@@ -565,6 +615,8 @@ typedef struct pds_render_stats {
     long shadow_rays_saved; /* gi: light samples the shadow photons decided
                                without a shadow ray */
     long gather_rays;       /* gi: final-gather rays traced */
+    long streams;           /* spm: streams emitted; photons = streams x
+                               (stream_photons + 1) */
     size_t memory_bytes;    /* largest working memory the render held at once
                                (image sums, eye-path map, per-thread images);
                                does not grow with the photon count */
@@ -572,18 +624,19 @@ typedef struct pds_render_stats {
 
 /* What a render will need, from the scene and options alone, before any
    work: an upper bound on the memory it holds at once beyond the scene
-   (per eye vertex 252 bytes, every pixel sample taken to record one; per
-   stored photon 133 bytes for pm and ppm, 176 for pdm; per pixel 36 bytes
-   plus 48 per thread for the photon methods; gi: its caustic method's
-   needs plus, per global photon, at most 8 global-map stores of 149 bytes
-   and 5 shadow stores of 117 bytes, each counted twice while the threads'
-   arrays are merged, with the kd-tree), the pixel samples of one eye pass,
-   and the machine's physical memory (0 if unknown). With a time budget the
-   photon count is not known in advance and counts as 0. */
+   (per eye vertex 264 bytes, every pixel sample taken to record one; per
+   stored photon 149 bytes for pm and ppm, 176 for pdm; per pixel 36 bytes
+   plus 48 per thread for the photon methods, 96 in spectral renders; gi:
+   its caustic method's needs plus, per global photon, at most 8
+   global-map stores of 149 bytes and 5 shadow stores of 117 bytes, each
+   counted twice while the threads' arrays are merged, with the kd-tree),
+   the pixel samples of one eye pass, and the machine's physical memory (0
+   if unknown). With a time budget the photon count is not known in
+   advance and counts as 0. */
 typedef struct pds_render_estimate {
     double memory_bytes;
     double eye_vertices;    /* photon methods: at most */
-    double stored_photons;  /* pm, pdm: at most; ppm: per pass */
+    double stored_photons;  /* pm, pdm: at most; ppm: per pass; spm: streams */
     double samples;         /* pixel samples of one eye pass */
     double available_bytes; /* physical memory, 0 if unknown */
 } pds_render_estimate;
@@ -595,6 +648,19 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
    memory exceeds opt->memory_limit (or the machine's memory). */
 pds_status pds_render(const pds_scene *scene, const pds_options *opt,
                       pds_image *out, pds_render_stats *stats, pds_error *err);
+
+/* Called with each frame of pds_render_frames, in order; image belongs to
+   the library (copy what you keep); err is never NULL. A status other than
+   PDS_OK (with err filled) stops the animation and is returned. */
+typedef pds_status (*pds_frame_fn)(void *user, int frame, const pds_image *image, pds_error *err);
+
+/* An animation of `frames` frames (method PDS_METHOD_ISC only): frame f
+   turns opt->orbit by f x opt->orbit_deg and shifts the light-space photon
+   grid by a sub-texel offset of its own, so the temporal filter
+   (opt->history) averages different photons even in a static scene. stats:
+   photons and times summed over the frames, passes = frames rendered. */
+pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int frames, pds_frame_fn fn,
+                             void *user, pds_render_stats *stats, pds_error *err);
 
 /* -------------------------------------------------------------- benchmarks */
 

@@ -122,6 +122,22 @@ static void test_cli_render_writes_the_image_and_a_final_line(pds_test_ctx *t)
     remove(path);
 }
 
+/* A dispersive scene renders spectrally by itself; --spectral asks for it
+   in any scene; the final line says so (and says nothing otherwise). */
+static void test_cli_spectral_renders_say_so(pds_test_ctx *t)
+{
+    char out[8192], path[256], args[512];
+    snprintf(path, sizeof path, "/tmp/pds_cli_spectral_%ld.pfm", (long)getpid());
+    snprintf(args, sizeof args, "render scenes/prism.scene --res 24x16 --spp 1 --photons 2000 -o %s", path);
+    CHECK(t, cli_run(args, out, sizeof out) == 0 && strstr(cli_last_line(out), " spectral=1 "), "prism: %s", out);
+    snprintf(args, sizeof args, "render scenes/demo.scene --res 24x16 --spp 1 --photons 2000 -o %s", path);
+    CHECK(t, cli_run(args, out, sizeof out) == 0 && !strstr(cli_last_line(out), " spectral="), "demo: %s", out);
+    snprintf(args, sizeof args, "render scenes/demo.scene --res 24x16 --spp 1 --photons 2000 --spectral -o %s", path);
+    CHECK(t, cli_run(args, out, sizeof out) == 0 && strstr(cli_last_line(out), " spectral=1 "), "demo --spectral: %s",
+          out);
+    remove(path);
+}
+
 static void test_cli_bad_scene_reports_location_and_writes_nothing(pds_test_ctx *t)
 {
     char out[8192], scene[256], png[256], args[600], expect[512];
@@ -515,6 +531,7 @@ static void test_cli_test_runner_is_quiet_on_success(pds_test_ctx *t)
 
 static const pds_test_case tests_cli[] = {
     {"cli_exit_codes_follow_the_contract", test_cli_exit_codes_follow_the_contract},
+    {"cli_spectral_renders_say_so", test_cli_spectral_renders_say_so},
     {"cli_render_writes_the_image_and_a_final_line", test_cli_render_writes_the_image_and_a_final_line},
     {"cli_bad_scene_reports_location_and_writes_nothing", test_cli_bad_scene_reports_location_and_writes_nothing},
     {"cli_info_describes_the_scene", test_cli_info_describes_the_scene},

@@ -75,6 +75,13 @@ static const golden_case golden_cases[] = {
     {"scenes/cornell.scene", "cornell", PDS_METHOD_PT, 96, 16, 0, 0},
     {"scenes/ring_octahedron.scene", "ring_octahedron", PDS_METHOD_PDS, 96, 2, 20000, 8},
     {"scenes/ring_octahedron.scene", "ring_octahedron", PDS_METHOD_PM, 96, 2, 20000, 30},
+    /* spectral: dispersion (prism: L S+ D; gem: also L S+ D S+ E) */
+    {"scenes/prism.scene", "prism", PDS_METHOD_PDS, 96, 2, 20000, 0},
+    {"scenes/prism.scene", "prism", PDS_METHOD_PM, 96, 2, 20000, 30},
+    {"scenes/gem.scene", "gem", PDS_METHOD_PDS, 96, 2, 20000, 0},
+    {"scenes/gem.scene", "gem", PDS_METHOD_PT, 96, 16, 0, 0},
+    /* image-space caustics: 65,536 photons is a 256 x 256 light-space buffer */
+    {"scenes/ring_octahedron.scene", "ring_octahedron", PDS_METHOD_ISC, 96, 0, 65536, 0},
 };
 
 #define GOLDEN_NCASES (sizeof golden_cases / sizeof golden_cases[0])

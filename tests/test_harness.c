@@ -489,8 +489,8 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
         {"sweep S --param spp", "sweep needs --values A,B,..."},
         {"sweep S --param spp --values 1,2", "sweep needs --ref REFERENCE.pfm"},
         {"sweep S --param foo --values 1 --ref R",
-         "--param knows photons, smoothing, min-aspect, min-width, pass-smoothing, pass-min-aspect, pass-min-width, pass-photons, split-depth, split-angle, pass-alpha, k, max-photons, radius, alpha, passes, global-photons, global-k, gather, gather-mix and spp, got 'foo'"},
-        {"sweep S --param k --values 1 --ref R", "--param k has no effect with --method pds (k is for pm and gi)"},
+         "--param knows photons, smoothing, min-aspect, min-width, pass-smoothing, pass-min-aspect, pass-min-width, pass-photons, split-depth, split-angle, pass-alpha, k, max-radius, streams, stream-photons, max-photons, radius, alpha, passes, global-photons, global-k, gather, gather-mix, light-res, history and spp, got 'foo'"},
+        {"sweep S --param k --values 1 --ref R", "--param k has no effect with --method pds (k is for pm, gi and spm)"},
         {"sweep S --method pt --param spp --values 1,,4 --ref R",
          "--values needs a comma-separated list of values, got '1,,4'"},
         {"sweep S --method pt --param spp --values 1,x --ref R", "spp needs a whole number from 1 to 65536, got 'x'"},
@@ -514,10 +514,10 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
         {"race S --ref R --methods pt --time 1 --tune=yes", "--tune takes no value, got '--tune=yes'"},
         {"race S --ref R --methods pt --time 1 --photons 3", "race takes one budget: --time or --photons, not both"},
         {"race S --ref R --methods pt,bogus --photons 3",
-         "unknown method 'bogus' (this version has: pds, pt, preview, pm, pdm, splat, ppm, gi)"},
+         "unknown method 'bogus' (this version has: pds, pt, preview, pm, pdm, splat, ppm, gi, spm, isc)"},
         {"race S --ref R --methods pt, --photons 3", "--methods needs a comma-separated list of methods, got 'pt,'"},
         {"race S --ref R --methods pm:k --photons 3", "--methods: 'k' after pm needs NAME=VALUE"},
-        {"race S --ref R --methods pds:k=5 --photons 3", "--methods: k has no effect with pds (k is for pm and gi)"},
+        {"race S --ref R --methods pds:k=5 --photons 3", "--methods: k has no effect with pds (k is for pm, gi and spm)"},
         {"race S --ref R --methods pt:photons=5 --photons 3",
          "--methods: photons cannot be set for one method; give it to all with --photons"},
         {"race S --ref R --methods pt:foo=5 --photons 3", "--methods: unknown option 'foo' for pt"},
@@ -532,7 +532,7 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
         {"render S --k 0", "--k needs a whole number from 1 to 1000000, got '0'"},
         {"render S --passes 0", "--passes needs a whole number from 1 to 1000000, got '0'"},
         {"render S --max-photons 0", "--max-photons needs a whole number from 1 to 100000000, got '0'"},
-        {"render S --method xyz", "unknown method 'xyz' (this version has: pds, pt, preview, pm, pdm, splat, ppm, gi)"},
+        {"render S --method xyz", "unknown method 'xyz' (this version has: pds, pt, preview, pm, pdm, splat, ppm, gi, spm, isc)"},
     };
     char out[8192], args[1024], expect[512], ref[256], dir[256];
     size_t i;
@@ -886,6 +886,8 @@ static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
         {"pdm", "--max-photons 200 --smoothing 8", " max_photons=200 smoothing=8 map_bytes="},
         {"splat", "--radius 0.05", " radius=0.05 time_eye="},
         {"ppm", "--passes 3 --alpha 0.5 --radius 0.1", " passes=3 radius=0.1 alpha=0.5 map_bytes="},
+        {"spm", "--streams 300 --stream-photons 4 --k 20 --max-radius 0.5",
+         " stream_photons=4 k=20 max_radius=0.5 map_bytes="},
     };
     char out[32768], args[1024], png[256], prefix[128];
     size_t i;
@@ -907,10 +909,10 @@ static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
     /* options the method does not use: a note, not an error */
     snprintf(args, sizeof args, "render tests/golden/glass.scene --method pt --k 50 --res 8x6 --spp 1 --quiet -o %s", png);
     CHECK(t, cli_run(args, out, sizeof out) == 0, "%s", out);
-    CHECK(t, strstr(out, "pds render: note: --k has no effect with --method pt (it is for pm and gi)\n") != NULL, "%s", out);
+    CHECK(t, strstr(out, "pds render: note: --k has no effect with --method pt (it is for pm, gi and spm)\n") != NULL, "%s", out);
     remove(png);
     CHECK(t, cli_run("--help", out, sizeof out) == 0, "--help");
-    CHECK(t, strstr(out, "pm and pdm store every photon, so their memory grows with") && strstr(out, "  sweep SCENE") &&
+    CHECK(t, strstr(out, "pm and pdm store every photon, spm every stream, so their") && strstr(out, "  sweep SCENE") &&
                  strstr(out, "  race SCENE") && strstr(out, "--max-photons N"),
           "--help describes the harness and the baselines");
 }

@@ -34,10 +34,13 @@
 #include "test_differentials.c"
 #include "test_pds.c"
 #include "test_baselines.c"
+#include "test_streams.c"
 #include "test_exact.c"
 #include "test_limits.c"
+#include "test_spectral.c"
 #include "test_glossy.c"
 #include "test_gi.c"
+#include "test_isc.c"
 #include "test_teach.c"
 
 int main(int argc, char **argv)
@@ -59,10 +62,13 @@ int main(int argc, char **argv)
         PDS_SUITE(tests_differentials),
         PDS_SUITE(tests_pds),
         PDS_SUITE(tests_baselines),
+        PDS_SUITE(tests_streams),
         PDS_SUITE(tests_exact),
         PDS_SUITE(tests_limits),
+        PDS_SUITE(tests_spectral),
         PDS_SUITE(tests_glossy),
         PDS_SUITE(tests_gi),
+        PDS_SUITE(tests_isc),
         PDS_SUITE(tests_teach),
     };
     return pds_test_run(suites, sizeof suites / sizeof suites[0], argc, argv);

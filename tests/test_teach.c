@@ -248,7 +248,72 @@ static void test_cli_pixel_prints_the_mean_of_a_window(pds_test_ctx *t)
 }
 #endif
 
+/* The views ride along a spectral render (the splat buffers then hold
+   negative sums too, >>spectral): the landings still equal the photons
+   splatted, the splats view lights exactly the pixels the caustic lights,
+   and the footprint view is drawn. */
+static void test_debug_views_ride_along_a_spectral_render(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    pds_debug dbg;
+    pds_options opt;
+    const pds_image *spl = &dbg.value[PDS_DEBUG_SPLATS];
+    size_t i, n, mismatched = 0;
+    pds_options_default(&opt);
+    pds_debug_init(&dbg);
+    dbg.views = (1u << PDS_DEBUG_LANDINGS) | (1u << PDS_DEBUG_SPLATS) | (1u << PDS_DEBUG_FOOTPRINT) |
+                (1u << PDS_DEBUG_PATHS);
+    dbg.path_photons = 50;
+    opt.method = PDS_METHOD_PDS;
+    opt.progressive = 0;
+    opt.smoothing = 8.0;
+    opt.photons = 5000;
+    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    opt.threads = 2;
+    opt.spectral = 1;
+    opt.debug = &dbg;
+    REQUIRE(t, render_text(mirror_scene, &opt, &img, &st), "spectral render with debug views");
+    CHECK(t, st.splatted > 200 && dbg.landings == st.splatted, "landings %ld, splatted %ld", dbg.landings,
+          st.splatted);
+    n = (size_t)img.width * img.height;
+    for (i = 0; i < n; i++)
+        if ((img.rgb[3 * i] != 0.0f || img.rgb[3 * i + 1] != 0.0f || img.rgb[3 * i + 2] != 0.0f) !=
+            (spl->rgb[3 * i] > 0.0f))
+            mismatched++;
+    CHECK(t, mismatched == 0, "%lu pixels lit without splats or splatted and dark", (unsigned long)mismatched);
+    CHECK(t, dbg.picture[PDS_DEBUG_FOOTPRINT].width == img.width && dbg.paths_obj && dbg.path_segments > 0,
+          "footprint picture %d wide, paths %s", dbg.picture[PDS_DEBUG_FOOTPRINT].width,
+          dbg.paths_obj ? "made" : "missing");
+    pds_image_free(&img);
+    pds_debug_free(&dbg);
+}
+
+#ifdef PDS_NO_BASELINES
+/* The small core leaves streamed photon mapping out with the other
+   baselines, and says so. */
+static void test_core_refuses_spm(pds_test_ctx *t)
+{
+    pds_options opt;
+    pds_error err;
+    pds_image img = {0, 0, NULL};
+    pds_scene *s = scene_from_text(mirror_scene, &err);
+    REQUIRE(t, s != NULL, "scene: %s", err.text);
+    pds_options_default(&opt);
+    opt.method = PDS_METHOD_SPM;
+    CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_ERR_INVALID_ARG && strstr(err.text, "PDS_NO_BASELINES") &&
+                 strstr(err.text, "spm"),
+          "%s", err.text);
+    pds_image_free(&img);
+    pds_scene_free(s);
+}
+#endif
+
 static const pds_test_case tests_teach[] = {
+    {"debug_views_ride_along_a_spectral_render", test_debug_views_ride_along_a_spectral_render},
+#ifdef PDS_NO_BASELINES
+    {"core_refuses_spm", test_core_refuses_spm},
+#endif
     {"debug_landings_and_splats_agree_with_the_render", test_debug_landings_and_splats_agree_with_the_render},
     {"debug_views_are_identical_for_any_thread_count", test_debug_views_are_identical_for_any_thread_count},
     {"debug_eye_view_puts_spp_vertices_in_each_pixel", test_debug_eye_view_puts_spp_vertices_in_each_pixel},
