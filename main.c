@@ -824,6 +824,16 @@ static int set_int(const opt_spec *s, run_cfg *c, const char *shown, const char 
     return 0;
 }
 
+/* A flag (no value): the int field gets the table's lo, e.g.
+   --no-shadow-photons sets shadow_photons to 0, --spectral spectral to 1. */
+static int set_flag(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    (void)shown;
+    (void)v;
+    *FIELD(c, s, int) = (int)s->lo;
+    return 0;
+}
+
 static int set_long(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
     long n = 0;
@@ -877,16 +887,6 @@ static int set_caustics(const opt_spec *s, run_cfg *c, const char *shown, const 
     if (method_lookup(v, &m)) return unknown_method(v);
     if (!is_photon_method(m)) return usage_error("%s takes pds, pm, pdm, splat, ppm or spm, got '%s'", shown, v);
     c->opt.caustics = m;
-    return 0;
-}
-
-/* --no-shadow-photons: a shadow ray for every light sample. */
-static int set_no_shadow_photons(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
-{
-    (void)s;
-    (void)shown;
-    (void)v;
-    c->opt.shadow_photons = 0;
     return 0;
 }
 
@@ -993,16 +993,6 @@ static int set_progressive(const opt_spec *s, run_cfg *c, const char *shown, con
     return 0;
 }
 
-/* --spectral: one wavelength per sample and photon even in a scene
-   without dispersion. */
-static int set_spectral(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
-{
-    (void)s;
-    (void)shown;
-    (void)v;
-    c->opt.spectral = 1;
-    return 0;
-}
 
 /* --progress and --quiet: the last one given wins. */
 static int set_progress(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
@@ -1127,7 +1117,7 @@ static const opt_spec option_table[] = {
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--gather-mix", NULL, "gather_mix", set_double, OPTF(gather_mix), 0, 1, "a number above 0 and at most 1", M_GI,
      C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
-    {"--no-shadow-photons", NULL, "shadow_photons", set_no_shadow_photons, 0, 0, 0, "", M_GI, C_ALL, F_PER_METHOD},
+    {"--no-shadow-photons", NULL, "shadow_photons", set_flag, OPTF(shadow_photons), 0, 0, "", M_GI, C_ALL, F_PER_METHOD},
     {"--light-res", NULL, "light_res", set_int, OPTF(light_resolution), 1, PDS_MAX_RESOLUTION,
      "a whole number from 1 to 16384", M_ISC, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--history", NULL, "history", set_int, OPTF(history), 1, 64, "a whole number from 1 to 64", M_ISC, C_ALL,
@@ -1149,7 +1139,7 @@ static const opt_spec option_table[] = {
      F_VALUE | F_LO_OPEN},
     {"--no-caustics", NULL, "paths", set_paths, 0, 0, 0, "", M_ALL, C_ALL, 0},
     {"--caustics-only", NULL, "paths", set_paths, 0, 0, 0, "", M_ALL, C_ALL, 0},
-    {"--spectral", NULL, "spectral", set_spectral, 0, 0, 0, "", M_ALL, C_ALL, 0},
+    {"--spectral", NULL, "spectral", set_flag, OPTF(spectral), 1, 1, "", M_ALL, C_ALL, 0},
     {"--exposure", NULL, "exposure", set_double, offsetof(run_cfg, exposure), -64, 64,
      "a number of stops from -64 to 64", M_ALL, C_ALL, F_VALUE},
     {"--progress", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
