@@ -20,7 +20,9 @@
    file. SIGINT, SIGTERM and SIGHUP are caught (>>signals): the handler
    removes the temporary file being written, if any, clears the progress
    bar and dies by the same signal. */
+#ifndef _WIN32
 #define _POSIX_C_SOURCE 200809L /* isatty, fileno, mkdir, access, strdup, sigaction */
+#endif
 #include "pds.h"
 
 #include <errno.h>
@@ -32,12 +34,38 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/types.h>
-#include <sys/utsname.h>
 #include <time.h>
+#ifdef _WIN32
+/* Windows (MinGW-w64, MSVC): the POSIX calls below under their Microsoft
+   C runtime names; no SIGHUP, no peak memory figure, no uname. */
+#include <direct.h>
+#include <io.h>
+#include <process.h>
+#define getpid _getpid
+#define isatty _isatty
+#define fileno _fileno
+#define unlink _unlink
+#define access _access
+#define strdup _strdup
+#define mkdir(path, mode) _mkdir(path)
+#define write(fd, buf, n) _write(fd, buf, (unsigned)(n))
+#ifndef W_OK
+#define W_OK 2
+#endif
+#ifndef X_OK
+#define X_OK 0 /* _access knows no execute bit: 0 checks existence */
+#endif
+#define STDERR_FILENO 2
+#ifdef _MSC_VER
+typedef long ssize_t;
+#endif
+#else
+#include <sys/resource.h>
+#include <sys/utsname.h>
 #include <unistd.h>
+#endif
 
 #define EXIT_USAGE 2
 #define PATH_MAX_LEN 4096
@@ -94,7 +122,8 @@ static const command_help help_table[] = {
      "                              footprint (default 0.2)\n"
      "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"
      "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
-     "      --debug footprint       pds: also write OUT.footprint.png, footprint anisotropy (red = needle)\n"
+     "      --debug NAME            write a view OUT.NAME.png: footprint, landings, ellipses[=N], splats,\n"
+     "                              eye, paths[=N] (.obj); several allowed (README: Teaching views)\n"
      "      --k N                   pm: photons (spm: streams) per estimate (default 50)\n"
      "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
      "      --max-radius R          pm, spm: largest gather radius in scene units (default: no limit)\n"
@@ -194,6 +223,19 @@ static const command_help help_table[] = {
      "      and any render option; it applies to every method it concerns\n",
      "", 1},
     {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", "", 0},
+    {"pixel", "pixel IMAGE.pfm X Y [R]", "mean value of the pixels within R (default 0) of pixel X,Y", "", "", 0},
+    {"trace-photon", "trace-photon SCENE --photon I [options]",
+     "one caustic photon's path with its differentials beside finite differences",
+     "      --photon I              the photon's number (0 = the first the renderer emits)\n"
+     "      --photons N             N of the paper's eqs. 5-6 (default 100000)\n"
+     "      --smoothing S           s of eqs. 5-6 (default 12)\n"
+     "      --seed N                random seed (default 0)\n"
+     "      --max-depth N           most specular bounces (default 16)\n"
+     "      at every vertex: position x, direction omega, Du x, Dv x (positional; after the first\n"
+     "      bounce Du x + Dtheta x and Dv x + Dphi x, eq. 7), Dtheta omega, Dphi omega, each beside\n"
+     "      the central difference of neighbouring photons traced by the renderer, and the\n"
+     "      footprint's semi-axes and area (eq. 4)\n",
+     "", 0},
     {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", "", 0},
     {"bench", "bench WHAT [ARGS]", "micro-benchmarks (figures, never pass/fail):",
      "      rays MESH [N]           BVH build and ray throughput, one thread (N rays, default 1000000)\n"
@@ -378,7 +420,7 @@ static const char *suggest_text(const suggestion *s, char *buf, size_t n)
    a slot: the names and flags are volatile, a slot's name is complete
    before its flag says so, and a name is never changed while armed. */
 
-#define TEMP_SLOTS 2 /* render writes at most two files: the image, its footprint image */
+#define TEMP_SLOTS 13 /* render writes at most the image, two files per debug view and the paths */
 
 static volatile char temp_name[TEMP_SLOTS][PATH_MAX_LEN + 32];
 static volatile sig_atomic_t temp_armed[TEMP_SLOTS];
@@ -426,6 +468,9 @@ static void on_fatal_signal(int sig)
         (void)w;
         bar_on_screen = 0; /* the note ended the bar's line */
         stop_requested = 1;
+#ifdef _WIN32
+        signal(sig, on_fatal_signal); /* Windows resets a caught signal to its default: the second one must abort */
+#endif
         errno = saved;
         return;
     }
@@ -448,7 +493,16 @@ static void on_fatal_signal(int sig)
 }
 
 /* Catch the signals that end a run, except those ignored when pds started
-   (nohup, background jobs of a non-interactive shell): they stay ignored. */
+   (nohup, background jobs of a non-interactive shell): they stay ignored.
+   Windows has neither sigaction nor SIGHUP: Ctrl-C (SIGINT) and SIGTERM by
+   signal(). */
+#ifdef _WIN32
+static void catch_fatal_signals(void)
+{
+    signal(SIGINT, on_fatal_signal);
+    signal(SIGTERM, on_fatal_signal);
+}
+#else
 static void catch_fatal_signals(void)
 {
     static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
@@ -465,6 +519,7 @@ static void catch_fatal_signals(void)
         sigaction(sigs[i], &sa, NULL);
     }
 }
+#endif
 
 /* ---------------------------------------------------------------- parsing */
 
@@ -779,7 +834,7 @@ typedef struct run_cfg {
     const char *output;  /* render: the image file, NULL for the default */
     int progress;        /* 1 on, 0 off, -1 when stderr is a terminal */
     int quiet;           /* --quiet: no progress, no scene warnings */
-    int debug_footprint; /* render --debug footprint */
+    pds_debug debug;     /* render --debug NAME: the views asked for */
     unsigned char given[128]; /* given[i]: option_table[i] was on the command line */
     int frames;          /* render --frames: an animation of this many frames (0: a still) */
 } run_cfg;
@@ -827,6 +882,16 @@ static int set_int(const opt_spec *s, run_cfg *c, const char *shown, const char 
     long n = 0;
     if (set_whole(s, shown, v, &n)) return EXIT_USAGE;
     *FIELD(c, s, int) = (int)n; /* the table keeps int ranges within int */
+    return 0;
+}
+
+/* A flag (no value): the int field gets the table's lo, e.g.
+   --no-shadow-photons sets shadow_photons to 0, --spectral spectral to 1. */
+static int set_flag(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    (void)shown;
+    (void)v;
+    *FIELD(c, s, int) = (int)s->lo;
     return 0;
 }
 
@@ -886,16 +951,6 @@ static int set_caustics(const opt_spec *s, run_cfg *c, const char *shown, const 
     return 0;
 }
 
-/* --no-shadow-photons: a shadow ray for every light sample. */
-static int set_no_shadow_photons(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
-{
-    (void)s;
-    (void)shown;
-    (void)v;
-    c->opt.shadow_photons = 0;
-    return 0;
-}
-
 static int set_kernel(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
     char hint[256];
@@ -951,11 +1006,30 @@ static int set_max_depth(const opt_spec *s, run_cfg *c, const char *shown, const
     return 0;
 }
 
+/* --debug NAME, NAME=N for ellipses (every N-th photon) and paths (the
+   first N photons). */
 static int set_debug(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
+    const char *eq = strchr(v, '=');
+    size_t len = eq ? (size_t)(eq - v) : strlen(v);
+    int k;
     (void)s;
-    if (strcmp(v, "footprint") != 0) return usage_error("%s knows 'footprint', got '%s'", shown, v);
-    c->debug_footprint = 1;
+    for (k = 0; k < PDS_DEBUG_VIEWS; k++) {
+        const char *name = pds_debug_view_name((pds_debug_view)k);
+        if (strlen(name) == len && !strncmp(v, name, len)) break;
+    }
+    if (k == PDS_DEBUG_VIEWS)
+        return usage_error("%s knows footprint, landings, ellipses[=N], splats, eye and paths[=N], got '%s'", shown, v);
+    if (eq) {
+        long n;
+        if (k != PDS_DEBUG_ELLIPSES && k != PDS_DEBUG_PATHS)
+            return usage_error("%s %.*s takes no number, got '%s'", shown, (int)len, v, v);
+        if (parse_count(eq + 1, 1, 1000000, &n))
+            return usage_error("%s %.*s=N needs a whole number from 1 to 1000000, got '%s'", shown, (int)len, v, eq + 1);
+        if (k == PDS_DEBUG_ELLIPSES) c->debug.ellipse_every = n;
+        else c->debug.path_photons = n;
+    }
+    c->debug.views |= 1u << k;
     return 0;
 }
 
@@ -980,16 +1054,6 @@ static int set_progressive(const opt_spec *s, run_cfg *c, const char *shown, con
     return 0;
 }
 
-/* --spectral: one wavelength per sample and photon even in a scene
-   without dispersion. */
-static int set_spectral(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
-{
-    (void)s;
-    (void)shown;
-    (void)v;
-    c->opt.spectral = 1;
-    return 0;
-}
 
 /* --progress and --quiet: the last one given wins. */
 static int set_progress(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
@@ -1086,7 +1150,7 @@ static const opt_spec option_table[] = {
      M_PDS | M_GI, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--pass-alpha", NULL, "pass_alpha", set_double, OPTF(pass_alpha), 0, 1, "a number above 0 and at most 1", M_PDS | M_GI,
      C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
-    {"--debug", NULL, "debug", set_debug, 0, 0, 0, "footprint", M_PDS, C_RENDER, F_VALUE},
+    {"--debug", NULL, "debug", set_debug, 0, 0, 0, "a view name", M_PHOTON, C_RENDER, F_VALUE},
     {"--k", NULL, "k", set_int, OPTF(k), 1, 1000000, "a whole number from 1 to 1000000", M_PM | M_SPM | M_GI, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--kernel", NULL, "kernel", set_kernel, 0, 0, 0, "cone, gaussian or none", M_PM | M_GI, C_ALL, F_VALUE | F_PER_METHOD},
@@ -1114,7 +1178,7 @@ static const opt_spec option_table[] = {
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--gather-mix", NULL, "gather_mix", set_double, OPTF(gather_mix), 0, 1, "a number above 0 and at most 1", M_GI,
      C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
-    {"--no-shadow-photons", NULL, "shadow_photons", set_no_shadow_photons, 0, 0, 0, "", M_GI, C_ALL, F_PER_METHOD},
+    {"--no-shadow-photons", NULL, "shadow_photons", set_flag, OPTF(shadow_photons), 0, 0, "", M_GI, C_ALL, F_PER_METHOD},
     {"--light-res", NULL, "light_res", set_int, OPTF(light_resolution), 1, PDS_MAX_RESOLUTION,
      "a whole number from 1 to 16384", M_ISC, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--history", NULL, "history", set_int, OPTF(history), 1, 64, "a whole number from 1 to 64", M_ISC, C_ALL,
@@ -1136,7 +1200,7 @@ static const opt_spec option_table[] = {
      F_VALUE | F_LO_OPEN},
     {"--no-caustics", NULL, "paths", set_paths, 0, 0, 0, "", M_ALL, C_ALL, 0},
     {"--caustics-only", NULL, "paths", set_paths, 0, 0, 0, "", M_ALL, C_ALL, 0},
-    {"--spectral", NULL, "spectral", set_spectral, 0, 0, 0, "", M_ALL, C_ALL, 0},
+    {"--spectral", NULL, "spectral", set_flag, OPTF(spectral), 1, 1, "", M_ALL, C_ALL, 0},
     {"--exposure", NULL, "exposure", set_double, offsetof(run_cfg, exposure), -64, 64,
      "a number of stops from -64 to 64", M_ALL, C_ALL, F_VALUE},
     {"--progress", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
@@ -1165,6 +1229,7 @@ static void cfg_init(run_cfg *c)
 {
     memset(c, 0, sizeof *c);
     pds_options_default(&c->opt);
+    pds_debug_init(&c->debug);
     c->opt.method = PDS_METHOD_PDS;
     c->progress = -1;
 }
@@ -1503,6 +1568,52 @@ static int parse_shard(const char *v, pds_options *opt)
     return 0;
 }
 
+/* Write len bytes of text to path through its temporary name (armed in
+   temp slot `slot` meanwhile). 0, or 1 after printing why not. */
+static int write_text_file(int slot, const char *path, const char *text, size_t len)
+{
+    char tmp[PATH_MAX_LEN + 32];
+    FILE *f;
+    int ok, e;
+    if (temp_arm(slot, path)) return 1;
+    temp_path(path, tmp, sizeof tmp); /* the name just armed: it fits */
+    f = fopen(tmp, "wb");
+    if (!f) {
+        e = errno;
+        temp_disarm(slot);
+        return fail("%s: cannot write: %s", path, strerror(e));
+    }
+    ok = fwrite(text, 1, len, f) == len;
+    ok = (fclose(f) == 0) && ok;
+    if (ok && rename(tmp, path) == 0) {
+        temp_disarm(slot);
+        return 0;
+    }
+    e = errno;
+    remove(tmp);
+    temp_disarm(slot);
+    return fail("%s: cannot write: %s", path, strerror(e));
+}
+
+/* The methods each debug view is made for, and the file it goes to beside
+   OUT ("OUT.NAME.png"; paths: "OUT.paths.obj"). */
+static unsigned debug_methods(pds_debug_view v)
+{
+    switch (v) {
+    case PDS_DEBUG_FOOTPRINT:
+    case PDS_DEBUG_ELLIPSES: return MBIT(PDS_METHOD_PDS);
+    case PDS_DEBUG_LANDINGS:
+    case PDS_DEBUG_SPLATS: return MBIT(PDS_METHOD_PDS) | MBIT(PDS_METHOD_SPLAT);
+    default: return M_PHOTON;
+    }
+}
+
+static void debug_path(const char *output, pds_debug_view v, const char *ext, char *out, size_t n)
+{
+    const char *dot = strrchr(output, '.');
+    snprintf(out, n, "%.*s.%s%s", (int)(dot - output), output, pds_debug_view_name(v), ext);
+}
+
 /* OUT.png -> OUT.0007.png: frame f of an animation (at least 4 digits). */
 static void frame_path(const char *output, int frame, char *buf, size_t n)
 {
@@ -1537,8 +1648,7 @@ static int cmd_render(int argc, char **argv)
 {
     static const char *const own[] = {"--shard", "--resume", "--checkpoint", NULL};
     const char *scene_path = NULL, *output, *resume = NULL;
-    pds_image footprint = {0, 0, NULL};
-    char footprint_path[1100], default_out[1024], where[64], part_path[1100];
+    char dpath[PDS_DEBUG_VIEWS][2][1100], default_out[1024], where[64], part_path[1100];
     run_cfg c;
     pds_scene *scene = NULL;
     pds_image img = {0, 0, NULL};
@@ -1548,7 +1658,7 @@ static int cmd_render(int argc, char **argv)
     pds_error err;
     pds_status st;
     double checkpoint_s = 0.0, t_start;
-    int i, r, rc = 0, shard_given = 0, part_only, checkpoints = 0;
+    int i, r, k, rc = 0, shard_given = 0, part_only, checkpoints = 0, pfm;
     cfg_init(&c);
     for (i = 0; i < argc; i++) {
         const char *a = argv[i], *v;
@@ -1594,8 +1704,12 @@ static int cmd_render(int argc, char **argv)
         if (!scene_path) scene_path = info.scene_path;
     }
     if (!scene_path) return usage_error("%s", "render needs a scene file");
-    if (c.debug_footprint && c.opt.method != PDS_METHOD_PDS)
-        return usage_error("%s", "--debug footprint needs --method pds");
+    for (k = 0; k < PDS_DEBUG_VIEWS; k++) {
+        char names[128];
+        if (!(c.debug.views & (1u << k)) || (debug_methods((pds_debug_view)k) & MBIT(c.opt.method))) continue;
+        method_join(debug_methods((pds_debug_view)k), "or", names, sizeof names);
+        return usage_error("--debug %s needs --method %s", pds_debug_view_name((pds_debug_view)k), names);
+    }
     if (c.frames > 0 && c.opt.method != PDS_METHOD_ISC)
         return usage_error("%s", "--frames renders an animation with --method isc only");
     if (c.frames > 0 && c.opt.time_s > 0.0)
@@ -1640,22 +1754,24 @@ static int cmd_render(int argc, char **argv)
         return usage_error("%s cannot be split, continued or checkpointed yet (its options are not in the partial "
                            "file)", method_name(c.opt.method));
     }
-    if (c.debug_footprint && (part_only || resume)) {
+    if (c.debug.views && (part_only || resume || checkpoint_s > 0.0)) {
         pds_partial_free(part);
-        return usage_error("%s", "--debug footprint is for a render in one go (no partial files)");
+        return usage_error("%s", "--debug views are made by a render in one go (no partial files or checkpoints)");
     }
     if (part_only) snprintf(part_path, sizeof part_path, "%s", output);
     else snprintf(part_path, sizeof part_path, "%s.pdsp", output);
-    if (c.debug_footprint) {
-        /* OUT.png -> OUT.footprint.png */
-        const char *dot = strrchr(output, '.');
-        snprintf(footprint_path, sizeof footprint_path, "%.*s.footprint%s", (int)(dot - output), output, dot);
-        c.opt.footprint = &footprint;
-    }
+    pfm = has_ext(output, ".pfm");
+    if (c.debug.views) c.opt.debug = &c.debug;
     /* a typo in -o costs nothing: it is found before the render, not after */
-    if (check_out_file(output) || (c.debug_footprint && check_out_file(footprint_path))) {
+    if (check_out_file(output)) {
         pds_partial_free(part);
         return 1;
+    }
+    for (k = 0; k < PDS_DEBUG_VIEWS; k++) {
+        if (!(c.debug.views & (1u << k))) continue;
+        debug_path(output, (pds_debug_view)k, k == PDS_DEBUG_PATHS ? ".obj" : ".png", dpath[k][0], sizeof dpath[k][0]);
+        debug_path(output, (pds_debug_view)k, ".pfm", dpath[k][1], sizeof dpath[k][1]);
+        if (check_out_file(dpath[k][0]) || (pfm && k != PDS_DEBUG_PATHS && check_out_file(dpath[k][1]))) return 1;
     }
     snprintf(where, sizeof where, "with --method %s", method_name(c.opt.method));
     note_idle_options(&c, MBIT(c.opt.method), where);
@@ -1718,7 +1834,7 @@ static int cmd_render(int argc, char **argv)
     } else if (st != PDS_OK) {
         rc = fail("%s", pds_error_string(&err));
     } else if (stats.partial && stop_requested && c.opt.time_s <= 0.0 && c.opt.method != PDS_METHOD_GI &&
-               c.opt.method != PDS_METHOD_SPM) {
+               c.opt.method != PDS_METHOD_SPM && !c.debug.views) {
         /* interrupted: the image of what is done, and the state to go on */
         pds_partial_get_info(part, &info);
         rc = write_part(part, part_path, part_only ? NULL : output, c.exposure);
@@ -1735,28 +1851,41 @@ static int cmd_render(int argc, char **argv)
     } else {
         /* from here until they are in place a signal removes the images'
            temporary files */
-        if (temp_arm(0, output) || (c.debug_footprint && temp_arm(1, footprint_path))) rc = 1;
-        else if (part_image(part, &img, &err) != PDS_OK || pds_image_write(output, &img, c.exposure, &err) != PDS_OK ||
-                 (c.debug_footprint && pds_image_write(footprint_path, &footprint, 0.0, &err) != PDS_OK))
+        if (temp_arm(0, output)) rc = 1;
+        else if (part_image(part, &img, &err) != PDS_OK || pds_image_write(output, &img, c.exposure, &err) != PDS_OK)
             rc = fail("%s", pds_error_string(&err));
         temp_disarm(0);
-        temp_disarm(1);
+        for (k = 0; k < PDS_DEBUG_VIEWS && rc == 0; k++) {
+            if (!(c.debug.views & (1u << k))) continue;
+            if (k == PDS_DEBUG_PATHS) {
+                const char *text = c.debug.paths_obj ? c.debug.paths_obj : "";
+                rc = write_text_file(1 + 2 * k, dpath[k][0], text, strlen(text));
+                continue;
+            }
+            if (temp_arm(1 + 2 * k, dpath[k][0]) || (pfm && temp_arm(2 + 2 * k, dpath[k][1]))) rc = 1;
+            else if (pds_image_write(dpath[k][0], &c.debug.picture[k], 0.0, &err) != PDS_OK ||
+                     (pfm && pds_image_write(dpath[k][1], &c.debug.value[k], 0.0, &err) != PDS_OK))
+                rc = fail("%s", pds_error_string(&err));
+            temp_disarm(1 + 2 * k);
+            temp_disarm(2 + 2 * k);
+        }
         /* the render is whole: a partial file it was continued from, or
            its checkpoint, is spent */
         if (!rc && ((resume && !strcmp(resume, part_path)) || checkpoints > 0)) remove(part_path);
         if (!rc && checkpoints > 0 && !c.quiet)
             fprintf(stderr, "pds render: %d checkpoints written to %s (removed now that the render is whole)\n",
                     checkpoints, part_path);
-        /* --time and gi: the image of the work done, and no partial file */
-        if (stop_requested && (c.opt.time_s > 0.0 || c.opt.method == PDS_METHOD_GI || c.opt.method == PDS_METHOD_SPM) &&
-            !rc)
+        /* --time, gi, spm and teaching views: the image of the work done,
+           and no partial file */
+        if (stop_requested && !rc &&
+            (c.opt.time_s > 0.0 || c.opt.method == PDS_METHOD_GI || c.opt.method == PDS_METHOD_SPM || c.debug.views))
             rc = 130;
     }
     pds_image_free(&img);
-    pds_image_free(&footprint);
     pds_partial_free(part);
     pds_scene_free(scene);
     if (rc == 0 || rc == 130) print_render_line(&c, &stats, part_only ? part_path : output);
+    pds_debug_free(&c.debug);
     return rc;
 }
 
@@ -1844,6 +1973,41 @@ static int cmd_compare(int argc, char **argv)
     return rc;
 }
 
+/* pds pixel IMAGE.pfm X Y [R]: the mean of the (2R+1)^2 pixels around
+   (X, Y) (x right, y down from the top left, clipped to the image), for
+   checking a render against a value worked out by hand. */
+static int cmd_pixel(int argc, char **argv)
+{
+    pds_image img = {0, 0, NULL};
+    pds_error err;
+    long x, y, r = 0, i, j, n = 0;
+    double sum[3] = {0, 0, 0};
+    if (argc != 3 && argc != 4) return usage_error("%s", "pixel needs IMAGE.pfm X Y [R]");
+    if (parse_int(argv[1], 0, PDS_MAX_RESOLUTION - 1, &x) || parse_int(argv[2], 0, PDS_MAX_RESOLUTION - 1, &y) ||
+        (argc == 4 && parse_int(argv[3], 0, PDS_MAX_RESOLUTION, &r)))
+        return usage_error("pixel needs whole numbers X Y [R] from 0 to %d", PDS_MAX_RESOLUTION - 1);
+    if (pds_image_read_pfm(argv[0], &img, &err) != PDS_OK) {
+        fprintf(stderr, "%s\n", pds_error_string(&err));
+        return 1;
+    }
+    if (x >= img.width || y >= img.height) {
+        int w = img.width, h = img.height;
+        pds_image_free(&img);
+        return usage_error("pixel %ld,%ld is outside the %dx%d image", x, y, w, h);
+    }
+    for (j = y - r; j <= y + r; j++)
+        for (i = x - r; i <= x + r; i++) {
+            int c;
+            if (i < 0 || j < 0 || i >= img.width || j >= img.height) continue;
+            for (c = 0; c < 3; c++) sum[c] += img.rgb[3 * ((size_t)j * img.width + (size_t)i) + c];
+            n++;
+        }
+    printf("pixel x=%ld y=%ld radius=%ld pixels=%ld r=%.6g g=%.6g b=%.6g\n", x, y, r, n, sum[0] / n, sum[1] / n,
+           sum[2] / n);
+    pds_image_free(&img);
+    return 0;
+}
+
 static const char *material_type_name(pds_material_type t)
 {
     static const char *const names[] = {"diffuse", "mirror", "conductor", "dielectric", "emissive", "glossy"};
@@ -1854,6 +2018,101 @@ static const char *light_type_name(pds_light_type t)
 {
     static const char *const names[] = {"point", "spot", "directional", "disk", "quad", "mesh"};
     return (unsigned)t < 6 ? names[t] : "?";
+}
+
+static const char *trace_event_name(pds_trace_event e)
+{
+    static const char *const names[] = {"emitted", "reflected", "refracted", "landed"};
+    return (int)e >= 0 && (int)e < 4 ? names[e] : "?";
+}
+
+/* One differential beside its finite difference; returns the relative
+   difference (0 when both vanish). */
+static double trace_row(const char *name, pds_vec3 a, pds_vec3 fd, int valid)
+{
+    double dx = a.x - fd.x, dy = a.y - fd.y, dz = a.z - fd.z;
+    double na = sqrt(a.x * a.x + a.y * a.y + a.z * a.z), nd = sqrt(dx * dx + dy * dy + dz * dz);
+    double rel = na > 0.0 ? nd / na : nd > 0.0 ? 1.0 : 0.0;
+    printf("  %-9s (% .6e, % .6e, % .6e)", name, a.x, a.y, a.z);
+    if (valid) printf("   fd (% .6e, % .6e, % .6e)   rel %.1e\n", fd.x, fd.y, fd.z, rel);
+    else printf("   fd n/a\n");
+    return valid ? rel : 0.0;
+}
+
+static int cmd_trace_photon(int argc, char **argv)
+{
+    const char *scene_path = NULL;
+    pds_options opt;
+    pds_scene *scene = NULL;
+    pds_trace tr;
+    pds_error err;
+    long photon = -1, n;
+    double worst = 0.0;
+    int i, k, landed = 0;
+    pds_options_default(&opt);
+    for (i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        double x;
+        if (a[0] != '-') {
+            if (scene_path) return usage_error("trace-photon takes one scene, got another: '%s'", a);
+            scene_path = a;
+            continue;
+        }
+        if (i + 1 >= argc) return usage_error("%s needs a value", a);
+        if (!strcmp(a, "--photon")) {
+            if (parse_count(argv[++i], 0, LONG_MAX / 2, &photon)) return usage_error("--photon needs a whole number of 0 or more, got '%s'", argv[i]);
+        } else if (!strcmp(a, "--photons")) {
+            if (parse_count(argv[++i], 1, LONG_MAX / 2, &opt.photons)) return usage_error("--photons needs a whole number of 1 or more, got '%s'", argv[i]);
+        } else if (!strcmp(a, "--smoothing")) {
+            if (parse_double(argv[++i], &x) || !(x > 0.0) || x > 1e6) return usage_error("--smoothing needs a positive number, got '%s'", argv[i]);
+            opt.smoothing = x;
+        } else if (!strcmp(a, "--seed")) {
+            if (parse_count(argv[++i], 0, LONG_MAX, &n)) return usage_error("--seed needs a non-negative whole number, got '%s'", argv[i]);
+            opt.seed = (unsigned long long)n;
+        } else if (!strcmp(a, "--max-depth")) {
+            if (parse_int(argv[++i], 1, 1000, &n)) return usage_error("--max-depth needs a whole number from 1 to 1000, got '%s'", argv[i]);
+            opt.photon_depth = (int)n;
+        } else {
+            return usage_error("trace-photon knows --photon, --photons, --smoothing, --seed and --max-depth, got '%s'", a);
+        }
+    }
+    if (!scene_path) return usage_error("%s", "trace-photon needs a scene file");
+    if (photon < 0) return usage_error("%s", "trace-photon needs --photon I");
+    if (load_any(scene_path, &scene, &err) != PDS_OK) {
+        fprintf(stderr, "%s\n", pds_error_string(&err));
+        return 1;
+    }
+    if (pds_trace_photon(scene, &opt, photon, &tr, &err) != PDS_OK) {
+        pds_scene_free(scene);
+        return fail("%s", pds_error_string(&err));
+    }
+    printf("photon %ld: N = %.0f photons, s = %g (eqs. 5-6); finite differences with h = %.3e\n", photon, tr.photons,
+           tr.smoothing, tr.step);
+    for (k = 0; k < tr.count; k++) {
+        const pds_trace_vertex *v = &tr.v[k];
+        const pds_material *m = v->material >= 0 ? pds_scene_material(scene, v->material) : NULL;
+        double rel;
+        printf("vertex %d: %s", k, trace_event_name(v->event));
+        if (m) printf(" on '%s' (triangle %ld)", m->name, v->triangle);
+        printf("\n  x         (% .6e, % .6e, % .6e)\n  omega     (% .6e, % .6e, % .6e)\n", v->position.x,
+               v->position.y, v->position.z, v->direction.x, v->direction.y, v->direction.z);
+        rel = trace_row("Du x", v->dxdu, v->fd_dxdu, v->fd_valid);
+        worst = rel > worst ? rel : worst;
+        rel = trace_row("Dv x", v->dxdv, v->fd_dxdv, v->fd_valid);
+        worst = rel > worst ? rel : worst;
+        rel = trace_row("Dtheta w", v->dwdu, v->fd_dwdu, v->fd_valid);
+        worst = rel > worst ? rel : worst;
+        rel = trace_row("Dphi w", v->dwdv, v->fd_dwdv, v->fd_valid);
+        worst = rel > worst ? rel : worst;
+        printf("  footprint semi-axes %.6e, %.6e; area %.6e (eq. 4: pi/4 |Du x X Dv x|); flux %.4e %.4e %.4e W\n",
+               v->major, v->minor, v->area, v->flux[0], v->flux[1], v->flux[2]);
+        if (v->event == PDS_TRACE_LAND) landed = 1;
+    }
+    if (tr.count == 0) printf("(this photon carries no flux)\n");
+    printf("trace-photon photon=%ld vertices=%d landed=%d max_rel_diff=%.3e\n", photon, tr.count, landed, worst);
+    pds_trace_free(&tr);
+    pds_scene_free(scene);
+    return 0;
 }
 
 static int cmd_info(int argc, char **argv)
@@ -2172,20 +2431,26 @@ static int bench_memory(int argc, char **argv)
         fprintf(stderr, "%s\n", pds_error_string(&err));
         return 1;
     }
+    long rss_a = 0, rss_b = 0; /* peak resident memory, KiB (not measured on Windows) */
+#ifndef _WIN32
     struct rusage ru;
-    long rss_a, rss_b;
+#endif
     if (render_pds(scene, 100000, 0, 256, &a)) {
         pds_scene_free(scene);
         return 1;
     }
+#ifndef _WIN32
     getrusage(RUSAGE_SELF, &ru);
     rss_a = ru.ru_maxrss;
+#endif
     if (render_pds(scene, 10000000, 0, 256, &b)) {
         pds_scene_free(scene);
         return 1;
     }
+#ifndef _WIN32
     getrusage(RUSAGE_SELF, &ru);
     rss_b = ru.ru_maxrss;
+#endif
     pds_scene_free(scene);
     /* ru_maxrss is the process's peak so far (KiB on Linux): if the second,
        100 times larger render needed more, the peak would have grown */
@@ -2343,29 +2608,10 @@ static int join_path(char *out, size_t n, const char *dir, const char *name)
 /* Write the buffer to dir/name under a temporary name, then rename it. */
 static int write_text(const char *dir, const char *name, const sbuf *b)
 {
-    char path[PATH_MAX_LEN], tmp[PATH_MAX_LEN + 32];
-    FILE *f;
-    int ok, e;
+    char path[PATH_MAX_LEN];
     if (join_path(path, sizeof path, dir, name)) return 1;
     if (b->nomem) return fail("%s: out of memory", path);
-    if (temp_arm(0, path)) return 1;
-    temp_path(path, tmp, sizeof tmp); /* the name just armed: it fits */
-    f = fopen(tmp, "wb");
-    if (!f) {
-        e = errno;
-        temp_disarm(0);
-        return fail("%s: cannot write: %s", path, strerror(e));
-    }
-    ok = fwrite(b->s ? b->s : "", 1, b->len, f) == b->len;
-    ok = (fclose(f) == 0) && ok;
-    if (ok && rename(tmp, path) == 0) {
-        temp_disarm(0);
-        return 0;
-    }
-    e = errno;
-    remove(tmp);
-    temp_disarm(0);
-    return fail("%s: cannot write: %s", path, strerror(e));
+    return write_text_file(0, path, b->s ? b->s : "", b->len);
 }
 
 static int write_image(const char *dir, const char *name, const pds_image *img, double exposure)
@@ -3980,7 +4226,9 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
     sbuf c = {NULL, 0, 0, 0};
     time_t now = time(NULL);
     struct tm *utc = gmtime(&now);
+#ifndef _WIN32
     struct utsname un;
+#endif
     for (i = 0; i < bud->n; i++) best_r[i] = best_s[i] = -1;
     for (i = 0; i < n; i++) {
         int k = e[i].budget;
@@ -4059,6 +4307,9 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
               pg->tuned ? " (tuning renders: the seed + 1)" : "");
     sb_printf(b, "<tr><th class=\"l\">threads</th><td class=\"l\">%d used (%s)</td></tr>\n", n > 0 ? e[0].st.threads : 0,
               pg->base->opt.threads > 0 ? "given with --threads" : "all cores");
+#ifdef _WIN32
+    sb_printf(b, "<tr><th class=\"l\">machine</th><td class=\"l\" id=\"machine\">Windows</td></tr>\n");
+#else
     if (uname(&un) == 0) {
         sb_printf(b, "<tr><th class=\"l\">machine</th><td class=\"l\" id=\"machine\">");
         sb_xml(b, un.sysname);
@@ -4070,6 +4321,7 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
         sb_xml(b, un.machine);
         sb_printf(b, "</td></tr>\n");
     }
+#endif
     cpu_model(text, sizeof text);
     sb_printf(b, "<tr><th class=\"l\">CPU</th><td class=\"l\">");
     sb_xml(b, text);
@@ -4576,6 +4828,7 @@ int main(int argc, char **argv)
     } commands[] = {
         {"render", cmd_render}, {"sweep", cmd_sweep}, {"race", cmd_race},   {"compare", cmd_compare},
         {"merge", cmd_merge},   {"info", cmd_info},   {"bench", cmd_bench}, {"help", cmd_help},
+        {"trace-photon", cmd_trace_photon}, {"pixel", cmd_pixel},
     };
     size_t k;
     int i;

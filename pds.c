@@ -5,8 +5,10 @@
    Table of contents (grep for the tag); each section uses only those
    above it:
      >>config     feature macros, includes, limits
-     >>util       status strings, error reporting, growable arrays, bounded
-                  file reading, string map, exact order-free sums, time
+     >>util       status strings, error reporting, growable arrays, the
+                  system layer (threads, clock, files: POSIX or Win32),
+                  bounded file reading, string map, exact order-free sums,
+                  time
      >>math       3-vectors in double precision, orthonormal bases, transforms
      >>mesh       the triangle store every shape ends up in; material table
      >>rng        counter-based random numbers: f(seed, purpose, index, dim)
@@ -27,6 +29,9 @@
      >>partial    the exact state of a render or a shard of it: the image
                   from it, merging shards, the partial file
      >>render     camera, path tracer and eye pass, preview, row scheduler
+     >>debug      teaching views: colour bars and a bitmap font, camera
+                  projection, the views' per-thread counts, the photon
+                  path recorder and the paths OBJ
      >>pds        photon differential splatting: aimed caustic photons,
                   tracing with differentials, splatting into the eye-path map
      >>baselines  pm, pdm, splat, ppm
@@ -41,15 +46,37 @@
      >>isc        image-space caustics (Wyman and Davis 2006): light-space
                   photon buffer, points, quads, eye- and light-space
                   gathers, temporal filter, animation frames
-     >>api        public entry points: render, options, benchmarks
+     >>api        public entry points: render, options, teaching views,
+                  trace-photon, benchmarks
 */
 
 /* ===================================================================== */
 /* >>config                                                              */
 /* ===================================================================== */
-/* POSIX is needed for clock_gettime, sysconf and the threads; everything
-   else is C99. */
+/* Everything is C99 but a few system services, each behind one small
+   function in >>util (the thread layer, the clock, the processor count,
+   the physical memory, reading a file and the process id): POSIX
+   (open/fstat, clock_gettime, sysconf, pthreads) by default, Win32 when
+   _WIN32 is defined (MinGW-w64 and MSVC). */
+#ifndef _WIN32
 #define _POSIX_C_SOURCE 200809L
+#endif
+
+/* The small core (README "A small core"): -DPDS_CORE leaves out the
+   first three extras below; each can also be left out alone. What stays
+   is the method: scenes, OBJ geometry, BVH, materials, lights, the eye
+   pass and path tracer, photon differentials, splatting, PFM images,
+   metrics and the teaching views.
+     PDS_NO_PNG        the PNG writer and its deflate coder (write .pfm)
+     PDS_NO_BASELINES  pm, pdm, splat, ppm and spm (pds, pt, gi and isc stay)
+     PDS_NO_BENCH      pds_bench_* (they return PDS_ERR_INVALID_ARG)
+     PDS_NO_MTL        MTL material libraries (OBJ faces get the default
+                       material) */
+#ifdef PDS_CORE
+#define PDS_NO_PNG 1
+#define PDS_NO_BASELINES 1
+#define PDS_NO_BENCH 1
+#endif
 
 #include "pds.h"
 
@@ -58,17 +85,25 @@
 #include <float.h>
 #include <limits.h>
 #include <math.h>
-#include <pthread.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-#include <unistd.h>
-#include <fcntl.h>
 #include <sys/stat.h>
 #include <sys/types.h>
+#ifdef _WIN32
+#define WIN32_LEAN_AND_MEAN
+#include <windows.h>
+#include <fcntl.h>
+#include <io.h>
+#include <process.h>
+#else
+#include <fcntl.h>
+#include <pthread.h>
+#include <unistd.h>
+#endif
 
 #define PDS__PI 3.14159265358979323846
 
@@ -162,6 +197,104 @@ static void pds__strlcpy(char *dst, const char *src, size_t n)
     dst[len] = '\0';
 }
 
+/* --- the system layer ------------------------------------------------------
+   The few calls C99 lacks, for POSIX and for Windows (MinGW-w64, MSVC). */
+
+#ifdef _WIN32
+#define PDS__S_ISREG(m) (((m) & _S_IFMT) == _S_IFREG)
+#define PDS__S_ISDIR(m) (((m) & _S_IFMT) == _S_IFDIR)
+typedef struct _stat64 pds__stat;
+static int pds__open_read(const char *path) { return _open(path, _O_RDONLY | _O_BINARY); }
+static int pds__fstat(int fd, pds__stat *sb) { return _fstat64(fd, sb); }
+static int pds__stat_path(const char *path, pds__stat *sb) { return _stat64(path, sb); }
+static void pds__close(int fd) { _close(fd); }
+static long pds__read_some(int fd, char *buf, size_t n)
+{
+    return (long)_read(fd, buf, (unsigned)(n > 0x40000000u ? 0x40000000u : n));
+}
+static long pds__process_id(void) { return (long)_getpid(); }
+#else
+#define PDS__S_ISREG(m) S_ISREG(m)
+#define PDS__S_ISDIR(m) S_ISDIR(m)
+typedef struct stat pds__stat;
+/* non-blocking, so that even a FIFO does not stall before it is refused */
+static int pds__open_read(const char *path) { return open(path, O_RDONLY | O_NONBLOCK); }
+static int pds__fstat(int fd, pds__stat *sb) { return fstat(fd, sb); }
+static int pds__stat_path(const char *path, pds__stat *sb) { return stat(path, sb); }
+static void pds__close(int fd) { close(fd); }
+static long pds__read_some(int fd, char *buf, size_t n) { return (long)read(fd, buf, n); }
+static long pds__process_id(void) { return (long)getpid(); }
+#endif
+
+/* Threads: a mutex, the calling thread's identity, and n threads running
+   one function (pds__threads_run). POSIX threads, or Win32 threads and
+   critical sections. Nothing in PDS needs atomics: shared counters are
+   guarded by a mutex. */
+#ifdef _WIN32
+typedef CRITICAL_SECTION pds__mutex;
+typedef DWORD pds__thread_id;
+static void pds__mutex_init(pds__mutex *m) { InitializeCriticalSection(m); }
+static void pds__mutex_destroy(pds__mutex *m) { DeleteCriticalSection(m); }
+static void pds__mutex_lock(pds__mutex *m) { EnterCriticalSection(m); }
+static void pds__mutex_unlock(pds__mutex *m) { LeaveCriticalSection(m); }
+static pds__thread_id pds__thread_self(void) { return GetCurrentThreadId(); }
+static int pds__thread_equal(pds__thread_id a, pds__thread_id b) { return a == b; }
+typedef struct pds__win_start { void *(*fn)(void *); void *arg; } pds__win_start;
+static DWORD WINAPI pds__win_thread(LPVOID p)
+{
+    const pds__win_start *w = (const pds__win_start *)p;
+    w->fn(w->arg);
+    return 0;
+}
+#else
+typedef pthread_mutex_t pds__mutex;
+typedef pthread_t pds__thread_id;
+static void pds__mutex_init(pds__mutex *m) { pthread_mutex_init(m, NULL); }
+static void pds__mutex_destroy(pds__mutex *m) { pthread_mutex_destroy(m); }
+static void pds__mutex_lock(pds__mutex *m) { pthread_mutex_lock(m); }
+static void pds__mutex_unlock(pds__mutex *m) { pthread_mutex_unlock(m); }
+static pds__thread_id pds__thread_self(void) { return pthread_self(); }
+static int pds__thread_equal(pds__thread_id a, pds__thread_id b) { return pthread_equal(a, b) != 0; }
+#endif
+
+/* Run fn(arg) on n threads, at most 256 (the caller's thread is one of
+   them). Returns the number of threads that ran. */
+static int pds__threads_run(int n, void *(*fn)(void *), void *arg)
+{
+#ifdef _WIN32
+    HANDLE tid[256];
+    pds__win_start start;
+#else
+    pthread_t tid[256];
+#endif
+    int started = 0, i;
+    if (n > 256) n = 256;
+#ifdef _WIN32
+    start.fn = fn;
+    start.arg = arg;
+    for (i = 1; i < n; i++) {
+        tid[started] = CreateThread(NULL, 0, pds__win_thread, &start, 0, NULL);
+        if (!tid[started]) break;
+        started++;
+    }
+#else
+    for (i = 1; i < n; i++) {
+        if (pthread_create(&tid[started], NULL, fn, arg) != 0) break;
+        started++;
+    }
+#endif
+    fn(arg);
+#ifdef _WIN32
+    for (i = 0; i < started; i++) {
+        WaitForSingleObject(tid[i], INFINITE);
+        CloseHandle(tid[i]);
+    }
+#else
+    for (i = 0; i < started; i++) pthread_join(tid[i], NULL);
+#endif
+    return started + 1;
+}
+
 /* Read a whole file into a NUL-terminated buffer, refusing what cannot be
    read in bounded time and memory: anything that is not a regular file (a
    FIFO would block forever, /dev/zero never ends; opened non-blocking so
@@ -171,48 +304,54 @@ static void pds__strlcpy(char *dst, const char *src, size_t n)
 static pds_status pds__read_file(const char *path, size_t max_bytes, const char *kind, char **out, size_t *size,
                                  pds_error *err)
 {
-    struct stat sb;
+    pds__stat sb;
     char *buf;
     size_t len = 0, want;
     int fd;
     *out = NULL;
-    fd = open(path, O_RDONLY | O_NONBLOCK);
-    if (fd < 0) return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot open: %s", strerror(errno));
-    if (fstat(fd, &sb) != 0) {
+    fd = pds__open_read(path);
+    if (fd < 0) {
         int e = errno;
-        close(fd);
+        /* Windows will not open a folder at all (EACCES): say what it is */
+        if (pds__stat_path(path, &sb) == 0 && PDS__S_ISDIR(sb.st_mode))
+            return pds__fail(err, PDS_ERR_IO, path, 0, 0, "is a directory");
+        return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot open: %s", strerror(e));
+    }
+    if (pds__fstat(fd, &sb) != 0) {
+        int e = errno;
+        pds__close(fd);
         return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot read: %s", strerror(e));
     }
-    if (!S_ISREG(sb.st_mode)) {
-        close(fd);
-        return pds__fail(err, PDS_ERR_IO, path, 0, 0, "%s", S_ISDIR(sb.st_mode) ? "is a directory" : "not a regular file");
+    if (!PDS__S_ISREG(sb.st_mode)) {
+        pds__close(fd);
+        return pds__fail(err, PDS_ERR_IO, path, 0, 0, "%s", PDS__S_ISDIR(sb.st_mode) ? "is a directory" : "not a regular file");
     }
     if (sb.st_size < 0 || (unsigned long long)sb.st_size > (unsigned long long)max_bytes) {
-        close(fd);
+        pds__close(fd);
         return pds__fail(err, PDS_ERR_LIMIT, path, 0, 0, "%.0f bytes is larger than the limit of %.0f bytes for a %s",
                          (double)sb.st_size, (double)max_bytes, kind);
     }
     want = (size_t)sb.st_size;
     buf = (char *)malloc(want + 2);
     if (!buf) {
-        close(fd);
+        pds__close(fd);
         return pds__nomem(err);
     }
     /* one byte more than the size: a file that grew while being read is
        refused rather than read in part */
     while (len < want + 1) {
-        ssize_t n = read(fd, buf + len, want + 1 - len);
+        long n = pds__read_some(fd, buf + len, want + 1 - len);
         if (n < 0 && errno == EINTR) continue;
         if (n < 0) {
             int e = errno;
-            close(fd);
+            pds__close(fd);
             free(buf);
             return pds__fail(err, PDS_ERR_IO, path, 0, 0, "read error: %s", strerror(e));
         }
         if (n == 0) break;
         len += (size_t)n;
     }
-    close(fd);
+    pds__close(fd);
     if (len != want) {
         free(buf);
         return pds__fail(err, PDS_ERR_IO, path, 0, 0, "the file changed while it was read");
@@ -228,9 +367,13 @@ static pds_status pds__read_file(const char *path, size_t max_bytes, const char 
    Never opens the file, so a FIFO cannot block it. */
 static int pds__input_file_check(const char *path)
 {
-    struct stat sb;
+    pds__stat sb;
+#ifdef _WIN32
+    if (_stat64(path, &sb) != 0) return errno ? errno : ENOENT;
+#else
     if (stat(path, &sb) != 0) return errno ? errno : ENOENT;
-    return S_ISREG(sb.st_mode) ? 0 : -1;
+#endif
+    return PDS__S_ISREG(sb.st_mode) ? 0 : -1;
 }
 
 /* The reason pds__input_file_check gave, as text. */
@@ -271,7 +414,7 @@ static pds_status pds__write_file_atomic(const char *path, const void *data, siz
     static const char suffix[] = ".tmp-";
     if (strlen(path) + sizeof suffix + 24 > sizeof tmp)
         return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "output path too long");
-    snprintf(tmp, sizeof tmp, "%s%s%ld", path, suffix, (long)getpid());
+    snprintf(tmp, sizeof tmp, "%s%s%ld", path, suffix, pds__process_id());
     f = fopen(tmp, "wb");
     if (!f) return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot write: %s", strerror(errno));
     ok = fwrite(data, 1, size, f) == size;
@@ -280,8 +423,14 @@ static pds_status pds__write_file_atomic(const char *path, const void *data, siz
         remove(tmp);
         return pds__fail(err, PDS_ERR_IO, path, 0, 0, "write failed: %s", strerror(errno));
     }
+#ifdef _WIN32
+    /* Windows' rename refuses an existing target: replace it in one call */
+    if (!MoveFileExA(tmp, path, MOVEFILE_REPLACE_EXISTING)) {
+        int e = EACCES;
+#else
     if (rename(tmp, path) != 0) {
         int e = errno;
+#endif
         remove(tmp);
         return pds__fail(err, PDS_ERR_IO, path, 0, 0, "cannot rename into place: %s", strerror(e));
     }
@@ -487,7 +636,11 @@ static long pds__finite_floats(const double *in, float *out, size_t n)
 /* Physical memory of this machine in bytes, 0 if the system does not say. */
 static double pds__physical_memory(void)
 {
-#if defined(_SC_PHYS_PAGES) && defined(_SC_PAGESIZE)
+#ifdef _WIN32
+    MEMORYSTATUSEX ms;
+    ms.dwLength = sizeof ms;
+    if (GlobalMemoryStatusEx(&ms)) return (double)ms.ullTotalPhys;
+#elif defined(_SC_PHYS_PAGES) && defined(_SC_PAGESIZE)
     long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
     if (pages > 0 && page > 0) return (double)pages * (double)page;
 #endif
@@ -496,14 +649,28 @@ static double pds__physical_memory(void)
 
 double pds_time_now(void)
 {
+#ifdef _WIN32
+    LARGE_INTEGER f, c;
+    QueryPerformanceFrequency(&f);
+    QueryPerformanceCounter(&c);
+    return (double)c.QuadPart / (double)f.QuadPart;
+#else
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+#endif
 }
 
 int pds_cpu_count(void)
 {
+#ifdef _WIN32
+    SYSTEM_INFO si;
+    long n;
+    GetSystemInfo(&si);
+    n = (long)si.dwNumberOfProcessors;
+#else
     long n = sysconf(_SC_NPROCESSORS_ONLN);
+#endif
     if (n < 1) return 1;
     if (n > 256) return 256;
     return (int)n;
@@ -521,7 +688,9 @@ static pds__v3 pds__v(double x, double y, double z) { pds__v3 r; r.x = x; r.y = 
 static pds__v3 pds__add(pds__v3 a, pds__v3 b) { return pds__v(a.x + b.x, a.y + b.y, a.z + b.z); }
 static pds__v3 pds__sub(pds__v3 a, pds__v3 b) { return pds__v(a.x - b.x, a.y - b.y, a.z - b.z); }
 static pds__v3 pds__scale(pds__v3 a, double s) { return pds__v(a.x * s, a.y * s, a.z * s); }
+#ifndef PDS_NO_BENCH
 static pds__v3 pds__mul(pds__v3 a, pds__v3 b) { return pds__v(a.x * b.x, a.y * b.y, a.z * b.z); }
+#endif
 static double pds__dot(pds__v3 a, pds__v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 static pds__v3 pds__cross(pds__v3 a, pds__v3 b)
 {
@@ -865,8 +1034,9 @@ static double pds__halton(uint64_t seed, uint64_t index, int dim)
      there), vt u [v [w]] (checked and counted, not stored), vn x y z, f/fo
      with v, v/vt, v//vn, v/vt/vn corners (mixable in one face; negative
      indices count back from the last element read so far), o, g (any
-     number of names), s (off, 0, on, N), usemtl, mtllib. Known OBJ
-     statements PDS has no use for (l, p, vp, curv, surf, cstype, ...) are
+     number of names), s (off, 0, on, N), usemtl, mtllib; l (polylines)
+     are counted, not stored. Known OBJ
+     statements PDS has no use for (p, vp, curv, surf, cstype, ...) are
      skipped silently; unknown statements are skipped and counted.
    - Error locations are FILE:LINE:COLUMN of the offending token (1-based,
      bytes, CRLF is one line break). A token on a continuation line carries
@@ -935,6 +1105,8 @@ typedef struct pds__obj_stats {
     long triangles;            /* triangles added to the mesh */
     long degenerate_dropped;   /* zero-area triangles refused */
     long groups, objects;      /* g and o statements */
+    long line_segments;        /* segments of l (polyline) statements:
+                                  corners - 1 each, counted, not stored */
     int mtl_materials;         /* newmtl statements in all MTL files read */
     long ignored_statements;   /* unknown statements skipped (OBJ and MTL) */
     long unknown_materials;    /* distinct usemtl names that fell back to
@@ -1279,6 +1451,7 @@ static int pds__obj_rest(pds__obj_state *s, pds__obj_lexer *lx, char *buf, size_
     return 0;
 }
 
+#ifndef PDS_NO_MTL
 /* ------------------------------------------------------------------ MTL */
 
 /* An MTL material as read, before mapping to a pds_material. */
@@ -1524,6 +1697,8 @@ static pds_status pds__obj_mtllib(pds__obj_state *s, pds__obj_lexer *lx)
     free(names);
     return st;
 }
+
+#endif /* PDS_NO_MTL */
 
 /* ------------------------------------------------------- triangulation */
 
@@ -2275,7 +2450,7 @@ static pds_status pds__obj_vec3(pds__obj_state *s, pds__obj_lexer *lx, const pds
 static int pds__obj_known_unused(const pds__obj_token *kw)
 {
     static const char *const words[] = {
-        "l", "p", "vp", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim",
+        "p", "vp", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim",
         "hole", "scrv", "sp", "end", "con", "mg", "bevel", "c_interp", "d_interp", "lod",
         "shadow_obj", "trace_obj", "ctech", "stech", "maplib", "usemap", "call", "csh", "res"};
     size_t i;
@@ -2364,11 +2539,22 @@ static pds_status pds__obj_statement(pds__obj_state *s, pds__obj_lexer *lx, cons
         }
         s->slot = slot;
     } else if (pds__obj_is(kw, "mtllib")) {
+#ifdef PDS_NO_MTL
+        return PDS_OK; /* a build without MTL libraries: default materials */
+#else
         return pds__obj_mtllib(s, lx);
+#endif
     } else if (pds__obj_is(kw, "g")) {
         s->st->groups++;
     } else if (pds__obj_is(kw, "o")) {
         s->st->objects++;
+    } else if (pds__obj_is(kw, "l")) {
+        /* a polyline v1 v2 ... (v/vt corners): not geometry PDS renders;
+           its segments are counted (the paths debug view writes them) */
+        long n = 0;
+        while (pds__obj_next(lx, &t)) n++;
+        if (n < 2) return pds__obj_err(s, kw, "a line needs at least 2 vertices, got %ld", n);
+        s->st->line_segments += n - 1;
     } else if (!pds__obj_known_unused(kw)) {
         pds__obj_ignore(s, s->path, kw);
     }
@@ -6667,17 +6853,17 @@ static int pds__is_shape_kind(const char *w);
 
 static pds_status pds__unknown_key(pds__parser *P, const char *what)
 {
-    const char *w = P->tok.text, *near = NULL;
+    const char *w = P->tok.text, *closest = NULL;
     int i, best = 3;
     for (i = 0; i < P->nkeys; i++) {
         int d = pds__edit_distance(w, P->keys[i]);
         if (d < best) {
             best = d;
-            near = P->keys[i];
+            closest = P->keys[i];
         }
     }
-    if (near && best <= (strlen(w) > 4 ? 2 : 1))
-        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown keyword '%s' in %s (did you mean '%s'?)", w, what, near);
+    if (closest && best <= (strlen(w) > 4 ? 2 : 1))
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown keyword '%s' in %s (did you mean '%s'?)", w, what, closest);
     if (!strcmp(w, "camera") || !strcmp(w, "material") || !strcmp(w, "light") || pds__is_shape_kind(w))
         /* a statement inside a block: the block's '}' is most likely missing */
         return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' starts a statement, but %s opened at %d:%d is not closed "
@@ -7890,6 +8076,7 @@ static int pds__filter_matrix(pds__v3 dpdu, pds__v3 dpdv, pds__v3 np, double M[2
     return 1;
 }
 
+#if !defined(PDS_NO_BENCH) || defined(PDS_TEST)
 /* The slow reference for eq 12: the general 3x3 inverse of
    B = [Du/2, Dv/2, np] (columns) by cofactors, B^-1 = adj(B) / det(B),
    keeping its top two rows. Same contract as pds__filter_matrix; used by
@@ -7923,6 +8110,7 @@ static int pds__filter_matrix_general(pds__v3 dpdu, pds__v3 dpdv, pds__v3 np, do
         for (j = 0; j < 3; j++) M[i][j] = C[j][i] * inv;
     return 1;
 }
+#endif
 
 /* Silverman's second-order kernel, eq 11, as a function of r^2 >= 0:
    3/pi (1 - r^2)^2 inside the unit disc, 0 outside (and for NaN). Its
@@ -7979,10 +8167,12 @@ static int pds__footprint_widen_to(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, dou
     return 1;
 }
 
+#if !defined(PDS_NO_BASELINES) || defined(PDS_TEST)
 static int pds__footprint_widen(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double min_aspect)
 {
     return pds__footprint_widen_to(dpdu, dpdv, np, min_aspect, 0.0);
 }
+#endif
 
 /* Anisotropy metric m_a of appendix B: with Dmax / Dmin the longer /
    shorter positional vector, the part of Dmin perpendicular to Dmax over
@@ -8410,6 +8600,7 @@ static double pds__srgb_encode(double linear)
     return 1.055 * pow(c, 1.0 / 2.4) - 0.055;
 }
 
+#ifndef PDS_NO_PNG
 /* CRC-32 as used by PNG and zlib (ISO 3309 / ITU-T V.42): reflected
    polynomial 0xEDB88320, register preset to all ones and inverted at the
    end. Continue a running CRC by passing the previous result; start with 0.
@@ -9081,6 +9272,15 @@ pds_status pds_image_write_png(const char *path, const pds_image *img,
     free(o.buf);
     return st;
 }
+
+#else
+pds_status pds_image_write_png(const char *path, const pds_image *img,
+                               double exposure_stops, pds_error *err)
+{
+    (void)img, (void)exposure_stops;
+    return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "this build leaves PNG out (PDS_NO_PNG): write a .pfm");
+}
+#endif /* PDS_NO_PNG */
 
 /* ASCII-only lower case, independent of the locale. */
 static int pds__ascii_lower(int c)
@@ -10532,14 +10732,14 @@ typedef struct pds__render_job {
     uint64_t seed;
     const int *rows;       /* the rows to render, in this order */
     int nrows;
-    pthread_mutex_t lock;
+    pds__mutex lock;
     int next_row;          /* guarded by lock: index into rows */
     int rows_done;         /* guarded by lock */
     int stop;              /* guarded by lock: stop handing out rows */
     int stop_requested;    /* guarded by lock: the progress callback said stop */
     int stoppable;         /* a stop may end a pass early (not under a time
                               budget, whose passes must be whole) */
-    pthread_t caller;
+    pds__thread_id caller;
     pds_progress_fn progress;
     void *progress_user;
     double t0, progress_scale, progress_base;
@@ -10587,9 +10787,9 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
                     v.pixel = (int)pixel;
                     (*arr)[job->row_count[y]++] = v;
                 } else {
-                    pthread_mutex_lock(&job->lock);
+                    pds__mutex_lock(&job->lock);
                     job->out_of_memory = 1;
-                    pthread_mutex_unlock(&job->lock);
+                    pds__mutex_unlock(&job->lock);
                 }
             }
         } else {
@@ -10610,27 +10810,27 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
 static void *pds__render_worker(void *arg)
 {
     pds__render_job *job = (pds__render_job *)arg;
-    int is_caller = pthread_equal(pthread_self(), job->caller);
+    int is_caller = pds__thread_equal(pds__thread_self(), job->caller);
     for (;;) {
         int y, x, done, k;
-        pthread_mutex_lock(&job->lock);
+        pds__mutex_lock(&job->lock);
         k = job->stop ? job->nrows : job->next_row++;
-        pthread_mutex_unlock(&job->lock);
+        pds__mutex_unlock(&job->lock);
         if (k >= job->nrows) break;
         y = job->rows[k];
         for (x = 0; x < job->frame.width; x++)
             pds__render_pixel(job, x, y, &job->sum[3 * ((size_t)y * job->frame.width + x)]);
-        pthread_mutex_lock(&job->lock);
+        pds__mutex_lock(&job->lock);
         done = ++job->rows_done;
-        pthread_mutex_unlock(&job->lock);
+        pds__mutex_unlock(&job->lock);
         if (is_caller && job->progress &&
             job->progress(job->progress_user, PDS_PHASE_EYE, job->progress_base + job->progress_scale * done / job->nrows,
                           pds_time_now() - job->t0) &&
             !job->stop_requested) {
-            pthread_mutex_lock(&job->lock);
+            pds__mutex_lock(&job->lock);
             job->stop_requested = 1;
             job->stop = job->stoppable; /* the rows handed out are finished: the done rows stay a prefix */
-            pthread_mutex_unlock(&job->lock);
+            pds__mutex_unlock(&job->lock);
         }
     }
     return NULL;
@@ -10640,18 +10840,487 @@ static void *pds__render_worker(void *arg)
    the number of threads that ran. */
 static int pds__run_threads(int n, void *(*fn)(void *), void *arg)
 {
-    pthread_t tid[256];
-    int started = 0, i;
-    if (n > 256) n = 256;
-    for (i = 1; i < n; i++) {
-        if (pthread_create(&tid[started], NULL, fn, arg) != 0) break;
-        started++;
-    }
-    fn(arg);
-    for (i = 0; i < started; i++) pthread_join(tid[i], NULL);
-    return started + 1;
+    return pds__threads_run(n, fn, arg);
 }
 
+
+/* ===================================================================== */
+/* >>debug                                                               */
+/* ===================================================================== */
+/* Teaching views (pds_options.debug, `pds render --debug NAME`): pictures
+   of what the method does, each with a colour bar and its scale drawn in a
+   strip under the image, and the path recorder behind `pds trace-photon`
+   and the paths view.
+
+   None of it runs in a render that does not ask for it: the photon tracer
+   and the splats test one pointer (NULL when off) per bounce and per
+   splat term, and everything else happens after the render.
+
+   Pictures are linear RGB in [0, 1]. Points in the scene are projected
+   straight through the pinhole camera (>>render's camera_dir inverted),
+   ignoring occlusion and any specular surface on the way: a landing point
+   under a glass sphere is drawn where it would be seen without the glass.
+   Counts are exact integers, summed per thread and merged, so every view
+   is the same for any thread count. */
+
+/* --- a 3x5 bitmap font for the legends -------------------------------- */
+
+static const char pds__font_chars[] = "0123456789.-+e/x ";
+/* rows top to bottom, 3 bits each, the left pixel the high bit */
+static const unsigned short pds__font_bits[] = {
+    075557, 026227, 071747, 071717, 055711, 074717, 074757, 071111, 075757, 075717,
+    000002, 000700, 002720, 007746, 011244, 005250, 000000};
+
+/* Draw text at (x, y) (its top left pixel) in colour rgb; characters the
+   font lacks are blanks. Clipped to the picture. */
+static void pds__draw_text(pds_image *img, int x, int y, const char *text, const float rgb[3])
+{
+    for (; *text; text++, x += 4) {
+        const char *f = strchr(pds__font_chars, *text);
+        unsigned bits = f ? pds__font_bits[f - pds__font_chars] : 0u;
+        int row, col, c;
+        for (row = 0; row < 5; row++)
+            for (col = 0; col < 3; col++) {
+                int px = x + col, py = y + row;
+                if (!((bits >> (3 * (4 - row) + (2 - col))) & 1u)) continue;
+                if (px < 0 || py < 0 || px >= img->width || py >= img->height) continue;
+                for (c = 0; c < 3; c++) img->rgb[3 * ((size_t)py * img->width + px) + c] = rgb[c];
+            }
+    }
+}
+
+/* --- colour maps ------------------------------------------------------- */
+
+/* Counts and densities: black -> red -> yellow -> white over t in [0, 1]. */
+static void pds__colour_heat(double t, float rgb[3])
+{
+    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+    rgb[0] = (float)fmin(1.0, 3.0 * t);
+    rgb[1] = (float)fmin(1.0, fmax(0.0, 3.0 * t - 1.0));
+    rgb[2] = (float)fmin(1.0, fmax(0.0, 3.0 * t - 2.0));
+}
+
+/* Anisotropy m_a in [0, 1]: red (needle) to green (round). */
+static void pds__colour_aniso(double t, float rgb[3])
+{
+    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+    rgb[0] = (float)(1.0 - t);
+    rgb[1] = (float)t;
+    rgb[2] = 0.0f;
+}
+
+/* Format v in at most 7 characters the font has ("0.25", "1.2e+04"). */
+static void pds__legend_number(double v, char *buf, size_t n)
+{
+    if (v == floor(v) && fabs(v) < 1e6) snprintf(buf, n, "%.0f", v);
+    else if (fabs(v) >= 0.01 && fabs(v) < 1e4) snprintf(buf, n, "%.3g", v);
+    else snprintf(buf, n, "%.1e", v);
+}
+
+/* Allocate picture as width x (h + PDS_DEBUG_LEGEND_ROWS) and draw the
+   legend strip: a colour bar from map(0) to map(1) across the width, a
+   tick and label at each of the nticks fractions ticks[] (value
+   ticks[i] * vmax), and the bar's two ends labelled 0 and vmax. */
+static pds_status pds__picture_alloc(pds_image *pic, int w, int h, void (*map)(double, float[3]), double vmax,
+                                     const double *ticks, int nticks)
+{
+    static const float white[3] = {1.0f, 1.0f, 1.0f};
+    int x, y, c, i, bar0 = h + 2, bar1 = h + 6;
+    char label[32];
+    if (pds_image_alloc(pic, w, h + PDS_DEBUG_LEGEND_ROWS) != PDS_OK) return PDS_ERR_NOMEM;
+    for (x = 0; x < w; x++) {
+        float rgb[3];
+        map(w > 1 ? (double)x / (w - 1) : 1.0, rgb);
+        for (y = bar0; y < bar1; y++)
+            for (c = 0; c < 3; c++) pic->rgb[3 * ((size_t)y * w + x) + c] = rgb[c];
+    }
+    pds__draw_text(pic, 0, bar1 + 2, "0", white);
+    pds__legend_number(vmax, label, sizeof label);
+    pds__draw_text(pic, w - 4 * (int)strlen(label) + 1, bar1 + 2, label, white);
+    for (i = 0; i < nticks; i++) {
+        x = (int)floor(ticks[i] * (w - 1) + 0.5);
+        if (x < 0 || x >= w) continue;
+        for (y = bar0 - 1; y <= bar1; y++)
+            for (c = 0; c < 3; c++) pic->rgb[3 * ((size_t)y * w + x) + c] = 1.0f;
+        pds__legend_number(ticks[i] * vmax, label, sizeof label);
+        if (label[0] == '0' && label[1] == '.') memmove(label, label + 1, strlen(label)); /* ".1" */
+        pds__draw_text(pic, x - 2 * (int)strlen(label) + 1, bar1 + 2, label, white);
+    }
+    return PDS_OK;
+}
+
+/* A count image (value rgb all the count) as a heat picture, scaled to
+   its largest count. */
+static pds_status pds__picture_counts(const pds_image *val, pds_image *pic, double *vmax)
+{
+    size_t i, n = (size_t)val->width * val->height;
+    double mx = 0.0;
+    for (i = 0; i < n; i++) mx = fmax(mx, val->rgb[3 * i]);
+    *vmax = mx;
+    if (pds__picture_alloc(pic, val->width, val->height, pds__colour_heat, mx, NULL, 0)) return PDS_ERR_NOMEM;
+    for (i = 0; i < n; i++)
+        if (val->rgb[3 * i] > 0.0f) pds__colour_heat(val->rgb[3 * i] / mx, &pic->rgb[3 * i]);
+    return PDS_OK;
+}
+
+/* --- projection and lines ---------------------------------------------- */
+
+/* Image position (pixels, (0,0) the top left corner) of scene point p seen
+   through the pinhole camera f: the inverse of pds__camera_dir. 0 when p
+   is not in front of the camera. */
+static int pds__camera_project(const pds__camera_frame *f, pds__v3 p, double *px, double *py)
+{
+    pds__v3 d = pds__sub(p, f->origin);
+    double z = pds__dot(d, f->forward), sx, sy;
+    if (!(z > 0.0)) return 0;
+    sx = pds__dot(d, f->right) / z;
+    sy = pds__dot(d, f->up) / z;
+    *px = (sx / (f->tan_half_fov * f->aspect) + 1.0) * 0.5 * f->width;
+    *py = (1.0 - sy / f->tan_half_fov) * 0.5 * f->height;
+    return isfinite(*px) && isfinite(*py);
+}
+
+/* Pixel index of p, or -1 when it is outside the image. */
+static long pds__camera_pixel(const pds__camera_frame *f, pds__v3 p)
+{
+    double px, py;
+    if (!pds__camera_project(f, p, &px, &py)) return -1;
+    if (!(px >= 0.0 && px < f->width && py >= 0.0 && py < f->height)) return -1;
+    return (long)floor(py) * f->width + (long)floor(px);
+}
+
+/* --- per-thread buffers of the views fed by the splats ------------------- */
+
+/* A footprint to draw: photon number, centre, conjugate semi-diameters. */
+typedef struct pds__ellipse {
+    long photon;
+    pds__v3 c, a, b;
+} pds__ellipse;
+
+typedef struct pds__debug_buf {
+    pds__sum128 *aniso;     /* footprint: 2 per pixel, sum K m_a and sum K, x 2^64 */
+    uint64_t *splats;       /* splats: terms per pixel */
+    uint64_t *landings;     /* landings: photons per pixel */
+    long landed, landed_in_frame;
+    long ellipse_every;     /* ellipses: 0 = off */
+    pds__ellipse *ell;
+    size_t nell, cap_ell;
+    int out_of_memory;
+} pds__debug_buf;
+
+/* One splat term reached eye vertex `pixel` with kernel value k; m_a is the
+   footprint's anisotropy. */
+static void pds__debug_visit(pds__debug_buf *d, int pixel, double k, double m_a)
+{
+    if (d->aniso) {
+        pds__sum128_add(&d->aniso[2 * (size_t)pixel], k * m_a * PDS__TWO64);
+        pds__sum128_add(&d->aniso[2 * (size_t)pixel + 1], k * PDS__TWO64);
+    }
+    if (d->splats) d->splats[pixel]++;
+}
+
+/* Photon number `photon` landed at p with the footprint (du, dv) it is
+   splatted with. */
+static void pds__debug_landing(pds__debug_buf *d, const pds__camera_frame *f, long photon, pds__v3 p, pds__v3 du,
+                               pds__v3 dv)
+{
+    long px = pds__camera_pixel(f, p);
+    d->landed++;
+    if (px >= 0) {
+        d->landed_in_frame++;
+        if (d->landings) d->landings[px]++;
+    }
+    if (d->ellipse_every > 0 && photon % d->ellipse_every == 0) {
+        pds__ellipse *e;
+        if (pds__grow((void **)&d->ell, &d->cap_ell, d->nell + 1, sizeof *d->ell)) {
+            d->out_of_memory = 1;
+            return;
+        }
+        e = &d->ell[d->nell++];
+        e->photon = photon;
+        e->c = p;
+        e->a = pds__scale(du, 0.5);
+        e->b = pds__scale(dv, 0.5);
+    }
+}
+
+static int pds__ellipse_cmp(const void *a, const void *b)
+{
+    const pds__ellipse *x = (const pds__ellipse *)a, *y = (const pds__ellipse *)b;
+    return (x->photon > y->photon) - (x->photon < y->photon);
+}
+
+/* Draw the ellipse c + a cos t + b sin t as 64 projected segments into
+   the first h rows of pic (colour rgb), counting in cnt (w x h, may be
+   NULL) the pixels it passes through, once per ellipse. Returns 1 if any
+   of it is in the image. */
+static int pds__draw_ellipse(pds_image *pic, int h, float *cnt, const pds__camera_frame *f, const pds__ellipse *e,
+                             const float rgb[3])
+{
+    int k, any = 0, w = pic->width;
+    double x0 = 0.0, y0 = 0.0;
+    int ok0 = 0;
+    for (k = 0; k <= 64; k++) {
+        double t = 2.0 * PDS__PI * k / 64.0, x1, y1;
+        pds__v3 p = pds__add(e->c, pds__add(pds__scale(e->a, cos(t)), pds__scale(e->b, sin(t))));
+        int ok1 = pds__camera_project(f, p, &x1, &y1);
+        if (ok0 && ok1) {
+            /* a DDA line from (x0,y0) to (x1,y1), at most 4 w + 4 h steps */
+            double dx = x1 - x0, dy = y1 - y0, len = fmax(fabs(dx), fabs(dy));
+            int n = (int)fmin(ceil(len), 4.0 * (w + h)), j, c;
+            for (j = 0; j <= n; j++) {
+                double s = n > 0 ? (double)j / n : 0.0;
+                long px = (long)floor(x0 + s * dx), py = (long)floor(y0 + s * dy);
+                size_t i;
+                if (px < 0 || py < 0 || px >= w || py >= h) continue;
+                i = (size_t)py * w + (size_t)px;
+                any = 1;
+                for (c = 0; c < 3; c++) pic->rgb[3 * i + c] = rgb[c];
+                if (cnt && cnt[3 * i + 1] != (float)(e->photon + 1)) {
+                    /* green channel: the last ellipse counted here */
+                    cnt[3 * i] += 1.0f;
+                    cnt[3 * i + 1] = (float)(e->photon + 1);
+                }
+            }
+        }
+        x0 = x1;
+        y0 = y1;
+        ok0 = ok1;
+    }
+    return any;
+}
+
+/* --- the path recorder -------------------------------------------------- */
+
+/* What `pds trace-photon` and the paths view see of a photon, recorded by
+   the tracing loop when buf->path is set (NULL in every other render, so
+   the loop pays one untaken branch per bounce). An event is a vertex of
+   the path: the emission point, each specular bounce (position and
+   positional differentials transferred to the hit, direction and
+   directional differentials as they leave it) and the landing. */
+typedef struct pds__path_event {
+    long photon;
+    int seq;            /* vertex number along the photon's path */
+    int event;          /* pds_trace_event */
+    int material;       /* -1 at emission */
+    long triangle;      /* -1 at emission */
+    pds__ray_diff r;
+    double flux[3];
+} pds__path_event;
+
+typedef struct pds__path_rec {
+    long photon_end;    /* record photons with numbers below this */
+    pds__path_event *ev;
+    size_t n, cap;
+    int out_of_memory;
+} pds__path_rec;
+
+static void pds__path_note(pds__path_rec *rec, long photon, int seq, int event, int material, long tri,
+                           const pds__ray_diff *r, const double flux[3])
+{
+    pds__path_event *e;
+    if (pds__grow((void **)&rec->ev, &rec->cap, rec->n + 1, sizeof *rec->ev)) {
+        rec->out_of_memory = 1;
+        return;
+    }
+    e = &rec->ev[rec->n++];
+    e->photon = photon;
+    e->seq = seq;
+    e->event = event;
+    e->material = material;
+    e->triangle = tri;
+    e->r = *r;
+    memcpy(e->flux, flux, sizeof e->flux);
+}
+
+static int pds__path_event_cmp(const void *a, const void *b)
+{
+    const pds__path_event *x = (const pds__path_event *)a, *y = (const pds__path_event *)b;
+    if (x->photon != y->photon) return x->photon < y->photon ? -1 : 1;
+    return (x->seq > y->seq) - (x->seq < y->seq);
+}
+
+/* The recorded paths (events sorted by photon and vertex) as OBJ text:
+   per photon an `o photon_I`, its vertices and one `l` polyline through
+   them; a photon with a single vertex (it met nothing) is left out.
+   Returns NULL when memory runs out. */
+static char *pds__paths_obj(const pds__path_event *ev, size_t n, long *paths, long *segments)
+{
+    char *text = NULL;
+    size_t len = 0, cap = 0, i = 0, j, k;
+    long vbase = 0;
+    *paths = *segments = 0;
+    /* at most 200 bytes per vertex line, per polyline corner and per header */
+    if (pds__grow((void **)&text, &cap, 256 + n * 400, 1)) return NULL;
+    len += (size_t)snprintf(text + len, cap - len, "# photon paths written by pds: emission, specular bounces, landing\n");
+    while (i < n) {
+        for (j = i; j < n && ev[j].photon == ev[i].photon; j++) continue;
+        if (j - i >= 2) {
+            len += (size_t)snprintf(text + len, cap - len, "o photon_%ld\n", ev[i].photon);
+            for (k = i; k < j; k++)
+                len += (size_t)snprintf(text + len, cap - len, "v %.9g %.9g %.9g\n", ev[k].r.p.x, ev[k].r.p.y,
+                                        ev[k].r.p.z);
+            len += (size_t)snprintf(text + len, cap - len, "l");
+            for (k = i; k < j; k++) len += (size_t)snprintf(text + len, cap - len, " %ld", vbase + (long)(k - i) + 1);
+            len += (size_t)snprintf(text + len, cap - len, "\n");
+            vbase += (long)(j - i);
+            *paths += 1;
+            *segments += (long)(j - i) - 1;
+        }
+        i = j;
+    }
+    return text;
+}
+
+/* --- assembling the views ------------------------------------------------ */
+
+static int pds__debug_wants(const pds_debug *d, pds_debug_view v)
+{
+    return d && (d->views & (1u << v)) != 0;
+}
+
+/* Allocate the threads' buffers for the views d asks of a photon pass of
+   method m (w x h pixels). Returns 0 when memory runs out. */
+static int pds__debug_bufs_init(pds__debug_buf *b, const pds_debug *d, pds_method m, long photons, size_t npix)
+{
+    int splats = m == PDS_METHOD_PDS || m == PDS_METHOD_SPLAT;
+    memset(b, 0, sizeof *b);
+    if (m == PDS_METHOD_PDS && pds__debug_wants(d, PDS_DEBUG_FOOTPRINT))
+        if (!(b->aniso = (pds__sum128 *)calloc(npix * 2, sizeof *b->aniso))) return 0;
+    if (splats && pds__debug_wants(d, PDS_DEBUG_SPLATS))
+        if (!(b->splats = (uint64_t *)calloc(npix, sizeof *b->splats))) return 0;
+    if (splats && pds__debug_wants(d, PDS_DEBUG_LANDINGS))
+        if (!(b->landings = (uint64_t *)calloc(npix, sizeof *b->landings))) return 0;
+    if (m == PDS_METHOD_PDS && pds__debug_wants(d, PDS_DEBUG_ELLIPSES)) {
+        b->ellipse_every = d->ellipse_every > 0 ? d->ellipse_every : photons / 100;
+        if (b->ellipse_every < 1) b->ellipse_every = 1;
+    }
+    return 1;
+}
+
+/* Forget what was recorded (a calibration run before the real pass). */
+static void pds__debug_bufs_clear(pds__debug_buf *b, size_t npix)
+{
+    if (b->aniso) memset(b->aniso, 0, npix * 2 * sizeof *b->aniso);
+    if (b->splats) memset(b->splats, 0, npix * sizeof *b->splats);
+    if (b->landings) memset(b->landings, 0, npix * sizeof *b->landings);
+    b->landed = b->landed_in_frame = 0;
+    b->nell = 0;
+}
+
+static void pds__debug_bufs_free(pds__debug_buf *b)
+{
+    free(b->aniso);
+    free(b->splats);
+    free(b->landings);
+    free(b->ell);
+}
+
+/* A count image from the threads' counts (an offset into each buffer's
+   arrays picks the view). */
+static pds_status pds__debug_count_view(pds_debug *d, pds_debug_view view, const pds__debug_buf *b, int nb, int w,
+                                        int h, int landings)
+{
+    size_t i, n = (size_t)w * h;
+    int t;
+    if (pds_image_alloc(&d->value[view], w, h) != PDS_OK) return PDS_ERR_NOMEM;
+    for (i = 0; i < n; i++) {
+        uint64_t sum = 0;
+        for (t = 0; t < nb; t++) sum += landings ? b[t].landings[i] : b[t].splats[i];
+        d->value[view].rgb[3 * i] = d->value[view].rgb[3 * i + 1] = d->value[view].rgb[3 * i + 2] = (float)sum;
+    }
+    return pds__picture_counts(&d->value[view], &d->picture[view], &d->scale_max[view]);
+}
+
+/* After the photon pass: the views fed by the splats, from the threads'
+   buffers b[0..nb); rgb (w x h x 3, the whole image) for the ellipses. */
+static pds_status pds__debug_finish(pds_debug *d, pds__debug_buf *b, int nb, int w, int h, const double *rgb,
+                                    const pds__camera_frame *f)
+{
+    size_t i, n = (size_t)w * h;
+    int t;
+    static const float yellow[3] = {1.0f, 1.0f, 0.0f}, white[3] = {1.0f, 1.0f, 1.0f};
+    d->landings = d->landings_in_frame = 0;
+    for (t = 0; t < nb; t++) {
+        if (b[t].out_of_memory) return PDS_ERR_NOMEM;
+        d->landings += b[t].landed;
+        d->landings_in_frame += b[t].landed_in_frame;
+    }
+    if (b[0].aniso) {
+        static const double tick[1] = {0.1}; /* appendix B: below 0.1 "highly anisotropic" */
+        pds_image *val = &d->value[PDS_DEBUG_FOOTPRINT], *pic = &d->picture[PDS_DEBUG_FOOTPRINT];
+        if (pds_image_alloc(val, w, h) != PDS_OK ||
+            pds__picture_alloc(pic, w, h, pds__colour_aniso, 1.0, tick, 1) != PDS_OK)
+            return PDS_ERR_NOMEM;
+        d->scale_max[PDS_DEBUG_FOOTPRINT] = 1.0;
+        for (i = 0; i < n; i++) {
+            pds__sum128 swm = {0, 0}, sw = {0, 0};
+            double wm, wk;
+            for (t = 0; t < nb; t++) {
+                pds__sum128_add_bits(&swm, b[t].aniso[2 * i].lo, b[t].aniso[2 * i].hi);
+                pds__sum128_add_bits(&sw, b[t].aniso[2 * i + 1].lo, b[t].aniso[2 * i + 1].hi);
+            }
+            wm = pds__sum128_value(swm);
+            wk = pds__sum128_value(sw);
+            if (wk > 0.0) {
+                val->rgb[3 * i] = (float)(1.0 - wm / wk);
+                val->rgb[3 * i + 1] = (float)(wm / wk);
+                val->rgb[3 * i + 2] = (float)(wk / PDS__TWO64);
+                pds__colour_aniso(wm / wk, &pic->rgb[3 * i]);
+            }
+        }
+    }
+    if (b[0].landings && pds__debug_count_view(d, PDS_DEBUG_LANDINGS, b, nb, w, h, 1)) return PDS_ERR_NOMEM;
+    if (b[0].splats && pds__debug_count_view(d, PDS_DEBUG_SPLATS, b, nb, w, h, 0)) return PDS_ERR_NOMEM;
+    if (b[0].ellipse_every > 0) {
+        pds_image *val = &d->value[PDS_DEBUG_ELLIPSES], *pic = &d->picture[PDS_DEBUG_ELLIPSES];
+        pds__ellipse *all = NULL;
+        size_t total = 0, k;
+        char label[48];
+        for (t = 0; t < nb; t++) total += b[t].nell;
+        all = (pds__ellipse *)malloc(sizeof *all * (total ? total : 1));
+        if (!all || pds_image_alloc(val, w, h) != PDS_OK ||
+            pds_image_alloc(pic, w, h + PDS_DEBUG_LEGEND_ROWS) != PDS_OK) {
+            free(all);
+            return PDS_ERR_NOMEM;
+        }
+        for (t = 0, total = 0; t < nb; t++) {
+            if (b[t].nell) memcpy(all + total, b[t].ell, sizeof *all * b[t].nell);
+            total += b[t].nell;
+        }
+        qsort(all, total, sizeof *all, pds__ellipse_cmp);
+        for (i = 0; i < n * 3; i++) pic->rgb[i] = (float)(rgb[i] > 0.0 ? (rgb[i] < 1.0 ? rgb[i] : 1.0) : 0.0);
+        d->ellipses = 0;
+        for (k = 0; k < total; k++) d->ellipses += pds__draw_ellipse(pic, h, val->rgb, f, &all[k], yellow);
+        for (i = 0; i < n; i++) val->rgb[3 * i + 1] = val->rgb[3 * i + 2] = val->rgb[3 * i];
+        d->scale_max[PDS_DEBUG_ELLIPSES] = (double)b[0].ellipse_every;
+        /* legend: "1/N" (every N-th photon) and the number drawn */
+        snprintf(label, sizeof label, "1/%ld", b[0].ellipse_every);
+        pds__draw_text(pic, 0, h + 2, label, yellow);
+        snprintf(label, sizeof label, "%ld", d->ellipses);
+        pds__draw_text(pic, w - 4 * (int)strlen(label) + 1, h + 2, label, white);
+        free(all);
+    }
+    return PDS_OK;
+}
+
+/* The eye-path view: every eye vertex projected into the camera. */
+static pds_status pds__debug_eye(pds_debug *d, const pds__camera_frame *f, const pds__eye_vertex *v, size_t nv,
+                                 int w, int h)
+{
+    pds_image *val = &d->value[PDS_DEBUG_EYE];
+    size_t i;
+    if (pds_image_alloc(val, w, h) != PDS_OK) return PDS_ERR_NOMEM;
+    d->eye_vertices_in_frame = 0;
+    for (i = 0; i < nv; i++) {
+        long px = pds__camera_pixel(f, pds__f3_get(v[i].pos));
+        if (px < 0) continue;
+        d->eye_vertices_in_frame++;
+        val->rgb[3 * px] += 1.0f;
+    }
+    for (i = 0; i < (size_t)w * h; i++) val->rgb[3 * i + 1] = val->rgb[3 * i + 2] = val->rgb[3 * i];
+    return pds__picture_counts(val, &d->picture[PDS_DEBUG_EYE], &d->scale_max[PDS_DEBUG_EYE]);
+}
 
 /* ===================================================================== */
 /* >>pds                                                                 */
@@ -10881,7 +11550,7 @@ typedef struct pds__eye_map {
    once it has met a dispersive material, its flux then that at lambda
    times W(lambda); 0 for an RGB photon, >>spectral) and its number (the
    store is sorted by it, so the map does not depend on which thread
-   traced what). 64 bytes. */
+   traced what). 64 bytes where long has 64 bits, 56 where it has 32. */
 typedef struct pds__stored_photon {
     float pos[3], dir[3], ng[3], flux[3];
     float lambda;
@@ -10907,7 +11576,6 @@ typedef struct pds__splat_buf {
                               terms' magnitudes (the film weight W(lambda)
                               has negative parts); NULL in RGB renders */
     double unit;           /* pds__sum_unit of the scene */
-    pds__sum128 *aniso;    /* footprint debug: 2 per pixel (sum w m_a, sum w) x 2^64; NULL if off */
     long splatted, degenerate;
     long split;            /* photons (and sub-photons) split into four */
     long roulette;         /* splats skipped by the cost roulette */
@@ -10919,6 +11587,8 @@ typedef struct pds__splat_buf {
     size_t ndstored, cap_dstored;
     struct pds__landing *pending; /* pds, splat: this batch's landings */
     size_t npending, cap_pending;
+    pds__path_rec *path;   /* paths debug view, trace-photon; NULL if off */
+    pds__debug_buf *dbg;   /* debug views fed by the splats; NULL if off */
     int out_of_memory;
 } pds__splat_buf;
 
@@ -10938,6 +11608,7 @@ typedef struct pds__photon_job {
     double min_aspect;         /* pds, pdm: footprint widening (0 = off) */
     double min_width;          /* pds: widen to this many eye-sample spacings (0 = off) */
     pds__v3 eye;               /* camera position */
+    pds__camera_frame frame;   /* the camera, for the debug views */
     double sample_angle;       /* angle between neighbouring eye samples */
     int max_depth;
     int split_depth;           /* pds: most times a photon is split (0 = never) */
@@ -10946,12 +11617,12 @@ typedef struct pds__photon_job {
     double n_planned;          /* photon count for eqs. 5-6 */
     long n_total;              /* photons to emit (upper bound in time mode) */
     double deadline;           /* pds_time_now() limit, 0 = none */
-    pthread_mutex_t lock;
+    pds__mutex lock;
     long next_batch, batches_done;   /* guarded by lock */
     int stop;                        /* guarded by lock */
     pds__splat_buf *bufs;
     int nbufs, next_buf;             /* guarded by lock */
-    pthread_t caller;
+    pds__thread_id caller;
     pds_progress_fn progress;
     void *progress_user;
     double t0;
@@ -10982,7 +11653,7 @@ typedef struct pds__splat_ctx {
     double M[2][3];            /* eq. 12 */
     double ep[3];              /* Ep = flux / Ap, W / m^2 */
     double plane_max;          /* topological-bias guard distance */
-    double aniso;              /* m_a of this footprint (debug image) */
+    double aniso;              /* m_a of this footprint (debug views) */
     double lambda;             /* the photon's wavelength; 0 in RGB renders */
 } pds__splat_ctx;
 
@@ -11014,10 +11685,7 @@ static void pds__splat_visit(void *vctx, size_t index, double r2)
         double val = PDS__PI * k * w[c] * e[c];
         if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
     }
-    if (sc->buf->aniso) {
-        pds__sum128_add(&sc->buf->aniso[2 * (size_t)v->pixel], k * sc->aniso * PDS__TWO64);
-        pds__sum128_add(&sc->buf->aniso[2 * (size_t)v->pixel + 1], k * PDS__TWO64);
-    }
+    if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, v->pixel, k, sc->aniso);
 }
 
 /* Splat the photon r (already transferred to its hit on a non-specular
@@ -11097,8 +11765,9 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
     sc.wi = pds__scale(r->d, -1.0);
     for (c = 0; c < 3; c++) sc.ep[c] = flux[c] / (ap * keep);
     sc.plane_max = job->plane_tolerance * major;
-    sc.aniso = !buf->aniso ? 0.0 : job->fixed_radius > 0.0 ? 1.0 : pds__footprint_anisotropy(r->dpdu, r->dpdv);
+    sc.aniso = !buf->dbg ? 0.0 : job->fixed_radius > 0.0 ? 1.0 : pds__footprint_anisotropy(r->dpdu, r->dpdv);
     buf->splatted++;
+    if (buf->dbg) pds__debug_landing(buf->dbg, &job->frame, photon, r->p, r->dpdu, r->dpdv);
     /* the eye vertices within the major semi-axis that are inside the
        ellipse and near the tangent plane (topological bias) */
     pds__kdtree_range_ellipse(&job->map->tree, r->p, major, (const double(*)[3])sc.M, sc.np, sc.plane_max, pds__splat_visit, &sc);
@@ -11277,6 +11946,9 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
        (>>spectral) */
     double lambda = job->spectral ? pds__photon_wavelength(job->seed, i) : 0.0, lam = 0.0;
     int c, depth, can_split = job->differentials && level < job->split_depth;
+    /* the path recorder (>>debug) follows the photon, not its sub-photons:
+       a split photon's recorded path ends where it split */
+    pds__path_rec *rec = level == 0 && buf->path && i < buf->path->photon_end ? buf->path : NULL;
     for (c = 0; c < 3; c++) flux[c] = flux0[c];
     for (depth = 0; depth <= job->max_depth; depth++) {
         pds__tri_hit th;
@@ -11293,7 +11965,10 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
         pds__beer(sigma, th.t, flux);
         m = &s->materials.items[hit.material];
         if (!pds__material_is_specular(m)) {
-            if (depth > 0 && m->type != PDS_MAT_EMISSIVE) job->land(job, buf, &r, hit.ng, flux, lam, i);
+            if (depth > 0 && m->type != PDS_MAT_EMISSIVE) {
+                if (rec) pds__path_note(rec, i, depth + 1, PDS_TRACE_LAND, hit.material, th.tri, &r, flux);
+                job->land(job, buf, &r, hit.ng, flux, lam, i);
+            }
             return;
         }
         if (lambda > 0.0 && lam == 0.0 && (job->spectral_all || pds__material_is_dispersive(m))) {
@@ -11325,6 +12000,9 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
                 sigma = a ? sigma_buf : NULL;
             }
             r.d = bs.wi;
+            if (rec)
+                pds__path_note(rec, i, depth + 1, bs.transmitted ? PDS_TRACE_REFRACT : PDS_TRACE_REFLECT,
+                               hit.material, th.tri, &r, flux);
             r.p = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, r.d) >= 0.0 ? job->eps : -job->eps));
             continue;
         }
@@ -11377,56 +12055,69 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
             if (a) memcpy(sigma_buf, a, sizeof sigma_buf);
             sigma = a ? sigma_buf : NULL;
         }
+        if (rec)
+            pds__path_note(rec, i, depth + 1, bs.transmitted ? PDS_TRACE_REFRACT : PDS_TRACE_REFLECT, hit.material,
+                           th.tri, &r, flux);
         r.p = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, r.d) >= 0.0 ? job->eps : -job->eps));
     }
 }
 
-/* Trace photon number i: emission (eqs. 2-6), then pds__trace_from. */
-static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, long i)
+/* Emit photon number i with its differential (eqs. 2-6) into *r and *flux;
+   0 if it carries nothing (it still counts as emitted). */
+static int pds__emit_photon(const pds__photon_job *job, long i, pds__ray_diff *r, double flux[3])
 {
     const pds_scene *s = job->scene;
-    double u[5], pmf, flux[3], pos_len, dir_len, n_light;
+    double u[5], pmf, pos_len, dir_len, n_light;
     pds__photon_start ph;
-    pds__ray_diff r;
     int k, c;
     /* emission from a low-discrepancy sequence (>>rng): photon i's place in
        the light's area and directions is spread evenly with the others' */
     for (c = 0; c < 5; c++) u[c] = pds__halton(job->seed, (uint64_t)i, c);
     k = pds__lights_pick(&s->light_table, pds__halton(job->seed, (uint64_t)i, 5), &pmf);
-    if (k < 0 || !(pmf > 0.0)) return;
-    if (!pds__emit_caustic_photon(s, &job->target, k, u, &ph)) return;
+    if (k < 0 || !(pmf > 0.0)) return 0;
+    if (!pds__emit_caustic_photon(s, &job->target, k, u, &ph)) return 0;
     n_light = job->n_planned * pmf;
     for (c = 0; c < 3; c++) flux[c] = ph.flux[c] / (job->n_planned * pmf);
     pos_len = pds__photon_diff_length(job->smoothing, ph.area, n_light);
     dir_len = pds__photon_diff_length(job->smoothing, ph.solid_angle, n_light);
-    pds__photon_diff_init(&r, ph.pos, ph.dir, ph.normal, pos_len, dir_len);
+    pds__photon_diff_init(r, ph.pos, ph.dir, ph.normal, pos_len, dir_len);
+    return 1;
+}
+
+/* Trace photon number i: emission (eqs. 2-6), then pds__trace_from. */
+static void pds__trace_photon(const pds__photon_job *job, pds__splat_buf *buf, long i)
+{
+    pds__ray_diff r;
+    double flux[3];
+    if (!pds__emit_photon(job, i, &r, flux)) return;
+    if (buf->path && i < buf->path->photon_end) pds__path_note(buf->path, i, 0, PDS_TRACE_EMIT, -1, -1, &r, flux);
     pds__trace_from(job, buf, &r, flux, i, 0);
 }
 
 static void *pds__photon_worker(void *arg)
 {
     pds__photon_job *job = (pds__photon_job *)arg;
-    int is_caller = pthread_equal(pthread_self(), job->caller);
+    int is_caller = pds__thread_equal(pds__thread_self(), job->caller);
     pds__splat_buf *buf;
-    pthread_mutex_lock(&job->lock);
+    pds__mutex_lock(&job->lock);
     buf = &job->bufs[job->next_buf++];
-    pthread_mutex_unlock(&job->lock);
+    pds__mutex_unlock(&job->lock);
     for (;;) {
         long b, i, first, last, done;
-        pthread_mutex_lock(&job->lock);
+        pds__mutex_lock(&job->lock);
         if (job->deadline > 0.0 && pds_time_now() >= job->deadline) job->stop = 1;
         b = job->stop ? -1 : job->next_batch++;
         if (b >= 0) b = job->unit_first + (job->unit_start + b) * job->unit_stride;
         if (b >= 0 && b * (long)PDS__PHOTON_BATCH >= job->n_total) b = -1;
-        pthread_mutex_unlock(&job->lock);
+        pds__mutex_unlock(&job->lock);
         if (b < 0) break;
         first = b * (long)PDS__PHOTON_BATCH;
         last = first + PDS__PHOTON_BATCH < job->n_total ? first + PDS__PHOTON_BATCH : job->n_total;
         for (i = first; i < last; i++) pds__trace_photon(job, buf, job->index_offset + i);
         if (buf->npending) pds__splat_pending(job, buf);
-        pthread_mutex_lock(&job->lock);
+        pds__mutex_lock(&job->lock);
         done = ++job->batches_done;
-        pthread_mutex_unlock(&job->lock);
+        pds__mutex_unlock(&job->lock);
         if (is_caller && job->progress) {
             double frac = job->deadline > 0.0 ? (pds_time_now() - job->t0) / (job->deadline - job->t0)
                           : job->own_batches > 0 ? (double)done / (double)job->own_batches
@@ -11434,9 +12125,9 @@ static void *pds__photon_worker(void *arg)
             if (job->progress(job->progress_user, PDS_PHASE_PHOTONS, frac > 1.0 ? 1.0 : frac, pds_time_now() - job->t0)) {
                 /* stop: the batches handed out are finished, so the done
                    batches stay the first ones of the list */
-                pthread_mutex_lock(&job->lock);
+                pds__mutex_lock(&job->lock);
                 job->stop = job->cancelled = 1;
-                pthread_mutex_unlock(&job->lock);
+                pds__mutex_unlock(&job->lock);
             }
         }
     }
@@ -11474,9 +12165,9 @@ static void pds__photon_run(pds__photon_job *job, int threads, long index_offset
     job->next_batch = job->batches_done = 0;
     job->stop = 0;
     job->next_buf = 0;
-    pthread_mutex_init(&job->lock, NULL);
+    pds__mutex_init(&job->lock);
     pds__run_threads(threads, pds__photon_worker, job);
-    pthread_mutex_destroy(&job->lock);
+    pds__mutex_destroy(&job->lock);
 }
 
 /* s_i of pass i (from 1). */
@@ -11535,6 +12226,7 @@ static long pds__pds_passes(pds__photon_job *job, const pds_options *opt, int th
     return run * m;
 }
 
+#ifndef PDS_NO_BASELINES
 /* ===================================================================== */
 /* >>baselines                                                           */
 /* ===================================================================== */
@@ -11652,7 +12344,7 @@ typedef struct pds__gather {
     void (*estimate)(const struct pds__gather *g, const pds__eye_vertex *v, const size_t *idx, const double *d2,
                      size_t n, double sum[3]);
     pds__splat_buf *bufs;
-    pthread_mutex_t lock;
+    pds__mutex lock;
     size_t next;               /* guarded by lock: next vertex chunk */
     int next_buf;              /* guarded by lock */
     int out_of_memory;         /* guarded by lock */
@@ -11668,18 +12360,18 @@ static void *pds__gather_worker(void *arg)
     size_t *idx = (size_t *)malloc(sizeof *idx * g->k);
     double *d2 = (double *)malloc(sizeof *d2 * g->k);
     size_t found = 0;
-    pthread_mutex_lock(&g->lock);
+    pds__mutex_lock(&g->lock);
     buf = &g->bufs[g->next_buf++];
     if (!idx || !d2) g->out_of_memory = 1;
-    pthread_mutex_unlock(&g->lock);
+    pds__mutex_unlock(&g->lock);
     for (;;) {
         size_t first, last, i;
-        pthread_mutex_lock(&g->lock);
+        pds__mutex_lock(&g->lock);
         g->found += (double)found;
         found = 0;
         first = g->out_of_memory ? g->nv : g->next;
         g->next = first + PDS__GATHER_CHUNK;
-        pthread_mutex_unlock(&g->lock);
+        pds__mutex_unlock(&g->lock);
         if (first >= g->nv) break;
         last = first + PDS__GATHER_CHUNK < g->nv ? first + PDS__GATHER_CHUNK : g->nv;
         for (i = first; i < last; i++) {
@@ -11703,9 +12395,9 @@ static void *pds__gather_worker(void *arg)
 static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int threads, pds_error *err)
 {
     g->bufs = job->bufs;
-    pthread_mutex_init(&g->lock, NULL);
+    pds__mutex_init(&g->lock);
     pds__run_threads(threads < job->nbufs ? threads : job->nbufs, pds__gather_worker, g);
-    pthread_mutex_destroy(&g->lock);
+    pds__mutex_destroy(&g->lock);
     return g->out_of_memory ? pds__nomem(err) : PDS_OK;
 }
 
@@ -11944,7 +12636,7 @@ typedef struct pds__ppm_job {
     const pds__stored_photon *photons;
     const pds__kdtree *tree;
     double alpha, photon_scale; /* photon_scale: stored flux -> flux alone */
-    pthread_mutex_t lock;
+    pds__mutex lock;
     size_t next;                /* guarded by lock */
 } pds__ppm_job;
 
@@ -11978,10 +12670,10 @@ static void *pds__ppm_worker(void *arg)
     pds__ppm_job *job = (pds__ppm_job *)arg;
     for (;;) {
         size_t first, last, i;
-        pthread_mutex_lock(&job->lock);
+        pds__mutex_lock(&job->lock);
         first = job->next;
         job->next = first + PDS__GATHER_CHUNK;
-        pthread_mutex_unlock(&job->lock);
+        pds__mutex_unlock(&job->lock);
         if (first >= job->nv) break;
         last = first + PDS__GATHER_CHUNK < job->nv ? first + PDS__GATHER_CHUNK : job->nv;
         for (i = first; i < last; i++) {
@@ -12035,9 +12727,9 @@ static pds_status pds__ppm_update(pds__photon_job *job, const pds_options *opt, 
     pj.tree = &tree;
     pj.alpha = opt->alpha;
     pj.photon_scale = job->n_planned;
-    pthread_mutex_init(&pj.lock, NULL);
+    pds__mutex_init(&pj.lock);
     pds__run_threads(threads, pds__ppm_worker, &pj);
-    pthread_mutex_destroy(&pj.lock);
+    pds__mutex_destroy(&pj.lock);
     if (stats) stats->time_gather_s += pds_time_now() - tg;
     pds__kdtree_free(&tree);
     free(photons);
@@ -12293,15 +12985,18 @@ static double pds__map_budget(pds__photon_job *job, const pds_options *opt, cons
                               remaining));
 }
 
+#endif /* PDS_NO_BASELINES */
+
 /* --- the photon pass --------------------------------------------------- */
 
 /* After the eye pass: emit and trace the caustic photons for method m,
    the part's photon units that are not done yet (>>partial), and add the
    caustic light into the part's exact sums (importance already carries
-   1/spp). footprint, if not NULL, receives PDS's anisotropy image. */
+   1/spp). debug, if not NULL, receives the teaching views it asks for
+   (>>debug; a render in one go only). */
 static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, pds__eye_vertex *vertices,
                                    size_t nvertices, int width, int height, int threads, pds_partial *part,
-                                   pds_image *footprint, pds_render_stats *stats, pds_error *err)
+                                   pds_debug *debug, pds_render_stats *stats, pds_error *err)
 {
     pds__eye_map map;
     pds__photon_job job;
@@ -12311,7 +13006,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     int progressive = opt->method == PDS_METHOD_PDS && opt->progressive;
     pds_status st = PDS_OK;
     double t0 = pds_time_now();
-    if (opt->method != PDS_METHOD_PDS) footprint = NULL;
+    pds__debug_buf *dbg = NULL;          /* one per thread, if debug views are on */
+    pds__path_rec *paths = NULL;         /* one per thread, if the paths view is on */
     memset(&map, 0, sizeof map);
     memset(&job, 0, sizeof job);
     map.v = vertices;
@@ -12343,6 +13039,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.min_aspect = progressive ? opt->pass_min_aspect : opt->min_aspect;
     job.min_width = progressive ? opt->pass_min_width : opt->method == PDS_METHOD_PDS ? opt->min_width : 0.0;
     job.eye = pds__v(s->camera.position.x, s->camera.position.y, s->camera.position.z);
+    job.frame = pds__camera_setup(&s->camera, width, height);
     job.sample_angle = 2.0 * tan(0.5 * s->camera.fov_deg * PDS__PI / 180.0) / height /
                        sqrt((double)(opt->spp > 0 ? opt->spp : s->camera.spp > 0 ? s->camera.spp : 1));
     job.eps = 1e-6 * pds__scene_scale(s);
@@ -12352,36 +13049,61 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.split_angle = opt->split_angle;
         job.roulette_vertices = PDS__SPLAT_ROULETTE;
     }
+#ifndef PDS_NO_BASELINES
     job.n_total = opt->method == PDS_METHOD_SPM ? pds__spm_streams(opt) : opt->photons;
+#else
+    job.n_total = opt->photons;
+#endif
     job.n_planned = (double)job.n_total;
-    job.caller = pthread_self();
+    job.caller = pds__thread_self();
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
     job.t0 = t0;
+#ifdef PDS_NO_BASELINES
+    job.land = pds__defer_splat; /* pds alone (pds__options_check) */
+#else
     job.land = splats ? pds__defer_splat : opt->method == PDS_METHOD_PDM ? pds__store_diff_photon : pds__store_photon;
+    if (opt->method == PDS_METHOD_SPLAT) job.fixed_radius = opt->radius > 0.0 ? opt->radius : pds__default_radius(s);
+#endif
     job.differentials = opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_PDM;
     job.spectral = pds__render_is_spectral(s, opt);
     job.spectral_all = job.spectral && opt->spectral;
-    if (opt->method == PDS_METHOD_SPLAT) job.fixed_radius = opt->radius > 0.0 ? opt->radius : pds__default_radius(s);
     job.nbufs = threads;
     job.bufs = (pds__splat_buf *)calloc((size_t)threads, sizeof *job.bufs);
     if (!job.bufs) {
         pds__kdtree_free(&map.tree);
         return pds__nomem(err);
     }
+    if (debug && (debug->views & ~(1u << PDS_DEBUG_EYE) & ~(1u << PDS_DEBUG_PATHS))) {
+        dbg = (pds__debug_buf *)calloc((size_t)threads, sizeof *dbg);
+        if (!dbg) st = PDS_ERR_NOMEM;
+    }
+    if (pds__debug_wants(debug, PDS_DEBUG_PATHS)) {
+        paths = (pds__path_rec *)calloc((size_t)threads, sizeof *paths);
+        if (!paths) st = PDS_ERR_NOMEM;
+    }
     for (t = 0; t < threads; t++) {
         job.bufs[t].sum = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
         job.bufs[t].unit = pds__sum_unit(s);
-        if (footprint) job.bufs[t].aniso = (pds__sum128 *)calloc(npix * 2, sizeof(pds__sum128));
         if (job.spectral) job.bufs[t].neg = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
-        if (!job.bufs[t].sum || (footprint && !job.bufs[t].aniso) || (job.spectral && !job.bufs[t].neg))
-            st = PDS_ERR_NOMEM;
+        if (!job.bufs[t].sum || (job.spectral && !job.bufs[t].neg)) st = PDS_ERR_NOMEM;
+        if (dbg) {
+            job.bufs[t].dbg = &dbg[t];
+            if (!pds__debug_bufs_init(&dbg[t], debug, opt->method, opt->photons, npix)) st = PDS_ERR_NOMEM;
+        }
+        if (paths) {
+            job.bufs[t].path = &paths[t];
+            paths[t].photon_end = debug->path_photons;
+        }
     }
     job.unit_stride = 1;
+#ifndef PDS_NO_BASELINES
     if (!st && opt->method == PDS_METHOD_PPM) {
         st = pds__ppm_passes(&job, opt, vertices, nvertices, threads, &emitted, stats, err);
         job.n_planned = (double)emitted; /* the passes normalised their image themselves */
-    } else if (!st && progressive) {
+    } else
+#endif
+    if (!st && progressive) {
         long passes = 0;
         job.progress = NULL; /* the passes report progress themselves */
         emitted = pds__pds_passes(&job, opt, threads, opt->time_s > 0.0 ? t0 + opt->time_s : 0.0, part->shard_index,
@@ -12398,24 +13120,27 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
            For every method the image is normalised by the photons actually
            emitted before the deadline. */
         double rate, tc = pds_time_now(), remaining;
-        pthread_mutex_init(&job.lock, NULL);
+        pds__mutex_init(&job.lock);
         job.n_total = 2 * PDS__PHOTON_BATCH;
         job.next_buf = 0;
         job.progress = NULL; /* the calibration is not the pass the caller waits for */
         pds__run_threads(1, pds__photon_worker, &job);
         job.progress = opt->progress;
-        pthread_mutex_destroy(&job.lock);
+        pds__mutex_destroy(&job.lock);
         rate = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6) * threads;
         remaining = opt->time_s - (pds_time_now() - t0);
+#ifndef PDS_NO_BASELINES
         if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPM) {
             double tp = pds_time_now();
             remaining = pds__map_budget(&job, opt, vertices, nvertices, threads, rate, fmax(remaining, 0.0));
             remaining -= pds_time_now() - tp; /* the probe's own time */
         }
+#endif
         for (t = 0; t < threads; t++) {
             memset(job.bufs[t].sum, 0, npix * 3 * sizeof(pds__sum128));
             if (job.bufs[t].neg) memset(job.bufs[t].neg, 0, npix * 3 * sizeof(pds__sum128));
-            if (job.bufs[t].aniso) memset(job.bufs[t].aniso, 0, npix * 2 * sizeof(pds__sum128));
+            if (dbg) pds__debug_bufs_clear(&dbg[t], npix);
+            if (paths) paths[t].n = 0;
             job.bufs[t].splatted = job.bufs[t].degenerate = job.bufs[t].saturated = job.bufs[t].invalid = 0;
             job.bufs[t].nstored = job.bufs[t].ndstored = 0;
         }
@@ -12439,10 +13164,10 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             job.unit_start = part->units_done;
             job.own_batches = part->units_own - part->units_done;
         }
-        pthread_mutex_init(&job.lock, NULL);
+        pds__mutex_init(&job.lock);
         job.next_buf = 0;
         threads = pds__run_threads(threads, pds__photon_worker, &job);
-        pthread_mutex_destroy(&job.lock);
+        pds__mutex_destroy(&job.lock);
         if (splats && opt->time_s <= 0.0) {
             long j;
             emitted = 0;
@@ -12464,12 +13189,14 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     if (!splats && job.cancelled) emitted = 0; /* pm, pdm, ppm, spm: all photons or none */
     if (opt->progress && !splats && !job.cancelled)
         (void)opt->progress(opt->progress_user, PDS_PHASE_GATHER, 0.0, pds_time_now() - t0); /* one unit: not stopped */
+#ifndef PDS_NO_BASELINES
     if (!st && !job.cancelled && opt->method == PDS_METHOD_PM)
         st = pds__pm_gather(&job, opt, vertices, nvertices, threads, stats, err);
     if (!st && !job.cancelled && opt->method == PDS_METHOD_PDM)
         st = pds__pdm_gather(&job, opt, vertices, nvertices, threads, stats, err);
     if (!st && !job.cancelled && opt->method == PDS_METHOD_SPM)
         st = pds__spm_gather(&job, opt, vertices, nvertices, threads, stats, err);
+#endif
     if (!st && !splats && !job.cancelled) part->units_done = part->units_own;
     if (!st && stats &&
         (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPM)) {
@@ -12493,22 +13220,44 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         if (opt->time_s > 0.0 || (!splats && !job.cancelled)) part->n_planned = job.n_planned;
         if (splats) part->emitted += emitted;
         else part->emitted = emitted;
-        if (footprint && pds_image_alloc(footprint, width, height) == PDS_OK) {
-            for (i = 0; i < npix; i++) {
-                pds__sum128 swm = {0, 0}, sw = {0, 0};
-                double wm, w;
-                for (t = 0; t < job.nbufs; t++) {
-                    pds__sum128_add_bits(&swm, job.bufs[t].aniso[2 * i].lo, job.bufs[t].aniso[2 * i].hi);
-                    pds__sum128_add_bits(&sw, job.bufs[t].aniso[2 * i + 1].lo, job.bufs[t].aniso[2 * i + 1].hi);
-                }
-                wm = pds__sum128_value(swm);
-                w = pds__sum128_value(sw);
-                if (w > 0.0) {
-                    footprint->rgb[3 * i] = (float)(1.0 - wm / w);
-                    footprint->rgb[3 * i + 1] = (float)(wm / w);
-                }
-            }
+        if (dbg) {
+            /* the ellipses are drawn over the image so far (a render in
+               one go: the part is the whole render, its eye rows done) */
+            float *img = (float *)malloc(sizeof *img * 3 * (npix ? npix : 1));
+            double *rgb = (double *)malloc(sizeof *rgb * 3 * (npix ? npix : 1));
+            if (!img || !rgb ||
+                pds__partial_image(part->eye, part->photon, part->neg, part->unit, part->n_planned, part->emitted,
+                                   npix * 3, img) < 0)
+                st = PDS_ERR_NOMEM;
+            for (i = 0; !st && i < npix * 3; i++) rgb[i] = img[i];
+            if (!st && pds__debug_finish(debug, dbg, job.nbufs, width, height, rgb, &job.frame)) st = PDS_ERR_NOMEM;
+            free(img);
+            free(rgb);
         }
+        if (!st && paths) {
+            /* the threads' events, merged in photon and vertex order */
+            size_t total = 0, k;
+            pds__path_event *all;
+            for (t = 0; t < job.nbufs; t++) {
+                if (paths[t].out_of_memory) st = PDS_ERR_NOMEM;
+                total += paths[t].n;
+            }
+            all = (pds__path_event *)malloc(sizeof *all * (total ? total : 1));
+            if (!all) st = PDS_ERR_NOMEM;
+            for (t = 0, k = 0; !st && t < job.nbufs; t++) {
+                if (paths[t].n) memcpy(all + k, paths[t].ev, sizeof *all * paths[t].n);
+                k += paths[t].n;
+            }
+            if (!st) {
+                qsort(all, total, sizeof *all, pds__path_event_cmp);
+                debug->paths_obj = pds__paths_obj(all, total, &debug->paths, &debug->path_segments);
+                if (!debug->paths_obj) st = PDS_ERR_NOMEM;
+            }
+            free(all);
+        }
+        if (!st && pds__debug_wants(debug, PDS_DEBUG_EYE) &&
+            pds__debug_eye(debug, &job.frame, vertices, nvertices, width, height))
+            st = PDS_ERR_NOMEM;
         if (stats) {
             if (opt->method != PDS_METHOD_PPM) stats->photons = emitted;
             if (opt->method == PDS_METHOD_SPM) {
@@ -12528,19 +13277,22 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             }
             stats->time_photons_s = pds_time_now() - t0;
             stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + stats->map_bytes +
-                                   (size_t)job.nbufs * npix * (3 + (footprint ? 2 : 0) + (job.spectral ? 3 : 0)) *
+                                   (size_t)job.nbufs * npix * (3 + (dbg && dbg[0].aniso ? 2 : 0) + (job.spectral ? 3 : 0)) *
                                        sizeof(pds__sum128);
         }
     }
     for (t = 0; t < job.nbufs; t++) {
         free(job.bufs[t].sum);
         free(job.bufs[t].neg);
-        free(job.bufs[t].aniso);
+        if (dbg) pds__debug_bufs_free(&dbg[t]);
+        if (paths) free(paths[t].ev);
         free(job.bufs[t].stored);
         free(job.bufs[t].dstored);
         free(job.bufs[t].pending);
     }
     free(job.bufs);
+    free(dbg);
+    free(paths);
     pds__kdtree_free(&map.tree);
     if (st == PDS_ERR_NOMEM) return pds__nomem(err);
     return st;
@@ -12678,7 +13430,7 @@ typedef struct pds__gi_build {
     int max_depth;
     double eps;
     pds__gi_buf *bufs;
-    pthread_mutex_t lock;
+    pds__mutex lock;
     int next_buf;        /* guarded by lock */
     long next_batch;     /* guarded by lock */
 } pds__gi_build;
@@ -12797,14 +13549,14 @@ static void *pds__gi_build_worker(void *arg)
 {
     pds__gi_build *b = (pds__gi_build *)arg;
     pds__gi_buf *buf;
-    pthread_mutex_lock(&b->lock);
+    pds__mutex_lock(&b->lock);
     buf = &b->bufs[b->next_buf++];
-    pthread_mutex_unlock(&b->lock);
+    pds__mutex_unlock(&b->lock);
     for (;;) {
         long batch, i, first, last;
-        pthread_mutex_lock(&b->lock);
+        pds__mutex_lock(&b->lock);
         batch = b->next_batch++;
-        pthread_mutex_unlock(&b->lock);
+        pds__mutex_unlock(&b->lock);
         first = batch * (long)PDS__PHOTON_BATCH;
         if (first >= b->n || buf->out_of_memory) break;
         last = first + PDS__PHOTON_BATCH < b->n ? first + PDS__PHOTON_BATCH : b->n;
@@ -12867,9 +13619,9 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
     b.eps = 1e-6 * pds__scene_scale(s);
     b.bufs = (pds__gi_buf *)calloc((size_t)threads, sizeof *b.bufs);
     if (!b.bufs) return pds__nomem(err);
-    pthread_mutex_init(&b.lock, NULL);
+    pds__mutex_init(&b.lock);
     pds__run_threads(threads, pds__gi_build_worker, &b);
-    pthread_mutex_destroy(&b.lock);
+    pds__mutex_destroy(&b.lock);
     for (t = 0; t < threads; t++) {
         total += b.bufs[t].n;
         totals += b.bufs[t].ns;
@@ -13535,7 +14287,7 @@ typedef struct pds__isc {
     long long *ph_xy;           /* quads: fixed-point screen position of each photon */
     signed char *ph_front;      /* quads: 1 if in front of the camera */
     float *dep;                 /* eye, light: 4 per cell (flux or irradiance x omega, count) */
-    unsigned char *near;        /* eye: a photon within the gather radius in the row */
+    unsigned char *near_row;    /* eye: a photon within the gather radius in the row */
     float *lmap;                /* light: the gathered map, 4 per texel */
     pds__isc_view lview;        /* light: the map's view */
     pds__isc_est *est;          /* this frame's estimate */
@@ -13550,7 +14302,7 @@ typedef struct pds__isc {
     long photons, landed, fragments;
     int out_of_memory;
     double time_eye, time_photons, time_gather;
-    pthread_mutex_t lock;
+    pds__mutex lock;
 } pds__isc;
 
 /* --- a parallel loop over fixed chunks ---------------------------------- */
@@ -13559,7 +14311,7 @@ typedef struct pds__isc_par {
     pds__isc *ctx;
     void (*fn)(pds__isc *ctx, long first, long last);
     long n, chunk, next;
-    pthread_mutex_t lock;
+    pds__mutex lock;
 } pds__isc_par;
 
 static void *pds__isc_par_worker(void *arg)
@@ -13567,10 +14319,10 @@ static void *pds__isc_par_worker(void *arg)
     pds__isc_par *p = (pds__isc_par *)arg;
     for (;;) {
         long first;
-        pthread_mutex_lock(&p->lock);
+        pds__mutex_lock(&p->lock);
         first = p->next;
         p->next += p->chunk;
-        pthread_mutex_unlock(&p->lock);
+        pds__mutex_unlock(&p->lock);
         if (first >= p->n) break;
         p->fn(p->ctx, first, first + p->chunk < p->n ? first + p->chunk : p->n);
     }
@@ -13587,9 +14339,9 @@ static void pds__isc_parallel(pds__isc *ctx, long n, long chunk, void (*fn)(pds_
     p.n = n;
     p.chunk = chunk > 0 ? chunk : 1;
     p.next = 0;
-    pthread_mutex_init(&p.lock, NULL);
+    pds__mutex_init(&p.lock);
     pds__run_threads(ctx->threads < 1 ? 1 : ctx->threads, pds__isc_par_worker, &p);
-    pthread_mutex_destroy(&p.lock);
+    pds__mutex_destroy(&p.lock);
 }
 
 /* --- the eye buffer --------------------------------------------------- */
@@ -13889,7 +14641,7 @@ static void pds__isc_points(pds__isc *ctx, int eye)
     }
 }
 
-/* near[p]: does a pixel of p's row within the gather radius hold a
+/* near_row[p]: does a pixel of p's row within the gather radius hold a
    photon? (So the gather skips, with 7 tests, the pixels that no photon
    is near: most of them.) */
 static void pds__isc_near_rows(pds__isc *ctx, long first, long last)
@@ -13898,7 +14650,7 @@ static void pds__isc_near_rows(pds__isc *ctx, long first, long last)
     int x;
     for (y = first; y < last; y++) {
         const float *d = &ctx->dep[4 * (size_t)y * ctx->w];
-        unsigned char *out = &ctx->near[(size_t)y * ctx->w];
+        unsigned char *out = &ctx->near_row[(size_t)y * ctx->w];
         int last_photon = -1000000;
         for (x = 0; x < ctx->w; x++) out[x] = 0;
         for (x = 0; x < ctx->w + PDS__ISC_RADIUS; x++) {
@@ -13922,7 +14674,7 @@ static void pds__isc_eye_gather(pds__isc *ctx, long first, long last)
             int any = 0;
             if (ctx->px[p].kind != 1) continue;
             for (dy = -PDS__ISC_RADIUS; dy <= PDS__ISC_RADIUS && !any; dy++)
-                any = y + dy >= 0 && y + dy < ctx->h && ctx->near[(size_t)(y + dy) * ctx->w + x];
+                any = y + dy >= 0 && y + dy < ctx->h && ctx->near_row[(size_t)(y + dy) * ctx->w + x];
             if (!any) continue;
             for (dy = -PDS__ISC_RADIUS; dy <= PDS__ISC_RADIUS; dy++) {
                 long yy = y + dy;
@@ -14165,9 +14917,9 @@ static void pds__isc_raster(pds__isc *ctx, long j, const long long *a, const lon
             q = (size_t)ys * ctx->w + (size_t)xs;
             if (!pds__isc_same_surface(&ctx->px[q], x0, n0)) continue;
             if (pds__grow((void **)&ctx->frags[j], &ctx->capfrags[j], ctx->nfrags[j] + 1, sizeof **ctx->frags)) {
-                pthread_mutex_lock(&ctx->lock);
+                pds__mutex_lock(&ctx->lock);
                 ctx->out_of_memory = 1;
-                pthread_mutex_unlock(&ctx->lock);
+                pds__mutex_unlock(&ctx->lock);
                 return;
             }
             f = &ctx->frags[j][ctx->nfrags[j]++];
@@ -14381,13 +15133,13 @@ static void pds__isc_free(pds__isc *ctx)
     free(ctx->ph_xy);
     free(ctx->ph_front);
     free(ctx->dep);
-    free(ctx->near);
+    free(ctx->near_row);
     free(ctx->lmap);
     free(ctx->est);
     free(ctx->rgb);
     free(ctx->ring);
     free(ctx->acc);
-    pthread_mutex_destroy(&ctx->lock);
+    pds__mutex_destroy(&ctx->lock);
 }
 
 /* The light-space buffer's side: light_resolution, or the side whose
@@ -14421,7 +15173,7 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
     int x, y;
     double sum = 0.0;
     memset(ctx, 0, sizeof *ctx);
-    pthread_mutex_init(&ctx->lock, NULL);
+    pds__mutex_init(&ctx->lock);
     for (k = 0; k < s->nlights; k++)
         if (s->lights[k].type != PDS_LIGHT_POINT && s->lights[k].type != PDS_LIGHT_SPOT) {
             static const char *const kind[] = {"point", "spot", "directional", "disk", "quad", "mesh"};
@@ -14470,7 +15222,7 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
     }
     if (ctx->gather == PDS_ISC_EYE) {
         ctx->dep = (float *)malloc(sizeof *ctx->dep * 4 * npix);
-        ctx->near = (unsigned char *)malloc(npix);
+        ctx->near_row = (unsigned char *)malloc(npix);
     }
     if (ctx->gather == PDS_ISC_LIGHT) {
         ctx->dep = (float *)malloc(sizeof *ctx->dep * 4 * n);
@@ -14480,7 +15232,7 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
         !ctx->ph_pixel || (ctx->gather == PDS_ISC_QUADS && (!ctx->ph_xy || !ctx->ph_front || !ctx->frags ||
                                                           !ctx->nfrags || !ctx->capfrags)) ||
         ((ctx->gather == PDS_ISC_EYE || ctx->gather == PDS_ISC_LIGHT) && !ctx->dep) ||
-        (ctx->gather == PDS_ISC_EYE && !ctx->near) ||
+        (ctx->gather == PDS_ISC_EYE && !ctx->near_row) ||
         (ctx->gather == PDS_ISC_LIGHT && !ctx->lmap)) {
         pds__isc_free(ctx);
         return pds__nomem(err);
@@ -14580,7 +15332,7 @@ void pds_options_default(pds_options *opt)
     opt->photon_depth = 16;
     opt->split_depth = 1;
     opt->split_angle = 0.2;
-    opt->footprint = NULL;
+    opt->debug = NULL;
     opt->k = 50;
     opt->kernel = PDS_KERNEL_CONE;
     opt->max_radius = 0.0;
@@ -14604,6 +15356,185 @@ void pds_options_default(pds_options *opt)
     opt->shadow_photons = 1;
     opt->streams = 0;
     opt->stream_photons = 10;
+}
+
+void pds_debug_init(pds_debug *d)
+{
+    memset(d, 0, sizeof *d);
+    d->views = 0;
+    d->ellipse_every = 0;
+    d->path_photons = 100;
+}
+
+void pds_debug_free(pds_debug *d)
+{
+    int v;
+    if (!d) return;
+    for (v = 0; v < PDS_DEBUG_VIEWS; v++) {
+        pds_image_free(&d->value[v]);
+        pds_image_free(&d->picture[v]);
+        d->scale_max[v] = 0.0;
+    }
+    free(d->paths_obj);
+    d->paths_obj = NULL;
+    d->landings = d->landings_in_frame = d->ellipses = d->eye_vertices_in_frame = 0;
+    d->paths = d->path_segments = 0;
+}
+
+const char *pds_debug_view_name(pds_debug_view view)
+{
+    static const char *const names[PDS_DEBUG_VIEWS] = {"footprint", "landings", "ellipses", "splats", "eye", "paths"};
+    return (int)view >= 0 && view < PDS_DEBUG_VIEWS ? names[view] : "unknown";
+}
+
+/* --- one photon, for students: `pds trace-photon` -------------------------- */
+
+/* Landing for a photon that is only watched: nothing to splat. */
+static void pds__land_nowhere(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
+                              const double flux[3], double lambda, long photon)
+{
+    (void)job, (void)buf, (void)r, (void)ng, (void)flux, (void)lambda, (void)photon;
+}
+
+/* Trace from start (differentials ignored: zero) with the production loop
+   and record its vertices into rec (emptied first). */
+static void pds__trace_watch(const pds__photon_job *job, long photon, pds__v3 p, pds__v3 d, const double flux[3],
+                             pds__path_rec *rec)
+{
+    pds__splat_buf buf;
+    pds__ray_diff r;
+    double f[3];
+    memset(&buf, 0, sizeof buf);
+    memset(&r, 0, sizeof r);
+    r.p = p;
+    r.d = pds__normalize(d);
+    memcpy(f, flux, sizeof f);
+    rec->n = 0;
+    rec->photon_end = LONG_MAX;
+    buf.path = rec;
+    pds__path_note(rec, photon, 0, PDS_TRACE_EMIT, -1, -1, &r, f);
+    pds__trace_from(job, &buf, &r, f, photon, 0);
+}
+
+static pds_vec3 pds__vec_out(pds__v3 v)
+{
+    pds_vec3 o;
+    o.x = v.x;
+    o.y = v.y;
+    o.z = v.z;
+    return o;
+}
+
+/* Central difference (a - b) / (2h) of two recorded vertices. */
+static pds_vec3 pds__vec_fd(pds__v3 a, pds__v3 b, double h)
+{
+    return pds__vec_out(pds__scale(pds__sub(a, b), 0.5 / h));
+}
+
+pds_status pds_trace_photon(const pds_scene *scene, const pds_options *opt, long photon, pds_trace *out,
+                            pds_error *err)
+{
+    pds__photon_job job;
+    pds__path_rec base, nb[4];  /* neighbours +u, -u, +v, -v */
+    pds__ray_diff r;
+    double flux[3], scale, big;
+    pds_status st = PDS_OK;
+    size_t k;
+    int j;
+    if (!scene || !opt || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_trace_photon: NULL argument");
+    memset(out, 0, sizeof *out);
+    if (photon < 0) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photon number %ld is negative", photon);
+    if (opt->photons < 1 || !(opt->smoothing > 0.0) || !isfinite(opt->smoothing))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photons and smoothing must be positive");
+    if (opt->photon_depth < 1 || opt->photon_depth > 1000)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photon depth %d is outside 1..1000", opt->photon_depth);
+    memset(&job, 0, sizeof job);
+    job.scene = scene;
+    job.target = pds__specular_target(scene);
+    job.seed = opt->seed;
+    job.smoothing = opt->smoothing;
+    job.n_planned = (double)opt->photons;
+    job.max_depth = opt->photon_depth;
+    scale = pds__scene_scale(scene);
+    job.eps = 1e-6 * scale;
+    job.differentials = 1;
+    job.land = pds__land_nowhere;
+    out->photon = photon;
+    out->smoothing = opt->smoothing;
+    out->photons = (double)opt->photons;
+    memset(&base, 0, sizeof base);
+    memset(nb, 0, sizeof nb);
+    if (!pds__emit_photon(&job, photon, &r, flux)) return PDS_OK; /* it carries nothing: no vertex */
+    {
+        pds__splat_buf buf;
+        memset(&buf, 0, sizeof buf);
+        base.photon_end = LONG_MAX;
+        buf.path = &base;
+        pds__path_note(&base, photon, 0, PDS_TRACE_EMIT, -1, -1, &r, flux);
+        pds__trace_from(&job, &buf, &r, flux, photon, 0);
+    }
+    /* the step h: the neighbours start 1e-6 scene sizes away (or turned by
+       1e-6 radians) along the larger differential */
+    big = fmax(fmax(pds__length(r.dpdu), pds__length(r.dpdv)),
+               scale * fmax(pds__length(r.dddu), pds__length(r.dddv)));
+    out->step = big > 0.0 ? 1e-6 * scale / big : 0.0;
+    if (out->step > 0.0) {
+        double h = out->step;
+        pds__trace_watch(&job, photon, pds__add(r.p, pds__scale(r.dpdu, h)), pds__add(r.d, pds__scale(r.dddu, h)), flux, &nb[0]);
+        pds__trace_watch(&job, photon, pds__sub(r.p, pds__scale(r.dpdu, h)), pds__sub(r.d, pds__scale(r.dddu, h)), flux, &nb[1]);
+        pds__trace_watch(&job, photon, pds__add(r.p, pds__scale(r.dpdv, h)), pds__add(r.d, pds__scale(r.dddv, h)), flux, &nb[2]);
+        pds__trace_watch(&job, photon, pds__sub(r.p, pds__scale(r.dpdv, h)), pds__sub(r.d, pds__scale(r.dddv, h)), flux, &nb[3]);
+    }
+    for (j = 0; j < 4; j++)
+        if (nb[j].out_of_memory) st = PDS_ERR_NOMEM;
+    if (base.out_of_memory) st = PDS_ERR_NOMEM;
+    if (!st && base.n > 0) {
+        out->v = (pds_trace_vertex *)calloc(base.n, sizeof *out->v);
+        if (!out->v) st = PDS_ERR_NOMEM;
+    }
+    for (k = 0; !st && k < base.n; k++) {
+        const pds__path_event *e = &base.ev[k];
+        pds_trace_vertex *v = &out->v[k];
+        int same = out->step > 0.0;
+        v->event = (pds_trace_event)e->event;
+        v->material = e->material;
+        v->triangle = e->triangle;
+        v->position = pds__vec_out(e->r.p);
+        v->direction = pds__vec_out(e->r.d);
+        v->dxdu = pds__vec_out(e->r.dpdu);
+        v->dxdv = pds__vec_out(e->r.dpdv);
+        v->dwdu = pds__vec_out(e->r.dddu);
+        v->dwdv = pds__vec_out(e->r.dddv);
+        v->area = pds__footprint_area(e->r.dpdu, e->r.dpdv);
+        v->major = pds__footprint_major_axis(e->r.dpdu, e->r.dpdv);
+        v->minor = v->major > 0.0 ? v->area / (PDS__PI * v->major) : 0.0; /* area = pi A B */
+        memcpy(v->flux, e->flux, sizeof v->flux);
+        for (j = 0; j < 4 && same; j++)
+            same = k < nb[j].n && nb[j].ev[k].event == e->event && nb[j].ev[k].triangle == e->triangle;
+        v->fd_valid = same;
+        if (same) {
+            v->fd_dxdu = pds__vec_fd(nb[0].ev[k].r.p, nb[1].ev[k].r.p, out->step);
+            v->fd_dwdu = pds__vec_fd(nb[0].ev[k].r.d, nb[1].ev[k].r.d, out->step);
+            v->fd_dxdv = pds__vec_fd(nb[2].ev[k].r.p, nb[3].ev[k].r.p, out->step);
+            v->fd_dwdv = pds__vec_fd(nb[2].ev[k].r.d, nb[3].ev[k].r.d, out->step);
+        }
+    }
+    if (!st) out->count = (int)base.n;
+    free(base.ev);
+    for (j = 0; j < 4; j++) free(nb[j].ev);
+    if (st) {
+        pds_trace_free(out);
+        return pds__nomem(err);
+    }
+    return PDS_OK;
+}
+
+void pds_trace_free(pds_trace *t)
+{
+    if (!t) return;
+    free(t->v);
+    t->v = NULL;
+    t->count = 0;
 }
 
 /* Methods that add caustics with photons after an eye pass. */
@@ -14723,13 +15654,29 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
     if (opt->shard_count > 1 && opt->time_s > 0.0)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
                          "a render with a time budget cannot be split into shards: its photon count is not fixed");
-    if (opt->shard_count > 1 && opt->footprint)
-        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the footprint image is not made for shards");
+    if (opt->shard_count > 1 && opt->debug && opt->debug->views)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the teaching views are not made for shards");
     if (opt->shard_count > 1 &&
         (opt->method == PDS_METHOD_GI || opt->method == PDS_METHOD_SPM || opt->method == PDS_METHOD_ISC))
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
                          "%s cannot be split into shards yet (its options are not in the partial file)",
                          pds_method_name(opt->method));
+#ifdef PDS_NO_BASELINES
+    if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPLAT ||
+        opt->method == PDS_METHOD_PPM || opt->method == PDS_METHOD_SPM)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "this build leaves the baselines out (PDS_NO_BASELINES): "
+                         "method %s is not in it", pds_method_name(opt->method));
+#endif
+    if (opt->debug) {
+        if (opt->debug->views >= (1u << PDS_DEBUG_VIEWS))
+            return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown debug view in 0x%x", opt->debug->views);
+        if (opt->debug->ellipse_every < 0)
+            return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "ellipse_every %ld is negative",
+                             opt->debug->ellipse_every);
+        if (opt->debug->path_photons < 0 || opt->debug->path_photons > 1000000)
+            return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "path_photons %ld is outside 0..1000000",
+                             opt->debug->path_photons);
+    }
     return PDS_OK;
 }
 
@@ -14797,16 +15744,20 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
         bytes += est->eye_vertices * vertex_bytes;
         /* the partial state's two sums (>>partial), and each thread's */
         bytes += (double)npix * 6 * sizeof(pds__sum128) +
-                 (double)threads * npix * (3 + (opt->footprint ? 2 : 0) + (pds__render_is_spectral(scene, opt) ? 3 : 0)) *
+                 (double)threads * npix *
+                     (3 + (pds__debug_wants(opt->debug, PDS_DEBUG_FOOTPRINT) ? 2 : 0) +
+                      (pds__render_is_spectral(scene, opt) ? 3 : 0)) *
                      sizeof(pds__sum128);
         photons = opt->time_s > 0.0 ? 0.0 : (double)opt->photons; /* a time budget: not known in advance */
         if (opt->method == PDS_METHOD_PM) est->stored_photons = photons;
         if (opt->method == PDS_METHOD_PDM) est->stored_photons = photons;
+#ifndef PDS_NO_BASELINES
         if (opt->method == PDS_METHOD_SPM && opt->time_s <= 0.0) est->stored_photons = (double)pds__spm_streams(opt);
         if (opt->method == PDS_METHOD_PPM) {
             est->stored_photons = (double)opt->photons;
             bytes += est->eye_vertices * sizeof(pds__ppm_state);
         }
+#endif
         if (opt->method == PDS_METHOD_PDM) bytes += est->stored_photons * 2.0 * sizeof(pds__diff_photon);
         else bytes += est->stored_photons * (2.0 * sizeof(pds__stored_photon) + 21.0);
     }
@@ -14989,8 +15940,8 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *op
         pds__gi_map_free(&gmap);
         return pds__nomem(err);
     }
-    pthread_mutex_init(&job.lock, NULL);
-    job.caller = pthread_self();
+    pds__mutex_init(&job.lock);
+    job.caller = pds__thread_self();
     for (job.pass = 0; job.pass < max_passes; job.pass++) {
         double elapsed;
         job.next_row = 0;
@@ -15011,7 +15962,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *op
             break;
         }
     }
-    pthread_mutex_destroy(&job.lock);
+    pds__mutex_destroy(&job.lock);
     stats->time_eye_s = pds_time_now() - job.t0 - gi_map_s;
     stats->memory_bytes = npix * 3 * sizeof(double) * 2 + (part->photon ? npix * 6 * sizeof(pds__sum128) : 0);
     /* the rows handed out before a stop are all finished: a prefix */
@@ -15049,7 +16000,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *op
         }
         if (!verts) st = pds__nomem(err);
         else if (completed == job.nrows)
-            st = pds__photon_pass(scene, popt, verts, nv, w, h, threads, part, opt->footprint, stats, err);
+            st = pds__photon_pass(scene, popt, verts, nv, w, h, threads, part, opt->debug, stats, err);
         free(verts);
         free(job.row_vertices);
         free(job.row_count);
@@ -15122,6 +16073,9 @@ pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_p
             return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
                              "a %s render cannot be continued yet (its options are not in the partial file)",
                              pds_method_name(opt->method));
+        if (opt->debug && opt->debug->views)
+            return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                             "the teaching views are made by a render in one go, not by a continued one");
         if (p->scene_hash != pds_scene_hash(scene))
             return pds__fail(err, PDS_ERR_INVALID_ARG, scene->path, 0, 0,
                              "not the scene this part was rendered from (%s): its content differs", p->scene_path);
@@ -15130,6 +16084,7 @@ pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_p
             return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
                              "these options are not the ones the part was rendered with (pds_partial_options)");
     } else {
+        if (opt->debug) pds_debug_free(opt->debug); /* a previous render's views */
         *part = pds__partial_new(scene, opt, w, h);
         if (!*part) return pds__nomem(err);
     }
@@ -15183,6 +16138,7 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     st = pds_render_part(scene, opt, &part, stats, err);
     if (st) {
         pds_partial_free(part);
+        if (opt->debug) pds_debug_free(opt->debug);
         return st;
     }
     /* the image of the state, as a merge of shards makes it */
@@ -15235,6 +16191,7 @@ pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int
     return st;
 }
 
+#ifndef PDS_NO_BENCH
 /* `pds bench rays`: the rays are made before the clock starts, so only
    traversal is timed (best of three passes after a warm-up). Primary: an n x n grid from the bounding box centre
    + (0, 0, 1.5 x largest extent), looking down -z, 60 degree square field
@@ -15440,3 +16397,24 @@ pds_status pds_bench_kdtree(long points, pds_bench_kdtree_result *out, pds_error
     free(d2);
     return PDS_OK;
 }
+#else
+static pds_status pds__no_bench(pds_error *err)
+{
+    return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "this build leaves the benchmarks out (PDS_NO_BENCH)");
+}
+pds_status pds_bench_rays(const char *path, long rays, pds_bench_rays_result *out, pds_error *err)
+{
+    (void)path, (void)rays, (void)out;
+    return pds__no_bench(err);
+}
+pds_status pds_bench_filter(long filters, pds_bench_filter_result *out, pds_error *err)
+{
+    (void)filters, (void)out;
+    return pds__no_bench(err);
+}
+pds_status pds_bench_kdtree(long points, pds_bench_kdtree_result *out, pds_error *err)
+{
+    (void)points, (void)out;
+    return pds__no_bench(err);
+}
+#endif /* PDS_NO_BENCH */

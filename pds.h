@@ -26,6 +26,9 @@
        }
 
    Build:   cc -std=c99 -O2 -o pds main.c pds.c -lm -lpthread
+            (Windows: x86_64-w64-mingw32-gcc -std=c99 -O2 -o pds.exe main.c
+            pds.c, or cl /O2 /std:c11 /Fe:pds.exe main.c pds.c; the small
+            core: -DPDS_CORE, see README.md)
 
    Thread safety: a loaded pds_scene is immutable; any number of threads may
    call the query functions on it at once. Loading, freeing and writing images
@@ -439,11 +442,9 @@ typedef struct pds_options {
     int stream_photons; /* spm: associated photons per stream nfa, 0..10000; a
                            stream is nfa + 1 photons of one nfa+1-th of its
                            energy each (default 10, the paper's comparison) */
-    pds_image *footprint; /* if not NULL, PDS writes here an image of photon
-                           footprint anisotropy (paper appendix B): red where
-                           footprints are needle-like (m_a -> 0), green where
-                           round (m_a -> 1), weighted by the splats' kernels;
-                           black where no photon landed (default NULL) */
+    struct pds_debug *debug; /* if not NULL, the teaching views it asks for
+                           are made along with the render (see pds_debug;
+                           default NULL: none, and no cost) */
     int spectral;       /* 1 = spectral light transport (one wavelength per
                            camera sample and per photon, CIE 1931 film) even
                            without a dispersive material; a scene with a
@@ -487,6 +488,104 @@ typedef struct pds_options {
 } pds_options;
 
 void pds_options_default(pds_options *opt);
+
+/* ------------------------------------------------------- teaching views */
+
+/* What the method did, as pictures (pds_options.debug; `pds render --debug
+   NAME`). Each view has a raw value image (width x height: the numbers)
+   and a picture (width x (height + PDS_DEBUG_LEGEND_ROWS): the numbers as
+   colours, with a colour bar and its scale drawn in the strip below). */
+typedef enum pds_debug_view {
+    PDS_DEBUG_FOOTPRINT = 0, /* pds: footprint anisotropy m_a (paper appendix B)
+                                per pixel, the mean over the splats weighted by
+                                their kernels; value r = 1 - m_a, g = m_a
+                                (red = needle, green = round), b = the kernel
+                                weight; black where no photon splatted */
+    PDS_DEBUG_LANDINGS,      /* pds, splat: photons landed per pixel (each
+                                landing point projected straight into the
+                                camera, occlusion ignored) */
+    PDS_DEBUG_ELLIPSES,      /* pds: the footprint ellipses of every
+                                ellipse_every-th photon (after any widening),
+                                projected straight into the camera and drawn
+                                in yellow over the tone-mapped render; value:
+                                the ellipses drawn through each pixel */
+    PDS_DEBUG_SPLATS,        /* pds, splat: eye vertices each pixel's kernels
+                                reached (splat terms added to the pixel) */
+    PDS_DEBUG_EYE,           /* photon methods: the eye-path map, every eye
+                                vertex projected straight into the camera,
+                                vertices per pixel */
+    PDS_DEBUG_PATHS,         /* photon methods: photons 0..path_photons-1 as
+                                OBJ polylines (paths_obj), emission to landing */
+    PDS_DEBUG_VIEWS
+} pds_debug_view;
+
+#define PDS_DEBUG_LEGEND_ROWS 14 /* rows of the legend strip under a picture */
+
+typedef struct pds_debug {
+    unsigned views;       /* (1u << view) for each view wanted (default 0) */
+    long ellipse_every;   /* ellipses: photons whose number is a multiple of
+                             this; 0 = photons / 100 (default 0) */
+    long path_photons;    /* paths: photons recorded (default 100) */
+    /* filled by pds_render; free with pds_debug_free */
+    pds_image value[PDS_DEBUG_VIEWS];   /* raw numbers (see each view) */
+    pds_image picture[PDS_DEBUG_VIEWS]; /* colours and legend, linear RGB in [0,1] */
+    double scale_max[PDS_DEBUG_VIEWS];  /* value at the colour bar's right end */
+    char *paths_obj;      /* the paths as OBJ text (NUL-terminated) */
+    long landings;        /* photons splatted (= stats splatted for pds, splat) */
+    long landings_in_frame; /* of those, projected inside the image */
+    long ellipses;        /* ellipses drawn */
+    long eye_vertices_in_frame; /* eye vertices projected inside the image */
+    long paths, path_segments;  /* photon paths and their segments in paths_obj */
+} pds_debug;
+
+void pds_debug_init(pds_debug *d);     /* no views, defaults above */
+void pds_debug_free(pds_debug *d);     /* the outputs; keeps the request */
+const char *pds_debug_view_name(pds_debug_view view); /* "footprint", ... */
+
+/* One vertex of a photon's path as `pds trace-photon` prints it. The
+   photon carries two ray differentials (paper eq. 7): axis u is
+   (Du x + Dtheta x, Dtheta omega), axis v (Dv x + Dphi x, Dphi omega); at
+   emission the positional vectors are Du x, Dv x (eqs. 2-3, 5-6), after
+   the first transfer Dtheta x is parallel to Du x (appendix A) and they
+   add. fd_* are central finite differences of neighbouring photons,
+   started at x +- h Du x, omega +- h Dtheta omega (and so for v) and
+   traced by the renderer's own tracing code. */
+typedef enum pds_trace_event {
+    PDS_TRACE_EMIT = 0, PDS_TRACE_REFLECT, PDS_TRACE_REFRACT, PDS_TRACE_LAND
+} pds_trace_event;
+
+typedef struct pds_trace_vertex {
+    pds_trace_event event;
+    int material;         /* -1 at emission */
+    long triangle;        /* -1 at emission */
+    pds_vec3 position;    /* x: emission point, or the hit */
+    pds_vec3 direction;   /* omega leaving the vertex (arriving, at a landing) */
+    pds_vec3 dxdu, dxdv;  /* positional differentials (in the hit's plane) */
+    pds_vec3 dwdu, dwdv;  /* directional differentials (perpendicular to omega) */
+    double major, minor;  /* footprint ellipse semi-axes (conjugate
+                             semi-diameters dxdu/2, dxdv/2) */
+    double area;          /* eq. 4: pi/4 |dxdu x dxdv| */
+    double flux[3];       /* W */
+    int fd_valid;         /* 1 if both neighbours met the same triangles and events */
+    pds_vec3 fd_dxdu, fd_dxdv, fd_dwdu, fd_dwdv;
+} pds_trace_vertex;
+
+typedef struct pds_trace {
+    long photon;
+    double smoothing;     /* s of eqs. 5-6 used */
+    double photons;       /* N of eqs. 5-6 used */
+    double step;          /* h of the finite differences */
+    int count;            /* vertices in v */
+    pds_trace_vertex *v;  /* free with pds_trace_free */
+} pds_trace;
+
+/* Trace caustic photon number `photon` as the paper's PDS emits it
+   (opt->smoothing, opt->photons, opt->seed, opt->photon_depth), with the
+   finite differences beside its differentials. A photon that misses every
+   specular surface has just its emission vertex. */
+pds_status pds_trace_photon(const pds_scene *scene, const pds_options *opt, long photon, pds_trace *out,
+                            pds_error *err);
+void pds_trace_free(pds_trace *t);
 const char *pds_method_name(pds_method method);
 
 typedef struct pds_render_stats {

@@ -212,10 +212,10 @@ static void test_ppm_updates_follow_the_published_recurrence(pds_test_ctx *t)
     tau = 0.0;
     for (i = 0; i < 2; i++) {
         int k;
-        pthread_mutex_init(&job.lock, NULL);
+        pds__mutex_init(&job.lock);
         job.next = 0;
         pds__ppm_worker(&job);
-        pthread_mutex_destroy(&job.lock);
+        pds__mutex_destroy(&job.lock);
         /* by hand: M photons within the radius, Phi_M = M * fr * flux */
         for (inside = 0, k = 0; k < 12; k++) inside += (0.01 * (k + 1)) * (0.01 * (k + 1)) <= r2 * (1 + 1e-6);
         grow = (n + alpha * inside) / (n + inside);

@@ -90,7 +90,7 @@ static int cli_file_exists(const char *path)
 
 static void test_cli_exit_codes_follow_the_contract(pds_test_ctx *t)
 {
-    char out[16384]; /* room for all of --help */
+    char out[32768];
     CHECK(t, cli_run("--version", out, sizeof out) == 0 && strstr(out, "pds " PDS_VERSION_STRING), "--version: %s", out);
     CHECK(t, cli_run("--help", out, sizeof out) == 0 && strstr(out, "usage: pds"), "--help");
     CHECK(t, cli_run("", out, sizeof out) == 2, "no command is a usage error");

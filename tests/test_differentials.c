@@ -829,7 +829,7 @@ static void test_diff_footprint_area_axis_and_anisotropy_known_values(pds_test_c
     for (i = 0; i < 300; i++) {
         pds__v3 du = pds__scale(dt_unit(i, 0), 0.1 + dt_rand(i, 4)), dv = pds__scale(dt_unit(i, 2), 0.1 + dt_rand(i, 5));
         pds__v3 a = pds__scale(du, 0.5), b = pds__scale(dv, 0.5), mx = a, mn = b, perp;
-        double A = pds__footprint_major_axis(du, dv), far = 0.0, ma, want;
+        double A = pds__footprint_major_axis(du, dv), reach = 0.0, ma, want;
         int k;
         CHECK(t, A >= fmax(pds__length(a), pds__length(b)) * (1.0 - 1e-14), "A below max(|a|,|b|)");
         CHECK(t, A <= sqrt(pds__dot(a, a) + pds__dot(b, b)) * (1.0 + 1e-14), "A above sqrt(|a|^2+|b|^2)");
@@ -837,9 +837,9 @@ static void test_diff_footprint_area_axis_and_anisotropy_known_values(pds_test_c
             double s = 2.0 * PDS__PI * k / 4096.0;
             double dist = pds__length(pds__add(pds__scale(a, cos(s)), pds__scale(b, sin(s))));
             CHECK(t, dist <= A * (1.0 + 1e-12), "boundary point at %g beyond A = %g", dist, A);
-            if (dist > far) far = dist;
+            if (dist > reach) reach = dist;
         }
-        CHECK(t, far >= A * (1.0 - 1e-6), "no boundary point reaches A (%g < %g)", far, A);
+        CHECK(t, reach >= A * (1.0 - 1e-6), "no boundary point reaches A (%g < %g)", reach, A);
         if (pds__dot(b, b) > pds__dot(a, a)) {
             mx = b;
             mn = a;

@@ -890,7 +890,7 @@ static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
         {"spm", "--streams 300 --stream-photons 4 --k 20 --max-radius 0.5",
          " stream_photons=4 k=20 max_radius=0.5 map_bytes="},
     };
-    char out[16384], args[1024], png[256], prefix[128];
+    char out[32768], args[1024], png[256], prefix[128];
     size_t i;
     harness_path(png, sizeof png, "baseline.png");
     for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {

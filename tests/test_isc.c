@@ -573,6 +573,7 @@ static void test_isc_refuses_what_it_cannot_render(pds_test_ctx *t)
     pds_scene_free(s);
 }
 
+#ifdef PDS_TEST_POSIX
 /* The tool: --frames writes numbered frames and one final line; isc's
    options are checked and their mistakes named. */
 static void test_isc_cli_frames_and_options(pds_test_ctx *t)
@@ -606,6 +607,7 @@ static void test_isc_cli_frames_and_options(pds_test_ctx *t)
           "%s", out);
     remove("/tmp/pds_isc_note.png");
 }
+#endif
 
 static const pds_test_case tests_isc[] = {
     {"isc_buffer_photons_land_where_a_per_photon_tracer_does", test_isc_buffer_photons_land_where_a_per_photon_tracer_does},
@@ -617,5 +619,7 @@ static const pds_test_case tests_isc[] = {
     {"isc_time_budget_averages_offset_frames", test_isc_time_budget_averages_offset_frames},
     {"isc_frames_stop_when_the_callback_fails", test_isc_frames_stop_when_the_callback_fails},
     {"isc_refuses_what_it_cannot_render", test_isc_refuses_what_it_cannot_render},
+#ifdef PDS_TEST_POSIX
     {"isc_cli_frames_and_options", test_isc_cli_frames_and_options},
+#endif
 };

@@ -225,18 +225,25 @@ static void test_pds_full_image_is_eye_pass_plus_splats(pds_test_ctx *t)
 static void test_pds_footprint_debug_image_shows_anisotropy(pds_test_ctx *t)
 {
     pds_options opt;
-    pds_image img = {0, 0, NULL}, fp = {0, 0, NULL};
+    pds_image img = {0, 0, NULL};
+    pds_debug dbg;
+    const pds_image *fp = &dbg.value[PDS_DEBUG_FOOTPRINT];
     pds_options_default(&opt);
+    pds_debug_init(&dbg);
+    dbg.views = 1u << PDS_DEBUG_FOOTPRINT;
     opt.method = PDS_METHOD_PDS;
     opt.photons = 20000;
-    opt.footprint = &fp;
+    opt.debug = &dbg;
     REQUIRE(t, render_text(slab_scene, &opt, &img, NULL), "render");
-    REQUIRE(t, fp.width == 24 && fp.height == 24, "footprint image %dx%d", fp.width, fp.height);
+    REQUIRE(t, fp->width == 24 && fp->height == 24, "footprint image %dx%d", fp->width, fp->height);
     /* centre pixel: under the slab, collimated light, footprints stay round */
-    CHECK(t, fp.rgb[3 * (12 * 24 + 12) + 1] > 0.9, "m_a at the centre %g", fp.rgb[3 * (12 * 24 + 12) + 1]);
-    CHECK(t, fp.rgb[0] == 0.0f && fp.rgb[1] == 0.0f, "corner outside the caustic is black");
+    CHECK(t, fp->rgb[3 * (12 * 24 + 12) + 1] > 0.9, "m_a at the centre %g", fp->rgb[3 * (12 * 24 + 12) + 1]);
+    CHECK(t, fp->rgb[0] == 0.0f && fp->rgb[1] == 0.0f, "corner outside the caustic is black");
+    /* the picture: the same colours over a legend strip */
+    CHECK(t, dbg.picture[PDS_DEBUG_FOOTPRINT].height == 24 + PDS_DEBUG_LEGEND_ROWS, "picture height %d",
+          dbg.picture[PDS_DEBUG_FOOTPRINT].height);
     pds_image_free(&img);
-    pds_image_free(&fp);
+    pds_debug_free(&dbg);
 }
 
 /* --min-aspect widens needles without moving them: the widened ellipse has

@@ -485,6 +485,55 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     pds_scene_free(s);
 }
 
+/* The teaching views are made by a render in one go: a shard or a
+   continued render is refused (its views would show part of the photons),
+   and a render in one go still gets them through the part it renders. */
+static void test_shards_refuse_teaching_views(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = shards_load(shards_scene, &err);
+    pds_options opt;
+    pds_debug dbg;
+    pds_partial *p = NULL;
+    pds_image img = {0, 0, NULL};
+    REQUIRE(t, s != NULL, "load: %s", err.text);
+    pds_debug_init(&dbg);
+    dbg.views = 1u << PDS_DEBUG_LANDINGS;
+    shards_options(&shards_cases[0], &opt);
+    opt.debug = &dbg;
+    opt.shard_count = 2;
+    CHECK(t, pds_render_part(s, &opt, &p, NULL, &err) == PDS_ERR_INVALID_ARG && strstr(err.text, "not made for shards"),
+          "shard with views: %s", err.text);
+    CHECK(t, p == NULL, "a refused shard made a part");
+    /* a part half done, then continued with views: refused */
+    opt.shard_count = 1;
+    opt.debug = NULL;
+    {
+        shards_stopper stopper;
+        pds_render_stats st;
+        memset(&stopper, 0, sizeof stopper);
+        stopper.stop_at = 3; /* in the eye pass */
+        opt.threads = 1;
+        opt.progress = shards_stop;
+        opt.progress_user = &stopper;
+        REQUIRE(t, pds_render_part(s, &opt, &p, &st, &err) == PDS_OK && st.partial, "first part: %s", err.text);
+    }
+    opt.progress = NULL;
+    opt.debug = &dbg;
+    CHECK(t, pds_render_part(s, &opt, &p, NULL, &err) == PDS_ERR_INVALID_ARG && strstr(err.text, "in one go"),
+          "continued with views: %s", err.text);
+    /* in one go: the landings view counts the photons that landed in frame */
+    REQUIRE(t, pds_render(s, &opt, &img, NULL, &err) == PDS_OK, "render: %s", err.text);
+    CHECK(t, dbg.value[PDS_DEBUG_LANDINGS].rgb != NULL && dbg.landings_in_frame > 0, "no landings view (%ld)",
+          dbg.landings_in_frame);
+    pds_debug_free(&dbg);
+    pds_image_free(&img);
+    pds_partial_free(p);
+    pds_scene_free(s);
+}
+
+#ifdef PDS_TEST_POSIX /* the tests that drive the pds tool through a shell */
+
 /* The image of the scene file at path as pds_render makes it here. */
 static int shards_render_file(const char *path, pds_method method, int w, int h, int spp, long photons, pds_image *img)
 {
@@ -600,6 +649,9 @@ static void test_shards_cli_shards_and_merge(pds_test_ctx *t)
     CHECK(t, cli_run("render scenes/refraction.scene --shard 3/2 -o x.pdsp", text, sizeof text) == 2 &&
                  strstr(text, "--shard needs I/N with 1 <= I <= N"),
           "bad shard: %s", text);
+    CHECK(t, cli_run("render scenes/refraction.scene --debug landings --shard 1/2 -o x.pdsp", text, sizeof text) == 2 &&
+                 strstr(text, "--debug views are made by a render in one go"),
+          "shard with a view: %s", text);
     CHECK(t, cli_run("render scenes/refraction.scene --shard 1/2 -o x.png", text, sizeof text) == 2 &&
                  strstr(text, "a shard is written as a partial file"),
           "shard to an image: %s", text);
@@ -708,12 +760,16 @@ static void test_shards_sweep_resume_keeps_finished_entries(pds_test_ctx *t)
     harness_rmtree(dir);
 }
 
+#endif /* PDS_TEST_POSIX */
+
 static const pds_test_case tests_shards[] = {
+#ifdef PDS_TEST_POSIX
     {"shards_sweep_resume_keeps_finished_entries", test_shards_sweep_resume_keeps_finished_entries},
     {"shards_race_resume_keeps_finished_entries", test_shards_race_resume_keeps_finished_entries},
     {"shards_cli_checkpoints_leave_the_image_unchanged", test_shards_cli_checkpoints_leave_the_image_unchanged},
     {"shards_cli_sigint_then_resume_equals_the_whole_render", test_shards_cli_sigint_then_resume_equals_the_whole_render},
     {"shards_cli_shards_and_merge", test_shards_cli_shards_and_merge},
+#endif
     {"shards_merge_equals_the_single_run_bit_for_bit", test_shards_merge_equals_the_single_run_bit_for_bit},
     {"shards_spectral_merge_equals_the_single_run", test_shards_spectral_merge_equals_the_single_run},
     {"shards_interrupt_and_resume_equal_the_uninterrupted_render",
@@ -722,4 +778,5 @@ static const pds_test_case tests_shards[] = {
     {"shards_merge_refuses_foreign_duplicate_and_missing_parts",
      test_shards_merge_refuses_foreign_duplicate_and_missing_parts},
     {"shards_partial_file_round_trips_and_is_versioned", test_shards_partial_file_round_trips_and_is_versioned},
+    {"shards_refuse_teaching_views", test_shards_refuse_teaching_views},
 };

@@ -1,0 +1,327 @@
+/* tests/test_teach.c - the teaching kit: the debug views (>>debug) are
+   checked for their content against the render they come with, the paths
+   OBJ is read back by the OBJ loader, and `pds trace-photon`'s
+   differentials agree with finite differences of neighbouring photons. */
+
+/* Render mirror_scene (tests/test_pds.c: a point light, a vertical plane
+   mirror, a camera looking straight down at the floor) with the paper's
+   PDS and the debug views in `views`. */
+static int teach_render(unsigned views, int threads, pds_image *img, pds_render_stats *st, pds_debug *dbg)
+{
+    pds_options opt;
+    pds_options_default(&opt);
+    pds_debug_init(dbg);
+    dbg->views = views;
+    dbg->ellipse_every = 50;
+    dbg->path_photons = 300;
+    opt.method = PDS_METHOD_PDS;
+    opt.progressive = 0;
+    opt.smoothing = 8.0;
+    opt.photons = 5000;
+    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    opt.threads = threads;
+    opt.debug = dbg;
+    return render_text(mirror_scene, &opt, img, st);
+}
+
+static double teach_sum(const pds_image *v)
+{
+    size_t i, n = (size_t)v->width * v->height;
+    double s = 0.0;
+    for (i = 0; i < n; i++) s += v->rgb[3 * i];
+    return s;
+}
+
+/* Every landed photon is counted once: the landings equal the photons
+   splatted, and the landing image sums to the landings inside the frame.
+   Where a photon landed its own kernel reaches the pixel (the footprints
+   are many pixels wide), so that pixel has caustic light; and a pixel has
+   caustic light exactly when some splat term reached it. */
+static void test_debug_landings_and_splats_agree_with_the_render(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    pds_debug dbg;
+    const pds_image *land = &dbg.value[PDS_DEBUG_LANDINGS], *spl = &dbg.value[PDS_DEBUG_SPLATS];
+    size_t i, n, mismatched = 0, landed_dark = 0;
+    REQUIRE(t, teach_render((1u << PDS_DEBUG_LANDINGS) | (1u << PDS_DEBUG_SPLATS), 2, &img, &st, &dbg), "render");
+    REQUIRE(t, land->width == 24 && spl->height == 24, "value images %dx%d", land->width, spl->height);
+    CHECK(t, st.splatted > 200 && dbg.landings == st.splatted, "landings %ld, splatted %ld", dbg.landings,
+          st.splatted);
+    CHECK(t, dbg.landings_in_frame > 20 && dbg.landings_in_frame <= dbg.landings, "in frame %ld of %ld",
+          dbg.landings_in_frame, dbg.landings);
+    CHECK(t, teach_sum(land) == (double)dbg.landings_in_frame, "landing image sums to %g, not %ld", teach_sum(land),
+          dbg.landings_in_frame);
+    n = (size_t)img.width * img.height;
+    for (i = 0; i < n; i++) {
+        int lit = img.rgb[3 * i] > 0.0f;
+        if (lit != (spl->rgb[3 * i] > 0.0f)) mismatched++;
+        if (land->rgb[3 * i] > 0.0f && !lit) landed_dark++;
+    }
+    CHECK(t, mismatched == 0, "%lu pixels lit without splats or splatted and dark", (unsigned long)mismatched);
+    CHECK(t, landed_dark == 0, "%lu pixels with landings but no caustic", (unsigned long)landed_dark);
+    CHECK(t, dbg.scale_max[PDS_DEBUG_LANDINGS] > 0.0 &&
+                 dbg.picture[PDS_DEBUG_LANDINGS].height == 24 + PDS_DEBUG_LEGEND_ROWS,
+          "picture with its legend strip");
+    pds_image_free(&img);
+    pds_debug_free(&dbg);
+}
+
+/* The debug views are exact counts: the same for any thread count. */
+static void test_debug_views_are_identical_for_any_thread_count(pds_test_ctx *t)
+{
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    pds_debug da, db;
+    unsigned views = (1u << PDS_DEBUG_LANDINGS) | (1u << PDS_DEBUG_SPLATS) | (1u << PDS_DEBUG_ELLIPSES) |
+                     (1u << PDS_DEBUG_PATHS) | (1u << PDS_DEBUG_FOOTPRINT);
+    int v;
+    REQUIRE(t, teach_render(views, 1, &a, NULL, &da), "1 thread");
+    REQUIRE(t, teach_render(views, 3, &b, NULL, &db), "3 threads");
+    for (v = 0; v < PDS_DEBUG_VIEWS; v++) {
+        const pds_image *x = &da.picture[v], *y = &db.picture[v];
+        if (v == PDS_DEBUG_PATHS || v == PDS_DEBUG_EYE) continue;
+        REQUIRE(t, x->rgb && y->rgb, "view %s made", pds_debug_view_name((pds_debug_view)v));
+        CHECK(t, memcmp(x->rgb, y->rgb, sizeof(float) * 3 * (size_t)x->width * x->height) == 0, "view %s differs",
+              pds_debug_view_name((pds_debug_view)v));
+    }
+    CHECK(t, da.paths_obj && db.paths_obj && strcmp(da.paths_obj, db.paths_obj) == 0, "paths differ");
+    pds_image_free(&a);
+    pds_image_free(&b);
+    pds_debug_free(&da);
+    pds_debug_free(&db);
+}
+
+/* A camera looking straight down at a plane sees every eye vertex in its
+   own pixel: spp vertices per pixel, all of them in frame. */
+static void test_debug_eye_view_puts_spp_vertices_in_each_pixel(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    pds_debug dbg;
+    const pds_image *eye = &dbg.value[PDS_DEBUG_EYE];
+    size_t i, wrong = 0;
+    REQUIRE(t, teach_render(1u << PDS_DEBUG_EYE, 2, &img, &st, &dbg), "render");
+    REQUIRE(t, eye->width == 24 && eye->height == 24, "eye image %dx%d", eye->width, eye->height);
+    CHECK(t, dbg.eye_vertices_in_frame == st.eye_vertices && st.eye_vertices == 24 * 24 * 16, "in frame %ld of %ld",
+          dbg.eye_vertices_in_frame, st.eye_vertices);
+    for (i = 0; i < 24 * 24; i++)
+        if (eye->rgb[3 * i] != 16.0f) wrong++;
+    CHECK(t, wrong == 0, "%lu pixels without 16 vertices", (unsigned long)wrong);
+    CHECK(t, dbg.scale_max[PDS_DEBUG_EYE] == 16.0, "scale %g", dbg.scale_max[PDS_DEBUG_EYE]);
+    pds_image_free(&img);
+    pds_debug_free(&dbg);
+}
+
+/* The ellipses are drawn in yellow over the render: a pixel is yellow
+   exactly where the count image says an ellipse passes (the render itself
+   is grey, never pure yellow), and one ellipse at most per 50 photons. */
+static void test_debug_ellipses_are_drawn_where_counted(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    pds_debug dbg;
+    const pds_image *cnt = &dbg.value[PDS_DEBUG_ELLIPSES], *pic = &dbg.picture[PDS_DEBUG_ELLIPSES];
+    size_t i, wrong = 0, drawn = 0;
+    REQUIRE(t, teach_render(1u << PDS_DEBUG_ELLIPSES, 2, &img, &st, &dbg), "render");
+    REQUIRE(t, pic->width == 24 && pic->height == 24 + PDS_DEBUG_LEGEND_ROWS, "picture %dx%d", pic->width, pic->height);
+    CHECK(t, dbg.ellipses > 3 && dbg.ellipses <= (st.photons + 49) / 50, "%ld ellipses", dbg.ellipses);
+    for (i = 0; i < 24 * 24; i++) {
+        int yellow = pic->rgb[3 * i] == 1.0f && pic->rgb[3 * i + 1] == 1.0f && pic->rgb[3 * i + 2] == 0.0f;
+        if (yellow != (cnt->rgb[3 * i] > 0.0f)) wrong++;
+        drawn += yellow;
+    }
+    CHECK(t, wrong == 0 && drawn > 10, "%lu pixels disagree, %lu drawn", (unsigned long)wrong, (unsigned long)drawn);
+    pds_image_free(&img);
+    pds_debug_free(&dbg);
+}
+
+/* The paths OBJ is read by PDS's own OBJ loader: as many polylines'
+   segments and vertices as the view says it wrote, each path from the
+   light at (0, 1, 0) with at most 2 segments here (light, mirror, floor). */
+static void test_debug_paths_obj_reads_back_with_its_segment_count(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_debug dbg;
+    tobj_fix f;
+    char path[256];
+    REQUIRE(t, teach_render(1u << PDS_DEBUG_PATHS, 2, &img, NULL, &dbg), "render");
+    REQUIRE(t, dbg.paths_obj != NULL, "paths written");
+    CHECK(t, dbg.paths > 50 && dbg.path_segments >= dbg.paths && dbg.path_segments <= 2 * dbg.paths,
+          "%ld paths, %ld segments", dbg.paths, dbg.path_segments);
+    CHECK(t, strstr(dbg.paths_obj, "\nv 0 1 0\n") != NULL, "paths start at the light");
+    tobj_init(&f);
+    CHECK(t, tobj_load_text(&f, "paths.obj", dbg.paths_obj, path, sizeof path) == PDS_OK, "OBJ: %s", f.err.text);
+    CHECK(t, f.stats.line_segments == dbg.path_segments, "loader counts %ld segments, the view wrote %ld",
+          f.stats.line_segments, dbg.path_segments);
+    CHECK(t, f.stats.vertices == dbg.path_segments + dbg.paths && f.stats.objects == dbg.paths,
+          "%ld vertices, %ld objects", f.stats.vertices, f.stats.objects);
+    remove(path);
+    tobj_done(&f);
+    pds_image_free(&img);
+    pds_debug_free(&dbg);
+}
+
+/* Eqs. 2-9 by finite differences: through the smooth glass sphere of
+   sphere_caustic_scene every differential trace-photon reports agrees with
+   the central difference of neighbouring photons traced by the renderer,
+   at every vertex where the neighbours met the same triangles. */
+static void test_trace_photon_differentials_match_finite_differences(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text(sphere_caustic_scene, &err);
+    pds_options opt;
+    long i;
+    int compared = 0, refracted = 0, landed = 0;
+    double worst = 0.0;
+    REQUIRE(t, s != NULL, "scene: %s", err.text);
+    pds_options_default(&opt);
+    opt.photons = 10000;
+    for (i = 0; i < 40; i++) {
+        pds_trace tr;
+        int k;
+        REQUIRE(t, pds_trace_photon(s, &opt, i, &tr, &err) == PDS_OK, "%s", err.text);
+        for (k = 0; k < tr.count; k++) {
+            const pds_trace_vertex *v = &tr.v[k];
+            const pds_vec3 *a[4] = {&v->dxdu, &v->dxdv, &v->dwdu, &v->dwdv};
+            const pds_vec3 *b[4] = {&v->fd_dxdu, &v->fd_dxdv, &v->fd_dwdu, &v->fd_dwdv};
+            int j;
+            refracted += v->event == PDS_TRACE_REFRACT;
+            landed += v->event == PDS_TRACE_LAND;
+            CHECK(t, fabs(v->area - pds__footprint_area(pds__v(v->dxdu.x, v->dxdu.y, v->dxdu.z),
+                                                        pds__v(v->dxdv.x, v->dxdv.y, v->dxdv.z))) <= 1e-15,
+                  "area is eq. 4's");
+            if (!v->fd_valid) continue;
+            compared++;
+            for (j = 0; j < 4; j++) {
+                double dx = a[j]->x - b[j]->x, dy = a[j]->y - b[j]->y, dz = a[j]->z - b[j]->z;
+                double na = sqrt(a[j]->x * a[j]->x + a[j]->y * a[j]->y + a[j]->z * a[j]->z);
+                double rel = sqrt(dx * dx + dy * dy + dz * dz) / fmax(na, 1e-12);
+                if (rel > worst) worst = rel;
+            }
+        }
+        pds_trace_free(&tr);
+    }
+    CHECK(t, refracted >= 20 && landed >= 8 && compared >= 60, "%d refractions, %d landings, %d compared", refracted,
+          landed, compared);
+    CHECK(t, worst < 1e-5, "worst relative difference %g", worst);
+    pds_scene_free(s);
+}
+
+#ifdef PDS_TEST_POSIX
+/* The tool: differentials beside finite differences, and a usage error
+   without --photon. */
+static void test_cli_trace_photon_prints_differentials_and_their_check(pds_test_ctx *t)
+{
+    char out[16384];
+    const char *last;
+    double rel = 1.0;
+    CHECK(t, cli_run("trace-photon scenes/refraction.scene --photon 0", out, sizeof out) == 0, "failed: %s", out);
+    CHECK(t, strstr(out, "vertex 1: refracted on 'water'") && strstr(out, "  Dtheta w ") && strstr(out, "   fd ("),
+          "output: %s", out);
+    last = cli_last_line(out);
+    CHECK(t, strncmp(last, "trace-photon photon=0 vertices=3 landed=1 max_rel_diff=", 55) == 0, "final line: %s", last);
+    if (strstr(last, "max_rel_diff=")) rel = atof(strstr(last, "max_rel_diff=") + 13);
+    CHECK(t, rel < 1e-6, "max_rel_diff %g", rel);
+    CHECK(t, cli_run("trace-photon scenes/refraction.scene", out, sizeof out) == 2, "no --photon: %s", out);
+    CHECK(t, strstr(out, "trace-photon needs --photon I") != NULL, "message: %s", out);
+}
+
+/* pds pixel: the mean of a window, clipped at the image's edge. */
+static void test_cli_pixel_prints_the_mean_of_a_window(pds_test_ctx *t)
+{
+    char out[4096], path[128], args[256];
+    pds_image img = {0, 0, NULL};
+    pds_error err;
+    int i;
+    snprintf(path, sizeof path, "/tmp/pds_teach_pixel_%ld.pfm", (long)getpid());
+    REQUIRE(t, pds_image_alloc(&img, 4, 3) == PDS_OK, "alloc");
+    for (i = 0; i < 12; i++) img.rgb[3 * i] = img.rgb[3 * i + 1] = img.rgb[3 * i + 2] = (float)i; /* value = x + 4 y */
+    REQUIRE(t, pds_image_write_pfm(path, &img, &err) == PDS_OK, "%s", err.text);
+    snprintf(args, sizeof args, "pixel %s 1 1 1", path);
+    CHECK(t, cli_run(args, out, sizeof out) == 0 && strstr(out, "pixel x=1 y=1 radius=1 pixels=9 r=5 g=5 b=5"), "%s", out);
+    snprintf(args, sizeof args, "pixel %s 0 0 1", path); /* (0,1,4,5) */
+    CHECK(t, cli_run(args, out, sizeof out) == 0 && strstr(out, "pixels=4 r=2.5 "), "%s", out);
+    snprintf(args, sizeof args, "pixel %s 4 0", path);
+    CHECK(t, cli_run(args, out, sizeof out) == 2 && strstr(out, "pixel 4,0 is outside the 4x3 image"), "%s", out);
+    remove(path);
+    pds_image_free(&img);
+}
+#endif
+
+/* The views ride along a spectral render (the splat buffers then hold
+   negative sums too, >>spectral): the landings still equal the photons
+   splatted, the splats view lights exactly the pixels the caustic lights,
+   and the footprint view is drawn. */
+static void test_debug_views_ride_along_a_spectral_render(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    pds_debug dbg;
+    pds_options opt;
+    const pds_image *spl = &dbg.value[PDS_DEBUG_SPLATS];
+    size_t i, n, mismatched = 0;
+    pds_options_default(&opt);
+    pds_debug_init(&dbg);
+    dbg.views = (1u << PDS_DEBUG_LANDINGS) | (1u << PDS_DEBUG_SPLATS) | (1u << PDS_DEBUG_FOOTPRINT) |
+                (1u << PDS_DEBUG_PATHS);
+    dbg.path_photons = 50;
+    opt.method = PDS_METHOD_PDS;
+    opt.progressive = 0;
+    opt.smoothing = 8.0;
+    opt.photons = 5000;
+    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    opt.threads = 2;
+    opt.spectral = 1;
+    opt.debug = &dbg;
+    REQUIRE(t, render_text(mirror_scene, &opt, &img, &st), "spectral render with debug views");
+    CHECK(t, st.splatted > 200 && dbg.landings == st.splatted, "landings %ld, splatted %ld", dbg.landings,
+          st.splatted);
+    n = (size_t)img.width * img.height;
+    for (i = 0; i < n; i++)
+        if ((img.rgb[3 * i] != 0.0f || img.rgb[3 * i + 1] != 0.0f || img.rgb[3 * i + 2] != 0.0f) !=
+            (spl->rgb[3 * i] > 0.0f))
+            mismatched++;
+    CHECK(t, mismatched == 0, "%lu pixels lit without splats or splatted and dark", (unsigned long)mismatched);
+    CHECK(t, dbg.picture[PDS_DEBUG_FOOTPRINT].width == img.width && dbg.paths_obj && dbg.path_segments > 0,
+          "footprint picture %d wide, paths %s", dbg.picture[PDS_DEBUG_FOOTPRINT].width,
+          dbg.paths_obj ? "made" : "missing");
+    pds_image_free(&img);
+    pds_debug_free(&dbg);
+}
+
+#ifdef PDS_NO_BASELINES
+/* The small core leaves streamed photon mapping out with the other
+   baselines, and says so. */
+static void test_core_refuses_spm(pds_test_ctx *t)
+{
+    pds_options opt;
+    pds_error err;
+    pds_image img = {0, 0, NULL};
+    pds_scene *s = scene_from_text(mirror_scene, &err);
+    REQUIRE(t, s != NULL, "scene: %s", err.text);
+    pds_options_default(&opt);
+    opt.method = PDS_METHOD_SPM;
+    CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_ERR_INVALID_ARG && strstr(err.text, "PDS_NO_BASELINES") &&
+                 strstr(err.text, "spm"),
+          "%s", err.text);
+    pds_image_free(&img);
+    pds_scene_free(s);
+}
+#endif
+
+static const pds_test_case tests_teach[] = {
+    {"debug_views_ride_along_a_spectral_render", test_debug_views_ride_along_a_spectral_render},
+#ifdef PDS_NO_BASELINES
+    {"core_refuses_spm", test_core_refuses_spm},
+#endif
+    {"debug_landings_and_splats_agree_with_the_render", test_debug_landings_and_splats_agree_with_the_render},
+    {"debug_views_are_identical_for_any_thread_count", test_debug_views_are_identical_for_any_thread_count},
+    {"debug_eye_view_puts_spp_vertices_in_each_pixel", test_debug_eye_view_puts_spp_vertices_in_each_pixel},
+    {"debug_ellipses_are_drawn_where_counted", test_debug_ellipses_are_drawn_where_counted},
+    {"debug_paths_obj_reads_back_with_its_segment_count", test_debug_paths_obj_reads_back_with_its_segment_count},
+    {"trace_photon_differentials_match_finite_differences", test_trace_photon_differentials_match_finite_differences},
+#ifdef PDS_TEST_POSIX
+    {"cli_trace_photon_prints_differentials_and_their_check", test_cli_trace_photon_prints_differentials_and_their_check},
+    {"cli_pixel_prints_the_mean_of_a_window", test_cli_pixel_prints_the_mean_of_a_window},
+#endif
+};
