@@ -1748,12 +1748,6 @@ static int cmd_render(int argc, char **argv)
         return usage_error("%s", "a render with --time cannot be split, continued or checkpointed: its photon count "
                            "is not fixed (give --photons)");
     }
-    if ((c.opt.method == PDS_METHOD_GI || c.opt.method == PDS_METHOD_SPM || c.opt.method == PDS_METHOD_ISC) &&
-        (part_only || checkpoint_s > 0.0)) {
-        pds_partial_free(part);
-        return usage_error("%s cannot be split, continued or checkpointed yet (its options are not in the partial "
-                           "file)", method_name(c.opt.method));
-    }
     if (c.debug.views && (part_only || resume || checkpoint_s > 0.0)) {
         pds_partial_free(part);
         return usage_error("%s", "--debug views are made by a render in one go (no partial files or checkpoints)");
@@ -1784,12 +1778,20 @@ static int cmd_render(int argc, char **argv)
     print_scene_warnings(scene, &c);
     if (!c.quiet) warn_about_the_cost(scene, &c.opt);
     /* checkpoints stop the render where its state is kept: between eye
-       rows (pt), photon batches or passes (pds, splat); pm, pdm and ppm
-       keep nothing between photons, so they get none before the end */
-    progress.checkpoint_s = checkpoint_s;
-    progress.checkpoint_phase = !is_photon_method(c.opt.method) || c.opt.paths == PDS_PATHS_NO_CAUSTICS ? PDS_PHASE_EYE
-                                : c.opt.method == PDS_METHOD_PDS || c.opt.method == PDS_METHOD_SPLAT ? PDS_PHASE_PHOTONS
-                                                                                                     : -1;
+       rows (pt), photon batches or passes (pds, splat, and gi with their
+       caustics); pm, pdm, ppm and spm keep nothing between photons, nor
+       gi with their caustics, and isc renders its frame in one go, so
+       they get none before the end */
+    {
+        pds_method cm = c.opt.method == PDS_METHOD_GI ? c.opt.caustics : c.opt.method;
+        progress.checkpoint_s = checkpoint_s;
+        progress.checkpoint_phase =
+            c.opt.method == PDS_METHOD_ISC ? -1
+            : (!is_photon_method(cm) && c.opt.method != PDS_METHOD_GI) || c.opt.paths == PDS_PATHS_NO_CAUSTICS
+                ? PDS_PHASE_EYE
+            : cm == PDS_METHOD_PDS || cm == PDS_METHOD_SPLAT ? PDS_PHASE_PHOTONS
+                                                             : -1;
+    }
     if (checkpoint_s > 0.0 && progress.checkpoint_phase < 0)
         fprintf(stderr, "pds render: note: --checkpoint: %s keeps no state between photons; it writes the partial "
                 "file only at the end\n", method_name(c.opt.method));
@@ -1833,8 +1835,7 @@ static int cmd_render(int argc, char **argv)
         /* the checkpoint's message is out */
     } else if (st != PDS_OK) {
         rc = fail("%s", pds_error_string(&err));
-    } else if (stats.partial && stop_requested && c.opt.time_s <= 0.0 && c.opt.method != PDS_METHOD_GI &&
-               c.opt.method != PDS_METHOD_SPM && !c.debug.views) {
+    } else if (stats.partial && stop_requested && c.opt.time_s <= 0.0 && !c.debug.views) {
         /* interrupted: the image of what is done, and the state to go on */
         pds_partial_get_info(part, &info);
         rc = write_part(part, part_path, part_only ? NULL : output, c.exposure);
@@ -1875,11 +1876,9 @@ static int cmd_render(int argc, char **argv)
         if (!rc && checkpoints > 0 && !c.quiet)
             fprintf(stderr, "pds render: %d checkpoints written to %s (removed now that the render is whole)\n",
                     checkpoints, part_path);
-        /* --time, gi, spm and teaching views: the image of the work done,
-           and no partial file */
-        if (stop_requested && !rc &&
-            (c.opt.time_s > 0.0 || c.opt.method == PDS_METHOD_GI || c.opt.method == PDS_METHOD_SPM || c.debug.views))
-            rc = 130;
+        /* --time and teaching views: the image of the work done, and no
+           partial file */
+        if (stop_requested && !rc && (c.opt.time_s > 0.0 || c.debug.views)) rc = 130;
     }
     pds_image_free(&img);
     pds_partial_free(part);

@@ -9544,9 +9544,10 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
    count says which. */
 
 #define PDS__PARTIAL_MAGIC "PDSPART\n"
-#define PDS__PARTIAL_VERSION 2u
+#define PDS__PARTIAL_VERSION 3u
 #define PDS__PARTIAL_MAX_SHARDS 1000000
-#define PDS__PARTIAL_NOPT 31 /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT 44    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT_V2 31 /* format version 2's, still read */
 
 enum { PDS__SPLIT_ROWS = 0, PDS__SPLIT_PHOTONS = 1, PDS__SPLIT_GATHER = 2 };
 
@@ -9697,9 +9698,26 @@ static void pds__partial_opt_encode(const pds_options *o, uint64_t v[PDS__PARTIA
     for (k = 0; k < 13; k++) memcpy(&v[16 + k], &d[k], sizeof d[k]);
     v[29] = (uint64_t)(int64_t)o->split_depth;
     v[30] = (uint64_t)(int64_t)o->spectral;
+    /* format version 3: spm's, gi's and isc's own options */
+    v[31] = (uint64_t)(int64_t)o->streams;
+    v[32] = (uint64_t)(int64_t)o->stream_photons;
+    v[33] = (uint64_t)(int64_t)o->caustics;
+    v[34] = (uint64_t)(int64_t)o->global_photons;
+    v[35] = (uint64_t)(int64_t)o->global_k;
+    v[36] = (uint64_t)(int64_t)o->gather;
+    memcpy(&v[37], &o->gather_mix, sizeof o->gather_mix);
+    v[38] = (uint64_t)(int64_t)o->shadow_photons;
+    v[39] = (uint64_t)(int64_t)o->isc_gather;
+    v[40] = (uint64_t)(int64_t)o->light_resolution;
+    v[41] = (uint64_t)(int64_t)o->history;
+    v[42] = (uint64_t)(int64_t)o->orbit;
+    memcpy(&v[43], &o->orbit_deg, sizeof o->orbit_deg);
 }
 
-static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], pds_options *o)
+/* nopt: how many the file holds (31 in format version 2, whose renders
+   all had the later ones at their defaults: gi, spm and isc were not
+   stored then); the rest stay at their defaults. */
+static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nopt, pds_options *o)
 {
     double d[13];
     int k;
@@ -9725,6 +9743,21 @@ static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], pds_opt
     o->max_photons = (long)(int64_t)v[15];
     o->split_depth = PDS__OPT_INT(v[29]);
     o->spectral = PDS__OPT_INT(v[30]);
+    if (nopt >= PDS__PARTIAL_NOPT) {
+        o->streams = (long)(int64_t)v[31];
+        o->stream_photons = PDS__OPT_INT(v[32]);
+        o->caustics = (pds_method)PDS__OPT_INT(v[33]);
+        o->global_photons = (long)(int64_t)v[34];
+        o->global_k = PDS__OPT_INT(v[35]);
+        o->gather = PDS__OPT_INT(v[36]);
+        memcpy(&o->gather_mix, &v[37], sizeof o->gather_mix);
+        o->shadow_photons = PDS__OPT_INT(v[38]);
+        o->isc_gather = (pds_isc_gather)PDS__OPT_INT(v[39]);
+        o->light_resolution = PDS__OPT_INT(v[40]);
+        o->history = PDS__OPT_INT(v[41]);
+        o->orbit = (pds_orbit)PDS__OPT_INT(v[42]);
+        memcpy(&o->orbit_deg, &v[43], sizeof o->orbit_deg);
+    }
 #undef PDS__OPT_INT
     for (k = 0; k < 13; k++) memcpy(&d[k], &v[16 + k], sizeof d[k]);
     o->time_s = d[0];
@@ -9984,23 +10017,28 @@ pds_status pds_partial_merge(const pds_partial *const *parts, const char *const 
 
      offset  bytes  field
      0       8      magic "PDSPART\n"
-     8       4      format version (2)
+     8       4      format version (3)
      12      16     library version string, NUL-padded ("0.1.0")
      28      8      scene content hash (pds_scene_hash)
      36      512    scene path as loaded, NUL-padded
      548     4 x 5  width, height, shard index (0-based), shard count, split
-     568     8 x 31 options (pds__partial_opt_encode's order)
-     816     8 x 13 rows done, units total, units own, units done, n_planned
+     568     8 x 44 options (pds__partial_opt_encode's order)
+     920     8 x 13 rows done, units total, units own, units done, n_planned
                     (binary64), emitted, unit (binary64), splatted,
                     degenerate, saturated, invalid, eye vertices, reserved 0
-     920     ...    eye values of the rows done (rows I, I+N, ...: each
+     1024    ...    eye values of the rows done (rows I, I+N, ...: each
                     width x 3 binary64), then, unless split is 0, the photon
                     sums S+ and then S- (each width x height x 3 of: low 64
                     bits, high 64 bits)
-     end-8   8      check: FNV-1a 64 of every byte before it */
+     end-8   8      check: FNV-1a 64 of every byte before it
+   Format version 2 is read too: the same with 31 options (its counts at
+   816, its eye values at 920); version 1 is refused. */
 
-#define PDS__PARTIAL_COUNTS (568u + 8u * PDS__PARTIAL_NOPT) /* 816: the counts */
-#define PDS__PARTIAL_HEADER (PDS__PARTIAL_COUNTS + 8u * 13u)   /* 920 */
+/* Where the counts and the eye values begin, for a file of nopt options. */
+#define PDS__PARTIAL_COUNTS_AT(nopt) (568u + 8u * (unsigned)(nopt))
+#define PDS__PARTIAL_HEADER_AT(nopt) (PDS__PARTIAL_COUNTS_AT(nopt) + 8u * 13u)
+#define PDS__PARTIAL_COUNTS PDS__PARTIAL_COUNTS_AT(PDS__PARTIAL_NOPT) /* 920: the counts */
+#define PDS__PARTIAL_HEADER PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT) /* 1024 */
 
 static void pds__put_u32(unsigned char *b, uint32_t v)
 {
@@ -10052,9 +10090,9 @@ static uint64_t pds__fnv1a64(const unsigned char *b, size_t n)
 
 /* Bytes of the file of a part with these counts; 0 if it would not fit
    in a size_t. */
-static size_t pds__partial_file_size(int width, int height, int split, long rows_done)
+static size_t pds__partial_file_size(int nopt, int width, int height, int split, long rows_done)
 {
-    double bytes = PDS__PARTIAL_HEADER + 8.0 + (double)rows_done * width * 3.0 * 8.0 +
+    double bytes = PDS__PARTIAL_HEADER_AT(nopt) + 8.0 + (double)rows_done * width * 3.0 * 8.0 +
                    (split != PDS__SPLIT_ROWS ? (double)width * height * 3.0 * 32.0 : 0.0);
     return bytes < (double)((size_t)-1) / 2 ? (size_t)bytes : 0;
 }
@@ -10068,7 +10106,7 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
     int i;
     pds_status st;
     if (!path || !p) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_partial_write: NULL argument");
-    size = pds__partial_file_size(p->width, p->height, p->split, p->rows_done);
+    size = pds__partial_file_size(PDS__PARTIAL_NOPT, p->width, p->height, p->split, p->rows_done);
     b = size ? (unsigned char *)calloc(size, 1) : NULL;
     if (!b) return pds__nomem(err);
     memcpy(b, PDS__PARTIAL_MAGIC, 8);
@@ -10119,18 +10157,26 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
 }
 
 /* The checks of a partial file's header (k bytes of it in head). */
+/* Options in a file of this format version; 0: a version not read. */
+static int pds__partial_nopt(uint32_t version)
+{
+    return version == PDS__PARTIAL_VERSION ? PDS__PARTIAL_NOPT : version == 2u ? PDS__PARTIAL_NOPT_V2 : 0;
+}
+
 static pds_status pds__partial_head_check(const char *path, const unsigned char *head, size_t k, pds_error *err)
 {
     uint32_t version;
     long rows_done, rows_own;
-    int width, height, shard, shards, split;
+    int width, height, shard, shards, split, nopt;
     if (k < 12 || memcmp(head, PDS__PARTIAL_MAGIC, 8) != 0)
         return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "not a PDS partial file (it does not begin with \"PDSPART\")");
     version = pds__get_u32(head + 8);
-    if (version != PDS__PARTIAL_VERSION)
-        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "partial file format version %lu; this pds reads version %u",
+    nopt = pds__partial_nopt(version);
+    if (!nopt)
+        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0,
+                         "partial file format version %lu; this pds reads versions 2 and %u",
                          (unsigned long)version, PDS__PARTIAL_VERSION);
-    if (k < PDS__PARTIAL_HEADER) return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "truncated: %lu bytes", (unsigned long)k);
+    if (k < PDS__PARTIAL_HEADER_AT(nopt)) return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "truncated: %lu bytes", (unsigned long)k);
     if (head[27] != '\0' || head[547] != '\0')
         return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "damaged header (an unterminated name)");
     if (strcmp((const char *)head + 12, PDS_VERSION_STRING) != 0)
@@ -10142,7 +10188,7 @@ static pds_status pds__partial_head_check(const char *path, const unsigned char 
     shard = (int)pds__get_u32(head + 556);
     shards = (int)pds__get_u32(head + 560);
     split = (int)pds__get_u32(head + 564);
-    rows_done = (long)pds__get_u64(head + PDS__PARTIAL_COUNTS);
+    rows_done = (long)pds__get_u64(head + PDS__PARTIAL_COUNTS_AT(nopt));
     if (width < 1 || height < 1 || width > PDS_MAX_RESOLUTION || height > PDS_MAX_RESOLUTION || shards < 1 ||
         shards > PDS__PARTIAL_MAX_SHARDS || shard < 0 || shard >= shards || split < 0 || split > 2)
         return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "damaged header (size %dx%d, shard %d of %d, split %d)", width,
@@ -10163,12 +10209,15 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
     pds_partial *p;
     pds_status st;
     long rows_done, rows_own, j;
-    int i, width, height, shard, shards, split;
+    int i, width, height, shard, shards, split, nopt;
+    size_t counts;
     if (!path || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_partial_read: NULL argument");
     *out = NULL;
     /* at most the largest file the limits allow; then the header says
        how long this one must be */
-    st = pds__read_file(path, pds__partial_file_size(PDS_MAX_RESOLUTION, PDS_MAX_RESOLUTION, 1, PDS_MAX_RESOLUTION),
+    st = pds__read_file(path,
+                        pds__partial_file_size(PDS__PARTIAL_NOPT, PDS_MAX_RESOLUTION, PDS_MAX_RESOLUTION, 1,
+                                               PDS_MAX_RESOLUTION),
                         "partial file", &data, &size, err);
     if (st) return st;
     k = size < sizeof head ? size : sizeof head;
@@ -10183,9 +10232,11 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
     shard = (int)pds__get_u32(head + 556);
     shards = (int)pds__get_u32(head + 560);
     split = (int)pds__get_u32(head + 564);
-    rows_done = (long)pds__get_u64(head + PDS__PARTIAL_COUNTS);
+    nopt = pds__partial_nopt(pds__get_u32(head + 8));
+    counts = PDS__PARTIAL_COUNTS_AT(nopt);
+    rows_done = (long)pds__get_u64(head + counts);
     rows_own = pds__shard_count_of(height, shard, shards);
-    expect = pds__partial_file_size(width, height, split, rows_done);
+    expect = pds__partial_file_size(nopt, width, height, split, rows_done);
     b = (const unsigned char *)data;
     if (size != expect) {
         free(data);
@@ -10209,21 +10260,22 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
     p->shard_index = shard;
     p->shard_count = shards;
     p->split = split;
-    for (i = 0; i < PDS__PARTIAL_NOPT; i++) opt[i] = pds__get_u64(b + 568 + 8 * (size_t)i);
-    pds__partial_opt_decode(opt, &p->opt);
+    memset(opt, 0, sizeof opt);
+    for (i = 0; i < nopt; i++) opt[i] = pds__get_u64(b + 568 + 8 * (size_t)i);
+    pds__partial_opt_decode(opt, nopt, &p->opt);
     p->rows_own = rows_own;
     p->rows_done = rows_done;
-    p->units_total = (long)pds__get_u64(b + PDS__PARTIAL_COUNTS + 8);
-    p->units_own = (long)pds__get_u64(b + PDS__PARTIAL_COUNTS + 16);
-    p->units_done = (long)pds__get_u64(b + PDS__PARTIAL_COUNTS + 24);
-    p->n_planned = pds__get_f64(b + PDS__PARTIAL_COUNTS + 32);
-    p->emitted = (long)pds__get_u64(b + PDS__PARTIAL_COUNTS + 40);
-    p->unit = pds__get_f64(b + PDS__PARTIAL_COUNTS + 48);
-    p->splatted = (long)pds__get_u64(b + PDS__PARTIAL_COUNTS + 56);
-    p->degenerate = (long)pds__get_u64(b + PDS__PARTIAL_COUNTS + 64);
-    p->saturated = (long)pds__get_u64(b + PDS__PARTIAL_COUNTS + 72);
-    p->invalid = (long)pds__get_u64(b + PDS__PARTIAL_COUNTS + 80);
-    p->eye_vertices = (long)pds__get_u64(b + PDS__PARTIAL_COUNTS + 88);
+    p->units_total = (long)pds__get_u64(b + counts + 8);
+    p->units_own = (long)pds__get_u64(b + counts + 16);
+    p->units_done = (long)pds__get_u64(b + counts + 24);
+    p->n_planned = pds__get_f64(b + counts + 32);
+    p->emitted = (long)pds__get_u64(b + counts + 40);
+    p->unit = pds__get_f64(b + counts + 48);
+    p->splatted = (long)pds__get_u64(b + counts + 56);
+    p->degenerate = (long)pds__get_u64(b + counts + 64);
+    p->saturated = (long)pds__get_u64(b + counts + 72);
+    p->invalid = (long)pds__get_u64(b + counts + 80);
+    p->eye_vertices = (long)pds__get_u64(b + counts + 88);
     if (p->units_total < 0 || p->units_own < 0 || p->units_done < 0 || p->units_done > p->units_own ||
         p->units_own > p->units_total ||
         (split == PDS__SPLIT_PHOTONS && p->units_own != pds__shard_count_of(p->units_total, shard, shards)) ||
@@ -10245,7 +10297,7 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
         pds_partial_free(p);
         return pds__nomem(err);
     }
-    at = PDS__PARTIAL_HEADER;
+    at = PDS__PARTIAL_HEADER_AT(nopt);
     for (j = 0; j < rows_done; j++) {
         size_t y = (size_t)shard + (size_t)j * (size_t)shards;
         for (k = 0; k < row; k++, at += 8) p->eye[y * row + k] = pds__get_f64(b + at);
@@ -10708,9 +10760,11 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
 
 /* A method's own eye path in place of pds__trace_path (gi, >>gi): the
    same contract, plus counts[0..3], the row's counters of the method's own
-   events (summed in row order, so the totals do not depend on threads). */
+   events (summed in row order, so the totals do not depend on threads),
+   and values: 0 when only the vertex is wanted, not acc (a row of another
+   shard, or one whose value the part already holds, >>partial). */
 typedef int (*pds__path_fn)(const void *ctx, const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx,
-                            double acc[3], pds__eye_vertex *rec, long counts[4]);
+                            double acc[3], pds__eye_vertex *rec, long counts[4], int values);
 
 /* --- the render scheduler ----------------------------------------------- */
 /* Rows (from a list: all of them, or a shard's, >>partial) are handed out
@@ -10753,6 +10807,8 @@ typedef struct pds__render_job {
     pds__path_fn path;     /* NULL: pds__trace_path */
     const void *path_ctx;
     long *row_counts;      /* with path: 4 counters per row */
+    const unsigned char *row_values; /* with path: per row, 0 = its vertices
+                              only (the path's values argument); NULL: all */
 } pds__render_job;
 
 static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
@@ -10774,7 +10830,8 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
             int recorded;
             v.lambda = 0.0f; /* gi's eye paths are RGB (>>spectral) */
             recorded = job->path ? job->path(job->path_ctx, &job->tracer, job->frame.origin, dir, idx, acc,
-                                             job->record_eye ? &v : NULL, &job->row_counts[4 * (size_t)y])
+                                             job->record_eye ? &v : NULL, &job->row_counts[4 * (size_t)y],
+                                             !job->row_values || job->row_values[y])
                                  : pds__trace_path(&job->tracer, job->frame.origin, dir, idx, lambda, acc,
                                                    job->record_eye ? &v : NULL);
             if (recorded) {
@@ -13979,7 +14036,7 @@ static void pds__gi_gather(const pds__gi_map *g, const pds__tracer *tr, const pd
    the light sample and the final gather. An emitter seen through the
    specular chain gives its radiance. */
 static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double acc[3],
-                        pds__eye_vertex *rec, long counts[4])
+                        pds__eye_vertex *rec, long counts[4], int values)
 {
     const pds__gi_map *g = (const pds__gi_map *)ctx;
     const pds_scene *s = tr->scene;
@@ -13997,8 +14054,9 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
         const pds_material *m;
         pds__bsdf_result bs;
         if (lh >= 0 || (found && s->materials.items[s->mesh.mat[th.tri]].type == PDS_MAT_EMISSIVE)) {
-            if (g->record_only) return 0;
-            double dist = lh >= 0 ? tl : th.t;
+            double dist;
+            if (g->record_only || !values) return 0;
+            dist = lh >= 0 ? tl : th.t;
             if (lh < 0) {
                 pds__scene_fill_hit(s, &th, org, dir, &hit);
                 lh = pds__light_of_triangle(&s->light_table, th.tri);
@@ -14017,7 +14075,7 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
         if (!pds__material_is_specular(m)) {
             pds__v3 wo = pds__scale(dir, -1.0);
             int recorded = rec && pds__eye_vertex_set(rec, m, hit.position, hit.ns, hit.ng, wo, beta, hit.material);
-            if (!g->record_only) {
+            if (!g->record_only && values) {
                 int glossy = m->type == PDS_MAT_GLOSSY;
                 pds__gi_direct(g, tr, m, hit.position, wo, hit.ns, hit.ng, beta, idx, glossy ? g->gather : 0, acc,
                                counts);
@@ -15656,11 +15714,6 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
                          "a render with a time budget cannot be split into shards: its photon count is not fixed");
     if (opt->shard_count > 1 && opt->debug && opt->debug->views)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the teaching views are not made for shards");
-    if (opt->shard_count > 1 &&
-        (opt->method == PDS_METHOD_GI || opt->method == PDS_METHOD_SPM || opt->method == PDS_METHOD_ISC))
-        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
-                         "%s cannot be split into shards yet (its options are not in the partial file)",
-                         pds_method_name(opt->method));
 #ifdef PDS_NO_BASELINES
     if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPLAT ||
         opt->method == PDS_METHOD_PPM || opt->method == PDS_METHOD_SPM)
@@ -15788,7 +15841,7 @@ static pds_partial *pds__partial_new(const pds_scene *scene, const pds_options *
         /* only what shapes the image; the rest stays at its default */
         uint64_t v[PDS__PARTIAL_NOPT];
         pds__partial_opt_encode(opt, v);
-        pds__partial_opt_decode(v, &p->opt);
+        pds__partial_opt_decode(v, PDS__PARTIAL_NOPT, &p->opt);
     }
     p->width = width;
     p->height = height;
@@ -15801,6 +15854,9 @@ static pds_partial *pds__partial_new(const pds_scene *scene, const pds_options *
     /* n_planned as the photon pass sets it (a time budget sets its own):
        every part of a render has the same */
     p->n_planned = (double)opt->photons;
+#ifndef PDS_NO_BASELINES
+    if (cm == PDS_METHOD_SPM) p->n_planned = (double)pds__spm_streams(opt); /* spm counts streams */
+#endif
     if (p->split == PDS__SPLIT_PHOTONS) {
         long m;
         if (opt->time_s > 0.0) {
@@ -15848,6 +15904,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *op
     int *rows;
     size_t i, npix, row;
     pds__gi_map gmap;
+    unsigned char *row_values = NULL; /* gi: the rows whose values are wanted */
     pds_options copt;             /* gi: the options its caustic method sees */
     const pds_options *popt = opt; /* the options of the photon pass */
     int gi = 0;
@@ -15897,8 +15954,17 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *op
         job.path = pds__gi_path;
         job.path_ctx = &gmap;
         job.row_counts = (long *)calloc((size_t)h * 4, sizeof *job.row_counts);
-        photons = opt->paths != PDS_PATHS_NO_CAUSTICS;
         job.record_eye = photons;
+        /* The final gather is the costly part of gi's eye pass, and only
+           the part's rows not yet kept need it; the other rows (every row
+           is rendered when the caustic method is pds or splat, whose
+           photons may land anywhere) only record their vertices, which do
+           not depend on it. So a shard, or a resumed render, gathers only
+           for the pixels it keeps, and the kept values are the same bits. */
+        row_values = (unsigned char *)calloc((size_t)h, 1);
+        for (y = 0; row_values && y < h; y++)
+            row_values[y] = y % N == I && (y - I) / N >= part->rows_done;
+        job.row_values = row_values;
     }
     /* Sample indices must not overlap between pixels: reserve room for the
        most passes a time budget could ever take (the photon methods spend
@@ -15928,15 +15994,14 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *op
         job.row_cap = (size_t *)calloc((size_t)h, sizeof *job.row_cap);
     }
     if (!rows || !job.sum || (job.record_eye && (!job.row_vertices || !job.row_count || !job.row_cap)) ||
-        (gi && !job.row_counts)) {
+        (gi && (!job.row_counts || !row_values))) {
         free(rows);
-        free(job.row_counts);
-        pds__gi_map_free(&gmap);
         free(job.sum);
         free(job.row_vertices);
         free(job.row_count);
         free(job.row_cap);
         free(job.row_counts);
+        free(row_values);
         pds__gi_map_free(&gmap);
         return pds__nomem(err);
     }
@@ -15991,6 +16056,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *op
         stats->global_stored = (long)gmap.n;
         stats->shadow_stored = (long)gmap.ns;
         free(job.row_counts);
+        free(row_values);
     }
     if (job.record_eye) {
         size_t nv = 0;
@@ -16069,10 +16135,6 @@ pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_p
         if (opt->time_s > 0.0)
             return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
                              "a render with a time budget cannot be continued: its photon count is not fixed");
-        if (opt->method == PDS_METHOD_GI || opt->method == PDS_METHOD_SPM || opt->method == PDS_METHOD_ISC)
-            return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
-                             "a %s render cannot be continued yet (its options are not in the partial file)",
-                             pds_method_name(opt->method));
         if (opt->debug && opt->debug->views)
             return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
                              "the teaching views are made by a render in one go, not by a continued one");
@@ -16091,22 +16153,34 @@ pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_p
     if (!stats) stats = &local;
     memset(stats, 0, sizeof *stats);
     if (opt->method == PDS_METHOD_ISC) {
-        /* isc renders its image in one go (it is not split or continued:
-           its options are not in the partial file); the part holds it as
-           its eye rows, all done, which a merge gives back bit for bit */
+        /* isc renders its frame in one go: every pixel's value needs the
+           eye buffer and the photons of the whole frame (its gathers look
+           at neighbouring pixels, its quads cover any of them), and the
+           frame cannot stop half way. So a shard renders the whole frame
+           and keeps its rows I, I+N, ... as its eye values (split 0), and
+           a merge takes each row from its shard: the same bits. A part
+           holds all or none of its rows. */
         pds_partial *p = *part;
         pds_image img = {0, 0, NULL};
-        size_t k, n = (size_t)w * (size_t)h * 3;
+        size_t k, row = (size_t)w * 3;
+        long j;
         int threads = opt->threads > 0 ? opt->threads : pds_cpu_count();
-        st = pds__isc_render(scene, opt, w, h, threads, 1, NULL, NULL, &img, stats, err);
-        if (st) return st;
-        for (k = 0; k < n; k++) p->eye[k] = img.rgb[k];
-        pds_image_free(&img);
-        p->rows_done = p->rows_own;
+        if (p->rows_done < p->rows_own) {
+            st = pds__isc_render(scene, opt, w, h, threads, 1, NULL, NULL, &img, stats, err);
+            if (st) return st;
+            for (j = 0; j < p->rows_own; j++) {
+                size_t y = (size_t)p->shard_index + (size_t)j * (size_t)p->shard_count;
+                for (k = 0; k < row; k++) p->eye[y * row + k] = img.rgb[y * row + k];
+            }
+            pds_image_free(&img);
+            p->rows_done = p->rows_own;
+        }
         if (opt->progress) (void)opt->progress(opt->progress_user, PDS_PHASE_PHOTONS, 1.0, pds_time_now() - t0);
         stats->threads = threads;
         stats->width = w;
         stats->height = h;
+        stats->partial = 0;
+        stats->done_fraction = 1.0;
         stats->time_total_s = pds_time_now() - t0;
         return PDS_OK;
     }

@@ -24,12 +24,23 @@ typedef struct shards_case {
     const char *name;
     pds_method method;
     int progressive;
+    pds_method caustics; /* gi */
 } shards_case;
 
 static const shards_case shards_cases[] = {
-    {"pds (progressive)", PDS_METHOD_PDS, 1}, {"pds (paper)", PDS_METHOD_PDS, 0}, {"splat", PDS_METHOD_SPLAT, 0},
-    {"pm", PDS_METHOD_PM, 0},                 {"pdm", PDS_METHOD_PDM, 0},         {"ppm", PDS_METHOD_PPM, 0},
-    {"pt", PDS_METHOD_PT, 0},
+    {"pds (progressive)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS},
+    {"pds (paper)", PDS_METHOD_PDS, 0, PDS_METHOD_PDS},
+    {"splat", PDS_METHOD_SPLAT, 0, PDS_METHOD_PDS},
+    {"pm", PDS_METHOD_PM, 0, PDS_METHOD_PDS},
+    {"pdm", PDS_METHOD_PDM, 0, PDS_METHOD_PDS},
+    {"ppm", PDS_METHOD_PPM, 0, PDS_METHOD_PDS},
+    {"pt", PDS_METHOD_PT, 0, PDS_METHOD_PDS},
+    /* 7: gi with caustics split by photon passes (the gather of every
+       row's eye vertex but the shard's own is skipped); 8: by gathers */
+    {"gi (pds caustics)", PDS_METHOD_GI, 1, PDS_METHOD_PDS},
+    {"gi (pm caustics)", PDS_METHOD_GI, 0, PDS_METHOD_PM},
+    {"spm", PDS_METHOD_SPM, 0, PDS_METHOD_PDS},
+    {"isc", PDS_METHOD_ISC, 0, PDS_METHOD_PDS},
 };
 
 static void shards_options(const shards_case *c, pds_options *opt)
@@ -37,6 +48,11 @@ static void shards_options(const shards_case *c, pds_options *opt)
     pds_options_default(opt);
     opt->method = c->method;
     opt->progressive = c->progressive;
+    opt->caustics = c->caustics;
+    opt->global_photons = 3000; /* gi */
+    opt->gather = 4;
+    opt->stream_photons = 4; /* spm: 1200 streams */
+    opt->light_resolution = 64; /* isc */
     opt->photons = 6000;      /* pds: 6 batches; progressive: 3 passes of 2000 */
     opt->pass_photons = 2048;
     opt->passes = 2;          /* ppm */
@@ -203,7 +219,11 @@ static void test_shards_interrupt_and_resume_equal_the_uninterrupted_render(pds_
         int threads;
     } runs[] = {/* one thread: only the calling thread reports, so the call
                    counts are exact: 16 eye rows, then batches or passes */
-                {6, 5, 1}, {0, 3, 1}, {0, 17, 1}, {1, 18, 1}, {3, 18, 1}, {5, 3, 1}};
+                {6, 5, 1}, {0, 3, 1}, {0, 17, 1}, {1, 18, 1}, {3, 18, 1}, {5, 3, 1},
+                /* gi in its eye pass and after its first photon pass (pds
+                   caustics), and in its photon pass (pm caustics: its
+                   photons start over); spm in its eye pass and photons */
+                {7, 3, 1}, {7, 17, 1}, {8, 18, 1}, {9, 3, 1}, {9, 18, 1}};
     pds_error err;
     pds_scene *s = shards_load(shards_scene, &err);
     char path[128];
@@ -418,6 +438,16 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     snprintf(path, sizeof path, "/tmp/pds_test_part_%ld.pdsp", (long)getpid());
     snprintf(bad, sizeof bad, "%s.bad", path);
     shards_options(&shards_cases[0], &opt);
+    {
+        /* gi's, spm's and isc's options at their defaults, as every
+           render stored in format version 2 had them */
+        pds_options d;
+        pds_options_default(&d);
+        opt.global_photons = d.global_photons;
+        opt.gather = d.gather;
+        opt.stream_photons = d.stream_photons;
+        opt.light_resolution = d.light_resolution;
+    }
     opt.shard_index = 1;
     opt.shard_count = 2;
     REQUIRE(t, pds_render_part(s, &opt, &p, NULL, &err) == PDS_OK, "render: %s", err.text);
@@ -436,19 +466,38 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     pds_partial_free(back);
     back = NULL;
     bytes = shards_slurp(path, &n);
-    REQUIRE(t, bytes != NULL && n > 920, "slurp");
-    /* 920 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
-    CHECK(t, n == 920 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
-    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 2 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
-                 bytes[548] == 24 && bytes[552] == 16 && bytes[556] == 1 && bytes[560] == 2 && bytes[564] == 1,
-          "layout");
+    REQUIRE(t, bytes != NULL && n > 1024, "slurp");
+    /* 1024 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
+    CHECK(t, n == 1024 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
+    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 3 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
+                 bytes[548] == 24 && bytes[552] == 16 && bytes[556] == 1 && bytes[560] == 2 && bytes[564] == 1 &&
+                 bytes[568 + 8 * 41] == 4 && bytes[920 + 8] == 3,
+          "layout"); /* option 41 (history, default 4) and units total (3 passes) at their offsets */
     copy = (unsigned char *)malloc(n);
     REQUIRE(t, copy != NULL, "malloc");
+    /* format version 2 is read: the same part without options 31-43 (its
+       options at their defaults, as every version-2 render had them) */
+    memcpy(copy, bytes, 816);
+    memcpy(copy + 816, bytes + 920, n - 920);
+    copy[8] = 2;
+    pds__put_u64(copy + n - 104 - 8, pds__fnv1a64(copy, n - 104 - 8));
+    shards_spit(bad, copy, n - 104);
+    CHECK(t, pds_partial_read(bad, &back, &err) == PDS_OK, "version 2: %s", err.text);
+    if (back) {
+        pds_image_free(&ib);
+        pds_partial_get_info(back, &b);
+        CHECK(t, b.units_done == a.units_done && b.complete && shards_merge(&back, 1, 1, &ib, NULL, &err) == PDS_OK &&
+                     shards_same(&ia, &ib),
+              "version 2: another part or image read back");
+        CHECK(t, pds__partial_same_options(&p->opt, &back->opt), "version 2: other options read back");
+        pds_partial_free(back);
+        back = NULL;
+    }
     memcpy(copy, bytes, n);
     copy[8] = 1;
     shards_spit(bad, copy, n);
     CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE &&
-                 strstr(err.text, ": partial file format version 1; this pds reads version 2"),
+                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 and 3"),
           "format version: %s", err.text);
     memcpy(copy, bytes, n);
     memcpy(copy + 12, "9.9.9", 5);
@@ -483,6 +532,133 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     pds_image_free(&ia);
     pds_image_free(&ib);
     pds_scene_free(s);
+}
+
+/* Every field of pds_options, and whether the partial file keeps it:
+   1 = it may change the image, so it is stored (and parts that differ in
+   it are not one render); 0 = it cannot change the image (threads and
+   the order of work, callbacks, a memory guard, the shard, which the
+   header holds). */
+typedef struct shards_field {
+    const char *name;
+    size_t offset, size;
+    int stored;
+} shards_field;
+
+#define SHARDS_FIELD(f, stored) {#f, offsetof(pds_options, f), sizeof(((pds_options *)0)->f), stored}
+static const shards_field shards_fields[] = {
+    SHARDS_FIELD(method, 1),         SHARDS_FIELD(paths, 1),           SHARDS_FIELD(width, 1),
+    SHARDS_FIELD(height, 1),         SHARDS_FIELD(spp, 1),             SHARDS_FIELD(threads, 0),
+    SHARDS_FIELD(seed, 1),           SHARDS_FIELD(max_depth, 1),       SHARDS_FIELD(rr_depth, 1),
+    SHARDS_FIELD(time_s, 1),         SHARDS_FIELD(progress, 0),        SHARDS_FIELD(progress_user, 0),
+    SHARDS_FIELD(photons, 1),        SHARDS_FIELD(smoothing, 1),       SHARDS_FIELD(plane_tolerance, 1),
+    SHARDS_FIELD(min_aspect, 1),     SHARDS_FIELD(progressive, 1),     SHARDS_FIELD(pass_photons, 1),
+    SHARDS_FIELD(pass_alpha, 1),     SHARDS_FIELD(pass_smoothing, 1),  SHARDS_FIELD(pass_min_aspect, 1),
+    SHARDS_FIELD(pass_min_width, 1), SHARDS_FIELD(min_width, 1),       SHARDS_FIELD(photon_depth, 1),
+    SHARDS_FIELD(split_depth, 1),    SHARDS_FIELD(split_angle, 1),     SHARDS_FIELD(k, 1),
+    SHARDS_FIELD(kernel, 1),         SHARDS_FIELD(max_radius, 1),      SHARDS_FIELD(radius, 1),
+    SHARDS_FIELD(alpha, 1),          SHARDS_FIELD(passes, 1),          SHARDS_FIELD(max_photons, 1),
+    SHARDS_FIELD(streams, 1),        SHARDS_FIELD(stream_photons, 1),  SHARDS_FIELD(debug, 0),
+    SHARDS_FIELD(spectral, 1),       SHARDS_FIELD(caustics, 1),        SHARDS_FIELD(global_photons, 1),
+    SHARDS_FIELD(global_k, 1),       SHARDS_FIELD(gather, 1),          SHARDS_FIELD(gather_mix, 1),
+    SHARDS_FIELD(shadow_photons, 1), SHARDS_FIELD(isc_gather, 1),      SHARDS_FIELD(light_resolution, 1),
+    SHARDS_FIELD(history, 1),        SHARDS_FIELD(orbit, 1),           SHARDS_FIELD(orbit_deg, 1),
+    SHARDS_FIELD(memory_limit, 0),   SHARDS_FIELD(shard_index, 0),     SHARDS_FIELD(shard_count, 0),
+};
+
+/* The names of pds_options's fields as pds.h declares them: comments
+   taken out, then the last identifier of every declarator between the
+   struct's braces ("int width, height;" gives width and height). n names
+   at most; returns how many, or -1 if pds.h cannot be read. */
+static int shards_header_fields(char names[][40], int n)
+{
+    size_t len = 0, i, o = 0;
+    unsigned char *h = shards_slurp("pds.h", &len);
+    char *text, *body, *end, *decl;
+    int count = 0;
+    if (!h) return -1;
+    text = (char *)malloc(len + 1);
+    for (i = 0; text && i < len; i++) {
+        if (h[i] == '/' && i + 1 < len && h[i + 1] == '*') {
+            for (i += 2; i + 1 < len && !(h[i] == '*' && h[i + 1] == '/'); i++) {}
+            i++;
+            text[o++] = ' ';
+        } else {
+            text[o++] = (char)h[i];
+        }
+    }
+    free(h);
+    if (!text) return -1;
+    text[o] = '\0';
+    body = strstr(text, "typedef struct pds_options {");
+    end = body ? strstr(body, "} pds_options;") : NULL;
+    if (!body || !end) {
+        free(text);
+        return -1;
+    }
+    *end = '\0';
+    body = strchr(body, '{') + 1;
+    for (decl = strtok(body, ";"); decl; decl = strtok(NULL, ";")) {
+        char *part = decl, *comma;
+        do {
+            char *e;
+            comma = strchr(part, ',');
+            e = comma ? comma : part + strlen(part);
+            while (e > part && !(isalnum((unsigned char)e[-1]) || e[-1] == '_')) e--;
+            {
+                char *b = e;
+                while (b > part && (isalnum((unsigned char)b[-1]) || b[-1] == '_')) b--;
+                if (e > b && count < n) {
+                    snprintf(names[count], 40, "%.*s", (int)(e - b), b);
+                    count++;
+                }
+            }
+            part = comma ? comma + 1 : NULL;
+        } while (part);
+    }
+    free(text);
+    return count;
+}
+
+/* The partial file keeps every option that may change the image: each
+   field pds.h declares in pds_options is in the table above (a new field
+   fails here until it is placed), a stored field changes the stored
+   options when it changes (and reads back), a field listed as not
+   shaping the image does not. */
+static void test_shards_partial_file_keeps_every_option_that_shapes_the_image(pds_test_ctx *t)
+{
+    char names[128][40];
+    int n = shards_header_fields(names, 128), i;
+    size_t f, nf = sizeof shards_fields / sizeof shards_fields[0];
+    pds_options base;
+    uint64_t v0[PDS__PARTIAL_NOPT];
+    REQUIRE(t, n > 40, "pds.h: found %d fields of pds_options", n);
+    CHECK(t, (size_t)n == nf, "pds.h declares %d fields of pds_options, the table lists %lu", n, (unsigned long)nf);
+    for (i = 0; i < n; i++) {
+        int listed = 0;
+        for (f = 0; f < nf; f++) listed |= !strcmp(names[i], shards_fields[f].name);
+        CHECK(t, listed, "pds_options.%s is neither stored in the partial file nor listed as not shaping the image",
+              names[i]);
+    }
+    pds_options_default(&base);
+    pds__partial_opt_encode(&base, v0);
+    for (f = 0; f < nf; f++) {
+        const shards_field *fd = &shards_fields[f];
+        pds_options o = base, back;
+        uint64_t v[PDS__PARTIAL_NOPT];
+        unsigned char *bytes = (unsigned char *)&o + fd->offset;
+        if (fd->size == sizeof(void *) && (!strcmp(fd->name, "progress") || !strcmp(fd->name, "progress_user") ||
+                                           !strcmp(fd->name, "debug")))
+            continue; /* pointers: not values to flip */
+        bytes[0] ^= 1; /* another value of any integer, enum or binary64 */
+        pds__partial_opt_encode(&o, v);
+        CHECK(t, (memcmp(v, v0, sizeof v) != 0) == fd->stored, "pds_options.%s: %s", fd->name,
+              fd->stored ? "a change is not stored" : "listed as not shaping the image, but stored");
+        pds__partial_opt_decode(v, PDS__PARTIAL_NOPT, &back);
+        if (fd->stored)
+            CHECK(t, !memcmp((unsigned char *)&back + fd->offset, bytes, fd->size), "pds_options.%s does not read back",
+                  fd->name);
+    }
 }
 
 /* The teaching views are made by a render in one go: a shard or a
@@ -778,5 +954,7 @@ static const pds_test_case tests_shards[] = {
     {"shards_merge_refuses_foreign_duplicate_and_missing_parts",
      test_shards_merge_refuses_foreign_duplicate_and_missing_parts},
     {"shards_partial_file_round_trips_and_is_versioned", test_shards_partial_file_round_trips_and_is_versioned},
+    {"shards_partial_file_keeps_every_option_that_shapes_the_image",
+     test_shards_partial_file_keeps_every_option_that_shapes_the_image},
     {"shards_refuse_teaching_views", test_shards_refuse_teaching_views},
 };
