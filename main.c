@@ -1748,6 +1748,11 @@ static int cmd_render(int argc, char **argv)
         return usage_error("%s", "a render with --time cannot be split, continued or checkpointed: its photon count "
                            "is not fixed (give --photons)");
     }
+    if (c.frames > 0 && (part_only || checkpoint_s > 0.0)) {
+        pds_partial_free(part);
+        return usage_error("%s", "--frames writes an animation frame by frame: it is not split into shards or "
+                           "checkpointed (a shard or checkpoint is of one image)");
+    }
     if (c.debug.views && (part_only || resume || checkpoint_s > 0.0)) {
         pds_partial_free(part);
         return usage_error("%s", "--debug views are made by a render in one go (no partial files or checkpoints)");

@@ -9531,14 +9531,20 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
      - S+ and S- of a merge are the integer sums of the parts', which do not
        depend on how the photons were split;
      - emitted is the sum of the parts' (photon-split methods) or, where
-       every shard traces all photons (pm, pdm, ppm), the same in each.
+       every shard traces all photons (pm, pdm, ppm, spm), the same in each.
 
    Work units (the split of shard I of N, pds.h):
-     split 0, rows:    eye rows I, I+N, ... (pt, preview, no caustics)
+     split 0, rows:    eye rows I, I+N, ... (pt, preview, no caustics;
+                       isc, whose shards each render the whole frame and
+                       keep these rows of it)
      split 1, photons: batches of PDS__PHOTON_BATCH photons, or progressive
                        PDS's passes, I, I+N, ...; the eye rows as split 0
      split 2, gather:  one unit per shard: all photons, gathered at the
-                       eye vertices of rows I, I+N, ... (pm, pdm, ppm)
+                       eye vertices of rows I, I+N, ... (pm, pdm, ppm, spm)
+   gi splits as its caustic method (split 0 without caustics); every gi
+   shard builds the whole global map, and only the rows it keeps get the
+   final gather (>>api, pds__render_into). spm's photon count is its
+   streams'.
    Within a shard the done units are always its first ones (work is
    handed out in order, and a stop lets what was handed out finish), so a
    count says which. */

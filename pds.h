@@ -687,12 +687,19 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt,
      pds, splat: photon batches (progressive pds: passes) I, I + N, ...;
        every shard runs the whole eye pass (the eye-path map needs all
        vertices) and keeps the eye image of rows I, I + N, ...
-     pm, pdm, ppm: an estimate needs every photon, so every shard traces
-       all photons and gathers at the eye vertices of rows I, I + N, ...
-       only (the photon part is one unit: done or not).
-   A render with a time budget (time_s > 0) cannot be split or continued;
-   nor, for now, can gi, spm or isc (their own options are not in the
-   partial file; isc's part holds its whole image as eye rows). A spectral
+     pm, pdm, ppm, spm: an estimate needs every photon, so every shard
+       traces all photons and gathers at the eye vertices of rows I, I + N,
+       ... only (the photon part is one unit: done or not).
+     gi: its caustics are split as its caustic method's (above); every
+       shard builds the whole global and shadow maps (each estimate needs
+       all of them) and runs the final gather only for the eye samples of
+       the rows it keeps (with pds or splat caustics the other rows' eye
+       vertices are recorded without it).
+     isc: rows I, I + N, ... of the frame, all or none: its gathers need
+       the whole frame, so every shard renders the whole frame in one go
+       and keeps its rows.
+   A render with a time budget (time_s > 0) cannot be split or continued.
+   A spectral
    render's photon part is two exact sums, of the positive and of the
    negative splats, and is split, continued and merged like an RGB one.
 

@@ -76,7 +76,10 @@ static pds_status shards_merge(pds_partial **parts, int n, int subset, pds_image
 
 /* Every method: three shards (on 1, 2 and 1 threads), merged in any
    order, equal the single run bit for bit; and the single run's image is
-   not black (the test would hold trivially for an empty image). */
+   not black (the test would hold trivially for an empty image). gi's
+   shards make between them the single run's final-gather rays: each eye
+   sample is gathered by one shard only, though every shard records the
+   eye vertices of all rows for pds caustics. */
 static void test_shards_merge_equals_the_single_run_bit_for_bit(pds_test_ctx *t)
 {
     pds_error err;
@@ -88,11 +91,13 @@ static void test_shards_merge_equals_the_single_run_bit_for_bit(pds_test_ctx *t)
         pds_options opt;
         pds_image full = {0, 0, NULL}, merged = {0, 0, NULL};
         pds_partial *parts[3] = {NULL, NULL, NULL}, *shuffled[3];
+        pds_render_stats fst;
         double fraction = 0.0, caustic = 0.0;
+        long gather_rays = 0;
         int i;
         size_t p;
         shards_options(c, &opt);
-        REQUIRE(t, pds_render(s, &opt, &full, NULL, &err) == PDS_OK, "%s: render: %s", c->name, err.text);
+        REQUIRE(t, pds_render(s, &opt, &full, &fst, &err) == PDS_OK, "%s: render: %s", c->name, err.text);
         for (p = 0; p < 3 * (size_t)full.width * full.height; p++) caustic += full.rgb[p];
         CHECK(t, caustic > 0.0, "%s: a black image", c->name);
         for (i = 0; i < 3; i++) {
@@ -103,7 +108,11 @@ static void test_shards_merge_equals_the_single_run_bit_for_bit(pds_test_ctx *t)
             CHECK(t, pds_render_part(s, &opt, &parts[i], &st, &err) == PDS_OK, "%s: shard %d: %s", c->name, i,
                   err.text);
             CHECK(t, st.partial == 0 && st.done_fraction == 1.0, "%s: shard %d is not whole", c->name, i);
+            gather_rays += st.gather_rays;
         }
+        if (c->method == PDS_METHOD_GI)
+            CHECK(t, fst.gather_rays > 0 && gather_rays == fst.gather_rays, "%s: %ld gather rays in the shards, %ld in one",
+                  c->name, gather_rays, fst.gather_rays);
         shuffled[0] = parts[2];
         shuffled[1] = parts[0];
         shuffled[2] = parts[1];
@@ -865,6 +874,69 @@ static void test_shards_cli_checkpoints_leave_the_image_unchanged(pds_test_ctx *
     remove(out);
 }
 
+/* gi, spm and isc through the pds tool: two shards merged are the render
+   in one go, byte for byte; gi with pds caustics checkpoints between its
+   photon passes and ends with the same image; an animation (--frames) is
+   not split or checkpointed. */
+static void test_shards_cli_gi_spm_isc_shards_merge_and_checkpoint(pds_test_ctx *t)
+{
+    static const char *const methods[] = {
+        "--method gi --global-photons 2000 --gather 2 --photons 6000 --pass-photons 2048",
+        "--method spm --photons 6000 --stream-photons 4", "--method isc --light-res 48"};
+    char dir[128], args[1200], text[4096], p1[200], p2[200], out[200], whole_path[200];
+    pds_image whole = {0, 0, NULL}, got = {0, 0, NULL};
+    pds_error err;
+    size_t m;
+    int i;
+    const char *note;
+    snprintf(dir, sizeof dir, "/tmp/pds_test_gsi_%ld", (long)getpid());
+    mkdir(dir, 0777);
+    snprintf(p1, sizeof p1, "%s/1.pdsp", dir);
+    snprintf(p2, sizeof p2, "%s/2.pdsp", dir);
+    snprintf(out, sizeof out, "%s/merged.pfm", dir);
+    snprintf(whole_path, sizeof whole_path, "%s/whole.pfm", dir);
+    for (m = 0; m < sizeof methods / sizeof methods[0]; m++) {
+        snprintf(args, sizeof args, "render scenes/ring_octahedron.scene %s --res 24x16 --spp 1 --quiet -o %s",
+                 methods[m], whole_path);
+        CHECK(t, cli_run(args, text, sizeof text) == 0, "%s: %s", methods[m], text);
+        for (i = 1; i <= 2; i++) {
+            snprintf(args, sizeof args, "render scenes/ring_octahedron.scene %s --res 24x16 --spp 1 --quiet "
+                     "--shard %d/2 -o %s", methods[m], i, i == 1 ? p1 : p2);
+            CHECK(t, cli_run(args, text, sizeof text) == 0, "%s shard %d: %s", methods[m], i, text);
+        }
+        snprintf(args, sizeof args, "merge -o %s %s %s", out, p2, p1);
+        CHECK(t, cli_run(args, text, sizeof text) == 0, "%s: merge: %s", methods[m], text);
+        CHECK(t, pds_image_read_pfm(whole_path, &whole, &err) == PDS_OK && pds_image_read_pfm(out, &got, &err) == PDS_OK &&
+                     shards_same(&got, &whole),
+              "%s: the merged image differs from the render in one go", methods[m]);
+        pds_image_free(&whole);
+        pds_image_free(&got);
+    }
+    /* gi with pds caustics: 3 photon passes, a checkpoint after each but the last */
+    snprintf(args, sizeof args, "render scenes/ring_octahedron.scene %s --res 24x16 --spp 1 --threads 1 "
+             "--checkpoint 0.000001 -o %s", methods[0], out);
+    CHECK(t, cli_run(args, text, sizeof text) == 0, "gi checkpoints: %s", text);
+    note = strstr(text, "pds render: ");
+    CHECK(t, note && atoi(note + 12) == 2 && strstr(note, " checkpoints written to "), "gi: no checkpoints: %s", text);
+    snprintf(args, sizeof args, "render scenes/ring_octahedron.scene %s --res 24x16 --spp 1 --quiet -o %s", methods[0],
+             whole_path);
+    CHECK(t, cli_run(args, text, sizeof text) == 0, "gi: %s", text);
+    CHECK(t, pds_image_read_pfm(whole_path, &whole, &err) == PDS_OK && pds_image_read_pfm(out, &got, &err) == PDS_OK &&
+                 shards_same(&got, &whole),
+          "gi: the checkpointed render differs from the render in one go");
+    CHECK(t, cli_run("render scenes/ring_octahedron.scene --method isc --frames 2 --shard 1/2 -o x.pdsp", text,
+                     sizeof text) == 2 &&
+                 strstr(text, "--frames writes an animation frame by frame: it is not split into shards or checkpointed"),
+          "frames: %s", text);
+    pds_image_free(&whole);
+    pds_image_free(&got);
+    remove(p1);
+    remove(p2);
+    remove(out);
+    remove(whole_path);
+    rmdir(dir);
+}
+
 /* The row of race.csv that begins with "method,label,". */
 static const char *shards_csv_row(const char *csv, const char *start, char *row, size_t n)
 {
@@ -945,6 +1017,7 @@ static const pds_test_case tests_shards[] = {
     {"shards_cli_checkpoints_leave_the_image_unchanged", test_shards_cli_checkpoints_leave_the_image_unchanged},
     {"shards_cli_sigint_then_resume_equals_the_whole_render", test_shards_cli_sigint_then_resume_equals_the_whole_render},
     {"shards_cli_shards_and_merge", test_shards_cli_shards_and_merge},
+    {"shards_cli_gi_spm_isc_shards_merge_and_checkpoint", test_shards_cli_gi_spm_isc_shards_merge_and_checkpoint},
 #endif
     {"shards_merge_equals_the_single_run_bit_for_bit", test_shards_merge_equals_the_single_run_bit_for_bit},
     {"shards_spectral_merge_equals_the_single_run", test_shards_spectral_merge_equals_the_single_run},
