@@ -2800,9 +2800,12 @@ static void entry_key(const pds_options *o, const char *budget, char *out, size_
 {
     char params[256];
     format_params(o, params, sizeof params);
+    /* the readable part, then a hash of every option that may change the
+       image (gi's global map, spm's streams, isc's light buffer, ...) */
     snprintf(out, n, "method=%s budget=%s seed=%llu res=%dx%d spp=%d photons=%ld passes=%d paths=%d depth=%d,%d "
-             "time=%.17g%s", method_name(o->method), budget, o->seed, o->width, o->height, o->spp, o->photons,
-             o->passes, (int)o->paths, o->max_depth, o->photon_depth, o->time_s, params);
+             "time=%.17g%s options=%016llx", method_name(o->method), budget, o->seed, o->width, o->height, o->spp,
+             o->photons, o->passes, (int)o->paths, o->max_depth, o->photon_depth, o->time_s, params,
+             pds_options_hash(o));
 }
 
 static int render_and_compare(const pds_scene *scene, const run_cfg *c, const pds_image *ref, pds_image *img,

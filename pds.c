@@ -9781,6 +9781,17 @@ static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nop
     o->split_angle = d[12];
 }
 
+unsigned long long pds_options_hash(const pds_options *opt)
+{
+    pds__hasher hs = {0x50445353484f5054ull}; /* "PDSSHOPT" */
+    uint64_t v[PDS__PARTIAL_NOPT];
+    int i;
+    if (!opt) return 0;
+    pds__partial_opt_encode(opt, v);
+    for (i = 0; i < PDS__PARTIAL_NOPT; i++) pds__hash_u64(&hs, v[i]);
+    return hs.h;
+}
+
 static int pds__partial_same_options(const pds_options *a, const pds_options *b)
 {
     uint64_t va[PDS__PARTIAL_NOPT], vb[PDS__PARTIAL_NOPT];

@@ -747,6 +747,11 @@ void pds_partial_options(const pds_partial *part, pds_options *opt);
 void pds_partial_free(pds_partial *part);
 /* The content hash pds_partial_info reports, of a loaded scene. */
 unsigned long long pds_scene_hash(const pds_scene *scene);
+/* A hash of the options that may change the image: those a partial file
+   keeps (every field but threads, progress, progress_user, debug,
+   memory_limit and the shard). Equal options give equal hashes; a tool
+   that keeps finished renders uses it to know them again. */
+unsigned long long pds_options_hash(const pds_options *opt);
 
 /* Called with each frame of pds_render_frames, in order; image belongs to
    the library (copy what you keep); err is never NULL. A status other than

@@ -1008,11 +1008,53 @@ static void test_shards_sweep_resume_keeps_finished_entries(pds_test_ctx *t)
     harness_rmtree(dir);
 }
 
+/* sweep --resume with gi and spm: a kept entry is taken again only if
+   every option that shapes its image is the same, gi's global map and
+   final gather and spm's stream count included (they were not in the
+   entries' key before the partial file's options were). */
+static void test_shards_sweep_resume_knows_gi_and_spm_entries_by_all_their_options(pds_test_ctx *t)
+{
+    static const struct {
+        const char *method, *param, *other;
+    } runs[] = {{"--method gi --global-photons 1000 --gather 2 --caustics pm", "k", "--global-photons 1500"},
+                {"--method spm --streams 300", "k", "--streams 400"}};
+    char out[16384], args[1024], ref[256], dir[256], path[512], lines[4][512];
+    size_t r;
+    harness_path(ref, sizeof ref, "gsref.pfm");
+    harness_path(dir, sizeof dir, "sweep-gi-spm");
+    snprintf(args, sizeof args, "render tests/golden/glass.scene --method pt --res 24x16 --spp 2 --quiet -o %s", ref);
+    REQUIRE(t, cli_run(args, out, sizeof out) == 0, "reference: %s", out);
+    for (r = 0; r < sizeof runs / sizeof runs[0]; r++) {
+        harness_rmtree(dir);
+        snprintf(args, sizeof args, "sweep tests/golden/glass.scene %s --param %s --values 10,20 --ref %s --res 24x16 "
+                 "--spp 1 --photons 2000 --quiet -o %s", runs[r].method, runs[r].param, ref, dir);
+        REQUIRE(t, cli_run(args, out, sizeof out) == 0, "%s: sweep: %s", runs[r].method, out);
+        snprintf(path, sizeof path, "%s/entries/%s-20.txt", dir, runs[r].param);
+        CHECK(t, cli_file_exists(path), "%s: no %s", runs[r].method, path);
+        remove(path); /* as if the sweep had stopped while rendering the second value */
+        snprintf(args + strlen(args), sizeof args - strlen(args), " --resume");
+        REQUIRE(t, cli_run(args, out, sizeof out) == 0, "%s: sweep --resume: %s", runs[r].method, out);
+        REQUIRE(t, harness_lines(out, "sweep method=", lines, 4) == 2, "%s", out);
+        CHECK(t, strstr(lines[0], " resumed=1") && !strstr(lines[1], "resumed="), "%s: not resumed: %s / %s",
+              runs[r].method, lines[0], lines[1]);
+        /* one option of the method's own changed: nothing is taken */
+        snprintf(args + strlen(args), sizeof args - strlen(args), " %s", runs[r].other);
+        REQUIRE(t, cli_run(args, out, sizeof out) == 0, "%s %s: %s", runs[r].method, runs[r].other, out);
+        REQUIRE(t, harness_lines(out, "sweep method=", lines, 4) == 2, "%s", out);
+        CHECK(t, !strstr(lines[0], "resumed=") && !strstr(lines[1], "resumed="),
+              "%s: an entry of %s was taken: %s / %s", runs[r].method, runs[r].other, lines[0], lines[1]);
+    }
+    harness_rmtree(dir);
+    remove(ref);
+}
+
 #endif /* PDS_TEST_POSIX */
 
 static const pds_test_case tests_shards[] = {
 #ifdef PDS_TEST_POSIX
     {"shards_sweep_resume_keeps_finished_entries", test_shards_sweep_resume_keeps_finished_entries},
+    {"shards_sweep_resume_knows_gi_and_spm_entries_by_all_their_options",
+     test_shards_sweep_resume_knows_gi_and_spm_entries_by_all_their_options},
     {"shards_race_resume_keeps_finished_entries", test_shards_race_resume_keeps_finished_entries},
     {"shards_cli_checkpoints_leave_the_image_unchanged", test_shards_cli_checkpoints_leave_the_image_unchanged},
     {"shards_cli_sigint_then_resume_equals_the_whole_render", test_shards_cli_sigint_then_resume_equals_the_whole_render},
