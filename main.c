@@ -156,7 +156,8 @@ static const command_help help_table[] = {
      "      --quiet                 no progress, no scene warnings\n"
      "      --shard I/N             render only the I-th of N disjoint parts (1 <= I <= N) into\n"
      "                              -o PART.pdsp; pds merge makes the image, the single run's bit for bit\n"
-     "      --checkpoint SECONDS    write OUT.pdsp and OUT every SECONDS (pt, pds, splat)\n"
+     "      --checkpoint SECONDS    write OUT.pdsp and OUT every SECONDS (pt, pds, splat, gi with pds or\n"
+     "                              splat caustics or none; other methods only at the end)\n"
      "      --resume PART.pdsp      continue a stopped render or shard (scene, options and output from\n"
      "                              the file; -o, --threads, --exposure, --progress, --quiet may be given)\n"
      "      The first Ctrl-C (SIGINT) or SIGTERM stops after the batch under way and writes OUT and\n"
@@ -1798,8 +1799,9 @@ static int cmd_render(int argc, char **argv)
                                                              : -1;
     }
     if (checkpoint_s > 0.0 && progress.checkpoint_phase < 0)
-        fprintf(stderr, "pds render: note: --checkpoint: %s keeps no state between photons; it writes the partial "
-                "file only at the end\n", method_name(c.opt.method));
+        fprintf(stderr, "pds render: note: --checkpoint: %s %s; it writes the partial file only at the end\n",
+                method_name(c.opt.method),
+                c.opt.method == PDS_METHOD_ISC ? "renders its frame in one go" : "keeps no state between photons");
     progress.t_checkpoint = pds_time_now();
     if (c.frames > 0) {
         /* an animation: numbered frames, written as they come */
