@@ -1008,16 +1008,18 @@ static void test_shards_sweep_resume_keeps_finished_entries(pds_test_ctx *t)
     harness_rmtree(dir);
 }
 
-/* sweep --resume with gi and spm: a kept entry is taken again only if
-   every option that shapes its image is the same, gi's global map and
-   final gather and spm's stream count included (they were not in the
-   entries' key before the partial file's options were). */
+/* sweep --resume with gi, spm and isc: a kept entry is taken again only
+   if every option that shapes its image is the same, gi's global map,
+   spm's stream count and isc's light buffer included (they were not in
+   the entries' key before the partial file's options were). */
 static void test_shards_sweep_resume_knows_gi_and_spm_entries_by_all_their_options(pds_test_ctx *t)
 {
     static const struct {
-        const char *method, *param, *other;
-    } runs[] = {{"--method gi --global-photons 1000 --gather 2 --caustics pm", "k", "--global-photons 1500"},
-                {"--method spm --streams 300", "k", "--streams 400"}};
+        const char *scene, *method, *param, *other;
+    } runs[] = {{"tests/golden/glass.scene", "--method gi --global-photons 1000 --gather 2 --caustics pm --photons 2000", "k",
+                 "--global-photons 1500"},
+                {"tests/golden/glass.scene", "--method spm --streams 300 --photons 2000", "k", "--streams 400"},
+                {"scenes/ring_octahedron.scene", "--method isc", "photons", "--light-res 24"}};
     char out[16384], args[1024], ref[256], dir[256], path[512], lines[4][512];
     size_t r;
     harness_path(ref, sizeof ref, "gsref.pfm");
@@ -1026,8 +1028,7 @@ static void test_shards_sweep_resume_knows_gi_and_spm_entries_by_all_their_optio
     REQUIRE(t, cli_run(args, out, sizeof out) == 0, "reference: %s", out);
     for (r = 0; r < sizeof runs / sizeof runs[0]; r++) {
         harness_rmtree(dir);
-        snprintf(args, sizeof args, "sweep tests/golden/glass.scene %s --param %s --values 10,20 --ref %s --res 24x16 "
-                 "--spp 1 --photons 2000 --quiet -o %s", runs[r].method, runs[r].param, ref, dir);
+        snprintf(args, sizeof args, "sweep %s %s --param %s --values 10,20 --ref %s --res 24x16 --spp 1 --quiet -o %s", runs[r].scene, runs[r].method, runs[r].param, ref, dir);
         REQUIRE(t, cli_run(args, out, sizeof out) == 0, "%s: sweep: %s", runs[r].method, out);
         snprintf(path, sizeof path, "%s/entries/%s-20.txt", dir, runs[r].param);
         CHECK(t, cli_file_exists(path), "%s: no %s", runs[r].method, path);
