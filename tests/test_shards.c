@@ -1012,7 +1012,7 @@ static void test_shards_sweep_resume_keeps_finished_entries(pds_test_ctx *t)
    if every option that shapes its image is the same, gi's global map,
    spm's stream count and isc's light buffer included (they were not in
    the entries' key before the partial file's options were). */
-static void test_shards_sweep_resume_knows_gi_and_spm_entries_by_all_their_options(pds_test_ctx *t)
+static void test_shards_sweep_resume_knows_gi_spm_and_isc_entries_by_all_their_options(pds_test_ctx *t)
 {
     static const struct {
         const char *scene, *method, *param, *other;
@@ -1054,8 +1054,8 @@ static void test_shards_sweep_resume_knows_gi_and_spm_entries_by_all_their_optio
 static const pds_test_case tests_shards[] = {
 #ifdef PDS_TEST_POSIX
     {"shards_sweep_resume_keeps_finished_entries", test_shards_sweep_resume_keeps_finished_entries},
-    {"shards_sweep_resume_knows_gi_and_spm_entries_by_all_their_options",
-     test_shards_sweep_resume_knows_gi_and_spm_entries_by_all_their_options},
+    {"shards_sweep_resume_knows_gi_spm_and_isc_entries_by_all_their_options",
+     test_shards_sweep_resume_knows_gi_spm_and_isc_entries_by_all_their_options},
     {"shards_race_resume_keeps_finished_entries", test_shards_race_resume_keeps_finished_entries},
     {"shards_cli_checkpoints_leave_the_image_unchanged", test_shards_cli_checkpoints_leave_the_image_unchanged},
     {"shards_cli_sigint_then_resume_equals_the_whole_render", test_shards_cli_sigint_then_resume_equals_the_whole_render},
