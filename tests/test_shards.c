@@ -282,6 +282,31 @@ static void test_shards_interrupt_and_resume_equal_the_uninterrupted_render(pds_
     pds_scene_free(s);
 }
 
+/* isc renders its frame in one go: a stop asked for by the callback lets
+   the frame finish, and the part is whole (its image the render's). */
+static void test_shards_isc_stop_finishes_the_frame(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = shards_load(shards_scene, &err);
+    pds_options opt;
+    pds_image full = {0, 0, NULL}, stopped = {0, 0, NULL};
+    pds_render_stats st;
+    shards_stopper stopper;
+    REQUIRE(t, s != NULL, "load: %s", err.text);
+    shards_options(&shards_cases[10], &opt);
+    REQUIRE(t, pds_render(s, &opt, &full, NULL, &err) == PDS_OK, "render: %s", err.text);
+    memset(&stopper, 0, sizeof stopper);
+    stopper.stop_at = 1;
+    opt.progress = shards_stop;
+    opt.progress_user = &stopper;
+    CHECK(t, pds_render(s, &opt, &stopped, &st, &err) == PDS_OK, "stopped: %s", err.text);
+    CHECK(t, stopper.calls >= 1 && st.partial == 0 && st.done_fraction == 1.0 && shards_same(&stopped, &full),
+          "calls %d, partial %d, done %g: not the whole frame", stopper.calls, st.partial, st.done_fraction);
+    pds_image_free(&full);
+    pds_image_free(&stopped);
+    pds_scene_free(s);
+}
+
 /* The callback names the phases in the order the render goes through
    them: eye pass, photons, gather (pm); fractions stay in [0, 1]. */
 static void test_shards_progress_names_the_phases_in_order(pds_test_ctx *t)
@@ -1067,6 +1092,7 @@ static const pds_test_case tests_shards[] = {
     {"shards_interrupt_and_resume_equal_the_uninterrupted_render",
      test_shards_interrupt_and_resume_equal_the_uninterrupted_render},
     {"shards_progress_names_the_phases_in_order", test_shards_progress_names_the_phases_in_order},
+    {"shards_isc_stop_finishes_the_frame", test_shards_isc_stop_finishes_the_frame},
     {"shards_merge_refuses_foreign_duplicate_and_missing_parts",
      test_shards_merge_refuses_foreign_duplicate_and_missing_parts},
     {"shards_partial_file_round_trips_and_is_versioned", test_shards_partial_file_round_trips_and_is_versioned},
