@@ -10173,13 +10173,13 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
     return st;
 }
 
-/* The checks of a partial file's header (k bytes of it in head). */
 /* Options in a file of this format version; 0: a version not read. */
 static int pds__partial_nopt(uint32_t version)
 {
     return version == PDS__PARTIAL_VERSION ? PDS__PARTIAL_NOPT : version == 2u ? PDS__PARTIAL_NOPT_V2 : 0;
 }
 
+/* The checks of a partial file's header (k bytes of it in head). */
 static pds_status pds__partial_head_check(const char *path, const unsigned char *head, size_t k, pds_error *err)
 {
     uint32_t version;
@@ -10193,7 +10193,8 @@ static pds_status pds__partial_head_check(const char *path, const unsigned char 
         return pds__fail(err, PDS_ERR_PARSE, path, 0, 0,
                          "partial file format version %lu; this pds reads versions 2 and %u",
                          (unsigned long)version, PDS__PARTIAL_VERSION);
-    if (k < PDS__PARTIAL_HEADER_AT(nopt)) return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "truncated: %lu bytes", (unsigned long)k);
+    if (k < PDS__PARTIAL_HEADER_AT(nopt))
+        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "truncated: %lu bytes", (unsigned long)k);
     if (head[27] != '\0' || head[547] != '\0')
         return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "damaged header (an unterminated name)");
     if (strcmp((const char *)head + 12, PDS_VERSION_STRING) != 0)

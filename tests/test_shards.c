@@ -111,8 +111,8 @@ static void test_shards_merge_equals_the_single_run_bit_for_bit(pds_test_ctx *t)
             gather_rays += st.gather_rays;
         }
         if (c->method == PDS_METHOD_GI)
-            CHECK(t, fst.gather_rays > 0 && gather_rays == fst.gather_rays, "%s: %ld gather rays in the shards, %ld in one",
-                  c->name, gather_rays, fst.gather_rays);
+            CHECK(t, fst.gather_rays > 0 && gather_rays == fst.gather_rays,
+                  "%s: %ld gather rays in the shards, %ld in one", c->name, gather_rays, fst.gather_rays);
         shuffled[0] = parts[2];
         shuffled[1] = parts[0];
         shuffled[2] = parts[1];
@@ -931,8 +931,8 @@ static void test_shards_cli_gi_spm_isc_shards_merge_and_checkpoint(pds_test_ctx 
         }
         snprintf(args, sizeof args, "merge -o %s %s %s", out, p2, p1);
         CHECK(t, cli_run(args, text, sizeof text) == 0, "%s: merge: %s", methods[m], text);
-        CHECK(t, pds_image_read_pfm(whole_path, &whole, &err) == PDS_OK && pds_image_read_pfm(out, &got, &err) == PDS_OK &&
-                     shards_same(&got, &whole),
+        CHECK(t, pds_image_read_pfm(whole_path, &whole, &err) == PDS_OK &&
+                     pds_image_read_pfm(out, &got, &err) == PDS_OK && shards_same(&got, &whole),
               "%s: the merged image differs from the render in one go", methods[m]);
         pds_image_free(&whole);
         pds_image_free(&got);
@@ -951,7 +951,8 @@ static void test_shards_cli_gi_spm_isc_shards_merge_and_checkpoint(pds_test_ctx 
           "gi: the checkpointed render differs from the render in one go");
     CHECK(t, cli_run("render scenes/ring_octahedron.scene --method isc --frames 2 --shard 1/2 -o x.pdsp", text,
                      sizeof text) == 2 &&
-                 strstr(text, "--frames writes an animation frame by frame: it is not split into shards or checkpointed"),
+                 strstr(text, "--frames writes an animation frame by frame: it is not split into shards or "
+                              "checkpointed"),
           "frames: %s", text);
     pds_image_free(&whole);
     pds_image_free(&got);
@@ -1041,8 +1042,8 @@ static void test_shards_sweep_resume_knows_gi_spm_and_isc_entries_by_all_their_o
 {
     static const struct {
         const char *scene, *method, *param, *other;
-    } runs[] = {{"tests/golden/glass.scene", "--method gi --global-photons 1000 --gather 2 --caustics pm --photons 2000", "k",
-                 "--global-photons 1500"},
+    } runs[] = {{"tests/golden/glass.scene", "--method gi --global-photons 1000 --gather 2 --caustics pm --photons 2000",
+                 "k", "--global-photons 1500"},
                 {"tests/golden/glass.scene", "--method spm --streams 300 --photons 2000", "k", "--streams 400"},
                 {"scenes/ring_octahedron.scene", "--method isc", "photons", "--light-res 24"}};
     char out[16384], args[1024], ref[256], dir[256], path[512], lines[4][512];
@@ -1053,7 +1054,8 @@ static void test_shards_sweep_resume_knows_gi_spm_and_isc_entries_by_all_their_o
     REQUIRE(t, cli_run(args, out, sizeof out) == 0, "reference: %s", out);
     for (r = 0; r < sizeof runs / sizeof runs[0]; r++) {
         harness_rmtree(dir);
-        snprintf(args, sizeof args, "sweep %s %s --param %s --values 10,20 --ref %s --res 24x16 --spp 1 --quiet -o %s", runs[r].scene, runs[r].method, runs[r].param, ref, dir);
+        snprintf(args, sizeof args, "sweep %s %s --param %s --values 10,20 --ref %s --res 24x16 --spp 1 --quiet -o %s",
+                 runs[r].scene, runs[r].method, runs[r].param, ref, dir);
         REQUIRE(t, cli_run(args, out, sizeof out) == 0, "%s: sweep: %s", runs[r].method, out);
         snprintf(path, sizeof path, "%s/entries/%s-20.txt", dir, runs[r].param);
         CHECK(t, cli_file_exists(path), "%s: no %s", runs[r].method, path);

@@ -20,7 +20,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     uint8_t *copy = (uint8_t *)malloc(size ? size : 1);
     if (!copy) return 0;
     memcpy(copy, data, size);
-    if (size >= PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT_V2) + 8u) pds__put_u64(copy + size - 8, pds__fnv1a64(copy, size - 8));
+    if (size >= PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT_V2) + 8u) /* the shortest header read: version 2's */
+        pds__put_u64(copy + size - 8, pds__fnv1a64(copy, size - 8));
     pds_fuzz_write("in.pdsp", copy, size, path);
     free(copy);
     if (pds_partial_read(path, &part, &err) == PDS_OK) {
