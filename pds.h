@@ -699,9 +699,9 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt,
        the whole frame, so every shard renders the whole frame in one go
        and keeps its rows.
    A render with a time budget (time_s > 0) cannot be split or continued.
-   A spectral
-   render's photon part is two exact sums, of the positive and of the
-   negative splats, and is split, continued and merged like an RGB one.
+   A spectral render's photon part is two exact sums, of the positive and
+   of the negative splats, and is split, continued and merged like an RGB
+   one.
 
    pds_render_part renders (or continues) a part; the progress callback
    may stop it at a batch boundary, and a later call continues it. The
