@@ -3690,7 +3690,7 @@ typedef struct tune_grid {
 
 static const tune_grid tune_grids[] = {
     {PDS_METHOD_PDS, 0, "smoothing", 6, {4, 6, 8, 12, 16, 24}, 0},
-    {PDS_METHOD_PDS, 1, "pass-smoothing", 5, {1, 1.5, 2, 3, 4}, 0},
+    {PDS_METHOD_PDS, 1, "pass-smoothing", 7, {1, 1.5, 2, 3, 4, 6, 8}, 0},
     {PDS_METHOD_PDM, -1, "smoothing", 6, {4, 6, 8, 12, 16, 24}, 0},
     {PDS_METHOD_PM, -1, "k", 5, {10, 20, 40, 80, 160}, 0},
     {PDS_METHOD_SPLAT, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
