@@ -10815,6 +10815,9 @@ void pds_partial_get_info(const pds_partial *p, pds_partial_info *info)
     info->width = p->width;
     info->height = p->height;
     info->method = p->opt.method;
+    info->paths = p->opt.paths;
+    info->seed = p->opt.seed;
+    info->photons = p->opt.photons;
     info->scene_hash = p->scene_hash;
     info->scene_path = p->scene_path;
     info->complete = p->rows_done == p->rows_own && p->units_done == p->units_own;

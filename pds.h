@@ -295,12 +295,13 @@ typedef struct pds_image_meta {
     char key[PDS_IMAGE_META_MAX][PDS_IMAGE_META_KEY];
     char value[PDS_IMAGE_META_MAX][PDS_IMAGE_META_VALUE];
 } pds_image_meta;
-/* The keys pds writes; PDS_META_KIND is "full" (every light path) or
-   "caustics-only" (LDS*E paths alone: --caustics-only), so that a render
-   and a reference of different kinds are told apart. */
+/* The keys pds writes; PDS_META_KIND is "full" (every light path),
+   "caustics-only" (LDS*E paths alone: --caustics-only) or "no-caustics",
+   so that a render and a reference of different kinds are told apart. */
 #define PDS_META_KIND "pds:kind"
 #define PDS_META_KIND_FULL "full"
 #define PDS_META_KIND_CAUSTICS "caustics-only"
+#define PDS_META_KIND_NO_CAUSTICS "no-caustics"
 #define PDS_META_METHOD "pds:method"
 /* Adds key = value, or replaces the value of an existing key.
    PDS_ERR_INVALID_ARG for a bad key or value, PDS_ERR_LIMIT when full. */
@@ -778,6 +779,9 @@ typedef struct pds_partial_info {
     int complete;                  /* every unit of the shard is done */
     double done_fraction;          /* of the shard's units */
     long units_done, units_total;  /* the shard's work units (see above) */
+    pds_paths paths;               /* the render's light paths (--caustics-only, ...) */
+    unsigned long long seed;       /* the render's seed */
+    long photons;                  /* the render's photon option */
 } pds_partial_info;
 
 /* Render opt's shard (opt->shard_index of opt->shard_count) into *part: a
