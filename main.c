@@ -1581,13 +1581,6 @@ static void render_meta(const run_cfg *c, const pds_render_stats *st, const char
     }
 }
 
-/* The kind of image as a phrase for the warning below. */
-static const char *kind_phrase(const char *kind)
-{
-    return !strcmp(kind, PDS_META_KIND_FULL) ? "a full render"
-           : !strcmp(kind, PDS_META_KIND_CAUSTICS) ? "caustics-only" : kind;
-}
-
 /* One stderr line when an image and its reference are of different kinds
    (a full render against a caustics-only reference, say): their
    difference is then mostly the light paths one has and the other lacks.
@@ -1596,9 +1589,9 @@ static void warn_kind_mismatch(const char *cmd, const char *what, const char *ki
                                const char *ref_kind)
 {
     if (!kind || !ref_kind || !strcmp(kind, ref_kind)) return;
-    fprintf(stderr, "pds %s: warning: %s %s %s but the reference %s is %s (pds:kind): the error will measure the "
-            "light paths one has and the other lacks\n", cmd, what, !strcmp(what, "the renders") ? "are" : "is",
-            kind_phrase(kind), ref_path, kind_phrase(ref_kind));
+    fprintf(stderr, "pds %s: warning: kinds differ: %s %s %s, the reference %s is %s (pds:kind); the error will "
+            "measure the light paths one has and the other lacks\n", cmd, what,
+            !strcmp(what, "the renders") ? "are" : "is", kind, ref_path, ref_kind);
 }
 
 /* Before loading or rendering anything: fail now if path could not be
