@@ -10163,6 +10163,12 @@ static pds_status pds__exr_read(const char *path, pds_image *img, pds_image_meta
     lines = compression == 3 ? 16 : 1;
     nblocks = (H + lines - 1) / lines;
     table = r.pos;
+    /* Memory follows the file's size: raw lines fill the file, and deflate
+       makes at most 1032 bytes of 1 (258 per 2 bits), so a small file
+       cannot make the reader allocate a large image. */
+    if (line_bytes * H / (compression == 0 ? 1 : 1032) > r.size - table)
+        PDS__EXR_FAIL("the file is too short for a %lux%lu image (%lu bytes of lines)", (unsigned long)W,
+                      (unsigned long)H, (unsigned long)(line_bytes * H));
     if ((r.size - table) / 8 < nblocks) PDS__EXR_FAIL("the file ends inside its offset table (%lu blocks)",
                                                       (unsigned long)nblocks);
     st = pds_image_alloc(img, (int)W, (int)H);
