@@ -24,7 +24,9 @@
      >>scene      the pds_scene value and its text format parser
      >>differentials  photon differentials: emission (eqs. 2-6), transfer,
                   reflection, refraction (Igehy 1999), footprint, eq. 12
-     >>image      PFM read/write, PNG write, tone mapping
+     >>image      PFM read/write (with a metadata trailer), PNG write (tEXt
+                  metadata, tone curves: clamp, Reinhard 2002, Narkowicz's
+                  ACES fit), OpenEXR write and read (deflate, inflate)
      >>metrics    RMSE and SSIM
      >>partial    the exact state of a render or a shard of it: the image
                   from it, merging shards, the partial file
@@ -8199,7 +8201,9 @@ static double pds__footprint_anisotropy(pds__v3 dpdu, pds__v3 dpdv)
 /* >>image                                                               */
 /* ===================================================================== */
 /* Images in memory are linear RGB floats, rows top to bottom (pds_image).
-   Two file formats go out, one comes in:
+   Three file formats go out (PFM, PNG, OpenEXR), two come in (PFM,
+   OpenEXR), each carrying the image's metadata (pds_image_meta: see
+   "metadata" below; the OpenEXR layout is described at its writer):
 
    PFM (netpbm "portable float map"): three ASCII header tokens, each ended
    by whitespace: "PF" (RGB) or "Pf" (grey), "W H", and a non-zero decimal
@@ -8228,8 +8232,9 @@ static double pds__footprint_anisotropy(pds__v3 dpdu, pds__v3 dpdv)
    code lengths limited to 15 bits, 7 for the code-length code), fixed
    Huffman (BTYPE 1) or stored (BTYPE 0, for noise). The output depends
    only on the pixels and the exposure: same image, same bytes.
-   Tone mapping: linear * 2^exposure_stops, clamp to [0,1], sRGB transfer
-   curve (IEC 61966-2-1), round to the nearest 8-bit value; NaN gives 0.
+   Tone mapping: linear * 2^exposure_stops, the tone curve (clamp to
+   [0,1] by default; see "tone curves" below), sRGB transfer curve
+   (IEC 61966-2-1), round to the nearest 8-bit value; NaN gives 0.
 
    Every writer builds the whole file in memory and hands it to
    pds__write_file_atomic, so a failure never leaves a partial file. */
