@@ -230,7 +230,7 @@ static const command_help help_table[] = {
      "", 1},
     {"compare", "compare A.pfm REF.pfm",
      "RMSE and SSIM of A against the reference REF (PFM or OpenEXR; a warning if their kinds differ)", "", "", 0},
-    {"pixel", "pixel IMAGE.pfm X Y [R]", "mean value of the pixels within R (default 0) of pixel X,Y", "", "", 0},
+    {"pixel", "pixel IMAGE.pfm X Y [R]", "mean value of the pixels within R (default 0) of pixel X,Y (PFM or OpenEXR)", "", "", 0},
     {"trace-photon", "trace-photon SCENE --photon I [options]",
      "one caustic photon's path with its differentials beside finite differences",
      "      --photon I              the photon's number (0 = the first the renderer emits)\n"
