@@ -286,7 +286,8 @@ pds_status pds_image_write(const char *path, const pds_image *img,
    OpenEXR string attributes, PNG tEXt chunks and a PFM trailer (README
    "Images"), read back from EXR and PFM. A plain value: no allocation.
    Keys: 1-63 printable ASCII characters, no '=', no leading, trailing or
-   double spaces (PNG keyword rules); values: printable ASCII. */
+   double spaces (PNG keyword rules); values: printable ASCII. Start from
+   a zeroed value (count 0). */
 #define PDS_IMAGE_META_MAX 24
 #define PDS_IMAGE_META_KEY 64
 #define PDS_IMAGE_META_VALUE 1024
