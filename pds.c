@@ -10063,6 +10063,45 @@ static pds_status pds__exr_channels(pds__exr_reader *r, const unsigned char *v, 
     return PDS_OK;
 }
 
+/* The index of channel prefix + c (c one of "RGB"), or -1. */
+static int pds__exr_find(const pds__exr_channel *ch, int nch, const char *prefix, size_t n, char c)
+{
+    int k;
+    for (k = 0; k < nch; k++)
+        if (strlen(ch[k].name) == n + 1 && !strncmp(ch[k].name, prefix, n) && ch[k].name[n] == c) return k;
+    return -1;
+}
+
+/* A file without plain R, G, B or Y channels may hold layers, channels
+   named LAYER.R, LAYER.G, LAYER.B (as Blender's multilayer files and
+   OpenEXR's naming convention for layers have them). Take the layer
+   whose name ends in "Combined" (Blender's full image), else the first
+   with all three; mark its channels. 1 if one was found. */
+static int pds__exr_pick_layer(pds__exr_channel *ch, int nch)
+{
+    int k, best = -1, bestn = 0;
+    for (k = 0; k < nch; k++) {
+        size_t n = strlen(ch[k].name);
+        const char *name = ch[k].name;
+        int combined;
+        if (n < 3 || name[n - 1] != 'R' || name[n - 2] != '.') continue;
+        if (pds__exr_find(ch, nch, name, n - 1, 'G') < 0 || pds__exr_find(ch, nch, name, n - 1, 'B') < 0) continue;
+        combined = n >= 10 && !strncmp(name + n - 10, "Combined", 8);
+        if (best < 0 || (combined && !bestn)) {
+            best = k;
+            bestn = combined;
+        }
+    }
+    if (best < 0) return 0;
+    {
+        size_t n = strlen(ch[best].name) - 1;
+        ch[best].target = 0;
+        ch[pds__exr_find(ch, nch, ch[best].name, n, 'G')].target = 1;
+        ch[pds__exr_find(ch, nch, ch[best].name, n, 'B')].target = 2;
+    }
+    return 1;
+}
+
 /* Read an OpenEXR file (see the layout above) into *img; meta (may be
    NULL) gets its string attributes. */
 static pds_status pds__exr_read(const char *path, pds_image *img, pds_image_meta *meta, pds_error *err)
@@ -10158,9 +10197,12 @@ static pds_status pds__exr_read(const char *path, pds_image *img, pds_image_meta
         if (ch[k].target >= 0) have[ch[k].target] = 1;
         line_bytes += W * (ch[k].type == 1 ? 2u : 4u);
     }
-    if (!(have[0] && have[1] && have[2]) && !have[3])
-        PDS__EXR_FAIL("no R, G, B (or Y) channels: the file has %d channel%s, the first '%s'", nch,
-                      nch == 1 ? "" : "s", nch > 0 ? ch[0].name : "");
+    if (!(have[0] && have[1] && have[2]) && !have[3]) {
+        for (k = 0; k < nch; k++) ch[k].target = -1; /* a lone R or G is not an image */
+        if (!pds__exr_pick_layer(ch, nch))
+            PDS__EXR_FAIL("no R, G, B (or Y, or LAYER.R, .G, .B) channels: the file has %d channel%s, the "
+                          "first '%s'", nch, nch == 1 ? "" : "s", nch > 0 ? ch[0].name : "");
+    }
     if (have[0] && have[1] && have[2])
         for (k = 0; k < nch; k++)
             if (ch[k].target == 3) ch[k].target = -1; /* colour wins over grey */

@@ -337,6 +337,26 @@ static void test_exr_reader_takes_half_channels_offset_windows_and_grey(pds_test
     remove(path);
 }
 
+/* A layered file written by oiiotool (half, ZIP; committed as a fuzzing
+   seed): channels AO.R, AO.G, AO.B, Depth.Z and ViewLayer.Combined.R, .G,
+   .B, .A, constant 0.1, 0.2, 0.3, 9 and 0.5, 0.6, 0.7, 1. The reader takes
+   the Combined layer, as Blender's multilayer files name the image. */
+static void test_exr_reader_takes_the_combined_layer(pds_test_ctx *t)
+{
+    pds_image img;
+    pds_error err;
+    int i;
+    REQUIRE(t, pds_image_read("tests/fuzz/corpus/exr/oiio-layers-half-zip.exr", &img, NULL, &err) == PDS_OK,
+            "read: %s", err.text);
+    CHECK(t, img.width == 4 && img.height == 3, "size %dx%d", img.width, img.height);
+    for (i = 0; i < 12; i++)
+        CHECK(t, img.rgb[3 * i] == 0.5f && img.rgb[3 * i + 1] == pds__half_to_float(0x38cd) &&
+                 img.rgb[3 * i + 2] == pds__half_to_float(0x399a),
+              "pixel %d: %g %g %g (half 0.6 = %g, 0.7 = %g)", i, img.rgb[3 * i], img.rgb[3 * i + 1],
+              img.rgb[3 * i + 2], pds__half_to_float(0x38cd), pds__half_to_float(0x399a));
+    pds_image_free(&img);
+}
+
 static void test_half_to_float_known_values(pds_test_ctx *t)
 {
     CHECK(t, pds__half_to_float(0x3c00) == 1.0f, "1");
@@ -394,7 +414,7 @@ static void test_exr_reader_rejects_bad_files_with_the_reason(pds_test_ctx *t)
     memcpy(g, f, n);
     g[8 + 9 + 7 + 4] = 'X'; /* channel A -> X: still fine; B -> X below */
     g[8 + 9 + 7 + 4 + 18] = 'X';
-    texr_expect_bad(t, "no B channel", g, n, "no R, G, B (or Y) channels");
+    texr_expect_bad(t, "no B channel", g, n, "no R, G, B (or Y, or LAYER.R, .G, .B) channels");
     /* the first offset pointed past the end */
     memcpy(g, f, n);
     for (k = 0; k < n; k++)
@@ -801,6 +821,7 @@ static const pds_test_case tests_exr[] = {
     {"exr_zip_steps_match_hand_computed_bytes", test_exr_zip_steps_match_hand_computed_bytes},
     {"exr_reader_takes_half_channels_offset_windows_and_grey",
      test_exr_reader_takes_half_channels_offset_windows_and_grey},
+    {"exr_reader_takes_the_combined_layer", test_exr_reader_takes_the_combined_layer},
     {"half_to_float_known_values", test_half_to_float_known_values},
     {"exr_reader_rejects_bad_files_with_the_reason", test_exr_reader_rejects_bad_files_with_the_reason},
     {"inflate_decodes_another_encoders_stream_and_every_pds_stream",
