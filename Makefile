@@ -5,7 +5,7 @@
 #   make sanitize   the same tests built with AddressSanitizer + UBSan
 #   make bench      benchmarks (figures, not pass/fail)
 #   make update-golden  re-render tests/golden/*.pfm (review with git diff)
-#   make fuzz       libFuzzer on the scene, OBJ, MTL, PFM and partial-file readers
+#   make fuzz       libFuzzer on the scene, OBJ, MTL, PFM, partial-file and OpenEXR readers
 #                   (clang; FUZZ_SECONDS per target, default 60; -j2 runs two
 #                   at once); make fuzz-regress replays the committed corpus
 #   make references     reference images of the shipped scenes (minutes)
@@ -181,7 +181,7 @@ bench: pds $(BUNNY)
 FUZZ_SECONDS ?= 60
 FUZZ_CC ?= clang
 FUZZ_OUT = tests/out/fuzz
-FUZZ_TARGETS = scene obj mtl pfm partial
+FUZZ_TARGETS = scene obj mtl pfm partial exr
 FUZZ_CFLAGS = $(WARN) -g -O1 -fsanitize=fuzzer,address,undefined,float-cast-overflow,integer \
   -fno-sanitize=unsigned-integer-overflow -fno-sanitize-recover=all
 
