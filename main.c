@@ -154,6 +154,9 @@ static const command_help help_table[] = {
      "      --progress              progress on stderr even when it is not a terminal (then one line\n"
      "                              every 2 seconds); default: a bar when stderr is a terminal\n"
      "      --quiet                 no progress, no scene warnings\n"
+     "      -D NAME=VALUE           the scene's variable $NAME (declared 'define NAME DEFAULT') is VALUE\n"
+     "      --obj-material M        a bare .obj is set in a studio; its material: auto (its MTL files,\n"
+     "                              the default), diffuse, glass or metal\n"
      "      --shard I/N             render only the I-th of N disjoint parts (1 <= I <= N) into\n"
      "                              -o PART.pdsp; pds merge makes the image, the single run's bit for bit\n"
      "      --checkpoint SECONDS    write OUT.pdsp and OUT every SECONDS (pt, pds, splat)\n"
@@ -236,7 +239,8 @@ static const command_help help_table[] = {
      "      the central difference of neighbouring photons traced by the renderer, and the\n"
      "      footprint's semi-axes and area (eq. 4)\n",
      "", 0},
-    {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", "", 0},
+    {"info", "info FILE [-D NAME=VALUE] [--obj-material M]", "what a scene or OBJ file holds, and its warnings",
+     "      -D NAME=VALUE, --obj-material M   as for render: the scene as render would load it\n", "", 0},
     {"bench", "bench WHAT [ARGS]", "micro-benchmarks (figures, never pass/fail):",
      "      rays MESH [N]           BVH build and ray throughput, one thread (N rays, default 1000000)\n"
      "      pt [SCENE]              path-traced samples per second, 1 thread and all threads\n"
@@ -591,10 +595,44 @@ static int parse_double(const char *s, double *out)
     return 0;
 }
 
+/* How scenes are loaded (-D NAME=VALUE, --obj-material): set while the
+   command line is read, used by every load_any of the command. */
+#define MAX_DEFINES 256
+static pds_define load_defines[MAX_DEFINES];
+static char load_define_text[MAX_DEFINES][64 + 512]; /* "NAME\0VALUE" */
+static pds_load_options load_cfg = {load_defines, 0, 1, PDS_OBJ_MATERIAL_AUTO};
+
 static pds_status load_any(const char *path, pds_scene **scene, pds_error *err)
 {
-    return has_ext(path, ".obj") ? pds_scene_load_obj(path, scene, err) : pds_scene_load(path, scene, err);
+    return pds_scene_load_ex(path, &load_cfg, scene, err);
 }
+
+/* -D NAME=VALUE (also -DNAME=VALUE, --define NAME=VALUE): a value for the
+   scene's variable NAME in place of its `define` default. */
+static int add_define(const char *shown, const char *v)
+{
+    const char *eq = strchr(v, '=');
+    size_t i, n = eq ? (size_t)(eq - v) : 0;
+    int ok = eq && n > 0 && n < 64 && ((v[0] >= 'a' && v[0] <= 'z') || (v[0] >= 'A' && v[0] <= 'Z') || v[0] == '_');
+    for (i = 1; ok && i < n; i++)
+        ok = (v[i] >= 'a' && v[i] <= 'z') || (v[i] >= 'A' && v[i] <= 'Z') || (v[i] >= '0' && v[i] <= '9') || v[i] == '_';
+    if (!ok) return usage_error("%s needs NAME=VALUE (NAME: a letter or '_', then letters, digits or '_'), got '%s'", shown, v);
+    if (eq[1] == '\0') return usage_error("%s %.*s= needs a value after '='", shown, (int)n, v);
+    if (strlen(eq + 1) > 511) return usage_error("%s %.*s: the value is longer than 511 characters", shown, (int)n, v);
+    if (load_cfg.define_count >= MAX_DEFINES) return usage_error("more than %d -D options", MAX_DEFINES);
+    {
+        char *t = load_define_text[load_cfg.define_count];
+        memcpy(t, v, n);
+        t[n] = '\0';
+        strcpy(t + n + 1, eq + 1);
+        load_defines[load_cfg.define_count].name = t;
+        load_defines[load_cfg.define_count].value = t + n + 1;
+        load_cfg.define_count++;
+    }
+    return 0;
+}
+
+static const char *const obj_material_names[] = {"auto", "diffuse", "glass", "metal"}; /* by pds_obj_material */
 
 /* The scene's file name without folder and extension ("scenes/ring.scene"
    -> "ring"), cut to fit n bytes. */
@@ -1113,6 +1151,22 @@ static int set_orbit(const opt_spec *s, run_cfg *c, const char *shown, const cha
     return r;
 }
 
+static int set_define(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    (void)s;
+    (void)c;
+    return add_define(shown, v);
+}
+
+static int set_obj_material(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    int k = 0, r = set_named(shown, v, obj_material_names, 4, &k);
+    (void)s;
+    (void)c;
+    if (!r) load_cfg.obj_material = (pds_obj_material)k;
+    return r;
+}
+
 static int set_frames(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
     long n = 0;
@@ -1204,6 +1258,9 @@ static const opt_spec option_table[] = {
     {"--exposure", NULL, "exposure", set_double, offsetof(run_cfg, exposure), -64, 64,
      "a number of stops from -64 to 64", M_ALL, C_ALL, F_VALUE},
     {"--progress", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
+    {"--define", "-D", "define", set_define, 0, 0, 0, "NAME=VALUE", M_ALL, C_ALL, F_VALUE},
+    {"--obj-material", NULL, "obj_material", set_obj_material, 0, 0, 0, "auto, diffuse, glass or metal", M_ALL, C_ALL,
+     F_VALUE},
     {"--quiet", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
 };
 #define N_OPTIONS (sizeof option_table / sizeof option_table[0])
@@ -1296,6 +1353,11 @@ static int parse_option(run_cfg *c, unsigned cmd, const char *cmd_name, int argc
     size_t n = arg_name_length(a);
     const opt_spec *s;
     int idx, r;
+    if (a[0] == '-' && a[1] == 'D' && a[2] != '\0') { /* -DNAME=VALUE, as compilers take it */
+        idx = option_index("-D");
+        c->given[idx] = 1;
+        return add_define("-D", a + 2);
+    }
     if (n >= sizeof name) return -1;
     memcpy(name, a, n);
     name[n] = '\0';
@@ -2121,15 +2183,32 @@ static int cmd_info(int argc, char **argv)
     pds_scene_info info;
     pds_error err;
     const pds_camera *cam;
-    int i;
-    if (argc != 1) return usage_error("%s", "info needs one scene or OBJ file");
-    if (load_any(argv[0], &scene, &err) != PDS_OK) {
+    const char *path = NULL;
+    int i, r;
+    for (i = 0; i < argc; i++) {
+        const char *a = argv[i], *v;
+        if (a[0] != '-' || a[1] == '\0') {
+            if (path) return usage_error("%s", "info needs one scene or OBJ file");
+            path = a;
+        } else if (a[1] == 'D' && a[2] != '\0') {
+            if ((r = add_define("-D", a + 2)) != 0) return r;
+        } else if (arg_is(a, "-D") || arg_is(a, "--define") || arg_is(a, "--obj-material")) {
+            if ((r = option_value(argc, argv, &i, &v)) != 0) return r;
+            r = arg_is(a, "--obj-material") ? set_obj_material(NULL, NULL, "--obj-material", v) : add_define(a, v);
+            if (r) return r;
+        } else {
+            static const char *const own[] = {"-D", "--define", "--obj-material", NULL};
+            return unknown_option(a, 0, own);
+        }
+    }
+    if (!path) return usage_error("%s", "info needs one scene or OBJ file");
+    if (load_any(path, &scene, &err) != PDS_OK) {
         fprintf(stderr, "%s\n", pds_error_string(&err));
         return 1;
     }
     pds_scene_get_info(scene, &info);
     cam = pds_scene_camera(scene);
-    printf("file        %s\n", argv[0]);
+    printf("file        %s\n", path);
     printf("triangles   %ld\nvertices    %ld\nshapes      %d\n", info.triangles, info.vertices, info.shapes);
     printf("bounds      (%g, %g, %g) .. (%g, %g, %g)\n", info.bounds_min.x, info.bounds_min.y, info.bounds_min.z,
            info.bounds_max.x, info.bounds_max.y, info.bounds_max.z);
