@@ -1029,6 +1029,13 @@ static double pds__halton(uint64_t seed, uint64_t index, int dim)
      begins a comment that runs to the end of the physical line; a backslash
      followed only by blanks before the newline continues the statement on
      the next line; CRLF, tabs and a UTF-8 byte order mark are accepted.
+     A backslash before a blank inside a token escapes it: `mtllib my\ lib.mtl`
+     and `usemtl paint\ red` name "my lib.mtl" and "paint red".
+   - Robustness, as tinyobjloader, Blender's and pbrt's importers do: a
+     missing mtllib file (or one of several on a line) is a warning and its
+     materials fall back to the default; a vt or vn index past the elements
+     given is dropped with a warning (the corner's normal is then computed
+     from the faces); only what cannot be read is refused.
    - Supported: v x y z [w] (w is ignored: it is a rational weight meaningful
      only for free-form geometry, and some exporters put vertex colours
      there), vt u [v [w]] (checked and counted, not stored), vn x y z, f/fo
@@ -1197,6 +1204,10 @@ static int pds__obj_next(pds__obj_lexer *lx, pds__obj_token *tok)
     start = p;
     while (p < lx->end && !pds__obj_blank(*p) && *p != '\n') {
         if (*p == '\\' && pds__obj_continuation(lx, p)) break;
+        if (*p == '\\' && p + 1 < lx->end && (p[1] == ' ' || p[1] == '\t')) {
+            p += 2; /* an escaped blank belongs to the token: "my\ lib.mtl" */
+            continue;
+        }
         p++;
     }
     tok->s = start;
@@ -1419,6 +1430,19 @@ static pds_status pds__obj_number(pds__obj_state *s, pds__obj_lexer *lx, const c
                      t.len > 64 ? 64 : t.len, t.s);
 }
 
+/* A name as written, "my\ lib.mtl", to the name meant, "my lib.mtl": a
+   backslash before a blank escapes it (exporters write names with spaces
+   so). In place. */
+static void pds__obj_unescape(char *s)
+{
+    char *w = s;
+    for (; *s; s++) {
+        if (s[0] == '\\' && (s[1] == ' ' || s[1] == '\t')) s++;
+        *w++ = *s;
+    }
+    *w = '\0';
+}
+
 /* The remaining tokens of the statement, stored in s->ftok (count in *n),
    and as one string in buf: the raw bytes when all tokens sit on one
    physical line (inner spacing kept), else joined by single spaces.
@@ -1448,6 +1472,7 @@ static int pds__obj_rest(pds__obj_state *s, pds__obj_lexer *lx, char *buf, size_
         }
     }
     buf[len] = '\0';
+    pds__obj_unescape(buf);
     return 0;
 }
 
@@ -1677,6 +1702,7 @@ static pds_status pds__obj_mtllib(pds__obj_state *s, pds__obj_lexer *lx)
         char name[4096];
         memcpy(name, t.s, (size_t)t.len); /* t.len < sizeof rest <= sizeof name */
         name[t.len] = '\0';
+        pds__obj_unescape(name);
         if (pds__join_path(s->dir, name, full, sizeof full))
             st = pds__obj_err(s, &t, "material library path is too long");
         else if (pds__names_find(&s->mtl_loaded, full, strlen(full)) >= 0)
@@ -8109,9 +8135,12 @@ pds_status pds_scene_load_obj(const char *path, pds_scene **out, pds_error *err)
      Phi = 0.6 pi^2 D^2 / (albedo cos(theta_l) cos(theta_g)). Its shadow,
      and the caustic of a glass or metal mesh, fall to the right of the
      mesh, where the camera sees them;
-   - the camera of a bare OBJ (pds_scene_load_obj), 512 x 384, looking
-     from +z and a little above at C lowered by R/10, far enough that the
-     bounding sphere fills 1/1.25 of the height.
+   - a camera, 512 x 384 with a 40 degree vertical field of view, looking
+     from +z and a little above (along (0, 0.35, 1)) at C, as near as it
+     can be while every corner of the bounding box projects within 80% of
+     the image's half-width and half-height: a corner at (x, y, z) in the
+     camera's frame (z towards C) at distance dist is inside when
+     |y| <= 0.8 tan(fov/2) (dist + z), and so for x with the aspect.
    The studio is scene text, parsed like a scene file (named "studio" in
    messages), so it reads as a scene would write it. An OBJ with emissive
    materials keeps its own lights and gets no studio light. */
@@ -8200,10 +8229,21 @@ static pds_status pds__scene_load_studio(const char *path, pds_obj_material mate
     cos_l = pds__dot(pds__scale(w, -1.0), pds__scale(v, 1.0 / D));
     cos_g = -v.y / D;
     power = 0.6 * PDS__PI * PDS__PI * D * D / (0.75 * cos_l * cos_g);
-    dist = 1.25 * R / sin(0.5 * 40.0 * PDS__PI / 180.0);
     {
-        pds__v3 at = pds__v(c.x, c.y - 0.1 * R, c.z);
-        pds__v3 eye = pds__add(at, pds__scale(pds__normalize(pds__v(0.0, 0.35, 1.0)), dist));
+        pds__v3 back = pds__normalize(pds__v(0.0, 0.35, 1.0)), fwd = pds__scale(back, -1.0);
+        pds__v3 right = pds__normalize(pds__cross(fwd, pds__v(0.0, 1.0, 0.0))), up = pds__cross(right, fwd);
+        double ty = 0.8 * tan(0.5 * 40.0 * PDS__PI / 180.0), tx = ty * 512.0 / 384.0;
+        pds__v3 at = c, eye;
+        int k;
+        dist = 0.0;
+        for (k = 0; k < 8; k++) {
+            pds__v3 o = pds__sub(pds__v(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z), at);
+            double z = pds__dot(o, fwd), need_y = fabs(pds__dot(o, up)) / ty - z, need_x = fabs(pds__dot(o, right)) / tx - z;
+            if (need_y > dist) dist = need_y;
+            if (need_x > dist) dist = need_x;
+        }
+        if (dist < 1.5 * R) dist = 1.5 * R; /* never inside the mesh's bounding sphere */
+        eye = pds__add(at, pds__scale(back, dist));
         int n = snprintf(text, sizeof text,
                          "material studio_ground diffuse { albedo 0.75 }\n"
                          "quad { material studio_ground  size %.9g %.9g  translate %.9g %.9g %.9g }\n"
