@@ -135,7 +135,9 @@ static const command_help help_table[] = {
      "      --passes N              ppm: photon passes (default 10; with --time, until the time is spent)\n"
      "                              memory: pm and pdm store every photon, spm every stream, so their\n"
      "                              memory grows with --photons (the final line reports map_bytes); ppm\n"
-     "                              keeps one pass's photons, pds and splat none\n",
+     "                              keeps one pass's photons, pds and splat none\n"
+     "      -D NAME=VALUE           the scene's $NAME (declared 'define NAME DEFAULT') is VALUE\n"
+     "      --obj-material M        a bare .obj's material in its studio: auto, diffuse, glass, metal\n",
      "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
      "      --res WxH               resolution (default: the scene camera's)\n"
      "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
@@ -154,14 +156,12 @@ static const command_help help_table[] = {
      "      --progress              progress on stderr even when it is not a terminal (then one line\n"
      "                              every 2 seconds); default: a bar when stderr is a terminal\n"
      "      --quiet                 no progress, no scene warnings\n"
-     "      -D NAME=VALUE           the scene's variable $NAME (declared 'define NAME DEFAULT') is VALUE\n"
-     "      --obj-material M        a bare .obj is set in a studio; its material: auto (its MTL files,\n"
-     "                              the default), diffuse, glass or metal\n"
      "      --shard I/N             render only the I-th of N disjoint parts (1 <= I <= N) into\n"
      "                              -o PART.pdsp; pds merge makes the image, the single run's bit for bit\n"
      "      --checkpoint SECONDS    write OUT.pdsp and OUT every SECONDS (pt, pds, splat)\n"
      "      --resume PART.pdsp      continue a stopped render or shard (scene, options and output from\n"
-     "                              the file; -o, --threads, --exposure, --progress, --quiet may be given)\n"
+     "                              the file; -o, --threads, --exposure, --progress, --quiet may be given,\n"
+     "                              and the render's own -D and --obj-material: they are not in the file)\n"
      "      The first Ctrl-C (SIGINT) or SIGTERM stops after the batch under way and writes OUT and\n"
      "      OUT.pdsp (exit status 130); a second one aborts.\n"
      "      --caustics NAME         gi: the caustic method, pds (default), pm, pdm, splat, ppm or spm,\n"
@@ -1747,7 +1747,8 @@ static int cmd_render(int argc, char **argv)
     }
     if (resume) {
         /* the options come from the partial file; only how to run may change */
-        static const char *const allowed[] = {"--output", "--threads", "--progress", "--quiet", "--exposure"};
+        static const char *const allowed[] = {"--output", "--threads", "--progress", "--quiet", "--exposure",
+                                              "--define", "--obj-material"}; /* the same -D: the scene's hash checks it */
         size_t k;
         int threads = c.opt.threads;
         for (k = 0; k < N_OPTIONS; k++) {

@@ -8129,10 +8129,13 @@ pds_status pds_scene_load_obj(const char *path, pds_scene **out, pds_error *err)
      under C at y0 - R/1000 (just under the mesh: no coplanar faces);
    - a disk light of radius 0.3 R at C + 5 R w, w = (-0.7, 1.5, 0.3)
      normalised (up and to the left, a little towards the camera), facing
-     C; its power makes the ground under C, were it unshadowed, of
-     radiance 0.6: for a Lambertian disk seen at distance D, E = Phi
-     cos(theta_l) cos(theta_g) / (pi D^2) and L = albedo E / pi, so
-     Phi = 0.6 pi^2 D^2 / (albedo cos(theta_l) cos(theta_g)). Its shadow,
+     C; it makes the ground under C, were it unshadowed, of radiance 0.6:
+     a small Lambertian disk of area A and radiance Le seen at distance D
+     gives E = Le A cos(theta_l) cos(theta_g) / D^2, and the ground's
+     radiance is albedo E / pi, so Le = 0.6 pi D^2 / (albedo A cos(theta_l)
+     cos(theta_g)): a number that does not depend on the mesh's scale
+     (D and A scale with R), so meshes in any unit get the same light
+     (and no power beyond the coordinate limit). Its shadow,
      and the caustic of a glass or metal mesh, fall to the right of the
      mesh, where the camera sees them;
    - a camera, 512 x 384 with a 40 degree vertical field of view, looking
@@ -8189,7 +8192,7 @@ static pds_status pds__scene_load_studio(const char *path, pds_obj_material mate
     pds__obj_stats stats;
     pds__xform id = pds__xform_identity();
     pds__v3 lo, hi, c, w, lc, q, v;
-    double R, y0, D, cos_l, cos_g, power, dist;
+    double R, y0, D, cos_l, cos_g, radiance, dist;
     size_t i;
     int emissive = 0;
     char text[2048];
@@ -8228,7 +8231,7 @@ static pds_status pds__scene_load_studio(const char *path, pds_obj_material mate
     D = pds__length(v);
     cos_l = pds__dot(pds__scale(w, -1.0), pds__scale(v, 1.0 / D));
     cos_g = -v.y / D;
-    power = 0.6 * PDS__PI * PDS__PI * D * D / (0.75 * cos_l * cos_g);
+    radiance = 0.6 * PDS__PI * D * D / (0.75 * PDS__PI * 0.09 * R * R * cos_l * cos_g);
     {
         pds__v3 back = pds__normalize(pds__v(0.0, 0.35, 1.0)), fwd = pds__scale(back, -1.0);
         pds__v3 right = pds__normalize(pds__cross(fwd, pds__v(0.0, 1.0, 0.0))), up = pds__cross(right, fwd);
@@ -8251,8 +8254,8 @@ static pds_status pds__scene_load_studio(const char *path, pds_obj_material mate
                          40.0 * R, 40.0 * R, c.x, y0, c.z, eye.x, eye.y, eye.z, at.x, at.y, at.z);
         if (!emissive)
             snprintf(text + n, sizeof text - (size_t)n,
-                     "light disk { center %.9g %.9g %.9g  normal %.9g %.9g %.9g  radius %.9g  power %.9g }\n", lc.x,
-                     lc.y, lc.z, -w.x, -w.y, -w.z, 0.3 * R, power);
+                     "light disk { center %.9g %.9g %.9g  normal %.9g %.9g %.9g  radius %.9g  radiance %.9g }\n",
+                     lc.x, lc.y, lc.z, -w.x, -w.y, -w.z, 0.3 * R, radiance);
     }
     st = pds__studio_parse(s, text, err);
     if (!st) st = pds__scene_finish(s, err);
@@ -16652,7 +16655,8 @@ pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_p
                              "the teaching views are made by a render in one go, not by a continued one");
         if (p->scene_hash != pds_scene_hash(scene))
             return pds__fail(err, PDS_ERR_INVALID_ARG, scene->path, 0, 0,
-                             "not the scene this part was rendered from (%s): its content differs", p->scene_path);
+                             "not the scene this part was rendered from (%s): its content differs (the file changed, "
+                             "or other -D values or OBJ material were given)", p->scene_path);
         if (!pds__partial_same_options(&p->opt, opt) || p->width != w || p->height != h ||
             p->shard_index != opt->shard_index || p->shard_count != opt->shard_count)
             return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,

@@ -365,6 +365,30 @@ static void test_obj_bare_mesh_is_set_in_a_studio_that_frames_and_lights_it(pds_
                                                                                                     bare->bounds_min)),
                    1e-6 * scales[k]);
         CHECK(t, sl_has_warning(s, "material libraries not found"), "the missing MTL is not a warning");
+        {
+            /* the light makes the unshadowed ground under the mesh's centre
+               of radiance 0.6: albedo/pi times E, E integrated over the disk
+               (E = integral of Le cos(theta_l) cos(theta_g) / d^2 dA, a
+               200 x 400 polar midpoint rule) */
+            const pds_light *l = &s->lights[0];
+            pds__v3 q = pds__v(0.5 * (bare->bounds_min.x + bare->bounds_max.x), s->bounds_min.y,
+                               0.5 * (bare->bounds_min.z + bare->bounds_max.z));
+            pds__v3 n = l->direction, e1, e2;
+            double E = 0.0;
+            int ir, ia;
+            pds__onb(n, &e1, &e2);
+            for (ir = 0; ir < 200; ir++)
+                for (ia = 0; ia < 400; ia++) {
+                    double r = l->radius * (ir + 0.5) / 200, a = 2.0 * PDS__PI * (ia + 0.5) / 400;
+                    pds__v3 p = pds__add(l->position, pds__add(pds__scale(e1, r * cos(a)), pds__scale(e2, r * sin(a))));
+                    pds__v3 d = pds__sub(q, p);
+                    double d2 = pds__dot(d, d), len = sqrt(d2);
+                    double dA = r * (l->radius / 200) * (2.0 * PDS__PI / 400);
+                    E += l->radiance[0] * (pds__dot(n, d) / len) * (-d.y / len) / d2 * dA;
+                }
+            CHECK(t, fabs(0.75 * E / PDS__PI - 0.6) < 0.6 * 0.01, "the ground under the mesh would be %g, not 0.6",
+                  0.75 * E / PDS__PI);
+        }
         /* framed: the mesh covers a fair part of the frame, and the ground
            the rest of its lower half */
         sl_frame_cover(s, (long)bare->mesh.ntris, &mesh, &any);
@@ -497,6 +521,38 @@ static void test_obj_escaped_spaces_and_a_partly_missing_mtllib_line(pds_test_ct
     remove(b);
 }
 
+#ifdef PDS_TEST_POSIX
+/* The tool: -D (separate, joined, --define) and --obj-material reach the
+   load of render and info; mistakes are usage errors with suggestions. */
+static void test_cli_defines_and_obj_material_reach_the_scene(pds_test_ctx *t)
+{
+    char scene[256], obj[256], out[256], args[1200], buf[8192];
+    sl_path(scene, sizeof scene, "cli.scene");
+    sl_path(obj, sizeof obj, "cli.obj");
+    sl_path(out, sizeof out, "cli.pfm");
+    REQUIRE(t, sl_write(scene, sl_var_scene) && sl_write_sphere_obj(obj, 1.0, 0.0, NULL), "write");
+    snprintf(args, sizeof args, "info %s -D power=7 -Dior=1.25 --define height=3", scene);
+    CHECK(t, cli_run(args, buf, sizeof buf) == 0 && strstr(buf, "power (7, 7, 7) W") && strstr(buf, "ior 1.25") &&
+                 strstr(buf, "bounds=-0.5,2.5,-0.5:0.5,3.5,0.5"),
+          "info with -D: %s", buf);
+    snprintf(args, sizeof args, "render %s --method pt --res 8x6 --spp 1 -D pwoer=3 -o %s", scene, out);
+    CHECK(t, cli_run(args, buf, sizeof buf) == 0 &&
+                 strstr(buf, "-D pwoer: the scene defines no variable 'pwoer' (did you mean 'power'?)"),
+          "render with an unknown -D: %s", buf);
+    snprintf(args, sizeof args, "render %s -D 3d=1 -o %s", scene, out);
+    CHECK(t, cli_run(args, buf, sizeof buf) == 2 && strstr(buf, "-D needs NAME=VALUE"), "a bad -D name: %s", buf);
+    snprintf(args, sizeof args, "info %s --obj-material glas", obj);
+    CHECK(t, cli_run(args, buf, sizeof buf) == 2 && strstr(buf, "(did you mean 'glass'?)"), "--obj-material glas: %s", buf);
+    snprintf(args, sizeof args, "info %s --obj-material=metal", obj);
+    CHECK(t, cli_run(args, buf, sizeof buf) == 0 && strstr(buf, "studio_mesh      conductor") &&
+                 strstr(buf, "light       disk"),
+          "--obj-material metal: %s", buf);
+    remove(scene);
+    remove(obj);
+    remove(out);
+}
+#endif
+
 static const pds_test_case tests_scenelang[] = {
     {"scene_include_reads_files_relative_to_the_including_file", test_scene_include_reads_files_relative_to_the_including_file},
     {"scene_include_errors_name_the_file_and_where_it_was_included_from",
@@ -509,4 +565,7 @@ static const pds_test_case tests_scenelang[] = {
      test_obj_bare_mesh_is_set_in_a_studio_that_frames_and_lights_it},
     {"obj_studio_glass_and_metal_cast_a_caustic_on_the_ground", test_obj_studio_glass_and_metal_cast_a_caustic_on_the_ground},
     {"obj_escaped_spaces_and_a_partly_missing_mtllib_line", test_obj_escaped_spaces_and_a_partly_missing_mtllib_line},
+#ifdef PDS_TEST_POSIX
+    {"cli_defines_and_obj_material_reach_the_scene", test_cli_defines_and_obj_material_reach_the_scene},
+#endif
 };
