@@ -2871,14 +2871,17 @@ static int load_entry(const char *dir, const char *label, const char *key, const
     return 1;
 }
 
-/* What an entry is: what --resume compares (budget: race's, or ""). */
-static void entry_key(const pds_options *o, const char *budget, char *out, size_t n)
+/* What an entry is: what --resume compares (budget: race's, or ""), with
+   the scene's content hash (a scene edited, or loaded with other -D
+   values, since the entry was kept is another scene). */
+static void entry_key(const pds_scene *scene, const pds_options *o, const char *budget, char *out, size_t n)
 {
     char params[256];
     format_params(o, params, sizeof params);
     snprintf(out, n, "method=%s budget=%s seed=%llu res=%dx%d spp=%d photons=%ld passes=%d paths=%d depth=%d,%d "
-             "time=%.17g%s", method_name(o->method), budget, o->seed, o->width, o->height, o->spp, o->photons,
-             o->passes, (int)o->paths, o->max_depth, o->photon_depth, o->time_s, params);
+             "time=%.17g%s scene=%016llx", method_name(o->method), budget, o->seed, o->width, o->height, o->spp,
+             o->photons, o->passes, (int)o->paths, o->max_depth, o->photon_depth, o->time_s, params,
+             pds_scene_hash(scene));
 }
 
 static int render_and_compare(const pds_scene *scene, const run_cfg *c, const pds_image *ref, pds_image *img,
@@ -3360,7 +3363,7 @@ static int cmd_sweep(int argc, char **argv)
         ps->set(ps, &c, param, rows[i].value);
         snprintf(context, sizeof context, "sweep %s=%s", ps->key, rows[i].value);
         /* kept entries (see "keeping finished entries") */
-        entry_key(&c.opt, "", key, sizeof key);
+        entry_key(scene, &c.opt, "", key, sizeof key);
         snprintf(label, sizeof label, "%s-%s", ps->key, rows[i].value);
         if (resume && (loaded = load_entry(dir, label, key, &ref, &rows[i].img, &rows[i].st, &rows[i].m, extra,
                                            sizeof extra)) < 0)
@@ -4738,7 +4741,7 @@ static int cmd_race(int argc, char **argv)
         race_entry *t = &e[i];
         char context[160], key[600];
         int loaded = 0;
-        entry_key(&t->cfg.opt, bud.text[t->budget], key, sizeof key);
+        entry_key(scene, &t->cfg.opt, bud.text[t->budget], key, sizeof key);
         if (resume && (loaded = race_load_entry(dir, t, key, &ref)) < 0) goto done;
         if (!loaded) {
             if (tune && race_tune(scene, &ref, pixel_m, t, i, &tlog)) goto done;

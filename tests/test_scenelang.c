@@ -547,6 +547,25 @@ static void test_cli_defines_and_obj_material_reach_the_scene(pds_test_ctx *t)
     CHECK(t, cli_run(args, buf, sizeof buf) == 0 && strstr(buf, "studio_mesh      conductor") &&
                  strstr(buf, "light       disk"),
           "--obj-material metal: %s", buf);
+    /* race --resume reuses a kept entry only for the same scene content:
+       other -D values are another scene */
+    {
+        char dir[256];
+        static const char *const runs[3][2] = {{"-D power=30", ""}, {"-D power=30", "--resume"}, {"-D power=31", "--resume"}};
+        static const char *const resumed[3] = {"resumed=0", "resumed=2", "resumed=0"};
+        int k;
+        sl_path(dir, sizeof dir, "race");
+        snprintf(args, sizeof args, "render %s --method pt --caustics-only --res 16x12 --spp 2 -o %s --quiet", scene, out);
+        REQUIRE(t, cli_run(args, buf, sizeof buf) == 0, "reference: %s", buf);
+        for (k = 0; k < 3; k++) {
+            snprintf(args, sizeof args, "race %s --ref %s --photons 2000 --methods pds,pm --caustics-only --res 16x12 "
+                     "--spp 1 -o %s --quiet %s %s", scene, out, dir, runs[k][0], runs[k][1]);
+            CHECK(t, cli_run(args, buf, sizeof buf) == 0 && strstr(buf, resumed[k]), "race %s %s: %s", runs[k][0],
+                  runs[k][1], buf);
+        }
+        snprintf(args, sizeof args, "rm -rf '%s'", dir);
+        CHECK(t, system(args) == 0, "rm");
+    }
     remove(scene);
     remove(obj);
     remove(out);
