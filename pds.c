@@ -21,7 +21,9 @@
                   (Wyman et al. 2013) -> XYZ -> sRGB, dispersive materials
      >>lights     light selection, next-event sampling, photon emission
      >>kdtree     balanced kd-tree: range and k-nearest queries (eye-path map)
-     >>scene      the pds_scene value and its text format parser
+     >>scene      the pds_scene value and its text format parser, with
+                  include and variables (define, $NAME, -D); a bare OBJ
+                  in its studio
      >>differentials  photon differentials: emission (eqs. 2-6), transfer,
                   reflection, refraction (Igehy 1999), footprint, eq. 12
      >>image      PFM read/write, PNG write, tone mapping
@@ -6437,7 +6439,9 @@ static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double
        mesh "bunny.obj" { material glass  scale 10 }
 
    Line breaks are white space like any other; `#` starts a comment that
-   runs to the end of the line. Numbers take any C form (decimal, exponent,
+   runs to the end of the line. `include "FILE"` and `define NAME VALUE`
+   are statements too, and `$NAME` may stand for any token (see "variables
+   and include" below). Numbers take any C form (decimal, exponent,
    hexadecimal, hexadecimal float, a leading-zero integer is octal, and an
    f/F/l/L/u/U suffix is ignored). NaN and infinity are refused. Every error
    carries FILE:LINE:COLUMN of the token at fault.
