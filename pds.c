@@ -8131,7 +8131,7 @@ pds_status pds_scene_load_obj(const char *path, pds_scene **out, pds_error *err)
    y (OBJ files put +y up):
    - a ground, white-grey diffuse (albedo 0.75), 40 R square, centred
      under C at y0 - R/1000 (just under the mesh: no coplanar faces);
-   - a disk light of radius 0.3 R at C + 5 R w, w = (-0.7, 1.5, 0.3)
+   - a disk light of radius 0.3 R at C + 5 R w, w = (-0.75, 0.7, 0.3)
      normalised (up and to the left, a little towards the camera), facing
      C; it makes the ground under C, were it unshadowed, of radiance 0.6:
      a small Lambertian disk of area A and radiance Le seen at distance D
@@ -8228,7 +8228,7 @@ static pds_status pds__scene_load_studio(const char *path, pds_obj_material mate
     R = 0.5 * pds__length(pds__sub(hi, lo));
     if (!(R > 0.0)) R = 1.0;
     y0 = lo.y - 1e-3 * R;
-    w = pds__normalize(pds__v(-0.7, 1.5, 0.3));
+    w = pds__normalize(pds__v(-0.75, 0.7, 0.3));
     lc = pds__add(c, pds__scale(w, 5.0 * R));
     q = pds__v(c.x, y0, c.z);
     v = pds__sub(q, lc);
