@@ -200,7 +200,8 @@ pds_status pds_scene_load(const char *path, pds_scene **out, pds_error *err);
    from name's directory, as for a file of that name. */
 pds_status pds_scene_load_string(const char *text, const char *name, pds_scene **out, pds_error *err);
 /* Load a bare Wavefront OBJ (with its MTL files) as a scene with a default
-   camera looking at its bounds, and build its BVH. */
+   camera looking at its bounds, and build its BVH: the mesh alone, with
+   no light (pds_scene_load_ex sets it in a studio, as `pds render` does). */
 pds_status pds_scene_load_obj(const char *path, pds_scene **out, pds_error *err);
 
 /* How a file becomes a scene (README "Variables and include", "A bare
