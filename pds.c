@@ -6655,6 +6655,8 @@ typedef struct pds__load {
                               is included in chain[d] */
     int depth;             /* chain[depth] is the file being read */
     long includes;         /* include statements read so far */
+    size_t bytes;          /* scene text read so far, all files (at most
+                              PDS_MAX_TEXT_BYTES: bounds time and memory) */
     int camera_seen;
     int noted;             /* the error already says where it was included from */
 } pds__load;
@@ -7932,6 +7934,12 @@ static pds_status pds__parse_include(pds__parser *P)
     e = pds__input_file_check(path);
     if (e) return pds__perr(P, &P->tok, PDS_ERR_IO, "cannot read included file '%s': %s", path, pds__input_file_problem(e));
     if ((st = pds__read_file(path, PDS_MAX_TEXT_BYTES, "scene file", &src, &size, P->err))) return st;
+    if (size > (size_t)PDS_MAX_TEXT_BYTES - L->bytes) {
+        free(src);
+        return pds__perr(P, &at, PDS_ERR_LIMIT, "the scene and its included files hold more than %d bytes in all",
+                         PDS_MAX_TEXT_BYTES);
+    }
+    L->bytes += size;
     st = pds__check_lines(path, src, size, P->err);
     if (!st && memchr(src, '\0', size)) st = pds__fail(P->err, PDS_ERR_PARSE, path, 0, 0, "not a text file (contains a NUL byte)");
     if (!st) {
@@ -8034,6 +8042,7 @@ static pds_status pds__scene_parse(pds_scene *s, const char *path, const char *s
         if (!L.define_used) return pds__nomem(err);
     }
     L.chain[0] = path;
+    L.bytes = strlen(src);
     P.file = path;
     pds__dirname(path, P.dir, sizeof P.dir);
     P.p = src;

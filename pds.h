@@ -103,7 +103,8 @@ const char *pds_error_string(const pds_error *err);
 #define PDS_MAX_LINE_BYTES 4194304   /* one line of a scene, OBJ or MTL file (4 MiB:
                                         an OBJ face of some 500,000 corners) */
 #define PDS_MAX_INCLUDE_DEPTH 16     /* scene files nested by `include` */
-#define PDS_MAX_INCLUDES 1024        /* `include` statements read in one load */
+#define PDS_MAX_INCLUDES 1024        /* `include` statements read in one load (the
+                                        files: PDS_MAX_TEXT_BYTES in all) */
 #define PDS_MAX_DEFINES 4096         /* variables (`define`) in one scene */
 /* Input files must be regular files (not FIFOs, devices or directories);
    a PFM may hold at most PDS_MAX_RESOLUTION^2 pixels. */

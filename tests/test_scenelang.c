@@ -176,6 +176,31 @@ static void test_scene_include_cycles_and_depth_are_refused(pds_test_ctx *t)
         sl_path(a, sizeof a, name);
         remove(a);
     }
+    /* the scene and its includes hold at most 64 MiB of text in all: a
+       33 MiB file (comment lines of 1 MiB) included twice is refused at the
+       second include */
+    {
+        FILE *f;
+        char *line = (char *)malloc(1u << 20);
+        REQUIRE(t, line != NULL, "out of memory");
+        memset(line, 'x', (1u << 20) - 1);
+        line[0] = '#';
+        line[(1u << 20) - 1] = '\n';
+        sl_path(b, sizeof b, "big.scene");
+        f = fopen(b, "wb");
+        REQUIRE(t, f != NULL, "cannot write %s", b);
+        for (i = 0; i < 33; i++) fwrite(line, 1, 1u << 20, f);
+        fclose(f);
+        free(line);
+        sl_path(a, sizeof a, "twice.scene");
+        snprintf(text, sizeof text, "include \"%s\"\n  include \"%s\"\n", strrchr(b, '/') + 1, strrchr(b, '/') + 1);
+        REQUIRE(t, sl_write(a, text), "write");
+        CHECK(t, pds_scene_load(a, &s, &err) == PDS_ERR_LIMIT &&
+                     strstr(err.text, "twice.scene:2:3: the scene and its included files hold more than 67108864 bytes in all"),
+              "got '%s'", err.text);
+        remove(a);
+        remove(b);
+    }
 }
 
 /* --------------------------------------------------------------- variables */
