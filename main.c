@@ -2016,8 +2016,8 @@ static const char *material_type_name(pds_material_type t)
 
 static const char *light_type_name(pds_light_type t)
 {
-    static const char *const names[] = {"point", "spot", "directional", "disk", "quad", "mesh"};
-    return (unsigned)t < 6 ? names[t] : "?";
+    static const char *const names[] = {"point", "spot", "directional", "disk", "quad", "mesh", "environment"};
+    return (unsigned)t < 7 ? names[t] : "?";
 }
 
 static const char *trace_event_name(pds_trace_event e)
