@@ -19,7 +19,8 @@
      >>materials  Fresnel (dielectric, conductor), BSDF sampling, Beer
      >>spectral   wavelengths, RGB -> spectrum (Smits 1999), CIE 1931 fit
                   (Wyman et al. 2013) -> XYZ -> sRGB, dispersive materials
-     >>lights     light selection, next-event sampling, photon emission
+     >>lights     light selection, next-event sampling, photon emission;
+                  the environment light (constant, CIE clear sky, sun)
      >>kdtree     balanced kd-tree: range and k-nearest queries (eye-path map)
      >>scene      the pds_scene value and its text format parser
      >>differentials  photon differentials: emission (eqs. 2-6), transfer,
@@ -28,7 +29,8 @@
      >>metrics    RMSE and SSIM
      >>partial    the exact state of a render or a shard of it: the image
                   from it, merging shards, the partial file
-     >>render     camera, path tracer and eye pass, preview, row scheduler
+     >>render     camera (pinhole, thin lens), path tracer and eye pass,
+                  preview, row scheduler
      >>debug      teaching views: colour bars and a bitmap font, camera
                   projection, the views' per-thread counts, the photon
                   path recorder and the paths OBJ
@@ -5058,6 +5060,11 @@ static int pds__spectral_meet(double lambda_p, double lambda_e, double e[3], dou
    - mesh: triangles first_triangle .. first_triangle + triangle_count - 1
      of the scene mesh, radiance L on the side of each triangle's geometric
      normal (P1 - P0) x (P2 - P0). They are in the BVH.
+   - environment: radiance L(w) from infinitely far along every direction w
+     (constant part, CIE clear sky, ground, sun disk; "the environment
+     light" below); power pi R^2 times the integral of L, R the radius of
+     the scene's bounding sphere. Not a delta light: next-event estimation
+     samples a direction with a pdf, and rays that leave the scene see it.
    The selection weight of a light is the sum of its three channels of
    power (directional: E A from the irradiance and the beam geometry; the
    others: l->power). Geometric quantities (areas, normals) are recomputed
@@ -5065,7 +5072,7 @@ static int pds__spectral_meet(double lambda_p, double lambda_e, double e[3], dou
    agree with what the scene parser stores.
 
    Sampling (pdfs are per unit area on the light, per unit solid angle for
-   directions): area lights are sampled uniformly by area (disk: Shirley and
+   directions; the environment: per unit solid angle): area lights are sampled uniformly by area (disk: Shirley and
    Chiu's concentric square-to-disk map; mesh: a triangle by area through a
    CDF, then uniform inside it), so the solid-angle pdf seen from p is
    dist^2 / (A |cos theta_x|). Delta lights (point, spot, directional)
@@ -5079,7 +5086,9 @@ static int pds__spectral_meet(double lambda_p, double lambda_e, double e[3], dou
    angle omega_e of eqs 5-6 of Frisvad et al. 2014 (photon differentials):
    point (0, 4 pi), spot (0, 2 pi (1 - co)), directional (beam cross-section,
    0), and for Lambertian area lights (A, 2 pi): the paper gives no omega_e
-   for them; the hemisphere is our choice. */
+   for them; the hemisphere is our choice. The environment: (pi R^2, 0),
+   each photon a thin parallel beam as from a directional light (its
+   footprint starts as its share of the disk it leaves from). */
 
 typedef struct pds__light_table {
     size_t nlights;

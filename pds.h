@@ -244,8 +244,10 @@ double pds_material_ior(const pds_material *m, double wavelength_nm);
    would carry as the only photon of that light (W; divide by the photon
    count), the densities it was sampled with, and the light's emitting area
    and solid angle (the Ae and omega_e of the PDS paper's eqs. 5-6; point
-   lights have no area, directional lights no solid angle). Returns 0 if the
-   sample carries no flux. */
+   lights have no area, directional lights no solid angle, the environment
+   light the area of the disk across the scene's bounding sphere that its
+   photons leave from and no solid angle). Returns 0 if the sample carries
+   no flux. */
 typedef struct pds_emission {
     pds_vec3 position, direction;
     pds_vec3 normal;        /* emitter surface normal; zero for point and spot lights */
