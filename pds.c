@@ -971,7 +971,9 @@ enum pds__rng_purpose {
     PDS__RNG_GATHER = 8,  /* gi's final gather: index = camera sample */
     PDS__RNG_WAVELENGTH = 9, /* index = pixel: its samples' wavelength rotation */
     PDS__RNG_ISC = 10,    /* isc: index = frame, dim 0, 1 = the light-space grid's offset */
-    PDS__RNG_LENS = 11    /* thin lens: index = camera sample (as PIXEL), dim 0, 1 = the lens point */
+    PDS__RNG_LENS = 11,   /* thin lens: index = camera sample (as PIXEL), dim 0, 1 = the lens point */
+    PDS__RNG_ENV_NEE = 12 /* the environment's sky parts in next-event estimation:
+                             index = camera sample, dim = 4 x the bounce's PIXEL dim + 0..3 */
 };
 
 static uint64_t pds__mix64(uint64_t z)
@@ -5340,34 +5342,46 @@ static double pds__env_pdf(const pds_light *l, const double p[3], pds__v3 w)
     return pdf;
 }
 
-/* A direction from the mixture p[3] with uniforms u1, u2 in [0,1): u1
-   picks the part and is then stretched back to [0,1) inside it. Returns
-   the pdf of *w (0 when nothing can be sampled). */
-static double pds__env_sample(const pds_light *l, const double p[3], double u1, double u2, pds__v3 *w)
+/* A direction *w of part `part` (0 the sun's cone, 1 the upper, 2 the
+   lower hemisphere), uniform in that part's solid angle, from u1, u2 in
+   [0,1). */
+static void pds__env_sample_part(const pds_light *l, int part, double u1, double u2, pds__v3 *w)
 {
-    double cos_a, omega, ls[3], ct, st, phi, sign = 1.0;
+    double cos_a, omega, ls[3], ct, st, phi;
     pds__v3 axis, b1, b2;
-    pds__env_sun(l, &cos_a, &omega, ls);
-    if (!(p[0] + p[1] + p[2] > 0.0)) return 0.0;
-    if (u1 < p[0]) {
-        u1 /= p[0];
+    if (u1 >= 1.0) u1 = 1.0 - DBL_EPSILON;
+    if (part == 0) {
+        pds__env_sun(l, &cos_a, &omega, ls);
         axis = pds__normalize(l->sun_direction);
-        ct = 1.0 - u1 * (1.0 - cos_a); /* uniform in the cone's solid angle */
+        ct = 1.0 - u1 * (1.0 - cos_a); /* cos uniform in [cos alpha, 1] */
     } else {
         axis = pds__normalize(l->up);
-        if (u1 < p[0] + p[1]) {
-            u1 = (u1 - p[0]) / p[1];
-        } else {
-            u1 = p[2] > 0.0 ? (u1 - p[0] - p[1]) / p[2] : 0.0;
-            sign = -1.0;
-        }
-        if (u1 >= 1.0) u1 = 1.0 - DBL_EPSILON;
-        ct = sign * (1.0 - u1); /* uniform on the hemisphere: cos uniform in (0, 1] */
+        ct = (part == 1 ? 1.0 : -1.0) * (1.0 - u1); /* |cos| uniform in (0, 1] */
     }
     st = sqrt(fmax(0.0, 1.0 - ct * ct));
     phi = 2.0 * PDS__PI * u2;
     pds__onb(axis, &b1, &b2);
     *w = pds__normalize(pds__add(pds__scale(axis, ct), pds__add(pds__scale(b1, st * cos(phi)), pds__scale(b2, st * sin(phi)))));
+}
+
+/* A direction from the mixture p[3] with uniforms u1, u2 in [0,1): u1
+   picks the part and is then stretched back to [0,1) inside it. Returns
+   the pdf of *w (0 when nothing can be sampled). */
+static double pds__env_sample(const pds_light *l, const double p[3], double u1, double u2, pds__v3 *w)
+{
+    int part;
+    if (!(p[0] + p[1] + p[2] > 0.0)) return 0.0;
+    if (u1 < p[0]) {
+        part = 0;
+        u1 /= p[0];
+    } else if (u1 < p[0] + p[1] || !(p[2] > 0.0)) {
+        part = 1;
+        u1 = p[1] > 0.0 ? (u1 - p[0]) / p[1] : 0.0;
+    } else {
+        part = 2;
+        u1 = (u1 - p[0] - p[1]) / p[2];
+    }
+    pds__env_sample_part(l, part, u1, u2, w);
     return pds__env_pdf(l, p, *w);
 }
 
@@ -10853,6 +10867,54 @@ static int pds__hit_analytic_light(const pds_scene *s, pds__v3 org, pds__v3 dir,
     return found;
 }
 
+/* Next-event estimation of the environment light k (picked with
+   probability pmf) at a non-specular vertex: one direction from each part
+   of its mixture (sun, upper, lower hemisphere; >>lights) instead of one
+   from the mixture, each weighted by its part's probability p_i:
+   sum_i p_i f(w_i) / (pmf q(w_i)), q the mixture's pdf, has the same
+   expectation as one sample from q (integral of f / pmf), with the
+   sun-or-sky choice taken out of the noise; the power heuristic weights
+   against BSDF sampling use pmf q as a single light sample does. The
+   second and third parts take their numbers from PDS__RNG_ENV_NEE. */
+static void pds__direct_env(const pds__tracer *tr, const pds_material *m, pds__v3 p, pds__v3 wo, pds__v3 ns,
+                            pds__v3 ng, const double beta[3], uint64_t idx, uint64_t dim, int k, double pmf,
+                            double lambda, const double *film, double acc[3])
+{
+    const pds_scene *s = tr->scene;
+    const pds_light *l = &s->lights[k];
+    const double *parts = &s->light_table.env_p[3 * k];
+    pds__v3 n, ngw;
+    int side, part, c;
+    if (!pds__bsdf_frame(wo, ns, ng, &n, &ngw, &side)) return;
+    for (part = 0; part < 3; part++) {
+        double u1, u2, q, f[3], L[3], w[3], pdf_bsdf, cosine;
+        pds__v3 wi, org;
+        if (!(parts[part] > 0.0)) continue;
+        if (part == 0) {
+            u1 = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 1);
+            u2 = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 2);
+        } else {
+            u1 = pds__rng_uniform(tr->seed, PDS__RNG_ENV_NEE, idx, 4 * dim + 2 * (uint64_t)part - 2);
+            u2 = pds__rng_uniform(tr->seed, PDS__RNG_ENV_NEE, idx, 4 * dim + 2 * (uint64_t)part - 1);
+        }
+        pds__env_sample_part(l, part, u1, u2, &wi);
+        cosine = pds__dot(wi, n);
+        if (!(cosine > 0.0)) continue;
+        q = pds__env_pdf(l, parts, wi);
+        if (!(q > 0.0)) continue;
+        pds__bsdf_eval(m, p, wo, wi, ns, ng, f, &pdf_bsdf);
+        if (!(f[0] + f[1] + f[2] > 0.0)) continue;
+        pds__env_radiance(l, wi, L);
+        if (!(L[0] != 0.0 || L[1] != 0.0 || L[2] != 0.0)) continue;
+        org = pds__offset(tr, p, ng, wi);
+        if (pds__bvh_occluded(&s->bvh, org, wi, 0.0, DBL_MAX)) continue;
+        pds__spectral_uplift(lambda, f);
+        pds__spectral_uplift(lambda, L);
+        for (c = 0; c < 3; c++) w[c] = beta[c] * f[c] * L[c] * cosine * parts[part] / (pmf * q);
+        pds__accumulate(tr, 0, w, pds__mis_power(pmf * q, pdf_bsdf), film, acc);
+    }
+}
+
 /* Next-event estimation at a non-specular vertex: one light picked by
    power, one point on it, shadow ray, MIS against BSDF sampling. A
    spectral sample (lambda > 0, film = W(lambda)) takes the BSDF and the
@@ -10872,6 +10934,10 @@ static void pds__direct_light(const pds__tracer *tr, const pds_material *m, pds_
     if (tr->paths == PDS_PATHS_CAUSTICS_ONLY) return; /* a direct connection is never caustic */
     k = pds__lights_pick(&s->light_table, u0, &pmf);
     if (k < 0 || !(pmf > 0.0)) return;
+    if (s->lights[k].type == PDS_LIGHT_ENVIRONMENT) {
+        pds__direct_env(tr, m, p, wo, ns, ng, beta, idx, dim, k, pmf, lambda, film, acc);
+        return;
+    }
     if (!pds__light_sample_li(&s->light_table, &s->lights[k], k, &s->mesh, p, u1, u2, &li)) return;
     if (!pds__bsdf_frame(wo, ns, ng, &n, &ngw, &side)) return;
     pds__bsdf_eval(m, p, wo, li.wi, ns, ng, f, &pdf_bsdf);
@@ -15573,10 +15639,11 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
     pds__mutex_init(&ctx->lock);
     for (k = 0; k < s->nlights; k++)
         if (s->lights[k].type != PDS_LIGHT_POINT && s->lights[k].type != PDS_LIGHT_SPOT) {
-            static const char *const kind[] = {"point", "spot", "directional", "disk", "quad", "mesh", "environment"};
+            static const char *const kind[] = {"a point", "a spot", "a directional", "a disk", "a quad", "a mesh",
+                                               "an environment"};
             return pds__fail(err, PDS_ERR_INVALID_ARG, s->path[0] ? s->path : NULL, 0, 0,
                              "image-space caustics (--method isc) take point and spot lights only, as Wyman and "
-                             "Davis's method does; light %lu is a %s light",
+                             "Davis's method does; light %lu is %s light",
                              (unsigned long)k + 1, kind[(unsigned)s->lights[k].type % 7u]);
         }
     ctx->scene = s;

@@ -62,6 +62,56 @@ static void test_env_sun_gives_a_plane_its_irradiance_times_cos(pds_test_ctx *t)
     pds_image_free(&a);
 }
 
+/* The CIE clear sky (S 011/E:2003 type 12: a = -1, b = -0.32, c = 10,
+   d = -3, e = 0.45), written out here from zenith angle Z, angle to the
+   sun chi and the sun's zenith angle Zs, relative to the zenith. */
+static double tenv_cie(double z, double chi, double zs)
+{
+    double phi_z = 1.0 - exp(-0.32 / cos(z)), phi_0 = 1.0 - exp(-0.32);
+    double f_chi = 1.0 + 10.0 * (exp(-3.0 * chi) - exp(-3.0 * PDS__PI / 2.0)) + 0.45 * cos(chi) * cos(chi);
+    double f_zs = 1.0 + 10.0 * (exp(-3.0 * zs) - exp(-3.0 * PDS__PI / 2.0)) + 0.45 * cos(zs) * cos(zs);
+    return f_chi * phi_z / (f_zs * phi_0);
+}
+
+/* The sky alone (sun 45 degrees high, no sun disk): a horizontal plane
+   receives E = sky x the integral of Y cos Z over the upper hemisphere,
+   here by a midpoint rule in (Z, azimuth) of the formula above, and
+   reflects 0.5 / pi of it. Also L itself in a few directions. */
+static void test_env_clear_sky_matches_the_cie_formula(pds_test_ctx *t)
+{
+    static const char scene[] = TENV_PLANE "light environment { sky 0.4 sun_direction 1 1 0 }\n";
+    pds_image a = {0, 0, NULL};
+    pds_error err;
+    pds_scene *s = scene_from_text(scene, &err);
+    double e = 0.0, want, zs = PDS__PI / 4.0;
+    int i, j, bad = 0;
+    REQUIRE(t, s != NULL, "%s", err.text);
+    for (i = 0; i < 400; i++) {
+        double z = (i + 0.5) * (PDS__PI / 2.0) / 400;
+        for (j = 0; j < 400; j++) {
+            double az = (j + 0.5) * 2.0 * PDS__PI / 400;
+            /* the sun at azimuth 0: cos chi = cos z cos zs + sin z sin zs cos az */
+            double cchi = cos(z) * cos(zs) + sin(z) * sin(zs) * cos(az);
+            double y = tenv_cie(z, acos(fmax(-1.0, fmin(1.0, cchi))), zs);
+            pds__v3 w = pds__v(sin(z) * cos(az), cos(z), sin(z) * sin(az));
+            e += y * cos(z) * sin(z) * (PDS__PI / 2.0 / 400) * (2.0 * PDS__PI / 400);
+            if (i % 50 == 7 && j % 50 == 3) {
+                /* the same direction in the scene's frame (sun in the x-y plane) */
+                double L[3];
+                pds__env_radiance(pds_scene_light(s, 0), w, L);
+                if (!(fabs(L[1] / (0.4 * y) - 1.0) < 1e-9)) bad++;
+            }
+        }
+    }
+    CHECK(t, bad == 0, "%d directions where L differs from 0.4 Y", bad);
+    e *= 0.4;
+    want = 0.5 / PDS__PI * e;
+    REQUIRE(t, tenv_render(scene, PDS_METHOD_PT, 16, 0, PDS_PATHS_ALL, &a), "pt");
+    CHECK(t, fabs(tenv_mean3(&a) / want - 1.0) < 0.015, "pt: %g, expected %g", tenv_mean3(&a), want);
+    pds_image_free(&a);
+    pds_scene_free(s);
+}
+
 /* A light record as the scene parser leaves it (position, radius, area
    and power are the scene's; here a unit sphere at the origin). */
 static pds_light tenv_light(void)
@@ -410,6 +460,7 @@ static void test_env_and_lens_errors_name_the_place(pds_test_ctx *t)
 static const pds_test_case tests_envlight[] = {
     {"env_constant_sky_gives_a_plane_radiance_times_albedo", test_env_constant_sky_gives_a_plane_radiance_times_albedo},
     {"env_sun_gives_a_plane_its_irradiance_times_cos", test_env_sun_gives_a_plane_its_irradiance_times_cos},
+    {"env_clear_sky_matches_the_cie_formula", test_env_clear_sky_matches_the_cie_formula},
     {"env_sampling_pdf_integrates_to_one", test_env_sampling_pdf_integrates_to_one},
     {"env_photons_carry_the_flux_through_the_bounding_sphere", test_env_photons_carry_the_flux_through_the_bounding_sphere},
     {"env_sun_caustic_agrees_between_pt_and_photon_methods", test_env_sun_caustic_agrees_between_pt_and_photon_methods},
