@@ -10680,8 +10680,9 @@ static void pds__material_preview_colour(const pds_material *m, double rgb[3])
 /* Unidirectional path tracing (Kajiya 1986) with next-event estimation at
    non-specular vertices and multiple importance sampling (Veach 1997,
    power heuristic) between light sampling and BSDF sampling for area and
-   mesh lights. Delta lights (point, spot, directional) are reached only by
-   next-event estimation from non-specular vertices, so a path tracer cannot
+   mesh lights and the environment (which rays that leave the scene see).
+   Delta lights (point, spot, directional) are reached only by next-event
+   estimation from non-specular vertices, so a path tracer cannot
    render their caustics: a diffuse surface lit through glass by a point
    light stays dark, and the photon methods supply that light.
 
