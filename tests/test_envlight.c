@@ -355,6 +355,37 @@ static void test_thin_lens_of_radius_0_is_the_pinhole_bit_for_bit(pds_test_ctx *
     pds_image_free(&c);
 }
 
+/* Lens samples and environment samples are functions of (seed, purpose,
+   index): the same image, bit for bit, on 1 and 3 threads (pds and pt). */
+static void test_env_and_lens_images_are_identical_for_any_thread_count(pds_test_ctx *t)
+{
+    static const char scene[] =
+        "camera { position 0 1.5 3 look_at 0 0.5 0 fov 40 resolution 24 16 spp 2 aperture 0.1 }\n"
+        "material floor diffuse { albedo 0.7 }\n"
+        "material glass dielectric { ior 1.5 }\n"
+        "quad { material floor size 6 6 }\n"
+        "sphere { material glass radius 0.5 segments 32 rings 16 translate 0 0.5 0 }\n"
+        "light environment { sky 0.3 ground 0.1 sun 2 sun_direction 0.3 1 0.2 sun_radius 2 }\n";
+    static const pds_method methods[2] = {PDS_METHOD_PDS, PDS_METHOD_PT};
+    int k;
+    for (k = 0; k < 2; k++) {
+        pds_options opt;
+        pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+        pds_options_default(&opt);
+        opt.method = methods[k];
+        opt.photons = 5000;
+        opt.threads = 1;
+        REQUIRE(t, render_text(scene, &opt, &a, NULL), "1 thread");
+        opt.threads = 3;
+        REQUIRE(t, render_text(scene, &opt, &b, NULL), "3 threads");
+        CHECK(t, memcmp(a.rgb, b.rgb, sizeof(float) * 3 * (size_t)a.width * a.height) == 0, "%s: 1 and 3 threads differ",
+              pds_method_name(methods[k]));
+        CHECK(t, tenv_mean3(&a) > 0.01, "%s: a black image", pds_method_name(methods[k]));
+        pds_image_free(&a);
+        pds_image_free(&b);
+    }
+}
+
 /* Image-space caustics and the teaching views project points into a
    pinhole: with a lens they refuse, with a message. */
 static void test_thin_lens_is_refused_by_isc_and_the_teaching_views(pds_test_ctx *t)
@@ -466,6 +497,7 @@ static const pds_test_case tests_envlight[] = {
     {"env_sun_caustic_agrees_between_pt_and_photon_methods", test_env_sun_caustic_agrees_between_pt_and_photon_methods},
     {"thin_lens_blurs_to_the_circle_of_confusion", test_thin_lens_blurs_to_the_circle_of_confusion},
     {"thin_lens_of_radius_0_is_the_pinhole_bit_for_bit", test_thin_lens_of_radius_0_is_the_pinhole_bit_for_bit},
+    {"env_and_lens_images_are_identical_for_any_thread_count", test_env_and_lens_images_are_identical_for_any_thread_count},
     {"thin_lens_is_refused_by_isc_and_the_teaching_views", test_thin_lens_is_refused_by_isc_and_the_teaching_views},
     {"scene_hash_covers_the_environment_and_the_lens", test_scene_hash_covers_the_environment_and_the_lens},
     {"env_and_lens_errors_name_the_place", test_env_and_lens_errors_name_the_place},
