@@ -261,6 +261,49 @@ static void test_env_sun_caustic_agrees_between_pt_and_photon_methods(pds_test_c
     pds_image_free(&b);
 }
 
+/* The photon differentials' extent of an environment photon (eqs. 5-6
+   of the PDS paper): A_e = the area of the disk it leaves from, omega_e =
+   0 (a thin parallel beam, normal = direction). Aimed at the specular
+   objects (pds), the disk is their bounding sphere's cross-section,
+   pulled back outside the scene: every aimed photon starts outside the
+   scene's sphere and its line crosses the target's disk. */
+static void test_env_photons_are_parallel_beams_with_their_share_of_the_disk(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text(tenv_ball_scene, &err);
+    const pds_light *l;
+    pds__target tg;
+    long i, bad_extent = 0, bad_aim = 0, n = 2000;
+    REQUIRE(t, s != NULL, "%s", err.text);
+    l = pds_scene_light(s, 0);
+    tg = pds__specular_target(s);
+    REQUIRE(t, tg.any && tg.radius < l->radius, "target radius %g, scene radius %g", tg.radius, l->radius);
+    for (i = 0; i < n; i++) {
+        double u[5];
+        pds_emission e;
+        pds__photon_start ph;
+        int c;
+        for (c = 0; c < 5; c++) u[c] = tlights_u(13, (uint64_t)i, (uint64_t)c);
+        if (pds_scene_emit(s, 0, u, &e)) {
+            pds_vec3 d = pds__sub(e.normal, e.direction);
+            if (!(fabs(e.area / (PDS__PI * l->radius * l->radius) - 1.0) < 1e-12) || e.solid_angle != 0.0 ||
+                !(pds__length(d) < 1e-12))
+                bad_extent++;
+        }
+        if (pds__emit_caustic_photon(s, &tg, 0, u, &ph)) {
+            pds__v3 q = pds__sub(tg.centre, ph.pos);
+            q = pds__sub(q, pds__scale(ph.dir, pds__dot(q, ph.dir)));
+            if (!(fabs(ph.area / (PDS__PI * tg.radius * tg.radius) - 1.0) < 1e-12) || ph.solid_angle != 0.0 ||
+                !(pds__length(q) <= tg.radius * (1.0 + 1e-9)) ||
+                !(pds__length(pds__sub(ph.pos, l->position)) >= l->radius))
+                bad_aim++;
+        }
+    }
+    CHECK(t, bad_extent == 0, "%ld of %ld emitted photons with the wrong extent", bad_extent, n);
+    CHECK(t, bad_aim == 0, "%ld of %ld aimed photons miss the target or start inside the scene", bad_aim, n);
+    pds_scene_free(s);
+}
+
 /* --- the thin lens ------------------------------------------------------- */
 
 /* The image of a small disk light (radius rho, facing the camera, on the
@@ -495,6 +538,8 @@ static const pds_test_case tests_envlight[] = {
     {"env_sampling_pdf_integrates_to_one", test_env_sampling_pdf_integrates_to_one},
     {"env_photons_carry_the_flux_through_the_bounding_sphere", test_env_photons_carry_the_flux_through_the_bounding_sphere},
     {"env_sun_caustic_agrees_between_pt_and_photon_methods", test_env_sun_caustic_agrees_between_pt_and_photon_methods},
+    {"env_photons_are_parallel_beams_with_their_share_of_the_disk",
+     test_env_photons_are_parallel_beams_with_their_share_of_the_disk},
     {"thin_lens_blurs_to_the_circle_of_confusion", test_thin_lens_blurs_to_the_circle_of_confusion},
     {"thin_lens_of_radius_0_is_the_pinhole_bit_for_bit", test_thin_lens_of_radius_0_is_the_pinhole_bit_for_bit},
     {"env_and_lens_images_are_identical_for_any_thread_count", test_env_and_lens_images_are_identical_for_any_thread_count},
