@@ -7407,6 +7407,15 @@ static pds_status pds__parse_light(pds__parser *P)
         if (!any)
             return pds__perr(P, &type_tok, PDS_ERR_PARSE,
                              "environment light needs 'radiance', 'sky', 'ground' or 'sun' (all are 0 by default)");
+        {
+            double cos_a, omega, ls[3];
+            pds__env_sun(&l, &cos_a, &omega, ls);
+            for (c = 0; c < 3; c++)
+                if (l.sun_irradiance[c] != 0.0 && (!isfinite(ls[c]) || !(omega > 0.0)))
+                    return pds__perr(P, &type_tok, PDS_ERR_PARSE,
+                                     "the sun's disk (sun_radius %g degrees) is too small: its radiance "
+                                     "E / (pi sin^2 radius) is out of range", l.sun_radius_deg);
+        }
         if (pds__scene_add_light(P->scene, &l) < 0)
             return pds__perr(P, &type_tok, PDS_ERR_LIMIT, "more than %d lights", PDS_MAX_LIGHTS);
         return PDS_OK;

@@ -514,6 +514,8 @@ static void test_env_and_lens_errors_name_the_place(pds_test_ctx *t)
         {"light environment { radiance 1 }\nlight environment { sky 1 }\n",
          ":2:7: a second environment light (a scene has one environment: add its parts in one block)"},
         {"light environment { sun 1 sun_radius 0 }\n", "'sun_radius' must be above 0 degrees (at most 45)"},
+        {"light environment { sun 1 sun_radius 1e-300 }\n",
+         ":1:7: the sun's disk (sun_radius 1e-300 degrees) is too small: its radiance E / (pi sin^2 radius) is out of range"},
         {"camera { aperture -1 }\n", ":1:19: 'aperture' (the lens radius) must be 0 or more, got -1"},
         {"camera { focus_distance 0 }\n", ":1:25: 'focus_distance' must be above 0, got 0"},
         {"light point { position 0 1 0 power 1 sky 1 }\n", "sky"},
