@@ -5074,9 +5074,10 @@ static int pds__spectral_meet(double lambda_p, double lambda_e, double e[3], dou
    agree with what the scene parser stores.
 
    Sampling (pdfs are per unit area on the light, per unit solid angle for
-   directions; the environment: per unit solid angle): area lights are sampled uniformly by area (disk: Shirley and
-   Chiu's concentric square-to-disk map; mesh: a triangle by area through a
-   CDF, then uniform inside it), so the solid-angle pdf seen from p is
+   directions and for the environment): area lights are sampled uniformly
+   by area (disk: Shirley and Chiu's concentric square-to-disk map; mesh:
+   a triangle by area through a CDF, then uniform inside it), so the
+   solid-angle pdf seen from p is
    dist^2 / (A |cos theta_x|). Delta lights (point, spot, directional)
    return pdf 1 and the irradiance at normal incidence.
 
@@ -5361,7 +5362,8 @@ static void pds__env_sample_part(const pds_light *l, int part, double u1, double
     st = sqrt(fmax(0.0, 1.0 - ct * ct));
     phi = 2.0 * PDS__PI * u2;
     pds__onb(axis, &b1, &b2);
-    *w = pds__normalize(pds__add(pds__scale(axis, ct), pds__add(pds__scale(b1, st * cos(phi)), pds__scale(b2, st * sin(phi)))));
+    *w = pds__normalize(pds__add(pds__scale(axis, ct),
+                                 pds__add(pds__scale(b1, st * cos(phi)), pds__scale(b2, st * sin(phi)))));
 }
 
 /* A direction from the mixture p[3] with uniforms u1, u2 in [0,1): u1
@@ -7138,8 +7140,7 @@ static pds_status pds__parse_camera(pds__parser *P)
             if (!(st = pds__p_number(P, key, &v)) && !(v > 0.0 && v <= 1e30))
                 st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'focus_distance' must be above 0, got %s", P->tok.text);
             c->focus_distance = v;
-        }
-        else if (pds__key_is(P, key, "filter")) {
+        } else if (pds__key_is(P, key, "filter")) {
             char f[32];
             if (!(st = pds__p_word(P, key, f, sizeof f))) {
                 if (!strcmp(f, "box")) c->filter = PDS_FILTER_BOX;
@@ -7327,7 +7328,8 @@ static pds_status pds__parse_light(pds__parser *P)
         for (i = 0; i < P->scene->nlights; i++)
             if (P->scene->lights[i].type == PDS_LIGHT_ENVIRONMENT)
                 return pds__perr(P, &type_tok, PDS_ERR_PARSE,
-                                 "a second environment light (a scene has one environment: add its parts in one block)");
+                                 "a second environment light (a scene has one environment: add its parts in "
+                                 "one block)");
     }
     /* defaults */
     l.direction = pds__v(0.0, -1.0, 0.0);
@@ -7390,7 +7392,8 @@ static pds_status pds__parse_light(pds__parser *P)
         else if (T == PDS_LIGHT_ENVIRONMENT && pds__key_is(P, key, "ground")) st = pds__p_rgb(P, key, l.ground);
         else if (T == PDS_LIGHT_ENVIRONMENT && pds__key_is(P, key, "up")) st = pds__p_dir(P, key, &l.up);
         else if (T == PDS_LIGHT_ENVIRONMENT && pds__key_is(P, key, "sun")) st = pds__p_rgb(P, key, l.sun_irradiance);
-        else if (T == PDS_LIGHT_ENVIRONMENT && pds__key_is(P, key, "sun_direction")) st = pds__p_dir(P, key, &l.sun_direction);
+        else if (T == PDS_LIGHT_ENVIRONMENT && pds__key_is(P, key, "sun_direction"))
+            st = pds__p_dir(P, key, &l.sun_direction);
         else if (T == PDS_LIGHT_ENVIRONMENT && pds__key_is(P, key, "sun_radius")) {
             st = pds__p_range(P, key, 0.0, 45.0, &l.sun_radius_deg);
             if (!st && !(l.sun_radius_deg > 0.0))
