@@ -6719,6 +6719,8 @@ static pds_camera pds__camera_default(void)
     c.height = 256;
     c.spp = 4;
     c.filter = PDS_FILTER_BOX;
+    c.aperture = 0.0; /* a pinhole */
+    c.focus_distance = 0.0;
     return c;
 }
 
