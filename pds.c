@@ -12069,7 +12069,11 @@ typedef struct pds__photon_job {
     double min_width;          /* pds: widen to this many eye-sample spacings (0 = off) */
     pds__v3 eye;               /* camera position */
     pds__camera_frame frame;   /* the camera, for the debug views */
-    double sample_angle;       /* angle between neighbouring eye samples */
+    double sample_angle;       /* angle between neighbouring eye samples (as a
+                                  pinhole sees them: a thin lens moves each
+                                  vertex by its circle of confusion but
+                                  hardly changes how densely they cover a
+                                  surface, so the same spacing serves) */
     int max_depth;
     int split_depth;           /* pds: most times a photon is split (0 = never) */
     double split_angle;        /* pds: split above this normal turn over the footprint (rad) */
