@@ -458,6 +458,34 @@ static void test_thin_lens_is_refused_by_isc_and_the_teaching_views(pds_test_ctx
     pds_scene_free(s);
 }
 
+/* The README's example scene loads as described: one environment light
+   with sky, ground and sun around the scene's bounding sphere, a camera
+   with a lens; the light's power is pi R^2 times the integral of L (the
+   sun's and the ground's parts in closed form, the sky's at least the
+   zenith's value over the hemisphere, as the horizon is brighter). */
+static void test_env_example_scene_loads_as_the_readme_says(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = NULL;
+    const pds_light *l;
+    double a, lower, upper;
+    int c;
+    REQUIRE(t, pds_scene_load("scenes/sky.scene", &s, &err) == PDS_OK, "%s", err.text);
+    REQUIRE(t, pds_scene_light(s, 0) != NULL && pds_scene_light(s, 0)->type == PDS_LIGHT_ENVIRONMENT, "no environment");
+    l = pds_scene_light(s, 0);
+    CHECK(t, pds_scene_camera(s)->aperture > 0.0 && pds_scene_camera(s)->focus_distance > 0.0, "no lens");
+    CHECK(t, fabs(l->area - PDS__PI * l->radius * l->radius) < 1e-9 * l->area, "area %g, radius %g", l->area, l->radius);
+    a = l->sun_radius_deg * PDS__PI / 180.0;
+    for (c = 0; c < 3; c++) {
+        double sun = l->sun_irradiance[c] / (PDS__PI * sin(a) * sin(a)) * 2.0 * PDS__PI * (1.0 - cos(a));
+        lower = l->area * (sun + 2.0 * PDS__PI * l->ground[c] + 2.0 * PDS__PI * l->sky[c]);
+        upper = l->area * (sun + 2.0 * PDS__PI * l->ground[c] + 2.0 * PDS__PI * l->sky[c] * 10.0);
+        CHECK(t, l->power[c] > lower && l->power[c] < upper, "channel %d: power %g outside (%g, %g)", c, l->power[c],
+              lower, upper);
+    }
+    pds_scene_free(s);
+}
+
 /* --- the scene text and the hash ------------------------------------------- */
 
 static unsigned long long tenv_hash(const char *text)
@@ -546,6 +574,7 @@ static const pds_test_case tests_envlight[] = {
     {"thin_lens_of_radius_0_is_the_pinhole_bit_for_bit", test_thin_lens_of_radius_0_is_the_pinhole_bit_for_bit},
     {"env_and_lens_images_are_identical_for_any_thread_count", test_env_and_lens_images_are_identical_for_any_thread_count},
     {"thin_lens_is_refused_by_isc_and_the_teaching_views", test_thin_lens_is_refused_by_isc_and_the_teaching_views},
+    {"env_example_scene_loads_as_the_readme_says", test_env_example_scene_loads_as_the_readme_says},
     {"scene_hash_covers_the_environment_and_the_lens", test_scene_hash_covers_the_environment_and_the_lens},
     {"env_and_lens_errors_name_the_place", test_env_and_lens_errors_name_the_place},
 };
