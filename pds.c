@@ -971,8 +971,9 @@ enum pds__rng_purpose {
     PDS__RNG_GATHER = 8,  /* gi's final gather: index = camera sample */
     PDS__RNG_WAVELENGTH = 9, /* index = pixel: its samples' wavelength rotation */
     PDS__RNG_ISC = 10,    /* isc: index = frame, dim 0, 1 = the light-space grid's offset */
-    PDS__RNG_LENS = 11,   /* thin lens: index = camera sample (as PIXEL), dim 0, 1 = the lens point */
-    PDS__RNG_ENV_NEE = 12 /* the environment's sky parts in next-event estimation:
+    PDS__RNG_STRATA = 11, /* index = pixel, dim = pass: the pixel samples' stratification pattern */
+    PDS__RNG_LENS = 12,   /* thin lens: index = camera sample (as PIXEL), dim 0, 1 = the lens point */
+    PDS__RNG_ENV_NEE = 13 /* the environment's sky parts in next-event estimation:
                              index = camera sample, dim = 4 x the bounce's PIXEL dim + 0..3 */
 };
 
@@ -1018,6 +1019,65 @@ static double pds__halton(uint64_t seed, uint64_t index, int dim)
     }
     u = r + pds__rng_uniform(seed, 5, 0, (uint64_t)dim);
     return u >= 1.0 ? u - 1.0 : u;
+}
+
+/* Stratified pixel samples: Kensler's correlated multi-jittered sampling
+   (A. Kensler, "Correlated Multi-Jittered Sampling", Pixar Technical Memo
+   13-01, 2013). Sample s of n is put in a cell of an m x q grid (m =
+   floor(sqrt n), q = ceil(n / m)) and in a row of a finer q x m sub-grid
+   inside it, so that the n points are stratified in 2D and in each axis
+   alone, for any n; the cells, sub-rows and the order of the samples are
+   shuffled by permutations keyed by pattern, and (jx, jy) jitter the
+   point within its sub-cell. A pure function of its arguments. */
+
+/* A permutation of 0 .. l-1 keyed by key: three rounds of steps that are
+   each a bijection on k-bit numbers (2^k the next power of two from l):
+   xor with a key part, multiply by an odd number modulo 2^k, xor with
+   itself shifted right, add a key part modulo 2^k; cycle-walked (applied
+   again) until the value falls below l, which keeps it a bijection. */
+static uint32_t pds__permute(uint32_t i, uint32_t l, uint32_t key)
+{
+    static const uint32_t odd[3] = {0x9e3779b1u, 0x85ebca77u, 0xc2b2ae3du};
+    uint32_t w = l - 1;
+    int bits = 0, r;
+    w |= w >> 1;
+    w |= w >> 2;
+    w |= w >> 4;
+    w |= w >> 8;
+    w |= w >> 16;
+    while ((w >> bits) != 0) bits++;
+    if (l <= 1) return 0;
+    do {
+        for (r = 0; r < 3; r++) {
+            i = (i ^ (key >> (8 * r))) & w;
+            i = (i * odd[r]) & w;
+            i ^= i >> (bits / 2 + 1);
+            i = (i + (key >> (5 + 9 * r))) & w;
+        }
+    } while (i >= l);
+    return i;
+}
+
+static void pds__cmj(int s, int n, uint64_t pattern, double jx, double jy, double *x, double *y)
+{
+    uint32_t p = (uint32_t)pattern, p2 = (uint32_t)(pattern >> 32);
+    int m, q, sx, sy, cx, cy;
+    if (n <= 1) {
+        *x = jx;
+        *y = jy;
+        return;
+    }
+    m = (int)sqrt((double)n);
+    q = (n + m - 1) / m;
+    s = (int)pds__permute((uint32_t)s, (uint32_t)n, p * 0x51633e2du);
+    cx = s % m;
+    cy = s / m;
+    sx = (int)pds__permute((uint32_t)cx, (uint32_t)m, p2 * 0x68bc21ebu);
+    sy = (int)pds__permute((uint32_t)cy, (uint32_t)q, p2 * 0x02e5be93u);
+    *x = (cx + (sy + jx) / q) / m;
+    *y = (cy + (sx + jy) / m) / q;
+    if (*x >= 1.0) *x = 1.0 - DBL_EPSILON / 2; /* never 1: the pixel's far edge */
+    if (*y >= 1.0) *y = 1.0 - DBL_EPSILON / 2;
 }
 
 /* ===================================================================== */
@@ -10835,6 +10895,7 @@ typedef struct pds__tracer {
     int spectral; /* one wavelength per camera sample (>>spectral) */
     int spectral_all; /* ... and spectral from the camera on, not only
                          from the first dispersive material */
+    int eye_splits;   /* levels of splitting at glass (pds__trace_path) */
 } pds__tracer;
 
 /* Power heuristic with exponent 2. */
@@ -10967,51 +11028,159 @@ static void pds__direct_light(const pds__tracer *tr, const pds_material *m, pds_
     pds__accumulate(tr, 0, w, mis, film, acc);
 }
 
-/* One camera sample: radiance along the ray (org, dir), split by class.
-   If rec is not NULL, the path's first non-specular vertex is written to it
-   (importance not yet divided by the samples per pixel) and 1 returned;
-   otherwise, or if the path has no such vertex, 0. lambda > 0: the
-   sample's wavelength in a spectral render (>>spectral). The path turns
-   spectral at its first dispersive material (or at once if the render
-   is spectral throughout): its RGB throughput becomes its value at
-   lambda, and from there on materials and lights are taken at lambda and
-   what it sees is weighted by the film's W(lambda). Alongside, until the
-   first non-specular vertex, the chain's RGB weight beta_rgb is kept for
-   the vertex's importance, unless the chain met a dispersive material. */
-static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double lambda,
-                           double acc[3], pds__eye_vertex *rec)
+/* One camera sample: radiance along the ray (org, dir), split by class,
+   added to acc. If rec is not NULL (room for PDS__EYE_LEAVES vertices),
+   the path's first non-specular vertices are written to it (importance
+   not yet divided by the samples per pixel) and their number returned.
+   lambda > 0: the sample's wavelength in a spectral render (>>spectral).
+   The path turns spectral at its first dispersive material (or at once
+   if the render is spectral throughout): its RGB throughput becomes its
+   value at lambda, and from there on materials and lights are taken at
+   lambda and what it sees is weighted by the film's W(lambda). Alongside,
+   until the first non-specular vertex, the chain's RGB weight beta_rgb is
+   kept for the vertex's importance, unless the chain met a dispersive
+   material.
+
+   Splitting at glass (tr->eye_splits > 0). Where the chain from the
+   camera meets a dielectric before any non-specular vertex, picking one
+   branch with the Fresnel probability F (as a path tracer does) makes
+   glass salt-and-pepper noise: a sample sees either the reflection or the
+   refraction, and the caustic behind the glass is found by a few samples
+   with large weights. Instead both branches are followed, weighted F and
+   1 - F (the expectation of the one-branch estimator, computed exactly),
+   as Whitted's ray tracer and POV-Ray do, for eye_splits levels of the
+   chain (at most 2^eye_splits first non-specular vertices per sample). A
+   branch whose weight is below PDS__EYE_SPLIT_MIN goes on by Russian
+   roulette (probability weight / PDS__EYE_SPLIT_MIN, weight divided by
+   it), so faint reflections cost little. Branch b's children are 2b + 1
+   (reflected) and 2b + 2 (transmitted); a branch's random numbers are its
+   own dimensions (PDS__BRANCH_DIMS apart), so the camera's own path,
+   branch 0, draws the numbers it drew before splitting existed. */
+
+#define PDS__EYE_LEAVES 4        /* 2^PDS__EYE_SPLITS: vertices one camera sample may record */
+#define PDS__EYE_SPLIT_MIN 0.1   /* below this branch weight, Russian roulette */
+#define PDS__BRANCH_DIMS ((uint64_t)1 << 32)
+#define PDS__EYE_SPLITS 2        /* levels of splitting in the photon methods' eye pass */
+
+/* The levels of splitting at glass for a render's eye pass: the photon
+   methods' (not the paper's one-pass PDS, kept as the paper describes
+   it, nor the path tracer's), when the scene has glass. */
+static int pds__is_photon_method(pds_method m);
+static int pds__eye_splits(const pds_scene *s, const pds_options *opt)
 {
-    int recorded = 0;
-    const pds_scene *s = tr->scene;
-    double beta[3] = {1.0, 1.0, 1.0};
-    double sigma_buf[3];
-    const double *sigma = NULL;   /* Beer coefficients of the medium the ray is in */
-    int depth, had_diffuse = 0, specular_since = 0;
-    double prev_pdf = 0.0;        /* solid-angle pdf of the last non-specular BSDF sample */
-    pds__v3 prev_p = org;
-    /* spectral only: lam is the wavelength once the path is spectral (0
-       before), film_w then W(lam) */
-    double film[3], beta_rgb[3] = {1.0, 1.0, 1.0}, lam = 0.0;
-    const double *film_w = NULL, *sigma_rgb = NULL;
-    int chromatic = 0;
-    pds_material m_lambda;
-    if (lambda > 0.0) pds__film_weight(lambda, film);
-    if (lambda > 0.0 && tr->spectral_all) {
-        lam = lambda;
-        film_w = film;
+    size_t i;
+    if (!pds__is_photon_method(opt->method) || (opt->method == PDS_METHOD_PDS && !opt->progressive)) return 0;
+    for (i = 0; i < s->materials.count; i++)
+        if (s->materials.items[i].type == PDS_MAT_DIELECTRIC) return PDS__EYE_SPLITS;
+    return 0;
+}
+
+/* A camera path between two bounces. */
+typedef struct pds__eye_path {
+    pds__v3 org, dir, prev_p;
+    double beta[3], beta_rgb[3];
+    double sigma[3];          /* Beer coefficients of the medium the ray is in, if has_sigma */
+    const double *sigma_rgb;  /* spectral: the RGB ones for beta_rgb, or NULL */
+    int has_sigma, depth, had_diffuse, specular_since, chromatic, splits_left;
+    double prev_pdf;          /* solid-angle pdf of the last non-specular BSDF sample */
+    double lam;               /* the wavelength once the path is spectral, else 0 */
+    uint64_t branch;
+} pds__eye_path;
+
+/* What one camera sample shares between its branches. */
+typedef struct pds__eye_sample {
+    const pds__tracer *tr;
+    uint64_t idx;
+    double lambda, film[3];
+    double *acc;
+    pds__eye_vertex *rec;
+    int nrec;
+} pds__eye_sample;
+
+static void pds__eye_continue(pds__eye_sample *es, pds__eye_path *ps);
+
+/* Path ps leaves its vertex (hit, material m) by the BSDF sample bs whose
+   weight already carries any branch factor: update the throughput, the
+   medium and the last-sample pdf, play Russian roulette past rr_depth, and
+   move to the next ray. 0 if the path ends. */
+static int pds__eye_advance(const pds__eye_sample *es, pds__eye_path *ps, const pds_material *m, const pds_hit *hit,
+                            pds__bsdf_result *bs)
+{
+    const pds__tracer *tr = es->tr;
+    uint64_t dim = 2 + (uint64_t)ps->depth * PDS__DIMS_PER_BOUNCE + ps->branch * PDS__BRANCH_DIMS;
+    int c;
+    if (ps->lam > 0.0) {
+        /* the chain's RGB weight: this material's RGB weight, with its
+           RGB Beer coefficients on the side the path goes on */
+        for (c = 0; c < 3; c++) ps->beta_rgb[c] *= bs->weight[c];
+        if (m->type == PDS_MAT_DIELECTRIC)
+            ps->sigma_rgb = pds__medium_absorption(&tr->scene->materials.items[hit->material], bs->side);
+        pds__spectral_uplift(ps->lam, bs->weight);
     }
-    for (depth = 0; depth <= tr->max_depth; depth++) {
-        uint64_t dim = 2 + (uint64_t)depth * PDS__DIMS_PER_BOUNCE;
+    for (c = 0; c < 3; c++) ps->beta[c] *= bs->weight[c];
+    if (bs->delta) {
+        ps->specular_since++;
+    } else {
+        ps->prev_pdf = bs->pdf;
+        ps->prev_p = hit->position;
+    }
+    if (m->type == PDS_MAT_DIELECTRIC) {
+        const double *a = pds__medium_absorption(m, bs->side);
+        if (a) memcpy(ps->sigma, a, sizeof ps->sigma);
+        ps->has_sigma = a != NULL;
+    }
+    /* Russian roulette: survive with probability min(1, max(beta)). */
+    if (ps->depth + 1 >= tr->rr_depth) {
+        double b = fmax(ps->beta[0], fmax(ps->beta[1], ps->beta[2])), q = b < 1.0 ? b : 1.0;
+        if (!(q > 0.0) || pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, es->idx, dim + 6) >= q) return 0;
+        for (c = 0; c < 3; c++) {
+            ps->beta[c] /= q;
+            ps->beta_rgb[c] /= q;
+        }
+    }
+    ps->org = pds__offset(tr, hit->position, hit->ng, bs->wi);
+    ps->dir = bs->wi;
+    ps->depth++;
+    return 1;
+}
+
+/* One branch of a split at glass: branch code b, weight factor w (F or
+   1 - F), pruned by Russian roulette below PDS__EYE_SPLIT_MIN. 0 if it is
+   not followed. */
+static int pds__eye_branch(const pds__eye_sample *es, pds__eye_path *ps, uint64_t b, double w, pds__bsdf_result *bs)
+{
+    int c;
+    ps->branch = b;
+    ps->splits_left--;
+    if (w < PDS__EYE_SPLIT_MIN) {
+        uint64_t dim = 2 + (uint64_t)ps->depth * PDS__DIMS_PER_BOUNCE + b * PDS__BRANCH_DIMS;
+        if (!(w > 0.0) || pds__rng_uniform(es->tr->seed, PDS__RNG_PIXEL, es->idx, dim + 7) * PDS__EYE_SPLIT_MIN >= w)
+            return 0;
+        w = PDS__EYE_SPLIT_MIN;
+    }
+    for (c = 0; c < 3; c++) bs->weight[c] *= w;
+    return 1;
+}
+
+static void pds__eye_continue(pds__eye_sample *es, pds__eye_path *ps)
+{
+    const pds__tracer *tr = es->tr;
+    const pds_scene *s = tr->scene;
+    pds_material m_lambda;
+    for (; ps->depth <= tr->max_depth;) {
+        uint64_t dim = 2 + (uint64_t)ps->depth * PDS__DIMS_PER_BOUNCE + ps->branch * PDS__BRANCH_DIMS;
         pds__tri_hit th;
         pds_hit hit;
-        double tmax = DBL_MAX, tl = 0.0, le[3];
+        double tl = 0.0, le[3];
+        const double *film_w = ps->lam > 0.0 ? es->film : NULL;
+        const double *sigma = ps->has_sigma ? ps->sigma : NULL;
         pds__v3 nl = pds__v(0.0, 0.0, 0.0);
-        int found = pds__bvh_intersect(&s->bvh, org, dir, 0.0, tmax, &th);
-        int light_hit = pds__hit_analytic_light(s, org, dir, found ? th.t : DBL_MAX, &tl, &nl);
+        int found = pds__bvh_intersect(&s->bvh, ps->org, ps->dir, 0.0, DBL_MAX, &th);
+        int light_hit = pds__hit_analytic_light(s, ps->org, ps->dir, found ? th.t : DBL_MAX, &tl, &nl);
         const pds_material *m;
         pds__bsdf_result bs;
-        double u[3], q;
-        int c, caustic = had_diffuse && specular_since > 0;
+        double u[3];
+        int c, caustic = ps->had_diffuse && ps->specular_since > 0;
         if (light_hit >= 0 || (found && s->materials.items[s->mesh.mat[th.tri]].type == PDS_MAT_EMISSIVE)) {
             /* An emitter ends the path; emitters do not reflect. */
             pds__v3 x, nx;
@@ -11019,27 +11188,27 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
             double mis = 1.0;
             if (light_hit >= 0) {
                 k = light_hit;
-                x = pds__add(org, pds__scale(dir, tl));
+                x = pds__add(ps->org, pds__scale(ps->dir, tl));
                 nx = nl;
-                pds__light_le(&s->lights[k], nx, pds__scale(dir, -1.0), le);
+                pds__light_le(&s->lights[k], nx, pds__scale(ps->dir, -1.0), le);
             } else {
-                pds__scene_fill_hit(s, &th, org, dir, &hit);
+                pds__scene_fill_hit(s, &th, ps->org, ps->dir, &hit);
                 k = pds__light_of_triangle(&s->light_table, th.tri);
                 x = hit.position;
                 nx = hit.ng;
-                pds__light_le(&s->lights[k], nx, pds__scale(dir, -1.0), le);
+                pds__light_le(&s->lights[k], nx, pds__scale(ps->dir, -1.0), le);
             }
-            pds__spectral_uplift(lam, le);
-            pds__beer(sigma, light_hit >= 0 ? tl : th.t, beta);
-            if (had_diffuse && specular_since == 0) {
+            pds__spectral_uplift(ps->lam, le);
+            pds__beer(sigma, light_hit >= 0 ? tl : th.t, ps->beta);
+            if (ps->had_diffuse && ps->specular_since == 0) {
                 /* next-event estimation could have found this point too */
                 double pdf_light = pds__lights_pmf(&s->light_table, k) *
-                                   pds__light_pdf_li(&s->light_table, &s->lights[k], k, &s->mesh, prev_p, x, nx);
-                mis = pds__mis_power(prev_pdf, pdf_light);
+                                   pds__light_pdf_li(&s->light_table, &s->lights[k], k, &s->mesh, ps->prev_p, x, nx);
+                mis = pds__mis_power(ps->prev_pdf, pdf_light);
             }
-            for (c = 0; c < 3; c++) le[c] *= beta[c];
-            pds__accumulate(tr, caustic, le, mis, film_w, acc);
-            return recorded;
+            for (c = 0; c < 3; c++) le[c] *= ps->beta[c];
+            pds__accumulate(tr, caustic, le, mis, film_w, es->acc);
+            return;
         }
         if (!found) {
             /* the ray leaves the scene: the environment sees it (black
@@ -11048,83 +11217,98 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
             if (s->env_index1) {
                 int k = s->env_index1 - 1;
                 double mis = 1.0;
-                pds__env_radiance(&s->lights[k], dir, le);
-                if (had_diffuse && specular_since == 0)
-                    mis = pds__mis_power(prev_pdf, pds__lights_pmf(&s->light_table, k) *
-                                                       pds__env_pdf(&s->lights[k], &s->light_table.env_p[3 * k], dir));
-                pds__spectral_uplift(lam, le);
-                pds__beer(sigma, DBL_MAX, beta);
-                for (c = 0; c < 3; c++) le[c] *= beta[c];
-                pds__accumulate(tr, caustic, le, mis, film_w, acc);
+                pds__env_radiance(&s->lights[k], ps->dir, le);
+                if (ps->had_diffuse && ps->specular_since == 0)
+                    mis = pds__mis_power(ps->prev_pdf,
+                                         pds__lights_pmf(&s->light_table, k) *
+                                             pds__env_pdf(&s->lights[k], &s->light_table.env_p[3 * k], ps->dir));
+                pds__spectral_uplift(ps->lam, le);
+                pds__beer(sigma, DBL_MAX, ps->beta);
+                for (c = 0; c < 3; c++) le[c] *= ps->beta[c];
+                pds__accumulate(tr, caustic, le, mis, film_w, es->acc);
             }
-            return recorded;
+            return;
         }
-        pds__scene_fill_hit(s, &th, org, dir, &hit);
-        pds__beer(sigma, th.t, beta);
-        pds__beer(sigma_rgb, th.t, beta_rgb);
+        pds__scene_fill_hit(s, &th, ps->org, ps->dir, &hit);
+        pds__beer(sigma, th.t, ps->beta);
+        pds__beer(ps->sigma_rgb, th.t, ps->beta_rgb);
         m = &s->materials.items[hit.material];
-        if (lambda > 0.0 && pds__material_is_dispersive(m)) {
-            if (!had_diffuse) chromatic = 1;
-            if (lam == 0.0) {
+        if (es->lambda > 0.0 && pds__material_is_dispersive(m)) {
+            if (!ps->had_diffuse) ps->chromatic = 1;
+            if (ps->lam == 0.0) {
                 /* the path turns spectral here: its throughput and the
                    medium it is in, at lambda */
-                lam = lambda;
-                film_w = film;
-                pds__spectral_uplift(lam, beta);
-                if (sigma) pds__spectral_uplift(lam, sigma_buf);
+                ps->lam = es->lambda;
+                film_w = es->film;
+                pds__spectral_uplift(ps->lam, ps->beta);
+                if (ps->has_sigma) pds__spectral_uplift(ps->lam, ps->sigma);
             }
         }
-        if (lam > 0.0) {
-            pds__spectral_material(m, lam, &m_lambda);
+        if (ps->lam > 0.0) {
+            pds__spectral_material(m, ps->lam, &m_lambda);
             m = &m_lambda;
         }
         if (!pds__material_is_specular(m)) {
-            if (rec && !had_diffuse) {
-                const double *imp = lam > 0.0 && !chromatic ? beta_rgb : beta;
-                recorded = pds__eye_vertex_set(rec, m, hit.position, hit.ns, hit.ng, pds__scale(dir, -1.0), imp,
-                                               hit.material);
-                rec->lambda = chromatic ? (float)lambda : 0.0f;
+            if (es->rec && !ps->had_diffuse && es->nrec < PDS__EYE_LEAVES) {
+                pds__eye_vertex *v = &es->rec[es->nrec];
+                const double *imp = ps->lam > 0.0 && !ps->chromatic ? ps->beta_rgb : ps->beta;
+                if (pds__eye_vertex_set(v, m, hit.position, hit.ns, hit.ng, pds__scale(ps->dir, -1.0), imp,
+                                        hit.material)) {
+                    v->lambda = ps->chromatic ? (float)es->lambda : 0.0f;
+                    es->nrec++;
+                }
             }
-            pds__direct_light(tr, m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, beta, idx, dim, lam,
-                              film_w, acc);
-            had_diffuse = 1;
-            specular_since = 0;
+            pds__direct_light(tr, m, hit.position, pds__scale(ps->dir, -1.0), hit.ns, hit.ng, ps->beta, es->idx, dim,
+                              ps->lam, film_w, es->acc);
+            ps->had_diffuse = 1;
+            ps->specular_since = 0;
         }
-        if (depth == tr->max_depth) return recorded;
-        for (c = 0; c < 3; c++) u[c] = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 3 + (uint64_t)c);
-        if (!pds__bsdf_sample(m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, u, PDS__RADIANCE, &bs)) return recorded;
-        if (lam > 0.0) {
-            /* the chain's RGB weight: this material's RGB weight, with its
-               RGB Beer coefficients on the side the path goes on */
-            for (c = 0; c < 3; c++) beta_rgb[c] *= bs.weight[c];
-            if (m->type == PDS_MAT_DIELECTRIC)
-                sigma_rgb = pds__medium_absorption(&s->materials.items[hit.material], bs.side);
-            pds__spectral_uplift(lam, bs.weight);
+        if (ps->depth == tr->max_depth) return;
+        if (!ps->had_diffuse && ps->splits_left > 0 && m->type == PDS_MAT_DIELECTRIC) {
+            /* both branches (u[0] below F reflects, 1 always transmits
+               when it can); the sampler's weights divide by the choice's
+               probability, which the branch weight F or 1 - F restores */
+            static const double ur[3] = {0.0, 0.0, 0.0}, ut[3] = {1.0, 0.0, 0.0};
+            pds__bsdf_result br, bt;
+            pds__v3 wo = pds__scale(ps->dir, -1.0);
+            if (pds__bsdf_sample(m, hit.position, wo, hit.ns, hit.ng, ur, PDS__RADIANCE, &br) && !br.transmitted &&
+                pds__bsdf_sample(m, hit.position, wo, hit.ns, hit.ng, ut, PDS__RADIANCE, &bt) && bt.transmitted) {
+                pds__eye_path child = *ps;
+                uint64_t b = ps->branch;
+                if (pds__eye_branch(es, &child, 2 * b + 1, br.pdf, &br) && pds__eye_advance(es, &child, m, &hit, &br))
+                    pds__eye_continue(es, &child);
+                if (!pds__eye_branch(es, ps, 2 * b + 2, bt.pdf, &bt) || !pds__eye_advance(es, ps, m, &hit, &bt)) return;
+                continue;
+            }
         }
-        for (c = 0; c < 3; c++) beta[c] *= bs.weight[c];
-        if (bs.delta) {
-            specular_since++;
-        } else {
-            prev_pdf = bs.pdf;
-            prev_p = hit.position;
-        }
-        if (m->type == PDS_MAT_DIELECTRIC) {
-            const double *a = pds__medium_absorption(m, bs.side);
-            if (a) memcpy(sigma_buf, a, sizeof sigma_buf);
-            sigma = a ? sigma_buf : NULL;
-        }
-        /* Russian roulette: survive with probability min(1, max(beta)). */
-        if (depth + 1 >= tr->rr_depth) {
-            double b = beta[0] > beta[1] ? (beta[0] > beta[2] ? beta[0] : beta[2]) : (beta[1] > beta[2] ? beta[1] : beta[2]);
-            q = b < 1.0 ? b : 1.0;
-            if (!(q > 0.0) || pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 6) >= q) return recorded;
-            for (c = 0; c < 3; c++) beta[c] /= q;
-            for (c = 0; c < 3; c++) beta_rgb[c] /= q;
-        }
-        org = pds__offset(tr, hit.position, hit.ng, bs.wi);
-        dir = bs.wi;
+        for (c = 0; c < 3; c++) u[c] = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, es->idx, dim + 3 + (uint64_t)c);
+        if (!pds__bsdf_sample(m, hit.position, pds__scale(ps->dir, -1.0), hit.ns, hit.ng, u, PDS__RADIANCE, &bs)) return;
+        if (!pds__eye_advance(es, ps, m, &hit, &bs)) return;
     }
-    return recorded;
+}
+
+static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double lambda,
+                           double acc[3], pds__eye_vertex *rec)
+{
+    pds__eye_sample es;
+    pds__eye_path ps;
+    memset(&es, 0, sizeof es);
+    memset(&ps, 0, sizeof ps);
+    es.tr = tr;
+    es.idx = idx;
+    es.lambda = lambda;
+    es.acc = acc;
+    es.rec = rec;
+    if (lambda > 0.0) pds__film_weight(lambda, es.film);
+    ps.org = org;
+    ps.dir = dir;
+    ps.prev_p = org;
+    ps.beta[0] = ps.beta[1] = ps.beta[2] = 1.0;
+    ps.beta_rgb[0] = ps.beta_rgb[1] = ps.beta_rgb[2] = 1.0;
+    ps.splits_left = tr->eye_splits;
+    if (lambda > 0.0 && tr->spectral_all) ps.lam = lambda;
+    pds__eye_continue(&es, &ps);
+    return es.nrec;
 }
 
 /* A method's own eye path in place of pds__trace_path (gi, >>gi): the
@@ -11179,39 +11363,48 @@ typedef struct pds__render_job {
 static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
 {
     uint64_t pixel = (uint64_t)y * (uint64_t)job->frame.width + (uint64_t)x;
+    /* the stratification's permutations: one pattern per pixel and pass */
+    uint64_t pattern = pds__rng_bits(job->seed, PDS__RNG_STRATA, pixel, (uint64_t)job->pass);
     int k, c;
     for (k = 0; k < job->spp; k++) {
         uint64_t sample = (uint64_t)job->pass * (uint64_t)job->spp + (uint64_t)k;
         uint64_t idx = pixel * (uint64_t)job->total_spp_max + sample;
-        double u1 = pds__rng_uniform(job->seed, PDS__RNG_PIXEL, idx, 0);
-        double u2 = pds__rng_uniform(job->seed, PDS__RNG_PIXEL, idx, 1);
-        double ox = job->filter == PDS_FILTER_TENT ? 0.5 + pds__tent_sample(u1) : u1;
-        double oy = job->filter == PDS_FILTER_TENT ? 0.5 + pds__tent_sample(u2) : u2;
+        double u1, u2, ox, oy;
         pds__v3 org, dir;
         double acc[3] = {0.0, 0.0, 0.0};
+        /* the pass's spp samples stratified over the pixel (pds__cmj), each
+           jittered within its cell by the sample's own dimensions 0, 1 */
+        pds__cmj(k, job->spp, pattern, pds__rng_uniform(job->seed, PDS__RNG_PIXEL, idx, 0),
+                 pds__rng_uniform(job->seed, PDS__RNG_PIXEL, idx, 1), &u1, &u2);
+        ox = job->filter == PDS_FILTER_TENT ? 0.5 + pds__tent_sample(u1) : u1;
+        oy = job->filter == PDS_FILTER_TENT ? 0.5 + pds__tent_sample(u2) : u2;
+        /* a thin lens takes its lens point from its own numbers; a pinhole
+           none, so its images are those of a camera without the lens */
         if (job->frame.aperture > 0.0)
             dir = pds__camera_ray(&job->frame, x + ox, y + oy, pds__rng_uniform(job->seed, PDS__RNG_LENS, idx, 0),
                                   pds__rng_uniform(job->seed, PDS__RNG_LENS, idx, 1), &org);
         else
             dir = pds__camera_ray(&job->frame, x + ox, y + oy, 0.0, 0.0, &org);
         if (job->method != PDS_METHOD_PREVIEW) {
-            pds__eye_vertex v;
+            pds__eye_vertex v[PDS__EYE_LEAVES];
             double lambda = job->tracer.spectral ? pds__eye_wavelength(job->seed, pixel, sample) : 0.0;
-            int recorded;
-            v.lambda = 0.0f; /* gi's eye paths are RGB (>>spectral) */
+            int recorded, j;
+            v[0].lambda = 0.0f; /* gi's eye paths are RGB (>>spectral) */
             recorded = job->path ? job->path(job->path_ctx, &job->tracer, org, dir, idx, acc,
-                                             job->record_eye ? &v : NULL, &job->row_counts[4 * (size_t)y])
+                                             job->record_eye ? v : NULL, &job->row_counts[4 * (size_t)y])
                                  : pds__trace_path(&job->tracer, org, dir, idx, lambda, acc,
-                                                   job->record_eye ? &v : NULL);
+                                                   job->record_eye ? v : NULL);
             if (recorded) {
                 pds__eye_vertex **arr = &job->row_vertices[y];
-                if (pds__grow((void **)arr, &job->row_cap[y], job->row_count[y] + 1, sizeof **arr) == 0) {
-                    for (c = 0; c < 3; c++) {
-                        v.importance[c] /= (float)job->spp;
-                        v.weight[c] /= (float)job->spp;
+                if (pds__grow((void **)arr, &job->row_cap[y], job->row_count[y] + (size_t)recorded, sizeof **arr) == 0) {
+                    for (j = 0; j < recorded; j++) {
+                        for (c = 0; c < 3; c++) {
+                            v[j].importance[c] /= (float)job->spp;
+                            v[j].weight[c] /= (float)job->spp;
+                        }
+                        v[j].pixel = (int)pixel;
+                        (*arr)[job->row_count[y]++] = v[j];
                     }
-                    v.pixel = (int)pixel;
-                    (*arr)[job->row_count[y]++] = v;
                 } else {
                     pds__mutex_lock(&job->lock);
                     job->out_of_memory = 1;
@@ -16240,7 +16433,8 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
         return PDS_OK;
     }
     if (pds__is_photon_method(opt->method) && opt->paths != PDS_PATHS_NO_CAUSTICS) {
-        est->eye_vertices = est->samples;
+        /* at most 2^splits first non-specular vertices per camera sample */
+        est->eye_vertices = est->samples * (double)(1 << pds__eye_splits(scene, opt));
         bytes += est->eye_vertices * vertex_bytes;
         /* the partial state's two sums (>>partial), and each thread's */
         bytes += (double)npix * 6 * sizeof(pds__sum128) +
@@ -16381,6 +16575,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *op
            eye-path vertices; the photon pass adds the caustics. */
         job.tracer.paths = PDS_PATHS_NO_CAUSTICS;
         job.record_eye = photons;
+        job.tracer.eye_splits = pds__eye_splits(scene, opt);
     }
     if (opt->method == PDS_METHOD_GI) {
         /* Pass 1 builds the global and shadow maps; gi's eye path computes

@@ -234,8 +234,10 @@ static void test_env_photons_carry_the_flux_through_the_bounding_sphere(pds_test
    ball) above a glass ball on a floor: the caustic under the ball as the
    path tracer sees it (caustics only, brute force: floor, ball, sun by
    BSDF sampling) and as pds and pm make it from photons. The total caustic
-   light must agree within 6% (the path tracer's own noise at this effort
-   is about 2%). */
+   light must agree within 6%: the path tracer's own noise at 1024 samples
+   is about 2% (measured over seeds: 0.0749 to 0.0775), and it also counts
+   caustics seen from the floor through the ball (L S+ D S+ D E), which the
+   photon methods leave out (they measured 2-3% below pt's mean). */
 static const char tenv_ball_scene[] =
     "camera { position 0 3 0.000001 look_at 0 0 0 up 0 0 -1 fov 40 resolution 32 32 spp 4 }\n"
     "material floor diffuse { albedo 0.8 }\n"
@@ -248,7 +250,7 @@ static void test_env_sun_caustic_agrees_between_pt_and_photon_methods(pds_test_c
 {
     pds_image ref = {0, 0, NULL}, a = {0, 0, NULL}, b = {0, 0, NULL};
     double r;
-    REQUIRE(t, tenv_render(tenv_ball_scene, PDS_METHOD_PT, 256, 0, PDS_PATHS_CAUSTICS_ONLY, &ref), "pt");
+    REQUIRE(t, tenv_render(tenv_ball_scene, PDS_METHOD_PT, 1024, 0, PDS_PATHS_CAUSTICS_ONLY, &ref), "pt");
     REQUIRE(t, tenv_render(tenv_ball_scene, PDS_METHOD_PDS, 4, 100000, PDS_PATHS_CAUSTICS_ONLY, &a), "pds");
     REQUIRE(t, tenv_render(tenv_ball_scene, PDS_METHOD_PM, 4, 100000, PDS_PATHS_CAUSTICS_ONLY, &b), "pm");
     CHECK(t, image_mean(&ref, 1) > 0.02, "the path tracer sees a caustic (%g)", image_mean(&ref, 1));

@@ -80,6 +80,9 @@ static const golden_case golden_cases[] = {
     {"scenes/prism.scene", "prism", PDS_METHOD_PM, 96, 2, 20000, 30},
     {"scenes/gem.scene", "gem", PDS_METHOD_PDS, 96, 2, 20000, 0},
     {"scenes/gem.scene", "gem", PDS_METHOD_PT, 96, 16, 0, 0},
+    /* Jensen's two-pass method: global map, final gather, shadow photons
+       and PDS's caustics (small maps and gathers: see golden_render) */
+    {"scenes/cornell.scene", "cornell", PDS_METHOD_GI, 96, 2, 20000, 0},
     /* the environment light (sky and sun) and a thin-lens camera */
     {"scenes/sky.scene", "sky", PDS_METHOD_PDS, 96, 2, 20000, 0},
     {"scenes/sky.scene", "sky", PDS_METHOD_PT, 96, 16, 0, 0},
@@ -203,6 +206,11 @@ static int golden_render(pds_test_ctx *t, const golden_case *g, golden_edit edit
     if (g->photons > 0) opt.photons = g->photons;
     if (g->param > 0.0 && g->method == PDS_METHOD_PDS) opt.smoothing = g->param;
     if (g->param > 0.0 && g->method == PDS_METHOD_PM) opt.k = (int)g->param;
+    if (g->method == PDS_METHOD_GI) {
+        /* a fifth of the default global map, 4 gather rays: under a second */
+        opt.global_photons = 20000;
+        opt.gather = 4;
+    }
     if (pds_render(s, &opt, img, NULL, &err) != PDS_OK) {
         CHECK(t, 0, "%s", err.text);
         pds_scene_free(s);

@@ -237,7 +237,115 @@ static void test_render_rejects_bad_options(pds_test_ctx *t)
     pds_scene_free(s);
 }
 
+/* Correlated multi-jittered samples (pds__cmj): for n = m x q points the
+   n points fill one of n equal strips in x and one in y each, and one
+   cell of the m x q grid each (Kensler's stratification), for any
+   pattern; and the permutation behind it is a bijection for any length. */
+static void test_pixel_samples_are_stratified(pds_test_ctx *t)
+{
+    static const int ns[] = {2, 4, 6, 8, 9, 12, 16, 64};
+    uint32_t l;
+    size_t a;
+    int bad = 0;
+    for (l = 1; l <= 70 && !bad; l++) {
+        unsigned char seen[70];
+        uint32_t i, key;
+        for (key = 0; key < 5 && !bad; key++) {
+            memset(seen, 0, sizeof seen);
+            for (i = 0; i < l; i++) {
+                uint32_t v = pds__permute(i, l, key * 0x9e3779b9u + 7u);
+                if (v >= l || seen[v]++) bad = 1;
+            }
+        }
+        CHECK(t, !bad, "pds__permute is not a bijection on 0..%u", l - 1);
+    }
+    for (a = 0; a < sizeof ns / sizeof ns[0]; a++) {
+        int n = ns[a], m = (int)sqrt((double)n), q = n / m, k, pat, ok = 1;
+        for (pat = 0; pat < 8 && ok; pat++) {
+            int sx[64] = {0}, sy[64] = {0}, cell[64] = {0};
+            uint64_t pattern = pds__rng_bits(5, PDS__RNG_STRATA, (uint64_t)pat, 0);
+            for (k = 0; k < n; k++) {
+                double x, y;
+                pds__cmj(k, n, pattern, pds__rng_uniform(5, PDS__RNG_TEST, (uint64_t)k, 0),
+                         pds__rng_uniform(5, PDS__RNG_TEST, (uint64_t)k, 1), &x, &y);
+                if (!(x >= 0.0 && x < 1.0 && y >= 0.0 && y < 1.0)) ok = 0;
+                else {
+                    sx[(int)(x * n)]++;
+                    sy[(int)(y * n)]++;
+                    cell[(int)(y * q) * m + (int)(x * m)]++;
+                }
+            }
+            for (k = 0; k < n; k++)
+                if (sx[k] != 1 || sy[k] != 1 || cell[k] != 1) ok = 0;
+        }
+        CHECK(t, ok, "%d samples (grid %dx%d) are not stratified", n, m, q);
+    }
+}
+
+/* The eye pass splits at glass into the reflected and the transmitted
+   branch weighted by Fresnel (pds__trace_path, eye_splits): its estimate
+   has the expectation of the one-branch estimator, which picks a branch
+   with probability F, and less variance. A camera ray through a glass
+   sphere onto a lit floor; both estimators over many samples. */
+static void test_eye_split_at_glass_keeps_the_mean_and_cuts_the_variance(pds_test_ctx *t)
+{
+    const char *text = "camera { position 0 1 3 look_at 0 0.4 0 resolution 8 8 spp 1 }\n"
+                       "material floor diffuse { albedo 0.7 }\n"
+                       "material glass dielectric { ior 1.5 }\n"
+                       "material wall diffuse { albedo 0.5 0.3 0.2 }\n"
+                       "quad { material floor size 8 8 }\n"
+                       "quad { material wall size 8 8 rotate 90 0 0 1 translate 0 0 -2 }\n"
+                       "sphere { material glass radius 0.4 segments 48 rings 24 translate 0 0.4 0 }\n"
+                       "light quad { center 0 2.5 1 edge1 0.8 0 0 edge2 0 0 0.8 radiance 20 }\n";
+    pds_error err;
+    pds_scene *s = scene_from_text(text, &err);
+    pds__tracer tr;
+    double mean[2], var[2];
+    long leaves[2] = {0, 0};
+    int pass, i, n = 20000;
+    pds__v3 org = pds__v(0.0, 1.0, 3.0);
+    /* toward the sphere's edge, where Fresnel reflection is strong */
+    pds__v3 dir = pds__normalize(pds__sub(pds__v(0.33, 0.45, 0.1), org));
+    REQUIRE(t, s, "scene: %s", err.text);
+    memset(&tr, 0, sizeof tr);
+    tr.scene = s;
+    tr.paths = PDS_PATHS_NO_CAUSTICS;
+    tr.max_depth = 8;
+    tr.rr_depth = 5;
+    tr.eps = 1e-6 * pds__scene_scale(s);
+    tr.seed = 3;
+    for (pass = 0; pass < 2; pass++) {
+        double sum = 0.0, sum2 = 0.0;
+        tr.eye_splits = pass ? 2 : 0;
+        for (i = 0; i < n; i++) {
+            double acc[3] = {0.0, 0.0, 0.0}, v;
+            pds__eye_vertex rec[PDS__EYE_LEAVES];
+            int k, c, got = pds__trace_path(&tr, org, dir, (uint64_t)i, 0.0, acc, rec);
+            /* what the photon methods add at the vertices, for a uniform
+               unit irradiance from straight above: their importance x
+               albedo / pi, so that the importance is tested too */
+            v = acc[0] + acc[1] + acc[2];
+            for (k = 0; k < got; k++)
+                for (c = 0; c < 3; c++) v += rec[k].weight[c];
+            leaves[pass] += got;
+            sum += v;
+            sum2 += v * v;
+        }
+        mean[pass] = sum / n;
+        var[pass] = sum2 / n - mean[pass] * mean[pass];
+    }
+    CHECK(t, leaves[1] > leaves[0] && leaves[1] <= (long)PDS__EYE_LEAVES * n, "vertices %ld unsplit, %ld split",
+          leaves[0], leaves[1]);
+    CHECK(t, mean[0] > 0.0 && fabs(mean[0] - mean[1]) < 4.0 * sqrt((var[0] + var[1]) / n),
+          "one-branch mean %.5f, split mean %.5f (standard errors %.5f, %.5f)", mean[0], mean[1], sqrt(var[0] / n),
+          sqrt(var[1] / n));
+    CHECK(t, var[1] < 0.5 * var[0], "split variance %.4g is not well below one-branch's %.4g", var[1], var[0]);
+    pds_scene_free(s);
+}
+
 static const pds_test_case tests_render[] = {
+    {"pixel_samples_are_stratified", test_pixel_samples_are_stratified},
+    {"eye_split_at_glass_keeps_the_mean_and_cuts_the_variance", test_eye_split_at_glass_keeps_the_mean_and_cuts_the_variance},
     {"pt_full_image_is_no_caustics_plus_caustics_only", test_pt_full_image_is_no_caustics_plus_caustics_only},
     {"pt_image_is_identical_for_any_thread_count", test_pt_image_is_identical_for_any_thread_count},
     {"pt_furnace_converges_to_the_analytic_radiance", test_pt_furnace_converges_to_the_analytic_radiance},

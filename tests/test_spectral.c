@@ -345,6 +345,7 @@ static int spectral_fan_render(pds_method method, long photons, int threads, pds
     opt.method = method;
     opt.photons = photons;
     opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    opt.spp = 16; /* the fan is a thin line: 4 samples a pixel miss much of it */
     opt.threads = threads;
     ok = pds_render(s, &opt, img, st, &err) == PDS_OK;
     if (!ok) printf("  render: %s\n", err.text);
