@@ -5,7 +5,7 @@
 #   make sanitize   the same tests built with AddressSanitizer + UBSan
 #   make bench      benchmarks (figures, not pass/fail)
 #   make update-golden  re-render tests/golden/*.pfm (review with git diff)
-#   make fuzz       libFuzzer on the scene, OBJ, MTL, PFM and partial-file readers
+#   make fuzz       libFuzzer on the scene, OBJ, MTL, PFM, partial-file and OpenEXR readers
 #                   (clang; FUZZ_SECONDS per target, default 60; -j2 runs two
 #                   at once); make fuzz-regress replays the committed corpus
 #   make references     reference images of the shipped scenes (minutes)
@@ -54,6 +54,8 @@ update-golden: tests/test_pds
 
 # Reference images of the shipped scenes for `pds sweep` and `pds race`,
 # stored next to the scenes (minutes on 2 cores; not part of `make test`).
+# Each reference has 64 samples a pixel and its own seed (1000): its eye
+# samples are not those of the renders it judges (seed 0 by default).
 # The case studies are lit by collimated light, which a path tracer cannot
 # render through glass or metal: their caustics-only references are
 # progressive photon mapping with 32 x 1M photons from a small initial
@@ -64,9 +66,9 @@ update-golden: tests/test_pds
 # 512 x 512, the image-space caustics' benchmark size (some 15 minutes).
 references: pds
 	./pds render scenes/refraction.scene --method ppm --caustics-only --photons 1000000 --passes 32 \
-	  --radius 0.004 --res 256x256 --spp 4 --quiet -o scenes/refraction.ref.pfm
+	  --radius 0.004 --res 256x256 --spp 64 --seed 1000 --quiet -o scenes/refraction.ref.pfm
 	./pds render scenes/reflection.scene --method ppm --caustics-only --photons 1000000 --passes 32 \
-	  --radius 0.004 --res 256x256 --spp 4 --quiet -o scenes/reflection.ref.pfm
+	  --radius 0.004 --res 256x256 --spp 64 --seed 1000 --quiet -o scenes/reflection.ref.pfm
 	./pds render scenes/ring_octahedron.scene --method ppm --caustics-only --photons 2000000 --passes 128 \
 	  --radius 0.008 --spp 4 --quiet -o scenes/ring_octahedron.ref.pfm
 	./pds render scenes/cardioid.scene --method pt --spp 4096 --res 256x192 --quiet -o scenes/cardioid.ref.pfm
@@ -74,7 +76,7 @@ references: pds
 	  -o scenes/cardioid.caustics.ref.pfm
 	$(MAKE) $(BUNNY)
 	./pds render scenes/bunny.scene --method ppm --caustics-only --photons 1000000 --passes 24 \
-	  --radius 0.01 --res 256x256 --spp 4 --quiet -o scenes/bunny.caustics.ref.pfm
+	  --radius 0.01 --res 256x256 --spp 64 --seed 1000 --quiet -o scenes/bunny.caustics.ref.pfm
 
 # The README's gallery: every shipped scene at full size with PDS and the
 # options its README line recommends, and PDS beside pm on equal photon-pass
@@ -179,7 +181,7 @@ bench: pds $(BUNNY)
 FUZZ_SECONDS ?= 60
 FUZZ_CC ?= clang
 FUZZ_OUT = tests/out/fuzz
-FUZZ_TARGETS = scene obj mtl pfm partial
+FUZZ_TARGETS = scene obj mtl pfm partial exr
 FUZZ_CFLAGS = $(WARN) -g -O1 -fsanitize=fuzzer,address,undefined,float-cast-overflow,integer \
   -fno-sanitize=unsigned-integer-overflow -fno-sanitize-recover=all
 

@@ -93,7 +93,8 @@ typedef struct command_help {
 
 static const command_help help_table[] = {
     {"render", "render SCENE [options]", "render a scene file (or a bare .obj) to an image",
-     "      -o, --output FILE       output image, .png (tone-mapped sRGB) or .pfm (linear)\n"
+     "      -o, --output FILE       output image, .png (tone-mapped sRGB), .pfm or .exr (linear; OpenEXR\n"
+     "                              float RGB), each with the render's metadata\n"
      "                              (default: the scene's name with .png, in the current folder)\n"
      "      --method NAME           pds (photon differential splatting, default), pt (path tracing),\n"
      "                              preview (eye-light shading), or a baseline: pm (photon mapping),\n"
@@ -151,6 +152,8 @@ static const command_help help_table[] = {
      "                              first vertex on (a scene with a cauchy or sellmeier material is\n"
      "                              spectral anyway, from the first dispersive material on)\n"
      "      --exposure STOPS        PNG exposure in stops (default 0)\n"
+     "      --tonemap CURVE         PNG tone curve: clamp (default), reinhard or filmic\n"
+     "      --exr-compression C     OpenEXR compression: zip (default), zips or none\n"
      "      --progress              progress on stderr even when it is not a terminal (then one line\n"
      "                              every 2 seconds); default: a bar when stderr is a terminal\n"
      "      --quiet                 no progress, no scene warnings\n"
@@ -181,11 +184,13 @@ static const command_help help_table[] = {
      "                              line through the camera's look-at point\n"
      "      --orbit-step DEG        --frames: degrees per frame, counter-clockwise from above (default 2)\n",
      1},
-    {"merge", "merge -o OUT.png|OUT.pfm [--partial] PART.pdsp...",
+    {"merge", "merge -o OUT.png|OUT.pfm|OUT.exr [--partial] PART.pdsp...",
      "the image of the shards of one render (pds render --shard I/N)",
-     "      -o, --output FILE       the image, .png or .pfm\n"
+     "      -o, --output FILE       the image, .png, .pfm or .exr\n"
      "      --partial               merge a subset (missing or unfinished shards), and say what fraction\n"
      "      --exposure STOPS        PNG exposure in stops (default 0)\n"
+     "      --tonemap CURVE         PNG tone curve: clamp (default), reinhard or filmic\n"
+     "      --exr-compression C     OpenEXR compression: zip (default), zips or none\n"
      "      Parts of another scene, other options, another pds version or a shard given twice are\n"
      "      refused.\n",
      "", 0},
@@ -195,7 +200,8 @@ static const command_help help_table[] = {
      "      --param NAME            smoothing, min-aspect, k, radius, alpha, photons, spp, max-photons,\n"
      "                              passes, max-radius, streams or stream-photons\n"
      "      --values A,B,...        the values, comma-separated\n"
-     "      --ref REF.pfm           the reference (linear PFM, the renders' resolution)\n"
+     "      --ref REF.pfm           the reference (PFM or OpenEXR, the renders' resolution; a warning\n"
+     "                              if its kind, full or caustics-only, is not the renders')\n"
      "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
      "                              (RMSE and SSIM against the parameter), one PNG per value;\n"
      "                              each finished render is kept at once in DIR/entries\n"
@@ -222,8 +228,9 @@ static const command_help help_table[] = {
      "                              render only the others\n"
      "      and any render option; it applies to every method it concerns\n",
      "", 1},
-    {"compare", "compare A.pfm REF.pfm", "RMSE and SSIM of A against the reference REF", "", "", 0},
-    {"pixel", "pixel IMAGE.pfm X Y [R]", "mean value of the pixels within R (default 0) of pixel X,Y", "", "", 0},
+    {"compare", "compare A.pfm REF.pfm",
+     "RMSE and SSIM of A against the reference REF (PFM or OpenEXR; a warning if their kinds differ)", "", "", 0},
+    {"pixel", "pixel IMAGE.pfm X Y [R]", "mean value of the pixels within R (default 0) of pixel X,Y (PFM or OpenEXR)", "", "", 0},
     {"trace-photon", "trace-photon SCENE --photon I [options]",
      "one caustic photon's path with its differentials beside finite differences",
      "      --photon I              the photon's number (0 = the first the renderer emits)\n"
@@ -831,6 +838,8 @@ static const char *kernel_name(pds_kernel k)
 typedef struct run_cfg {
     pds_options opt;
     double exposure;     /* PNG exposure in stops */
+    int tonemap;         /* PNG tone curve (pds_tonemap) */
+    int exr_compression; /* OpenEXR compression (pds_exr_compression) */
     const char *output;  /* render: the image file, NULL for the default */
     int progress;        /* 1 on, 0 off, -1 when stderr is a terminal */
     int quiet;           /* --quiet: no progress, no scene warnings */
@@ -1113,6 +1122,27 @@ static int set_orbit(const opt_spec *s, run_cfg *c, const char *shown, const cha
     return r;
 }
 
+static const char *const tonemap_names[] = {"clamp", "reinhard", "filmic"}; /* by pds_tonemap */
+static const char *const exr_compression_names[] = {"none", "zips", "zip"};
+
+static int set_tonemap(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    int k = 0, r = set_named(shown, v, tonemap_names, 3, &k);
+    (void)s;
+    if (!r) c->tonemap = k;
+    return r;
+}
+
+/* --exr-compression none|zips|zip: the values of pds_exr_compression */
+static int set_exr_compression(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    static const int codes[3] = {PDS_EXR_NONE, PDS_EXR_ZIPS, PDS_EXR_ZIP};
+    int k = 0, r = set_named(shown, v, exr_compression_names, 3, &k);
+    (void)s;
+    if (!r) c->exr_compression = codes[k];
+    return r;
+}
+
 static int set_frames(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
     long n = 0;
@@ -1203,6 +1233,9 @@ static const opt_spec option_table[] = {
     {"--spectral", NULL, "spectral", set_flag, OPTF(spectral), 1, 1, "", M_ALL, C_ALL, 0},
     {"--exposure", NULL, "exposure", set_double, offsetof(run_cfg, exposure), -64, 64,
      "a number of stops from -64 to 64", M_ALL, C_ALL, F_VALUE},
+    {"--tonemap", NULL, "tonemap", set_tonemap, 0, 0, 0, "clamp, reinhard or filmic", M_ALL, C_ALL, F_VALUE},
+    {"--exr-compression", NULL, "exr_compression", set_exr_compression, 0, 0, 0, "none, zips or zip", M_ALL,
+     C_RENDER, F_VALUE},
     {"--progress", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
     {"--quiet", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
 };
@@ -1232,6 +1265,8 @@ static void cfg_init(run_cfg *c)
     pds_debug_init(&c->debug);
     c->opt.method = PDS_METHOD_PDS;
     c->progress = -1;
+    c->tonemap = PDS_TONEMAP_CLAMP;
+    c->exr_compression = PDS_EXR_ZIP;
 }
 
 /* The length of an argument's option name: "--photons=5" -> 9, the
@@ -1478,6 +1513,87 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
                 "largest float\n", st->nonfinite);
 }
 
+/* ------------------------------------------------------------ images out */
+
+/* How a command's images go out (--tonemap, --exr-compression), set once
+   it has read its options, and the metadata of the image a render or a
+   merge makes (README "Images"). Debug views and the race's and sweep's
+   pictures carry no metadata. */
+static pds_image_write_options image_out = {0.0, PDS_TONEMAP_CLAMP, PDS_EXR_ZIP, NULL};
+static pds_image_meta image_meta;
+
+static void image_out_set(const run_cfg *c)
+{
+    image_out.tonemap = (pds_tonemap)c->tonemap;
+    image_out.exr_compression = (pds_exr_compression)c->exr_compression;
+}
+
+static pds_status image_write(const char *path, const pds_image *img, double exposure, const pds_image_meta *meta,
+                              pds_error *err)
+{
+    pds_image_write_options o = image_out;
+    o.exposure_stops = exposure;
+    o.meta = meta;
+    return pds_image_write_with(path, img, &o, err);
+}
+
+/* What kind of image a render with these paths makes (pds:kind). */
+static const char *paths_kind(pds_paths p)
+{
+    return p == PDS_PATHS_ALL ? PDS_META_KIND_FULL
+           : p == PDS_PATHS_CAUSTICS_ONLY ? PDS_META_KIND_CAUSTICS : PDS_META_KIND_NO_CAUSTICS;
+}
+
+/* A metadata entry; a value pds_image_meta refuses (a scene path outside
+   printable ASCII, say) is left out rather than failing the render. */
+static void meta_put(const char *key, const char *fmt, ...) PRINTF_LIKE(2, 3);
+static void meta_put(const char *key, const char *fmt, ...)
+{
+    char v[PDS_IMAGE_META_VALUE];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(v, sizeof v, fmt, ap);
+    va_end(ap);
+    (void)pds_image_meta_set(&image_meta, key, v);
+}
+
+/* The metadata of a render's image into image_meta: its kind, its method
+   and the options of the render line; with st (after the render) also
+   the photons and times. */
+static void render_meta(const run_cfg *c, const pds_render_stats *st, const char *scene_path)
+{
+    char params[256];
+    image_meta.count = 0;
+    meta_put("pds:version", "%s", PDS_VERSION_STRING);
+    meta_put(PDS_META_KIND, "%s", paths_kind(c->opt.paths));
+    meta_put(PDS_META_METHOD, "%s", method_name(c->opt.method));
+    if (c->opt.method == PDS_METHOD_GI) meta_put("pds:caustics", "%s", method_name(c->opt.caustics));
+    meta_put("pds:scene", "%s", scene_path);
+    meta_put("pds:seed", "%llu", c->opt.seed);
+    meta_put("pds:photons", "%ld", st ? st->photons : c->opt.photons);
+    format_params(&c->opt, params, sizeof params);
+    meta_put("pds:options", "paths=%s spp=%d max_depth=%d%s%s", paths_name(c->opt.paths), st ? st->spp : c->opt.spp,
+             c->opt.max_depth, params, c->opt.spectral ? " spectral=1" : "");
+    if (st) {
+        meta_put("pds:size", "%dx%d", st->width, st->height);
+        meta_put("pds:time", "total=%.3f eye=%.3f photons=%.3f threads=%d", st->time_total_s, st->time_eye_s,
+                 st->time_photons_s, st->threads);
+    }
+}
+
+/* One stderr line when an image and its reference are of different kinds
+   (a full render against a caustics-only reference, say): their
+   difference is then mostly the light paths one has and the other lacks.
+   Nothing when either kind is unknown. */
+static void warn_kind_mismatch(const char *cmd, const char *what, const char *kind, const char *ref_path,
+                               const char *ref_kind)
+{
+    if (!kind || !ref_kind || !strcmp(kind, ref_kind)) return;
+    fprintf(stderr, "pds %s: warning: kinds differ: %s %s %s, the reference %s is %s (pds:kind); the error will "
+            "measure the light paths one has and the other lacks\n", cmd, what,
+            !strcmp(what, "the renders") ? "are" : "is", kind, ref_path, ref_kind);
+}
+
 /* Before loading or rendering anything: fail now if path could not be
    written later. Its folder must exist and let us create files in it (the
    image is written beside it under a temporary name, then renamed), and
@@ -1543,7 +1659,7 @@ static int write_part(const pds_partial *part, const char *part_path, const char
     if (temp_arm(0, part_path) || (image_path && temp_arm(1, image_path))) rc = 1;
     else if (pds_partial_write(part_path, part, &err) != PDS_OK ||
              (image_path && (part_image(part, &img, &err) != PDS_OK ||
-                             pds_image_write(image_path, &img, exposure, &err) != PDS_OK)))
+                             image_write(image_path, &img, exposure, &image_meta, &err) != PDS_OK)))
         rc = fail("%s", pds_error_string(&err));
     temp_disarm(0);
     temp_disarm(1);
@@ -1639,7 +1755,7 @@ static pds_status write_frame(void *user, int frame, const pds_image *img, pds_e
         err->status = PDS_ERR_IO;
         return PDS_ERR_IO;
     }
-    st = pds_image_write(path, img, fw->exposure, err);
+    st = image_write(path, img, fw->exposure, &image_meta, err);
     temp_disarm(0);
     return st;
 }
@@ -1685,7 +1801,8 @@ static int cmd_render(int argc, char **argv)
     }
     if (resume) {
         /* the options come from the partial file; only how to run may change */
-        static const char *const allowed[] = {"--output", "--threads", "--progress", "--quiet", "--exposure"};
+        static const char *const allowed[] = {"--output", "--threads", "--progress", "--quiet", "--exposure",
+                                              "--tonemap", "--exr-compression"};
         size_t k;
         int threads = c.opt.threads;
         for (k = 0; k < N_OPTIONS; k++) {
@@ -1735,9 +1852,9 @@ static int cmd_render(int argc, char **argv)
         output = default_out;
     }
     part_only = has_ext(output, ".pdsp");
-    if (!has_ext(output, ".png") && !has_ext(output, ".pfm") && !part_only) {
+    if (!has_ext(output, ".png") && !has_ext(output, ".pfm") && !has_ext(output, ".exr") && !part_only) {
         pds_partial_free(part);
-        return usage_error("output must end in .png, .pfm or .pdsp, got '%s'", output);
+        return usage_error("output must end in .png, .pfm, .exr or .pdsp, got '%s'", output);
     }
     if (c.opt.shard_count > 1 && !part_only) {
         pds_partial_free(part);
@@ -1760,7 +1877,7 @@ static int cmd_render(int argc, char **argv)
     }
     if (part_only) snprintf(part_path, sizeof part_path, "%s", output);
     else snprintf(part_path, sizeof part_path, "%s.pdsp", output);
-    pfm = has_ext(output, ".pfm");
+    pfm = has_ext(output, ".pfm") || has_ext(output, ".exr"); /* raw values of the views too */
     if (c.debug.views) c.opt.debug = &c.debug;
     /* a typo in -o costs nothing: it is found before the render, not after */
     if (check_out_file(output)) {
@@ -1770,7 +1887,8 @@ static int cmd_render(int argc, char **argv)
     for (k = 0; k < PDS_DEBUG_VIEWS; k++) {
         if (!(c.debug.views & (1u << k))) continue;
         debug_path(output, (pds_debug_view)k, k == PDS_DEBUG_PATHS ? ".obj" : ".png", dpath[k][0], sizeof dpath[k][0]);
-        debug_path(output, (pds_debug_view)k, ".pfm", dpath[k][1], sizeof dpath[k][1]);
+        debug_path(output, (pds_debug_view)k, has_ext(output, ".exr") ? ".exr" : ".pfm", dpath[k][1],
+                   sizeof dpath[k][1]);
         if (check_out_file(dpath[k][0]) || (pfm && k != PDS_DEBUG_PATHS && check_out_file(dpath[k][1]))) return 1;
     }
     snprintf(where, sizeof where, "with --method %s", method_name(c.opt.method));
@@ -1794,6 +1912,8 @@ static int cmd_render(int argc, char **argv)
         fprintf(stderr, "pds render: note: --checkpoint: %s keeps no state between photons; it writes the partial "
                 "file only at the end\n", method_name(c.opt.method));
     progress.t_checkpoint = pds_time_now();
+    image_out_set(&c);
+    render_meta(&c, NULL, scene_path); /* for checkpoints and frames; the final image's below */
     if (c.frames > 0) {
         /* an animation: numbered frames, written as they come */
         frame_writer fw;
@@ -1828,6 +1948,7 @@ static int cmd_render(int argc, char **argv)
     /* from here a signal ends the process, removing the temporary files */
     stop_gracefully = 0;
     stats.time_total_s = pds_time_now() - t_start; /* every call's, checkpoints included */
+    render_meta(&c, &stats, scene_path);
     if (c.progress) progress_end(st == PDS_OK && !stats.partial);
     if (rc) {
         /* the checkpoint's message is out */
@@ -1852,7 +1973,8 @@ static int cmd_render(int argc, char **argv)
         /* from here until they are in place a signal removes the images'
            temporary files */
         if (temp_arm(0, output)) rc = 1;
-        else if (part_image(part, &img, &err) != PDS_OK || pds_image_write(output, &img, c.exposure, &err) != PDS_OK)
+        else if (part_image(part, &img, &err) != PDS_OK ||
+                 image_write(output, &img, c.exposure, &image_meta, &err) != PDS_OK)
             rc = fail("%s", pds_error_string(&err));
         temp_disarm(0);
         for (k = 0; k < PDS_DEBUG_VIEWS && rc == 0; k++) {
@@ -1892,7 +2014,7 @@ static int cmd_render(int argc, char **argv)
 /* pds merge -o OUT [--partial] PART.pdsp... */
 static int cmd_merge(int argc, char **argv)
 {
-    static const char *const own[] = {"--output", "--partial", "--exposure", NULL};
+    static const char *const own[] = {"--output", "--partial", "--exposure", "--tonemap", "--exr-compression", NULL};
     const char *output = NULL;
     const char **names;
     pds_partial **parts;
@@ -1918,24 +2040,45 @@ static int cmd_merge(int argc, char **argv)
             if ((r = option_value(argc, argv, &i, &v)) != 0) rc = r;
             else if (parse_double(v, &exposure) || exposure < -64 || exposure > 64)
                 rc = usage_error("--exposure needs a number of stops from -64 to 64, got '%s'", v);
+        } else if (arg_is(a, "--tonemap") || arg_is(a, "--exr-compression")) {
+            run_cfg c;
+            cfg_init(&c);
+            c.tonemap = (int)image_out.tonemap;
+            c.exr_compression = (int)image_out.exr_compression;
+            if ((r = option_value(argc, argv, &i, &v)) != 0) rc = r;
+            else if (arg_is(a, "--tonemap")) rc = set_tonemap(NULL, &c, "--tonemap", v);
+            else rc = set_exr_compression(NULL, &c, "--exr-compression", v);
+            if (!rc) image_out_set(&c);
         } else if (!strcmp(a, "--partial")) {
             subset = 1;
         } else {
             rc = unknown_option(a, 0, own);
         }
     }
-    if (!rc && !output) rc = usage_error("%s", "merge needs -o OUT.png or OUT.pfm");
+    if (!rc && !output) rc = usage_error("%s", "merge needs -o OUT.png, OUT.pfm or OUT.exr");
     if (!rc && n == 0) rc = usage_error("%s", "merge needs the partial files: pds merge -o OUT.png PART.pdsp...");
-    if (!rc && !has_ext(output, ".png") && !has_ext(output, ".pfm"))
-        rc = usage_error("output must end in .png or .pfm, got '%s'", output);
+    if (!rc && !has_ext(output, ".png") && !has_ext(output, ".pfm") && !has_ext(output, ".exr"))
+        rc = usage_error("output must end in .png, .pfm or .exr, got '%s'", output);
     if (!rc && check_out_file(output)) rc = 1;
     for (i = 0; i < n && !rc; i++)
         if (pds_partial_read(names[i], &parts[i], &err) != PDS_OK) rc = fail("%s", pds_error_string(&err));
     if (!rc && pds_partial_merge((const pds_partial *const *)parts, names, n, subset, &img, &fraction, &err) != PDS_OK)
         rc = fail("%s", pds_error_string(&err));
     if (!rc) {
+        /* the parts agree on these (pds_partial_merge checks) */
+        pds_partial_info pi;
+        pds_partial_get_info(parts[0], &pi);
+        image_meta.count = 0;
+        meta_put("pds:version", "%s", PDS_VERSION_STRING);
+        meta_put(PDS_META_KIND, "%s", paths_kind(pi.paths));
+        meta_put(PDS_META_METHOD, "%s", method_name(pi.method));
+        if (pi.scene_path) meta_put("pds:scene", "%s", pi.scene_path);
+        meta_put("pds:seed", "%llu", pi.seed);
+        meta_put("pds:photons", "%ld", pi.photons);
+        meta_put("pds:merged", "parts=%d shards=%d fraction=%.6f", n, pi.shard_count, fraction);
         if (temp_arm(0, output)) rc = 1;
-        else if (pds_image_write(output, &img, exposure, &err) != PDS_OK) rc = fail("%s", pds_error_string(&err));
+        else if (image_write(output, &img, exposure, &image_meta, &err) != PDS_OK)
+            rc = fail("%s", pds_error_string(&err));
         temp_disarm(0);
     }
     if (!rc) {
@@ -1956,16 +2099,19 @@ static int cmd_merge(int argc, char **argv)
 
 static int cmd_compare(int argc, char **argv)
 {
+    static pds_image_meta ma, mb; /* 26 KB each */
     pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
     pds_metrics m;
     pds_error err;
     int rc = 0;
-    if (argc != 2) return usage_error("%s", "compare needs two images: A.pfm REFERENCE.pfm");
-    if (pds_image_read_pfm(argv[0], &a, &err) != PDS_OK || pds_image_read_pfm(argv[1], &b, &err) != PDS_OK ||
+    if (argc != 2) return usage_error("%s", "compare needs two images: A.pfm REFERENCE.pfm (or .exr)");
+    if (pds_image_read(argv[0], &a, &ma, &err) != PDS_OK || pds_image_read(argv[1], &b, &mb, &err) != PDS_OK ||
         pds_image_compare(&a, &b, &m, &err) != PDS_OK) {
         fprintf(stderr, "%s\n", pds_error_string(&err));
         rc = 1;
     } else {
+        warn_kind_mismatch("compare", argv[0], pds_image_meta_get(&ma, PDS_META_KIND), argv[1],
+                           pds_image_meta_get(&mb, PDS_META_KIND));
         printf("compare rmse=%.6f ssim=%.6f\n", m.rmse, m.ssim);
     }
     pds_image_free(&a);
@@ -1986,7 +2132,7 @@ static int cmd_pixel(int argc, char **argv)
     if (parse_int(argv[1], 0, PDS_MAX_RESOLUTION - 1, &x) || parse_int(argv[2], 0, PDS_MAX_RESOLUTION - 1, &y) ||
         (argc == 4 && parse_int(argv[3], 0, PDS_MAX_RESOLUTION, &r)))
         return usage_error("pixel needs whole numbers X Y [R] from 0 to %d", PDS_MAX_RESOLUTION - 1);
-    if (pds_image_read_pfm(argv[0], &img, &err) != PDS_OK) {
+    if (pds_image_read(argv[0], &img, NULL, &err) != PDS_OK) {
         fprintf(stderr, "%s\n", pds_error_string(&err));
         return 1;
     }
@@ -2627,7 +2773,7 @@ static int write_image(const char *dir, const char *name, const pds_image *img, 
     pds_error err;
     pds_status st;
     if (join_path(path, sizeof path, dir, name) || temp_arm(0, path)) return 1;
-    st = pds_image_write(path, img, exposure, &err);
+    st = image_write(path, img, exposure, NULL, &err);
     temp_disarm(0);
     return st == PDS_OK ? 0 : fail("%s", pds_error_string(&err));
 }
@@ -2698,14 +2844,15 @@ static void file_safe(const char *s, char *out, size_t n)
 
 /* Load the scene and the reference, whose size must be the renders' size.
    0, or 1 after printing the error (nothing left to free). */
-static int load_scene_and_ref(const char *scene_path, const char *ref_path, const pds_options *opt,
+static int load_scene_and_ref(const char *cmd, const char *scene_path, const char *ref_path, const pds_options *opt,
                               pds_scene **scene, pds_image *ref)
 {
+    static pds_image_meta meta; /* 26 KB */
     pds_error err;
     const pds_camera *cam;
     int w, h;
     if (load_any(scene_path, scene, &err) != PDS_OK) return fail("%s", pds_error_string(&err));
-    if (pds_image_read_pfm(ref_path, ref, &err) != PDS_OK) {
+    if (pds_image_read(ref_path, ref, &meta, &err) != PDS_OK) {
         pds_scene_free(*scene);
         *scene = NULL;
         return fail("%s", pds_error_string(&err));
@@ -2721,6 +2868,7 @@ static int load_scene_and_ref(const char *scene_path, const char *ref_path, cons
         *scene = NULL;
         return 1;
     }
+    warn_kind_mismatch(cmd, "the renders", paths_kind(opt->paths), ref_path, pds_image_meta_get(&meta, PDS_META_KIND));
     return 0;
 }
 
@@ -3205,6 +3353,7 @@ static int cmd_sweep(int argc, char **argv)
         if (r) return r;
     }
     if (!scene_path) return usage_error("%s", "sweep needs a scene file");
+    image_out_set(&base);
     if (!param) return usage_error("%s", "sweep needs --param NAME");
     if (!values) return usage_error("%s", "sweep needs --values A,B,...");
     if (!ref_path) return usage_error("%s", "sweep needs --ref REFERENCE.pfm");
@@ -3276,7 +3425,7 @@ static int cmd_sweep(int argc, char **argv)
         dir = dir_buf;
     }
     if (check_out_dir(dir)) goto done;
-    if (load_scene_and_ref(scene_path, ref_path, &base.opt, &scene, &ref)) goto done;
+    if (load_scene_and_ref("sweep", scene_path, ref_path, &base.opt, &scene, &ref)) goto done;
     print_scene_warnings(scene, &base);
     cfg_apply_progress(&base);
 
@@ -3697,7 +3846,7 @@ typedef struct tune_grid {
 
 static const tune_grid tune_grids[] = {
     {PDS_METHOD_PDS, 0, "smoothing", 6, {4, 6, 8, 12, 16, 24}, 0},
-    {PDS_METHOD_PDS, 1, "pass-smoothing", 5, {1, 1.5, 2, 3, 4}, 0},
+    {PDS_METHOD_PDS, 1, "pass-smoothing", 7, {1, 1.5, 2, 3, 4, 6, 8}, 0},
     {PDS_METHOD_PDM, -1, "smoothing", 6, {4, 6, 8, 12, 16, 24}, 0},
     {PDS_METHOD_PM, -1, "k", 5, {10, 20, 40, 80, 160}, 0},
     {PDS_METHOD_SPLAT, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
@@ -4574,6 +4723,7 @@ static int cmd_race(int argc, char **argv)
         if (r) return r;
     }
     if (!scene_path) return usage_error("%s", "race needs a scene file");
+    image_out_set(&base);
     if (!ref_path) return usage_error("%s", "race needs --ref REFERENCE.pfm");
     if (!methods) return usage_error("%s", "race needs --methods M1,M2,... (for example pds,pm:k=50,ppm)");
     bud.by_time = option_given(&base, "--time");
@@ -4646,7 +4796,7 @@ static int cmd_race(int argc, char **argv)
         dir = dir_buf;
     }
     if (check_out_dir(dir)) goto done;
-    if (load_scene_and_ref(scene_path, ref_path, &base.opt, &scene, &ref)) goto done;
+    if (load_scene_and_ref("race", scene_path, ref_path, &base.opt, &scene, &ref)) goto done;
     print_scene_warnings(scene, &base);
     if (roi_text) {
         if (roi.x + roi.w > ref.width || roi.y + roi.h > ref.height) {

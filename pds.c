@@ -25,7 +25,9 @@
      >>scene      the pds_scene value and its text format parser
      >>differentials  photon differentials: emission (eqs. 2-6), transfer,
                   reflection, refraction (Igehy 1999), footprint, eq. 12
-     >>image      PFM read/write, PNG write, tone mapping
+     >>image      PFM read/write (with a metadata trailer), PNG write (tEXt
+                  metadata, tone curves: clamp, Reinhard 2002, Narkowicz's
+                  ACES fit), OpenEXR write and read (deflate, inflate)
      >>metrics    RMSE and SSIM
      >>partial    the exact state of a render or a shard of it: the image
                   from it, merging shards, the partial file
@@ -109,8 +111,9 @@
 
 #define PDS__PI 3.14159265358979323846
 
-/* A PFM the readers accept: the header and the largest raster allowed. */
-#define PDS__MAX_PFM_BYTES ((size_t)PDS_MAX_RESOLUTION * PDS_MAX_RESOLUTION * 12u + 4096u)
+/* A PFM the readers accept: the header, the largest raster allowed and a
+   metadata trailer (>>image). */
+#define PDS__MAX_PFM_BYTES ((size_t)PDS_MAX_RESOLUTION * PDS_MAX_RESOLUTION * 12u + 65536u)
 
 /* ===================================================================== */
 /* >>util                                                                */
@@ -8569,7 +8572,9 @@ static double pds__footprint_anisotropy(pds__v3 dpdu, pds__v3 dpdv)
 /* >>image                                                               */
 /* ===================================================================== */
 /* Images in memory are linear RGB floats, rows top to bottom (pds_image).
-   Two file formats go out, one comes in:
+   Three file formats go out (PFM, PNG, OpenEXR), two come in (PFM,
+   OpenEXR), each carrying the image's metadata (pds_image_meta: see
+   "metadata" below; the OpenEXR layout is described at its writer):
 
    PFM (netpbm "portable float map"): three ASCII header tokens, each ended
    by whitespace: "PF" (RGB) or "Pf" (grey), "W H", and a non-zero decimal
@@ -8598,8 +8603,9 @@ static double pds__footprint_anisotropy(pds__v3 dpdu, pds__v3 dpdv)
    code lengths limited to 15 bits, 7 for the code-length code), fixed
    Huffman (BTYPE 1) or stored (BTYPE 0, for noise). The output depends
    only on the pixels and the exposure: same image, same bytes.
-   Tone mapping: linear * 2^exposure_stops, clamp to [0,1], sRGB transfer
-   curve (IEC 61966-2-1), round to the nearest 8-bit value; NaN gives 0.
+   Tone mapping: linear * 2^exposure_stops, the tone curve (clamp to
+   [0,1] by default; see "tone curves" below), sRGB transfer curve
+   (IEC 61966-2-1), round to the nearest 8-bit value; NaN gives 0.
 
    Every writer builds the whole file in memory and hands it to
    pds__write_file_atomic, so a failure never leaves a partial file. */
@@ -8644,6 +8650,126 @@ static pds_status pds__image_check(const pds_image *img, const char *path, pds_e
                          img->width, img->height, PDS_MAX_RESOLUTION);
     return PDS_OK;
 }
+
+/* ------------------------------------------------------------- metadata */
+
+/* Metadata is a list of text entries (pds.h pds_image_meta). Keys follow
+   PNG's keyword rules (ISO/IEC 15948 sec. 11.3.4.3: 1-79 Latin-1
+   characters, no leading, trailing or consecutive spaces), narrowed to
+   printable ASCII without '=' (the PFM trailer's separator) and to
+   PDS_IMAGE_META_KEY - 1 characters; values are printable ASCII, which
+   every container carries unchanged. */
+static int pds__meta_key_ok(const char *key)
+{
+    size_t i, n;
+    if (!key) return 0;
+    n = strlen(key);
+    if (n == 0 || n >= PDS_IMAGE_META_KEY || key[0] == ' ' || key[n - 1] == ' ') return 0;
+    for (i = 0; i < n; i++) {
+        unsigned char c = (unsigned char)key[i];
+        if (c < 0x20 || c > 0x7e || c == '=') return 0;
+        if (c == ' ' && key[i + 1] == ' ') return 0;
+    }
+    return 1;
+}
+
+static int pds__meta_value_ok(const char *value, size_t n)
+{
+    size_t i;
+    if (n >= PDS_IMAGE_META_VALUE) return 0;
+    for (i = 0; i < n; i++)
+        if ((unsigned char)value[i] < 0x20 || (unsigned char)value[i] > 0x7e) return 0;
+    return 1;
+}
+
+pds_status pds_image_meta_set(pds_image_meta *meta, const char *key, const char *value)
+{
+    int i;
+    if (!meta || !value || !pds__meta_key_ok(key) || !pds__meta_value_ok(value, strlen(value)))
+        return PDS_ERR_INVALID_ARG;
+    if (meta->count < 0 || meta->count > PDS_IMAGE_META_MAX) return PDS_ERR_INVALID_ARG;
+    for (i = 0; i < meta->count; i++)
+        if (!strcmp(meta->key[i], key)) break;
+    if (i == meta->count) {
+        if (meta->count == PDS_IMAGE_META_MAX) return PDS_ERR_LIMIT;
+        pds__strlcpy(meta->key[i], key, PDS_IMAGE_META_KEY);
+        meta->count++;
+    }
+    pds__strlcpy(meta->value[i], value, PDS_IMAGE_META_VALUE);
+    return PDS_OK;
+}
+
+const char *pds_image_meta_get(const pds_image_meta *meta, const char *key)
+{
+    int i;
+    if (!meta || !key) return NULL;
+    for (i = 0; i < meta->count && i < PDS_IMAGE_META_MAX; i++)
+        if (!strcmp(meta->key[i], key)) return meta->value[i];
+    return NULL;
+}
+
+/* Add key = value[0..n) read from a file: kept only if both are valid
+   and there is room (a reader never fails on metadata it cannot keep). */
+static void pds__meta_add_text(pds_image_meta *meta, const char *key, const char *value, size_t n)
+{
+    char v[PDS_IMAGE_META_VALUE];
+    if (!meta || !pds__meta_value_ok(value, n)) return;
+    memcpy(v, value, n);
+    v[n] = '\0';
+    (void)pds_image_meta_set(meta, key, v);
+}
+
+/* ---------------------------------------------------------- tone curves */
+
+/* The tone curves a PNG may get after the exposure (README "Images"):
+
+   clamp     min(max(x, 0), 1): what a display shows of a linear value.
+   reinhard  Reinhard, Stark, Shirley and Ferwerda, "Photographic Tone
+             Reproduction for Digital Images", SIGGRAPH 2002, eq. 3:
+             L_d = L / (1 + L), on the luminance L = 0.2126 R + 0.7152 G
+             + 0.0722 B (ITU-R BT.709); each channel is scaled by
+             L_d / L = 1 / (1 + L), so hues stay. The exposure plays the
+             role of the paper's key a / L_w (its eq. 2); no L_white
+             (eq. 4): highlights approach 1 without reaching it.
+   filmic    Narkowicz, "ACES Filmic Tone Mapping Curve" (2015), a
+             rational fit of the ACES reference rendering and output
+             transforms: f(x) = x (2.51 x + 0.03) / (x (2.43 x + 0.59)
+             + 0.14), clamped to [0,1], per channel.
+
+   The result is then sRGB-encoded as before. */
+double pds_tonemap_curve(pds_tonemap tonemap, double x)
+{
+    double y;
+    if (!(x > 0.0)) return 0.0; /* negative, zero and NaN */
+    switch (tonemap) {
+    case PDS_TONEMAP_REINHARD:
+        return x < 1e300 ? x / (1.0 + x) : 1.0;
+    case PDS_TONEMAP_FILMIC:
+        if (x > 1e30) return 1.0;
+        y = x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14);
+        return y < 1.0 ? y : 1.0;
+    case PDS_TONEMAP_CLAMP:
+    default:
+        return x < 1.0 ? x : 1.0;
+    }
+}
+
+#ifndef PDS_NO_PNG
+/* One pixel, rgb linear after the exposure, through the curve. Reinhard
+   scales the three channels by one factor (see above); the others map
+   each channel on its own. Results are in [0,1]; NaN gives 0. */
+static void pds__tonemap_pixel(pds_tonemap tonemap, double rgb[3])
+{
+    int k;
+    if (tonemap == PDS_TONEMAP_REINHARD) {
+        double L = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+        double s = L > 0.0 && L < 1e300 ? 1.0 / (1.0 + L) : L > 0.0 ? 0.0 : 1.0;
+        for (k = 0; k < 3; k++) rgb[k] = pds_tonemap_curve(PDS_TONEMAP_CLAMP, rgb[k] * s);
+        return;
+    }
+    for (k = 0; k < 3; k++) rgb[k] = pds_tonemap_curve(tonemap, rgb[k]);
+}
+#endif
 
 /* ------------------------------------------------------------------ PFM */
 
@@ -8812,17 +8938,47 @@ static pds_status pds__pfm_scale(pds__pfm_reader *r, int *little_endian)
     return PDS_OK;
 }
 
+/* The metadata trailer pds writes after a PFM's raster (the format has no
+   place for it): the line "# pds metadata", then one "key=value" line per
+   entry. PFM readers read W x H x 3 floats after the header and stop, so
+   the trailer does not change what they see (OpenImageIO's oiiotool and
+   every earlier pds accept it; a reader that insists on the exact file
+   size would not). Bytes after the raster that do not start so are
+   ignored, as are lines that are not a valid entry. */
+#define PDS__PFM_TRAILER "# pds metadata\n"
+
+static void pds__pfm_read_trailer(const unsigned char *p, size_t n, pds_image_meta *meta)
+{
+    size_t tag = sizeof PDS__PFM_TRAILER - 1, i;
+    if (!meta || n < tag || memcmp(p, PDS__PFM_TRAILER, tag) != 0) return;
+    for (i = tag; i < n;) {
+        size_t start = i, eq = 0;
+        char key[PDS_IMAGE_META_KEY];
+        while (i < n && p[i] != '\n') {
+            if (p[i] == '=' && !eq) eq = i;
+            i++;
+        }
+        if (i < n && eq > start && eq - start < sizeof key) {
+            memcpy(key, p + start, eq - start);
+            key[eq - start] = '\0';
+            if (pds__meta_key_ok(key)) pds__meta_add_text(meta, key, (const char *)p + eq + 1, i - eq - 1);
+        }
+        i++;
+    }
+}
+
 /* Read a PFM file into *img (allocated here; the caller frees it with
    pds_image_free). "PF" gives RGB, "Pf" grey copied into all three
    channels. Rows are flipped from the file's bottom-to-top order. On
    failure *img is left empty. */
-pds_status pds_image_read_pfm(const char *path, pds_image *img, pds_error *err)
+static pds_status pds__pfm_read(const char *path, pds_image *img, pds_image_meta *meta, pds_error *err)
 {
     char *data = NULL;
     size_t size = 0, raster, need, per_row, x, y;
     int width = 0, height = 0, channels, little_endian = 1;
     pds__pfm_reader r;
     pds_status st;
+    if (meta) meta->count = 0;
 
     if (!img) return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "no image to read into");
     img->width = img->height = 0;
@@ -8917,25 +9073,40 @@ pds_status pds_image_read_pfm(const char *path, pds_image *img, pds_error *err)
             }
         }
     }
+    pds__pfm_read_trailer(r.buf + raster + need, size - raster - need, meta);
     free(data);
     return PDS_OK;
+}
+
+pds_status pds_image_read_pfm(const char *path, pds_image *img, pds_error *err)
+{
+    return pds__pfm_read(path, img, NULL, err);
 }
 
 /* Write *img as a little-endian RGB PFM ("PF", scale -1.0), rows bottom to
    top. The float bits are stored unchanged, so a read gives them back bit
    for bit (NaN payloads and negative zero included). */
-pds_status pds_image_write_pfm(const char *path, const pds_image *img, pds_error *err)
+static pds_status pds__pfm_write(const char *path, const pds_image *img, const pds_image_meta *meta,
+                                 pds_error *err)
 {
     char header[64];
-    int hlen;
-    size_t per_row, total, x, y;
+    int hlen, i, nmeta = meta ? meta->count : 0;
+    size_t per_row, total, trailer = 0, x, y;
     unsigned char *buf, *p;
     pds_status st = pds__image_check(img, path, err);
     if (st != PDS_OK) return st;
+    if (nmeta < 0 || nmeta > PDS_IMAGE_META_MAX)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "bad metadata count %d", nmeta);
+    for (i = 0; i < nmeta; i++) {
+        if (!pds__meta_key_ok(meta->key[i]) || !pds__meta_value_ok(meta->value[i], strlen(meta->value[i])))
+            return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "bad metadata entry %d", i);
+        trailer += strlen(meta->key[i]) + strlen(meta->value[i]) + 2;
+    }
+    if (nmeta > 0) trailer += sizeof PDS__PFM_TRAILER - 1;
     hlen = snprintf(header, sizeof header, "PF\n%d %d\n-1.0\n", img->width, img->height);
     per_row = (size_t)img->width * 12;
-    if ((size_t)img->height > (((size_t)-1) - (size_t)hlen) / per_row) return pds__nomem(err);
-    total = (size_t)hlen + per_row * (size_t)img->height;
+    if ((size_t)img->height > (((size_t)-1) - (size_t)hlen - trailer) / per_row) return pds__nomem(err);
+    total = (size_t)hlen + per_row * (size_t)img->height + trailer;
     buf = (unsigned char *)malloc(total);
     if (!buf) return pds__nomem(err);
     memcpy(buf, header, (size_t)hlen);
@@ -8951,9 +9122,26 @@ pds_status pds_image_write_pfm(const char *path, const pds_image *img, pds_error
             p += 4;
         }
     }
+    if (nmeta > 0) {
+        memcpy(p, PDS__PFM_TRAILER, sizeof PDS__PFM_TRAILER - 1);
+        p += sizeof PDS__PFM_TRAILER - 1;
+        for (i = 0; i < nmeta; i++) {
+            size_t kn = strlen(meta->key[i]), vn = strlen(meta->value[i]);
+            memcpy(p, meta->key[i], kn);
+            p[kn] = '=';
+            memcpy(p + kn + 1, meta->value[i], vn);
+            p[kn + 1 + vn] = '\n';
+            p += kn + vn + 2;
+        }
+    }
     st = pds__write_file_atomic(path, buf, total, err);
     free(buf);
     return st;
+}
+
+pds_status pds_image_write_pfm(const char *path, const pds_image *img, pds_error *err)
+{
+    return pds__pfm_write(path, img, NULL, err);
 }
 
 /* ------------------------------------------------------------------ PNG */
@@ -9553,15 +9741,18 @@ static int pds__png_pick_filter(const unsigned char *cur, const unsigned char *p
 }
 
 /* Write *img as an 8-bit RGB PNG, tone-mapped: value * 2^exposure_stops,
-   clamped, sRGB-encoded, rounded. File layout (all integers big-endian):
+   the tone curve (clamp by default), sRGB-encoded, rounded. File layout
+   (all integers big-endian):
      8  signature 89 50 4E 47 0D 0A 1A 0A
      25 IHDR: len 13 | "IHDR" | W, H, depth 8, colour 2, 0, 0, 0 | CRC
+     tEXt, one per metadata entry: len | "tEXt" | key | 00 | value | CRC
+          (ISO/IEC 15948 sec. 11.3.4.3; before IDAT, as sec. 5.6 allows)
      IDAT: len | "IDAT" | 78 9C | deflate blocks | Adler-32 | CRC
      12 IEND: len 0 | "IEND" | CRC
    The filtered raw stream (H * (1 + 3 W) bytes) is built whole before it
    is compressed. */
-pds_status pds_image_write_png(const char *path, const pds_image *img,
-                               double exposure_stops, pds_error *err)
+static pds_status pds__png_write(const char *path, const pds_image *img, double exposure_stops,
+                                 pds_tonemap tonemap, const pds_image_meta *meta, pds_error *err)
 {
     static const unsigned char signature[8] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a};
     static const unsigned char zlib_header[2] = {
@@ -9571,11 +9762,19 @@ pds_status pds_image_write_png(const char *path, const pds_image *img,
     size_t row_len, raw_len, idat_at, idat_len, x, y;
     unsigned char *raw, *rows, *cur, *prior, chunk[25];
     double gain;
+    int i, nmeta = meta ? meta->count : 0;
     pds__bitout o;
     pds_status st = pds__image_check(img, path, err);
     if (st != PDS_OK) return st;
     if (!(exposure_stops > -1e300 && exposure_stops < 1e300))
         return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "the exposure must be a finite number");
+    if (tonemap != PDS_TONEMAP_CLAMP && tonemap != PDS_TONEMAP_REINHARD && tonemap != PDS_TONEMAP_FILMIC)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "unknown tone curve %d", (int)tonemap);
+    if (nmeta < 0 || nmeta > PDS_IMAGE_META_MAX)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "bad metadata count %d", nmeta);
+    for (i = 0; i < nmeta; i++)
+        if (!pds__meta_key_ok(meta->key[i]) || !pds__meta_value_ok(meta->value[i], strlen(meta->value[i])))
+            return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "bad metadata entry %d", i);
     gain = pow(2.0, exposure_stops);
 
     /* Sizes: W, H <= 16384 keep raw_len under 2^30, so the IDAT length
@@ -9595,9 +9794,19 @@ pds_status pds_image_write_png(const char *path, const pds_image *img,
     for (y = 0; y < (size_t)img->height; y++) {
         const float *src = img->rgb + y * row_len;
         unsigned char *dst = raw + y * (1 + row_len), *swap;
-        for (x = 0; x < row_len; x++) {
-            double e = pds__srgb_encode((double)src[x] * gain);
-            cur[x] = (unsigned char)(e * 255.0 + 0.5);
+        if (tonemap == PDS_TONEMAP_CLAMP) {
+            for (x = 0; x < row_len; x++) {
+                double e = pds__srgb_encode((double)src[x] * gain);
+                cur[x] = (unsigned char)(e * 255.0 + 0.5);
+            }
+        } else {
+            for (x = 0; x < row_len; x += 3) {
+                double c[3];
+                int k;
+                for (k = 0; k < 3; k++) c[k] = (double)src[x + (size_t)k] * gain;
+                pds__tonemap_pixel(tonemap, c);
+                for (k = 0; k < 3; k++) cur[x + (size_t)k] = (unsigned char)(pds__srgb_encode(c[k]) * 255.0 + 0.5);
+            }
         }
         dst[0] = (unsigned char)pds__png_pick_filter(cur, prior, row_len, 3);
         pds__png_filter(dst[0], cur, prior, row_len, 3, dst + 1);
@@ -9620,6 +9829,17 @@ pds_status pds_image_write_png(const char *path, const pds_image *img,
     chunk[20] = 0; /* no interlace */
     pds__put_u32_be(chunk + 21, pds__crc32_update(0, chunk + 4, 4 + 13));
     pds__out_bytes(&o, chunk, 25);
+    for (i = 0; i < nmeta && !o.nomem; i++) {
+        size_t kn = strlen(meta->key[i]), vn = strlen(meta->value[i]), at = o.len;
+        pds__put_u32_be(chunk, (uint32_t)(kn + 1 + vn));
+        memcpy(chunk + 4, "tEXt", 4);
+        pds__out_bytes(&o, chunk, 8);
+        pds__out_bytes(&o, meta->key[i], kn + 1); /* with its NUL separator */
+        pds__out_bytes(&o, meta->value[i], vn);
+        if (o.nomem) break;
+        pds__put_u32_be(chunk, pds__crc32_update(0, o.buf + at + 4, 4 + kn + 1 + vn));
+        pds__out_bytes(&o, chunk, 4);
+    }
 
     idat_at = o.len;
     pds__out_bytes(&o, "\0\0\0\0IDAT", 8); /* the length is filled in below */
@@ -9644,12 +9864,840 @@ pds_status pds_image_write_png(const char *path, const pds_image *img,
     return st;
 }
 
+pds_status pds_image_write_png(const char *path, const pds_image *img,
+                               double exposure_stops, pds_error *err)
+{
+    return pds__png_write(path, img, exposure_stops, PDS_TONEMAP_CLAMP, NULL, err);
+}
+
+/* ------------------------------------------------------------ inflate */
+
+/* The deflate decoder (RFC 1951) behind the OpenEXR reader: stored
+   (sec. 3.2.4), fixed Huffman (sec. 3.2.6) and dynamic Huffman blocks
+   (sec. 3.2.7), decoded canonically one bit at a time (a code of length
+   n is read MSB first and compared with the first code of that length,
+   as RFC 1951 sec. 3.2.2 builds them). The output size is known in
+   advance (an EXR block's), so the output buffer is fixed and a stream
+   that would go past it is an error: no input, however made, makes the
+   decoder use more memory or time than its output size allows. */
+
+typedef struct pds__inflate {
+    const unsigned char *in;
+    size_t in_len, in_pos;
+    uint32_t bits; /* bits not yet used, the next lowest */
+    int nbits;
+    unsigned char *out;
+    size_t out_len, out_cap;
+} pds__inflate;
+
+/* A canonical Huffman code: how many codes of each length 1-15, and the
+   symbols in code order. */
+typedef struct pds__huffman {
+    short count[16];
+    short symbol[288];
+} pds__huffman;
+
+/* n bits (n <= 16), least significant first; -1 when the input ends. */
+static long pds__inf_bits(pds__inflate *s, int n)
+{
+    long v;
+    while (s->nbits < n) {
+        if (s->in_pos >= s->in_len) return -1;
+        s->bits |= (uint32_t)s->in[s->in_pos++] << s->nbits;
+        s->nbits += 8;
+    }
+    v = (long)(s->bits & ((1u << n) - 1u));
+    s->bits >>= n;
+    s->nbits -= n;
+    return v;
+}
+
+/* Build h from the code lengths of n symbols. 0, or -1 if the lengths
+   ask for more codes than there are (over-subscribed). An incomplete
+   code is accepted (RFC 1951 allows one distance code); its unused
+   codes are errors when met. */
+static int pds__huffman_build(pds__huffman *h, const unsigned char *length, int n)
+{
+    short offs[16];
+    int len, sym, left = 1;
+    for (len = 0; len < 16; len++) h->count[len] = 0;
+    for (sym = 0; sym < n; sym++) h->count[length[sym]]++;
+    for (len = 1; len < 16; len++) {
+        left <<= 1;
+        left -= h->count[len];
+        if (left < 0) return -1;
+    }
+    offs[1] = 0;
+    for (len = 1; len < 15; len++) offs[len + 1] = (short)(offs[len] + h->count[len]);
+    for (sym = 0; sym < n; sym++)
+        if (length[sym] != 0) h->symbol[offs[length[sym]]++] = (short)sym;
+    return 0;
+}
+
+/* The next symbol of code h; -1 at the end of the input, -2 for a code
+   the table does not have. */
+static int pds__huffman_decode(pds__inflate *s, const pds__huffman *h)
+{
+    int code = 0, first = 0, index = 0, len;
+    for (len = 1; len < 16; len++) {
+        long b = pds__inf_bits(s, 1);
+        int count = h->count[len];
+        if (b < 0) return -1;
+        code |= (int)b;
+        if (code - first < count) return h->symbol[index + (code - first)];
+        index += count;
+        first = (first + count) << 1;
+        code <<= 1;
+    }
+    return -2;
+}
+
+/* One block's literals and copies until its end-of-block symbol.
+   NULL, or what is wrong. */
+static const char *pds__inflate_codes(pds__inflate *s, const pds__huffman *lit, const pds__huffman *dist)
+{
+    for (;;) {
+        int sym = pds__huffman_decode(s, lit);
+        if (sym == -1) return "the data ends inside a block";
+        if (sym < 0) return "a code that the block's table does not have";
+        if (sym < 256) {
+            if (s->out_len >= s->out_cap) return "more data than the block holds";
+            s->out[s->out_len++] = (unsigned char)sym;
+        } else if (sym == 256) {
+            return NULL;
+        } else {
+            long extra, d;
+            size_t len, back, i;
+            int dsym;
+            sym -= 257;
+            if (sym >= 29) return "a length code out of range";
+            extra = pds__inf_bits(s, pds__deflate_len_extra[sym]);
+            if (extra < 0) return "the data ends inside a block";
+            len = (size_t)pds__deflate_len_base[sym] + (size_t)extra;
+            dsym = pds__huffman_decode(s, dist);
+            if (dsym == -1) return "the data ends inside a block";
+            if (dsym < 0 || dsym >= 30) return "a distance code out of range";
+            d = pds__inf_bits(s, pds__deflate_dist_extra[dsym]);
+            if (d < 0) return "the data ends inside a block";
+            back = (size_t)pds__deflate_dist_base[dsym] + (size_t)d;
+            if (back > s->out_len) return "a copy from before the start of the data";
+            if (len > s->out_cap - s->out_len) return "more data than the block holds";
+            for (i = 0; i < len; i++, s->out_len++) s->out[s->out_len] = s->out[s->out_len - back];
+        }
+    }
+}
+
+/* Decode the deflate stream in[0..in_len) into out[0..out_cap); *out_len
+   gets the bytes made and *used the input bytes read. NULL, or what is
+   wrong. */
+static const char *pds__inflate_raw(const unsigned char *in, size_t in_len, unsigned char *out, size_t out_cap,
+                                    size_t *out_len, size_t *used)
+{
+    static const unsigned char cl_order[19] = {16, 17, 18, 0, 8, 7, 9, 6, 10, 5, 11, 4, 12, 3, 13, 2, 14, 1, 15};
+    pds__inflate s;
+    pds__huffman lit, dist;
+    unsigned char length[320];
+    const char *why = NULL;
+    long last = 0;
+    memset(&s, 0, sizeof s);
+    s.in = in;
+    s.in_len = in_len;
+    s.out = out;
+    s.out_cap = out_cap;
+    while (!last && !why) {
+        long type;
+        last = pds__inf_bits(&s, 1);
+        type = pds__inf_bits(&s, 2);
+        if (last < 0 || type < 0) {
+            why = "the data ends before its last block";
+        } else if (type == 0) {
+            /* stored: to a byte boundary, LEN, NLEN = ~LEN, LEN bytes */
+            size_t n;
+            s.bits = 0;
+            s.nbits = 0;
+            if (s.in_len - s.in_pos < 4) {
+                why = "the data ends inside a stored block";
+                break;
+            }
+            n = (size_t)s.in[s.in_pos] | (size_t)s.in[s.in_pos + 1] << 8;
+            if ((n ^ 0xffffu) != ((size_t)s.in[s.in_pos + 2] | (size_t)s.in[s.in_pos + 3] << 8))
+                why = "a stored block's length does not match its complement";
+            else if (s.in_len - s.in_pos - 4 < n)
+                why = "the data ends inside a stored block";
+            else if (n > s.out_cap - s.out_len)
+                why = "more data than the block holds";
+            if (why) break;
+            memcpy(s.out + s.out_len, s.in + s.in_pos + 4, n);
+            s.out_len += n;
+            s.in_pos += 4 + n;
+        } else if (type == 1) {
+            /* fixed codes (RFC 1951 sec. 3.2.6) */
+            int i;
+            for (i = 0; i < 144; i++) length[i] = 8;
+            for (; i < 256; i++) length[i] = 9;
+            for (; i < 280; i++) length[i] = 7;
+            for (; i < 288; i++) length[i] = 8;
+            pds__huffman_build(&lit, length, 288);
+            for (i = 0; i < 30; i++) length[i] = 5;
+            pds__huffman_build(&dist, length, 30);
+            why = pds__inflate_codes(&s, &lit, &dist);
+        } else if (type == 2) {
+            /* dynamic codes: HLIT, HDIST, HCLEN, then the code-length
+               code's lengths, then the two codes' lengths with repeats
+               16 (previous, 3-6 times), 17 (zero, 3-10), 18 (zero, 11-138) */
+            long nlen = pds__inf_bits(&s, 5), ndist = pds__inf_bits(&s, 5), ncode = pds__inf_bits(&s, 4);
+            int i, n;
+            pds__huffman lencode;
+            if (nlen < 0 || ndist < 0 || ncode < 0) {
+                why = "the data ends inside a block header";
+                break;
+            }
+            nlen += 257;
+            ndist += 1;
+            ncode += 4;
+            if (nlen > 286 || ndist > 30) {
+                why = "a block header with too many codes";
+                break;
+            }
+            memset(length, 0, 19);
+            for (i = 0; i < ncode; i++) {
+                long v = pds__inf_bits(&s, 3);
+                if (v < 0) break;
+                length[cl_order[i]] = (unsigned char)v;
+            }
+            if (i < ncode) {
+                why = "the data ends inside a block header";
+                break;
+            }
+            if (pds__huffman_build(&lencode, length, 19) != 0) {
+                why = "a block header whose code-length code is over-subscribed";
+                break;
+            }
+            n = (int)(nlen + ndist);
+            for (i = 0; i < n && !why;) {
+                int sym = pds__huffman_decode(&s, &lencode), rep = 0;
+                long r;
+                unsigned char v = 0;
+                if (sym < 0) {
+                    why = sym == -1 ? "the data ends inside a block header" : "a bad code length in a block header";
+                } else if (sym < 16) {
+                    length[i++] = (unsigned char)sym;
+                } else {
+                    if (sym == 16) {
+                        if (i == 0) why = "a block header repeats a length before the first";
+                        else v = length[i - 1];
+                        r = pds__inf_bits(&s, 2);
+                        rep = 3 + (int)r;
+                    } else if (sym == 17) {
+                        r = pds__inf_bits(&s, 3);
+                        rep = 3 + (int)r;
+                    } else {
+                        r = pds__inf_bits(&s, 7);
+                        rep = 11 + (int)r;
+                    }
+                    if (!why && r < 0) why = "the data ends inside a block header";
+                    else if (!why && i + rep > n) why = "a block header with more lengths than codes";
+                    while (!why && rep-- > 0) length[i++] = v;
+                }
+            }
+            if (why) break;
+            if (length[256] == 0) {
+                why = "a block without an end-of-block code";
+                break;
+            }
+            if (pds__huffman_build(&lit, length, (int)nlen) != 0 ||
+                pds__huffman_build(&dist, length + nlen, (int)ndist) != 0) {
+                why = "a block header whose codes are over-subscribed";
+                break;
+            }
+            why = pds__inflate_codes(&s, &lit, &dist);
+        } else {
+            why = "a block of the reserved type 3";
+        }
+    }
+    *out_len = s.out_len;
+    *used = s.in_pos;
+    return why;
+}
+
+/* A zlib stream (RFC 1950): CMF, FLG (deflate, window <= 32 KiB, no
+   preset dictionary, (CMF * 256 + FLG) % 31 == 0), the deflate data and
+   the Adler-32 of the output, big-endian. Exactly out_cap bytes must come
+   out. NULL, or what is wrong. */
+static const char *pds__zlib_decode(const unsigned char *in, size_t in_len, unsigned char *out, size_t out_cap)
+{
+    size_t made = 0, used = 0;
+    const char *why;
+    uint32_t adler;
+    if (in_len < 6) return "the zlib data is too short";
+    if ((in[0] & 0x0fu) != 8 || (in[0] >> 4) > 7 || ((unsigned)in[0] * 256u + in[1]) % 31u != 0 || (in[1] & 0x20u))
+        return "the zlib header is not deflate with a 32 KiB window";
+    why = pds__inflate_raw(in + 2, in_len - 2, out, out_cap, &made, &used);
+    if (why) return why;
+    if (made != out_cap) return "the data holds fewer bytes than the block";
+    if (in_len - 2 - used < 4) return "the zlib data ends before its Adler-32";
+    adler = (uint32_t)in[2 + used] << 24 | (uint32_t)in[3 + used] << 16 | (uint32_t)in[4 + used] << 8 |
+            (uint32_t)in[5 + used];
+    if (adler != pds__adler32_update(1, out, made)) return "the Adler-32 of the data does not match";
+    return NULL;
+}
+
+/* ------------------------------------------------------------- OpenEXR */
+
+/* OpenEXR, as "OpenEXR File Layout" (openexr.com, Kainz, Bogart et al.)
+   and "Technical Introduction to OpenEXR" describe it, for single-part
+   scanline images. All integers little-endian.
+
+     magic        76 2F 31 01 (20000630)
+     version      4 bytes: 2, then flags (bit 9 tiled, 10 long names,
+                  11 deep data, 12 multi-part; the reader takes none but
+                  long names)
+     header       attributes: name NUL, type NUL, int32 size, value;
+                  ended by one NUL byte. Those every file has:
+                    channels            chlist: per channel name NUL, int32
+                                        pixel type (0 uint, 1 half, 2 float),
+                                        uint8 pLinear, 3 reserved bytes,
+                                        int32 xSampling, ySampling; a NUL
+                                        ends the list; names sorted
+                    compression         uint8: 0 none, 2 ZIPS, 3 ZIP (and
+                                        others the reader refuses)
+                    dataWindow          box2i: int32 xMin, yMin, xMax, yMax
+                    displayWindow       box2i
+                    lineOrder           uint8: 0 increasing y
+                    pixelAspectRatio    float
+                    screenWindowCenter  v2f
+                    screenWindowWidth   float
+                  and string attributes (the metadata): bytes, no NUL.
+     offset table one uint64 per block of scanlines, in increasing y: the
+                  block's file offset
+     blocks       int32 y of the first line, int32 data size, data. The
+                  data of a line: per channel in the list's order, its
+                  values for x = xMin..xMax. A block holds 1 line (none,
+                  ZIPS) or 16 (ZIP), the last fewer.
+
+   ZIP and ZIPS data is the block's lines through two reversible steps,
+   then a zlib stream (RFC 1950): the bytes are split, those at even
+   positions first, then those at odd positions, and then each byte from
+   the second on is replaced by (byte - previous byte + 128) mod 256 (the
+   predictor of OpenEXR's ImfZip.cpp). When that is not smaller than the
+   raw data, the raw data is stored (data size = raw size), which tells a
+   reader that the block is not compressed.
+
+   pds writes R, G, B as 32-bit floats (channel order B, G, R), data and
+   display window (0, 0)-(W-1, H-1), increasing y (y = 0 is the top row,
+   as in pds_image), aspect 1, screen window (0, 0) and 1, and its
+   metadata as string attributes. */
+
+#define PDS__EXR_MAGIC 20000630u
+#define PDS__EXR_MAX_CHANNELS 64
+
+static void pds__put_u32_le(unsigned char *p, uint32_t v)
+{
+    p[0] = (unsigned char)(v & 0xffu);
+    p[1] = (unsigned char)((v >> 8) & 0xffu);
+    p[2] = (unsigned char)((v >> 16) & 0xffu);
+    p[3] = (unsigned char)((v >> 24) & 0xffu);
+}
+
+static uint32_t pds__get_u32_le(const unsigned char *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+/* A signed 32-bit little-endian integer, without implementation-defined
+   conversions. */
+static long pds__get_i32_le(const unsigned char *p)
+{
+    uint32_t u = pds__get_u32_le(p);
+    return u < 0x80000000u ? (long)u : -(long)(0xffffffffu - u) - 1;
+}
+
+/* Append one attribute: name NUL, type NUL, int32 size, value. */
+static void pds__exr_attribute(pds__bitout *o, const char *name, const char *type, const void *value, size_t n)
+{
+    unsigned char size[4];
+    pds__out_bytes(o, name, strlen(name) + 1);
+    pds__out_bytes(o, type, strlen(type) + 1);
+    pds__put_u32_le(size, (uint32_t)n);
+    pds__out_bytes(o, size, 4);
+    pds__out_bytes(o, value, n);
+}
+
+/* The ZIP steps on n bytes of raw into tmp (see above): split, predict. */
+static void pds__exr_zip_prepare(const unsigned char *raw, size_t n, unsigned char *tmp)
+{
+    size_t i, half = (n + 1) / 2;
+    for (i = 0; i < n; i++) tmp[(i & 1) ? half + i / 2 : i / 2] = raw[i];
+    for (i = n; i-- > 1;) tmp[i] = (unsigned char)((tmp[i] - tmp[i - 1] + 128) & 0xff);
+}
+
+/* Undo pds__exr_zip_prepare: tmp (changed) back into raw. */
+static void pds__exr_zip_undo(unsigned char *tmp, size_t n, unsigned char *raw)
+{
+    size_t i, half = (n + 1) / 2;
+    for (i = 1; i < n; i++) tmp[i] = (unsigned char)((tmp[i - 1] + tmp[i] - 128) & 0xff);
+    for (i = 0; i < n; i++) raw[i] = tmp[(i & 1) ? half + i / 2 : i / 2];
+}
+
+pds_status pds_image_write_exr(const char *path, const pds_image *img, pds_exr_compression compression,
+                               const pds_image_meta *meta, pds_error *err)
+{
+    unsigned char b[32];
+    size_t W, H, lines, nblocks, line_bytes, block_bytes, table_at, blk, i;
+    unsigned char *raw = NULL, *tmp = NULL;
+    int nmeta = meta ? meta->count : 0, long_names = 0, k;
+    pds__bitout o;
+    pds_status st = pds__image_check(img, path, err);
+    if (st != PDS_OK) return st;
+    if (compression != PDS_EXR_NONE && compression != PDS_EXR_ZIPS && compression != PDS_EXR_ZIP)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "unknown OpenEXR compression %d", (int)compression);
+    if (nmeta < 0 || nmeta > PDS_IMAGE_META_MAX)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "bad metadata count %d", nmeta);
+    for (k = 0; k < nmeta; k++) {
+        if (!pds__meta_key_ok(meta->key[k]) || !pds__meta_value_ok(meta->value[k], strlen(meta->value[k])))
+            return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "bad metadata entry %d", k);
+        if (strlen(meta->key[k]) > 31) long_names = 1; /* names past 31 bytes need flag bit 10 */
+    }
+    W = (size_t)img->width;
+    H = (size_t)img->height;
+    lines = compression == PDS_EXR_ZIP ? 16 : 1;
+    nblocks = (H + lines - 1) / lines;
+    line_bytes = 12 * W;              /* <= 196608 */
+    block_bytes = lines * line_bytes; /* <= 3 MiB */
+    raw = (unsigned char *)malloc(block_bytes);
+    tmp = (unsigned char *)malloc(block_bytes);
+    memset(&o, 0, sizeof o);
+    if (!raw || !tmp) o.nomem = 1;
+
+    pds__put_u32_le(b, PDS__EXR_MAGIC);
+    b[4] = 2; /* version 2, single-part scanline */
+    b[5] = (unsigned char)(long_names ? 0x04 : 0x00);
+    b[6] = b[7] = 0;
+    pds__out_bytes(&o, b, 8);
+    {
+        /* chlist: B, G, R (sorted), each float, pLinear 0, sampling 1 1 */
+        unsigned char ch[3 * 18 + 1];
+        const char *names = "BGR";
+        for (k = 0; k < 3; k++) {
+            unsigned char *c = ch + 18 * k;
+            c[0] = (unsigned char)names[k];
+            c[1] = 0;
+            pds__put_u32_le(c + 2, 2);  /* FLOAT */
+            pds__put_u32_le(c + 6, 0);  /* pLinear and reserved */
+            pds__put_u32_le(c + 10, 1); /* xSampling */
+            pds__put_u32_le(c + 14, 1); /* ySampling */
+        }
+        ch[54] = 0;
+        pds__exr_attribute(&o, "channels", "chlist", ch, sizeof ch);
+    }
+    b[0] = (unsigned char)compression;
+    pds__exr_attribute(&o, "compression", "compression", b, 1);
+    pds__put_u32_le(b, 0);
+    pds__put_u32_le(b + 4, 0);
+    pds__put_u32_le(b + 8, (uint32_t)(W - 1));
+    pds__put_u32_le(b + 12, (uint32_t)(H - 1));
+    pds__exr_attribute(&o, "dataWindow", "box2i", b, 16);
+    pds__exr_attribute(&o, "displayWindow", "box2i", b, 16);
+    b[0] = 0; /* INCREASING_Y */
+    pds__exr_attribute(&o, "lineOrder", "lineOrder", b, 1);
+    pds__put_u32_le(b, pds__float_bits(1.0f));
+    pds__exr_attribute(&o, "pixelAspectRatio", "float", b, 4);
+    pds__put_u32_le(b, pds__float_bits(0.0f));
+    pds__put_u32_le(b + 4, pds__float_bits(0.0f));
+    pds__exr_attribute(&o, "screenWindowCenter", "v2f", b, 8);
+    pds__put_u32_le(b, pds__float_bits(1.0f));
+    pds__exr_attribute(&o, "screenWindowWidth", "float", b, 4);
+    for (k = 0; k < nmeta; k++)
+        pds__exr_attribute(&o, meta->key[k], "string", meta->value[k], strlen(meta->value[k]));
+    b[0] = 0;
+    pds__out_bytes(&o, b, 1); /* end of the header */
+
+    /* The offset table, filled in as the blocks go out. */
+    table_at = o.len;
+    memset(b, 0, 8);
+    for (blk = 0; blk < nblocks && !o.nomem; blk++) pds__out_bytes(&o, b, 8);
+
+    for (blk = 0; blk < nblocks && !o.nomem; blk++) {
+        size_t y0 = blk * lines, n = H - y0 < lines ? H - y0 : lines, raw_n = n * line_bytes, at = o.len, y, x;
+        unsigned char *p = raw;
+        uint64_t off = (uint64_t)at;
+        for (y = y0; y < y0 + n; y++) {
+            const float *row = img->rgb + y * W * 3;
+            for (k = 2; k >= 0; k--) /* B, G, R */
+                for (x = 0; x < W; x++, p += 4) pds__put_u32_le(p, pds__float_bits(row[3 * x + (size_t)k]));
+        }
+        for (i = 0; i < 8; i++) o.buf[table_at + 8 * blk + i] = (unsigned char)((off >> (8 * i)) & 0xffu);
+        pds__put_u32_le(b, (uint32_t)y0);
+        pds__out_bytes(&o, b, 8); /* y and a size filled in below */
+        if (compression == PDS_EXR_NONE) {
+            pds__out_bytes(&o, raw, raw_n);
+        } else {
+            static const unsigned char zlib_header[2] = {0x78, 0x9C}; /* as the PNG writer's */
+            pds__exr_zip_prepare(raw, raw_n, tmp);
+            pds__out_bytes(&o, zlib_header, 2);
+            pds__deflate(&o, tmp, raw_n);
+            pds__put_u32_be(b + 8, pds__adler32_update(1, tmp, raw_n));
+            pds__out_bytes(&o, b + 8, 4);
+            if (!o.nomem && o.len - at - 8 >= raw_n) {
+                o.len = at + 8; /* not smaller: the raw lines instead */
+                pds__out_bytes(&o, raw, raw_n);
+            }
+        }
+        if (!o.nomem) pds__put_u32_le(o.buf + at + 4, (uint32_t)(o.len - at - 8));
+    }
+    free(raw);
+    free(tmp);
+    st = o.nomem ? pds__nomem(err) : pds__write_file_atomic(path, o.buf, o.len, err);
+    free(o.buf);
+    return st;
+}
+
+/* IEEE 754 binary16 bits to a float: sign, 5 exponent bits (bias 15),
+   10 fraction bits; exponent 0 is subnormal (fraction * 2^-24), 31 is
+   infinity or NaN. */
+static float pds__half_to_float(unsigned h)
+{
+    unsigned e = (h >> 10) & 0x1fu, f = h & 0x3ffu;
+    double v;
+    if (e == 31) return pds__bits_float((h & 0x8000u) << 16 | 0x7f800000u | f << 13);
+    v = e == 0 ? ldexp((double)f, -24) : ldexp((double)(f | 0x400u), (int)e - 25);
+    return (float)((h & 0x8000u) ? -v : v);
+}
+
+/* One channel of the file's list. */
+typedef struct pds__exr_channel {
+    char name[256];
+    int type;   /* 0 uint, 1 half, 2 float */
+    int target; /* 0, 1, 2 for R, G, B; 3 for Y (grey); -1 unused */
+} pds__exr_channel;
+
+typedef struct pds__exr_reader {
+    const unsigned char *buf;
+    size_t size, pos;
+    const char *path;
+    pds_error *err;
+} pds__exr_reader;
+
+/* A NUL-terminated name of at most max bytes at r->pos into out; 0, or
+   -1 when the file ends first or it is too long. */
+static int pds__exr_name(pds__exr_reader *r, char *out, size_t max)
+{
+    size_t n = 0;
+    while (r->pos + n < r->size && r->buf[r->pos + n] != 0) {
+        if (n >= max) return -1;
+        out[n] = (char)r->buf[r->pos + n];
+        n++;
+    }
+    if (r->pos + n >= r->size) return -1;
+    out[n] = '\0';
+    r->pos += n + 1;
+    return 0;
+}
+
+static pds_status pds__exr_bad(pds__exr_reader *r, const char *fmt, const char *detail)
+{
+    return pds__fail(r->err, PDS_ERR_PARSE, r->path, 0, 0, fmt, detail);
+}
+
+/* Parse the channel list value v[0..n). */
+static pds_status pds__exr_channels(pds__exr_reader *r, const unsigned char *v, size_t n, pds__exr_channel *ch,
+                                    int *count)
+{
+    pds__exr_reader sub = *r;
+    *count = 0;
+    sub.buf = v;
+    sub.size = n;
+    sub.pos = 0;
+    for (;;) {
+        pds__exr_channel *c;
+        long type, xs, ys;
+        if (sub.pos >= n) return pds__exr_bad(r, "%s", "the channel list ends without its closing NUL");
+        if (v[sub.pos] == 0) break;
+        if (*count == PDS__EXR_MAX_CHANNELS) return pds__exr_bad(r, "%s", "more than 64 channels");
+        c = ch + *count;
+        if (pds__exr_name(&sub, c->name, sizeof c->name - 1) != 0 || n - sub.pos < 16)
+            return pds__exr_bad(r, "%s", "the channel list is cut short");
+        type = pds__get_i32_le(v + sub.pos);
+        xs = pds__get_i32_le(v + sub.pos + 8);
+        ys = pds__get_i32_le(v + sub.pos + 12);
+        sub.pos += 16;
+        if (type < 0 || type > 2)
+            return pds__exr_bad(r, "channel '%s' has an unknown pixel type (0 uint, 1 half, 2 float)", c->name);
+        if (xs != 1 || ys != 1)
+            return pds__exr_bad(r, "channel '%s' is subsampled: only full-resolution channels are supported",
+                                c->name);
+        c->type = (int)type;
+        c->target = !strcmp(c->name, "R") ? 0 : !strcmp(c->name, "G") ? 1 : !strcmp(c->name, "B") ? 2
+                  : !strcmp(c->name, "Y") ? 3 : -1;
+        (*count)++;
+    }
+    return PDS_OK;
+}
+
+/* The index of channel prefix + c (c one of "RGB"), or -1. */
+static int pds__exr_find(const pds__exr_channel *ch, int nch, const char *prefix, size_t n, char c)
+{
+    int k;
+    for (k = 0; k < nch; k++)
+        if (strlen(ch[k].name) == n + 1 && !strncmp(ch[k].name, prefix, n) && ch[k].name[n] == c) return k;
+    return -1;
+}
+
+/* A file without plain R, G, B or Y channels may hold layers, channels
+   named LAYER.R, LAYER.G, LAYER.B (as Blender's multilayer files and
+   OpenEXR's naming convention for layers have them). Take the layer
+   whose name ends in "Combined" (Blender's full image), else the first
+   with all three; mark its channels. 1 if one was found. */
+static int pds__exr_pick_layer(pds__exr_channel *ch, int nch)
+{
+    int k, best = -1, bestn = 0;
+    for (k = 0; k < nch; k++) {
+        size_t n = strlen(ch[k].name);
+        const char *name = ch[k].name;
+        int combined;
+        if (n < 3 || name[n - 1] != 'R' || name[n - 2] != '.') continue;
+        if (pds__exr_find(ch, nch, name, n - 1, 'G') < 0 || pds__exr_find(ch, nch, name, n - 1, 'B') < 0) continue;
+        combined = n >= 10 && !strncmp(name + n - 10, "Combined", 8);
+        if (best < 0 || (combined && !bestn)) {
+            best = k;
+            bestn = combined;
+        }
+    }
+    if (best < 0) return 0;
+    {
+        size_t n = strlen(ch[best].name) - 1;
+        ch[best].target = 0;
+        ch[pds__exr_find(ch, nch, ch[best].name, n, 'G')].target = 1;
+        ch[pds__exr_find(ch, nch, ch[best].name, n, 'B')].target = 2;
+    }
+    return 1;
+}
+
+/* Read an OpenEXR file (see the layout above) into *img; meta (may be
+   NULL) gets its string attributes. */
+static pds_status pds__exr_read(const char *path, pds_image *img, pds_image_meta *meta, pds_error *err)
+{
+    static const char *const comp_names[10] = {"none", "RLE", "ZIPS", "ZIP", "PIZ", "PXR24", "B44", "B44A",
+                                               "DWAA", "DWAB"};
+    pds__exr_channel *ch = NULL;
+    pds__exr_reader r;
+    char *data = NULL;
+    unsigned char *raw = NULL, *tmp = NULL;
+    char name[256], type[256];
+    int nch = 0, have_ch = 0, have_win = 0, compression = -1, k, have[4] = {0, 0, 0, 0};
+    long win[4] = {0, 0, 0, 0};
+    size_t W = 0, H = 0, lines, nblocks, line_bytes = 0, blk, table;
+    uint32_t flags;
+    pds_status st;
+
+    if (!img) return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "no image to read into");
+    img->width = img->height = 0;
+    img->rgb = NULL;
+    if (meta) meta->count = 0;
+    if (!path || !path[0]) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "no input file name given");
+    st = pds__read_file(path, PDS__MAX_PFM_BYTES, "OpenEXR image", &data, &r.size, err);
+    if (st != PDS_OK) return st;
+    r.buf = (const unsigned char *)data;
+    r.pos = 8;
+    r.path = path;
+    r.err = err;
+    ch = (pds__exr_channel *)malloc(PDS__EXR_MAX_CHANNELS * sizeof *ch);
+    if (!ch) {
+        free(data);
+        return pds__nomem(err);
+    }
+#define PDS__EXR_FAIL(...)                                               \
+    do {                                                                 \
+        st = pds__fail(err, PDS_ERR_PARSE, path, 0, 0, __VA_ARGS__);     \
+        goto done;                                                       \
+    } while (0)
+    if (r.size < 8 || pds__get_u32_le(r.buf) != PDS__EXR_MAGIC)
+        PDS__EXR_FAIL("not an OpenEXR file (it must start with the bytes 76 2F 31 01)");
+    flags = pds__get_u32_le(r.buf + 4);
+    if ((flags & 0xffu) != 2) PDS__EXR_FAIL("OpenEXR version %u is not supported (2 is)", (unsigned)(flags & 0xffu));
+    if (flags & 0x200u) PDS__EXR_FAIL("a tiled OpenEXR file: only scanline files are supported");
+    if (flags & 0x800u) PDS__EXR_FAIL("an OpenEXR file of deep data: only flat images are supported");
+    if (flags & 0x1000u) PDS__EXR_FAIL("a multi-part OpenEXR file: only single-part files are supported");
+    if (flags & ~0x4ffu) PDS__EXR_FAIL("unknown OpenEXR version flags 0x%x", (unsigned)(flags >> 8));
+
+    /* The header's attributes, up to the NUL that ends them. */
+    for (;;) {
+        long size;
+        const unsigned char *v;
+        if (r.pos >= r.size) PDS__EXR_FAIL("the header is cut short");
+        if (r.buf[r.pos] == 0) {
+            r.pos++;
+            break;
+        }
+        if (pds__exr_name(&r, name, 255) != 0 || pds__exr_name(&r, type, 255) != 0 || r.size - r.pos < 4)
+            PDS__EXR_FAIL("the header is cut short (at byte %lu)", (unsigned long)r.pos);
+        size = pds__get_i32_le(r.buf + r.pos);
+        r.pos += 4;
+        if (size < 0 || (unsigned long)size > r.size - r.pos)
+            PDS__EXR_FAIL("attribute '%s' has a size of %ld bytes, past the end of the file", name, size);
+        v = r.buf + r.pos;
+        r.pos += (size_t)size;
+        if (!strcmp(name, "channels")) {
+            if (strcmp(type, "chlist")) PDS__EXR_FAIL("attribute 'channels' has type '%s', not chlist", type);
+            if ((st = pds__exr_channels(&r, v, (size_t)size, ch, &nch)) != PDS_OK) goto done;
+            have_ch = 1;
+        } else if (!strcmp(name, "compression")) {
+            if (strcmp(type, "compression") || size != 1) PDS__EXR_FAIL("attribute 'compression' is malformed");
+            compression = v[0];
+        } else if (!strcmp(name, "dataWindow")) {
+            if (strcmp(type, "box2i") || size != 16) PDS__EXR_FAIL("attribute 'dataWindow' is malformed");
+            for (k = 0; k < 4; k++) win[k] = pds__get_i32_le(v + 4 * k);
+            have_win = 1;
+        } else if (!strcmp(type, "string") && meta) {
+            if (pds__meta_key_ok(name)) pds__meta_add_text(meta, name, (const char *)v, (size_t)size);
+        }
+    }
+    if (!have_ch) PDS__EXR_FAIL("the header has no 'channels' attribute");
+    if (!have_win) PDS__EXR_FAIL("the header has no 'dataWindow' attribute");
+    if (compression < 0) PDS__EXR_FAIL("the header has no 'compression' attribute");
+    if (compression != 0 && compression != 2 && compression != 3)
+        PDS__EXR_FAIL("compression %s is not supported (none, ZIPS and ZIP are)",
+                      compression < 10 ? comp_names[compression] : "(unknown)");
+    if (win[2] < win[0] || win[3] < win[1] || (long long)win[2] - win[0] >= PDS_MAX_RESOLUTION ||
+        (long long)win[3] - win[1] >= PDS_MAX_RESOLUTION)
+        PDS__EXR_FAIL("the data window (%ld, %ld)-(%ld, %ld) is empty or wider than %d pixels", win[0], win[1],
+                      win[2], win[3], PDS_MAX_RESOLUTION);
+    W = (size_t)(win[2] - win[0] + 1);
+    H = (size_t)(win[3] - win[1] + 1);
+    for (k = 0; k < nch; k++) {
+        if (ch[k].target >= 0) have[ch[k].target] = 1;
+        line_bytes += W * (ch[k].type == 1 ? 2u : 4u);
+    }
+    if (!(have[0] && have[1] && have[2]) && !have[3]) {
+        for (k = 0; k < nch; k++) ch[k].target = -1; /* a lone R or G is not an image */
+        if (!pds__exr_pick_layer(ch, nch))
+            PDS__EXR_FAIL("no R, G, B (or Y, or LAYER.R, .G, .B) channels: the file has %d channel%s, the "
+                          "first '%s'", nch, nch == 1 ? "" : "s", nch > 0 ? ch[0].name : "");
+    }
+    if (have[0] && have[1] && have[2])
+        for (k = 0; k < nch; k++)
+            if (ch[k].target == 3) ch[k].target = -1; /* colour wins over grey */
+
+    lines = compression == 3 ? 16 : 1;
+    nblocks = (H + lines - 1) / lines;
+    table = r.pos;
+    /* Memory follows the file's size: raw lines fill the file, and deflate
+       makes at most 1032 bytes of 1 (258 per 2 bits), so a small file
+       cannot make the reader allocate a large image. */
+    if (line_bytes * H / (compression == 0 ? 1 : 1032) > r.size - table)
+        PDS__EXR_FAIL("the file is too short for a %lux%lu image (%lu bytes of lines)", (unsigned long)W,
+                      (unsigned long)H, (unsigned long)(line_bytes * H));
+    if ((r.size - table) / 8 < nblocks) PDS__EXR_FAIL("the file ends inside its offset table (%lu blocks)",
+                                                      (unsigned long)nblocks);
+    st = pds_image_alloc(img, (int)W, (int)H);
+    if (st != PDS_OK) {
+        st = st == PDS_ERR_NOMEM ? pds__nomem(err) : pds__fail(err, st, path, 0, 0, "bad image size");
+        goto done;
+    }
+    raw = (unsigned char *)malloc(lines * line_bytes);
+    tmp = (unsigned char *)malloc(lines * line_bytes);
+    if (!raw || !tmp) {
+        st = pds__nomem(err);
+        goto done;
+    }
+    for (blk = 0; blk < nblocks; blk++) {
+        const unsigned char *e = r.buf + table + 8 * blk, *d;
+        uint64_t off = 0;
+        size_t y0 = blk * lines, n = H - y0 < lines ? H - y0 : lines, want = n * line_bytes, y, x, at;
+        long ly, ds;
+        for (k = 7; k >= 0; k--) off = off << 8 | e[k];
+        if (off < table + 8 * nblocks || off > (uint64_t)r.size || r.size - (size_t)off < 8)
+            PDS__EXR_FAIL("the offset table points block %lu (line %lu) outside the file", (unsigned long)blk,
+                          (unsigned long)y0);
+        d = r.buf + (size_t)off;
+        ly = pds__get_i32_le(d);
+        ds = pds__get_i32_le(d + 4);
+        if ((long long)ly - win[1] != (long long)y0)
+            PDS__EXR_FAIL("block %lu says it starts at line %ld, not at %ld", (unsigned long)blk, ly,
+                          win[1] + (long)y0);
+        if (ds <= 0 || (unsigned long)ds > r.size - (size_t)off - 8)
+            PDS__EXR_FAIL("block %lu (line %ld) has a data size of %ld bytes, past the end of the file",
+                          (unsigned long)blk, ly, ds);
+        if ((size_t)ds == want) {
+            memcpy(raw, d + 8, want);
+        } else if (compression == 0) {
+            PDS__EXR_FAIL("block %lu (line %ld) holds %ld bytes; its lines need %lu", (unsigned long)blk, ly, ds,
+                          (unsigned long)want);
+        } else {
+            const char *why = pds__zlib_decode(d + 8, (size_t)ds, tmp, want);
+            if (why) PDS__EXR_FAIL("block %lu (line %ld): the ZIP data is corrupt: %s", (unsigned long)blk, ly, why);
+            pds__exr_zip_undo(tmp, want, raw);
+        }
+        /* A line: each channel's W values in the list's order. */
+        at = 0;
+        for (y = 0; y < n; y++) {
+            float *row = img->rgb + (y0 + y) * W * 3;
+            for (k = 0; k < nch; k++) {
+                size_t bytes = ch[k].type == 1 ? 2 : 4;
+                int t = ch[k].target;
+                for (x = 0; x < W; x++, at += bytes) {
+                    const unsigned char *p = raw + at;
+                    float f;
+                    if (t < 0) continue;
+                    if (ch[k].type == 1) f = pds__half_to_float((unsigned)p[0] | (unsigned)p[1] << 8);
+                    else if (ch[k].type == 2) f = pds__bits_float(pds__get_u32_le(p));
+                    else f = (float)pds__get_u32_le(p);
+                    if (!(f - f == 0.0f))
+                        PDS__EXR_FAIL("pixel (%lu, %lu) of channel '%s' is %s: an image must hold finite values",
+                                      (unsigned long)x, (unsigned long)(y0 + y), ch[k].name,
+                                      f != f ? "NaN" : f < 0 ? "-infinity" : "infinity");
+                    if (t < 3) {
+                        row[3 * x + (size_t)t] = f;
+                    } else {
+                        row[3 * x] = f;
+                        row[3 * x + 1] = f;
+                        row[3 * x + 2] = f;
+                    }
+                }
+            }
+        }
+    }
+    st = PDS_OK;
+done:
+#undef PDS__EXR_FAIL
+    if (st != PDS_OK) {
+        pds_image_free(img);
+        if (meta) meta->count = 0;
+    }
+    free(ch);
+    free(raw);
+    free(tmp);
+    free(data);
+    return st;
+}
+
+pds_status pds_image_read_exr(const char *path, pds_image *img, pds_image_meta *meta, pds_error *err)
+{
+    return pds__exr_read(path, img, meta, err);
+}
+
 #else
 pds_status pds_image_write_png(const char *path, const pds_image *img,
                                double exposure_stops, pds_error *err)
 {
     (void)img, (void)exposure_stops;
     return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "this build leaves PNG out (PDS_NO_PNG): write a .pfm");
+}
+
+pds_status pds_image_write_exr(const char *path, const pds_image *img, pds_exr_compression compression,
+                               const pds_image_meta *meta, pds_error *err)
+{
+    (void)img, (void)compression, (void)meta;
+    return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0,
+                     "this build leaves OpenEXR out (PDS_NO_PNG): write a .pfm");
+}
+
+pds_status pds_image_read_exr(const char *path, pds_image *img, pds_image_meta *meta, pds_error *err)
+{
+    if (img) img->width = img->height = 0, img->rgb = NULL;
+    if (meta) meta->count = 0;
+    return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0,
+                     "this build leaves OpenEXR out (PDS_NO_PNG): read a .pfm");
 }
 #endif /* PDS_NO_PNG */
 
@@ -9673,16 +10721,62 @@ static int pds__has_extension(const char *path, const char *ext)
     return *dot == '\0' && *ext == '\0';
 }
 
+void pds_image_write_options_default(pds_image_write_options *o)
+{
+    if (!o) return;
+    o->exposure_stops = 0.0;
+    o->tonemap = PDS_TONEMAP_CLAMP;
+    o->exr_compression = PDS_EXR_ZIP;
+    o->meta = NULL;
+}
+
+pds_status pds_image_write_with(const char *path, const pds_image *img, const pds_image_write_options *o,
+                                pds_error *err)
+{
+    pds_image_write_options d;
+    if (!o) {
+        pds_image_write_options_default(&d);
+        o = &d;
+    }
+    if (!path || !path[0])
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "no output file name given");
+    if (pds__has_extension(path, "pfm")) return pds__pfm_write(path, img, o->meta, err);
+    if (pds__has_extension(path, "png")) {
+#ifndef PDS_NO_PNG
+        return pds__png_write(path, img, o->exposure_stops, o->tonemap, o->meta, err);
+#else
+        return pds_image_write_png(path, img, o->exposure_stops, err);
+#endif
+    }
+    if (pds__has_extension(path, "exr")) return pds_image_write_exr(path, img, o->exr_compression, o->meta, err);
+    return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0,
+                     "cannot tell the image format from the file name: "
+                     "it must end in .pfm, .png or .exr");
+}
+
 pds_status pds_image_write(const char *path, const pds_image *img,
                            double exposure_stops, pds_error *err)
 {
-    if (!path || !path[0])
-        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "no output file name given");
-    if (pds__has_extension(path, "pfm")) return pds_image_write_pfm(path, img, err);
-    if (pds__has_extension(path, "png")) return pds_image_write_png(path, img, exposure_stops, err);
-    return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0,
-                     "cannot tell the image format from the file name: "
-                     "it must end in .pfm or .png");
+    pds_image_write_options o;
+    pds_image_write_options_default(&o);
+    o.exposure_stops = exposure_stops;
+    return pds_image_write_with(path, img, &o, err);
+}
+
+/* PFM or OpenEXR by the first bytes: "P" for PFM (whose reader says what
+   is wrong with anything else), the EXR magic for OpenEXR. */
+pds_status pds_image_read(const char *path, pds_image *img, pds_image_meta *meta, pds_error *err)
+{
+    unsigned char head[4] = {0, 0, 0, 0};
+    FILE *f;
+    if (meta) meta->count = 0;
+    if (path && path[0] && (f = fopen(path, "rb")) != NULL) {
+        size_t got = fread(head, 1, 4, f);
+        fclose(f);
+        if (got == 4 && head[0] == 0x76 && head[1] == 0x2f && head[2] == 0x31 && head[3] == 0x01)
+            return pds_image_read_exr(path, img, meta, err);
+    }
+    return pds__pfm_read(path, img, meta, err);
 }
 
 /* ===================================================================== */
@@ -10159,6 +11253,9 @@ void pds_partial_get_info(const pds_partial *p, pds_partial_info *info)
     info->width = p->width;
     info->height = p->height;
     info->method = p->opt.method;
+    info->paths = p->opt.paths;
+    info->seed = p->opt.seed;
+    info->photons = p->opt.photons;
     info->scene_hash = p->scene_hash;
     info->scene_path = p->scene_path;
     info->complete = p->rows_done == p->rows_own && p->units_done == p->units_own;

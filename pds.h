@@ -297,9 +297,78 @@ pds_status pds_image_write_pfm(const char *path, const pds_image *img, pds_error
 /* 8-bit sRGB PNG: value * 2^exposure_stops, clamped, sRGB transfer curve. */
 pds_status pds_image_write_png(const char *path, const pds_image *img,
                                double exposure_stops, pds_error *err);
-/* Chooses PFM or PNG by the file name's extension (.pfm / .png). */
+/* Chooses PFM, PNG or OpenEXR by the file name's extension (.pfm / .png /
+   .exr), with the defaults of pds_image_write_options_default but the
+   exposure. */
 pds_status pds_image_write(const char *path, const pds_image *img,
                            double exposure_stops, pds_error *err);
+
+/* Image metadata: up to PDS_IMAGE_META_MAX text entries, written as
+   OpenEXR string attributes, PNG tEXt chunks and a PFM trailer (README
+   "Images"), read back from EXR and PFM. A plain value: no allocation.
+   Keys: 1-63 printable ASCII characters, no '=', no leading, trailing or
+   double spaces (PNG keyword rules); values: printable ASCII. Start from
+   a zeroed value (count 0). */
+#define PDS_IMAGE_META_MAX 24
+#define PDS_IMAGE_META_KEY 64
+#define PDS_IMAGE_META_VALUE 1024
+typedef struct pds_image_meta {
+    int count;
+    char key[PDS_IMAGE_META_MAX][PDS_IMAGE_META_KEY];
+    char value[PDS_IMAGE_META_MAX][PDS_IMAGE_META_VALUE];
+} pds_image_meta;
+/* The keys pds writes; PDS_META_KIND is "full" (every light path),
+   "caustics-only" (LDS*E paths alone: --caustics-only) or "no-caustics",
+   so that a render and a reference of different kinds are told apart. */
+#define PDS_META_KIND "pds:kind"
+#define PDS_META_KIND_FULL "full"
+#define PDS_META_KIND_CAUSTICS "caustics-only"
+#define PDS_META_KIND_NO_CAUSTICS "no-caustics"
+#define PDS_META_METHOD "pds:method"
+/* Adds key = value, or replaces the value of an existing key.
+   PDS_ERR_INVALID_ARG for a bad key or value, PDS_ERR_LIMIT when full. */
+pds_status pds_image_meta_set(pds_image_meta *meta, const char *key, const char *value);
+/* The value of key, or NULL. */
+const char *pds_image_meta_get(const pds_image_meta *meta, const char *key);
+
+/* Tone curves for PNG, applied after the exposure and before the sRGB
+   transfer curve (README "Images"). */
+typedef enum pds_tonemap {
+    PDS_TONEMAP_CLAMP = 0, /* clamp to [0,1] */
+    PDS_TONEMAP_REINHARD,  /* Reinhard et al. 2002, eq. 3 on luminance: L / (1 + L) */
+    PDS_TONEMAP_FILMIC     /* Narkowicz 2015's fit of the ACES filmic curve, per channel */
+} pds_tonemap;
+/* The curve on one linear value (for PDS_TONEMAP_REINHARD: a luminance). */
+double pds_tonemap_curve(pds_tonemap tonemap, double linear);
+
+/* OpenEXR compression, the values of the format's compression attribute. */
+typedef enum pds_exr_compression {
+    PDS_EXR_NONE = 0, /* uncompressed */
+    PDS_EXR_ZIPS = 2, /* deflate, one scanline a block */
+    PDS_EXR_ZIP = 3   /* deflate, 16 scanlines a block */
+} pds_exr_compression;
+
+typedef struct pds_image_write_options {
+    double exposure_stops;               /* PNG: value * 2^stops first; default 0 */
+    pds_tonemap tonemap;                 /* PNG: default PDS_TONEMAP_CLAMP */
+    pds_exr_compression exr_compression; /* EXR: default PDS_EXR_ZIP */
+    const pds_image_meta *meta;          /* written into PNG, EXR and PFM; default NULL */
+} pds_image_write_options;
+void pds_image_write_options_default(pds_image_write_options *o);
+/* Chooses the format by the extension, as pds_image_write. */
+pds_status pds_image_write_with(const char *path, const pds_image *img,
+                                const pds_image_write_options *o, pds_error *err);
+/* OpenEXR: 32-bit float R, G, B scanlines, increasing y. */
+pds_status pds_image_write_exr(const char *path, const pds_image *img,
+                               pds_exr_compression compression, const pds_image_meta *meta,
+                               pds_error *err);
+/* OpenEXR scanline files (one part, not tiled or deep) with R, G, B (or Y)
+   channels of half, float or uint, compression none, ZIPS or ZIP. meta
+   (may be NULL) gets the string attributes. */
+pds_status pds_image_read_exr(const char *path, pds_image *img, pds_image_meta *meta, pds_error *err);
+/* Reads a PFM or an OpenEXR file, told apart by their first bytes; meta
+   (may be NULL) gets the metadata (EXR string attributes, PFM trailer). */
+pds_status pds_image_read(const char *path, pds_image *img, pds_image_meta *meta, pds_error *err);
 
 /* RMSE over all pixels and channels of the linear values. */
 double pds_image_rmse(const pds_image *a, const pds_image *ref);
@@ -732,6 +801,9 @@ typedef struct pds_partial_info {
     int complete;                  /* every unit of the shard is done */
     double done_fraction;          /* of the shard's units */
     long units_done, units_total;  /* the shard's work units (see above) */
+    pds_paths paths;               /* the render's light paths (--caustics-only, ...) */
+    unsigned long long seed;       /* the render's seed */
+    long photons;                  /* the render's photon option */
 } pds_partial_info;
 
 /* Render opt's shard (opt->shard_index of opt->shard_count) into *part: a

@@ -99,7 +99,7 @@ static void test_cli_exit_codes_follow_the_contract(pds_test_ctx *t)
     CHECK(t, cli_run("render scenes/demo.scene --spp 0", out, sizeof out) == 2, "--spp 0");
     CHECK(t, cli_run("render scenes/demo.scene --res 10by10", out, sizeof out) == 2, "--res");
     CHECK(t, cli_run("render scenes/demo.scene --bogus", out, sizeof out) == 2, "unknown option");
-    CHECK(t, cli_run("render scenes/demo.scene -o out.jpg", out, sizeof out) == 2 && strstr(out, ".png, .pfm or .pdsp"), "%s", out);
+    CHECK(t, cli_run("render scenes/demo.scene -o out.jpg", out, sizeof out) == 2 && strstr(out, ".png, .pfm, .exr or .pdsp"), "%s", out);
     CHECK(t, cli_run("compare a.pfm", out, sizeof out) == 2, "compare arity");
     CHECK(t, cli_run("render /nonexistent.scene -o /tmp/x.png", out, sizeof out) == 1 &&
                  strstr(out, "/nonexistent.scene: cannot open"), "%s", out);

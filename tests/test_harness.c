@@ -657,7 +657,7 @@ static void test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_
     /* pds is progressive by default: its grid is the first pass's s */
     static const char *const keys[3] = {"pass-smoothing", "k", "radius"};
     static const char *const param_keys[3] = {"pass_smoothing", "k", "radius"};
-    static const int grid[3] = {5, 5, 5};
+    static const int grid[3] = {7, 5, 5};
     char out[16384], args[1024], ref[256], dir[256], path[512], lines[8][512];
     char *csv, *tune, *html;
     int i, n;
@@ -682,8 +682,8 @@ static void test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_
     REQUIRE(t, tune && csv, "tune.csv and race.csv written");
     CHECK(t, HARNESS_STARTS(tune, "label,method,budget_photons,param,value,seed,rmse,ssim,time_s,photons,chosen\n"),
           "tune.csv header: %s", tune);
-    /* pds: 5 first-pass smoothings, pm: 5 k, ppm: 5 radii (alpha given), pm:k=30 none */
-    CHECK(t, harness_count(tune, "\n") == 1 + 5 + 5 + 5, "rows: %s", tune);
+    /* pds: 7 first-pass smoothings, pm: 5 k, ppm: 5 radii (alpha given), pm:k=30 none */
+    CHECK(t, harness_count(tune, "\n") == 1 + 7 + 5 + 5, "rows: %s", tune);
     CHECK(t, strstr(tune, "pm-k30") == NULL && strstr(tune, ",alpha,") == NULL, "given values are not tuned");
     for (i = 0; i < 3; i++) {
         char prefix[64], want[128], field[128], best_value[32] = "";

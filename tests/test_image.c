@@ -428,6 +428,9 @@ static const char *timg_png_decode(const unsigned char *f, size_t n, timg_png *o
         } else if (memcmp(type, "IEND", 4) == 0) {
             if (len != 0) why = "IEND has data";
             seen_iend = 1;
+        } else if ((type[0] & 0x20) && seen_ihdr) {
+            /* an ancillary chunk (lower-case first letter, ISO/IEC 15948
+               sec. 5.4), e.g. the writer's tEXt metadata: not the image */
         } else {
             why = "unexpected chunk type";
         }

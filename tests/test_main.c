@@ -24,6 +24,7 @@
 #include "test_harness.c"
 #endif
 #include "test_image.c"
+#include "test_exr.c"
 #include "test_obj.c"
 #include "test_bvh.c"
 #include "test_materials.c"
@@ -54,6 +55,7 @@ int main(int argc, char **argv)
         PDS_SUITE(tests_harness),
 #endif
         PDS_SUITE(tests_image),
+        PDS_SUITE(tests_exr),
         PDS_SUITE(tests_obj),
         PDS_SUITE(tests_bvh),
         PDS_SUITE(tests_materials),

@@ -1,6 +1,6 @@
 #!/bin/sh
 # run.sh TARGET SECONDS - what `make fuzz` runs for one target (scene, obj, partial,
-# mtl or pfm) after building tests/out/fuzz/fuzz_TARGET:
+# mtl, pfm or exr) after building tests/out/fuzz/fuzz_TARGET:
 #   1. replay the committed corpus tests/fuzz/corpus/TARGET (seeds and the
 #      reproducers of past findings): every input must still pass;
 #   2. unless SECONDS is 0, fuzz for SECONDS seconds from a scratch copy of
@@ -24,6 +24,7 @@ case $target in
     scene|obj) max_len=16384 ;;
     mtl) max_len=4096 ;;
     pfm) max_len=4096 ;;
+    exr) max_len=4096 ;; # a header and a few ZIP or raw blocks
     partial) max_len=8192 ;; # a header and a few pixels' sums
     *) echo "run.sh: unknown target '$target'" >&2; exit 2 ;;
 esac
