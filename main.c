@@ -136,7 +136,9 @@ static const command_help help_table[] = {
      "      --passes N              ppm: photon passes (default 10; with --time, until the time is spent)\n"
      "                              memory: pm and pdm store every photon, spm every stream, so their\n"
      "                              memory grows with --photons (the final line reports map_bytes); ppm\n"
-     "                              keeps one pass's photons, pds and splat none\n",
+     "                              keeps one pass's photons, pds and splat none\n"
+     "      -D NAME=VALUE           the scene's `define NAME` is VALUE\n"
+     "      --obj-material M        a bare .obj in its studio: auto, diffuse, glass or metal\n",
      "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
      "      --res WxH               resolution (default: the scene camera's)\n"
      "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
@@ -161,7 +163,8 @@ static const command_help help_table[] = {
      "                              -o PART.pdsp; pds merge makes the image, the single run's bit for bit\n"
      "      --checkpoint SECONDS    write OUT.pdsp and OUT every SECONDS (pt, pds, splat)\n"
      "      --resume PART.pdsp      continue a stopped render or shard (scene, options and output from\n"
-     "                              the file; -o, --threads, --exposure, --progress, --quiet may be given)\n"
+     "                              the file; -o, --threads, --exposure, --progress, --quiet may be given,\n"
+     "                              and the render's own -D and --obj-material: they are not in the file)\n"
      "      The first Ctrl-C (SIGINT) or SIGTERM stops after the batch under way and writes OUT and\n"
      "      OUT.pdsp (exit status 130); a second one aborts.\n"
      "      --caustics NAME         gi: the caustic method, pds (default), pm, pdm, splat, ppm or spm,\n"
@@ -243,7 +246,8 @@ static const command_help help_table[] = {
      "      the central difference of neighbouring photons traced by the renderer, and the\n"
      "      footprint's semi-axes and area (eq. 4)\n",
      "", 0},
-    {"info", "info FILE", "what a scene or OBJ file holds, and its warnings", "", "", 0},
+    {"info", "info FILE [-D NAME=VALUE] [--obj-material M]", "what a scene or OBJ file holds, and its warnings",
+     "      -D NAME=VALUE, --obj-material M   as for render: the scene as render would load it\n", "", 0},
     {"bench", "bench WHAT [ARGS]", "micro-benchmarks (figures, never pass/fail):",
      "      rays MESH [N]           BVH build and ray throughput, one thread (N rays, default 1000000)\n"
      "      pt [SCENE]              path-traced samples per second, 1 thread and all threads\n"
@@ -598,10 +602,44 @@ static int parse_double(const char *s, double *out)
     return 0;
 }
 
+/* How scenes are loaded (-D NAME=VALUE, --obj-material): set while the
+   command line is read, used by every load_any of the command. */
+#define MAX_DEFINES 256
+static pds_define load_defines[MAX_DEFINES];
+static char load_define_text[MAX_DEFINES][64 + 512]; /* "NAME\0VALUE" */
+static pds_load_options load_cfg = {load_defines, 0, 1, PDS_OBJ_MATERIAL_AUTO};
+
 static pds_status load_any(const char *path, pds_scene **scene, pds_error *err)
 {
-    return has_ext(path, ".obj") ? pds_scene_load_obj(path, scene, err) : pds_scene_load(path, scene, err);
+    return pds_scene_load_ex(path, &load_cfg, scene, err);
 }
+
+/* -D NAME=VALUE (also -DNAME=VALUE, --define NAME=VALUE): a value for the
+   scene's variable NAME in place of its `define` default. */
+static int add_define(const char *shown, const char *v)
+{
+    const char *eq = strchr(v, '=');
+    size_t i, n = eq ? (size_t)(eq - v) : 0;
+    int ok = eq && n > 0 && n < 64 && ((v[0] >= 'a' && v[0] <= 'z') || (v[0] >= 'A' && v[0] <= 'Z') || v[0] == '_');
+    for (i = 1; ok && i < n; i++)
+        ok = (v[i] >= 'a' && v[i] <= 'z') || (v[i] >= 'A' && v[i] <= 'Z') || (v[i] >= '0' && v[i] <= '9') || v[i] == '_';
+    if (!ok) return usage_error("%s needs NAME=VALUE (NAME: a letter or '_', then letters, digits or '_'), got '%s'", shown, v);
+    if (eq[1] == '\0') return usage_error("%s %.*s= needs a value after '='", shown, (int)n, v);
+    if (strlen(eq + 1) > 511) return usage_error("%s %.*s: the value is longer than 511 characters", shown, (int)n, v);
+    if (load_cfg.define_count >= MAX_DEFINES) return usage_error("more than %d -D options", MAX_DEFINES);
+    {
+        char *t = load_define_text[load_cfg.define_count];
+        memcpy(t, v, n);
+        t[n] = '\0';
+        strcpy(t + n + 1, eq + 1);
+        load_defines[load_cfg.define_count].name = t;
+        load_defines[load_cfg.define_count].value = t + n + 1;
+        load_cfg.define_count++;
+    }
+    return 0;
+}
+
+static const char *const obj_material_names[] = {"auto", "diffuse", "glass", "metal"}; /* by pds_obj_material */
 
 /* The scene's file name without folder and extension ("scenes/ring.scene"
    -> "ring"), cut to fit n bytes. */
@@ -1122,6 +1160,22 @@ static int set_orbit(const opt_spec *s, run_cfg *c, const char *shown, const cha
     return r;
 }
 
+static int set_define(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    (void)s;
+    (void)c;
+    return add_define(shown, v);
+}
+
+static int set_obj_material(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    int k = 0, r = set_named(shown, v, obj_material_names, 4, &k);
+    (void)s;
+    (void)c;
+    if (!r) load_cfg.obj_material = (pds_obj_material)k;
+    return r;
+}
+
 static const char *const tonemap_names[] = {"clamp", "reinhard", "filmic"}; /* by pds_tonemap */
 static const char *const exr_compression_names[] = {"none", "zips", "zip"};
 
@@ -1237,6 +1291,9 @@ static const opt_spec option_table[] = {
     {"--exr-compression", NULL, "exr_compression", set_exr_compression, 0, 0, 0, "none, zips or zip", M_ALL,
      C_RENDER, F_VALUE},
     {"--progress", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
+    {"--define", "-D", "define", set_define, 0, 0, 0, "NAME=VALUE", M_ALL, C_ALL, F_VALUE},
+    {"--obj-material", NULL, "obj_material", set_obj_material, 0, 0, 0, "auto, diffuse, glass or metal", M_ALL, C_ALL,
+     F_VALUE},
     {"--quiet", NULL, "progress", set_progress, 0, 0, 0, "", M_ALL, C_ALL, 0},
 };
 #define N_OPTIONS (sizeof option_table / sizeof option_table[0])
@@ -1331,6 +1388,11 @@ static int parse_option(run_cfg *c, unsigned cmd, const char *cmd_name, int argc
     size_t n = arg_name_length(a);
     const opt_spec *s;
     int idx, r;
+    if (a[0] == '-' && a[1] == 'D' && a[2] != '\0') { /* -DNAME=VALUE, as compilers take it */
+        idx = option_index("-D");
+        c->given[idx] = 1;
+        return add_define("-D", a + 2);
+    }
     if (n >= sizeof name) return -1;
     memcpy(name, a, n);
     name[n] = '\0';
@@ -1802,7 +1864,8 @@ static int cmd_render(int argc, char **argv)
     if (resume) {
         /* the options come from the partial file; only how to run may change */
         static const char *const allowed[] = {"--output", "--threads", "--progress", "--quiet", "--exposure",
-                                              "--tonemap", "--exr-compression"};
+                                              "--tonemap", "--exr-compression",
+                                              "--define", "--obj-material"}; /* the same -D: the scene's hash checks it */
         size_t k;
         int threads = c.opt.threads;
         for (k = 0; k < N_OPTIONS; k++) {
@@ -2267,15 +2330,32 @@ static int cmd_info(int argc, char **argv)
     pds_scene_info info;
     pds_error err;
     const pds_camera *cam;
-    int i;
-    if (argc != 1) return usage_error("%s", "info needs one scene or OBJ file");
-    if (load_any(argv[0], &scene, &err) != PDS_OK) {
+    const char *path = NULL;
+    int i, r;
+    for (i = 0; i < argc; i++) {
+        const char *a = argv[i], *v;
+        if (a[0] != '-' || a[1] == '\0') {
+            if (path) return usage_error("%s", "info needs one scene or OBJ file");
+            path = a;
+        } else if (a[1] == 'D' && a[2] != '\0') {
+            if ((r = add_define("-D", a + 2)) != 0) return r;
+        } else if (arg_is(a, "-D") || arg_is(a, "--define") || arg_is(a, "--obj-material")) {
+            if ((r = option_value(argc, argv, &i, &v)) != 0) return r;
+            r = arg_is(a, "--obj-material") ? set_obj_material(NULL, NULL, "--obj-material", v) : add_define(a, v);
+            if (r) return r;
+        } else {
+            static const char *const own[] = {"-D", "--define", "--obj-material", NULL};
+            return unknown_option(a, 0, own);
+        }
+    }
+    if (!path) return usage_error("%s", "info needs one scene or OBJ file");
+    if (load_any(path, &scene, &err) != PDS_OK) {
         fprintf(stderr, "%s\n", pds_error_string(&err));
         return 1;
     }
     pds_scene_get_info(scene, &info);
     cam = pds_scene_camera(scene);
-    printf("file        %s\n", argv[0]);
+    printf("file        %s\n", path);
     printf("triangles   %ld\nvertices    %ld\nshapes      %d\n", info.triangles, info.vertices, info.shapes);
     printf("bounds      (%g, %g, %g) .. (%g, %g, %g)\n", info.bounds_min.x, info.bounds_min.y, info.bounds_min.z,
            info.bounds_max.x, info.bounds_max.y, info.bounds_max.z);
@@ -2946,14 +3026,17 @@ static int load_entry(const char *dir, const char *label, const char *key, const
     return 1;
 }
 
-/* What an entry is: what --resume compares (budget: race's, or ""). */
-static void entry_key(const pds_options *o, const char *budget, char *out, size_t n)
+/* What an entry is: what --resume compares (budget: race's, or ""), with
+   the scene's content hash (a scene edited, or loaded with other -D
+   values, since the entry was kept is another scene). */
+static void entry_key(const pds_scene *scene, const pds_options *o, const char *budget, char *out, size_t n)
 {
     char params[256];
     format_params(o, params, sizeof params);
     snprintf(out, n, "method=%s budget=%s seed=%llu res=%dx%d spp=%d photons=%ld passes=%d paths=%d depth=%d,%d "
-             "time=%.17g%s", method_name(o->method), budget, o->seed, o->width, o->height, o->spp, o->photons,
-             o->passes, (int)o->paths, o->max_depth, o->photon_depth, o->time_s, params);
+             "time=%.17g%s scene=%016llx", method_name(o->method), budget, o->seed, o->width, o->height, o->spp,
+             o->photons, o->passes, (int)o->paths, o->max_depth, o->photon_depth, o->time_s, params,
+             pds_scene_hash(scene));
 }
 
 static int render_and_compare(const pds_scene *scene, const run_cfg *c, const pds_image *ref, pds_image *img,
@@ -3436,7 +3519,7 @@ static int cmd_sweep(int argc, char **argv)
         ps->set(ps, &c, param, rows[i].value);
         snprintf(context, sizeof context, "sweep %s=%s", ps->key, rows[i].value);
         /* kept entries (see "keeping finished entries") */
-        entry_key(&c.opt, "", key, sizeof key);
+        entry_key(scene, &c.opt, "", key, sizeof key);
         snprintf(label, sizeof label, "%s-%s", ps->key, rows[i].value);
         if (resume && (loaded = load_entry(dir, label, key, &ref, &rows[i].img, &rows[i].st, &rows[i].m, extra,
                                            sizeof extra)) < 0)
@@ -4815,7 +4898,7 @@ static int cmd_race(int argc, char **argv)
         race_entry *t = &e[i];
         char context[160], key[600];
         int loaded = 0;
-        entry_key(&t->cfg.opt, bud.text[t->budget], key, sizeof key);
+        entry_key(scene, &t->cfg.opt, bud.text[t->budget], key, sizeof key);
         if (resume && (loaded = race_load_entry(dir, t, key, &ref)) < 0) goto done;
         if (!loaded) {
             if (tune && race_tune(scene, &ref, pixel_m, t, i, &tlog)) goto done;

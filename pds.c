@@ -22,7 +22,9 @@
      >>lights     light selection, next-event sampling, photon emission;
                   the environment light (constant, CIE clear sky, sun)
      >>kdtree     balanced kd-tree: range and k-nearest queries (eye-path map)
-     >>scene      the pds_scene value and its text format parser
+     >>scene      the pds_scene value and its text format parser, with
+                  include and variables (define, $NAME, -D); a bare OBJ
+                  in its studio
      >>differentials  photon differentials: emission (eqs. 2-6), transfer,
                   reflection, refraction (Igehy 1999), footprint, eq. 12
      >>image      PFM read/write (with a metadata trailer), PNG write (tEXt
@@ -1097,6 +1099,13 @@ static void pds__cmj(int s, int n, uint64_t pattern, double jx, double jy, doubl
      begins a comment that runs to the end of the physical line; a backslash
      followed only by blanks before the newline continues the statement on
      the next line; CRLF, tabs and a UTF-8 byte order mark are accepted.
+     A backslash before a blank inside a token escapes it: `mtllib my\ lib.mtl`
+     and `usemtl paint\ red` name "my lib.mtl" and "paint red".
+   - Robustness, as tinyobjloader, Blender's and pbrt's importers do: a
+     missing mtllib file (or one of several on a line) is a warning and its
+     materials fall back to the default; a vt or vn index past the elements
+     given is dropped with a warning (the corner's normal is then computed
+     from the faces); only what cannot be read is refused.
    - Supported: v x y z [w] (w is ignored: it is a rational weight meaningful
      only for free-form geometry, and some exporters put vertex colours
      there), vt u [v [w]] (checked and counted, not stored), vn x y z, f/fo
@@ -1265,6 +1274,10 @@ static int pds__obj_next(pds__obj_lexer *lx, pds__obj_token *tok)
     start = p;
     while (p < lx->end && !pds__obj_blank(*p) && *p != '\n') {
         if (*p == '\\' && pds__obj_continuation(lx, p)) break;
+        if (*p == '\\' && p + 1 < lx->end && (p[1] == ' ' || p[1] == '\t')) {
+            p += 2; /* an escaped blank belongs to the token: "my\ lib.mtl" */
+            continue;
+        }
         p++;
     }
     tok->s = start;
@@ -1487,6 +1500,19 @@ static pds_status pds__obj_number(pds__obj_state *s, pds__obj_lexer *lx, const c
                      t.len > 64 ? 64 : t.len, t.s);
 }
 
+/* A name as written, "my\ lib.mtl", to the name meant, "my lib.mtl": a
+   backslash before a blank escapes it (exporters write names with spaces
+   so). In place. */
+static void pds__obj_unescape(char *s)
+{
+    char *w = s;
+    for (; *s; s++) {
+        if (s[0] == '\\' && (s[1] == ' ' || s[1] == '\t')) s++;
+        *w++ = *s;
+    }
+    *w = '\0';
+}
+
 /* The remaining tokens of the statement, stored in s->ftok (count in *n),
    and as one string in buf: the raw bytes when all tokens sit on one
    physical line (inner spacing kept), else joined by single spaces.
@@ -1516,6 +1542,7 @@ static int pds__obj_rest(pds__obj_state *s, pds__obj_lexer *lx, char *buf, size_
         }
     }
     buf[len] = '\0';
+    pds__obj_unescape(buf);
     return 0;
 }
 
@@ -1745,6 +1772,7 @@ static pds_status pds__obj_mtllib(pds__obj_state *s, pds__obj_lexer *lx)
         char name[4096];
         memcpy(name, t.s, (size_t)t.len); /* t.len < sizeof rest <= sizeof name */
         name[t.len] = '\0';
+        pds__obj_unescape(name);
         if (pds__join_path(s->dir, name, full, sizeof full))
             st = pds__obj_err(s, &t, "material library path is too long");
         else if (pds__names_find(&s->mtl_loaded, full, strlen(full)) >= 0)
@@ -6712,7 +6740,9 @@ static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double
        mesh "bunny.obj" { material glass  scale 10 }
 
    Line breaks are white space like any other; `#` starts a comment that
-   runs to the end of the line. Numbers take any C form (decimal, exponent,
+   runs to the end of the line. `include "FILE"` and `define NAME VALUE`
+   are statements too, and `$NAME` may stand for any token (see "variables
+   and include" below). Numbers take any C form (decimal, exponent,
    hexadecimal, hexadecimal float, a leading-zero integer is octal, and an
    f/F/l/L/u/U suffix is ignored). NaN and infinity are refused. Every error
    carries FILE:LINE:COLUMN of the token at fault.
@@ -6836,7 +6866,44 @@ typedef struct pds__token {
     pds__tok_kind kind;
     char text[512];
     int line, col;
+    char var[64];         /* "$name" stood here: the variable's name, else "" */
 } pds__token;
+
+/* --- variables and include: what one load shares across its files ------- */
+/* A variable is declared with a default, `define NAME VALUE`, and used as
+   `$NAME` wherever a token may stand: the lexer hands out its value (a
+   number, a word or a string) in place of `$NAME`, at the position of
+   the `$`. A -D NAME=VALUE of the load options replaces the default where
+   it is declared, so the loaded scene, and its content hash, is that of
+   the overridden values. `include "FILE"` reads FILE (relative to the
+   including file) as if its statements stood there; variables and the one
+   camera are shared by all files of the load. */
+typedef struct pds__var {
+    char name[64];
+    pds__tok_kind kind;
+    char value[512];
+    char file[256];       /* where it is defined, for messages */
+    int line, col;
+    int overridden;       /* 1: the value comes from a -D */
+} pds__var;
+
+typedef struct pds__load {
+    const pds_define *defines; /* the -D overrides */
+    int ndefines;
+    unsigned char *define_used; /* per override: a `define` took it */
+    pds__var *vars;
+    size_t nvars, cap_vars;
+    pds__names var_index;  /* name -> index in vars */
+    const char *chain[PDS_MAX_INCLUDE_DEPTH + 1]; /* the files being read, outermost first */
+    int site_line[PDS_MAX_INCLUDE_DEPTH], site_col[PDS_MAX_INCLUDE_DEPTH]; /* where chain[d + 1]
+                              is included in chain[d] */
+    int depth;             /* chain[depth] is the file being read */
+    long includes;         /* include statements read so far */
+    size_t bytes;          /* scene text read so far, all files (at most
+                              PDS_MAX_TEXT_BYTES: bounds time and memory) */
+    int camera_seen;
+    int noted;             /* the error already says where it was included from */
+} pds__load;
 
 typedef struct pds__parser {
     const char *file;     /* scene path as given, for messages */
@@ -6850,16 +6917,43 @@ typedef struct pds__parser {
     int nkeys;
     pds_scene *scene;
     pds_error *err;
+    pds__load *L;         /* shared by the files of one load */
 } pds__parser;
 
+/* An error at token `at`; a value that came from a variable says so. */
 static pds_status pds__perr(pds__parser *P, const pds__token *at, pds_status st, const char *fmt, ...)
 {
-    char msg[512];
+    char msg[512], note[400] = "";
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    return pds__fail(P->err, st, P->file, at->line, at->col, "%s", msg);
+    if (at->var[0] && P->L) {
+        int i = pds__names_find(&P->L->var_index, at->var, strlen(at->var));
+        const pds__var *v = i >= 0 ? &P->L->vars[i] : NULL;
+        if (v && v->overridden)
+            snprintf(note, sizeof note, " (the value of $%s, set by -D %s=...)", v->name, v->name);
+        else if (v)
+            snprintf(note, sizeof note, " (the value of $%s, defined at %.200s:%d:%d)", v->name, v->file, v->line,
+                     v->col);
+    }
+    return pds__fail(P->err, st, P->file, at->line, at->col, "%s%s", msg, note);
+}
+
+/* Append text to an error's message and printable text. */
+static void pds__error_append(pds_error *err, const char *fmt, ...)
+{
+    char add[400];
+    size_t m, t;
+    va_list ap;
+    if (!err) return;
+    va_start(ap, fmt);
+    vsnprintf(add, sizeof add, fmt, ap);
+    va_end(ap);
+    m = strlen(err->message);
+    t = strlen(err->text);
+    snprintf(err->message + m, sizeof err->message - m, "%s", add);
+    snprintf(err->text + t, sizeof err->text - t, "%s", add);
 }
 
 static void pds__lex_advance(pds__parser *P)
@@ -6878,6 +6972,57 @@ static int pds__is_word_char(int c)
     return isalnum(c) || c == '_' || c == '-' || c == '.' || c == '/' || c == '+';
 }
 
+static int pds__edit_distance(const char *a, const char *b);
+
+static int pds__is_var_char(int c)
+{
+    return isalnum(c) || c == '_';
+}
+
+/* The value of a variable, in its own kind (the token stays where the
+   `$` was): an undefined variable is an error there. */
+static pds_status pds__lex_variable(pds__parser *P)
+{
+    pds__token *t = &P->tok;
+    pds__load *L = P->L;
+    char name[64];
+    size_t n = 0, k;
+    int i;
+    pds__lex_advance(P); /* the '$' */
+    while (pds__is_var_char((unsigned char)*P->p)) {
+        if (n + 1 >= sizeof name)
+            return pds__perr(P, t, PDS_ERR_LIMIT, "variable name longer than %d characters", (int)sizeof name - 1);
+        name[n++] = *P->p;
+        pds__lex_advance(P);
+    }
+    name[n] = '\0';
+    if (n == 0) return pds__perr(P, t, PDS_ERR_PARSE, "expected a variable name after '$'");
+    i = L ? pds__names_find(&L->var_index, name, n) : -1;
+    if (i < 0) {
+        const char *closest = NULL;
+        int best = 3, given = 0;
+        for (k = 0; L && k < L->nvars; k++) {
+            int d = pds__edit_distance(name, L->vars[k].name);
+            if (d < best) {
+                best = d;
+                closest = L->vars[k].name;
+            }
+        }
+        if (closest && best <= (n > 4 ? 2 : 1))
+            return pds__perr(P, t, PDS_ERR_PARSE, "undefined variable '$%s' (did you mean '$%s'?)", name, closest);
+        for (k = 0; L && k < (size_t)L->ndefines; k++) given |= !strcmp(L->defines[k].name, name);
+        if (given)
+            return pds__perr(P, t, PDS_ERR_PARSE, "undefined variable '$%s': -D gives it a value, but the scene must "
+                             "declare it first with 'define %s DEFAULT'", name, name);
+        return pds__perr(P, t, PDS_ERR_PARSE, "undefined variable '$%s' (declare it first: 'define %s VALUE')", name,
+                         name);
+    }
+    t->kind = L->vars[i].kind;
+    pds__strlcpy(t->text, L->vars[i].value, sizeof t->text);
+    pds__strlcpy(t->var, name, sizeof t->var);
+    return PDS_OK;
+}
+
 /* Read the next token into P->tok. */
 static pds_status pds__lex_next(pds__parser *P)
 {
@@ -6891,6 +7036,8 @@ static pds_status pds__lex_next(pds__parser *P)
     t->line = P->line;
     t->col = P->col;
     t->text[0] = '\0';
+    t->var[0] = '\0';
+    if (*P->p == '$') return pds__lex_variable(P);
     if (!*P->p) {
         t->kind = PDS__TOK_END;
         pds__strlcpy(t->text, "end of file", sizeof t->text);
@@ -7168,7 +7315,8 @@ static pds_status pds__unknown_key(pds__parser *P, const char *what)
     }
     if (closest && best <= (strlen(w) > 4 ? 2 : 1))
         return pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown keyword '%s' in %s (did you mean '%s'?)", w, what, closest);
-    if (!strcmp(w, "camera") || !strcmp(w, "material") || !strcmp(w, "light") || pds__is_shape_kind(w))
+    if (!strcmp(w, "camera") || !strcmp(w, "material") || !strcmp(w, "light") || !strcmp(w, "include") ||
+        !strcmp(w, "define") || pds__is_shape_kind(w))
         /* a statement inside a block: the block's '}' is most likely missing */
         return pds__perr(P, &P->tok, PDS_ERR_PARSE, "'%s' starts a statement, but %s opened at %d:%d is not closed "
                          "(a '}' missing?)", w, what, P->brace.line, P->brace.col);
@@ -7953,13 +8101,262 @@ static pds_status pds__scene_finish(pds_scene *s, pds_error *err)
     return st;
 }
 
-/* Parse scene text src (from path) into s. */
-static pds_status pds__scene_parse(pds_scene *s, const char *path, const char *src, pds_error *err)
+/* --- define and include --------------------------------------------------- */
+
+/* The kind of token a -D value stands for: a number or a word as the
+   lexer would read it, else (spaces, quotes, other characters) a string. */
+static pds__tok_kind pds__value_kind(const char *v)
+{
+    char c0 = v[0], c1 = c0 ? v[1] : '\0';
+    size_t i;
+    if (!c0) return PDS__TOK_STRING;
+    for (i = 0; v[i]; i++)
+        if (!pds__is_word_char((unsigned char)v[i])) return PDS__TOK_STRING;
+    if (isdigit((unsigned char)c0) || (c0 == '.' && isdigit((unsigned char)c1)) ||
+        ((c0 == '-' || c0 == '+') && (isdigit((unsigned char)c1) || c1 == '.')))
+        return PDS__TOK_NUMBER;
+    return PDS__TOK_WORD;
+}
+
+/* A variable name: a letter or '_', then letters, digits and '_'. */
+static int pds__is_var_name(const char *w)
+{
+    size_t i;
+    if (!(isalpha((unsigned char)w[0]) || w[0] == '_')) return 0;
+    for (i = 1; w[i]; i++)
+        if (!pds__is_var_char((unsigned char)w[i])) return 0;
+    return i < 64;
+}
+
+/* define NAME VALUE: declares $NAME with the default VALUE (one token: a
+   number, a word or a "string"), or the value of the last -D NAME=... */
+static pds_status pds__parse_define(pds__parser *P)
+{
+    pds__load *L = P->L;
+    pds__var v;
+    int k, i;
+    pds_status st;
+    memset(&v, 0, sizeof v);
+    if ((st = pds__lex_next(P))) return st;
+    if (P->tok.kind != PDS__TOK_WORD || P->tok.var[0] || !pds__is_var_name(P->tok.text))
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "expected a variable name after 'define' (a letter or '_', then "
+                         "letters, digits or '_'), got '%s'", P->tok.text);
+    pds__strlcpy(v.name, P->tok.text, sizeof v.name);
+    pds__strlcpy(v.file, P->file, sizeof v.file);
+    v.line = P->tok.line;
+    v.col = P->tok.col;
+    i = pds__names_find(&L->var_index, v.name, strlen(v.name));
+    if (i >= 0)
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "variable '%s' is already defined at %s:%d:%d", v.name,
+                         L->vars[i].file, L->vars[i].line, L->vars[i].col);
+    if (L->nvars >= (size_t)PDS_MAX_DEFINES)
+        return pds__perr(P, &P->tok, PDS_ERR_LIMIT, "more than %d variables", PDS_MAX_DEFINES);
+    if ((st = pds__lex_next(P))) return st;
+    if (P->tok.kind != PDS__TOK_NUMBER && P->tok.kind != PDS__TOK_WORD && P->tok.kind != PDS__TOK_STRING)
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "expected a value after 'define %s' (a number, a name or a "
+                         "\"string\"), got '%s'", v.name, P->tok.text);
+    v.kind = P->tok.kind;
+    pds__strlcpy(v.value, P->tok.text, sizeof v.value);
+    for (k = 0; k < L->ndefines; k++) {
+        const pds_define *d = &L->defines[k];
+        if (!d->name || !d->value || strcmp(d->name, v.name) != 0) continue;
+        if (strlen(d->value) >= sizeof v.value)
+            return pds__perr(P, &P->tok, PDS_ERR_LIMIT, "the -D value of '%s' is longer than %d characters", v.name,
+                             (int)sizeof v.value - 1);
+        v.kind = pds__value_kind(d->value);
+        pds__strlcpy(v.value, d->value, sizeof v.value);
+        v.overridden = 1;
+        L->define_used[k] = 1;
+    }
+    if (pds__grow((void **)&L->vars, &L->cap_vars, L->nvars + 1, sizeof *L->vars) ||
+        !pds__names_put(&L->var_index, v.name, strlen(v.name), (int)L->nvars))
+        return pds__nomem(P->err);
+    L->vars[L->nvars++] = v;
+    return PDS_OK;
+}
+
+/* The path with "./" parts and "DIR/.." pairs taken out, so that one file
+   named two ways is recognised in an include cycle. */
+static void pds__path_normalize(const char *path, char *out, size_t n)
+{
+    size_t len = 0, start[256];
+    int parts = 0;
+    const char *p = path;
+    if (n == 0) return;
+    out[0] = '\0';
+    if (*p == '/') {
+        if (n > 1) out[len++] = '/';
+        while (*p == '/') p++;
+    }
+    while (*p) {
+        const char *e = strchr(p, '/');
+        size_t k = e ? (size_t)(e - p) : strlen(p);
+        if (k == 1 && p[0] == '.') {
+            /* "." adds nothing */
+        } else if (k == 2 && p[0] == '.' && p[1] == '.' && parts > 0 &&
+                   !(len - start[parts - 1] == 3 && !strncmp(out + start[parts - 1], "../", 3))) {
+            len = start[--parts];
+        } else if (len + k + 2 <= n) {
+            if (parts < 256) start[parts++] = len;
+            memcpy(out + len, p, k);
+            len += k;
+            out[len++] = '/';
+        }
+        p += k;
+        while (*p == '/') p++;
+    }
+    if (len > 1 && out[len - 1] == '/') len--;
+    out[len] = '\0';
+}
+
+static pds_status pds__parse_text(pds__parser *P);
+
+/* include "FILE": FILE's statements, read where the include stands. Errors
+   inside it name FILE:LINE:COLUMN and where it was included from. */
+static pds_status pds__parse_include(pds__parser *P)
+{
+    pds__load *L = P->L;
+    pds__token at = P->tok;
+    pds__parser C;
+    char path[512], norm[512], other[512];
+    char *src = NULL;
+    size_t size = 0;
+    int d, e;
+    pds_status st;
+    if ((st = pds__lex_next(P))) return st;
+    if (P->tok.kind != PDS__TOK_STRING && P->tok.kind != PDS__TOK_WORD)
+        return pds__perr(P, &P->tok, PDS_ERR_PARSE, "expected a file name after 'include', got '%s'", P->tok.text);
+    if (pds__join_path(P->dir, P->tok.text, path, sizeof path))
+        return pds__perr(P, &P->tok, PDS_ERR_LIMIT, "include path too long");
+    pds__path_normalize(path, norm, sizeof norm);
+    memcpy(path, norm, sizeof path); /* "parts/../floor.scene" is named "floor.scene" */
+    for (d = 0; d <= L->depth; d++) {
+        pds__path_normalize(L->chain[d], other, sizeof other);
+        if (!strcmp(other, norm)) {
+            /* name the whole chain, from the file that starts the cycle */
+            char chain[400] = "";
+            int k;
+            for (k = d; k <= L->depth; k++)
+                snprintf(chain + strlen(chain), sizeof chain - strlen(chain), "%s -> ", L->chain[k]);
+            return pds__perr(P, &P->tok, PDS_ERR_PARSE, "include cycle: %s%s", chain, path);
+        }
+    }
+    if (L->depth + 1 > PDS_MAX_INCLUDE_DEPTH)
+        return pds__perr(P, &at, PDS_ERR_LIMIT, "includes nested more than %d deep", PDS_MAX_INCLUDE_DEPTH);
+    if (++L->includes > PDS_MAX_INCLUDES)
+        return pds__perr(P, &at, PDS_ERR_LIMIT, "more than %d include statements", PDS_MAX_INCLUDES);
+    e = pds__input_file_check(path);
+    if (e) return pds__perr(P, &P->tok, PDS_ERR_IO, "cannot read included file '%s': %s", path, pds__input_file_problem(e));
+    if ((st = pds__read_file(path, PDS_MAX_TEXT_BYTES, "scene file", &src, &size, P->err))) return st;
+    if (size > (size_t)PDS_MAX_TEXT_BYTES - L->bytes) {
+        free(src);
+        return pds__perr(P, &at, PDS_ERR_LIMIT, "the scene and its included files hold more than %d bytes in all",
+                         PDS_MAX_TEXT_BYTES);
+    }
+    L->bytes += size;
+    st = pds__check_lines(path, src, size, P->err);
+    if (!st && memchr(src, '\0', size)) st = pds__fail(P->err, PDS_ERR_PARSE, path, 0, 0, "not a text file (contains a NUL byte)");
+    if (!st) {
+        memset(&C, 0, sizeof C);
+        C.file = path;
+        pds__dirname(path, C.dir, sizeof C.dir);
+        C.p = src;
+        C.line = 1;
+        C.col = 1;
+        C.scene = P->scene;
+        C.err = P->err;
+        C.L = L;
+        L->site_line[L->depth] = at.line;
+        L->site_col[L->depth] = at.col;
+        L->chain[++L->depth] = path;
+        st = pds__parse_text(&C);
+        L->depth--;
+    }
+    if (st && !L->noted) {
+        /* the chain of includes, innermost first, as compilers print it */
+        pds__error_append(P->err, " (included from %s:%d:%d", P->file, at.line, at.col);
+        for (d = L->depth - 1; d >= 0; d--)
+            pds__error_append(P->err, ", from %s:%d:%d", L->chain[d], L->site_line[d], L->site_col[d]);
+        pds__error_append(P->err, ")");
+        L->noted = 1;
+    }
+    free(src);
+    return st;
+}
+
+/* The statements of one file (P set up at its start). */
+static pds_status pds__parse_text(pds__parser *P)
+{
+    static const char *const statements[] = {"camera", "material", "light", "include", "define", "mesh", "sphere",
+                                             "disk", "quad", "box", "cylinder", "torus", "revolve", "heightfield"};
+    pds_status st;
+    /* A UTF-8 byte order mark is allowed and skipped. */
+    if ((unsigned char)P->p[0] == 0xEF && (unsigned char)P->p[1] == 0xBB && (unsigned char)P->p[2] == 0xBF) P->p += 3;
+    for (;;) {
+        const char *w;
+        if ((st = pds__lex_next(P))) return st;
+        if (P->tok.kind == PDS__TOK_END) break;
+        if (P->tok.kind != PDS__TOK_WORD)
+            return pds__perr(P, &P->tok, PDS_ERR_PARSE, "expected a statement (camera, material, light or a shape), got '%s'", P->tok.text);
+        w = P->tok.text;
+        if (!strcmp(w, "camera")) {
+            if (P->L->camera_seen) return pds__perr(P, &P->tok, PDS_ERR_PARSE, "the scene has two cameras");
+            P->L->camera_seen = 1;
+            st = pds__parse_camera(P);
+        } else if (!strcmp(w, "material")) st = pds__parse_material(P);
+        else if (!strcmp(w, "light")) st = pds__parse_light(P);
+        else if (!strcmp(w, "include")) st = pds__parse_include(P);
+        else if (!strcmp(w, "define")) st = pds__parse_define(P);
+        else if (pds__is_shape_kind(w)) st = pds__parse_shape(P);
+        else {
+            const char *closest = NULL;
+            size_t k;
+            int best = 3;
+            for (k = 0; k < sizeof statements / sizeof statements[0]; k++) {
+                int dist = pds__edit_distance(w, statements[k]);
+                if (dist < best) {
+                    best = dist;
+                    closest = statements[k];
+                }
+            }
+            if (closest && best <= (strlen(w) > 4 ? 2 : 1))
+                st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown keyword '%s' (did you mean '%s'?)", w, closest);
+            else
+                st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "unknown keyword '%s' (expected camera, material, light, "
+                               "include, define, mesh, sphere, disk, quad, box, cylinder, torus, revolve or "
+                               "heightfield)", w);
+        }
+        if (st) return st;
+    }
+    return PDS_OK;
+}
+
+static void pds__load_free(pds__load *L)
+{
+    free(L->define_used);
+    free(L->vars);
+    pds__names_free(&L->var_index);
+}
+
+/* Parse scene text src (from path) into s, with the -D overrides of lo (or
+   none), and warn about what the scene lacks. */
+static pds_status pds__scene_parse(pds_scene *s, const char *path, const char *src, const pds_load_options *lo,
+                                   pds_error *err)
 {
     pds__parser P;
+    pds__load L;
     pds_status st;
-    int camera_seen = 0;
+    int k;
     memset(&P, 0, sizeof P);
+    memset(&L, 0, sizeof L);
+    if (lo && lo->define_count > 0 && lo->defines) {
+        L.defines = lo->defines;
+        L.ndefines = lo->define_count;
+        L.define_used = (unsigned char *)calloc((size_t)L.ndefines, 1);
+        if (!L.define_used) return pds__nomem(err);
+    }
+    L.chain[0] = path;
+    L.bytes = strlen(src);
     P.file = path;
     pds__dirname(path, P.dir, sizeof P.dir);
     P.p = src;
@@ -7967,28 +8364,13 @@ static pds_status pds__scene_parse(pds_scene *s, const char *path, const char *s
     P.col = 1;
     P.scene = s;
     P.err = err;
-    /* A UTF-8 byte order mark is allowed and skipped. */
-    if ((unsigned char)P.p[0] == 0xEF && (unsigned char)P.p[1] == 0xBB && (unsigned char)P.p[2] == 0xBF) P.p += 3;
-    for (;;) {
-        const char *w;
-        if ((st = pds__lex_next(&P))) return st;
-        if (P.tok.kind == PDS__TOK_END) break;
-        if (P.tok.kind != PDS__TOK_WORD)
-            return pds__perr(&P, &P.tok, PDS_ERR_PARSE, "expected a statement (camera, material, light or a shape), got '%s'", P.tok.text);
-        w = P.tok.text;
-        if (!strcmp(w, "camera")) {
-            if (camera_seen) return pds__perr(&P, &P.tok, PDS_ERR_PARSE, "the scene has two cameras");
-            camera_seen = 1;
-            st = pds__parse_camera(&P);
-        } else if (!strcmp(w, "material")) st = pds__parse_material(&P);
-        else if (!strcmp(w, "light")) st = pds__parse_light(&P);
-        else if (pds__is_shape_kind(w)) st = pds__parse_shape(&P);
-        else
-            st = pds__perr(&P, &P.tok, PDS_ERR_PARSE, "unknown keyword '%s' (expected camera, material, light, mesh, sphere, "
-                           "disk, quad, box, cylinder, torus, revolve or heightfield)", w);
-        if (st) return st;
+    P.L = &L;
+    st = pds__parse_text(&P);
+    if (st) {
+        pds__load_free(&L);
+        return st;
     }
-    if (!camera_seen) pds__scene_warn(s, "%s: no camera given; using the default camera", path);
+    if (!L.camera_seen) pds__scene_warn(s, "%s: no camera given; using the default camera", path);
     if (s->nlights == 0) {
         size_t i;
         int emissive = 0;
@@ -7996,12 +8378,34 @@ static pds_status pds__scene_parse(pds_scene *s, const char *path, const char *s
             emissive = s->materials.items[s->mesh.mat[i]].type == PDS_MAT_EMISSIVE;
         if (!emissive) pds__scene_warn(s, "%s: the scene has no light", path);
     }
+    for (k = 0; k < L.ndefines; k++) {
+        const char *name = L.defines[k].name ? L.defines[k].name : "";
+        const char *closest = NULL;
+        size_t i;
+        int best = 3, j, repeated = 0;
+        if (L.define_used[k]) continue;
+        for (j = 0; j < k; j++) repeated |= L.defines[j].name && !strcmp(L.defines[j].name, name);
+        if (repeated) continue;
+        for (i = 0; i < L.nvars; i++) {
+            int d = pds__edit_distance(name, L.vars[i].name);
+            if (d < best) {
+                best = d;
+                closest = L.vars[i].name;
+            }
+        }
+        if (closest && best <= (strlen(name) > 4 ? 2 : 1))
+            pds__scene_warn(s, "%s: -D %.100s: the scene defines no variable '%.100s' (did you mean '%s'?)", path,
+                            name, name, closest);
+        else
+            pds__scene_warn(s, "%s: -D %.100s: the scene defines no variable '%.100s'; ignored", path, name, name);
+    }
+    pds__load_free(&L);
     return PDS_OK;
 }
 
 /* Parse scene text (size bytes, NUL-terminated) named path, and build. */
-static pds_status pds__scene_from_text(const char *path, const char *src, size_t size, pds_scene **out,
-                                       pds_error *err)
+static pds_status pds__scene_from_text(const char *path, const char *src, size_t size, const pds_load_options *lo,
+                                       pds_scene **out, pds_error *err)
 {
     pds_scene *s;
     pds_status st = pds__check_lines(path, src, size, err);
@@ -8010,7 +8414,7 @@ static pds_status pds__scene_from_text(const char *path, const char *src, size_t
     if (st) return st;
     s = pds__scene_new(path);
     if (!s) return pds__nomem(err);
-    st = pds__scene_parse(s, path, src, err);
+    st = pds__scene_parse(s, path, src, lo, err);
     if (!st) st = pds__scene_finish(s, err);
     if (st) {
         pds_scene_free(s);
@@ -8020,7 +8424,8 @@ static pds_status pds__scene_from_text(const char *path, const char *src, size_t
     return PDS_OK;
 }
 
-pds_status pds_scene_load(const char *path, pds_scene **out, pds_error *err)
+static pds_status pds__scene_load_file(const char *path, const pds_load_options *lo, pds_scene **out,
+                                       pds_error *err)
 {
     char *src = NULL;
     size_t size = 0;
@@ -8028,12 +8433,18 @@ pds_status pds_scene_load(const char *path, pds_scene **out, pds_error *err)
     if (!path || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_scene_load: NULL argument");
     *out = NULL;
     if ((st = pds__read_file(path, PDS_MAX_TEXT_BYTES, "scene file", &src, &size, err))) return st;
-    st = pds__scene_from_text(path, src, size, out, err);
+    st = pds__scene_from_text(path, src, size, lo, out, err);
     free(src);
     return st;
 }
 
-pds_status pds_scene_load_string(const char *text, const char *name, pds_scene **out, pds_error *err)
+pds_status pds_scene_load(const char *path, pds_scene **out, pds_error *err)
+{
+    return pds__scene_load_file(path, NULL, out, err);
+}
+
+pds_status pds_scene_load_string_ex(const char *text, const char *name, const pds_load_options *lo,
+                                    pds_scene **out, pds_error *err)
 {
     size_t size;
     if (!text || !name || !out)
@@ -8043,7 +8454,12 @@ pds_status pds_scene_load_string(const char *text, const char *name, pds_scene *
     if (size > (size_t)PDS_MAX_TEXT_BYTES)
         return pds__fail(err, PDS_ERR_LIMIT, name, 0, 0, "%.0f bytes is larger than the limit of %.0f bytes for a scene",
                          (double)size, (double)PDS_MAX_TEXT_BYTES);
-    return pds__scene_from_text(name, text, size, out, err);
+    return pds__scene_from_text(name, text, size, lo, out, err);
+}
+
+pds_status pds_scene_load_string(const char *text, const char *name, pds_scene **out, pds_error *err)
+{
+    return pds_scene_load_string_ex(text, name, NULL, out, err);
 }
 
 /* A camera that sees the whole box from +z (and a little above), at the
@@ -8089,6 +8505,180 @@ pds_status pds_scene_load_obj(const char *path, pds_scene **out, pds_error *err)
     pds__camera_frame_bounds(&s->camera, s->bounds_min, s->bounds_max);
     *out = s;
     return PDS_OK;
+}
+
+/* --- a bare OBJ in a studio --------------------------------------------- */
+/* `pds render bunny.obj`: an OBJ has no light and no camera, so it is set
+   in a studio that any mesh, at any scale, shows up in at once. With C the
+   centre of the mesh's bounding box, R its half diagonal and y0 its lowest
+   y (OBJ files put +y up):
+   - a ground, white-grey diffuse (albedo 0.75), 40 R square, centred
+     under C at y0 - R/1000 (just under the mesh: no coplanar faces);
+   - a disk light of radius 0.3 R at C + 5 R w, w = (-0.75, 0.7, 0.3)
+     normalised (up and to the left, a little towards the camera), facing
+     C; it makes the ground under C, were it unshadowed, of radiance 0.6:
+     a small Lambertian disk of area A and radiance Le seen at distance D
+     gives E = Le A cos(theta_l) cos(theta_g) / D^2, and the ground's
+     radiance is albedo E / pi, so Le = 0.6 pi D^2 / (albedo A cos(theta_l)
+     cos(theta_g)): a number that does not depend on the mesh's scale
+     (D and A scale with R), so meshes in any unit get the same light
+     (and no power beyond the coordinate limit). Its shadow,
+     and the caustic of a glass or metal mesh, fall to the right of the
+     mesh, where the camera sees them;
+   - a camera, 512 x 384 with a 40 degree vertical field of view, looking
+     from +z and a little above (along (0, 0.35, 1)) at C, as near as it
+     can be while every corner of the bounding box projects within 80% of
+     the image's half-width and half-height: a corner at (x, y, z) in the
+     camera's frame (z towards C) at distance dist is inside when
+     |y| <= 0.8 tan(fov/2) (dist + z), and so for x with the aspect.
+   The studio is scene text, parsed like a scene file (named "studio" in
+   messages), so it reads as a scene would write it. An OBJ with emissive
+   materials keeps its own lights and gets no studio light. */
+
+static int pds__has_extension(const char *path, const char *ext);
+
+/* The mesh's own material for the studio, before the OBJ is read. */
+static const char *pds__studio_material_text(pds_obj_material m)
+{
+    switch (m) {
+    case PDS_OBJ_MATERIAL_DIFFUSE: return "material studio_mesh diffuse { albedo 0.8 }\n";
+    case PDS_OBJ_MATERIAL_GLASS: return "material studio_mesh dielectric { ior 1.5 }\n";
+    case PDS_OBJ_MATERIAL_METAL: return "material studio_mesh conductor { preset silver }\n";
+    case PDS_OBJ_MATERIAL_AUTO: break;
+    }
+    return "";
+}
+
+/* Parse studio text into s (no warnings about what it lacks). */
+static pds_status pds__studio_parse(pds_scene *s, const char *text, pds_error *err)
+{
+    pds__parser P;
+    pds__load L;
+    pds_status st;
+    memset(&P, 0, sizeof P);
+    memset(&L, 0, sizeof L);
+    L.chain[0] = "studio";
+    P.file = "studio";
+    P.p = text;
+    P.line = 1;
+    P.col = 1;
+    P.scene = s;
+    P.err = err;
+    P.L = &L;
+    st = pds__parse_text(&P);
+    pds__load_free(&L);
+    return st;
+}
+
+static pds_status pds__scene_load_studio(const char *path, pds_obj_material material, pds_scene **out,
+                                         pds_error *err)
+{
+    pds_scene *s;
+    pds_status st;
+    pds__obj_options o;
+    pds__obj_stats stats;
+    pds__xform id = pds__xform_identity();
+    pds__v3 lo, hi, c, w, lc, q, v;
+    double R, y0, D, cos_l, cos_g, radiance, dist;
+    size_t i;
+    int emissive = 0;
+    char text[2048];
+    *out = NULL;
+    s = pds__scene_new(path);
+    if (!s) return pds__nomem(err);
+    memset(&o, 0, sizeof o);
+    o.xform = &id;
+    o.material_override = -1;
+    o.default_material = pds__scene_default_material(s);
+    st = o.default_material < 0 ? pds__nomem(err) : pds__studio_parse(s, pds__studio_material_text(material), err);
+    if (!st && material != PDS_OBJ_MATERIAL_AUTO) o.material_override = pds__materials_find(&s->materials, "studio_mesh");
+    if (!st) st = pds__obj_load(path, &s->mesh, &s->materials, &o, &stats, err);
+    if (st) {
+        pds_scene_free(s);
+        return st;
+    }
+    s->shapes = 1;
+    pds__scene_warn_obj(s, path, &stats);
+    lo = hi = pds__v(0.0, 0.0, 0.0);
+    for (i = 0; i < s->mesh.nverts; i++) {
+        pds__v3 p = pds__mesh_pos(&s->mesh, (long)i);
+        lo = i ? pds__vmin(lo, p) : p;
+        hi = i ? pds__vmax(hi, p) : p;
+    }
+    for (i = 0; i < s->mesh.ntris && !emissive; i++)
+        emissive = s->materials.items[s->mesh.mat[i]].type == PDS_MAT_EMISSIVE;
+    c = pds__scale(pds__add(lo, hi), 0.5);
+    R = 0.5 * pds__length(pds__sub(hi, lo));
+    if (!(R > 0.0)) R = 1.0;
+    y0 = lo.y - 1e-3 * R;
+    w = pds__normalize(pds__v(-0.75, 0.7, 0.3));
+    lc = pds__add(c, pds__scale(w, 5.0 * R));
+    q = pds__v(c.x, y0, c.z);
+    v = pds__sub(q, lc);
+    D = pds__length(v);
+    cos_l = pds__dot(pds__scale(w, -1.0), pds__scale(v, 1.0 / D));
+    cos_g = -v.y / D;
+    radiance = 0.6 * PDS__PI * D * D / (0.75 * PDS__PI * 0.09 * R * R * cos_l * cos_g);
+    {
+        pds__v3 back = pds__normalize(pds__v(0.0, 0.35, 1.0)), fwd = pds__scale(back, -1.0);
+        pds__v3 right = pds__normalize(pds__cross(fwd, pds__v(0.0, 1.0, 0.0))), up = pds__cross(right, fwd);
+        double ty = 0.8 * tan(0.5 * 40.0 * PDS__PI / 180.0), tx = ty * 512.0 / 384.0;
+        pds__v3 at = c, eye;
+        int k;
+        dist = 0.0;
+        for (k = 0; k < 8; k++) {
+            pds__v3 o = pds__sub(pds__v(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z), at);
+            double z = pds__dot(o, fwd), need_y = fabs(pds__dot(o, up)) / ty - z, need_x = fabs(pds__dot(o, right)) / tx - z;
+            if (need_y > dist) dist = need_y;
+            if (need_x > dist) dist = need_x;
+        }
+        if (dist < 1.5 * R) dist = 1.5 * R; /* never inside the mesh's bounding sphere */
+        eye = pds__add(at, pds__scale(back, dist));
+        int n = snprintf(text, sizeof text,
+                         "material studio_ground diffuse { albedo 0.75 }\n"
+                         "quad { material studio_ground  size %.9g %.9g  translate %.9g %.9g %.9g }\n"
+                         "camera { position %.9g %.9g %.9g  look_at %.9g %.9g %.9g  fov 40  resolution 512 384  spp 4 }\n",
+                         40.0 * R, 40.0 * R, c.x, y0, c.z, eye.x, eye.y, eye.z, at.x, at.y, at.z);
+        if (!emissive)
+            snprintf(text + n, sizeof text - (size_t)n,
+                     "light disk { center %.9g %.9g %.9g  normal %.9g %.9g %.9g  radius %.9g  radiance %.9g }\n",
+                     lc.x, lc.y, lc.z, -w.x, -w.y, -w.z, 0.3 * R, radiance);
+    }
+    st = pds__studio_parse(s, text, err);
+    if (!st) st = pds__scene_finish(s, err);
+    if (st) {
+        pds_scene_free(s);
+        return st;
+    }
+    *out = s;
+    return PDS_OK;
+}
+
+void pds_load_options_default(pds_load_options *lo)
+{
+    memset(lo, 0, sizeof *lo);
+    lo->defines = NULL;
+    lo->define_count = 0;
+    lo->obj_studio = 1;
+    lo->obj_material = PDS_OBJ_MATERIAL_AUTO;
+}
+
+pds_status pds_scene_load_ex(const char *path, const pds_load_options *lo, pds_scene **out, pds_error *err)
+{
+    pds_load_options d;
+    if (!path || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_scene_load_ex: NULL argument");
+    *out = NULL;
+    if (!lo) {
+        pds_load_options_default(&d);
+        lo = &d;
+    }
+    if (lo->define_count < 0 || (lo->define_count > 0 && !lo->defines) ||
+        (unsigned)lo->obj_material > (unsigned)PDS_OBJ_MATERIAL_METAL)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_scene_load_ex: bad load options");
+    if (pds__has_extension(path, "obj"))
+        return lo->obj_studio ? pds__scene_load_studio(path, lo->obj_material, out, err)
+                              : pds_scene_load_obj(path, out, err);
+    return pds__scene_load_file(path, lo, out, err);
 }
 
 void pds_scene_get_info(const pds_scene *s, pds_scene_info *info)
@@ -17871,7 +18461,8 @@ pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_p
                              "the teaching views are made by a render in one go, not by a continued one");
         if (p->scene_hash != pds_scene_hash(scene))
             return pds__fail(err, PDS_ERR_INVALID_ARG, scene->path, 0, 0,
-                             "not the scene this part was rendered from (%s): its content differs", p->scene_path);
+                             "not the scene this part was rendered from (%s): its content differs (the file changed, "
+                             "or other -D values or OBJ material were given)", p->scene_path);
         if (!pds__partial_same_options(&p->opt, opt) || p->width != w || p->height != h ||
             p->shard_index != opt->shard_index || p->shard_count != opt->shard_count)
             return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,

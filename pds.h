@@ -102,6 +102,10 @@ const char *pds_error_string(const pds_error *err);
 #define PDS_MAX_OBJ_BYTES 2147483647 /* an OBJ file (2 GiB) */
 #define PDS_MAX_LINE_BYTES 4194304   /* one line of a scene, OBJ or MTL file (4 MiB:
                                         an OBJ face of some 500,000 corners) */
+#define PDS_MAX_INCLUDE_DEPTH 16     /* scene files nested by `include` */
+#define PDS_MAX_INCLUDES 1024        /* `include` statements read in one load (the
+                                        files: PDS_MAX_TEXT_BYTES in all) */
+#define PDS_MAX_DEFINES 4096         /* variables (`define`) in one scene */
 /* Input files must be regular files (not FIFOs, devices or directories);
    a PFM may hold at most PDS_MAX_RESOLUTION^2 pixels. */
 
@@ -216,8 +220,45 @@ pds_status pds_scene_load(const char *path, pds_scene **out, pds_error *err);
    from name's directory, as for a file of that name. */
 pds_status pds_scene_load_string(const char *text, const char *name, pds_scene **out, pds_error *err);
 /* Load a bare Wavefront OBJ (with its MTL files) as a scene with a default
-   camera looking at its bounds, and build its BVH. */
+   camera looking at its bounds, and build its BVH: the mesh alone, with
+   no light (pds_scene_load_ex sets it in a studio, as `pds render` does). */
 pds_status pds_scene_load_obj(const char *path, pds_scene **out, pds_error *err);
+
+/* How a file becomes a scene (README "Variables and include", "A bare
+   OBJ"): values for the scene's variables, and the studio a bare OBJ is set
+   in. pds_load_options_default fills every field. */
+typedef enum pds_obj_material {
+    PDS_OBJ_MATERIAL_AUTO = 0, /* the OBJ's own MTL materials (white diffuse where none) */
+    PDS_OBJ_MATERIAL_DIFFUSE,  /* white diffuse, albedo 0.8 */
+    PDS_OBJ_MATERIAL_GLASS,    /* clear glass, ior 1.5: its caustic lands on the ground */
+    PDS_OBJ_MATERIAL_METAL     /* polished silver (conductor): a reflected caustic */
+} pds_obj_material;
+
+typedef struct pds_define {
+    const char *name;  /* a variable the scene declares with `define name DEFAULT` */
+    const char *value; /* its value instead of DEFAULT: a number, a name or any text */
+} pds_define;
+
+typedef struct pds_load_options {
+    const pds_define *defines; /* the command line's -D name=value (default NULL); a
+                                  later one of the same name wins; a name the scene
+                                  never defines is a warning (pds_scene_warning) */
+    int define_count;          /* default 0 */
+    int obj_studio;            /* a .obj file: 1 (default) sets it in a studio: a ground
+                                  plane under it, a disk light (unless it has emissive
+                                  materials) and a camera framing it; 0: the mesh
+                                  alone, as pds_scene_load_obj */
+    pds_obj_material obj_material; /* the studio's material for the mesh (default AUTO) */
+} pds_load_options;
+
+void pds_load_options_default(pds_load_options *lo);
+/* Load a scene file, or (by the extension .obj, any case) a bare OBJ, with
+   load options (lo NULL: the defaults). pds_scene_load(path) is
+   pds_scene_load_ex(path, NULL) for a scene file. */
+pds_status pds_scene_load_ex(const char *path, const pds_load_options *lo, pds_scene **out, pds_error *err);
+/* pds_scene_load_string with load options (variables; no OBJ). */
+pds_status pds_scene_load_string_ex(const char *text, const char *name, const pds_load_options *lo,
+                                    pds_scene **out, pds_error *err);
 void pds_scene_free(pds_scene *scene);
 
 typedef struct pds_scene_info {

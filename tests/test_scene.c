@@ -120,8 +120,8 @@ static void test_scene_numbers_take_every_c_form(pds_test_ctx *t)
 static void test_scene_errors_name_file_line_column_word_for_word(pds_test_ctx *t)
 {
     static const struct { const char *text, *expect; pds_status status; } cases[] = {
-        {"sphere { radius 1 }\nfoo { }\n", "FILE:2:1: unknown keyword 'foo' (expected camera, material, light, mesh, "
-                                          "sphere, disk, quad, box, cylinder, torus, revolve or heightfield)", PDS_ERR_PARSE},
+        {"sphere { radius 1 }\nfoo { }\n", "FILE:2:1: unknown keyword 'foo' (expected camera, material, light, include, "
+                                          "define, mesh, sphere, disk, quad, box, cylinder, torus, revolve or heightfield)", PDS_ERR_PARSE},
         {"material g dielectric { ior glass }", "FILE:1:29: expected a number after 'ior', got 'glass'", PDS_ERR_PARSE},
         {"sphere {\n  material nothing\n}", "FILE:2:12: unknown material 'nothing'", PDS_ERR_PARSE},
         {"mesh \"missing.obj\" { }", "FILE:1:6: cannot read mesh '/tmp/missing.obj': No such file or directory", PDS_ERR_IO},

@@ -4,7 +4,8 @@
    after the first line that is exactly "#MTL" goes to in.mtl (which the OBJ
    part can read with `mtllib in.mtl`); the line itself is an OBJ comment, so
    a plain OBJ file is an input as it is. The OBJ part is written to in.obj
-   and loaded with pds_scene_load_obj, which also builds the scene's BVH.
+   and loaded as `pds render in.obj` loads it (pds_scene_load_ex: in the
+   studio, which also builds the scene's BVH).
    Without the separator in.mtl does not exist. See fuzz.h for the guard on
    paths outside the temporary directory. */
 #include "fuzz.h"
@@ -34,10 +35,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     size_t mtl, cut = pds_fuzz_split(data, size, &mtl);
     pds_scene *scene = NULL;
     pds_error err;
+    pds_load_options lo;
     if (cut < size) pds_fuzz_write("in.mtl", data + mtl, size - mtl, mtl_path);
     else remove(pds_fuzz_path("in.mtl", mtl_path));
     pds_fuzz_write("in.obj", data, cut, path);
-    if (pds_scene_load_obj(path, &scene, &err) == PDS_OK) {
+    /* as `pds render x.obj` loads it: in the studio, with a material the
+       input's length chooses (the studio's text is parsed for every one) */
+    pds_load_options_default(&lo);
+    lo.obj_material = (pds_obj_material)(size % 4);
+    if (pds_scene_load_ex(path, &lo, &scene, &err) == PDS_OK) {
         pds_scene_info info;
         pds_scene_get_info(scene, &info);
         if (info.materials < 1) abort();

@@ -5,14 +5,17 @@
    shapes, loads named meshes and builds the BVH. Beside it the harness puts
    octahedron.obj (the shipped scenes/octahedron.obj, for the shipped
    ring_octahedron.scene) and tri.obj with its tri.mtl, so that `mesh`
-   statements, `replace` and MTL materials are reached; see fuzz.h for the
-   guards on other paths and on memory.
+   statements, `replace` and MTL materials are reached, and inc.scene
+   (variables and an include of tri.obj's scene use) for `include`; the
+   load passes -D r=0.25 and -D name=red, so overrides are reached too;
+   see fuzz.h for the guards on other paths and on memory.
 
    Seeds (corpus/scene): the shipped and golden scenes, the pool's and the
    refraction case's heightfields at 1/8 of their resolution (at full size
    each load took seconds under the sanitizers and slowed every mutation of
    them), and hand-written ones for every statement, number form, meshes,
-   a byte order mark with CRLF, and errors. */
+   a byte order mark with CRLF, errors, include (nested, a cycle) and
+   variables. */
 #include "fuzz.h"
 
 static const char pds_fuzz_octahedron[] =
@@ -26,6 +29,11 @@ static const char pds_fuzz_tri_obj[] =
     "vn 0 0 1\n"
     "usemtl red\nf 1 2 3\n"
     "usemtl lamp\nf 2//1 4//1 3//1\n";
+static const char pds_fuzz_inc_scene[] =
+    "define r 0.5\n"
+    "define name white\n"
+    "material $name diffuse { albedo 0.5 }\n"
+    "sphere { material $name radius $r segments 8 rings 4 }\n";
 static const char pds_fuzz_tri_mtl[] =
     "newmtl red\nKd 1 0 0\n"
     "newmtl lamp\nKe 4 4 4\n";
@@ -36,14 +44,20 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     char path[4096];
     pds_scene *scene = NULL;
     pds_error err;
+    static const pds_define defines[2] = {{"r", "0.25"}, {"name", "red"}};
+    pds_load_options lo;
     if (!ready) {
         pds_fuzz_write("octahedron.obj", pds_fuzz_octahedron, sizeof pds_fuzz_octahedron - 1, path);
         pds_fuzz_write("tri.obj", pds_fuzz_tri_obj, sizeof pds_fuzz_tri_obj - 1, path);
         pds_fuzz_write("tri.mtl", pds_fuzz_tri_mtl, sizeof pds_fuzz_tri_mtl - 1, path);
+        pds_fuzz_write("inc.scene", pds_fuzz_inc_scene, sizeof pds_fuzz_inc_scene - 1, path);
         ready = 1;
     }
     pds_fuzz_write("in.scene", data, size, path);
-    if (pds_scene_load(path, &scene, &err) == PDS_OK) {
+    pds_load_options_default(&lo);
+    lo.defines = defines;
+    lo.define_count = 2;
+    if (pds_scene_load_ex(path, &lo, &scene, &err) == PDS_OK) {
         pds_scene_info info;
         pds_ray ray;
         pds_hit hit;
