@@ -2230,8 +2230,8 @@ static const char *material_type_name(pds_material_type t)
 
 static const char *light_type_name(pds_light_type t)
 {
-    static const char *const names[] = {"point", "spot", "directional", "disk", "quad", "mesh"};
-    return (unsigned)t < 6 ? names[t] : "?";
+    static const char *const names[] = {"point", "spot", "directional", "disk", "quad", "mesh", "environment"};
+    return (unsigned)t < 7 ? names[t] : "?";
 }
 
 static const char *trace_event_name(pds_trace_event e)
@@ -2364,9 +2364,16 @@ static int cmd_info(int argc, char **argv)
     printf("triangles   %ld\nvertices    %ld\nshapes      %d\n", info.triangles, info.vertices, info.shapes);
     printf("bounds      (%g, %g, %g) .. (%g, %g, %g)\n", info.bounds_min.x, info.bounds_min.y, info.bounds_min.z,
            info.bounds_max.x, info.bounds_max.y, info.bounds_max.z);
-    printf("camera      position (%g, %g, %g) look_at (%g, %g, %g) fov %g, %dx%d, %d spp\n", cam->position.x,
+    printf("camera      position (%g, %g, %g) look_at (%g, %g, %g) fov %g, %dx%d, %d spp", cam->position.x,
            cam->position.y, cam->position.z, cam->look_at.x, cam->look_at.y, cam->look_at.z, cam->fov_deg,
            cam->width, cam->height, cam->spp);
+    if (cam->aperture > 0.0) {
+        double dx = cam->look_at.x - cam->position.x, dy = cam->look_at.y - cam->position.y;
+        double dz = cam->look_at.z - cam->position.z;
+        printf(", thin lens of radius %g focused at %g", cam->aperture,
+               cam->focus_distance > 0.0 ? cam->focus_distance : sqrt(dx * dx + dy * dy + dz * dz));
+    }
+    printf("\n");
     for (i = 0; i < info.materials; i++) {
         const pds_material *m = pds_scene_material(scene, i);
         printf("material    %-16s %s", m->name, material_type_name(m->type));

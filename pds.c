@@ -19,7 +19,8 @@
      >>materials  Fresnel (dielectric, conductor), BSDF sampling, Beer
      >>spectral   wavelengths, RGB -> spectrum (Smits 1999), CIE 1931 fit
                   (Wyman et al. 2013) -> XYZ -> sRGB, dispersive materials
-     >>lights     light selection, next-event sampling, photon emission
+     >>lights     light selection, next-event sampling, photon emission;
+                  the environment light (constant, CIE clear sky, sun)
      >>kdtree     balanced kd-tree: range and k-nearest queries (eye-path map)
      >>scene      the pds_scene value and its text format parser, with
                   include and variables (define, $NAME, -D); a bare OBJ
@@ -32,7 +33,8 @@
      >>metrics    RMSE and SSIM
      >>partial    the exact state of a render or a shard of it: the image
                   from it, merging shards, the partial file
-     >>render     camera, path tracer and eye pass, preview, row scheduler
+     >>render     camera (pinhole, thin lens), path tracer and eye pass,
+                  preview, row scheduler
      >>debug      teaching views: colour bars and a bitmap font, camera
                   projection, the views' per-thread counts, the photon
                   path recorder and the paths OBJ
@@ -974,7 +976,10 @@ enum pds__rng_purpose {
     PDS__RNG_GATHER = 8,  /* gi's final gather: index = camera sample */
     PDS__RNG_WAVELENGTH = 9, /* index = pixel: its samples' wavelength rotation */
     PDS__RNG_ISC = 10,    /* isc: index = frame, dim 0, 1 = the light-space grid's offset */
-    PDS__RNG_STRATA = 11  /* index = pixel, dim = pass: the pixel samples' stratification pattern */
+    PDS__RNG_STRATA = 11, /* index = pixel, dim = pass: the pixel samples' stratification pattern */
+    PDS__RNG_LENS = 12,   /* thin lens: index = camera sample (as PIXEL), dim 0, 1 = the lens point */
+    PDS__RNG_ENV_NEE = 13 /* the environment's sky parts in next-event estimation:
+                             index = camera sample, dim = 4 x the bounce's PIXEL dim + 0..3 */
 };
 
 static uint64_t pds__mix64(uint64_t z)
@@ -5148,6 +5153,11 @@ static int pds__spectral_meet(double lambda_p, double lambda_e, double e[3], dou
    - mesh: triangles first_triangle .. first_triangle + triangle_count - 1
      of the scene mesh, radiance L on the side of each triangle's geometric
      normal (P1 - P0) x (P2 - P0). They are in the BVH.
+   - environment: radiance L(w) from infinitely far along every direction w
+     (constant part, CIE clear sky, ground, sun disk; "the environment
+     light" below); power pi R^2 times the integral of L, R the radius of
+     the scene's bounding sphere. Not a delta light: next-event estimation
+     samples a direction with a pdf, and rays that leave the scene see it.
    The selection weight of a light is the sum of its three channels of
    power (directional: E A from the irradiance and the beam geometry; the
    others: l->power). Geometric quantities (areas, normals) are recomputed
@@ -5155,9 +5165,10 @@ static int pds__spectral_meet(double lambda_p, double lambda_e, double e[3], dou
    agree with what the scene parser stores.
 
    Sampling (pdfs are per unit area on the light, per unit solid angle for
-   directions): area lights are sampled uniformly by area (disk: Shirley and
-   Chiu's concentric square-to-disk map; mesh: a triangle by area through a
-   CDF, then uniform inside it), so the solid-angle pdf seen from p is
+   directions and for the environment): area lights are sampled uniformly
+   by area (disk: Shirley and Chiu's concentric square-to-disk map; mesh:
+   a triangle by area through a CDF, then uniform inside it), so the
+   solid-angle pdf seen from p is
    dist^2 / (A |cos theta_x|). Delta lights (point, spot, directional)
    return pdf 1 and the irradiance at normal incidence.
 
@@ -5169,7 +5180,9 @@ static int pds__spectral_meet(double lambda_p, double lambda_e, double e[3], dou
    angle omega_e of eqs 5-6 of Frisvad et al. 2014 (photon differentials):
    point (0, 4 pi), spot (0, 2 pi (1 - co)), directional (beam cross-section,
    0), and for Lambertian area lights (A, 2 pi): the paper gives no omega_e
-   for them; the hemisphere is our choice. */
+   for them; the hemisphere is our choice. The environment: (pi R^2, 0),
+   each photon a thin parallel beam as from a directional light (its
+   footprint starts as its share of the disk it leaves from). */
 
 typedef struct pds__light_table {
     size_t nlights;
@@ -5187,6 +5200,9 @@ typedef struct pds__light_table {
     size_t ntris;       /* length of tri_light */
     size_t pick_end;    /* 1 + the last light with pmf > 0; 0 if no light has
                            power (so a zeroed table picks nothing) */
+    double *env_p;      /* 3 per light: an environment light's probabilities
+                           of sampling its sun, its upper and its lower
+                           hemisphere (0 0 0 for other lights) */
 } pds__light_table;
 
 typedef struct pds__light_li {
@@ -5243,6 +5259,7 @@ static double pds__light_geom_area(const pds_light *l)
     case PDS_LIGHT_DIRECTIONAL:
         if (l->emitter_shape == 0) return PDS__PI * l->radius * l->radius;
         return fabs(pds__dot(pds__cross(l->edge1, l->edge2), pds__normalize(l->direction)));
+    case PDS_LIGHT_ENVIRONMENT: return PDS__PI * l->radius * l->radius;
     default: return 0.0;
     }
 }
@@ -5267,7 +5284,7 @@ static size_t pds__lights_memory(const pds__light_table *lt)
 {
     size_t i, tris = 0, n = lt->nlights;
     for (i = 0; lt->tri_n && i < n; i++) tris += lt->tri_n[i];
-    return n * (sizeof(int) + 3 * sizeof(double) + 2 * sizeof(size_t)) + (n ? sizeof(double) : 0) +
+    return n * (sizeof(int) + 6 * sizeof(double) + 2 * sizeof(size_t)) + (n ? sizeof(double) : 0) +
            tris * sizeof(double) + lt->ntris * sizeof(int);
 }
 
@@ -5281,7 +5298,184 @@ static void pds__lights_free(pds__light_table *lt)
     free(lt->tri_n);
     free(lt->tri_cdf);
     free(lt->tri_light);
+    free(lt->env_p);
     memset(lt, 0, sizeof *lt);
+}
+
+/* --- the environment light ------------------------------------------------ */
+/* A light at infinity whose radiance depends on the direction only. w is
+   a unit direction toward the sky: a ray leaving the scene along w sees
+     L(w) = radiance + [w.up > 0] sky Y(w) + [w.up <= 0] ground
+            + [w inside the sun's disk] Ls.
+   The sky's shape Y is the CIE standard clear sky (CIE S 011/E:2003, sky
+   type 12; Kittler, Perez and Darula 1998), relative to the zenith:
+     Y(w) = f(chi) phi(Z) / (f(Zs) phi(0)),
+     phi(Z) = 1 + a exp(b / cos Z)                           (gradation)
+     f(chi) = 1 + c (exp(d chi) - exp(d pi / 2)) + e cos^2 chi  (indicatrix)
+   with a = -1, b = -0.32, c = 10, d = -3, e = 0.45; Z is the zenith angle
+   of w, chi its angle to the sun, Zs the sun's zenith angle. It is a
+   luminance distribution: one colour (sky[], the zenith's radiance)
+   scales it, so this sky has no blue-to-white gradient (Preetham et al.
+   1999 would add one). The sun is a disk of angular radius alpha and
+   uniform radiance Ls. A surface facing it receives the integral of
+   Ls cos(theta) over the disk, E = Ls pi sin^2(alpha), so the sun is given
+   by its irradiance E and Ls = E / (pi sin^2 alpha).
+
+   Sampling, for next-event estimation and for photons: a mixture of three
+   parts, each picked with its share of the integral of L (summed over the
+   channels): the sun's cone (uniform in its solid angle
+   Omega_s = 2 pi (1 - cos alpha)), the upper and the lower hemisphere
+   (uniform, 2 pi each):
+     pdf(w) = p_sun [w in the sun] / Omega_s + p_up [w.up > 0] / (2 pi)
+              + p_down [w.up <= 0] / (2 pi).
+   The scene parser (pds__scene_finish) sets position and radius to the
+   bounding sphere (C, R) of the scene's triangles, area = pi R^2 and
+   power = pi R^2 times the integral of L over the sphere: the flux that
+   crosses the sphere's cross-section, summed over all directions. */
+
+static const double pds__cie_clear[5] = {-1.0, -0.32, 10.0, -3.0, 0.45}; /* a b c d e */
+
+/* The sun's cone: cos alpha, Omega_s and its radiance Ls (0 without a sun). */
+static void pds__env_sun(const pds_light *l, double *cos_a, double *omega, double ls[3])
+{
+    double a = l->sun_radius_deg * (PDS__PI / 180.0), s = sin(a);
+    int c;
+    *cos_a = cos(a);
+    *omega = 2.0 * PDS__PI * (1.0 - *cos_a);
+    for (c = 0; c < 3; c++) ls[c] = s > 0.0 ? l->sun_irradiance[c] / (PDS__PI * s * s) : 0.0;
+}
+
+/* The indicatrix f(chi) and the gradation phi(cos Z) of the CIE sky. */
+static double pds__cie_indicatrix(double chi)
+{
+    const double *k = pds__cie_clear;
+    double ce = cos(chi);
+    return 1.0 + k[2] * (exp(k[3] * chi) - exp(k[3] * PDS__PI / 2.0)) + k[4] * ce * ce;
+}
+
+static double pds__cie_gradation(double cos_z)
+{
+    const double *k = pds__cie_clear;
+    return cos_z > 0.0 ? 1.0 + k[0] * exp(k[1] / cos_z) : 1.0;
+}
+
+/* Y(w) of the clear sky for unit w with w.up > 0 (1 at the zenith). */
+static double pds__env_sky_shape(const pds_light *l, pds__v3 w)
+{
+    pds__v3 up = pds__normalize(l->up), sun = pds__normalize(l->sun_direction);
+    double cz = pds__dot(w, up), czs = pds__dot(sun, up);
+    double chi = acos(fmax(-1.0, fmin(1.0, pds__dot(w, sun))));
+    double zs = acos(fmax(-1.0, fmin(1.0, czs)));
+    return pds__cie_indicatrix(chi) * pds__cie_gradation(cz) / (pds__cie_indicatrix(zs) * pds__cie_gradation(1.0));
+}
+
+/* L(w) into L[3] (W/m^2/sr); w unit, toward the sky. */
+static void pds__env_radiance(const pds_light *l, pds__v3 w, double L[3])
+{
+    double cos_a, omega, ls[3], y = 0.0;
+    int c, above = pds__dot(w, pds__normalize(l->up)) > 0.0;
+    int in_sun;
+    pds__env_sun(l, &cos_a, &omega, ls);
+    in_sun = pds__dot(w, pds__normalize(l->sun_direction)) >= cos_a;
+    if (above && (l->sky[0] != 0.0 || l->sky[1] != 0.0 || l->sky[2] != 0.0)) y = pds__env_sky_shape(l, w);
+    for (c = 0; c < 3; c++)
+        L[c] = l->radiance[c] + (above ? l->sky[c] * y : l->ground[c]) + (in_sun ? ls[c] : 0.0);
+}
+
+/* The integral of L over the sphere, per channel, into total[3] (if not
+   NULL), and the mixture's probabilities p[3] (sun, upper, lower; if not
+   NULL). The sky's integral of Y over the upper hemisphere is a midpoint
+   rule in (cos Z, azimuth about the sun's vertical plane), 96 x 192
+   cells: Y is smooth, and the sum only sets the mixture weights and the
+   light's power (the estimates stay unbiased whatever it is). */
+static void pds__env_parts(const pds_light *l, double total[3], double p[3])
+{
+    pds__v3 up = pds__normalize(l->up), b1, b2;
+    double cos_a, omega, ls[3], iy = 0.0, part[3] = {0.0, 0.0, 0.0}, sum;
+    int c, i, j;
+    const int nz = 96, nphi = 192;
+    pds__env_sun(l, &cos_a, &omega, ls);
+    if (l->sky[0] != 0.0 || l->sky[1] != 0.0 || l->sky[2] != 0.0) {
+        pds__onb(up, &b1, &b2);
+        for (i = 0; i < nz; i++) {
+            double cz = (i + 0.5) / nz, sz = sqrt(fmax(0.0, 1.0 - cz * cz));
+            for (j = 0; j < nphi; j++) {
+                double phi = 2.0 * PDS__PI * (j + 0.5) / nphi;
+                pds__v3 w = pds__add(pds__scale(up, cz),
+                                     pds__add(pds__scale(b1, sz * cos(phi)), pds__scale(b2, sz * sin(phi))));
+                iy += pds__env_sky_shape(l, w);
+            }
+        }
+        iy *= 2.0 * PDS__PI / ((double)nz * nphi);
+    }
+    for (c = 0; c < 3; c++) {
+        double up_c = 2.0 * PDS__PI * l->radiance[c] + iy * l->sky[c];
+        double down_c = 2.0 * PDS__PI * (l->radiance[c] + l->ground[c]);
+        double sun_c = omega * ls[c];
+        if (total) total[c] = up_c + down_c + sun_c;
+        part[0] += fabs(sun_c);
+        part[1] += fabs(up_c);
+        part[2] += fabs(down_c);
+    }
+    if (!p) return;
+    sum = part[0] + part[1] + part[2];
+    for (i = 0; i < 3; i++) p[i] = sum > 0.0 && sum <= DBL_MAX ? part[i] / sum : 0.0;
+}
+
+/* Solid-angle pdf of direction w (unit, toward the sky) under the mixture
+   with probabilities p[3]. */
+static double pds__env_pdf(const pds_light *l, const double p[3], pds__v3 w)
+{
+    double cos_a, omega, ls[3], pdf = 0.0;
+    pds__env_sun(l, &cos_a, &omega, ls);
+    if (p[0] > 0.0 && omega > 0.0 && pds__dot(w, pds__normalize(l->sun_direction)) >= cos_a) pdf += p[0] / omega;
+    if (pds__dot(w, pds__normalize(l->up)) > 0.0) pdf += p[1] / (2.0 * PDS__PI);
+    else pdf += p[2] / (2.0 * PDS__PI);
+    return pdf;
+}
+
+/* A direction *w of part `part` (0 the sun's cone, 1 the upper, 2 the
+   lower hemisphere), uniform in that part's solid angle, from u1, u2 in
+   [0,1). */
+static void pds__env_sample_part(const pds_light *l, int part, double u1, double u2, pds__v3 *w)
+{
+    double cos_a, omega, ls[3], ct, st, phi;
+    pds__v3 axis, b1, b2;
+    if (u1 >= 1.0) u1 = 1.0 - DBL_EPSILON;
+    if (part == 0) {
+        pds__env_sun(l, &cos_a, &omega, ls);
+        axis = pds__normalize(l->sun_direction);
+        ct = 1.0 - u1 * (1.0 - cos_a); /* cos uniform in [cos alpha, 1] */
+    } else {
+        axis = pds__normalize(l->up);
+        ct = (part == 1 ? 1.0 : -1.0) * (1.0 - u1); /* |cos| uniform in (0, 1] */
+    }
+    st = sqrt(fmax(0.0, 1.0 - ct * ct));
+    phi = 2.0 * PDS__PI * u2;
+    pds__onb(axis, &b1, &b2);
+    *w = pds__normalize(pds__add(pds__scale(axis, ct),
+                                 pds__add(pds__scale(b1, st * cos(phi)), pds__scale(b2, st * sin(phi)))));
+}
+
+/* A direction from the mixture p[3] with uniforms u1, u2 in [0,1): u1
+   picks the part and is then stretched back to [0,1) inside it. Returns
+   the pdf of *w (0 when nothing can be sampled). */
+static double pds__env_sample(const pds_light *l, const double p[3], double u1, double u2, pds__v3 *w)
+{
+    int part;
+    if (!(p[0] + p[1] + p[2] > 0.0)) return 0.0;
+    if (u1 < p[0]) {
+        part = 0;
+        u1 /= p[0];
+    } else if (u1 < p[0] + p[1] || !(p[2] > 0.0)) {
+        part = 1;
+        u1 = p[1] > 0.0 ? (u1 - p[0]) / p[1] : 0.0;
+    } else {
+        part = 2;
+        u1 = (u1 - p[0] - p[1]) / p[2];
+    }
+    pds__env_sample_part(l, part, u1, u2, w);
+    return pds__env_pdf(l, p, *w);
 }
 
 /* Build the light table: pick distribution by power, per-mesh-light
@@ -5325,7 +5519,9 @@ static pds_status pds__lights_prepare(pds__light_table *lt, const pds_light *lig
     lt->tri_n = (size_t *)calloc(n1, sizeof *lt->tri_n);
     lt->tri_cdf = (double *)calloc(nemit ? nemit : 1, sizeof *lt->tri_cdf);
     lt->tri_light = (int *)malloc((ntris ? ntris : 1) * sizeof *lt->tri_light);
-    if (!lt->type || !lt->pmf || !lt->cdf || !lt->area || !lt->tri_off || !lt->tri_n || !lt->tri_cdf || !lt->tri_light) {
+    lt->env_p = (double *)calloc(3 * n1, sizeof *lt->env_p);
+    if (!lt->type || !lt->pmf || !lt->cdf || !lt->area || !lt->tri_off || !lt->tri_n || !lt->tri_cdf || !lt->tri_light
+        || !lt->env_p) {
         pds__lights_free(lt);
         return pds__nomem(err);
     }
@@ -5365,6 +5561,7 @@ static pds_status pds__lights_prepare(pds__light_table *lt, const pds_light *lig
             area = pds__light_geom_area(l);
         }
         lt->area[i] = area;
+        if (l->type == PDS_LIGHT_ENVIRONMENT) pds__env_parts(l, NULL, &lt->env_p[3 * i]);
         w = pds__light_total_power(l, area);
         if (w != w || w > DBL_MAX || !(area == area) || area > DBL_MAX) {
             st = pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
@@ -5372,7 +5569,9 @@ static pds_status pds__lights_prepare(pds__light_table *lt, const pds_light *lig
             break;
         }
         /* a light without emitting area or without power is never picked */
-        if ((pds__light_is_area(l->type) || l->type == PDS_LIGHT_DIRECTIONAL) && !(area > 0.0)) w = 0.0;
+        if ((pds__light_is_area(l->type) || l->type == PDS_LIGHT_DIRECTIONAL || l->type == PDS_LIGHT_ENVIRONMENT)
+            && !(area > 0.0))
+            w = 0.0;
         if (!(w > 0.0)) w = 0.0;
         lt->pmf[i] = w;
         total += w;
@@ -5658,6 +5857,15 @@ static int pds__light_sample_li(const pds__light_table *lt, const pds_light *l, 
         for (c = 0; c < 3; c++) out->li[c] = l->radiance[c];
         return out->pdf > 0.0 && out->pdf <= DBL_MAX;
     }
+    case PDS_LIGHT_ENVIRONMENT: {
+        /* a direction from the mixture; the shadow ray goes to infinity */
+        if (!lt || light_index < 0 || (size_t)light_index >= lt->nlights) return 0;
+        out->pdf = pds__env_sample(l, &lt->env_p[3 * light_index], u1, u2, &out->wi);
+        if (!(out->pdf > 0.0)) return 0;
+        out->dist = DBL_MAX;
+        pds__env_radiance(l, out->wi, out->li);
+        return out->li[0] != 0.0 || out->li[1] != 0.0 || out->li[2] != 0.0;
+    }
     }
     return 0;
 }
@@ -5808,6 +6016,30 @@ static int pds__light_emit_sample(const pds__light_table *lt, const pds_light *l
         for (c = 0; c < 3; c++) out->flux[c] = PDS__PI * l->radiance[c] * area;
         break;
     }
+    case PDS_LIGHT_ENVIRONMENT: {
+        /* pbrt's infinite-light emission (Pharr, Jakob, Humphreys,
+           "Physically Based Rendering", 3rd ed., 12.6): w from the
+           mixture (u0, u1), then a uniform point (u2, u3) on the disk of
+           radius R across w, centred at C + R w; the photon travels
+           along -w and carries L(w) / (pdf_pos pdf_dir) = L(w) pi R^2 /
+           pdf(w). Every line that meets the bounding sphere crosses the
+           disk, so the photons carry all the flux that enters it. */
+        pds__v3 w, b1, b2, centre;
+        double area = PDS__PI * l->radius * l->radius, dx, dy, L[3];
+        if (!lt || light_index < 0 || (size_t)light_index >= lt->nlights || !(area > 0.0)) return 0;
+        out->pdf_dir = pds__env_sample(l, &lt->env_p[3 * light_index], u[0], u[1], &w);
+        if (!(out->pdf_dir > 0.0)) return 0;
+        pds__onb(w, &b1, &b2);
+        pds__lights_concentric(u[2], u[3], &dx, &dy);
+        centre = pds__add(l->position, pds__scale(w, l->radius));
+        out->pos = pds__add(centre, pds__add(pds__scale(b1, dx * l->radius), pds__scale(b2, dy * l->radius)));
+        out->dir = pds__scale(w, -1.0);
+        out->normal = out->dir;
+        out->pdf_pos = 1.0 / area;
+        pds__env_radiance(l, w, L);
+        for (c = 0; c < 3; c++) out->flux[c] = L[c] * area / out->pdf_dir;
+        break;
+    }
     default:
         return 0;
     }
@@ -5843,6 +6075,12 @@ static void pds__light_emission_extent(const pds_light *l, double *area, double 
     case PDS_LIGHT_MESH:
         *area = l->area;
         *solid_angle = 2.0 * PDS__PI;
+        return;
+    case PDS_LIGHT_ENVIRONMENT:
+        /* each photon is a thin parallel beam, as from a directional
+           light: the disk's share of area, no spread in direction */
+        *area = PDS__PI * l->radius * l->radius;
+        *solid_angle = 0.0;
         return;
     }
     *area = 0.0;
@@ -6528,6 +6766,7 @@ struct pds_scene {
     char (*warnings)[256];
     size_t nwarnings, cap_warnings;
     pds__v3 bounds_min, bounds_max;
+    int env_index1;          /* 1 + the environment light's index, 0 = none */
 };
 
 /* Record a warning; warnings that do not fit in memory are dropped (they
@@ -6573,6 +6812,8 @@ static pds_camera pds__camera_default(void)
     c.height = 256;
     c.spp = 4;
     c.filter = PDS_FILTER_BOX;
+    c.aperture = 0.0; /* a pinhole */
+    c.focus_distance = 0.0;
     return c;
 }
 
@@ -7103,7 +7344,16 @@ static pds_status pds__parse_camera(pds__parser *P)
             if (!(st = pds__p_int(P, key, 1, PDS_MAX_RESOLUTION, &c->width)))
                 st = pds__p_int(P, key, 1, PDS_MAX_RESOLUTION, &c->height);
         } else if (pds__key_is(P, key, "spp")) st = pds__p_int(P, key, 1, PDS_MAX_SPP, &c->spp);
-        else if (pds__key_is(P, key, "filter")) {
+        else if (pds__key_is(P, key, "aperture")) {
+            if (!(st = pds__p_number(P, key, &v)) && !(v >= 0.0 && v <= 1e30))
+                st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'aperture' (the lens radius) must be 0 or more, got %s",
+                               P->tok.text);
+            c->aperture = v;
+        } else if (pds__key_is(P, key, "focus_distance")) {
+            if (!(st = pds__p_number(P, key, &v)) && !(v > 0.0 && v <= 1e30))
+                st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'focus_distance' must be above 0, got %s", P->tok.text);
+            c->focus_distance = v;
+        } else if (pds__key_is(P, key, "filter")) {
             char f[32];
             if (!(st = pds__p_word(P, key, f, sizeof f))) {
                 if (!strcmp(f, "box")) c->filter = PDS_FILTER_BOX;
@@ -7123,6 +7373,9 @@ static pds_status pds__parse_camera(pds__parser *P)
         if (!(pds__length(pds__cross(pds__normalize(view), pds__normalize(c->up))) > 1e-9))
             return pds__perr(P, &start, PDS_ERR_PARSE, "camera up is parallel to the viewing direction");
     }
+    if (c->focus_distance > 0.0 && !(c->aperture > 0.0))
+        pds__scene_warn(P->scene, "%s:%d:%d: 'focus_distance' without 'aperture' does nothing (a pinhole sees "
+                        "everything sharp)", P->file, start.line, start.col);
     return PDS_OK;
 }
 
@@ -7279,9 +7532,18 @@ static pds_status pds__parse_light(pds__parser *P)
     else if (!strcmp(type, "directional")) l.type = PDS_LIGHT_DIRECTIONAL;
     else if (!strcmp(type, "disk")) l.type = PDS_LIGHT_DISK;
     else if (!strcmp(type, "quad")) l.type = PDS_LIGHT_QUAD;
+    else if (!strcmp(type, "environment")) l.type = PDS_LIGHT_ENVIRONMENT;
     else
         return pds__perr(P, &type_tok, PDS_ERR_PARSE,
-                         "unknown light type '%s' (point, spot, directional, disk or quad)", type);
+                         "unknown light type '%s' (point, spot, directional, disk, quad or environment)", type);
+    if (l.type == PDS_LIGHT_ENVIRONMENT) {
+        size_t i;
+        for (i = 0; i < P->scene->nlights; i++)
+            if (P->scene->lights[i].type == PDS_LIGHT_ENVIRONMENT)
+                return pds__perr(P, &type_tok, PDS_ERR_PARSE,
+                                 "a second environment light (a scene has one environment: add its parts in "
+                                 "one block)");
+    }
     /* defaults */
     l.direction = pds__v(0.0, -1.0, 0.0);
     l.cone_inner_deg = 20.0;
@@ -7289,6 +7551,9 @@ static pds_status pds__parse_light(pds__parser *P)
     l.radius = 1.0;
     l.edge1 = pds__v(1.0, 0.0, 0.0);
     l.edge2 = pds__v(0.0, 0.0, 1.0);
+    l.up = pds__v(0.0, 1.0, 0.0);
+    l.sun_direction = pds__v(0.0, 1.0, 0.0);
+    l.sun_radius_deg = 0.265; /* the sun seen from the earth */
     snprintf(what, sizeof what, "the %s light block", type);
     if ((st = pds__expect_lbrace(P, "the light type"))) return st;
     while (pds__block_next(P, what, &st)) {
@@ -7335,10 +7600,42 @@ static pds_status pds__parse_light(pds__parser *P)
         } else if ((T == PDS_LIGHT_DISK || T == PDS_LIGHT_QUAD) && pds__key_is(P, key, "radiance")) {
             st = pds__p_rgb(P, key, l.radiance);
             have_radiance = 1;
+        } else if (T == PDS_LIGHT_ENVIRONMENT && pds__key_is(P, key, "radiance")) st = pds__p_rgb(P, key, l.radiance);
+        else if (T == PDS_LIGHT_ENVIRONMENT && pds__key_is(P, key, "sky")) st = pds__p_rgb(P, key, l.sky);
+        else if (T == PDS_LIGHT_ENVIRONMENT && pds__key_is(P, key, "ground")) st = pds__p_rgb(P, key, l.ground);
+        else if (T == PDS_LIGHT_ENVIRONMENT && pds__key_is(P, key, "up")) st = pds__p_dir(P, key, &l.up);
+        else if (T == PDS_LIGHT_ENVIRONMENT && pds__key_is(P, key, "sun")) st = pds__p_rgb(P, key, l.sun_irradiance);
+        else if (T == PDS_LIGHT_ENVIRONMENT && pds__key_is(P, key, "sun_direction"))
+            st = pds__p_dir(P, key, &l.sun_direction);
+        else if (T == PDS_LIGHT_ENVIRONMENT && pds__key_is(P, key, "sun_radius")) {
+            st = pds__p_range(P, key, 0.0, 45.0, &l.sun_radius_deg);
+            if (!st && !(l.sun_radius_deg > 0.0))
+                st = pds__perr(P, &P->tok, PDS_ERR_PARSE, "'sun_radius' must be above 0 degrees (at most 45)");
         } else st = pds__unknown_key(P, what);
         if (st) return st;
     }
     if (st) return st;
+    if (l.type == PDS_LIGHT_ENVIRONMENT) {
+        /* its size and power come with the scene's bounds (pds__scene_finish) */
+        int c, any = 0;
+        for (c = 0; c < 3; c++)
+            any |= l.radiance[c] != 0.0 || l.sky[c] != 0.0 || l.ground[c] != 0.0 || l.sun_irradiance[c] != 0.0;
+        if (!any)
+            return pds__perr(P, &type_tok, PDS_ERR_PARSE,
+                             "environment light needs 'radiance', 'sky', 'ground' or 'sun' (all are 0 by default)");
+        {
+            double cos_a, omega, ls[3];
+            pds__env_sun(&l, &cos_a, &omega, ls);
+            for (c = 0; c < 3; c++)
+                if (l.sun_irradiance[c] != 0.0 && (!isfinite(ls[c]) || !(omega > 0.0)))
+                    return pds__perr(P, &type_tok, PDS_ERR_PARSE,
+                                     "the sun's disk (sun_radius %g degrees) is too small: its radiance "
+                                     "E / (pi sin^2 radius) is out of range", l.sun_radius_deg);
+        }
+        if (pds__scene_add_light(P->scene, &l) < 0)
+            return pds__perr(P, &type_tok, PDS_ERR_LIMIT, "more than %d lights", PDS_MAX_LIGHTS);
+        return PDS_OK;
+    }
     if (have_power && have_radiance)
         return pds__perr(P, &type_tok, PDS_ERR_PARSE, "give either 'power' or 'radiance' for a %s light, not both", type);
     if (!have_power && !have_radiance)
@@ -7772,6 +8069,20 @@ static pds_status pds__scene_finish(pds_scene *s, pds_error *err)
         s->bounds_max = i ? pds__vmax(s->bounds_max, p) : p;
     }
     if ((st = pds__scene_collect_mesh_lights(s, err))) return st;
+    for (i = 0; i < s->nlights; i++) {
+        /* the environment surrounds the scene's bounding sphere (>>lights) */
+        pds_light *l = &s->lights[i];
+        double total[3], r;
+        int c;
+        if (l->type != PDS_LIGHT_ENVIRONMENT) continue;
+        l->position = pds__scale(pds__add(s->bounds_min, s->bounds_max), 0.5);
+        r = 0.5 * pds__length(pds__sub(s->bounds_max, s->bounds_min));
+        l->radius = r > 0.0 ? r * 1.001 : 1.0;
+        l->area = PDS__PI * l->radius * l->radius;
+        pds__env_parts(l, total, NULL);
+        for (c = 0; c < 3; c++) l->power[c] = l->area * total[c];
+        s->env_index1 = (int)i + 1;
+    }
     if ((st = pds__lights_prepare(&s->light_table, s->lights, s->nlights, &s->mesh, err))) return st;
     {
         /* the BVH build holds about 112 bytes a triangle on top of the mesh
@@ -11411,6 +11722,15 @@ unsigned long long pds_scene_hash(const pds_scene *s)
         pds__hash_u64(&hs, (uint64_t)(uint32_t)l->material);
         pds__hash_u64(&hs, (uint64_t)(uint32_t)l->first_triangle << 32 | (uint32_t)l->triangle_count);
         pds__hash_f64(&hs, l->area);
+        if (l->type == PDS_LIGHT_ENVIRONMENT) {
+            /* only for this type, so older scenes keep their hashes */
+            pds__hash_f64s(&hs, l->sky, 3);
+            pds__hash_f64s(&hs, l->ground, 3);
+            pds__hash_v3(&hs, l->up);
+            pds__hash_v3(&hs, l->sun_direction);
+            pds__hash_f64s(&hs, l->sun_irradiance, 3);
+            pds__hash_f64(&hs, l->sun_radius_deg);
+        }
     }
     pds__hash_v3(&hs, s->camera.position);
     pds__hash_v3(&hs, s->camera.look_at);
@@ -11418,6 +11738,11 @@ unsigned long long pds_scene_hash(const pds_scene *s)
     pds__hash_f64(&hs, s->camera.fov_deg);
     pds__hash_u64(&hs, (uint64_t)(uint32_t)s->camera.width << 32 | (uint32_t)s->camera.height);
     pds__hash_u64(&hs, (uint64_t)(uint32_t)s->camera.spp << 32 | (uint32_t)s->camera.filter);
+    if (s->camera.aperture != 0.0 || s->camera.focus_distance != 0.0) {
+        /* a thin lens; a pinhole hashes as before */
+        pds__hash_f64(&hs, s->camera.aperture);
+        pds__hash_f64(&hs, s->camera.focus_distance);
+    }
     return hs.h;
 }
 
@@ -12103,6 +12428,8 @@ typedef struct pds__camera_frame {
     pds__v3 origin, forward, right, up;
     double tan_half_fov, aspect;
     int width, height;
+    double aperture, focus; /* thin lens: lens radius (0 = pinhole) and the
+                               distance of the plane in focus along forward */
 } pds__camera_frame;
 
 static pds__camera_frame pds__camera_setup(const pds_camera *c, int width, int height)
@@ -12116,6 +12443,8 @@ static pds__camera_frame pds__camera_setup(const pds_camera *c, int width, int h
     f.width = width;
     f.height = height;
     f.aspect = (double)width / (double)height;
+    f.aperture = c->aperture;
+    f.focus = c->focus_distance > 0.0 ? c->focus_distance : pds__length(pds__sub(c->look_at, c->position));
     return f;
 }
 
@@ -12126,6 +12455,28 @@ static pds__v3 pds__camera_dir(const pds__camera_frame *f, double px, double py)
     double sx = (2.0 * px / f->width - 1.0) * f->tan_half_fov * f->aspect;
     double sy = (1.0 - 2.0 * py / f->height) * f->tan_half_fov;
     return pds__normalize(pds__add(f->forward, pds__add(pds__scale(f->right, sx), pds__scale(f->up, sy))));
+}
+
+/* The camera ray through image point (px, py): its origin *org and unit
+   direction. A pinhole (aperture 0) starts every ray at the eye. A thin
+   lens of radius A focused at distance F (Kolb, Mitchell and Hanrahan
+   1995; Pharr, Jakob, Humphreys, "Physically Based Rendering", 3rd ed.,
+   6.2.3) starts it at a point of the lens disk, (u1, u2) through the
+   concentric map, and aims it at the point where the pinhole ray meets
+   the plane in focus (distance F along forward): points on that plane
+   stay sharp, and a point at distance z along the axis spreads over a
+   disk of radius A |z - F| / z on the plane in focus (the circle of
+   confusion), A |z - F| / (z F tan(fov/2)) x height/2 pixels. */
+static pds__v3 pds__camera_ray(const pds__camera_frame *f, double px, double py, double u1, double u2, pds__v3 *org)
+{
+    pds__v3 d = pds__camera_dir(f, px, py), focal;
+    double dx, dy;
+    *org = f->origin;
+    if (!(f->aperture > 0.0)) return d;
+    focal = pds__add(f->origin, pds__scale(d, f->focus / pds__dot(d, f->forward)));
+    pds__lights_concentric(u1, u2, &dx, &dy);
+    *org = pds__add(f->origin, pds__add(pds__scale(f->right, dx * f->aperture), pds__scale(f->up, dy * f->aperture)));
+    return pds__normalize(pds__sub(focal, *org));
 }
 
 /* Offset in [-1, 1] with the tent density 1 - |x| (inverse CDF). */
@@ -12160,8 +12511,9 @@ static void pds__material_preview_colour(const pds_material *m, double rgb[3])
 /* Unidirectional path tracing (Kajiya 1986) with next-event estimation at
    non-specular vertices and multiple importance sampling (Veach 1997,
    power heuristic) between light sampling and BSDF sampling for area and
-   mesh lights. Delta lights (point, spot, directional) are reached only by
-   next-event estimation from non-specular vertices, so a path tracer cannot
+   mesh lights and the environment (which rays that leave the scene see).
+   Delta lights (point, spot, directional) are reached only by next-event
+   estimation from non-specular vertices, so a path tracer cannot
    render their caustics: a diffuse surface lit through glass by a point
    light stays dark, and the photon methods supply that light.
 
@@ -12348,6 +12700,54 @@ static int pds__hit_analytic_light(const pds_scene *s, pds__v3 org, pds__v3 dir,
     return found;
 }
 
+/* Next-event estimation of the environment light k (picked with
+   probability pmf) at a non-specular vertex: one direction from each part
+   of its mixture (sun, upper, lower hemisphere; >>lights) instead of one
+   from the mixture, each weighted by its part's probability p_i:
+   sum_i p_i f(w_i) / (pmf q(w_i)), q the mixture's pdf, has the same
+   expectation as one sample from q (integral of f / pmf), with the
+   sun-or-sky choice taken out of the noise; the power heuristic weights
+   against BSDF sampling use pmf q as a single light sample does. The
+   second and third parts take their numbers from PDS__RNG_ENV_NEE. */
+static void pds__direct_env(const pds__tracer *tr, const pds_material *m, pds__v3 p, pds__v3 wo, pds__v3 ns,
+                            pds__v3 ng, const double beta[3], uint64_t idx, uint64_t dim, int k, double pmf,
+                            double lambda, const double *film, double acc[3])
+{
+    const pds_scene *s = tr->scene;
+    const pds_light *l = &s->lights[k];
+    const double *parts = &s->light_table.env_p[3 * k];
+    pds__v3 n, ngw;
+    int side, part, c;
+    if (!pds__bsdf_frame(wo, ns, ng, &n, &ngw, &side)) return;
+    for (part = 0; part < 3; part++) {
+        double u1, u2, q, f[3], L[3], w[3], pdf_bsdf, cosine;
+        pds__v3 wi, org;
+        if (!(parts[part] > 0.0)) continue;
+        if (part == 0) {
+            u1 = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 1);
+            u2 = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 2);
+        } else {
+            u1 = pds__rng_uniform(tr->seed, PDS__RNG_ENV_NEE, idx, 4 * dim + 2 * (uint64_t)part - 2);
+            u2 = pds__rng_uniform(tr->seed, PDS__RNG_ENV_NEE, idx, 4 * dim + 2 * (uint64_t)part - 1);
+        }
+        pds__env_sample_part(l, part, u1, u2, &wi);
+        cosine = pds__dot(wi, n);
+        if (!(cosine > 0.0)) continue;
+        q = pds__env_pdf(l, parts, wi);
+        if (!(q > 0.0)) continue;
+        pds__bsdf_eval(m, p, wo, wi, ns, ng, f, &pdf_bsdf);
+        if (!(f[0] + f[1] + f[2] > 0.0)) continue;
+        pds__env_radiance(l, wi, L);
+        if (!(L[0] != 0.0 || L[1] != 0.0 || L[2] != 0.0)) continue;
+        org = pds__offset(tr, p, ng, wi);
+        if (pds__bvh_occluded(&s->bvh, org, wi, 0.0, DBL_MAX)) continue;
+        pds__spectral_uplift(lambda, f);
+        pds__spectral_uplift(lambda, L);
+        for (c = 0; c < 3; c++) w[c] = beta[c] * f[c] * L[c] * cosine * parts[part] / (pmf * q);
+        pds__accumulate(tr, 0, w, pds__mis_power(pmf * q, pdf_bsdf), film, acc);
+    }
+}
+
 /* Next-event estimation at a non-specular vertex: one light picked by
    power, one point on it, shadow ray, MIS against BSDF sampling. A
    spectral sample (lambda > 0, film = W(lambda)) takes the BSDF and the
@@ -12367,6 +12767,10 @@ static void pds__direct_light(const pds__tracer *tr, const pds_material *m, pds_
     if (tr->paths == PDS_PATHS_CAUSTICS_ONLY) return; /* a direct connection is never caustic */
     k = pds__lights_pick(&s->light_table, u0, &pmf);
     if (k < 0 || !(pmf > 0.0)) return;
+    if (s->lights[k].type == PDS_LIGHT_ENVIRONMENT) {
+        pds__direct_env(tr, m, p, wo, ns, ng, beta, idx, dim, k, pmf, lambda, film, acc);
+        return;
+    }
     if (!pds__light_sample_li(&s->light_table, &s->lights[k], k, &s->mesh, p, u1, u2, &li)) return;
     if (!pds__bsdf_frame(wo, ns, ng, &n, &ngw, &side)) return;
     pds__bsdf_eval(m, p, wo, li.wi, ns, ng, f, &pdf_bsdf);
@@ -12563,7 +12967,25 @@ static void pds__eye_continue(pds__eye_sample *es, pds__eye_path *ps)
             pds__accumulate(tr, caustic, le, mis, film_w, es->acc);
             return;
         }
-        if (!found) return; /* black background */
+        if (!found) {
+            /* the ray leaves the scene: the environment sees it (black
+               without one); weighted against next-event estimation as an
+               area light is */
+            if (s->env_index1) {
+                int k = s->env_index1 - 1;
+                double mis = 1.0;
+                pds__env_radiance(&s->lights[k], ps->dir, le);
+                if (ps->had_diffuse && ps->specular_since == 0)
+                    mis = pds__mis_power(ps->prev_pdf,
+                                         pds__lights_pmf(&s->light_table, k) *
+                                             pds__env_pdf(&s->lights[k], &s->light_table.env_p[3 * k], ps->dir));
+                pds__spectral_uplift(ps->lam, le);
+                pds__beer(sigma, DBL_MAX, ps->beta);
+                for (c = 0; c < 3; c++) le[c] *= ps->beta[c];
+                pds__accumulate(tr, caustic, le, mis, film_w, es->acc);
+            }
+            return;
+        }
         pds__scene_fill_hit(s, &th, ps->org, ps->dir, &hit);
         pds__beer(sigma, th.t, ps->beta);
         pds__beer(ps->sigma_rgb, th.t, ps->beta_rgb);
@@ -12709,7 +13131,7 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
         uint64_t sample = (uint64_t)job->pass * (uint64_t)job->spp + (uint64_t)k;
         uint64_t idx = pixel * (uint64_t)job->total_spp_max + sample;
         double u1, u2, ox, oy;
-        pds__v3 dir;
+        pds__v3 org, dir;
         double acc[3] = {0.0, 0.0, 0.0};
         /* the pass's spp samples stratified over the pixel (pds__cmj), each
            jittered within its cell by the sample's own dimensions 0, 1 */
@@ -12717,16 +13139,22 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
                  pds__rng_uniform(job->seed, PDS__RNG_PIXEL, idx, 1), &u1, &u2);
         ox = job->filter == PDS_FILTER_TENT ? 0.5 + pds__tent_sample(u1) : u1;
         oy = job->filter == PDS_FILTER_TENT ? 0.5 + pds__tent_sample(u2) : u2;
-        dir = pds__camera_dir(&job->frame, x + ox, y + oy);
+        /* a thin lens takes its lens point from its own numbers; a pinhole
+           none, so its images are those of a camera without the lens */
+        if (job->frame.aperture > 0.0)
+            dir = pds__camera_ray(&job->frame, x + ox, y + oy, pds__rng_uniform(job->seed, PDS__RNG_LENS, idx, 0),
+                                  pds__rng_uniform(job->seed, PDS__RNG_LENS, idx, 1), &org);
+        else
+            dir = pds__camera_ray(&job->frame, x + ox, y + oy, 0.0, 0.0, &org);
         if (job->method != PDS_METHOD_PREVIEW) {
             pds__eye_vertex v[PDS__EYE_LEAVES];
             double lambda = job->tracer.spectral ? pds__eye_wavelength(job->seed, pixel, sample) : 0.0;
             int recorded, j;
             v[0].lambda = 0.0f; /* gi's eye paths are RGB (>>spectral) */
-            recorded = job->path ? job->path(job->path_ctx, &job->tracer, job->frame.origin, dir, idx, acc,
+            recorded = job->path ? job->path(job->path_ctx, &job->tracer, org, dir, idx, acc,
                                              job->record_eye ? v : NULL, &job->row_counts[4 * (size_t)y],
                                              !job->row_values || job->row_values[y])
-                                 : pds__trace_path(&job->tracer, job->frame.origin, dir, idx, lambda, acc,
+                                 : pds__trace_path(&job->tracer, org, dir, idx, lambda, acc,
                                                    job->record_eye ? v : NULL);
             if (recorded) {
                 pds__eye_vertex **arr = &job->row_vertices[y];
@@ -12747,10 +13175,10 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
             }
         } else {
             pds__tri_hit th;
-            if (pds__bvh_intersect(&job->scene->bvh, job->frame.origin, dir, 0.0, DBL_MAX, &th)) {
+            if (pds__bvh_intersect(&job->scene->bvh, org, dir, 0.0, DBL_MAX, &th)) {
                 pds_hit hit;
                 double rgb[3], cosine;
-                pds__scene_fill_hit(job->scene, &th, job->frame.origin, dir, &hit);
+                pds__scene_fill_hit(job->scene, &th, org, dir, &hit);
                 pds__material_preview_colour(&job->scene->materials.items[hit.material], rgb);
                 cosine = fabs(pds__dot(hit.ns, dir));
                 for (c = 0; c < 3; c++) acc[c] = rgb[c] * cosine;
@@ -13438,6 +13866,40 @@ static int pds__emit_caustic_photon(const pds_scene *s, const pds__target *tg, i
         ph->solid_angle = 0.0;
         return ph->flux[0] + ph->flux[1] + ph->flux[2] > 0.0;
     }
+    if (l->type == PDS_LIGHT_ENVIRONMENT) {
+        /* As pbrt's infinite light (>>lights), but the disk across the
+           sampled direction w is the target's shadow: radius r_t about
+           the target's centre, pulled back along w out of the scene's
+           bounding sphere. Flux L(w) pi r_t^2 / pdf(w); each photon is
+           a thin parallel beam whose footprint is its share of the disk
+           (Ae = pi r_t^2, omega_e = 0 in eqs. 5-6). */
+        pds__v3 w, b1, b2, q;
+        double pdf, dx, dy, L[3], disk_area, back;
+        if (!tg->any || !(tg->radius < l->radius)) {
+            if (!pds__light_emit_sample(&s->light_table, l, k, &s->mesh, u, &e)) return 0;
+            ph->pos = e.pos;
+            ph->dir = e.dir;
+            ph->normal = e.normal;
+            memcpy(ph->flux, e.flux, sizeof ph->flux);
+            pds__light_emission_extent(l, &ph->area, &ph->solid_angle);
+            return 1;
+        }
+        pdf = pds__env_sample(l, &s->light_table.env_p[3 * k], u[0], u[1], &w);
+        if (!(pdf > 0.0)) return 0;
+        pds__onb(w, &b1, &b2);
+        pds__lights_concentric(u[2], u[3], &dx, &dy);
+        q = pds__add(tg->centre, pds__add(pds__scale(b1, dx * tg->radius), pds__scale(b2, dy * tg->radius)));
+        back = pds__length(pds__sub(tg->centre, l->position)) + l->radius;
+        ph->pos = pds__add(q, pds__scale(w, back));
+        ph->dir = pds__scale(w, -1.0);
+        ph->normal = ph->dir;
+        disk_area = PDS__PI * tg->radius * tg->radius;
+        pds__env_radiance(l, w, L);
+        for (c = 0; c < 3; c++) ph->flux[c] = L[c] * disk_area / pdf;
+        ph->area = disk_area;
+        ph->solid_angle = 0.0;
+        return ph->flux[0] + ph->flux[1] + ph->flux[2] > 0.0;
+    }
     if (l->type == PDS_LIGHT_POINT || l->type == PDS_LIGHT_SPOT) {
         if (!pds__target_cone(tg, l->position, &axis, &cos_max)) {
             if (!pds__light_emit_sample(&s->light_table, l, k, &s->mesh, u, &e)) return 0;
@@ -13562,7 +14024,11 @@ typedef struct pds__photon_job {
     double min_width;          /* pds: widen to this many eye-sample spacings (0 = off) */
     pds__v3 eye;               /* camera position */
     pds__camera_frame frame;   /* the camera, for the debug views */
-    double sample_angle;       /* angle between neighbouring eye samples */
+    double sample_angle;       /* angle between neighbouring eye samples (as a
+                                  pinhole sees them: a thin lens moves each
+                                  vertex by its circle of confusion but
+                                  hardly changes how densely they cover a
+                                  surface, so the same spacing serves) */
     int max_depth;
     int split_depth;           /* pds: most times a photon is split (0 = never) */
     double split_angle;        /* pds: split above this normal turn over the footprint (rad) */
@@ -15843,7 +16309,14 @@ static void pds__gi_incoming(const pds__gi_map *g, const pds__tracer *tr, pds__v
             *light = lh;
             return;
         }
-        if (!found) return;
+        if (!found) {
+            /* the environment, seen straight away (through a specular
+               bounce it is a caustic of x1) */
+            if (depth > 0 || !s->env_index1) return;
+            *light = s->env_index1 - 1;
+            pds__env_radiance(&s->lights[*light], dir, L);
+            return;
+        }
         pds__scene_fill_hit(s, &th, org, dir, &hit);
         pds__beer(sigma, th.t, beta);
         m = &s->materials.items[hit.material];
@@ -15918,8 +16391,12 @@ static void pds__gi_gather(const pds__gi_map *g, const pds__tracer *tr, const pd
             /* direct light: only a glossy vertex counts it here, by MIS */
             double pl, mis;
             if (!glossy) continue;
-            pl = pds__lights_pmf(&s->light_table, light) *
-                 pds__light_pdf_li(&s->light_table, &s->lights[light], light, &s->mesh, x, lx, ln);
+            if (s->lights[light].type == PDS_LIGHT_ENVIRONMENT)
+                pl = pds__lights_pmf(&s->light_table, light) *
+                     pds__env_pdf(&s->lights[light], &s->light_table.env_p[3 * light], wi);
+            else
+                pl = pds__lights_pmf(&s->light_table, light) *
+                     pds__light_pdf_li(&s->light_table, &s->lights[light], light, &s->mesh, x, lx, ln);
             mis = pds__mis_power(nrays * pdf, pl);
             for (c = 0; c < 3; c++) L[c] *= mis;
         }
@@ -15964,7 +16441,14 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
             for (c = 0; c < 3; c++) acc[c] += beta[c] * le[c];
             return 0;
         }
-        if (!found) return 0;
+        if (!found) {
+            /* the environment seen through the specular chain */
+            if (g->record_only || !s->env_index1) return 0;
+            pds__env_radiance(&s->lights[s->env_index1 - 1], dir, le);
+            pds__beer(sigma, DBL_MAX, beta);
+            for (c = 0; c < 3; c++) acc[c] += beta[c] * le[c];
+            return 0;
+        }
         pds__scene_fill_hit(s, &th, org, dir, &hit);
         pds__beer(sigma, th.t, beta);
         m = &s->materials.items[hit.material];
@@ -17130,11 +17614,12 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
     pds__mutex_init(&ctx->lock);
     for (k = 0; k < s->nlights; k++)
         if (s->lights[k].type != PDS_LIGHT_POINT && s->lights[k].type != PDS_LIGHT_SPOT) {
-            static const char *const kind[] = {"point", "spot", "directional", "disk", "quad", "mesh"};
+            static const char *const kind[] = {"a point", "a spot", "a directional", "a disk", "a quad", "a mesh",
+                                               "an environment"};
             return pds__fail(err, PDS_ERR_INVALID_ARG, s->path[0] ? s->path : NULL, 0, 0,
                              "image-space caustics (--method isc) take point and spot lights only, as Wyman and "
-                             "Davis's method does; light %lu is a %s light",
-                             (unsigned long)k + 1, kind[(unsigned)s->lights[k].type % 6u]);
+                             "Davis's method does; light %lu is %s light",
+                             (unsigned long)k + 1, kind[(unsigned)s->lights[k].type % 7u]);
         }
     ctx->scene = s;
     ctx->opt = opt;
@@ -17629,6 +18114,23 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
     return PDS_OK;
 }
 
+/* What the scene's camera allows: image-space caustics and the teaching
+   views project scene points straight into a pinhole camera, so a thin
+   lens (aperture > 0) is refused for them rather than drawn wrong. */
+static pds_status pds__camera_check(const pds_scene *scene, const pds_options *opt, pds_error *err)
+{
+    if (!(scene->camera.aperture > 0.0)) return PDS_OK;
+    if (opt->method == PDS_METHOD_ISC)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, scene->path[0] ? scene->path : NULL, 0, 0,
+                         "image-space caustics (--method isc) need a pinhole camera; this camera has 'aperture %g'",
+                         scene->camera.aperture);
+    if (opt->debug && opt->debug->views)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, scene->path[0] ? scene->path : NULL, 0, 0,
+                         "the teaching views project points into a pinhole camera; this camera has 'aperture %g'",
+                         scene->camera.aperture);
+    return PDS_OK;
+}
+
 /* Join the per-row eye vertices in row order (then free the rows). */
 static pds__eye_vertex *pds__join_rows(pds__render_job *job, size_t *count)
 {
@@ -18027,6 +18529,7 @@ pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_p
     w = opt->width > 0 ? opt->width : cam->width;
     h = opt->height > 0 ? opt->height : cam->height;
     if ((st = pds__options_check(opt, w, h, err))) return st;
+    if ((st = pds__camera_check(scene, opt, err))) return st;
     if ((st = pds__render_memory_check(scene, opt, w, h, err))) return st;
     if (*part) {
         pds_partial *p = *part;
@@ -18141,6 +18644,7 @@ pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int
     w = opt->width > 0 ? opt->width : scene->camera.width;
     h = opt->height > 0 ? opt->height : scene->camera.height;
     if ((st = pds__options_check(opt, w, h, err))) return st;
+    if ((st = pds__camera_check(scene, opt, err))) return st;
     o = *opt;
     o.time_s = 0.0; /* frames, not a still's time budget */
     {

@@ -162,7 +162,9 @@ typedef enum pds_light_type {
     PDS_LIGHT_DIRECTIONAL, /* direction, irradiance (W/m^2), emitter disk or rectangle */
     PDS_LIGHT_DISK,      /* one-sided disk: centre, normal, radius */
     PDS_LIGHT_QUAD,      /* one-sided parallelogram: centre, edge1, edge2 */
-    PDS_LIGHT_MESH       /* triangles of an emissive material */
+    PDS_LIGHT_MESH,      /* triangles of an emissive material */
+    PDS_LIGHT_ENVIRONMENT /* at infinity: constant radiance, a CIE clear sky
+                            and a sun disk (at most one per scene) */
 } pds_light_type;
 
 typedef struct pds_light {
@@ -179,7 +181,20 @@ typedef struct pds_light {
     int emitter_shape;   /* directional: 0 = disk, 1 = rectangle */
     int material;        /* mesh light: its emissive material */
     int first_triangle, triangle_count; /* mesh light: its triangles */
-    double area;         /* emitting area (m^2) */
+    double area;         /* emitting area (m^2); environment: pi R^2 of the
+                            scene's bounding sphere (position, radius) */
+    /* environment only. Radiance seen along unit direction w (toward the
+       sky) is radiance[] (every direction) + sky[] x the CIE clear-sky
+       shape (w above the horizon, 1 at the zenith) + ground[] (w below
+       the horizon) + the sun's radiance inside its disk. power[] is
+       pi R^2 times the integral of that over the sphere. */
+    double sky[3];       /* zenith radiance of the clear sky (W/m^2/sr) */
+    double ground[3];    /* radiance below the horizon (W/m^2/sr) */
+    pds_vec3 up;         /* the zenith (unit) */
+    pds_vec3 sun_direction; /* toward the sun (unit) */
+    double sun_irradiance[3]; /* at normal incidence (W/m^2): the sun's
+                                 radiance is this / (pi sin^2 sun_radius) */
+    double sun_radius_deg;    /* angular radius of the sun's disk */
 } pds_light;
 
 typedef enum pds_filter { PDS_FILTER_BOX = 0, PDS_FILTER_TENT } pds_filter;
@@ -190,6 +205,10 @@ typedef struct pds_camera {
     int width, height;   /* resolution in pixels */
     int spp;             /* samples per pixel */
     pds_filter filter;
+    double aperture;     /* thin lens: radius of the lens (scene units);
+                            0 = pinhole (everything sharp) */
+    double focus_distance; /* thin lens: distance along the view axis of the
+                              plane in focus; 0 = |look_at - position| */
 } pds_camera;
 
 typedef struct pds_scene pds_scene; /* opaque; immutable once loaded */
@@ -266,8 +285,10 @@ double pds_material_ior(const pds_material *m, double wavelength_nm);
    would carry as the only photon of that light (W; divide by the photon
    count), the densities it was sampled with, and the light's emitting area
    and solid angle (the Ae and omega_e of the PDS paper's eqs. 5-6; point
-   lights have no area, directional lights no solid angle). Returns 0 if the
-   sample carries no flux. */
+   lights have no area, directional lights no solid angle, the environment
+   light the area of the disk across the scene's bounding sphere that its
+   photons leave from and no solid angle). Returns 0 if the sample carries
+   no flux. */
 typedef struct pds_emission {
     pds_vec3 position, direction;
     pds_vec3 normal;        /* emitter surface normal; zero for point and spot lights */

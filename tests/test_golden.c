@@ -83,6 +83,9 @@ static const golden_case golden_cases[] = {
     /* Jensen's two-pass method: global map, final gather, shadow photons
        and PDS's caustics (small maps and gathers: see golden_render) */
     {"scenes/cornell.scene", "cornell", PDS_METHOD_GI, 96, 2, 20000, 0},
+    /* the environment light (sky and sun) and a thin-lens camera */
+    {"scenes/sky.scene", "sky", PDS_METHOD_PDS, 96, 2, 20000, 0},
+    {"scenes/sky.scene", "sky", PDS_METHOD_PT, 96, 16, 0, 0},
     /* image-space caustics: 65,536 photons is a 256 x 256 light-space buffer */
     {"scenes/ring_octahedron.scene", "ring_octahedron", PDS_METHOD_ISC, 96, 0, 65536, 0},
 };
@@ -133,6 +136,9 @@ static void golden_scale_power(pds_scene *s, double f)
             s->lights[i].power[c] *= f;
             s->lights[i].irradiance[c] *= f;
             s->lights[i].radiance[c] *= f;
+            s->lights[i].sky[c] *= f; /* the environment's parts */
+            s->lights[i].ground[c] *= f;
+            s->lights[i].sun_irradiance[c] *= f;
         }
     }
     for (i = 0; i < s->materials.count; i++)

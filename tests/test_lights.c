@@ -508,6 +508,8 @@ static void test_lights_emission_flux_mean_equals_power(pds_test_ctx *t)
                     if (fabs(pds__dot(r, nq)) > 1e-9 || fabs(a) > 0.5 + 1e-9 || fabs(b) > 0.5 + 1e-9) bad_pos++;
                 }
                 break;
+            case PDS_LIGHT_ENVIRONMENT: /* not in this table: tests/test_envlight.c */
+                break;
             }
             if (pds__light_is_area(l[k].type)) {
                 double cs = pds__dot(e.dir, e.normal);

@@ -45,6 +45,7 @@
 #include "test_isc.c"
 #include "test_teach.c"
 #include "test_scenelang.c"
+#include "test_envlight.c"
 
 int main(int argc, char **argv)
 {
@@ -76,6 +77,7 @@ int main(int argc, char **argv)
         PDS_SUITE(tests_isc),
         PDS_SUITE(tests_teach),
         PDS_SUITE(tests_scenelang),
+        PDS_SUITE(tests_envlight),
     };
     return pds_test_run(suites, sizeof suites / sizeof suites[0], argc, argv);
 }
