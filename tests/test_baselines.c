@@ -57,7 +57,7 @@ static void test_pm_finds_the_analytic_irradiance_of_a_uniform_caustic(pds_test_
 }
 
 /* The filters' normalisations are their integrals over the unit disc:
-   cone 1/3 (k_cone = 1: 1 - 2/(3k)), Gaussian 0.531 (REFERENCE.md), by
+   cone 1/3 (k_cone = 1: 1 - 2/(3k)), Gaussian 0.531 (Jensen's filter, a = 0.918, b = 1.953), by
    midpoint quadrature in r. */
 static void test_pm_filter_normalisations_are_the_filters_integrals(pds_test_ctx *t)
 {

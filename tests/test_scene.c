@@ -71,7 +71,7 @@ static void test_scene_parses_every_statement_kind(pds_test_ctx *t)
     m = pds_scene_material(s, 4);
     CHECK(t, m->type == PDS_MAT_CONDUCTOR && m->eta[1] == 0.237 && m->k[0] == 4.483, "silver preset");
     m = pds_scene_material(s, 6);
-    /* N-BK7 at 587.6 nm: 1.5168 (REFERENCE.md section 6) */
+    /* N-BK7 at 587.6 nm: n_d = 1.5168 (Schott's N-BK7 data sheet) */
     CHECK_NEAR(t, m->ior, 1.51680, 2e-5);
     CHECK(t, m->dispersion == PDS_DISPERSION_SELLMEIER, "sellmeier kept");
     l = pds_scene_light(s, 1);
