@@ -11,7 +11,9 @@
                   time
      >>math       3-vectors in double precision, orthonormal bases, transforms
      >>mesh       the triangle store every shape ends up in; material table
-     >>rng        counter-based random numbers: f(seed, purpose, index, dim)
+     >>rng        counter-based random numbers: f(seed, purpose, index, dim);
+                  Halton points; stratified pixel samples (correlated
+                  multi-jittered, Kensler 2013)
      >>obj        Wavefront OBJ and MTL loader
      >>shapes     generators: sphere, disk, quad, box, cylinder, torus,
                   revolve, heightfield
@@ -33,8 +35,9 @@
      >>metrics    RMSE and SSIM
      >>partial    the exact state of a render or a shard of it: the image
                   from it, merging shards, the partial file
-     >>render     camera (pinhole, thin lens), path tracer and eye pass,
-                  preview, row scheduler
+     >>render     camera (pinhole, thin lens), path tracer and eye pass (the
+                  photon methods' eye chains split at glass), preview,
+                  row scheduler
      >>debug      teaching views: colour bars and a bitmap font, camera
                   projection, the views' per-thread counts, the photon
                   path recorder and the paths OBJ
