@@ -150,7 +150,9 @@ windows-test: windows pds
 	$(WINE_ENV) $(WINE) tests/test_pds.exe
 	$(WINE_ENV) $(WINE) ./pds.exe render scenes/teaching_mirror.scene --caustics-only --quiet -o tests/out/wine-mirror.pfm
 	./pds render scenes/teaching_mirror.scene --caustics-only --quiet -o tests/out/linux-mirror.pfm
-	cmp tests/out/wine-mirror.pfm tests/out/linux-mirror.pfm && echo "windows-test: pds.exe and pds render the same image, bit for bit"
+	tests/pfm_pixels.sh tests/out/wine-mirror.pfm > tests/out/wine-mirror.px
+	tests/pfm_pixels.sh tests/out/linux-mirror.pfm > tests/out/linux-mirror.px
+	cmp tests/out/wine-mirror.px tests/out/linux-mirror.px && echo "windows-test: pds.exe and pds render the same pixels, bit for bit"
 
 # A real scanned mesh for `pds bench rays`: the Stanford bunny as Debian's
 # glmark2-data package ships it (69,666 triangles). It is fetched, not
