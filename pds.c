@@ -16787,19 +16787,7 @@ static void pds__isc_parallel(pds__isc *ctx, long n, long chunk, void (*fn)(pds_
 
 /* --- the eye buffer --------------------------------------------------- */
 
-/* Pixel (x, y) of the camera frame, (0,0) top left: its point, camera
-   coordinates, and back. px, py in pixels. Returns 0 behind the camera. */
-static int pds__isc_project(const pds__camera_frame *f, pds__v3 x, double *px, double *py)
-{
-    pds__v3 v = pds__sub(x, f->origin);
-    double z = pds__dot(v, f->forward), sx, sy;
-    if (!(z > 0.0)) return 0;
-    sx = pds__dot(v, f->right) / z;
-    sy = pds__dot(v, f->up) / z;
-    *px = (sx / (f->tan_half_fov * f->aspect) + 1.0) * 0.5 * f->width;
-    *py = (1.0 - sy / f->tan_half_fov) * 0.5 * f->height;
-    return isfinite(*px) && isfinite(*py);
-}
+/* Points go to pixels by pds__camera_project (>>debug). */
 
 /* Solid angle of pixel (x, y) seen from the camera. */
 static double pds__isc_pixel_omega(const pds__camera_frame *f, int x, int y)
@@ -17056,7 +17044,7 @@ static void pds__isc_to_pixels(pds__isc *ctx, long first, long last)
             if (!ph->path) continue;
             omega = pds__isc_cell_omega(&ctx->view, i, (int)j);
             for (c = 0; c < 3; c++) ph->e[c] = (float)(ph->e[c] * omega);
-            if (!pds__isc_project(&ctx->cam, pds__f3_get(ph->pos), &px, &py)) continue;
+            if (!pds__camera_project(&ctx->cam, pds__f3_get(ph->pos), &px, &py)) continue;
             if (!(px >= 0.0 && py >= 0.0 && px < ctx->w && py < ctx->h)) continue;
             q = (long)py * ctx->w + (long)px;
             if (pds__isc_same_surface(&ctx->px[q], pds__f3_get(ph->pos), pds__f3_get(ph->n))) ctx->ph_pixel[k] = (int)q;
@@ -17287,7 +17275,7 @@ static void pds__isc_to_screen(pds__isc *ctx, long first, long last)
             size_t k = (size_t)j * ctx->res + i;
             double px, py, lim = 268435456.0; /* 2^28: edge products stay below 2^62 */
             ctx->ph_front[k] = 0;
-            if (!ctx->ph[k].path || !pds__isc_project(&ctx->cam, pds__f3_get(ctx->ph[k].pos), &px, &py)) continue;
+            if (!ctx->ph[k].path || !pds__camera_project(&ctx->cam, pds__f3_get(ctx->ph[k].pos), &px, &py)) continue;
             px *= PDS__ISC_SUB;
             py *= PDS__ISC_SUB;
             if (!(fabs(px) < lim && fabs(py) < lim)) continue;
