@@ -107,7 +107,6 @@ static void gi_shadow_compare(pds_test_ctx *t, const char *light, int allow_brig
     CHECK(t, sb.shadow_rays_saved == 0 && sa.shadow_rays_saved > 4 * sa.shadow_rays,
           "%s: saved %ld, traced %ld (without: saved %ld)", light, sa.shadow_rays_saved, sa.shadow_rays,
           sb.shadow_rays_saved);
-    if (allow_brighter) printf("  %s: %d of %d values brighter with shadow photons\n", light, brighter, (int)npx * 3);
     pds_image_free(&a);
     pds_image_free(&b);
 }
