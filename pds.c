@@ -8341,6 +8341,21 @@ static void pds__load_free(pds__load *L)
     pds__names_free(&L->var_index);
 }
 
+/* Point parser P (and its load state L) at the start of text, the
+   outermost file of the scene s. */
+static void pds__parser_begin(pds__parser *P, pds__load *L, const char *file, const char *text, pds_scene *s,
+                              pds_error *err)
+{
+    L->chain[0] = file;
+    P->file = file;
+    P->p = text;
+    P->line = 1;
+    P->col = 1;
+    P->scene = s;
+    P->err = err;
+    P->L = L;
+}
+
 /* Parse scene text src (from path) into s, with the -D overrides of lo (or
    none), and warn about what the scene lacks. */
 static pds_status pds__scene_parse(pds_scene *s, const char *path, const char *src, const pds_load_options *lo,
@@ -8358,16 +8373,9 @@ static pds_status pds__scene_parse(pds_scene *s, const char *path, const char *s
         L.define_used = (unsigned char *)calloc((size_t)L.ndefines, 1);
         if (!L.define_used) return pds__nomem(err);
     }
-    L.chain[0] = path;
+    pds__parser_begin(&P, &L, path, src, s, err);
     L.bytes = strlen(src);
-    P.file = path;
     pds__dirname(path, P.dir, sizeof P.dir);
-    P.p = src;
-    P.line = 1;
-    P.col = 1;
-    P.scene = s;
-    P.err = err;
-    P.L = &L;
     st = pds__parse_text(&P);
     if (st) {
         pds__load_free(&L);
@@ -8560,14 +8568,7 @@ static pds_status pds__studio_parse(pds_scene *s, const char *text, pds_error *e
     pds_status st;
     memset(&P, 0, sizeof P);
     memset(&L, 0, sizeof L);
-    L.chain[0] = "studio";
-    P.file = "studio";
-    P.p = text;
-    P.line = 1;
-    P.col = 1;
-    P.scene = s;
-    P.err = err;
-    P.L = &L;
+    pds__parser_begin(&P, &L, "studio", text, s, err);
     st = pds__parse_text(&P);
     pds__load_free(&L);
     return st;

@@ -8,15 +8,6 @@ static void sl_path(char *out, size_t n, const char *name)
     snprintf(out, n, "/tmp/pds_sl_%ld_%s", (long)getpid(), name);
 }
 
-static int sl_write(const char *path, const char *text)
-{
-    FILE *f = fopen(path, "wb");
-    size_t len = strlen(text);
-    int ok;
-    if (!f) return 0;
-    ok = fwrite(text, 1, len, f) == len;
-    return (fclose(f) == 0) && ok;
-}
 
 /* Load scene text with -D overrides (n of them, "name", "value" pairs). */
 static pds_status sl_load(const char *text, const char *const *kv, int n, pds_scene **s, pds_error *err)
@@ -60,10 +51,10 @@ static void test_scene_include_reads_files_relative_to_the_including_file(pds_te
     snprintf(floor_path, sizeof floor_path, "%s/floor.scene", dir);
     /* main includes parts/mat.scene, which includes ../floor.scene: each
        path is relative to the file that names it */
-    REQUIRE(t, sl_write(main_path, "include \"parts/mat.scene\"\nsphere { material glass radius 0.5 translate 0 1 0 }\n"
+    REQUIRE(t, tobj_write(main_path, "include \"parts/mat.scene\"\nsphere { material glass radius 0.5 translate 0 1 0 }\n"
                                    "light point { position 0 3 0 power 10 }\n") &&
-                   sl_write(mat, "material glass dielectric { ior 1.33 }\ninclude \"../floor.scene\"\n") &&
-                   sl_write(floor_path, "material white diffuse { albedo 0.5 }\nquad { material white size 4 4 }\n"),
+                   tobj_write(mat, "material glass dielectric { ior 1.33 }\ninclude \"../floor.scene\"\n") &&
+                   tobj_write(floor_path, "material white diffuse { albedo 0.5 }\nquad { material white size 4 4 }\n"),
             "cannot write the files");
     REQUIRE(t, pds_scene_load(main_path, &s, &err) == PDS_OK, "%s", err.text);
     REQUIRE(t, pds_scene_load_string("material glass dielectric { ior 1.33 }\n"
@@ -96,13 +87,13 @@ static void test_scene_include_errors_name_the_file_and_where_it_was_included_fr
     {
         char text[512];
         snprintf(text, sizeof text, "# outer\n\n  include \"%s\"\n", strrchr(b, '/') + 1);
-        REQUIRE(t, sl_write(a, text), "write a");
+        REQUIRE(t, tobj_write(a, text), "write a");
         snprintf(text, sizeof text, "quad { size 1 1 }\ninclude %s\n", strrchr(c, '/') + 1);
-        REQUIRE(t, sl_write(b, text), "write b");
+        REQUIRE(t, tobj_write(b, text), "write b");
     }
     /* an error inside the innermost file: its own line and column, then the
        chain of include statements, innermost first */
-    REQUIRE(t, sl_write(c, "material m diffuse {\n  albedo red\n}\n"), "write c");
+    REQUIRE(t, tobj_write(c, "material m diffuse {\n  albedo red\n}\n"), "write c");
     CHECK(t, pds_scene_load(a, &s, &err) == PDS_ERR_PARSE, "bad albedo accepted");
     snprintf(expect, sizeof expect, "%s:2:10: expected a number after 'albedo', got 'red' (included from %s:2:1, from %s:3:3)",
              c, b, a);
@@ -115,7 +106,7 @@ static void test_scene_include_errors_name_the_file_and_where_it_was_included_fr
              b, c, a);
     CHECK(t, !strcmp(err.text, expect), "got      '%s'\n  expected '%s'", err.text, expect);
     /* a near miss of the keyword */
-    REQUIRE(t, sl_write(c, "inclde \"x.scene\"\n"), "write c");
+    REQUIRE(t, tobj_write(c, "inclde \"x.scene\"\n"), "write c");
     CHECK(t, pds_scene_load(a, &s, &err) == PDS_ERR_PARSE, "inclde accepted");
     CHECK(t, strstr(err.text, ":1:1: unknown keyword 'inclde' (did you mean 'include'?) (included from ") != NULL, "got '%s'",
           err.text);
@@ -138,16 +129,16 @@ static void test_scene_include_cycles_and_depth_are_refused(pds_test_ctx *t)
     sl_path(a, sizeof a, "ca.scene");
     sl_path(b, sizeof b, "cb.scene");
     snprintf(text, sizeof text, "include \"%s\"\n", strrchr(b, '/') + 1);
-    REQUIRE(t, sl_write(a, text), "write a");
+    REQUIRE(t, tobj_write(a, text), "write a");
     /* b names a through "./": still the same file */
     snprintf(text, sizeof text, "quad { size 1 1 }\ninclude \"./%s\"\n", strrchr(a, '/') + 1);
-    REQUIRE(t, sl_write(b, text), "write b");
+    REQUIRE(t, tobj_write(b, text), "write b");
     CHECK(t, pds_scene_load(a, &s, &err) == PDS_ERR_PARSE, "cycle accepted");
     snprintf(expect, sizeof expect, "%s:2:9: include cycle: %s -> %s -> %s (included from %s:1:1)", b, a, b, a, a);
     CHECK(t, !strcmp(err.text, expect), "got      '%s'\n  expected '%s'", err.text, expect);
     /* a file that includes itself */
     snprintf(text, sizeof text, "include \"%s\"\n", strrchr(a, '/') + 1);
-    REQUIRE(t, sl_write(a, text), "write a");
+    REQUIRE(t, tobj_write(a, text), "write a");
     CHECK(t, pds_scene_load(a, &s, &err) == PDS_ERR_PARSE, "self-include accepted");
     snprintf(expect, sizeof expect, "%s:1:9: include cycle: %s -> %s", a, a, a);
     CHECK(t, !strcmp(err.text, expect), "got      '%s'\n  expected '%s'", err.text, expect);
@@ -161,7 +152,7 @@ static void test_scene_include_cycles_and_depth_are_refused(pds_test_ctx *t)
         snprintf(name, sizeof name, "deep%d.scene", i + 1);
         sl_path(text, sizeof text, name);
         snprintf(expect, sizeof expect, "include \"%s\"\n", strrchr(text, '/') + 1);
-        REQUIRE(t, sl_write(path, i <= PDS_MAX_INCLUDE_DEPTH ? expect : "quad { size 1 1 }\n"), "write %s", path);
+        REQUIRE(t, tobj_write(path, i <= PDS_MAX_INCLUDE_DEPTH ? expect : "quad { size 1 1 }\n"), "write %s", path);
     }
     sl_path(a, sizeof a, "deep0.scene");
     CHECK(t, pds_scene_load(a, &s, &err) == PDS_ERR_LIMIT && strstr(err.message, "includes nested more than 16 deep") &&
@@ -194,7 +185,7 @@ static void test_scene_include_cycles_and_depth_are_refused(pds_test_ctx *t)
         free(line);
         sl_path(a, sizeof a, "twice.scene");
         snprintf(text, sizeof text, "include \"%s\"\n  include \"%s\"\n", strrchr(b, '/') + 1, strrchr(b, '/') + 1);
-        REQUIRE(t, sl_write(a, text), "write");
+        REQUIRE(t, tobj_write(a, text), "write");
         CHECK(t, pds_scene_load(a, &s, &err) == PDS_ERR_LIMIT &&
                      strstr(err.text, "twice.scene:2:3: the scene and its included files hold more than 67108864 bytes in all"),
               "got '%s'", err.text);
@@ -517,7 +508,7 @@ static void test_obj_escaped_spaces_and_a_partly_missing_mtllib_line(pds_test_ct
     sl_path(b, sizeof b, "b.mtl");
     na = strrchr(a, '/') + 1;
     nb = strrchr(b, '/') + 1;
-    REQUIRE(t, sl_write(a, "newmtl paint\\ red\nKd 1 0 0\n") && sl_write(b, "newmtl blue\nKd 0 0 1\n"), "write mtl");
+    REQUIRE(t, tobj_write(a, "newmtl paint\\ red\nKd 1 0 0\n") && tobj_write(b, "newmtl blue\nKd 0 0 1\n"), "write mtl");
     /* "pds_sl_PID_my lib.mtl" written with its space escaped */
     snprintf(text, sizeof text,
              "mtllib %.*s\\ lib.mtl absent.mtl %s\n"
@@ -525,7 +516,7 @@ static void test_obj_escaped_spaces_and_a_partly_missing_mtllib_line(pds_test_ct
              "usemtl paint\\ red\nf 1//1 2//1 3//1\n"
              "usemtl blue\nf 1//1 2//1 3//7\n",
              (int)(strchr(na, ' ') - na), na, nb);
-    REQUIRE(t, sl_write(obj, text), "write obj");
+    REQUIRE(t, tobj_write(obj, text), "write obj");
     REQUIRE(t, pds_scene_load_ex(obj, NULL, &s, &err) == PDS_OK, "%s", err.text);
     CHECK(t, !strcmp(s->materials.items[s->mesh.mat[0]].name, "paint red") &&
                  s->materials.items[s->mesh.mat[0]].albedo[0] == 1.0,
@@ -555,7 +546,7 @@ static void test_cli_defines_and_obj_material_reach_the_scene(pds_test_ctx *t)
     sl_path(scene, sizeof scene, "cli.scene");
     sl_path(obj, sizeof obj, "cli.obj");
     sl_path(out, sizeof out, "cli.pfm");
-    REQUIRE(t, sl_write(scene, sl_var_scene) && sl_write_sphere_obj(obj, 1.0, 0.0, NULL), "write");
+    REQUIRE(t, tobj_write(scene, sl_var_scene) && sl_write_sphere_obj(obj, 1.0, 0.0, NULL), "write");
     snprintf(args, sizeof args, "info %s -D power=7 -Dior=1.25 --define height=3", scene);
     CHECK(t, cli_run(args, buf, sizeof buf) == 0 && strstr(buf, "power (7, 7, 7) W") && strstr(buf, "ior 1.25") &&
                  strstr(buf, "bounds=-0.5,2.5,-0.5:0.5,3.5,0.5"),
