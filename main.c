@@ -58,7 +58,8 @@
 #define X_OK 0 /* _access knows no execute bit: 0 checks existence */
 #endif
 #define STDERR_FILENO 2
-#ifdef _MSC_VER
+#if defined(_MSC_VER) && !defined(_SSIZE_T_DEFINED)
+#define _SSIZE_T_DEFINED /* MSVC's C runtime has no ssize_t (MinGW-w64's has) */
 typedef long ssize_t;
 #endif
 #else
