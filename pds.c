@@ -13242,9 +13242,12 @@ static int pds__run_threads(int n, void *(*fn)(void *), void *arg)
    splat term, and everything else happens after the render.
 
    Pictures are linear RGB in [0, 1]. Points in the scene are projected
-   straight through the pinhole camera (>>render's camera_dir inverted),
-   ignoring occlusion and any specular surface on the way: a landing point
-   under a glass sphere is drawn where it would be seen without the glass.
+   straight through the pinhole camera (>>render's camera_dir inverted)
+   and drawn only where the camera sees them: when the straight segment
+   from the camera to the point meets no opaque surface first
+   (pds__camera_sees). Glass is looked through, refraction ignored: a
+   landing point under a glass sphere is drawn where it would be seen
+   without the glass; one under a table or behind a mirror is not drawn.
    Counts are exact integers, summed per thread and merged, so every view
    is the same for any thread count. */
 
@@ -13374,6 +13377,34 @@ static long pds__camera_pixel(const pds__camera_frame *f, pds__v3 p)
     return (long)floor(py) * f->width + (long)floor(px);
 }
 
+/* Does the camera at f see scene point p? Yes when the segment from the
+   camera to p meets no surface before p but dielectric ones (glass is
+   looked through; refraction is ignored, as in the projection). The
+   segment stops 1e-4 of its length short of p, so that the surface p lies
+   on does not hide it. A point on the back of a single, open surface
+   (a quad seen from the other side) counts as seen. Deterministic: at
+   most 64 glass surfaces are passed, after that p counts as hidden. */
+static int pds__camera_sees(const pds_scene *s, const pds__camera_frame *f, pds__v3 p)
+{
+    pds__v3 d = pds__sub(p, f->origin);
+    double tmin = 0.0;
+    int k;
+    for (k = 0; k < 64; k++) {
+        pds__tri_hit hit;
+        if (!pds__bvh_intersect(&s->bvh, f->origin, d, tmin, 1.0 - 1e-4, &hit)) return 1;
+        if (s->materials.items[s->mesh.mat[hit.tri]].type != PDS_MAT_DIELECTRIC) return 0;
+        tmin = hit.t + 1e-9; /* on past this glass surface (t in units of |d|) */
+    }
+    return 0;
+}
+
+/* Pixel index of p when the camera sees it (pds__camera_sees), else -1. */
+static long pds__camera_pixel_seen(const pds_scene *s, const pds__camera_frame *f, pds__v3 p)
+{
+    long px = pds__camera_pixel(f, p);
+    return px >= 0 && pds__camera_sees(s, f, p) ? px : -1;
+}
+
 /* --- per-thread buffers of the views fed by the splats ------------------- */
 
 /* A footprint to draw: photon number, centre, conjugate semi-diameters. */
@@ -13383,6 +13414,7 @@ typedef struct pds__ellipse {
 } pds__ellipse;
 
 typedef struct pds__debug_buf {
+    const pds_scene *scene; /* for what the camera sees */
     pds__sum128 *aniso;     /* footprint: 2 per pixel, sum K m_a and sum K, x 2^64 */
     uint64_t *splats;       /* splats: terms per pixel */
     uint64_t *landings;     /* landings: photons per pixel */
@@ -13405,17 +13437,19 @@ static void pds__debug_visit(pds__debug_buf *d, int pixel, double k, double m_a)
 }
 
 /* Photon number `photon` landed at p with the footprint (du, dv) it is
-   splatted with. */
+   splatted with. It counts, and its ellipse is drawn, only when the
+   camera sees p. */
 static void pds__debug_landing(pds__debug_buf *d, const pds__camera_frame *f, long photon, pds__v3 p, pds__v3 du,
                                pds__v3 dv)
 {
-    long px = pds__camera_pixel(f, p);
+    long px = pds__camera_pixel_seen(d->scene, f, p);
     d->landed++;
     if (px >= 0) {
         d->landed_in_frame++;
         if (d->landings) d->landings[px]++;
     }
-    if (d->ellipse_every > 0 && photon % d->ellipse_every == 0) {
+    /* an ellipse whose centre is out of frame may still reach into it */
+    if (d->ellipse_every > 0 && photon % d->ellipse_every == 0 && pds__camera_sees(d->scene, f, p)) {
         pds__ellipse *e;
         if (pds__grow((void **)&d->ell, &d->cap_ell, d->nell + 1, sizeof *d->ell)) {
             d->out_of_memory = 1;
@@ -13565,11 +13599,13 @@ static int pds__debug_wants(const pds_debug *d, pds_debug_view v)
 }
 
 /* Allocate the threads' buffers for the views d asks of a photon pass of
-   method m (w x h pixels). Returns 0 when memory runs out. */
-static int pds__debug_bufs_init(pds__debug_buf *b, const pds_debug *d, pds_method m, long photons, size_t npix)
+   method m (w x h pixels) in scene s. Returns 0 when memory runs out. */
+static int pds__debug_bufs_init(pds__debug_buf *b, const pds_scene *s, const pds_debug *d, pds_method m, long photons,
+                                size_t npix)
 {
     int splats = m == PDS_METHOD_PDS || m == PDS_METHOD_SPLAT;
     memset(b, 0, sizeof *b);
+    b->scene = s;
     if (m == PDS_METHOD_PDS && pds__debug_wants(d, PDS_DEBUG_FOOTPRINT))
         if (!(b->aniso = (pds__sum128 *)calloc(npix * 2, sizeof *b->aniso))) return 0;
     if (splats && pds__debug_wants(d, PDS_DEBUG_SPLATS))
@@ -13689,16 +13725,17 @@ static pds_status pds__debug_finish(pds_debug *d, pds__debug_buf *b, int nb, int
     return PDS_OK;
 }
 
-/* The eye-path view: every eye vertex projected into the camera. */
-static pds_status pds__debug_eye(pds_debug *d, const pds__camera_frame *f, const pds__eye_vertex *v, size_t nv,
-                                 int w, int h)
+/* The eye-path view: every eye vertex the camera sees (pds__camera_sees),
+   projected into the camera. */
+static pds_status pds__debug_eye(pds_debug *d, const pds_scene *s, const pds__camera_frame *f,
+                                 const pds__eye_vertex *v, size_t nv, int w, int h)
 {
     pds_image *val = &d->value[PDS_DEBUG_EYE];
     size_t i;
     if (pds_image_alloc(val, w, h) != PDS_OK) return PDS_ERR_NOMEM;
     d->eye_vertices_in_frame = 0;
     for (i = 0; i < nv; i++) {
-        long px = pds__camera_pixel(f, pds__f3_get(v[i].pos));
+        long px = pds__camera_pixel_seen(s, f, pds__f3_get(v[i].pos));
         if (px < 0) continue;
         d->eye_vertices_in_frame++;
         val->rgb[3 * px] += 1.0f;
@@ -15512,7 +15549,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         if (!job.bufs[t].sum || (job.spectral && !job.bufs[t].neg)) st = PDS_ERR_NOMEM;
         if (dbg) {
             job.bufs[t].dbg = &dbg[t];
-            if (!pds__debug_bufs_init(&dbg[t], debug, opt->method, opt->photons, npix)) st = PDS_ERR_NOMEM;
+            if (!pds__debug_bufs_init(&dbg[t], s, debug, opt->method, opt->photons, npix)) st = PDS_ERR_NOMEM;
         }
         if (paths) {
             job.bufs[t].path = &paths[t];
@@ -15679,7 +15716,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             free(all);
         }
         if (!st && pds__debug_wants(debug, PDS_DEBUG_EYE) &&
-            pds__debug_eye(debug, &job.frame, vertices, nvertices, width, height))
+            pds__debug_eye(debug, s, &job.frame, vertices, nvertices, width, height))
             st = PDS_ERR_NOMEM;
         if (stats) {
             if (opt->method != PDS_METHOD_PPM) stats->photons = emitted;

@@ -625,7 +625,10 @@ void pds_options_default(pds_options *opt);
 /* What the method did, as pictures (pds_options.debug; `pds render --debug
    NAME`). Each view has a raw value image (width x height: the numbers)
    and a picture (width x (height + PDS_DEBUG_LEGEND_ROWS): the numbers as
-   colours, with a colour bar and its scale drawn in the strip below). */
+   colours, with a colour bar and its scale drawn in the strip below).
+   Points are drawn only where the camera sees them: no opaque surface on
+   the straight segment from the camera to the point (glass is looked
+   through, refraction ignored). */
 typedef enum pds_debug_view {
     PDS_DEBUG_FOOTPRINT = 0, /* pds: footprint anisotropy m_a (paper appendix B)
                                 per pixel, the mean over the splats weighted by
@@ -633,18 +636,19 @@ typedef enum pds_debug_view {
                                 (red = needle, green = round), b = the kernel
                                 weight; black where no photon splatted */
     PDS_DEBUG_LANDINGS,      /* pds, splat: photons landed per pixel (each
-                                landing point projected straight into the
-                                camera, occlusion ignored) */
+                                landing point the camera sees, projected
+                                straight into the camera) */
     PDS_DEBUG_ELLIPSES,      /* pds: the footprint ellipses of every
-                                ellipse_every-th photon (after any widening),
-                                projected straight into the camera and drawn
+                                ellipse_every-th photon (after any widening)
+                                whose centre the camera sees, projected
+                                straight into the camera and drawn
                                 in yellow over the tone-mapped render; value:
                                 the ellipses drawn through each pixel */
     PDS_DEBUG_SPLATS,        /* pds, splat: eye vertices each pixel's kernels
                                 reached (splat terms added to the pixel) */
     PDS_DEBUG_EYE,           /* photon methods: the eye-path map, every eye
-                                vertex projected straight into the camera,
-                                vertices per pixel */
+                                vertex the camera sees projected straight
+                                into the camera, vertices per pixel */
     PDS_DEBUG_PATHS,         /* photon methods: photons 0..path_photons-1 as
                                 OBJ polylines (paths_obj), emission to landing */
     PDS_DEBUG_VIEWS
@@ -663,9 +667,9 @@ typedef struct pds_debug {
     double scale_max[PDS_DEBUG_VIEWS];  /* value at the colour bar's right end */
     char *paths_obj;      /* the paths as OBJ text (NUL-terminated) */
     long landings;        /* photons splatted (= stats splatted for pds, splat) */
-    long landings_in_frame; /* of those, projected inside the image */
+    long landings_in_frame; /* of those, seen: inside the image, not hidden */
     long ellipses;        /* ellipses drawn */
-    long eye_vertices_in_frame; /* eye vertices projected inside the image */
+    long eye_vertices_in_frame; /* eye vertices seen: inside the image, not hidden */
     long paths, path_segments;  /* photon paths and their segments in paths_obj */
 } pds_debug;
 

@@ -3,10 +3,10 @@
    OBJ is read back by the OBJ loader, and `pds trace-photon`'s
    differentials agree with finite differences of neighbouring photons. */
 
-/* Render mirror_scene (tests/test_pds.c: a point light, a vertical plane
-   mirror, a camera looking straight down at the floor) with the paper's
-   PDS and the debug views in `views`. */
-static int teach_render(unsigned views, int threads, pds_image *img, pds_render_stats *st, pds_debug *dbg)
+/* Render scene text with the paper's PDS (caustics only, 5000 photons)
+   and the debug views in `views`. */
+static int teach_render_text(const char *text, unsigned views, int threads, pds_image *img, pds_render_stats *st,
+                             pds_debug *dbg)
 {
     pds_options opt;
     pds_options_default(&opt);
@@ -21,7 +21,14 @@ static int teach_render(unsigned views, int threads, pds_image *img, pds_render_
     opt.paths = PDS_PATHS_CAUSTICS_ONLY;
     opt.threads = threads;
     opt.debug = dbg;
-    return render_text(mirror_scene, &opt, img, st);
+    return render_text(text, &opt, img, st);
+}
+
+/* Render mirror_scene (tests/test_pds.c: a point light, a vertical plane
+   mirror, a camera looking straight down at the floor) so. */
+static int teach_render(unsigned views, int threads, pds_image *img, pds_render_stats *st, pds_debug *dbg)
+{
+    return teach_render_text(mirror_scene, views, threads, img, st, dbg);
 }
 
 static double teach_sum(const pds_image *v)
@@ -131,6 +138,127 @@ static void test_debug_ellipses_are_drawn_where_counted(pds_test_ctx *t)
         drawn += yellow;
     }
     CHECK(t, wrong == 0 && drawn > 10, "%lu pixels disagree, %lu drawn", (unsigned long)wrong, (unsigned long)drawn);
+    pds_image_free(&img);
+    pds_debug_free(&dbg);
+}
+
+/* What the camera sees, on a floor under an opaque box and a glass box:
+   a point hidden by the opaque box is not seen, one behind the glass is
+   (glass is looked through), and so are points in the open and on the
+   opaque box's own top; its bottom is hidden by its top. */
+static void test_debug_camera_sees_through_glass_but_not_through_walls(pds_test_ctx *t)
+{
+    static const char text[] =
+        "camera { position 0 2 0.000001 look_at 0 0 0 up 0 0 -1 fov 90 resolution 8 8 }\n"
+        "material white diffuse { albedo 0.5 }\n"
+        "material glass dielectric { ior 1.5 }\n"
+        "quad { material white size 8 8 }\n"
+        "box { material white size 0.4 translate -0.5 1 0 }\n"
+        "box { material glass size 0.4 translate 0.5 1 0 }\n"
+        "light point { position 0 3 0 power 10 }\n";
+    pds_error err;
+    pds_scene *s = scene_from_text(text, &err);
+    pds__camera_frame f;
+    REQUIRE(t, s != NULL, "scene: %s", err.text);
+    f = pds__camera_setup(&s->camera, 8, 8);
+    /* the floor points on the lines from the camera through the boxes' centres */
+    CHECK(t, !pds__camera_sees(s, &f, pds__v(-1.0, 0.0, 0.0)), "floor behind the opaque box is seen");
+    CHECK(t, pds__camera_sees(s, &f, pds__v(1.0, 0.0, 0.0)), "floor behind the glass box is hidden");
+    CHECK(t, pds__camera_sees(s, &f, pds__v(0.0, 0.0, 0.5)), "floor in the open is hidden");
+    CHECK(t, pds__camera_sees(s, &f, pds__v(-0.5, 1.2, 0.0)), "the opaque box's top is hidden");
+    CHECK(t, !pds__camera_sees(s, &f, pds__v(-0.5, 0.8, 0.0)), "the opaque box's bottom is seen");
+    CHECK(t, pds__camera_pixel_seen(s, &f, pds__v(-1.0, 0.0, 0.0)) == -1 &&
+                 pds__camera_pixel_seen(s, &f, pds__v(0.0, 0.0, 0.5)) == pds__camera_pixel(&f, pds__v(0.0, 0.0, 0.5)) &&
+                 pds__camera_pixel(&f, pds__v(0.0, 0.0, 0.5)) >= 0,
+          "pixels of what is seen");
+    pds_scene_free(s);
+}
+
+/* mirror_scene with an opaque slab between the camera (y = 2) and the
+   light (y = 1) over the left half of the view (x < 0; columns 0-11). It
+   hides that half of the floor but is in no photon's way to the floor:
+   the mirror (x = 1) sends light down from below y = 1. The photons that
+   land there in the open are not drawn behind the slab; columns 13-23
+   have the open scene's landings, photon for photon (column 12 is the
+   slab's side x = 0, seen edge on, where photons the mirror sends up may
+   land). Ellipses are drawn only for centres the camera sees: fewer. */
+static void test_debug_landings_behind_an_occluder_are_not_drawn(pds_test_ctx *t)
+{
+    static const char hidden_scene[] =
+        "camera { position 0 2 0.000001 look_at 0 0 0 up 0 0 -1 fov 30 resolution 24 24 spp 16 }\n"
+        "material floor diffuse { albedo 0.5 }\n"
+        "material glass mirror { reflectance 0.9 }\n"
+        "quad { material floor size 8 8 }\n"
+        "quad { material glass size 3 3 rotate 90 0 0 1 translate 1 1.5 0 }\n"
+        "light point { position 0 1 0 power 100 }\n"
+        "box { material floor size 0.6 0.1 1.4 translate -0.3 1.8 0 }\n";
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    pds_debug open, hid;
+    unsigned views = (1u << PDS_DEBUG_LANDINGS) | (1u << PDS_DEBUG_ELLIPSES);
+    const pds_image *lo = &open.value[PDS_DEBUG_LANDINGS], *lh = &hid.value[PDS_DEBUG_LANDINGS];
+    double left_open = 0.0, left_hidden = 0.0, right = 0.0;
+    long right_differs = 0;
+    int x, y;
+    REQUIRE(t, teach_render(views, 2, &a, NULL, &open), "open render");
+    REQUIRE(t, teach_render_text(hidden_scene, views, 2, &b, NULL, &hid), "render behind the slab");
+    for (y = 0; y < 24; y++)
+        for (x = 0; x < 24; x++) {
+            size_t i = 3 * ((size_t)y * 24 + x);
+            if (x < 12) {
+                left_open += lo->rgb[i];
+                left_hidden += lh->rgb[i];
+            } else if (x > 12) {
+                right += lh->rgb[i];
+                right_differs += lh->rgb[i] != lo->rgb[i];
+            }
+        }
+    CHECK(t, left_open > 5.0, "open: %g landings in the left half (nothing to hide)", left_open);
+    CHECK(t, left_hidden == 0.0, "%g landings drawn behind the slab", left_hidden);
+    CHECK(t, right > 10.0 && right_differs == 0, "right half: %g landings, %ld pixels differ from the open scene's",
+          right, right_differs);
+    CHECK(t, teach_sum(lh) == (double)hid.landings_in_frame && hid.landings_in_frame < open.landings_in_frame,
+          "seen: %ld behind the slab, %ld in the open", hid.landings_in_frame, open.landings_in_frame);
+    CHECK(t, hid.ellipses > 0 && hid.ellipses < open.ellipses, "ellipses: %ld behind the slab, %ld in the open",
+          hid.ellipses, open.ellipses);
+    pds_image_free(&a);
+    pds_image_free(&b);
+    pds_debug_free(&open);
+    pds_debug_free(&hid);
+}
+
+/* The eye view draws only eye vertices the camera sees. A mirror tilted
+   45 degrees under the camera (pixels 10-13) sends the camera's rays
+   sideways to a wall at x = 0.9, which an opaque slab at y = 1.5 hides
+   from the camera (it fills columns 20-23, where those wall vertices
+   would project). Every other pixel sees its own surface: 16 vertices
+   (spp) each, never more; the mirror's pixels have none. */
+static void test_debug_eye_view_leaves_out_vertices_the_camera_cannot_see(pds_test_ctx *t)
+{
+    static const char text[] =
+        "camera { position 0 2 0.000001 look_at 0 0 0 up 0 0 -1 fov 90 resolution 24 24 spp 16 }\n"
+        "material white diffuse { albedo 0.5 }\n"
+        "material silver mirror { reflectance 0.9 }\n"
+        "quad { material white size 8 8 }\n"
+        "quad { material silver size 0.4 0.4 rotate -45 0 0 1 translate 0 1 0 }\n"
+        "quad { material white size 2 2 rotate 90 0 0 1 translate 0.9 1 0 }\n"
+        "quad { material white size 0.58 1.6 translate 0.59 1.5 0 }\n"
+        "light point { position -0.5 1.9 0 power 10 }\n";
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    pds_debug dbg;
+    const pds_image *eye = &dbg.value[PDS_DEBUG_EYE];
+    size_t i;
+    long over = 0;
+    REQUIRE(t, teach_render_text(text, 1u << PDS_DEBUG_EYE, 2, &img, &st, &dbg), "render");
+    REQUIRE(t, eye->width == 24 && eye->height == 24, "eye image %dx%d", eye->width, eye->height);
+    for (i = 0; i < 24 * 24; i++) over += eye->rgb[3 * i] > 16.0f;
+    CHECK(t, over == 0, "%ld pixels with more vertices than samples (hidden ones drawn)", over);
+    CHECK(t, eye->rgb[0] == 16.0f && eye->rgb[3 * (12 * 24 + 22)] == 16.0f, "floor %g, slab %g vertices",
+          eye->rgb[0], eye->rgb[3 * (12 * 24 + 22)]);
+    CHECK(t, eye->rgb[3 * (11 * 24 + 11)] == 0.0f && eye->rgb[3 * (12 * 24 + 12)] == 0.0f,
+          "the mirror's pixels hold %g and %g vertices", eye->rgb[3 * (11 * 24 + 11)], eye->rgb[3 * (12 * 24 + 12)]);
+    CHECK(t, teach_sum(eye) == (double)dbg.eye_vertices_in_frame && dbg.eye_vertices_in_frame < st.eye_vertices,
+          "seen %ld of %ld", dbg.eye_vertices_in_frame, st.eye_vertices);
     pds_image_free(&img);
     pds_debug_free(&dbg);
 }
@@ -318,6 +446,10 @@ static const pds_test_case tests_teach[] = {
     {"debug_views_are_identical_for_any_thread_count", test_debug_views_are_identical_for_any_thread_count},
     {"debug_eye_view_puts_spp_vertices_in_each_pixel", test_debug_eye_view_puts_spp_vertices_in_each_pixel},
     {"debug_ellipses_are_drawn_where_counted", test_debug_ellipses_are_drawn_where_counted},
+    {"debug_camera_sees_through_glass_but_not_through_walls", test_debug_camera_sees_through_glass_but_not_through_walls},
+    {"debug_landings_behind_an_occluder_are_not_drawn", test_debug_landings_behind_an_occluder_are_not_drawn},
+    {"debug_eye_view_leaves_out_vertices_the_camera_cannot_see",
+     test_debug_eye_view_leaves_out_vertices_the_camera_cannot_see},
     {"debug_paths_obj_reads_back_with_its_segment_count", test_debug_paths_obj_reads_back_with_its_segment_count},
     {"trace_photon_differentials_match_finite_differences", test_trace_photon_differentials_match_finite_differences},
 #ifdef PDS_TEST_POSIX
