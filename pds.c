@@ -3,7 +3,8 @@
    command line, and the papers cited section by section.
 
    Table of contents (grep for the tag); each section uses only those
-   above it:
+   above it. "not in PDS_NO_X": the switch X (>>config) leaves it out;
+   -DPDS_CORE, the small core, leaves out all of those but MTL:
      >>config     feature macros, includes, limits
      >>util       status strings, error reporting, growable arrays, the
                   system layer (threads, clock, files: POSIX or Win32),
@@ -14,7 +15,7 @@
      >>rng        counter-based random numbers: f(seed, purpose, index, dim);
                   Halton points; stratified pixel samples (correlated
                   multi-jittered, Kensler 2013)
-     >>obj        Wavefront OBJ and MTL loader
+     >>obj        Wavefront OBJ and MTL loader (MTL not in PDS_NO_MTL)
      >>shapes     generators: sphere, disk, quad, box, cylinder, torus,
                   revolve, heightfield
      >>bvh        binned-SAH BVH, watertight triangle test, traversal
@@ -23,7 +24,8 @@
                   (Wyman et al. 2013) -> XYZ -> sRGB, dispersive materials
      >>lights     light selection, next-event sampling, photon emission;
                   the environment light (constant, CIE clear sky, sun)
-     >>kdtree     balanced kd-tree: range and k-nearest queries (eye-path map)
+     >>kdtree     balanced kd-tree (eye-path map): the splats' ellipse query;
+                  range and k-nearest queries (not in PDS_CORE)
      >>scene      the pds_scene value and its text format parser, with
                   include and variables (define, $NAME, -D); a bare OBJ
                   in its studio
@@ -32,6 +34,7 @@
      >>image      PFM read/write (with a metadata trailer), PNG write (tEXt
                   metadata, tone curves: clamp, Reinhard 2002, Narkowicz's
                   ACES fit), OpenEXR write and read (deflate, inflate)
+                  (PNG and OpenEXR not in PDS_NO_PNG)
      >>metrics    RMSE and SSIM
      >>partial    the exact state of a render or a shard of it: the image
                   from it, merging shards, the partial file
@@ -39,24 +42,27 @@
                   photon methods' eye chains split at glass), preview,
                   row scheduler
      >>debug      teaching views: colour bars and a bitmap font, camera
-                  projection, the views' per-thread counts, the photon
-                  path recorder and the paths OBJ
+                  projection and what the camera sees, the views'
+                  per-thread counts, the photon path recorder and the
+                  paths OBJ
      >>pds        photon differential splatting: aimed caustic photons,
                   tracing with differentials, splatting into the eye-path map
-     >>baselines  pm, pdm, splat, ppm
+     >>baselines  pm, pdm, splat, ppm (not in PDS_NO_BASELINES)
      >>streams    streamed photon mapping (spm): streams of a leading photon
                   and associated photons, concentrated at specular surfaces,
-                  gathered stream by stream (eqs. 1-2)
+                  gathered stream by stream (eqs. 1-2) (not in
+                  PDS_NO_BASELINES)
      >>photonpass the photon pass all photon methods share: time planning,
                   tracing threads, gathers, the caustic image
      >>gi         Jensen's two-pass global illumination: global photon map,
                   shadow photons, importance-sampled final gather, caustics
-                  from any caustic method
+                  from any caustic method (not in PDS_NO_GI)
      >>isc        image-space caustics (Wyman and Davis 2006): light-space
                   photon buffer, points, quads, eye- and light-space
-                  gathers, temporal filter, animation frames
+                  gathers, temporal filter, animation frames (not in
+                  PDS_NO_ISC)
      >>api        public entry points: render, options, teaching views,
-                  trace-photon, benchmarks
+                  trace-photon, benchmarks (not in PDS_NO_BENCH)
 */
 
 /* ===================================================================== */
@@ -71,13 +77,17 @@
 #define _POSIX_C_SOURCE 200809L
 #endif
 
-/* The small core (README "A small core"): -DPDS_CORE leaves out the
-   first three extras below; each can also be left out alone. What stays
-   is the method: scenes, OBJ geometry, BVH, materials, lights, the eye
-   pass and path tracer, photon differentials, splatting, PFM images,
-   metrics and the teaching views.
-     PDS_NO_PNG        the PNG writer and its deflate coder (write .pfm)
-     PDS_NO_BASELINES  pm, pdm, splat, ppm and spm (pds, pt, gi and isc stay)
+/* The small core (README "A small core"): -DPDS_CORE leaves out every
+   extra below but the MTL libraries; each can also be left out alone.
+   What stays is the method: scenes, OBJ geometry, BVH, materials,
+   lights, the eye pass and path tracer, photon differentials, splatting,
+   PFM images, metrics and the teaching views. What is left out refuses
+   at run time with a message that names its switch.
+     PDS_NO_PNG        the PNG and OpenEXR writers, the OpenEXR reader
+                       and their deflate coder (write .pfm)
+     PDS_NO_BASELINES  pm, pdm, splat, ppm and spm (pds, pt stay)
+     PDS_NO_GI         Jensen's two-pass global illumination (>>gi)
+     PDS_NO_ISC        image-space caustics and animation frames (>>isc)
      PDS_NO_BENCH      pds_bench_* (they return PDS_ERR_INVALID_ARG)
      PDS_NO_MTL        MTL material libraries (OBJ faces get the default
                        material) */
@@ -85,6 +95,8 @@
 #define PDS_NO_PNG 1
 #define PDS_NO_BASELINES 1
 #define PDS_NO_BENCH 1
+#define PDS_NO_GI 1
+#define PDS_NO_ISC 1
 #endif
 
 #include "pds.h"
@@ -6365,6 +6377,7 @@ static int pds__kd_query_ok(pds__v3 c)
     return c.x == c.x && c.y == c.y && c.z == c.z;
 }
 
+#if !defined(PDS_NO_BASELINES) || !defined(PDS_NO_GI) || !defined(PDS_NO_BENCH) || defined(PDS_TEST)
 /* A node waiting on a query's stack: its median slot m and its far
    child's slot range [lo, hi), with o[] the far cell's offsets (per
    axis, the signed distance from the query to the nearest split plane
@@ -6473,6 +6486,7 @@ static void pds__kdtree_range(const pds__kdtree *kd, pds__v3 c, double r, pds__k
         oz = stk[sp].o[2];
     }
 }
+#endif
 
 /* The splat's query: every point x within r of c whose offset d = x - c
    lies in the slab |n . d| <= tol and in the elliptic cylinder
@@ -6583,6 +6597,7 @@ static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r
     }
 }
 
+#if !defined(PDS_NO_BASELINES) || !defined(PDS_NO_GI) || !defined(PDS_NO_BENCH) || defined(PDS_TEST)
 /* Heap order on (dist2, index): 1 if a ranks after b. Written with &
    and | so that it compiles to flag arithmetic, not two branches: the
    outcome is unpredictable, so branches would mostly mispredict. */
@@ -6726,6 +6741,7 @@ static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double
     }
     return cnt;
 }
+#endif
 
 /* ===================================================================== */
 /* >>scene                                                               */
@@ -15758,6 +15774,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     return st;
 }
 
+#ifndef PDS_NO_GI
 /* ===================================================================== */
 /* >>gi                                                                  */
 /* ===================================================================== */
@@ -16520,7 +16537,33 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
     }
     return 0;
 }
+#else /* PDS_NO_GI */
+/* This build leaves gi out: pds__options_check refuses the method. What
+   >>api names of it stays, inert, so that >>api reads the same in every
+   build; none of it is reached. */
+#define PDS__GI_MAX_STORES 8
+#define PDS__GI_MAX_SHADOW 4
+#define PDS__GI_MAX_K 1000
+typedef struct pds__gi_photon { float unused; } pds__gi_photon;
+typedef struct pds__gi_shadow_photon { float unused; } pds__gi_shadow_photon;
+typedef struct pds__gi_map { int record_only; size_t n, ns; } pds__gi_map;
+static void pds__gi_map_free(pds__gi_map *g) { (void)g; }
+static size_t pds__gi_map_bytes(const pds__gi_map *g) { (void)g; return 0; }
+static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pds_options *opt, int threads,
+                                    pds_error *err)
+{
+    (void)g, (void)s, (void)opt, (void)threads;
+    return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "this build leaves gi out (PDS_NO_GI)");
+}
+static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double acc[3],
+                        pds__eye_vertex *rec, long counts[4], int values)
+{
+    (void)ctx, (void)tr, (void)org, (void)dir, (void)idx, (void)acc, (void)rec, (void)counts, (void)values;
+    return 0;
+}
+#endif /* PDS_NO_GI */
 
+#ifndef PDS_NO_ISC
 /* ===================================================================== */
 /* >>isc                                                                 */
 /* ===================================================================== */
@@ -17767,6 +17810,23 @@ static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, in
     else pds_image_free(&img);
     return st;
 }
+#else /* PDS_NO_ISC */
+/* This build leaves isc out: pds__options_check refuses the method, and
+   so pds_render_frames. What >>api names of it stays, inert. */
+#define PDS__ISC_MAX_HISTORY 64
+static double pds__isc_memory(const pds_options *opt, double npix)
+{
+    (void)opt, (void)npix;
+    return 0.0;
+}
+static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, int w, int h, int threads, int frames,
+                                  pds_frame_fn fn, void *user, pds_image *last, pds_render_stats *stats,
+                                  pds_error *err)
+{
+    (void)s, (void)opt, (void)w, (void)h, (void)threads, (void)frames, (void)fn, (void)user, (void)last, (void)stats;
+    return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "this build leaves isc out (PDS_NO_ISC)");
+}
+#endif /* PDS_NO_ISC */
 
 /* ===================================================================== */
 /* >>api                                                                 */
@@ -18129,6 +18189,14 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         opt->method == PDS_METHOD_PPM || opt->method == PDS_METHOD_SPM)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "this build leaves the baselines out (PDS_NO_BASELINES): "
                          "method %s is not in it", pds_method_name(opt->method));
+#endif
+#ifdef PDS_NO_GI
+    if (opt->method == PDS_METHOD_GI)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "this build leaves gi out (PDS_NO_GI)");
+#endif
+#ifdef PDS_NO_ISC
+    if (opt->method == PDS_METHOD_ISC)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "this build leaves isc out (PDS_NO_ISC)");
 #endif
     if (opt->debug) {
         if (opt->debug->views >= (1u << PDS_DEBUG_VIEWS))

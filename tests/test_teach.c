@@ -437,10 +437,51 @@ static void test_core_refuses_spm(pds_test_ctx *t)
 }
 #endif
 
+#if defined(PDS_NO_GI) && defined(PDS_NO_ISC)
+/* The small core leaves gi and isc out and says so, before any work and
+   without an image; isc's animation frames too. */
+static pds_status teach_count_frame(void *user, int frame, const pds_image *img, pds_error *err)
+{
+    (void)frame, (void)img, (void)err;
+    (*(int *)user)++;
+    return PDS_OK;
+}
+
+static void test_core_refuses_gi_and_isc(pds_test_ctx *t)
+{
+    pds_options opt;
+    pds_error err;
+    pds_image img = {0, 0, NULL};
+    pds_render_estimate est;
+    pds_scene *s = scene_from_text(mirror_scene, &err);
+    int frames = 0;
+    REQUIRE(t, s != NULL, "scene: %s", err.text);
+    pds_options_default(&opt);
+    opt.method = PDS_METHOD_GI;
+    CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_ERR_INVALID_ARG &&
+                 strcmp(err.text, "this build leaves gi out (PDS_NO_GI)") == 0 && img.rgb == NULL,
+          "gi: %s", err.text);
+    CHECK(t, pds_render_estimate_get(s, &opt, &est, &err) == PDS_ERR_INVALID_ARG && strstr(err.text, "PDS_NO_GI"),
+          "gi estimate: %s", err.text);
+    opt.method = PDS_METHOD_ISC;
+    CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_ERR_INVALID_ARG &&
+                 strcmp(err.text, "this build leaves isc out (PDS_NO_ISC)") == 0 && img.rgb == NULL,
+          "isc: %s", err.text);
+    CHECK(t, pds_render_frames(s, &opt, 2, teach_count_frame, &frames, NULL, &err) == PDS_ERR_INVALID_ARG &&
+                 strstr(err.text, "PDS_NO_ISC") && frames == 0,
+          "isc frames: %s (%d frames)", err.text, frames);
+    pds_image_free(&img);
+    pds_scene_free(s);
+}
+#endif
+
 static const pds_test_case tests_teach[] = {
     {"debug_views_ride_along_a_spectral_render", test_debug_views_ride_along_a_spectral_render},
 #ifdef PDS_NO_BASELINES
     {"core_refuses_spm", test_core_refuses_spm},
+#endif
+#if defined(PDS_NO_GI) && defined(PDS_NO_ISC)
+    {"core_refuses_gi_and_isc", test_core_refuses_gi_and_isc},
 #endif
     {"debug_landings_and_splats_agree_with_the_render", test_debug_landings_and_splats_agree_with_the_render},
     {"debug_views_are_identical_for_any_thread_count", test_debug_views_are_identical_for_any_thread_count},
