@@ -23,7 +23,8 @@
      >>spectral   wavelengths, RGB -> spectrum (Smits 1999), CIE 1931 fit
                   (Wyman et al. 2013) -> XYZ -> sRGB, dispersive materials
      >>lights     light selection, next-event sampling, photon emission;
-                  the environment light (constant, CIE clear sky, sun)
+                  the environment light (constant, CIE clear sky, sun; not
+                  in PDS_NO_ENV)
      >>kdtree     balanced kd-tree (eye-path map): the splats' ellipse query;
                   range and k-nearest queries (not in PDS_CORE)
      >>scene      the pds_scene value and its text format parser, with
@@ -88,6 +89,8 @@
      PDS_NO_BASELINES  pm, pdm, splat, ppm and spm (pds, pt stay)
      PDS_NO_GI         Jensen's two-pass global illumination (>>gi)
      PDS_NO_ISC        image-space caustics and animation frames (>>isc)
+     PDS_NO_ENV        the environment light: constant, CIE clear sky and
+                       sun (>>lights; the parser refuses 'light environment')
      PDS_NO_BENCH      pds_bench_* (they return PDS_ERR_INVALID_ARG)
      PDS_NO_MTL        MTL material libraries (OBJ faces get the default
                        material) */
@@ -97,6 +100,7 @@
 #define PDS_NO_BENCH 1
 #define PDS_NO_GI 1
 #define PDS_NO_ISC 1
+#define PDS_NO_ENV 1
 #endif
 
 #include "pds.h"
@@ -5318,6 +5322,7 @@ static void pds__lights_free(pds__light_table *lt)
 }
 
 /* --- the environment light ------------------------------------------------ */
+#ifndef PDS_NO_ENV
 /* A light at infinity whose radiance depends on the direction only. w is
    a unit direction toward the sky: a ray leaving the scene along w sees
      L(w) = radiance + [w.up > 0] sky Y(w) + [w.up <= 0] ground
@@ -5492,6 +5497,40 @@ static double pds__env_sample(const pds_light *l, const double p[3], double u1, 
     pds__env_sample_part(l, part, u1, u2, w);
     return pds__env_pdf(l, p, *w);
 }
+#else /* PDS_NO_ENV */
+/* This build leaves the environment light out: the scene parser refuses
+   it, so no scene has one. What the other sections name of it stays,
+   inert: no radiance, nothing to sample. */
+static void pds__env_sun(const pds_light *l, double *cos_a, double *omega, double ls[3])
+{
+    (void)l;
+    *cos_a = 1.0;
+    *omega = 0.0;
+    ls[0] = ls[1] = ls[2] = 0.0;
+}
+static void pds__env_radiance(const pds_light *l, pds__v3 w, double L[3])
+{
+    (void)l, (void)w;
+    L[0] = L[1] = L[2] = 0.0;
+}
+static void pds__env_parts(const pds_light *l, double total[3], double p[3])
+{
+    (void)l;
+    if (total) total[0] = total[1] = total[2] = 0.0;
+    if (p) p[0] = p[1] = p[2] = 0.0;
+}
+static double pds__env_pdf(const pds_light *l, const double p[3], pds__v3 w)
+{
+    (void)l, (void)p, (void)w;
+    return 0.0;
+}
+static double pds__env_sample(const pds_light *l, const double p[3], double u1, double u2, pds__v3 *w)
+{
+    (void)l, (void)p, (void)u1, (void)u2;
+    *w = pds__v(0.0, 0.0, 1.0);
+    return 0.0;
+}
+#endif /* PDS_NO_ENV */
 
 /* Build the light table: pick distribution by power, per-mesh-light
    triangle CDFs by area, and the triangle -> light map. mesh may be NULL
@@ -7555,6 +7594,10 @@ static pds_status pds__parse_light(pds__parser *P)
     else
         return pds__perr(P, &type_tok, PDS_ERR_PARSE,
                          "unknown light type '%s' (point, spot, directional, disk, quad or environment)", type);
+#ifdef PDS_NO_ENV
+    if (l.type == PDS_LIGHT_ENVIRONMENT)
+        return pds__perr(P, &type_tok, PDS_ERR_PARSE, "this build leaves the environment light out (PDS_NO_ENV)");
+#endif
     if (l.type == PDS_LIGHT_ENVIRONMENT) {
         size_t i;
         for (i = 0; i < P->scene->nlights; i++)
@@ -12720,6 +12763,7 @@ static int pds__hit_analytic_light(const pds_scene *s, pds__v3 org, pds__v3 dir,
     return found;
 }
 
+#ifndef PDS_NO_ENV
 /* Next-event estimation of the environment light k (picked with
    probability pmf) at a non-specular vertex: one direction from each part
    of its mixture (sun, upper, lower hemisphere; >>lights) instead of one
@@ -12767,6 +12811,15 @@ static void pds__direct_env(const pds__tracer *tr, const pds_material *m, pds__v
         pds__accumulate(tr, 0, w, pds__mis_power(pmf * q, pdf_bsdf), film, acc);
     }
 }
+#else /* PDS_NO_ENV: no scene has an environment light */
+static void pds__direct_env(const pds__tracer *tr, const pds_material *m, pds__v3 p, pds__v3 wo, pds__v3 ns,
+                            pds__v3 ng, const double beta[3], uint64_t idx, uint64_t dim, int k, double pmf,
+                            double lambda, const double *film, double acc[3])
+{
+    (void)tr, (void)m, (void)p, (void)wo, (void)ns, (void)ng, (void)beta, (void)idx, (void)dim, (void)k, (void)pmf;
+    (void)lambda, (void)film, (void)acc;
+}
+#endif
 
 /* Next-event estimation at a non-specular vertex: one light picked by
    power, one point on it, shadow ray, MIS against BSDF sampling. A

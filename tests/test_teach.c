@@ -475,6 +475,22 @@ static void test_core_refuses_gi_and_isc(pds_test_ctx *t)
 }
 #endif
 
+#ifdef PDS_NO_ENV
+/* The small core leaves the environment light out: the parser refuses
+   it where it is written. */
+static void test_core_refuses_the_environment_light(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text("material white diffuse { albedo 0.5 }\n"
+                                   "light environment { radiance 1 1 1 }\n",
+                                   &err);
+    CHECK(t, s == NULL && err.status == PDS_ERR_PARSE &&
+                 strstr(err.text, ":2:7: this build leaves the environment light out (PDS_NO_ENV)") != NULL,
+          "%s", s ? "loaded" : err.text);
+    pds_scene_free(s);
+}
+#endif
+
 static const pds_test_case tests_teach[] = {
     {"debug_views_ride_along_a_spectral_render", test_debug_views_ride_along_a_spectral_render},
 #ifdef PDS_NO_BASELINES
@@ -482,6 +498,9 @@ static const pds_test_case tests_teach[] = {
 #endif
 #if defined(PDS_NO_GI) && defined(PDS_NO_ISC)
     {"core_refuses_gi_and_isc", test_core_refuses_gi_and_isc},
+#endif
+#ifdef PDS_NO_ENV
+    {"core_refuses_the_environment_light", test_core_refuses_the_environment_light},
 #endif
     {"debug_landings_and_splats_agree_with_the_render", test_debug_landings_and_splats_agree_with_the_render},
     {"debug_views_are_identical_for_any_thread_count", test_debug_views_are_identical_for_any_thread_count},
