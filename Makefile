@@ -10,7 +10,8 @@
 #                   at once); make fuzz-regress replays the committed corpus
 #   make references     reference images of the shipped scenes (minutes)
 #   make gallery        the README gallery: every scene at full size (minutes)
-#   make core       the small core (-DPDS_CORE: no PNG/EXR, baselines, gi, isc, sky, benchmarks):
+#   make core       the small core (-DPDS_CORE: no PNG/EXR, baselines, gi, isc, sky, spectral,
+#                   benchmarks):
 #                   its line count, its build and its tests (README "A small core")
 #   make windows    MinGW-w64 cross-build: pds.exe and tests/test_pds.exe;
 #                   make windows-test runs the tests under wine (README "Windows")
@@ -111,12 +112,13 @@ render: pds
 	./pds render scenes/demo.scene -o demo.png
 
 # The small core (README "A small core"): pds.c without the PNG and
-# OpenEXR coders, the baselines, gi, isc, the environment light and the
-# benchmarks. Prints the non-blank lines of pds.c a reader of it reads
+# OpenEXR coders, the baselines, gi, isc, the environment light, spectral
+# rendering and the benchmarks. Prints the non-blank lines of pds.c a reader of it reads
 # (tests/core_lines.sh), builds the tool and the core's tests, runs them
 # (about 20 s of CPU), and checks that each switch alone also builds
 # without a warning.
-CORE_SWITCHES = -DPDS_NO_PNG -DPDS_NO_BASELINES -DPDS_NO_BENCH -DPDS_NO_MTL -DPDS_NO_GI -DPDS_NO_ISC -DPDS_NO_ENV
+CORE_SWITCHES = -DPDS_NO_PNG -DPDS_NO_BASELINES -DPDS_NO_BENCH -DPDS_NO_MTL -DPDS_NO_GI -DPDS_NO_ISC -DPDS_NO_ENV \
+  -DPDS_NO_SPECTRAL
 core: pds-core tests/test_core
 	CC="$(CC)" sh tests/core_lines.sh -DPDS_CORE
 	for f in $(CORE_SWITCHES); do $(CC) $(WARN) $(CFLAGS) $$f -c -o /dev/null pds.c || exit 1; done

@@ -22,6 +22,7 @@
      >>materials  Fresnel (dielectric, conductor), BSDF sampling, Beer
      >>spectral   wavelengths, RGB -> spectrum (Smits 1999), CIE 1931 fit
                   (Wyman et al. 2013) -> XYZ -> sRGB, dispersive materials
+                  (not in PDS_NO_SPECTRAL)
      >>lights     light selection, next-event sampling, photon emission;
                   the environment light (constant, CIE clear sky, sun; not
                   in PDS_NO_ENV)
@@ -91,6 +92,9 @@
      PDS_NO_ISC        image-space caustics and animation frames (>>isc)
      PDS_NO_ENV        the environment light: constant, CIE clear sky and
                        sun (>>lights; the parser refuses 'light environment')
+     PDS_NO_SPECTRAL   spectral rendering (>>spectral): a render with a
+                       dispersive material or pds_options.spectral is
+                       refused; the parser still reads dispersion laws
      PDS_NO_BENCH      pds_bench_* (they return PDS_ERR_INVALID_ARG)
      PDS_NO_MTL        MTL material libraries (OBJ faces get the default
                        material) */
@@ -101,6 +105,7 @@
 #define PDS_NO_GI 1
 #define PDS_NO_ISC 1
 #define PDS_NO_ENV 1
+#define PDS_NO_SPECTRAL 1
 #endif
 
 #include "pds.h"
@@ -4866,6 +4871,7 @@ static double pds__ior_at(const pds_material *m, double wavelength_nm)
     return n;
 }
 
+#ifndef PDS_NO_SPECTRAL
 /* ===================================================================== */
 /* >>spectral                                                            */
 /* ===================================================================== */
@@ -5138,6 +5144,54 @@ static int pds__spectral_meet(double lambda_p, double lambda_e, double e[3], dou
     }
     return 1;
 }
+#else /* PDS_NO_SPECTRAL */
+/* This build leaves spectral rendering out: pds__camera_check refuses a
+   render that would be spectral (a dispersive material in the scene, or
+   pds_options.spectral), so every path and photon is RGB (lambda = 0).
+   The stand-ins do what the spectral functions do at lambda = 0. */
+static int pds__material_is_dispersive(const pds_material *m)
+{
+    return m->type == PDS_MAT_DIELECTRIC && m->dispersion != PDS_DISPERSION_NONE;
+}
+static double pds__spectral_value(const double rgb[3], double lambda_nm)
+{
+    (void)lambda_nm;
+    return (rgb[0] + rgb[1] + rgb[2]) / 3.0;
+}
+static void pds__spectral_uplift(double lambda_nm, double w[3]) { (void)lambda_nm, (void)w; }
+static void pds__film_weight(double lambda_nm, double w[3])
+{
+    (void)lambda_nm;
+    w[0] = w[1] = w[2] = 1.0;
+}
+static void pds__spectral_material(const pds_material *m, double lambda_nm, pds_material *out)
+{
+    (void)lambda_nm;
+    *out = *m;
+}
+static double pds__eye_wavelength(uint64_t seed, uint64_t pixel, uint64_t sample)
+{
+    (void)seed, (void)pixel, (void)sample;
+    return 0.0;
+}
+static double pds__photon_wavelength(uint64_t seed, long i)
+{
+    (void)seed, (void)i;
+    return 0.0;
+}
+#ifndef PDS_NO_BASELINES
+static double pds__wavelength_match(double lambda_e, double lambda_p)
+{
+    (void)lambda_e, (void)lambda_p;
+    return 1.0;
+}
+#endif
+static int pds__spectral_meet(double lambda_p, double lambda_e, double e[3], double f[3])
+{
+    (void)lambda_p, (void)lambda_e, (void)e, (void)f;
+    return 1;
+}
+#endif /* PDS_NO_SPECTRAL */
 
 /* ===================================================================== */
 /* >>lights                                                              */
@@ -18269,6 +18323,12 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
    lens (aperture > 0) is refused for them rather than drawn wrong. */
 static pds_status pds__camera_check(const pds_scene *scene, const pds_options *opt, pds_error *err)
 {
+#ifdef PDS_NO_SPECTRAL
+    if (pds__render_is_spectral(scene, opt))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, scene->path[0] ? scene->path : NULL, 0, 0,
+                         "this build leaves spectral rendering out (PDS_NO_SPECTRAL): %s",
+                         opt->spectral ? "the options ask for it" : "the scene has a dispersive material");
+#endif
     if (!(scene->camera.aperture > 0.0)) return PDS_OK;
     if (opt->method == PDS_METHOD_ISC)
         return pds__fail(err, PDS_ERR_INVALID_ARG, scene->path[0] ? scene->path : NULL, 0, 0,

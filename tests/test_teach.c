@@ -376,6 +376,7 @@ static void test_cli_pixel_prints_the_mean_of_a_window(pds_test_ctx *t)
 }
 #endif
 
+#ifndef PDS_NO_SPECTRAL
 /* The views ride along a spectral render (the splat buffers then hold
    negative sums too, >>spectral): the landings still equal the photons
    splatted, the splats view lights exactly the pixels the caustic lights,
@@ -416,6 +417,38 @@ static void test_debug_views_ride_along_a_spectral_render(pds_test_ctx *t)
     pds_image_free(&img);
     pds_debug_free(&dbg);
 }
+#else
+/* The small core leaves spectral rendering out: a render that asks for
+   it, or whose scene has a dispersive glass, is refused, naming the
+   scene; the scene itself still loads. */
+static void test_core_refuses_spectral_renders(pds_test_ctx *t)
+{
+    pds_options opt;
+    pds_error err;
+    pds_image img = {0, 0, NULL};
+    pds_scene *s = scene_from_text(mirror_scene, &err), *prism;
+    REQUIRE(t, s != NULL, "scene: %s", err.text);
+    pds_options_default(&opt);
+    opt.spectral = 1;
+    CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_ERR_INVALID_ARG && img.rgb == NULL &&
+                 strstr(err.text, ": this build leaves spectral rendering out (PDS_NO_SPECTRAL): the options ask"),
+          "--spectral: %s", err.text);
+    pds_scene_free(s);
+    prism = scene_from_text("camera { position 0 2 0.000001 look_at 0 0 0 up 0 0 -1 resolution 8 8 }\n"
+                            "material white diffuse { albedo 0.5 }\n"
+                            "material bk7 dielectric { cauchy 1.5046 0.0042 }\n"
+                            "quad { material white size 4 4 }\n"
+                            "sphere { material bk7 radius 0.2 translate 0 0.5 0 }\n"
+                            "light point { position 0 1.5 0 power 10 }\n",
+                            &err);
+    REQUIRE(t, prism != NULL, "dispersive scene: %s", err.text);
+    opt.spectral = 0;
+    CHECK(t, pds_render(prism, &opt, &img, NULL, &err) == PDS_ERR_INVALID_ARG && img.rgb == NULL &&
+                 strstr(err.text, "(PDS_NO_SPECTRAL): the scene has a dispersive material"),
+          "dispersive: %s", err.text);
+    pds_scene_free(prism);
+}
+#endif
 
 #ifdef PDS_NO_BASELINES
 /* The small core leaves streamed photon mapping out with the other
@@ -492,7 +525,11 @@ static void test_core_refuses_the_environment_light(pds_test_ctx *t)
 #endif
 
 static const pds_test_case tests_teach[] = {
+#ifndef PDS_NO_SPECTRAL
     {"debug_views_ride_along_a_spectral_render", test_debug_views_ride_along_a_spectral_render},
+#else
+    {"core_refuses_spectral_renders", test_core_refuses_spectral_renders},
+#endif
 #ifdef PDS_NO_BASELINES
     {"core_refuses_spm", test_core_refuses_spm},
 #endif
