@@ -11,7 +11,7 @@
 #   make references     reference images of the shipped scenes (minutes)
 #   make gallery        the README gallery: every scene at full size (minutes)
 #   make core       the small core (-DPDS_CORE: no PNG/EXR, baselines, gi, isc, sky, spectral,
-#                   benchmarks):
+#                   partial files, benchmarks):
 #                   its line count, its build and its tests (README "A small core")
 #   make windows    MinGW-w64 cross-build: pds.exe and tests/test_pds.exe;
 #                   make windows-test runs the tests under wine (README "Windows")
@@ -113,12 +113,12 @@ render: pds
 
 # The small core (README "A small core"): pds.c without the PNG and
 # OpenEXR coders, the baselines, gi, isc, the environment light, spectral
-# rendering and the benchmarks. Prints the non-blank lines of pds.c a reader of it reads
+# rendering, the partial file and the benchmarks. Prints the non-blank lines of pds.c a reader of it reads
 # (tests/core_lines.sh), builds the tool and the core's tests, runs them
 # (about 20 s of CPU), and checks that each switch alone also builds
 # without a warning.
 CORE_SWITCHES = -DPDS_NO_PNG -DPDS_NO_BASELINES -DPDS_NO_BENCH -DPDS_NO_MTL -DPDS_NO_GI -DPDS_NO_ISC -DPDS_NO_ENV \
-  -DPDS_NO_SPECTRAL
+  -DPDS_NO_SPECTRAL -DPDS_NO_PARTIAL_FILE
 core: pds-core tests/test_core
 	CC="$(CC)" sh tests/core_lines.sh -DPDS_CORE
 	for f in $(CORE_SWITCHES); do $(CC) $(WARN) $(CFLAGS) $$f -c -o /dev/null pds.c || exit 1; done

@@ -39,7 +39,8 @@
                   (PNG and OpenEXR not in PDS_NO_PNG)
      >>metrics    RMSE and SSIM
      >>partial    the exact state of a render or a shard of it: the image
-                  from it, merging shards, the partial file
+                  from it, merging shards, the partial file (not in
+                  PDS_NO_PARTIAL_FILE)
      >>render     camera (pinhole, thin lens), path tracer and eye pass (the
                   photon methods' eye chains split at glass), preview,
                   row scheduler
@@ -95,6 +96,9 @@
      PDS_NO_SPECTRAL   spectral rendering (>>spectral): a render with a
                        dispersive material or pds_options.spectral is
                        refused; the parser still reads dispersion laws
+     PDS_NO_PARTIAL_FILE  writing and reading partial files (>>partial:
+                       pds_partial_write and _read refuse; the state of
+                       a render and merging shards in memory stay)
      PDS_NO_BENCH      pds_bench_* (they return PDS_ERR_INVALID_ARG)
      PDS_NO_MTL        MTL material libraries (OBJ faces get the default
                        material) */
@@ -106,6 +110,7 @@
 #define PDS_NO_ISC 1
 #define PDS_NO_ENV 1
 #define PDS_NO_SPECTRAL 1
+#define PDS_NO_PARTIAL_FILE 1
 #endif
 
 #include "pds.h"
@@ -12218,6 +12223,7 @@ pds_status pds_partial_merge(const pds_partial *const *parts, const char *const 
     return pds__partial_merge(parts, names, n, allow_subset, out, fraction, NULL, err);
 }
 
+#ifndef PDS_NO_PARTIAL_FILE
 /* --- the partial file -----------------------------------------------------
    Little-endian throughout (README "Partial files" has the table):
 
@@ -12523,6 +12529,21 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
     *out = p;
     return PDS_OK;
 }
+#else /* PDS_NO_PARTIAL_FILE */
+/* This build leaves the partial file out: a render's state stays in
+   memory (shards merge there; `pds` cannot checkpoint or resume). */
+pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *err)
+{
+    (void)p;
+    return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "this build leaves partial files out (PDS_NO_PARTIAL_FILE)");
+}
+
+pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
+{
+    if (out) *out = NULL;
+    return pds__fail(err, PDS_ERR_INVALID_ARG, path, 0, 0, "this build leaves partial files out (PDS_NO_PARTIAL_FILE)");
+}
+#endif /* PDS_NO_PARTIAL_FILE */
 
 /* ===================================================================== */
 /* >>render                                                              */

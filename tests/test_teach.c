@@ -508,6 +508,35 @@ static void test_core_refuses_gi_and_isc(pds_test_ctx *t)
 }
 #endif
 
+#ifdef PDS_NO_PARTIAL_FILE
+/* The small core renders in memory (pds_render_part, merging) but writes
+   and reads no partial file, and says so; nothing is written. */
+static void test_core_refuses_partial_files(pds_test_ctx *t)
+{
+    pds_options opt;
+    pds_error err;
+    pds_partial *part = NULL, *back = (pds_partial *)&err;
+    pds_scene *s = scene_from_text(mirror_scene, &err);
+    FILE *f;
+    REQUIRE(t, s != NULL, "scene: %s", err.text);
+    pds_options_default(&opt);
+    opt.method = PDS_METHOD_PT;
+    opt.spp = 1;
+    REQUIRE(t, pds_render_part(s, &opt, &part, NULL, &err) == PDS_OK, "part: %s", err.text);
+    CHECK(t, pds_partial_write("core-part.pdspart", part, &err) == PDS_ERR_INVALID_ARG &&
+                 strcmp(err.text, "core-part.pdspart: this build leaves partial files out (PDS_NO_PARTIAL_FILE)") == 0,
+          "write: %s", err.text);
+    f = fopen("core-part.pdspart", "rb");
+    CHECK(t, f == NULL, "a file was written");
+    if (f) fclose(f);
+    CHECK(t, pds_partial_read("core-part.pdspart", &back, &err) == PDS_ERR_INVALID_ARG && back == NULL &&
+                 strstr(err.text, "PDS_NO_PARTIAL_FILE"),
+          "read: %s", err.text);
+    pds_partial_free(part);
+    pds_scene_free(s);
+}
+#endif
+
 #ifdef PDS_NO_ENV
 /* The small core leaves the environment light out: the parser refuses
    it where it is written. */
@@ -535,6 +564,9 @@ static const pds_test_case tests_teach[] = {
 #endif
 #if defined(PDS_NO_GI) && defined(PDS_NO_ISC)
     {"core_refuses_gi_and_isc", test_core_refuses_gi_and_isc},
+#endif
+#ifdef PDS_NO_PARTIAL_FILE
+    {"core_refuses_partial_files", test_core_refuses_partial_files},
 #endif
 #ifdef PDS_NO_ENV
     {"core_refuses_the_environment_light", test_core_refuses_the_environment_light},
