@@ -1,8 +1,10 @@
 /* tests/test_core.c - the test program of the small core (`make core`):
-   pds.c built with -DPDS_CORE (no PNG, no baselines, no benchmarks;
+   pds.c built with -DPDS_CORE (no PNG or OpenEXR, baselines, gi, isc,
+   environment light, spectral rendering, partial files or benchmarks;
    README "A small core") and the suites that apply to it: the method's
-   own tests. The tool's command-line suites, the baselines' and the
-   images' (PNG) are the full build's. */
+   own tests, and in tests/test_teach.c one test per switch that what it
+   leaves out is refused. The tool's command-line suites and those of
+   what the core leaves out are the full build's. */
 #define PDS_TEST 1 /* keep the helpers the tests use (pds.c >>config) */
 #include "pds.c"
 #include "runner.h"
