@@ -179,13 +179,12 @@ static const command_help help_table[] = {
      "                              --photons N: a light-space buffer of side sqrt(N) per light; --time:\n"
      "                              frames, each with its buffer offset anew, averaged until it is spent\n"
      "      --gather G              isc: points, quads, eye (default) or light (gi: a number)\n"
-     "      --light-res N           isc: side of the light-space photon buffer, N^2 photons per light\n"
-     "                              (default: from --photons)\n"
+     "      --light-res N           isc: N x N photons per light in its light-space buffer (default: from --photons)\n"
      "      --history N             isc: temporal filter, the last N frames averaged (default 4; 1 = off)\n"
      "      --frames N              isc: an animation of N frames, OUT.0000.png, OUT.0001.png, ...\n"
-     "      --orbit WHAT            --frames: light (default), camera or none turns about the vertical\n"
-     "                              line through the camera's look-at point\n"
-     "      --orbit-step DEG        --frames: degrees per frame, counter-clockwise from above (default 2)\n",
+     "      --orbit WHAT            --frames: light (default), camera or none turns about the look-at point\n"
+     "      --orbit-step DEG        --frames: degrees per frame, counter-clockwise from above (default 2)\n"
+     "      --static-lighting       --frames: keep each light's photons of frame 0 (orbit camera or none)\n",
      1},
     {"merge", "merge -o OUT.png|OUT.pfm|OUT.exr [--partial] PART.pdsp...",
      "the image of the shards of one render (pds render --shard I/N)",
@@ -1272,6 +1271,7 @@ static const opt_spec option_table[] = {
     {"--orbit", NULL, "orbit", set_orbit, 0, 0, 0, "none, light or camera", M_ISC, C_RENDER, F_VALUE},
     {"--orbit-step", NULL, "orbit_step", set_double, OPTF(orbit_deg), -360, 360, "degrees from -360 to 360", M_ISC,
      C_RENDER, F_VALUE},
+    {"--static-lighting", NULL, "static_lighting", set_flag, OPTF(static_lighting), 1, 1, "", M_ISC, C_RENDER, 0},
     {"--spp", NULL, "spp", set_int, OPTF(spp), 1, PDS_MAX_SPP, "a whole number from 1 to 65536", M_ALL & ~M_ISC, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--res", NULL, "res", set_res, 0, 0, 0, "WIDTHxHEIGHT", M_ALL, C_ALL, F_VALUE},
@@ -1497,7 +1497,8 @@ static void format_params(const pds_options *o, char *buf, size_t n)
                  distance_text(o->max_radius, "none", d, sizeof d));
         break;
     case PDS_METHOD_ISC:
-        snprintf(buf, n, " gather=%s history=%d", gather_names[o->isc_gather], o->history);
+        snprintf(buf, n, " gather=%s history=%d%s", gather_names[o->isc_gather], o->history,
+                 o->static_lighting ? " static_lighting=1" : "");
         break;
     default: break;
     }
@@ -1894,6 +1895,10 @@ static int cmd_render(int argc, char **argv)
         return usage_error("%s", "--frames renders an animation with --method isc only");
     if (c.frames > 0 && c.opt.time_s > 0.0)
         return usage_error("%s", "--frames and --time exclude each other (a time budget is for a still)");
+    if (c.opt.static_lighting && c.opt.method == PDS_METHOD_ISC && c.frames == 0)
+        return usage_error("%s", "--static-lighting keeps the photons from frame to frame: it is for --frames");
+    if (c.opt.static_lighting && c.frames > 0 && c.opt.orbit == PDS_ORBIT_LIGHT)
+        return usage_error("%s", "--static-lighting keeps the light where it is: give --orbit camera or --orbit none");
     output = c.output;
     if (!output && resume) {
         /* OUT.png.pdsp continues OUT.png; a shard's file continues itself */

@@ -16541,6 +16541,16 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
       light-space grid by its own sub-texel offset, so a static scene's
       frames sample different photons and the filter averages them; with a
       moving light or camera it lags (ghosting), as the paper says.
+   5. Static lighting (sect. 4: "the photon buffer does not need
+      rerendering under static lighting"; Table 1's static columns): with
+      pds_options.static_lighting, for frames whose light and scene stand
+      still (the camera orbits, or nothing), each light's buffer is traced
+      once, at frame 0's grid offset, and so is the light gather's map;
+      later frames redo only the eye buffer and direct light (if the
+      camera moved), the photons' projections and the gathers that depend
+      on the eye, and the filter. Every frame is what rendering it anew
+      with the option gives, bit for bit. The frames' own grid offsets are
+      given up: a still camera's frames are all alike.
 
    Approximations (README "Image-space caustics"): point and spot lights
    only; one specular path per photon and per pixel; no indirect diffuse
@@ -16706,6 +16716,11 @@ typedef struct pds__isc_frag {
 #define PDS__ISC_MIN_PHOTONS 3.0  /* sect. 3.2.2 step 5 */
 #define PDS__ISC_QUAD_MAX_PIXELS 4096 /* a quad's screen box larger than this is skipped */
 #define PDS__ISC_SUB 256          /* fixed-point subpixels of the quad rasteriser */
+/* What is done for a light (pds__isc.state), kept across the frames of
+   static lighting and cleared every frame otherwise. */
+#define PDS__ISC_TRACED 1         /* its buffer (and light map) is traced */
+#define PDS__ISC_NO_VIEW 2        /* no view holds its specular objects: no caustic */
+#define PDS__ISC_FLUX 4           /* points, eye: its photons' e holds their flux (W) */
 
 /* A render of one or more frames: the buffers live across frames (the
    temporal filter's history among them). */
@@ -16720,9 +16735,16 @@ typedef struct pds__isc {
     pds_light *lights;          /* this frame's lights (orbit applied) */
     size_t nlights;
     const pds_light *light;     /* the light whose photons are in ph */
+    size_t lk;                  /* its index */
+    int fixed_grid;             /* static lighting: every frame takes frame 0's grid offset */
+    int reuse;                  /* static lighting: each light's buffer (and light map) is
+                                   traced once and kept for the frames after */
+    unsigned char *state;       /* per light: PDS__ISC_TRACED, _NO_VIEW, _FLUX bits */
+    pds__isc_view *views, *lviews; /* per light: its photon view and light-map view */
     pds__isc_pixel *px;         /* w x h */
     double *direct;             /* 3 per pixel: direct radiance */
-    pds__isc_photon *ph;        /* res x res, one light at a time */
+    pds__isc_photon *ph_all;    /* res x res per light (reuse), else res x res */
+    pds__isc_photon *ph;        /* the current light's res x res in ph_all */
     unsigned char *mask;        /* res x res: may the photon meet a specular surface first? */
     pds__isc_view view;         /* that light's view */
     int *ph_pixel;              /* points, eye: the pixel each photon deposits into, -1 none */
@@ -16730,7 +16752,8 @@ typedef struct pds__isc {
     signed char *ph_front;      /* quads: 1 if in front of the camera */
     float *dep;                 /* eye, light: 4 per cell (flux or irradiance x omega, count) */
     unsigned char *near_row;    /* eye: a photon within the gather radius in the row */
-    float *lmap;                /* light: the gathered map, 4 per texel */
+    float *lmap_all;            /* light: the gathered maps, 4 per texel, per light (reuse) */
+    float *lmap;                /* light: the current light's map in lmap_all */
     pds__isc_view lview;        /* light: the map's view */
     pds__isc_est *est;          /* this frame's estimate */
     double *rgb;                /* the frame's image before conversion to float */
@@ -17030,11 +17053,12 @@ static int pds__isc_same_surface(const pds__isc_pixel *p, pds__v3 x, pds__v3 n)
 /* --- points and eye: photons into the eye-space pixels ----------------- */
 
 /* Each photon's pixel (-1: none, or not on the surface seen there) and
-   flux (W, in e's place: the gathers after this one need no intensity). */
+   flux (W, in e's place: the gathers after this one need no intensity;
+   once per traced buffer, PDS__ISC_FLUX). */
 static void pds__isc_to_pixels(pds__isc *ctx, long first, long last)
 {
     long j;
-    int i, c;
+    int i, c, to_flux = !(ctx->state[ctx->lk] & PDS__ISC_FLUX);
     for (j = first; j < last; j++)
         for (i = 0; i < ctx->res; i++) {
             size_t k = (size_t)j * ctx->res + i;
@@ -17043,8 +17067,10 @@ static void pds__isc_to_pixels(pds__isc *ctx, long first, long last)
             long q;
             ctx->ph_pixel[k] = -1;
             if (!ph->path) continue;
-            omega = pds__isc_cell_omega(&ctx->view, i, (int)j);
-            for (c = 0; c < 3; c++) ph->e[c] = (float)(ph->e[c] * omega);
+            if (to_flux) {
+                omega = pds__isc_cell_omega(&ctx->view, i, (int)j);
+                for (c = 0; c < 3; c++) ph->e[c] = (float)(ph->e[c] * omega);
+            }
             if (!pds__camera_project(&ctx->cam, pds__f3_get(ph->pos), &px, &py)) continue;
             if (!(px >= 0.0 && py >= 0.0 && px < ctx->w && py < ctx->h)) continue;
             q = (long)py * ctx->w + (long)px;
@@ -17429,25 +17455,46 @@ static pds__v3 pds__isc_orbit(pds__v3 p, pds__v3 c, double a)
     return pds__v(c.x + cos(a) * dx + sin(a) * dz, p.y, c.z - sin(a) * dx + cos(a) * dz);
 }
 
-/* Photons of light k for this frame, gathered into ctx->est. */
+/* Photons of light k for this frame, gathered into ctx->est. Static
+   lighting (ctx->reuse) traces each light's buffer, and builds its light
+   map, in the first frame only; the frames after redo only what depends
+   on the eye (Wyman and Davis sect. 4: "the photon buffer does not need
+   rerendering under static lighting"; their Table 1's static columns). */
 static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
 {
     size_t n = (size_t)ctx->res * (size_t)ctx->res, i;
-    double jx = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)frame, 0);
-    double jy = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)frame, 1);
+    int grid = ctx->fixed_grid ? 0 : frame, fresh;
+    double jx = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)grid, 0);
+    double jy = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)grid, 1);
     double t0 = pds_time_now(), t1;
     ctx->light = &ctx->lights[k];
-    if (!pds__isc_view_setup(ctx->scene, &ctx->target, ctx->light->position, ctx->res, jx, jy, &ctx->view)) return;
-    pds__isc_mask(ctx);
-    pds__isc_parallel(ctx, ctx->res, 4, pds__isc_photon_rows);
-    ctx->photons += (long)n;
-    for (i = 0; i < n; i++) ctx->landed += ctx->ph[i].path != 0;
+    ctx->lk = k;
+    ctx->ph = ctx->reuse ? ctx->ph_all + k * n : ctx->ph_all;
+    if (ctx->lmap_all) ctx->lmap = ctx->reuse ? ctx->lmap_all + 4 * k * n : ctx->lmap_all;
+    if (!ctx->reuse) ctx->state[k] = 0;
+    fresh = !(ctx->state[k] & PDS__ISC_TRACED);
+    if (fresh) {
+        ctx->state[k] = PDS__ISC_TRACED;
+        if (!pds__isc_view_setup(ctx->scene, &ctx->target, ctx->light->position, ctx->res, jx, jy, &ctx->view)) {
+            ctx->state[k] |= PDS__ISC_NO_VIEW;
+            return;
+        }
+        ctx->views[k] = ctx->view;
+        pds__isc_mask(ctx);
+        pds__isc_parallel(ctx, ctx->res, 4, pds__isc_photon_rows);
+        ctx->photons += (long)n;
+        for (i = 0; i < n; i++) ctx->landed += ctx->ph[i].path != 0;
+    } else {
+        if (ctx->state[k] & PDS__ISC_NO_VIEW) return;
+        ctx->view = ctx->views[k];
+    }
     t1 = pds_time_now();
     ctx->time_photons += t1 - t0;
     switch (ctx->gather) {
     case PDS_ISC_POINTS:
     case PDS_ISC_EYE:
         pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_pixels);
+        ctx->state[k] |= PDS__ISC_FLUX;
         if (ctx->gather == PDS_ISC_EYE) memset(ctx->dep, 0, sizeof *ctx->dep * 4 * (size_t)ctx->w * ctx->h);
         pds__isc_points(ctx, ctx->gather == PDS_ISC_EYE);
         if (ctx->gather == PDS_ISC_EYE) {
@@ -17456,17 +17503,23 @@ static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
         }
         break;
     case PDS_ISC_LIGHT:
-        pds__isc_light_map_view(ctx);
-        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_texels);
-        memset(ctx->dep, 0, sizeof *ctx->dep * 4 * n);
-        for (i = 0; i < n; i++) {
-            int m = ctx->ph_pixel[i], c;
-            if (m < 0) continue;
-            for (c = 0; c < 3; c++) ctx->dep[4 * (size_t)m + c] += ctx->ph[i].e[c];
-            ctx->dep[4 * (size_t)m + 3] += 1.0f;
+        if (fresh) {
+            /* the light map: the lighting's, not the eye's */
+            pds__isc_light_map_view(ctx);
+            pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_texels);
+            memset(ctx->dep, 0, sizeof *ctx->dep * 4 * n);
+            for (i = 0; i < n; i++) {
+                int m = ctx->ph_pixel[i], c;
+                if (m < 0) continue;
+                for (c = 0; c < 3; c++) ctx->dep[4 * (size_t)m + c] += ctx->ph[i].e[c];
+                ctx->dep[4 * (size_t)m + 3] += 1.0f;
+            }
+            pds__isc_parallel(ctx, ctx->res, 8, pds__isc_texel_irradiance);
+            pds__isc_parallel(ctx, ctx->res, 8, pds__isc_light_gather);
+            ctx->lviews[k] = ctx->lview;
+        } else {
+            ctx->lview = ctx->lviews[k];
         }
-        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_texel_irradiance);
-        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_light_gather);
         pds__isc_parallel(ctx, ctx->h, 8, pds__isc_light_lookup);
         break;
     case PDS_ISC_QUADS:
@@ -17555,16 +17608,19 @@ static void pds__isc_free(pds__isc *ctx)
     free(ctx->nfrags);
     free(ctx->capfrags);
     free(ctx->lights);
+    free(ctx->state);
+    free(ctx->views);
+    free(ctx->lviews);
     free(ctx->px);
     free(ctx->direct);
-    free(ctx->ph);
+    free(ctx->ph_all);
     free(ctx->mask);
     free(ctx->ph_pixel);
     free(ctx->ph_xy);
     free(ctx->ph_front);
     free(ctx->dep);
     free(ctx->near_row);
-    free(ctx->lmap);
+    free(ctx->lmap_all);
     free(ctx->est);
     free(ctx->rgb);
     free(ctx->ring);
@@ -17585,21 +17641,24 @@ static int pds__isc_resolution(const pds_options *opt)
 /* Bytes an isc render holds: per pixel the eye buffer, direct light, the
    image in double, the estimate, its history (or the time budget's sums) and the deposits;
    per photon the buffer and its pixel, screen position or texel; the
-   light map. (Quad fragments come on top: about one per covered pixel.) */
-static double pds__isc_memory(const pds_options *opt, double npix)
+   light map; with static lighting a buffer and a light map per light.
+   (Quad fragments come on top: about one per covered pixel.) */
+static double pds__isc_memory(const pds_scene *s, const pds_options *opt, double npix)
 {
     double r2 = (double)pds__isc_resolution(opt) * pds__isc_resolution(opt);
+    double kept = opt->static_lighting && s->nlights > 1 ? (double)s->nlights - 1.0 : 0.0;
     int hist = opt->time_s > 0.0 ? 2 : opt->history;
     return npix * (sizeof(pds__isc_pixel) + 6 * sizeof(double) + (1 + hist) * sizeof(pds__isc_est) +
                    4 * sizeof(float) + 3 * sizeof(float)) +
-           r2 * (sizeof(pds__isc_photon) + sizeof(int) + 2 * sizeof(long long) + 2 + 8 * sizeof(float));
+           r2 * (sizeof(pds__isc_photon) + sizeof(int) + 2 * sizeof(long long) + 2 + 8 * sizeof(float)) +
+           kept * r2 * (sizeof(pds__isc_photon) + 4 * sizeof(float));
 }
 
 /* Set up a render of w x h pixels; the light checks of the method. */
 static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_options *opt, int w, int h, int threads,
                                 pds_error *err)
 {
-    size_t npix = (size_t)w * h, n, k;
+    size_t npix = (size_t)w * h, n, k, nbuf;
     int x, y;
     double sum = 0.0;
     memset(ctx, 0, sizeof *ctx);
@@ -17634,14 +17693,20 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
                              (unsigned long)k + 1);
     }
     n = (size_t)ctx->res * ctx->res;
+    ctx->fixed_grid = ctx->reuse = opt->static_lighting;
+    nbuf = ctx->reuse && s->nlights > 1 ? s->nlights : 1;
     ctx->lights = (pds_light *)malloc(sizeof *ctx->lights * (s->nlights ? s->nlights : 1));
+    ctx->state = (unsigned char *)calloc(s->nlights ? s->nlights : 1, 1);
+    ctx->views = (pds__isc_view *)calloc(s->nlights ? s->nlights : 1, sizeof *ctx->views);
+    ctx->lviews = (pds__isc_view *)calloc(s->nlights ? s->nlights : 1, sizeof *ctx->lviews);
     ctx->px = (pds__isc_pixel *)calloc(npix, sizeof *ctx->px);
     ctx->direct = (double *)calloc(npix * 3, sizeof *ctx->direct);
     ctx->est = (pds__isc_est *)calloc(npix, sizeof *ctx->est);
     ctx->rgb = (double *)malloc(sizeof *ctx->rgb * 3 * npix);
     if (opt->time_s > 0.0) ctx->acc = (double *)calloc(npix * 4, sizeof *ctx->acc);
     else ctx->ring = (pds__isc_est *)calloc(npix * (size_t)ctx->history, sizeof *ctx->ring);
-    ctx->ph = (pds__isc_photon *)malloc(sizeof *ctx->ph * n);
+    if (n <= (size_t)-1 / sizeof *ctx->ph / nbuf) ctx->ph_all = (pds__isc_photon *)malloc(sizeof *ctx->ph * n * nbuf);
+    ctx->ph = ctx->ph_all;
     ctx->mask = (unsigned char *)malloc(n);
     ctx->ph_pixel = (int *)malloc(sizeof *ctx->ph_pixel * n);
     if (ctx->gather == PDS_ISC_QUADS) {
@@ -17657,9 +17722,11 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
     }
     if (ctx->gather == PDS_ISC_LIGHT) {
         ctx->dep = (float *)malloc(sizeof *ctx->dep * 4 * n);
-        ctx->lmap = (float *)malloc(sizeof *ctx->lmap * 4 * n);
+        if (n <= (size_t)-1 / (4 * sizeof *ctx->lmap) / nbuf)
+            ctx->lmap_all = (float *)malloc(sizeof *ctx->lmap * 4 * n * nbuf);
+        ctx->lmap = ctx->lmap_all;
     }
-    if (!ctx->lights || !ctx->px || !ctx->direct || !ctx->est || !ctx->rgb || !ctx->mask || (!ctx->acc && !ctx->ring) || !ctx->ph ||
+    if (!ctx->lights || !ctx->state || !ctx->views || !ctx->lviews || !ctx->px || !ctx->direct || !ctx->est || !ctx->rgb || !ctx->mask || (!ctx->acc && !ctx->ring) || !ctx->ph ||
         !ctx->ph_pixel || (ctx->gather == PDS_ISC_QUADS && (!ctx->ph_xy || !ctx->ph_front || !ctx->frags ||
                                                           !ctx->nfrags || !ctx->capfrags)) ||
         ((ctx->gather == PDS_ISC_EYE || ctx->gather == PDS_ISC_LIGHT) && !ctx->dep) ||
@@ -17720,7 +17787,7 @@ static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, in
         stats->time_eye_s = ctx.time_eye;
         stats->time_photons_s = ctx.time_photons;
         stats->time_gather_s = ctx.time_gather;
-        stats->memory_bytes = (size_t)pds__isc_memory(opt, (double)npix);
+        stats->memory_bytes = (size_t)pds__isc_memory(s, opt, (double)npix);
         for (i = 0; i < npix; i++) stats->eye_vertices += ctx.px[i].kind != 0;
         stats->spp = 1;
         stats->nonfinite = ctx.nonfinite;
@@ -17779,6 +17846,7 @@ void pds_options_default(pds_options *opt)
     opt->history = 4;
     opt->orbit = PDS_ORBIT_LIGHT;
     opt->orbit_deg = 2.0;
+    opt->static_lighting = 0;
     opt->caustics = PDS_METHOD_PDS;
     opt->global_photons = 100000;
     opt->global_k = 50;
@@ -18058,6 +18126,13 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown orbit %d", (int)opt->orbit);
     if (!(fabs(opt->orbit_deg) <= 360.0))
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "orbit step must be between -360 and 360 degrees");
+    if (opt->static_lighting != 0 && opt->static_lighting != 1)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "static lighting must be 0 or 1, got %d",
+                         opt->static_lighting);
+    if (opt->method == PDS_METHOD_ISC && opt->static_lighting && opt->time_s > 0.0)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                         "static lighting keeps one light-space grid, but a still with a time budget averages "
+                         "differently offset grids: leave out one of the two");
     if (opt->method != PDS_METHOD_PT && opt->method != PDS_METHOD_PREVIEW && opt->method != PDS_METHOD_ISC &&
         opt->method != PDS_METHOD_GI &&
         !pds__is_photon_method(opt->method))
@@ -18207,7 +18282,7 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
     }
     if (opt->method == PDS_METHOD_ISC) {
         est->samples = npix;
-        bytes = npix * 3.0 * sizeof(float) + pds__isc_memory(opt, npix);
+        bytes = npix * 3.0 * sizeof(float) + pds__isc_memory(scene, opt, npix);
     }
     est->memory_bytes = bytes;
     est->available_bytes = pds__physical_memory();
@@ -18633,6 +18708,10 @@ pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int
                          pds_method_name(opt->method));
     if (frames < 1 || frames > 1000000)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "frame count %d is outside 1..1000000", frames);
+    if (opt->static_lighting && opt->orbit == PDS_ORBIT_LIGHT)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                         "static lighting keeps the photons of the first frame, so the light cannot orbit (orbit "
+                         "the camera, or nothing)");
     w = opt->width > 0 ? opt->width : scene->camera.width;
     h = opt->height > 0 ? opt->height : scene->camera.height;
     if ((st = pds__options_check(opt, w, h, err))) return st;

@@ -609,6 +609,15 @@ typedef struct pds_options {
     pds_orbit orbit;    /* pds_render_frames: what turns (default PDS_ORBIT_LIGHT) */
     double orbit_deg;   /* pds_render_frames: degrees per frame, counter-
                            clockwise seen from above (default 2) */
+    int static_lighting; /* pds_render_frames: 1 = the lights and the scene
+                           stand still (orbit camera or none; not with a time
+                           budget): each light's photon buffer (and the light
+                           gather's map) is traced in the first frame, at
+                           frame 0's grid offset, and kept; the frames after
+                           redo only what depends on the eye (Wyman and Davis's
+                           "static lighting"). Each frame is what rendering it
+                           alone with this option gives. Stills are the same
+                           either way (default 0) */
     double memory_limit; /* bytes: pds_render refuses (PDS_ERR_LIMIT) a render
                            whose pds_render_estimate_get memory exceeds this;
                            0 = this machine's physical memory (default 0) */
@@ -883,7 +892,8 @@ void pds_partial_free(pds_partial *part);
 unsigned long long pds_scene_hash(const pds_scene *scene);
 /* A hash of the options that may change the image: those a partial file
    keeps (every field but threads, progress, progress_user, debug,
-   memory_limit and the shard). Equal options give equal hashes; a tool
+   memory_limit, the shard, and static_lighting, which changes animation
+   frames only). Equal options give equal hashes; a tool
    that keeps finished renders uses it to know them again. */
 unsigned long long pds_options_hash(const pds_options *opt);
 
@@ -895,8 +905,10 @@ typedef pds_status (*pds_frame_fn)(void *user, int frame, const pds_image *image
 /* An animation of `frames` frames (method PDS_METHOD_ISC only): frame f
    turns opt->orbit by f x opt->orbit_deg and shifts the light-space photon
    grid by a sub-texel offset of its own, so the temporal filter
-   (opt->history) averages different photons even in a static scene. stats:
-   photons and times summed over the frames, passes = frames rendered. */
+   (opt->history) averages different photons even in a static scene; with
+   opt->static_lighting every frame keeps frame 0's photons instead (the
+   orbit must not be PDS_ORBIT_LIGHT). stats: photons traced and times
+   summed over the frames, passes = frames rendered. */
 pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int frames, pds_frame_fn fn,
                              void *user, pds_render_stats *stats, pds_error *err);
 

@@ -428,6 +428,78 @@ static void test_isc_temporal_filter_reduces_flicker(pds_test_ctx *t)
     isc_frames_free(&filtered);
 }
 
+/* Static lighting (Wyman and Davis, Table 1's "static" columns): with
+   the lights and the scene still, the frames keep the photon buffer (and
+   the light gather's map) traced in the first frame and redo only what
+   depends on the eye. With the camera orbiting and the temporal filter
+   on, every frame is bit for bit what recomputing everything each frame
+   from frame 0's grid gives; each frame with the filter off is what a
+   new render of that frame alone gives; the buffer is traced once. */
+static void isc_static_options(pds_options *opt, pds_isc_gather g, int history)
+{
+    pds_options_default(opt);
+    opt->method = PDS_METHOD_ISC;
+    opt->isc_gather = g;
+    opt->light_resolution = 64;
+    opt->width = opt->height = 48;
+    opt->history = history;
+    opt->orbit = PDS_ORBIT_CAMERA;
+    opt->orbit_deg = 7.0;
+    opt->static_lighting = 1;
+    opt->threads = 2;
+}
+
+static void test_isc_static_lighting_frames_equal_frames_rendered_anew(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text(isc_glass_scene, &err);
+    size_t bytes = sizeof(float) * 3 * 48 * 48;
+    int g, f;
+    REQUIRE(t, s != NULL, "scene: %s", err.text);
+    for (g = 0; g < 4; g++) {
+        pds_options opt;
+        pds_render_stats st;
+        isc_frames anim, single;
+        pds__isc ctx;
+        pds_image img = {0, 0, NULL};
+        int same = 0, alone = 0;
+        memset(&anim, 0, sizeof anim);
+        memset(&single, 0, sizeof single);
+        REQUIRE(t, pds_image_alloc(&img, 48, 48) == PDS_OK, "image");
+        isc_static_options(&opt, (pds_isc_gather)g, 4);
+        CHECK(t, pds_render_frames(s, &opt, 6, isc_keep_frame, &anim, &st, &err) == PDS_OK && anim.n == 6,
+              "%s: frames: %s", isc_gather_label[g], err.text);
+        CHECK(t, st.photons == 64 * 64 && st.splatted > 100, "%s: %ld photons traced for 6 frames, %ld landed",
+              isc_gather_label[g], st.photons, st.splatted);
+        /* the same frames with every buffer recomputed each frame */
+        if (anim.n == 6 && pds__isc_init(&ctx, s, &opt, 48, 48, 2, &err) == PDS_OK) {
+            ctx.reuse = 0;
+            for (f = 0; f < 6; f++) {
+                pds__isc_frame(&ctx, f, 0, &img);
+                same += memcmp(img.rgb, anim.rgb[f], bytes) == 0;
+            }
+            CHECK(t, ctx.photons == 6 * 64 * 64, "%s: recomputed %ld photons", isc_gather_label[g], ctx.photons);
+            pds__isc_free(&ctx);
+        }
+        CHECK(t, same == 6, "%s: %d of 6 frames equal the recomputed ones", isc_gather_label[g], same);
+        CHECK(t, anim.n == 6 && memcmp(anim.rgb[0], anim.rgb[5], bytes) != 0, "%s: the camera did not move",
+              isc_gather_label[g]);
+        /* without the filter, frame 5 is frame 5 rendered alone */
+        isc_static_options(&opt, (pds_isc_gather)g, 1);
+        if (pds_render_frames(s, &opt, 6, isc_keep_frame, &single, NULL, &err) == PDS_OK && single.n == 6 &&
+            pds__isc_init(&ctx, s, &opt, 48, 48, 2, &err) == PDS_OK) {
+            pds__isc_frame(&ctx, 5, 0, &img);
+            alone = memcmp(img.rgb, single.rgb[5], bytes) == 0;
+            pds__isc_free(&ctx);
+        }
+        CHECK(t, alone, "%s: frame 5 of the animation is not frame 5 rendered alone", isc_gather_label[g]);
+        pds_image_free(&img);
+        isc_frames_free(&anim);
+        isc_frames_free(&single);
+    }
+    pds_scene_free(s);
+}
+
 /* A light orbit moves the caustic: frame 45 degrees on is not frame 0,
    and a full turn brings it back. */
 static void test_isc_light_orbit_moves_the_caustic_and_returns(pds_test_ctx *t)
@@ -615,6 +687,7 @@ static const pds_test_case tests_isc[] = {
     {"isc_quads_cover_a_plane_mirrors_caustic_exactly_once", test_isc_quads_cover_a_plane_mirrors_caustic_exactly_once},
     {"isc_is_identical_for_any_thread_count", test_isc_is_identical_for_any_thread_count},
     {"isc_temporal_filter_reduces_flicker", test_isc_temporal_filter_reduces_flicker},
+    {"isc_static_lighting_frames_equal_frames_rendered_anew", test_isc_static_lighting_frames_equal_frames_rendered_anew},
     {"isc_light_orbit_moves_the_caustic_and_returns", test_isc_light_orbit_moves_the_caustic_and_returns},
     {"isc_time_budget_averages_offset_frames", test_isc_time_budget_averages_offset_frames},
     {"isc_frames_stop_when_the_callback_fails", test_isc_frames_stop_when_the_callback_fails},
