@@ -256,7 +256,8 @@ static const command_help help_table[] = {
      "      filter                  eq. 12 filter matrices per second against a general 3x3 inverse\n"
      "      kdtree                  eye-path map build, range and nearest-neighbour queries per second\n"
      "      isc [SCENE]             image-space caustics: frames per second per gather at 512x512 with\n"
-     "                              512^2, 1024^2, 2048^2 photons, beside the paper's and PDS's times\n",
+     "                              512^2, 1024^2, 2048^2 photons, dynamic and static lighting, beside\n"
+     "                              the paper's and PDS's times\n",
      "", 0},
     {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", "", 0},
 };
@@ -2508,13 +2509,48 @@ static const double paper_ring[3][8] = {{151.2, 39.6, 52.8, 59.3, 40.3, 1.5, 34.
                                         {57.6, 11.7, 35.4, 59.0, 12.5, 0.4, 16.0, 8.4},
                                         {18.8, 0.0, 15.2, 58.3, 2.8, 0.0, 5.0, 2.6}};
 
+/* Frames per second of an isc animation of n frames at 512x512 with
+   res^2 photons: wall and CPU time of frames 1..n-1 (frame 0, which
+   traces the eye buffer, and with static lighting the photon buffer, is
+   timed apart as *first_s). 0 on success. */
+static int isc_fps(const pds_scene *scene, int gather, int res, int threads, int still_light, int n, double *fps,
+                   double *cpu_per_frame, double *first_s)
+{
+    pds_options opt;
+    pds_render_stats st;
+    pds_error err;
+    isc_clock clk;
+    double t0;
+    pds_options_default(&opt);
+    opt.method = PDS_METHOD_ISC;
+    opt.isc_gather = (pds_isc_gather)gather;
+    opt.light_resolution = res;
+    opt.width = opt.height = 512;
+    opt.threads = threads;
+    opt.orbit = still_light ? PDS_ORBIT_CAMERA : PDS_ORBIT_LIGHT;
+    opt.static_lighting = still_light;
+    clk.n = 0;
+    clk.wall[0] = 0.0;
+    t0 = pds_time_now();
+    if (pds_render_frames(scene, &opt, n, isc_clock_frame, &clk, &st, &err) != PDS_OK) {
+        fprintf(stderr, "%s\n", pds_error_string(&err));
+        return 1;
+    }
+    *fps = (n - 1) / (clk.wall[n - 1] - clk.wall[0]);
+    *cpu_per_frame = (clk.cpu[n - 1] - clk.cpu[0]) / (n - 1);
+    *first_s = clk.wall[0] - t0;
+    return 0;
+}
+
 /* Image-space caustics' frames per second at 512x512 with 512^2, 1024^2
-   and 2048^2 photons, for each gather: an animation whose light turns 2
-   degrees a frame (the paper's dynamic lighting: photons, gathers and
-   direct light every frame; the camera stands still, so the eye buffer is
-   traced once, in the first frame, which is timed apart as "first_s").
-   Beside it the paper's Table 1 and PDS's time for one 512x512 image
-   with as many photons (1 sample per pixel). */
+   and 2048^2 photons, for each gather, in the paper's two settings:
+   dynamic lighting, the light turning 2 degrees a frame (photons, gathers
+   and direct light every frame; the camera stands still, so the eye
+   buffer is traced once), and static lighting, the camera turning 2
+   degrees a frame about a still light (the photon buffer and the light
+   map traced once; eye buffer, direct light, projections and the eye's
+   gathers every frame). Beside them the paper's Table 1 and PDS's time
+   for one 512x512 image with as many photons (1 sample per pixel). */
 static int bench_isc(int argc, char **argv)
 {
     static const char *const gname[4] = {"points", "quads", "eye", "light"};
@@ -2538,39 +2574,24 @@ static int bench_isc(int argc, char **argv)
         }
         pds_s = st.time_total_s;
         for (g = 0; g < 4; g++) {
-            pds_options opt;
-            isc_clock clk;
-            int n = frames_for[r];
-            double wall, cpu;
-            pds_options_default(&opt);
-            opt.method = PDS_METHOD_ISC;
-            opt.isc_gather = (pds_isc_gather)g;
-            opt.light_resolution = res;
-            opt.width = opt.height = 512;
-            opt.threads = threads;
-            opt.orbit = PDS_ORBIT_LIGHT;
-            clk.n = 0;
-            clk.wall[0] = 0.0;
-            {
-                double t0 = pds_time_now();
-                if (pds_render_frames(scene, &opt, n, isc_clock_frame, &clk, &st, &err) != PDS_OK) {
-                    fprintf(stderr, "%s\n", pds_error_string(&err));
+            double fps[2], cpu[2], first[2];
+            char paper[96];
+            int n = frames_for[r], k;
+            for (k = 0; k < 2; k++)
+                if (isc_fps(scene, g, res, threads, k, n, &fps[k], &cpu[k], &first[k])) {
                     pds_scene_free(scene);
                     return 1;
                 }
-                wall = clk.wall[n - 1] - clk.wall[0];
-                cpu = clk.cpu[n - 1] - clk.cpu[0];
-                char paper[96];
-                if (paper_ring[r][g] > 0.0)
-                    snprintf(paper, sizeof paper, "paper_fps_dynamic=%g/%g paper_fps_static=%g/%g",
-                             paper_octahedron[r][4 + g], paper_ring[r][4 + g], paper_octahedron[r][g], paper_ring[r][g]);
-                else
-                    snprintf(paper, sizeof paper, "paper_fps_dynamic=n/a paper_fps_static=n/a");
-                printf("bench isc gather=%s photons=%d^2 res=512x512 frames=%d fps=%.2f cpu_s_per_frame=%.4f "
-                       "first_s=%.3f threads=%d %s pds_s=%.3f\n",
-                       gname[g], res, n - 1, (n - 1) / wall, cpu / (n - 1), clk.wall[0] - t0, st.threads, paper, pds_s);
-                fflush(stdout);
-            }
+            if (paper_ring[r][g] > 0.0)
+                snprintf(paper, sizeof paper, "paper_fps_dynamic=%g/%g paper_fps_static=%g/%g",
+                         paper_octahedron[r][4 + g], paper_ring[r][4 + g], paper_octahedron[r][g], paper_ring[r][g]);
+            else
+                snprintf(paper, sizeof paper, "paper_fps_dynamic=n/a paper_fps_static=n/a");
+            printf("bench isc gather=%s photons=%d^2 res=512x512 frames=%d fps=%.2f fps_static=%.2f "
+                   "cpu_s_per_frame=%.4f cpu_s_per_frame_static=%.4f first_s=%.3f first_s_static=%.3f threads=%d "
+                   "%s pds_s=%.3f\n",
+                   gname[g], res, n - 1, fps[0], fps[1], cpu[0], cpu[1], first[0], first[1], threads, paper, pds_s);
+            fflush(stdout);
         }
     }
     pds_scene_free(scene);

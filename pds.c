@@ -978,7 +978,8 @@ enum pds__rng_purpose {
     PDS__RNG_GLOBAL = 7,  /* gi's global photons: index = photon number */
     PDS__RNG_GATHER = 8,  /* gi's final gather: index = camera sample */
     PDS__RNG_WAVELENGTH = 9, /* index = pixel: its samples' wavelength rotation */
-    PDS__RNG_ISC = 10,    /* isc: index = frame, dim 0, 1 = the light-space grid's offset */
+    PDS__RNG_ISC = 10,    /* isc: index = frame, dim 0, 1 = the light-space grid's offset,
+                             dim 2, 3 = the photons' and the pixels' wavelength shift */
     PDS__RNG_STRATA = 11, /* index = pixel, dim = pass: the pixel samples' stratification pattern */
     PDS__RNG_LENS = 12,   /* thin lens: index = camera sample (as PIXEL), dim 0, 1 = the lens point */
     PDS__RNG_ENV_NEE = 13 /* the environment's sky parts in next-event estimation:
@@ -16551,6 +16552,24 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
       on the eye, and the filter. Every frame is what rendering it anew
       with the option gives, bit for bit. The frames' own grid offsets are
       given up: a still camera's frames are all alike.
+   6. Spectral renders (>>spectral; a dispersive material, or
+      pds_options.spectral): photon (i, j) carries a wavelength, one of 16
+      strata by its place in a 4 x 4 Bayer matrix plus the frame's offset
+      in the stratum (pds__isc_wavelength), and goes on spectrally from its
+      first dispersive material (with pds_options.spectral, its first
+      specular one): its e becomes its value at lambda times the film
+      weight W(lambda), and n(lambda) refracts it, so a prism fans the
+      buffer out. The gathers sum these signed values as they sum RGB
+      ones (in floating point: no separate negative sums are needed).
+      Quads join photons 4 apart, which share a wavelength. The eye
+      buffer's rays take the pixels' wavelengths the same way and turn
+      spectral at dispersive glass only: such a pixel holds at its own
+      wavelength, and takes its direct light and the gathered irradiance
+      there (the irradiance as a colour, uplifted: the gathers do not keep
+      the photons' wavelengths apart). A pixel seen through a prism thus
+      shows one wavelength, in a 4 x 4 dither, not averaged over frames.
+      The receiver's colour filters a spectral photon's light as RGB
+      (exact for grey receivers).
 
    Approximations (README "Image-space caustics"): point and spot lights
    only; one specular path per photon and per pixel; no indirect diffuse
@@ -16560,7 +16579,8 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
    and eye-space resolutions.
 
    Determinism: the only random numbers are the frame offsets, (seed,
-   PDS__RNG_ISC, frame). Work is split over threads in fixed chunks that
+   PDS__RNG_ISC, frame) (frame 0 with static lighting), of the grid and
+   of the wavelengths. Work is split over threads in fixed chunks that
    write only their own outputs; every sum over photons is done by one
    thread in photon order. So images do not depend on the thread count. */
 
@@ -16614,6 +16634,23 @@ static void pds__isc_intensity(const pds_light *l, pds__v3 dir, double I[3])
     }
 }
 
+/* Wavelengths of a spectral render (>>spectral): light-space photon
+   (i, j), and pixel (x, y), take the stratum of the range that its place
+   in the 4 x 4 Bayer matrix (an ordered dither, Bayer 1973) names, one of
+   PDS__SPECTRAL_BINS = 16, at the offset u in [0, 1) within it that the
+   frame draws for all. So every 4 x 4 block of photons or pixels holds
+   one wavelength of each stratum, and the photons 4 apart that share one
+   can span a caustic polygon (quads). */
+#define PDS__ISC_LAMBDA_SIDE 4
+typedef char pds__isc_bins_are_16[PDS__SPECTRAL_BINS == PDS__ISC_LAMBDA_SIDE * PDS__ISC_LAMBDA_SIDE ? 1 : -1];
+static const unsigned char pds__isc_bayer[4][4] = {{0, 8, 2, 10}, {12, 4, 14, 6}, {3, 11, 1, 9}, {15, 7, 13, 5}};
+
+static double pds__isc_wavelength(long i, long j, double u)
+{
+    double bin = (PDS__LAMBDA_MAX - PDS__LAMBDA_MIN) / PDS__SPECTRAL_BINS;
+    return PDS__LAMBDA_MIN + bin * (pds__isc_bayer[j & 3][i & 3] + u);
+}
+
 /* The one specular continuation ISC follows (a rasteriser's single path):
    mirrors and conductors reflect, dielectrics refract, or reflect under
    total internal reflection. It is pds__bsdf_sample's event with the
@@ -16644,12 +16681,18 @@ typedef struct pds__isc_photon {
     unsigned path;
 } pds__isc_photon;
 
-/* Trace the photon leaving light l's position in unit direction dir. */
+/* Trace the photon leaving light l's position in unit direction dir.
+   Spectral renders: lambda (nm) is its wavelength, from which it goes on
+   spectrally at its first dispersive material (spectral_all: its first
+   specular one), as the other methods' photons do (>>spectral): its
+   weight becomes its value at lambda times the film weight W(lambda),
+   and materials are taken at lambda; 0 in RGB renders. */
 static void pds__isc_trace(const pds_scene *s, const pds_light *l, pds__v3 dir, int max_depth, double eps,
-                           pds__isc_photon *ph)
+                           double lambda, int spectral_all, pds__isc_photon *ph)
 {
-    double w[3];
+    double w[3], sigma_buf[3], lam = 0.0;
     const double *sigma = NULL;
+    pds_material m_lambda;
     pds__v3 org = l->position;
     unsigned path = 2166136261u; /* FNV-1a offset basis */
     int depth, c;
@@ -16673,9 +16716,32 @@ static void pds__isc_trace(const pds_scene *s, const pds_light *l, pds__v3 dir, 
             ph->path = path ? path : 1u;
             return;
         }
+        if (lambda > 0.0 && lam == 0.0 && (spectral_all || pds__material_is_dispersive(m))) {
+            double film[3], phi = pds__spectral_value(w, lambda);
+            pds__film_weight(lambda, film);
+            for (c = 0; c < 3; c++) w[c] = phi * film[c];
+            if (sigma) {
+                memcpy(sigma_buf, sigma, sizeof sigma_buf);
+                pds__spectral_uplift(lambda, sigma_buf);
+                sigma = sigma_buf;
+            }
+            lam = lambda;
+        }
+        if (lam > 0.0) {
+            pds__spectral_material(m, lam, &m_lambda);
+            m = &m_lambda;
+        }
         if (depth == max_depth || !pds__isc_specular(m, &hit, dir, PDS__IMPORTANCE, &bs)) return;
+        pds__spectral_uplift(lam, bs.weight);
         for (c = 0; c < 3; c++) w[c] *= bs.weight[c];
-        if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        if (m->type == PDS_MAT_DIELECTRIC) {
+            sigma = pds__medium_absorption(m, bs.side);
+            if (sigma && lam > 0.0) {
+                /* m_lambda's, which the next material overwrites */
+                memcpy(sigma_buf, sigma, sizeof sigma_buf);
+                sigma = sigma_buf;
+            }
+        }
         path = (path ^ (unsigned)(2 * hit.material + bs.transmitted)) * 16777619u;
         path = (path ^ (unsigned)(bs.side > 0)) * 16777619u;
         org = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, bs.wi) >= 0.0 ? eps : -eps));
@@ -16683,7 +16749,7 @@ static void pds__isc_trace(const pds_scene *s, const pds_light *l, pds__v3 dir, 
     }
 }
 
-/* What the eye sees through pixel p's centre, 56 bytes:
+/* What the eye sees through pixel p's centre, 60 bytes:
      pos, n  first non-specular point, its unit geometric normal facing
              the eye path
      ns      the shading normal there, on the same side (pds__bsdf_frame)
@@ -16691,10 +16757,15 @@ static void pds__isc_trace(const pds_scene *s, const pds_light *l, pds__v3 dir, 
              caustic radiance = fr x irradiance
      area    eq. 5: the pixel's area on the surface (m^2), when seen
              directly; 0 otherwise
+     lambda  spectral renders: the pixel's wavelength (nm) when its path
+             went through dispersive glass (fr is then the path's value at
+             lambda times the film weight W(lambda), the same scalar in
+             every channel before W); 0 otherwise
      kind    0: nothing; 1: seen directly; 2: through specular surfaces */
 typedef struct pds__isc_pixel {
     float pos[3], n[3], ns[3], fr[3];
     float area;
+    float lambda;
     int kind;
 } pds__isc_pixel;
 
@@ -16737,6 +16808,8 @@ typedef struct pds__isc {
     const pds_light *light;     /* the light whose photons are in ph */
     size_t lk;                  /* its index */
     int fixed_grid;             /* static lighting: every frame takes frame 0's grid offset */
+    int spectral, spectral_all; /* a spectral render (>>spectral); spectral photons from the light on */
+    double photon_u, eye_u;     /* spectral: the photons' and the pixels' wavelength offset */
     int reuse;                  /* static lighting: each light's buffer (and light map) is
                                    traced once and kept for the frames after */
     unsigned char *state;       /* per light: PDS__ISC_TRACED, _NO_VIEW, _FLUX bits */
@@ -16824,7 +16897,11 @@ static double pds__isc_pixel_omega(const pds__camera_frame *f, int x, int y)
 /* The eye buffer's geometry: one ray through each pixel centre, through
    specular surfaces on the one-path rule, to the first diffuse point. It
    depends on the camera alone, so an animation whose camera stands still
-   traces it once. */
+   traces it once. Spectral renders: the ray carries the pixel's
+   wavelength and goes on spectrally from its first dispersive material
+   (>>spectral; even with pds_options.spectral, as one ray per pixel at one
+   wavelength would leave a fixed colour dither on every surface, where
+   the RGB ray gives the mean over the wavelengths). */
 static void pds__isc_eye_rows(pds__isc *ctx, long first, long last)
 {
     const pds_scene *s = ctx->scene;
@@ -16835,8 +16912,10 @@ static void pds__isc_eye_rows(pds__isc *ctx, long first, long last)
             size_t p = (size_t)y * (size_t)ctx->w + (size_t)x;
             pds__isc_pixel *out = &ctx->px[p];
             pds__v3 org = ctx->cam.origin, dir = pds__camera_dir(&ctx->cam, x + 0.5, y + 0.5);
-            double beta[3] = {1.0, 1.0, 1.0};
+            double beta[3] = {1.0, 1.0, 1.0}, sigma_buf[3], lam = 0.0;
+            double lambda = ctx->spectral ? pds__isc_wavelength(x, y, ctx->eye_u) : 0.0;
             const double *sigma = NULL;
+            pds_material m_lambda;
             int depth;
             memset(out, 0, sizeof *out);
             for (depth = 0; depth <= ctx->opt->max_depth; depth++) {
@@ -16851,10 +16930,31 @@ static void pds__isc_eye_rows(pds__isc *ctx, long first, long last)
                 pds__scene_fill_hit(s, &th, org, dir, &hit);
                 pds__beer(sigma, th.t, beta);
                 m = &s->materials.items[hit.material];
+                if (lambda > 0.0 && lam == 0.0 && pds__material_is_dispersive(m)) {
+                    /* the path turns spectral: its throughput and medium at lambda */
+                    lam = lambda;
+                    pds__spectral_uplift(lam, beta);
+                    if (sigma) {
+                        memcpy(sigma_buf, sigma, sizeof sigma_buf);
+                        pds__spectral_uplift(lam, sigma_buf);
+                        sigma = sigma_buf;
+                    }
+                }
+                if (lam > 0.0) {
+                    pds__spectral_material(m, lam, &m_lambda);
+                    m = &m_lambda;
+                }
                 if (pds__material_is_specular(m)) {
                     if (depth == ctx->opt->max_depth || !pds__isc_specular(m, &hit, dir, PDS__RADIANCE, &bs)) break;
+                    pds__spectral_uplift(lam, bs.weight);
                     for (c = 0; c < 3; c++) beta[c] *= bs.weight[c];
-                    if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+                    if (m->type == PDS_MAT_DIELECTRIC) {
+                        sigma = pds__medium_absorption(m, bs.side);
+                        if (sigma && lam > 0.0) {
+                            memcpy(sigma_buf, sigma, sizeof sigma_buf);
+                            sigma = sigma_buf;
+                        }
+                    }
                     org = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, bs.wi) >= 0.0 ? ctx->eps : -ctx->eps));
                     dir = bs.wi;
                     continue;
@@ -16866,6 +16966,13 @@ static void pds__isc_eye_rows(pds__isc *ctx, long first, long last)
                 pds__f3_set(out->pos, hit.position);
                 pds__f3_set(out->n, g);
                 pds__f3_set(out->ns, n);
+                if (lam > 0.0) {
+                    double film[3];
+                    pds__film_weight(lam, film);
+                    pds__spectral_uplift(lam, f);
+                    for (c = 0; c < 3; c++) f[c] *= film[c];
+                    out->lambda = (float)lam;
+                }
                 for (c = 0; c < 3; c++) out->fr[c] = (float)(beta[c] * f[c]);
                 out->kind = depth == 0 ? 1 : 2;
                 if (depth == 0)
@@ -16900,6 +17007,7 @@ static void pds__isc_direct_rows(pds__isc *ctx, long first, long last)
             if (pds__bvh_occluded(&s->bvh, pds__add(x, pds__scale(g, ctx->eps)), wi, 0.0, sqrt(d2) * (1.0 - 1e-4)))
                 continue;
             pds__isc_intensity(l, pds__scale(wi, -1.0), I);
+            pds__spectral_uplift(px->lambda, I); /* fr holds W(lambda) */
             for (c = 0; c < 3; c++) direct[c] += px->fr[c] * I[c] * cosine / d2;
         }
     }
@@ -16965,7 +17073,9 @@ static void pds__isc_photon_rows(pds__isc *ctx, long first, long last)
                 continue;
             }
             dir = pds__isc_view_dir(&ctx->view, i + ctx->view.jx, j + ctx->view.jy);
-            pds__isc_trace(ctx->scene, ctx->light, dir, ctx->opt->photon_depth, ctx->eps, &ctx->ph[k]);
+            pds__isc_trace(ctx->scene, ctx->light, dir, ctx->opt->photon_depth, ctx->eps,
+                           ctx->spectral ? pds__isc_wavelength(i, j, ctx->photon_u) : 0.0, ctx->spectral_all,
+                           &ctx->ph[k]);
         }
 }
 
@@ -17386,29 +17496,41 @@ static void pds__isc_raster(pds__isc *ctx, long j, const long long *a, const lon
         }
 }
 
+/* The photons a caustic polygon's corners are apart: 1, or in spectral
+   renders PDS__ISC_LAMBDA_SIDE, the nearest that share a wavelength. */
+static int pds__isc_quad_step(const pds__isc *ctx)
+{
+    return ctx->spectral ? PDS__ISC_LAMBDA_SIDE : 1;
+}
+
 /* The caustic polygons of light-space rows j and j + 1: quad (i, j) joins
    photons (i,j), (i+1,j), (i+1,j+1), (i,j+1) when all four followed the
    same specular path to surfaces facing the same way (Sect. 3.2.1: quads
    that stretch between surfaces are culled). Its irradiance: the beam's
    flux Phi_B = I omega_B (eq. 1; I the mean of the corners' e) over the
-   polygon's area (eqs. 2-3). */
+   polygon's area (eqs. 2-3). Spectral renders join photons (i,j),
+   (i+4,j), (i+4,j+4), (i,j+4) of one wavelength: each of the 16
+   wavelengths' polygons tile the caustic, and each is given 1/16 of its
+   irradiance (e is the flux at lambda times W(lambda), whose mean over
+   the strata is the colour). */
 static void pds__isc_quad_rows(pds__isc *ctx, long first, long last)
 {
     const pds__isc_view *v = &ctx->view;
     long j;
-    int i, c, r;
+    int i, c, r, step = pds__isc_quad_step(ctx);
+    double share = 1.0 / ((double)step * step);
     for (j = first; j < last; j++) {
         ctx->nfrags[j] = 0;
-        for (i = 0; i + 1 < ctx->res; i++) {
+        for (i = 0; i + step < ctx->res; i++) {
             size_t k[4];
             pds__v3 x[4], n0;
             double omega, area, e[3] = {0, 0, 0};
             float ef[3];
             int ok = 1;
             k[0] = (size_t)j * ctx->res + i;
-            k[1] = k[0] + 1;
-            k[2] = k[1] + (size_t)ctx->res;
-            k[3] = k[0] + (size_t)ctx->res;
+            k[1] = k[0] + (size_t)step;
+            k[2] = k[1] + (size_t)step * (size_t)ctx->res;
+            k[3] = k[0] + (size_t)step * (size_t)ctx->res;
             for (r = 0; r < 4 && ok; r++)
                 ok = ctx->ph[k[r]].path == ctx->ph[k[0]].path && ctx->ph[k[r]].path != 0 && ctx->ph_front[k[r]];
             if (!ok) continue;
@@ -17422,8 +17544,9 @@ static void pds__isc_quad_rows(pds__isc *ctx, long first, long last)
             area = 0.5 * (pds__length(pds__cross(pds__sub(x[1], x[0]), pds__sub(x[2], x[0]))) +
                           pds__length(pds__cross(pds__sub(x[2], x[0]), pds__sub(x[3], x[0]))));
             if (!(area > 0.0)) continue;
-            omega = pds__rect_solid_angle(pds__isc_plane(v, i + v->jx), pds__isc_plane(v, i + 1 + v->jx),
-                                          pds__isc_plane(v, j + v->jy), pds__isc_plane(v, j + 1 + v->jy));
+            omega = pds__rect_solid_angle(pds__isc_plane(v, i + v->jx), pds__isc_plane(v, i + step + v->jx),
+                                          pds__isc_plane(v, j + v->jy), pds__isc_plane(v, j + step + v->jy));
+            if (step > 1) omega *= share;
             for (c = 0; c < 3; c++) ef[c] = (float)(e[c] * omega / area);
             pds__isc_raster(ctx, j, &ctx->ph_xy[2 * k[0]], &ctx->ph_xy[2 * k[1]], &ctx->ph_xy[2 * k[2]], ef, x[0], n0);
             pds__isc_raster(ctx, j, &ctx->ph_xy[2 * k[0]], &ctx->ph_xy[2 * k[2]], &ctx->ph_xy[2 * k[3]], ef, x[0], n0);
@@ -17437,7 +17560,7 @@ static void pds__isc_quads_add(pds__isc *ctx)
     long j;
     size_t f;
     int c;
-    for (j = 0; j + 1 < ctx->res; j++)
+    for (j = 0; j + pds__isc_quad_step(ctx) < ctx->res; j++)
         for (f = 0; f < ctx->nfrags[j]; f++) {
             const pds__isc_frag *fr = &ctx->frags[j][f];
             for (c = 0; c < 3; c++) ctx->est[fr->pixel].e[c] += fr->e[c];
@@ -17475,6 +17598,7 @@ static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
     fresh = !(ctx->state[k] & PDS__ISC_TRACED);
     if (fresh) {
         ctx->state[k] = PDS__ISC_TRACED;
+        if (ctx->spectral) ctx->photon_u = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)grid, 2);
         if (!pds__isc_view_setup(ctx->scene, &ctx->target, ctx->light->position, ctx->res, jx, jy, &ctx->view)) {
             ctx->state[k] |= PDS__ISC_NO_VIEW;
             return;
@@ -17524,7 +17648,7 @@ static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
         break;
     case PDS_ISC_QUADS:
         pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_screen);
-        pds__isc_parallel(ctx, ctx->res - 1, 4, pds__isc_quad_rows);
+        pds__isc_parallel(ctx, ctx->res - pds__isc_quad_step(ctx), 4, pds__isc_quad_rows);
         pds__isc_quads_add(ctx);
         break;
     }
@@ -17557,8 +17681,11 @@ static void pds__isc_frame(pds__isc *ctx, int frame, int accumulate, pds_image *
     ctx->cam = pds__camera_setup(&cam, ctx->w, ctx->h);
     /* the eye buffer when the camera moved (or on the first frame), its
        direct light when anything moved */
-    if (ctx->frames_done == 0 || (opt->orbit == PDS_ORBIT_CAMERA && angle != 0.0))
+    if (ctx->frames_done == 0 || (opt->orbit == PDS_ORBIT_CAMERA && angle != 0.0)) {
+        if (ctx->spectral)
+            ctx->eye_u = pds__rng_uniform(opt->seed, PDS__RNG_ISC, (uint64_t)(ctx->fixed_grid ? 0 : frame), 3);
         pds__isc_parallel(ctx, ctx->h, 4, pds__isc_eye_rows);
+    }
     if (ctx->frames_done == 0 || (opt->orbit != PDS_ORBIT_NONE && angle != 0.0))
         pds__isc_parallel(ctx, ctx->h, 4, pds__isc_direct_rows);
     ctx->time_eye += pds_time_now() - t0;
@@ -17590,6 +17717,14 @@ static void pds__isc_frame(pds__isc *ctx, int frame, int accumulate, pds_image *
             }
         }
         if (threshold && count < PDS__ISC_MIN_PHOTONS) e[0] = e[1] = e[2] = 0.0;
+        if (ctx->px[i].lambda > 0.0f) {
+            /* a pixel seen through dispersive glass holds at its own
+               wavelength: the irradiance's value there (>>spectral's RGB
+               photon at such a vertex; spectral photons' sums are taken
+               as their colour, a light map not telling them apart) */
+            double v = pds__spectral_value(e, ctx->px[i].lambda);
+            e[0] = e[1] = e[2] = v;
+        }
         for (c = 0; c < 3; c++) {
             double v = (opt->paths == PDS_PATHS_CAUSTICS_ONLY ? 0.0 : d[c]) + ctx->px[i].fr[c] * e[c] / n_hist;
             ctx->rgb[3 * i + c] = v;
@@ -17694,6 +17829,8 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
     }
     n = (size_t)ctx->res * ctx->res;
     ctx->fixed_grid = ctx->reuse = opt->static_lighting;
+    ctx->spectral = pds__render_is_spectral(s, opt);
+    ctx->spectral_all = ctx->spectral && opt->spectral;
     nbuf = ctx->reuse && s->nlights > 1 ? s->nlights : 1;
     ctx->lights = (pds_light *)malloc(sizeof *ctx->lights * (s->nlights ? s->nlights : 1));
     ctx->state = (unsigned char *)calloc(s->nlights ? s->nlights : 1, 1);
@@ -17791,6 +17928,7 @@ static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, in
         for (i = 0; i < npix; i++) stats->eye_vertices += ctx.px[i].kind != 0;
         stats->spp = 1;
         stats->nonfinite = ctx.nonfinite;
+        stats->spectral = ctx.spectral;
     }
     pds__isc_free(&ctx);
     if (!st && last) *last = img;

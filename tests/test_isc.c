@@ -500,6 +500,114 @@ static void test_isc_static_lighting_frames_equal_frames_rendered_anew(pds_test_
     pds_scene_free(s);
 }
 
+/* Spectral isc: the fan scene of tests/test_spectral.c (an N-SF11 prism,
+   scenes/prism.obj, at minimum deviation for n_d before a screen), lit by
+   a narrow spot light where that test has a slit of collimated light
+   (isc takes point and spot lights only). Each light-space photon
+   carries a wavelength and is refracted with n(lambda), so the caustic on
+   the screen fans out: blue lands left of red, by the amount photon
+   mapping's photons give on the same scene, with the same light in each
+   channel. */
+static const char isc_fan_scene[] =
+    "camera { position 0.6 0.8 0.3 look_at 1.5 0.3 -0.85 fov 50 resolution 96 64 spp 4 }\n"
+    "material screen diffuse { albedo 0.8 }\n"
+    "material flint dielectric { %s }\n"
+    "quad { material screen size 3 3 rotate 90 0 0 1 translate 1.5 0.3 -0.8 }\n"
+    "mesh \"prism.obj\" { material flint scale 0.4 0.6 0.4 }\n"
+    "light spot { position -3.448 0.3 -2.131 direction 0.8369 0 0.5473 power 2000 cone 1 1.5 }\n";
+
+/* Render the fan scene (glass: the dielectric's law) as if it were a file
+   in scenes/ (for its mesh); caustics only. */
+static int isc_fan_render(const char *glass, pds_method method, pds_isc_gather g, int threads, pds_image *img,
+                          pds_render_stats *st)
+{
+    char text[1024];
+    pds_error err;
+    pds_scene *s = NULL;
+    pds_options opt;
+    int ok;
+    snprintf(text, sizeof text, isc_fan_scene, glass);
+    if (pds_scene_load_string(text, "scenes/isc-fan.scene", &s, &err) != PDS_OK) {
+        printf("  scene: %s\n", err.text);
+        return 0;
+    }
+    pds_options_default(&opt);
+    opt.method = method;
+    opt.isc_gather = g;
+    opt.light_resolution = 256;
+    opt.photons = 200000; /* pm */
+    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    opt.threads = threads;
+    ok = pds_render(s, &opt, img, st, &err) == PDS_OK;
+    if (!ok) printf("  render: %s\n", err.text);
+    pds_scene_free(s);
+    return ok;
+}
+
+/* The blue channel's centroid minus the red one's, in pixels along x,
+   and the light in each channel. */
+static double isc_fan_measure(const pds_image *img, double light[3])
+{
+    double wx[3] = {0, 0, 0};
+    int x, y, c;
+    for (c = 0; c < 3; c++) light[c] = 0.0;
+    for (y = 0; y < img->height; y++)
+        for (x = 0; x < img->width; x++)
+            for (c = 0; c < 3; c++) {
+                double v = fmax(0.0, img->rgb[3 * (y * img->width + x) + c]);
+                wx[c] += v * x;
+                light[c] += v;
+            }
+    return light[0] > 0.0 && light[2] > 0.0 ? wx[2] / light[2] - wx[0] / light[0] : 0.0;
+}
+
+static void test_isc_spectral_photons_fan_out_through_a_prism_as_pm_s(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    double pm_sep, pm_light[3], sep, light[3];
+    int g, c;
+    REQUIRE(t, isc_fan_render(SPECTRAL_SF11, PDS_METHOD_PM, PDS_ISC_EYE, 2, &img, &st), "pm");
+    pm_sep = isc_fan_measure(&img, pm_light);
+    pds_image_free(&img);
+    CHECK(t, pm_sep < -2.0, "pm: blue %.2f pixels right of red", pm_sep);
+    for (g = 0; g < 4; g++) {
+        REQUIRE(t, isc_fan_render(SPECTRAL_SF11, PDS_METHOD_ISC, (pds_isc_gather)g, 2, &img, &st), "%s",
+                isc_gather_label[g]);
+        sep = isc_fan_measure(&img, light);
+        CHECK(t, st.spectral == 1, "%s: not spectral", isc_gather_label[g]);
+        CHECK(t, fabs(sep / pm_sep - 1.0) < 0.1, "%s: fan %.2f pixels, pm %.2f", isc_gather_label[g], sep, pm_sep);
+        for (c = 0; c < 3; c++)
+            CHECK(t, fabs(light[c] / pm_light[c] - 1.0) < 0.1, "%s channel %d: %.4f, pm %.4f", isc_gather_label[g], c,
+                  light[c], pm_light[c]);
+        if (getenv("ISC_DBG"))
+            printf("%s sep %.3f (pm %.3f) light %.4f %.4f %.4f (pm %.4f %.4f %.4f)\n", isc_gather_label[g], sep, pm_sep,
+                   light[0], light[1], light[2], pm_light[0], pm_light[1], pm_light[2]);
+        pds_image_free(&img);
+    }
+    /* the same prism with a fixed index: no fan, and an RGB render */
+    REQUIRE(t, isc_fan_render("ior 1.7847", PDS_METHOD_ISC, PDS_ISC_EYE, 2, &img, &st), "fixed index");
+    sep = isc_fan_measure(&img, light);
+    CHECK(t, st.spectral == 0 && fabs(sep) < 0.05, "fixed index: spectral %d, blue %.3f pixels from red", st.spectral,
+          sep);
+    pds_image_free(&img);
+}
+
+/* Spectral isc is the same bit for bit for any thread count: every gather. */
+static void test_isc_spectral_is_identical_for_any_thread_count(pds_test_ctx *t)
+{
+    int g;
+    for (g = 0; g < 4; g++) {
+        pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+        REQUIRE(t, isc_fan_render(SPECTRAL_SF11, PDS_METHOD_ISC, (pds_isc_gather)g, 1, &a, NULL), "1 thread");
+        REQUIRE(t, isc_fan_render(SPECTRAL_SF11, PDS_METHOD_ISC, (pds_isc_gather)g, 3, &b, NULL), "3 threads");
+        CHECK(t, memcmp(a.rgb, b.rgb, sizeof(float) * 3 * (size_t)a.width * a.height) == 0, "%s: 1 and 3 threads differ",
+              isc_gather_label[g]);
+        pds_image_free(&a);
+        pds_image_free(&b);
+    }
+}
+
 /* A light orbit moves the caustic: frame 45 degrees on is not frame 0,
    and a full turn brings it back. */
 static void test_isc_light_orbit_moves_the_caustic_and_returns(pds_test_ctx *t)
@@ -688,6 +796,8 @@ static const pds_test_case tests_isc[] = {
     {"isc_is_identical_for_any_thread_count", test_isc_is_identical_for_any_thread_count},
     {"isc_temporal_filter_reduces_flicker", test_isc_temporal_filter_reduces_flicker},
     {"isc_static_lighting_frames_equal_frames_rendered_anew", test_isc_static_lighting_frames_equal_frames_rendered_anew},
+    {"isc_spectral_photons_fan_out_through_a_prism_as_pm_s", test_isc_spectral_photons_fan_out_through_a_prism_as_pm_s},
+    {"isc_spectral_is_identical_for_any_thread_count", test_isc_spectral_is_identical_for_any_thread_count},
     {"isc_light_orbit_moves_the_caustic_and_returns", test_isc_light_orbit_moves_the_caustic_and_returns},
     {"isc_time_budget_averages_offset_frames", test_isc_time_budget_averages_offset_frames},
     {"isc_frames_stop_when_the_callback_fails", test_isc_frames_stop_when_the_callback_fails},
