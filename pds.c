@@ -54,7 +54,8 @@
                   from any caustic method
      >>isc        image-space caustics (Wyman and Davis 2006): light-space
                   photon buffer, points, quads, eye- and light-space
-                  gathers, temporal filter, animation frames
+                  gathers, temporal filter, animation frames, static
+                  lighting, spectral photons
      >>api        public entry points: render, options, teaching views,
                   trace-photon, benchmarks
 */

@@ -750,6 +750,15 @@ static void test_isc_refuses_what_it_cannot_render(pds_test_ctx *t)
     opt.history = 0;
     CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_ERR_INVALID_ARG && strstr(err.text, "history 0") != NULL,
           "history 0: %s", err.text);
+    opt.history = 4;
+    opt.static_lighting = 1;
+    CHECK(t, pds_render_frames(s, &opt, 3, isc_keep_frame, NULL, NULL, &err) == PDS_ERR_INVALID_ARG &&
+                 strstr(err.text, "the light cannot orbit") != NULL,
+          "static lighting, light orbit: %s", err.text);
+    opt.time_s = 1.0;
+    CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_ERR_INVALID_ARG &&
+                 strstr(err.text, "static lighting keeps one light-space grid") != NULL,
+          "static lighting, time budget: %s", err.text);
     pds_scene_free(s);
 }
 
@@ -776,6 +785,13 @@ static void test_isc_cli_frames_and_options(pds_test_ctx *t)
     }
     CHECK(t, cli_run("render scenes/ring_octahedron.scene --method isc --gather eyes", out, sizeof out) == 2 &&
                  strstr(out, "pds render: --gather takes points, quads, eye or light, got 'eyes' (did you mean 'eye'?)"),
+          "%s", out);
+    CHECK(t, cli_run("render scenes/ring_octahedron.scene --method isc --static-lighting", out, sizeof out) == 2 &&
+                 strstr(out, "pds render: --static-lighting keeps the photons from frame to frame: it is for --frames"),
+          "%s", out);
+    CHECK(t, cli_run("render scenes/ring_octahedron.scene --method isc --static-lighting --frames 2", out, sizeof out) ==
+                     2 &&
+                 strstr(out, "pds render: --static-lighting keeps the light where it is: give --orbit camera or --orbit none"),
           "%s", out);
     CHECK(t, cli_run("render tests/golden/glass.scene --frames 3", out, sizeof out) == 2 &&
                  strstr(out, "--frames renders an animation with --method isc only"),
