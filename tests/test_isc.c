@@ -434,7 +434,8 @@ static void test_isc_temporal_filter_reduces_flicker(pds_test_ctx *t)
    depends on the eye. With the camera orbiting and the temporal filter
    on, every frame is bit for bit what recomputing everything each frame
    from frame 0's grid gives; each frame with the filter off is what a
-   new render of that frame alone gives; the buffer is traced once. */
+   new render of that frame alone gives; the buffer is traced once; and
+   frame 0 is the still, with or without the option. */
 static void isc_static_options(pds_options *opt, pds_isc_gather g, int history)
 {
     pds_options_default(opt);
@@ -461,7 +462,7 @@ static void test_isc_static_lighting_frames_equal_frames_rendered_anew(pds_test_
         pds_render_stats st;
         isc_frames anim, single;
         pds__isc ctx;
-        pds_image img = {0, 0, NULL};
+        pds_image img = {0, 0, NULL}, still = {0, 0, NULL};
         int same = 0, alone = 0;
         memset(&anim, 0, sizeof anim);
         memset(&single, 0, sizeof single);
@@ -484,6 +485,11 @@ static void test_isc_static_lighting_frames_equal_frames_rendered_anew(pds_test_
         CHECK(t, same == 6, "%s: %d of 6 frames equal the recomputed ones", isc_gather_label[g], same);
         CHECK(t, anim.n == 6 && memcmp(anim.rgb[0], anim.rgb[5], bytes) != 0, "%s: the camera did not move",
               isc_gather_label[g]);
+        /* frame 0 is the still, which the option does not change */
+        opt.static_lighting = 0;
+        if (anim.n == 6 && pds_render(s, &opt, &still, NULL, &err) == PDS_OK)
+            CHECK(t, memcmp(still.rgb, anim.rgb[0], bytes) == 0, "%s: frame 0 is not the still", isc_gather_label[g]);
+        pds_image_free(&still);
         /* without the filter, frame 5 is frame 5 rendered alone */
         isc_static_options(&opt, (pds_isc_gather)g, 1);
         if (pds_render_frames(s, &opt, 6, isc_keep_frame, &single, NULL, &err) == PDS_OK && single.n == 6 &&

@@ -572,7 +572,8 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
    1 = it may change the image, so it is stored (and parts that differ in
    it are not one render); 0 = it cannot change the image (threads and
    the order of work, callbacks, a memory guard, the shard, which the
-   header holds). */
+   header holds, isc's static lighting, which changes animation frames
+   only). */
 typedef struct shards_field {
     const char *name;
     size_t offset, size;
@@ -598,6 +599,7 @@ static const shards_field shards_fields[] = {
     SHARDS_FIELD(shadow_photons, 1), SHARDS_FIELD(isc_gather, 1),      SHARDS_FIELD(light_resolution, 1),
     SHARDS_FIELD(history, 1),        SHARDS_FIELD(orbit, 1),           SHARDS_FIELD(orbit_deg, 1),
     SHARDS_FIELD(memory_limit, 0),   SHARDS_FIELD(shard_index, 0),     SHARDS_FIELD(shard_count, 0),
+    SHARDS_FIELD(static_lighting, 0),
 };
 
 /* The names of pds_options's fields as pds.h declares them: comments
