@@ -16554,9 +16554,9 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
       with the option gives, bit for bit. The frames' own grid offsets are
       given up: a still camera's frames are all alike.
    6. Spectral renders (>>spectral; a dispersive material, or
-      pds_options.spectral): photon (i, j) carries a wavelength, one of 16
-      strata by its place in a 4 x 4 Bayer matrix plus the frame's offset
-      in the stratum (pds__isc_wavelength), and goes on spectrally from its
+      pds_options.spectral): photon (i, j) carries a wavelength, one in
+      each of 16 strata per 4 x 4 block by a Bayer matrix, rotated by the
+      frame's offset (pds__isc_wavelength), and goes on spectrally from its
       first dispersive material (with pds_options.spectral, its first
       specular one): its e becomes its value at lambda times the film
       weight W(lambda), and n(lambda) refracts it, so a prism fans the
@@ -16568,7 +16568,8 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
       wavelength, and takes its direct light and the gathered irradiance
       there (the irradiance as a colour, uplifted: the gathers do not keep
       the photons' wavelengths apart). A pixel seen through a prism thus
-      shows one wavelength, in a 4 x 4 dither, not averaged over frames.
+      shows one wavelength, in a 4 x 4 dither (a time budget's frames keep
+      the first frame's eye buffer and so its wavelengths).
       The receiver's colour filters a spectral photon's light as RGB
       (exact for grey receivers).
 
@@ -16636,12 +16637,15 @@ static void pds__isc_intensity(const pds_light *l, pds__v3 dir, double I[3])
 }
 
 /* Wavelengths of a spectral render (>>spectral): light-space photon
-   (i, j), and pixel (x, y), take the stratum of the range that its place
-   in the 4 x 4 Bayer matrix (an ordered dither, Bayer 1973) names, one of
-   PDS__SPECTRAL_BINS = 16, at the offset u in [0, 1) within it that the
-   frame draws for all. So every 4 x 4 block of photons or pixels holds
-   one wavelength of each stratum, and the photons 4 apart that share one
-   can span a caustic polygon (quads). */
+   (i, j), and pixel (x, y), take the value b in 0..15 of its place in the
+   4 x 4 Bayer matrix (an ordered dither, Bayer 1973), rotated by the
+   frame's uniform u: lambda = 380 nm + 25 nm ((b + 16 u) mod 16). So
+   every 4 x 4 block of photons or pixels holds one wavelength in each of
+   the PDS__SPECTRAL_BINS = 16 strata of the range (25 nm apart), the
+   photons 4 apart that share one can span a caustic polygon (quads), and
+   over frames (or seeds) each photon's and each pixel's wavelength is
+   uniform on the whole range (a Cranley-Patterson rotation of the 16
+   dither values), so no pixel keeps one part of the spectrum. */
 #define PDS__ISC_LAMBDA_SIDE 4
 typedef char pds__isc_bins_are_16[PDS__SPECTRAL_BINS == PDS__ISC_LAMBDA_SIDE * PDS__ISC_LAMBDA_SIDE ? 1 : -1];
 static const unsigned char pds__isc_bayer[4][4] = {{0, 8, 2, 10}, {12, 4, 14, 6}, {3, 11, 1, 9}, {15, 7, 13, 5}};
@@ -16649,7 +16653,9 @@ static const unsigned char pds__isc_bayer[4][4] = {{0, 8, 2, 10}, {12, 4, 14, 6}
 static double pds__isc_wavelength(long i, long j, double u)
 {
     double bin = (PDS__LAMBDA_MAX - PDS__LAMBDA_MIN) / PDS__SPECTRAL_BINS;
-    return PDS__LAMBDA_MIN + bin * (pds__isc_bayer[j & 3][i & 3] + u);
+    double t = pds__isc_bayer[j & 3][i & 3] + PDS__SPECTRAL_BINS * u;
+    if (t >= PDS__SPECTRAL_BINS) t -= PDS__SPECTRAL_BINS;
+    return PDS__LAMBDA_MIN + bin * t;
 }
 
 /* The one specular continuation ISC follows (a rasteriser's single path):
