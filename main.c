@@ -3946,9 +3946,12 @@ static void html_figure(sbuf *b, const char *src, const char *alt, const char *c
    and pixel sequence than the render reported, so the choice does not fit
    that render's own noise). A parameter given in --methods or as an option
    is kept. ppm is tuned one parameter at a time: R0 with alpha at its
-   value, then alpha with the best R0; spm likewise k, then R with the best
-   k (its stream_photons only says how many photons a stream stands for:
-   under a time budget it changes nothing in the image). Radii are multiples of the pixel
+   value, then alpha with the best R0; pm and spm likewise k, then R
+   (max-radius: eye vertices far from every photon make k-nearest queries
+   that grow with the map, which took pm's gather alone past the budget on
+   the reflection case) with the best k (spm's stream_photons only says
+   how many photons a stream stands for: under a time budget it changes
+   nothing in the image). Radii are multiples of the pixel
    footprint at the camera's look-at distance (race_pixel_size), so the
    grid follows the scene's scale. Under a time budget a value whose
    render took more than RACE_TIME_TOLERANCE over the budget is not an
@@ -3969,6 +3972,7 @@ static const tune_grid tune_grids[] = {
     {PDS_METHOD_PDS, 1, "pass-smoothing", 7, {1, 1.5, 2, 3, 4, 6, 8}, 0},
     {PDS_METHOD_PDM, -1, "smoothing", 6, {4, 6, 8, 12, 16, 24}, 0},
     {PDS_METHOD_PM, -1, "k", 5, {10, 20, 40, 80, 160}, 0},
+    {PDS_METHOD_PM, -1, "max-radius", 5, {1, 3, 10, 30, 100}, 1},
     {PDS_METHOD_SPLAT, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
     {PDS_METHOD_PPM, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
     {PDS_METHOD_PPM, -1, "alpha", 3, {0.5, 0.7, 0.9}, 0},

@@ -665,7 +665,7 @@ static void test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_
     harness_path(dir, sizeof dir, "race_tune");
     harness_rmtree(dir);
     snprintf(args, sizeof args,
-             "race tests/golden/glass.scene --ref %s --photons 2000 --methods pds,pm,ppm:alpha=0.7,pm:k=30 --tune "
+             "race tests/golden/glass.scene --ref %s --photons 2000 --methods pds,pm,ppm:alpha=0.7,pm:k=30:max-radius=0.5 --tune "
              "--res 32x24 --spp 4 --seed 5 --caustics-only --quiet -o %s",
              ref, dir);
     REQUIRE(t, cli_run_split(args, out, sizeof out, NULL, 0) == 0, "race failed: %s", out);
@@ -682,8 +682,8 @@ static void test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_
     REQUIRE(t, tune && csv, "tune.csv and race.csv written");
     CHECK(t, HARNESS_STARTS(tune, "label,method,budget_photons,param,value,seed,rmse,ssim,time_s,photons,chosen\n"),
           "tune.csv header: %s", tune);
-    /* pds: 7 first-pass smoothings, pm: 5 k, ppm: 5 radii (alpha given), pm:k=30 none */
-    CHECK(t, harness_count(tune, "\n") == 1 + 7 + 5 + 5, "rows: %s", tune);
+    /* pds: 7 first-pass smoothings, pm: 5 k and 5 maximum radii, ppm: 5 radii (alpha given), pm:k=30 none */
+    CHECK(t, harness_count(tune, "\n") == 1 + 7 + 10 + 5, "rows: %s", tune);
     CHECK(t, strstr(tune, "pm-k30") == NULL && strstr(tune, ",alpha,") == NULL, "given values are not tuned");
     for (i = 0; i < 3; i++) {
         char prefix[64], want[128], field[128], best_value[32] = "";
@@ -713,7 +713,9 @@ static void test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_
         snprintf(want, sizeof want, "%s=%s", keys[i], best_value);
         snprintf(prefix, sizeof prefix, "%s,%s,", methods[i], labels[i]);
         harness_csv_field(csv, prefix, 7, field, sizeof field);
-        CHECK(t, !strcmp(field, want), "%s: tuned '%s', want '%s'", labels[i], field, want);
+        /* pm's second parameter (max-radius) follows its k */
+        CHECK(t, !strncmp(field, want, strlen(want)) && (field[strlen(want)] == '\0' || (i == 1 && field[strlen(want)] == ' ')),
+              "%s: tuned '%s', want '%s'", labels[i], field, want);
         snprintf(want, sizeof want, " %s=%s", param_keys[i], best_value);
         CHECK(t, strstr(lines[i], want) != NULL, "%s rendered with %s: %s", labels[i], want, lines[i]);
     }
