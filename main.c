@@ -179,7 +179,7 @@ static const command_help help_table[] = {
      "                              --photons N: a light-space buffer of side sqrt(N) per light; --time:\n"
      "                              frames, each with its buffer offset anew, averaged until it is spent\n"
      "      --gather G              isc: points, quads, eye (default) or light (gi: a number)\n"
-     "      --light-res N           isc: N x N photons per light in its light-space buffer (default: from --photons)\n"
+     "      --light-res N           isc: N x N photons per light in its light-space buffer (default: --photons)\n"
      "      --history N             isc: temporal filter, the last N frames averaged (default 4; 1 = off)\n"
      "      --frames N              isc: an animation of N frames, OUT.0000.png, OUT.0001.png, ...\n"
      "      --orbit WHAT            --frames: light (default), camera or none turns about the look-at point\n"
