@@ -14157,6 +14157,7 @@ typedef struct pds__photon_job {
     pds__v3 eye;               /* camera position */
     pds__camera_frame frame;   /* the camera, for the debug views */
     int spread;                /* some eye vertices are merged (pds__eye_merge) */
+    int defocus_widen;         /* widen defocused needles (pds__defocus_widen) */
     double sample_angle;       /* angle between neighbouring eye samples (as a
                                   pinhole sees them: a thin lens moves each
                                   vertex by its circle of confusion but
@@ -14589,6 +14590,31 @@ static double pds__half_spread(pds__v3 a, pds__v3 b)
 static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *start,
                             const double flux0[3], long i, int level);
 
+/* Defocused needles (progressive PDS; an extension). A convex mirror or
+   the rim of a glass ball spreads a thin tube of light over a long, faint
+   streak: its footprint is a needle, correct to first order, but a pass
+   holds few such photons and the faint tail becomes radial streaks. The
+   tube's cross-section A (|Du x Dv . d|) against the one it would have had
+   without any specular surface, A0 = |Du0 x Dv0| + |Dd0u x Dd0v| L^2 (L
+   the path's length), says how far the light was spread: m = A / A0 > 1
+   defocused, < 1 focused. A defocused footprint's minor axis is widened
+   to at least min_aspect m times its major one (round from m = 1 /
+   min_aspect on): faint light is smooth on the scale of its footprints,
+   while a focused needle (a caustic's focal line, m < 1) keeps the shape
+   that draws the line. */
+static void pds__defocus_widen(const pds__photon_job *job, const pds__ray_diff *start, double travel, pds__v3 ng,
+                               pds__ray_diff *r)
+{
+    double a0 = pds__length(pds__cross(start->dpdu, start->dpdv)) +
+                pds__length(pds__cross(start->dddu, start->dddv)) * travel * travel;
+    double a = fabs(pds__dot(pds__cross(r->dpdu, r->dpdv), r->d)), m, aspect;
+    pds__v3 np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
+    if (!(a0 > 0.0) || !(a > a0)) return;
+    m = a / a0;
+    aspect = job->min_aspect * m < 1.0 ? job->min_aspect * m : 1.0;
+    (void)pds__footprint_widen_to(&r->dpdu, &r->dpdv, np, aspect, 0.0);
+}
+
 /* Split the photon that left the light as (start, flux0) into four. */
 static void pds__split_photon(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *start,
                               const double flux0[3], long i, int level)
@@ -14624,6 +14650,7 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
     /* the path recorder (>>debug) follows the photon, not its sub-photons:
        a split photon's recorded path ends where it split */
     pds__path_rec *rec = level == 0 && buf->path && i < buf->path->photon_end ? buf->path : NULL;
+    double travel = 0.0; /* the path's length so far */
     for (c = 0; c < 3; c++) flux[c] = flux0[c];
     for (depth = 0; depth <= job->max_depth; depth++) {
         pds__tri_hit th;
@@ -14637,10 +14664,12 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
         pds__scene_fill_hit(s, &th, r.p, r.d, &hit);
         if (job->differentials && !pds__diff_transfer(&r, th.t, hit.ng)) return;
         r.p = hit.position;
+        travel += th.t;
         pds__beer(sigma, th.t, flux);
         m = &s->materials.items[hit.material];
         if (!pds__material_is_specular(m)) {
             if (depth > 0 && m->type != PDS_MAT_EMISSIVE) {
+                if (job->defocus_widen) pds__defocus_widen(job, start, travel, hit.ng, &r);
                 if (rec) pds__path_note(rec, i, depth + 1, PDS_TRACE_LAND, hit.material, th.tri, &r, flux);
                 job->land(job, buf, &r, hit.ng, flux, lam, i);
             }
@@ -15712,6 +15741,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.smoothing = opt->smoothing;
     job.plane_tolerance = opt->plane_tolerance;
     job.min_aspect = progressive ? opt->pass_min_aspect : opt->min_aspect;
+    job.defocus_widen = progressive && job.min_aspect > 0.0;
     job.min_width = progressive ? opt->pass_min_width : opt->method == PDS_METHOD_PDS ? opt->min_width : 0.0;
     job.eye = pds__v(s->camera.position.x, s->camera.position.y, s->camera.position.z);
     job.frame = pds__camera_setup(&s->camera, width, height);

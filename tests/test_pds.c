@@ -657,7 +657,44 @@ static void test_pds_eye_merge_sums_a_pixels_samples_at_their_centroid(pds_test_
     }
 }
 
+/* pds__defocus_widen: a photon from a point light (no positional
+   differential, directional ones of length 0.01) that travelled 2 units
+   has the unfocused cross-section 0.01^2 x 2^2 = 4e-4. Landing straight
+   down on a floor as a needle 0.4 x 0.01 (cross-section 4e-3, m = 10, past
+   the 1 / 0.15 that makes it round) it becomes round, its major axis
+   kept; as a needle 0.08 x 0.01 (8e-4, m = 2) its minor axis becomes
+   0.15 m = 0.3 of the major; as a focused needle 0.02 x 0.002 (4e-5,
+   m = 0.1) it keeps its shape. */
+static void test_pds_defocused_needles_widen_and_focused_ones_do_not(pds_test_ctx *t)
+{
+    static const double cases[3][3] = {{0.4, 0.01, 1.0}, {0.08, 0.01, 0.3}, {0.02, 0.002, 0.1}};
+    pds__photon_job job;
+    pds__ray_diff start, r;
+    pds__v3 ng = pds__v(0.0, 1.0, 0.0);
+    int k;
+    memset(&job, 0, sizeof job);
+    job.min_aspect = 0.15;
+    memset(&start, 0, sizeof start);
+    start.d = pds__v(0.0, -1.0, 0.0);
+    start.dddu = pds__v(0.01, 0.0, 0.0);
+    start.dddv = pds__v(0.0, 0.0, 0.01);
+    for (k = 0; k < 3; k++) {
+        double major, aniso;
+        memset(&r, 0, sizeof r);
+        r.d = pds__v(0.0, -1.0, 0.0);
+        r.dpdu = pds__v(cases[k][0], 0.0, 0.0);
+        r.dpdv = pds__v(0.0, 0.0, cases[k][1]);
+        pds__defocus_widen(&job, &start, 2.0, ng, &r);
+        major = pds__footprint_major_axis(r.dpdu, r.dpdv);
+        aniso = pds__footprint_anisotropy(r.dpdu, r.dpdv);
+        CHECK(t, fabs(major - 0.5 * cases[k][0]) < 1e-12, "case %d: major semi-axis %g, was %g", k, major,
+              0.5 * cases[k][0]);
+        CHECK(t, fabs(aniso - cases[k][2]) < 1e-9, "case %d: minor / major %g, want %g", k, aniso, cases[k][2]);
+    }
+}
+
 static const pds_test_case tests_pds[] = {
+    {"pds_defocused_needles_widen_and_focused_ones_do_not", test_pds_defocused_needles_widen_and_focused_ones_do_not},
     {"pds_kernel_averaged_over_a_pixel_matches_fine_quadrature",
      test_pds_kernel_averaged_over_a_pixel_matches_fine_quadrature},
     {"pds_eye_merge_sums_a_pixels_samples_at_their_centroid", test_pds_eye_merge_sums_a_pixels_samples_at_their_centroid},
