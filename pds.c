@@ -46,12 +46,15 @@
      >>baselines  pm, pdm, splat, ppm
      >>streams    streamed photon mapping (spm): streams of a leading photon
                   and associated photons, concentrated at specular surfaces,
-                  gathered stream by stream (eqs. 1-2)
+                  gathered stream by stream (eqs. 1-2); for caustics (its
+                  streams in gi's global map are in >>gi)
      >>photonpass the photon pass all photon methods share: time planning,
                   tracing threads, gathers, the caustic image
-     >>gi         Jensen's two-pass global illumination: global photon map,
-                  shadow photons, importance-sampled final gather, caustics
-                  from any caustic method
+     >>gi         Jensen's two-pass global illumination: global photon map
+                  (single photons, or streams: seed paper 003's streams
+                  where they mean something), shadow photons,
+                  importance-sampled final gather, caustics from any
+                  caustic method
      >>isc        image-space caustics (Wyman and Davis 2006): light-space
                   photon buffer, points, quads, eye- and light-space
                   gathers, temporal filter, animation frames
@@ -15275,7 +15278,9 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
    What nfa and rs shape (streams whose leader first meets a diffuse
    surface: direct light and what follows it) is the eye pass's part here,
    so rs does not enter the caustic image at all, and nfa only says how
-   many photons a stream stands for: a render of nfs streams counts
+   many photons a stream stands for (gi's global map, whose photons do
+   first meet diffuse surfaces, can be a map of streams with nfa and rs:
+   >>gi, "streams in the global map"): a render of nfs streams counts
    nfs (nfa + 1) emitted photons, and with no stream count given spm emits
    photons / (nfa + 1) streams, as many photons as pm would.
 
@@ -16192,6 +16197,7 @@ static int pds__gi_streams_index(pds__gi_map *g)
             reach = fmax(reach, pds__length(d));
         }
         st->reach = (float)reach;
+        if ((double)st->reach < reach) st->reach = nextafterf(st->reach, FLT_MAX); /* never short */
         if (reach > g->reach) g->reach = reach;
     }
     return 1;

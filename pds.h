@@ -801,8 +801,9 @@ typedef struct pds_render_stats {
    and for the photon methods 96 more (the partial state's two exact
    sums) plus 48 per thread, 96 per thread in spectral renders; gi: its
    caustic method's needs plus, per global photon, at most 8 global-map
-   stores of 149 bytes and 5 shadow stores of 117 bytes, each counted
-   twice while the threads' arrays are merged, with the kd-tree), the
+   stores of 149 bytes (with streams 32 more) and 5 shadow stores of 117
+   bytes, each counted twice while the threads' arrays are merged, with the
+   kd-tree), the
    pixel samples of one eye pass, and the machine's physical memory (0 if
    unknown). With a time budget the photon count is not known in advance
    and counts as 0. */
