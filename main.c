@@ -1571,9 +1571,12 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
                c->opt.global_k, c->opt.gather, c->opt.gather_mix, c->opt.shadow_photons, st->global_stored,
                st->shadow_stored, st->shadow_rays, st->shadow_rays_saved, st->gather_rays,
                (unsigned long)st->map_bytes, st->time_map_s, st->time_eye_s, st->time_photons_s);
-        if (c->opt.global_map == PDS_GLOBAL_STREAMS)
-            printf(" global_map=streams stream_photons=%d stream_radius=%g global_streams=%ld", c->opt.stream_photons,
-                   c->opt.stream_radius, st->global_streams);
+        if (c->opt.global_map == PDS_GLOBAL_STREAMS) {
+            printf(" global_map=streams stream_photons=%d", c->opt.stream_photons);
+            if (c->opt.stream_radius > 0.0) printf(" stream_radius=%g", c->opt.stream_radius);
+            else printf(" stream_radius=auto");
+            printf(" global_streams=%ld", st->global_streams);
+        }
     } else if (m == PDS_METHOD_ISC) {
         char params[256];
         format_params(&c->opt, params, sizeof params);
