@@ -4,6 +4,7 @@
      cc -std=c99 -O2 -I. -o tests/ball_metrics tests/ball_metrics.c pds.c -lm -lpthread
      tests/ball_metrics IMAGE REF.pfm [--ball MASK.pfm] [--caustic REF_CAUSTIC.pfm]
                         [--threshold T] [--errmap OUT.pfm|OUT.png] [--exposure STOPS]
+                        [--subtract PART.pfm]
 
    IMAGE and REF are PFM or OpenEXR (pds's reader: POV-Ray writes OpenEXR).
    Regions: all pixels; "ball", the pixels MASK marks (tests/ref_ball's
@@ -22,7 +23,9 @@
    the region divided by REF's (1 = the right energy);
    median_pixel_ratio: the median over the region's pixels of IMAGE / REF
    (pixel means of the channels). --errmap writes
-   |IMAGE - REF| per pixel (PNG: times 2^STOPS, clamped). */
+   |IMAGE - REF| per pixel (PNG: times 2^STOPS, clamped). --subtract
+   takes PART from IMAGE first (POV-Ray's caustic part: its full image
+   minus the reference's direct part, which its direct light matches). */
 #include "pds.h"
 
 #include <math.h>
@@ -99,7 +102,7 @@ static void region_report(const char *name, const pds_image *a, const pds_image 
 int main(int argc, char **argv)
 {
     pds_image a, r, mask, caus;
-    const char *mask_path = NULL, *caus_path = NULL, *errmap = NULL;
+    const char *mask_path = NULL, *caus_path = NULL, *errmap = NULL, *sub_path = NULL;
     double threshold = 0.02, exposure = 0.0;
     unsigned char *in;
     size_t i, np;
@@ -114,6 +117,7 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[k], "--threshold")) threshold = atof(argv[k + 1]);
         else if (!strcmp(argv[k], "--errmap")) errmap = argv[k + 1];
         else if (!strcmp(argv[k], "--exposure")) exposure = atof(argv[k + 1]);
+        else if (!strcmp(argv[k], "--subtract")) sub_path = argv[k + 1];
         else goto usage;
     }
     if (load(argv[1], &a) || load(argv[2], &r)) return 1;
@@ -124,6 +128,16 @@ int main(int argc, char **argv)
         return 1;
     }
     np = (size_t)r.width * r.height;
+    if (sub_path) {
+        pds_image d;
+        if (load(sub_path, &d)) return 1;
+        if (d.width != r.width || d.height != r.height) {
+            fprintf(stderr, "ball_metrics: the images differ in size\n");
+            return 1;
+        }
+        for (i = 0; i < 3 * np; i++) a.rgb[i] -= d.rgb[i];
+        pds_image_free(&d);
+    }
     in = malloc(np);
     if (!in) return 1;
     memset(in, 1, np);
@@ -158,6 +172,6 @@ int main(int argc, char **argv)
     return 0;
 usage:
     fprintf(stderr, "usage: ball_metrics IMAGE REF.pfm [--ball MASK.pfm] [--caustic REF_CAUSTIC.pfm] [--threshold T]\n"
-                    "                    [--errmap OUT.pfm|OUT.png] [--exposure STOPS]\n");
+                    "                    [--errmap OUT.pfm|OUT.png] [--exposure STOPS] [--subtract PART.pfm]\n");
     return 2;
 }

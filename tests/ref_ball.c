@@ -15,6 +15,11 @@
        --caustics OUT    also the caustic part alone (L S+ D S* E paths)
        --direct OUT      also the rest (L D S* E paths)
        --ball-mask OUT   also 1 where the camera ray meets the ball, else 0
+       --camera PX PY PZ AX AY AZ FOV  another pinhole: position, look-at
+                         point, vertical field of view (the scene's: 0.8 4.6 4.4
+                         -0.45 0.4 -0.6 36); up is +y
+       --eye-depth K     eye paths meet at most K glass interfaces (24; a
+                         check of pds's eye pass with its --max-depth K)
 
    The light transport is split as in Jensen's two-pass method and as in
    every photon method of pds: light that reaches the floor through the
@@ -36,8 +41,8 @@
       sin t > 1), so no branch is sampled. A photon that leaves the glass
       and meets the floor adds its flux to the cell of a grid it lands in:
       irradiance E = flux / cell area. Two grids: a fine one (cell H) over
-      the ball's neighbourhood, a coarse one (cell 0.03) over the rest of
-      the floor. Sums are 64-bit fixed point, so they do not depend on the
+      the ball's neighbourhood, a coarse one (cell 0.03) over the whole
+      floor, looked up outside the fine one. Sums are 64-bit fixed point, so they do not depend on the
       order or the thread count.
    2. The image. Each pixel averages M x M jittered samples (a box
       filter over the pixel, as pds's `filter box`). The camera is pds's
@@ -74,14 +79,15 @@ static const double FLOOR_HALF = 15.0;   /* quad 30 x 30 at y = 0 */
 static const double ALBEDO = 0.8;
 static const double LIGHT_P[3] = {5.6, 5.4, 3.7};
 static const double LIGHT_POWER_W = 2000.0;
-static const double CAM_POS[3] = {0.8, 4.6, 4.4};
-static const double CAM_AT[3] = {-0.45, 0.4, -0.6};
-static const double CAM_FOV_DEG = 36.0;
+static double CAM_POS[3] = {0.8, 4.6, 4.4};
+static double CAM_AT[3] = {-0.45, 0.4, -0.6};
+static double CAM_FOV_DEG = 36.0;
 static const int IMG_W = 320, IMG_H = 240;
 
 /* the fine caustic grid: x in [FINE_X0, FINE_X0 + FINE_SIZE], same for z */
 static const double FINE_X0 = -4.0, FINE_Z0 = -3.5, FINE_SIZE = 6.0;
 static const double COARSE_CELL = 0.03;
+static int eye_depth = 24; /* --eye-depth: most glass interfaces on an eye path */
 static const double FIXED_ONE = 4294967296.0; /* 2^32: a photon of weight 1 */
 
 /* ----------------------------------------------------------- 3-vectors */
@@ -180,8 +186,9 @@ static void grids_add(grids *g, v3 p, double w)
         if (i >= g->fine_n) i = g->fine_n - 1;
         if (j >= g->fine_n) j = g->fine_n - 1;
         g->fine[(size_t)j * g->fine_n + i] += q;
-        return;
     }
+    /* every photon also goes into the coarse grid, so that its cells at
+       the fine grid's border hold all their photons */
     i = (int)((p.x + FLOOR_HALF) / g->coarse_h);
     j = (int)((p.z + FLOOR_HALF) / g->coarse_h);
     if (i < 0 || j < 0 || i >= g->coarse_n || j >= g->coarse_n) return;
@@ -342,7 +349,7 @@ static double caustic_at(const irradiance *E, v3 p)
 static void radiance(const irradiance *E, v3 o, v3 d, double w, int depth, double out[2])
 {
     double ts, tf;
-    if (w < 1e-6 || depth > 24) return;
+    if (w < 1e-6 || depth > eye_depth) return;
     ts = sphere_hit(o, d);
     tf = floor_hit(o, d);
     if (ts > 0.0 && (tf < 0.0 || ts < tf)) {
@@ -460,6 +467,14 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--caustics")) out_c = v;
         else if (!strcmp(a, "--direct")) out_d = v;
         else if (!strcmp(a, "--ball-mask")) out_m = v;
+        else if (!strcmp(a, "--eye-depth")) eye_depth = atoi(v);
+        else if (!strcmp(a, "--camera") && i + 7 < argc) {
+            int k;
+            for (k = 0; k < 3; k++) CAM_POS[k] = atof(argv[i + 1 + k]);
+            for (k = 0; k < 3; k++) CAM_AT[k] = atof(argv[i + 4 + k]);
+            CAM_FOV_DEG = atof(argv[i + 7]);
+            i += 6;
+        }
         else return usage();
     }
     if (!out || n < 1 || m < 1 || threads < 1 || !(cell > 0.0) || cell > 1.0) return usage();
