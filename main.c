@@ -3920,11 +3920,18 @@ static void html_figure(sbuf *b, const char *src, const char *alt, const char *c
    and pixel sequence than the render reported, so the choice does not fit
    that render's own noise). A parameter given in --methods or as an option
    is kept. ppm is tuned one parameter at a time: R0 with alpha at its
-   value, then alpha with the best R0; spm likewise k, then R with the best
-   k (its stream_photons only says how many photons a stream stands for:
-   under a time budget it changes nothing in the image). Radii are multiples of the pixel
+   value, then alpha with the best R0; pm and spm likewise k, then R
+   (max-radius: eye vertices far from every photon make k-nearest queries
+   that grow with the map, which took pm's gather alone past the budget on
+   the reflection case) with the best k (spm's stream_photons only says
+   how many photons a stream stands for: under a time budget it changes
+   nothing in the image). Radii are multiples of the pixel
    footprint at the camera's look-at distance (race_pixel_size), so the
-   grid follows the scene's scale. */
+   grid follows the scene's scale. Under a time budget a value whose
+   render took more than RACE_TIME_TOLERANCE over the budget is not an
+   equal-time result, so it is chosen only if every value overran (then
+   the quickest wins, with a warning): a pm whose k = 160 gather alone
+   takes three budgets must not win on the time it was not given. */
 typedef struct tune_grid {
     pds_method method;
     int progressive; /* pds: the grid for progressive (1) or the paper's PDS (0); -1 any */
@@ -3939,6 +3946,7 @@ static const tune_grid tune_grids[] = {
     {PDS_METHOD_PDS, 1, "pass-smoothing", 7, {1, 1.5, 2, 3, 4, 6, 8}, 0},
     {PDS_METHOD_PDM, -1, "smoothing", 6, {4, 6, 8, 12, 16, 24}, 0},
     {PDS_METHOD_PM, -1, "k", 5, {10, 20, 40, 80, 160}, 0},
+    {PDS_METHOD_PM, -1, "max-radius", 5, {1, 3, 10, 30, 100}, 1},
     {PDS_METHOD_SPLAT, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
     {PDS_METHOD_PPM, -1, "radius", 5, {1, 2, 4, 8, 16}, 1},
     {PDS_METHOD_PPM, -1, "alpha", 3, {0.5, 0.7, 0.9}, 0},
@@ -3977,15 +3985,15 @@ static double race_pixel_size(const pds_scene *scene, const pds_options *opt)
 
 /* Tune entry t (index: its place in the race) as the comment above says;
    every render goes to log. 0, or 1 after printing the error. */
-static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_m, race_entry *t, int index,
-                     tune_log *log)
+static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_m, double budget_s, race_entry *t,
+                     int index, tune_log *log)
 {
     size_t g;
     for (g = 0; g < N_TUNE_GRIDS; g++) {
         const tune_grid *tg = &tune_grids[g];
         const opt_spec *s;
         char name[64];
-        int idx, i, best = -1, first = log->n;
+        int idx, i, best = -1, quickest = -1, first = log->n;
         if (tg->method != t->cfg.opt.method) continue;
         if (tg->progressive >= 0 && tg->progressive != (t->cfg.opt.progressive != 0)) continue;
         snprintf(name, sizeof name, "--%s", tg->key);
@@ -4020,8 +4028,18 @@ static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_
             row->time_s = st.time_total_s;
             row->photons = st.photons;
             row->chosen = 0;
-            /* the first of equal RMSEs wins; NaN never does */
-            if (isfinite(m.rmse) && (best < 0 || m.rmse < log->rows[first + best].m.rmse)) best = i;
+            /* the first of equal RMSEs wins; NaN never does; nor does a
+               render over its time budget */
+            if (!isfinite(m.rmse)) continue;
+            if (quickest < 0 || row->time_s < log->rows[first + quickest].time_s) quickest = i;
+            if (budget_s > 0.0 && row->time_s > budget_s * (1.0 + RACE_TIME_TOLERANCE)) continue;
+            if (best < 0 || m.rmse < log->rows[first + best].m.rmse) best = i;
+        }
+        if (best < 0 && quickest >= 0) {
+            best = quickest;
+            fprintf(stderr, "pds race: warning: %s: every %s of the grid took more than %.0f%% over the %g s budget; "
+                    "kept the quickest, %s=%s\n", t->label, tg->key, 100.0 * RACE_TIME_TOLERANCE, budget_s, tg->key,
+                    log->rows[first + best].value);
         }
         if (best < 0) {
             fprintf(stderr, "pds race: warning: %s: no %s of the grid gave a finite RMSE; kept %s's value\n", t->label,
@@ -4908,7 +4926,8 @@ static int cmd_race(int argc, char **argv)
         entry_key(scene, &t->cfg.opt, bud.text[t->budget], key, sizeof key);
         if (resume && (loaded = race_load_entry(dir, t, key, &ref)) < 0) goto done;
         if (!loaded) {
-            if (tune && race_tune(scene, &ref, pixel_m, t, i, &tlog)) goto done;
+            if (tune && race_tune(scene, &ref, pixel_m, bud.by_time ? bud.value[t->budget] : 0.0, t, i, &tlog))
+                goto done;
             format_params(&t->cfg.opt, t->params, sizeof t->params);
             snprintf(context, sizeof context, "race %s", t->label);
             if (render_and_compare(scene, &t->cfg, &ref, &t->img, &t->st, &t->m, context)) goto done;

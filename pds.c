@@ -36,7 +36,8 @@
      >>partial    the exact state of a render or a shard of it: the image
                   from it, merging shards, the partial file
      >>render     camera (pinhole, thin lens), path tracer and eye pass (the
-                  photon methods' eye chains split at glass), preview,
+                  photon methods' eye chains split at glass; a pixel's
+                  samples on one flat patch merged for the splats), preview,
                   row scheduler
      >>debug      teaching views: colour bars and a bitmap font, camera
                   projection, the views' per-thread counts, the photon
@@ -12539,7 +12540,7 @@ static void pds__material_preview_colour(const pds_material *m, double rgb[3])
 /* An eye-path vertex: where a camera path first meets a non-specular
    surface, after any number of specular bounces. The photon methods add
    their caustic light at these points (PDS paper section 3.3: position,
-   ray direction, BRDF, importance, pixel). 88 bytes:
+   ray direction, BRDF, importance, pixel). 112 bytes:
      pos, n, g, wo     position; the shading and geometric normals turned
                        to the side the eye path arrived from (the frame
                        pds__bsdf_frame gives the BSDF), so that a mesh's
@@ -12559,12 +12560,16 @@ static void pds__material_preview_colour(const pds_material *m, double rgb[3])
                        chain's spectral throughput at lambda); 0 when the
                        vertex holds at every wavelength (importance is the
                        chain's RGB weight), and in RGB renders (>>spectral)
+     px, py            0 for a vertex of one camera sample; for a merged
+                       one (pds__eye_merge), the half-axes of its pixel on
+                       the surface, over which a splat averages its kernel
      material, pixel   indices */
 typedef struct pds__eye_vertex {
     float pos[3], n[3], g[3], wo[3];
     float importance[3];
     float weight[3];
     float lambda;
+    float px[3], py[3];
     int material;
     int pixel;
     int lambert;
@@ -12615,6 +12620,7 @@ static int pds__eye_vertex_set(pds__eye_vertex *v, const pds_material *m, pds__v
         v->weight[c] = v->lambert ? (float)(albedo[c] / PDS__PI * beta[c]) : 0.0f;
     }
     v->material = material;
+    v->px[0] = v->px[1] = v->px[2] = v->py[0] = v->py[1] = v->py[2] = 0.0f;
     return 1;
 }
 
@@ -12645,6 +12651,110 @@ static int pds__eye_response(const pds_scene *s, const pds__eye_vertex *v, pds__
     pds__bsdf_eval(&s->materials.items[v->material], pds__f3_get(v->pos), pds__f3_get(v->wo), wi, n, g, f, &pdf);
     for (c = 0; c < 3; c++) out[c] = f[c] * v->importance[c];
     return f[0] != 0.0 || f[1] != 0.0 || f[2] != 0.0;
+}
+
+/* Merged eye vertices (an extension; the paper stores one vertex per
+   sample). Every eye vertex costs the photon pass work (a splat finds it
+   in the kd-tree, weighs it and adds into its pixel), so the samples of a
+   pixel that see the same flat patch of one Lambertian surface directly
+   are merged into one vertex: the sum of their importances and weights,
+   at their weight-averaged position, with the half-axes px, py of the
+   pixel on the surface (the camera's half-pixel steps carried along the
+   ray to the surface's tangent plane). A splat then averages its kernel
+   over that parallelogram (pds__kernel_over_pixel) where the samples did
+   so by being spread over it: the pixel's value is the box filter of the
+   caustic, computed by quadrature instead of by its samples' positions.
+   (Evaluating the kernel at the merged point alone doubled the refraction
+   case's RMSE: at a caustic's cusps a footprint is a pixel or two wide.)
+   The samples still stratify everything else: the direct light and path
+   traced part of the pixel, and which surfaces and branches of the glass
+   it sees. So raising --spp costs the photon pass only where the samples
+   see different things (glass, edges). Merged when both vertices are
+   Lambertian and RGB (no wavelength of their own), of one material, seen
+   straight from a pinhole camera (not through glass or a mirror, not
+   through a lens), their shading and geometric normals within 2.6 degrees
+   (cos > 0.999), the second within PDS__EYE_MERGE_PIXELS pixel widths of
+   the first and within 5% of that of its plane, with the box pixel
+   filter (a tent's samples spread over four pixels). Greedy in sample
+   order, so the same for any thread count. Only the splatting methods
+   (progressive PDS and splat) merge: a gather (pm, pdm, ppm, spm) has no
+   kernel to average; the paper's one-pass PDS keeps its vertices. */
+#define PDS__EYE_MERGE_PIXELS 1.5
+
+/* The half-axes of the camera's pixel at x on the plane with normal n
+   (a pinhole f): the half-pixel steps of the ray's direction, scaled to
+   x's depth, transferred to the plane along the ray. 0 if x is behind the
+   camera or the ray grazes the plane. */
+static int pds__pixel_axes(const pds__camera_frame *f, pds__v3 x, pds__v3 n, pds__v3 *ex, pds__v3 *ey)
+{
+    pds__v3 r = pds__sub(x, f->origin);
+    double depth = pds__dot(r, f->forward), rn = pds__dot(r, n);
+    pds__v3 a = pds__scale(f->right, depth * f->tan_half_fov * f->aspect / f->width);
+    pds__v3 b = pds__scale(f->up, depth * f->tan_half_fov / f->height);
+    if (!(depth > 0.0) || !(fabs(rn) > 1e-6 * pds__length(r))) return 0;
+    *ex = pds__sub(a, pds__scale(r, pds__dot(a, n) / rn));
+    *ey = pds__sub(b, pds__scale(r, pds__dot(b, n) / rn));
+    return 1;
+}
+
+/* Was v seen straight from the camera's pinhole? */
+static int pds__eye_direct(const pds__eye_vertex *v, const pds__camera_frame *f)
+{
+    pds__v3 to_eye = pds__sub(f->origin, pds__f3_get(v->pos));
+    double d = pds__length(to_eye);
+    return d > 0.0 && pds__dot(pds__f3_get(v->wo), to_eye) > 0.99999 * d;
+}
+
+static int pds__eye_mergeable(const pds__eye_vertex *a, const pds__eye_vertex *b, double h)
+{
+    pds__v3 d = pds__sub(pds__f3_get(b->pos), pds__f3_get(a->pos)), n = pds__f3_get(a->n);
+    if (!b->lambert || b->lambda != 0.0f || a->material != b->material) return 0;
+    if (!(pds__dot(n, pds__f3_get(b->n)) > 0.999) || !(pds__dot(pds__f3_get(a->g), pds__f3_get(b->g)) > 0.999))
+        return 0;
+    return pds__dot(d, d) <= h * h && fabs(pds__dot(d, n)) <= 0.05 * h;
+}
+
+/* Merge the n vertices one pixel recorded (in place); returns how many are
+   left. f: the camera (a pinhole, box filter). */
+static size_t pds__eye_merge(pds__eye_vertex *v, size_t n, const pds__camera_frame *f)
+{
+    size_t i, j, out = 0;
+    for (i = 0; i < n; i++) {
+        pds__eye_vertex m = v[i];
+        pds__v3 x = pds__f3_get(m.pos), sum, ex, ey;
+        double w0 = m.weight[0] + m.weight[1] + m.weight[2], wsum = w0, h;
+        int c, merged = 0;
+        if (!m.lambert || m.lambda != 0.0f || !pds__eye_direct(&m, f) ||
+            !pds__pixel_axes(f, x, pds__f3_get(m.n), &ex, &ey)) {
+            v[out++] = m;
+            continue;
+        }
+        h = PDS__EYE_MERGE_PIXELS * 2.0 * (pds__length(ex) > pds__length(ey) ? pds__length(ex) : pds__length(ey));
+        sum = pds__scale(x, w0);
+        for (j = i + 1; j < n; j++) {
+            double w;
+            if (!pds__eye_direct(&v[j], f) || !pds__eye_mergeable(&m, &v[j], h)) continue;
+            w = v[j].weight[0] + v[j].weight[1] + v[j].weight[2];
+            sum = pds__add(sum, pds__scale(pds__f3_get(v[j].pos), w));
+            wsum += w;
+            for (c = 0; c < 3; c++) {
+                m.importance[c] += v[j].importance[c];
+                m.weight[c] += v[j].weight[c];
+            }
+            v[j--] = v[--n]; /* taken: the last one moves into its place */
+            merged = 1;
+        }
+        if (merged) {
+            /* black surfaces (all weights 0) keep the first vertex's position */
+            if (wsum > 0.0) pds__f3_set(m.pos, pds__scale(sum, 1.0 / wsum));
+            if (pds__pixel_axes(f, pds__f3_get(m.pos), pds__f3_get(m.n), &ex, &ey)) {
+                pds__f3_set(m.px, ex);
+                pds__f3_set(m.py, ey);
+            }
+        }
+        v[out++] = m;
+    }
+    return out;
 }
 
 typedef struct pds__tracer {
@@ -12834,6 +12944,18 @@ static int pds__eye_splits(const pds_scene *s, const pds_options *opt)
     for (i = 0; i < s->materials.count; i++)
         if (s->materials.items[i].type == PDS_MAT_DIELECTRIC) return PDS__EYE_SPLITS;
     return 0;
+}
+
+/* Whether a render's eye pass merges each pixel's vertices
+   (pds__eye_merge): progressive PDS's and splat's. */
+static int pds__eye_merges(const pds_options *opt)
+{
+#ifdef PDS_NO_EYE_MERGE
+    (void)opt;
+    return 0; /* a build for measuring what merging does */
+#else
+    return (opt->method == PDS_METHOD_PDS && opt->progressive) || opt->method == PDS_METHOD_SPLAT;
+#endif
 }
 
 /* A camera path between two bounces. */
@@ -13115,6 +13237,7 @@ typedef struct pds__render_job {
        array per image row, filled by the thread that renders the row, so
        the concatenation in row order is the same for any thread count. */
     int record_eye;
+    int merge_eye;         /* merge each pixel's vertices (pds__eye_merge) */
     pds__eye_vertex **row_vertices;
     size_t *row_count, *row_cap;
     int out_of_memory;     /* guarded by lock */
@@ -13130,6 +13253,7 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
     uint64_t pixel = (uint64_t)y * (uint64_t)job->frame.width + (uint64_t)x;
     /* the stratification's permutations: one pattern per pixel and pass */
     uint64_t pattern = pds__rng_bits(job->seed, PDS__RNG_STRATA, pixel, (uint64_t)job->pass);
+    size_t first = job->record_eye ? job->row_count[y] : 0; /* the pixel's first vertex */
     int k, c;
     for (k = 0; k < job->spp; k++) {
         uint64_t sample = (uint64_t)job->pass * (uint64_t)job->spp + (uint64_t)k;
@@ -13190,6 +13314,8 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
         }
         for (c = 0; c < 3; c++) out[c] += acc[c];
     }
+    if (job->record_eye && job->merge_eye && job->row_count[y] > first + 1)
+        job->row_count[y] = first + pds__eye_merge(job->row_vertices[y] + first, job->row_count[y] - first, &job->frame);
 }
 
 static void *pds__render_worker(void *arg)
@@ -14028,6 +14154,8 @@ typedef struct pds__photon_job {
     double min_width;          /* pds: widen to this many eye-sample spacings (0 = off) */
     pds__v3 eye;               /* camera position */
     pds__camera_frame frame;   /* the camera, for the debug views */
+    int spread;                /* some eye vertices are merged (pds__eye_merge) */
+    int defocus_widen;         /* widen defocused needles (pds__defocus_widen) */
     double sample_angle;       /* angle between neighbouring eye samples (as a
                                   pinhole sees them: a thin lens moves each
                                   vertex by its circle of confusion but
@@ -14078,6 +14206,10 @@ typedef struct pds__splat_ctx {
     double plane_max;          /* topological-bias guard distance */
     double aniso;              /* m_a of this footprint (debug views) */
     double lambda;             /* the photon's wavelength; 0 in RGB renders */
+    /* merged eye vertices (pds__eye_merge): the query searched the wider
+       ellipse in M; M0 is the footprint's own */
+    int spread;
+    double M0[2][3];
 } pds__splat_ctx;
 
 /* Add radiance v (W/(m^2 sr)) into sum i of the thread's image (a
@@ -14092,6 +14224,48 @@ static void pds__image_add(pds__splat_buf *b, size_t i, double v)
 /* eq. 10 for one eye vertex x inside the footprint ellipse, r2 =
    |Mp (x - xp)|^2 < 1 (and near the photon's tangent plane: the query
    checked both): pi K(|Mp (x - xp)|) fr(x, wi, wo) Ep. */
+/* Silverman's kernel (eq. 11, in the footprint's unit-disc coordinates)
+   averaged over a pixel: the parallelogram u + a m1 + b m2, a, b in
+   [-1, 1] (m1, m2: the pixel's half-axes in those coordinates; 0 for one
+   point). A pixel small against the footprint (both half-axes under 1/8
+   of its radius) takes one evaluation of the kernel convolved with the
+   pixel matched in its first two moments: a box of half-axes m1, m2 has
+   covariance C = (m1 m1^T + m2 m2^T) / 3, the kernel I / 8 (E[r^2] =
+   2 / 8 for K = (3/pi)(1 - r^2)^2), so their sum is the kernel stretched
+   by A = I + 8 C: K(u^T A^-1 u) / sqrt(det A), exact in the first two
+   moments, and within 1% of the average for such pixels. A larger pixel
+   (a footprint a few pixels across or a needle) takes the midpoint rule
+   on n1 x n2 points, ni = ceil(8 |mi|), at most 4 x 4: the kernel's
+   second derivative is bounded, so the rule's error falls as 1 / ni^2
+   (tested against a fine quadrature). */
+#define PDS__PIXEL_POINTS 4
+static double pds__kernel_over_pixel(const double u[2], const double m1[2], const double m2[2])
+{
+    double l1 = sqrt(m1[0] * m1[0] + m1[1] * m1[1]), l2 = sqrt(m2[0] * m2[0] + m2[1] * m2[1]);
+    double reach = 1.0 + l1 + l2, sum = 0.0;
+    int n1, n2, i, j;
+    if (!(u[0] * u[0] + u[1] * u[1] < reach * reach)) return 0.0;
+    n1 = l1 * 8.0 < PDS__PIXEL_POINTS ? (int)ceil(l1 * 8.0) : PDS__PIXEL_POINTS;
+    n2 = l2 * 8.0 < PDS__PIXEL_POINTS ? (int)ceil(l2 * 8.0) : PDS__PIXEL_POINTS;
+    if (n1 <= 1 && n2 <= 1) {
+        double a = 1.0 + 8.0 / 3.0 * (m1[0] * m1[0] + m2[0] * m2[0]);
+        double b = 8.0 / 3.0 * (m1[0] * m1[1] + m2[0] * m2[1]);
+        double c = 1.0 + 8.0 / 3.0 * (m1[1] * m1[1] + m2[1] * m2[1]), det = a * c - b * b;
+        return pds__kernel_silverman((c * u[0] * u[0] - 2.0 * b * u[0] * u[1] + a * u[1] * u[1]) / det) / sqrt(det);
+    }
+    if (n1 < 1) n1 = 1;
+    if (n2 < 1) n2 = 1;
+    for (i = 0; i < n1; i++) {
+        double a = (2.0 * i + 1.0) / n1 - 1.0;
+        for (j = 0; j < n2; j++) {
+            double b = (2.0 * j + 1.0) / n2 - 1.0;
+            double x = u[0] + a * m1[0] + b * m2[0], y = u[1] + a * m1[1] + b * m2[1];
+            sum += pds__kernel_silverman(x * x + y * y);
+        }
+    }
+    return sum / (n1 * n2);
+}
+
 static void pds__splat_visit(void *vctx, size_t index, double r2)
 {
     pds__splat_ctx *sc = (pds__splat_ctx *)vctx;
@@ -14103,7 +14277,23 @@ static void pds__splat_visit(void *vctx, size_t index, double r2)
     if (pds__dot(pds__f3_get(v->g), sc->np) <= 0.0) return;
     for (c = 0; c < 3; c++) e[c] = sc->ep[c];
     if (!pds__eye_response(sc->job->scene, v, sc->wi, sc->lambda, e, w)) return;
-    k = pds__kernel_silverman(r2);
+    if (sc->spread) {
+        /* the query searched a wider ellipse: the footprint's own kernel,
+           averaged over a merged vertex's pixel */
+        pds__v3 d = pds__sub(pds__f3_get(v->pos), sc->xp), ex = pds__f3_get(v->px), ey = pds__f3_get(v->py);
+        double u[2], m1[2], m2[2];
+        int j;
+        for (j = 0; j < 2; j++) {
+            pds__v3 row = pds__v(sc->M0[j][0], sc->M0[j][1], sc->M0[j][2]);
+            u[j] = pds__dot(row, d);
+            m1[j] = pds__dot(row, ex);
+            m2[j] = pds__dot(row, ey);
+        }
+        k = pds__kernel_over_pixel(u, m1, m2);
+        if (!(k > 0.0)) return;
+    } else {
+        k = pds__kernel_silverman(r2);
+    }
     for (c = 0; c < 3; c++) {
         double val = PDS__PI * k * w[c] * e[c];
         if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
@@ -14118,9 +14308,11 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
 {
     pds__splat_ctx sc;
     pds__ray_diff wide; /* a widened footprint; r may point here */
+    pds__v3 hu, hv;     /* the footprint's semi-axis vectors (Du/2, Dv/2) */
     double ap, major, spacing, keep = 1.0;
     int c;
     sc.lambda = lambda;
+    sc.spread = 0;
     sc.np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
     if (job->fixed_radius > 0.0) {
         /* fixed-bandwidth splatting: a disc of radius R in the tangent
@@ -14134,6 +14326,8 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
             sc.M[0][k] = pds__v3_get(t1, k) / major;
             sc.M[1][k] = pds__v3_get(t2, k) / major;
         }
+        hu = pds__scale(t1, major);
+        hv = pds__scale(t2, major);
     } else {
         /* the spacing of the eye samples where the photon landed, seen
            straight from the camera: distance times the angle between
@@ -14157,6 +14351,8 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
             buf->degenerate++;
             return;
         }
+        hu = pds__scale(r->dpdu, 0.5);
+        hv = pds__scale(r->dpdv, 0.5);
         if (job->roulette_vertices > 0.0 && spacing > 0.0) {
             /* Russian roulette on the splat's cost: a footprint over more
                eye samples than roulette_vertices (from its area and their
@@ -14189,6 +14385,61 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
     for (c = 0; c < 3; c++) sc.ep[c] = flux[c] / (ap * keep);
     sc.plane_max = job->plane_tolerance * major;
     sc.aniso = !buf->dbg ? 0.0 : job->fixed_radius > 0.0 ? 1.0 : pds__footprint_anisotropy(r->dpdu, r->dpdv);
+    if (job->spread) {
+        /* merged eye vertices take the kernel averaged over their pixel
+           (pds__splat_visit), so the query must find every vertex whose
+           pixel meets the footprint: the footprint (semi-axes a >= b)
+           grown by rho, 1.5 times the half-diagonal of the pixel where
+           the photon landed (the neighbours' distances and slants are
+           about the same). It lies in the ellipse of semi-axes a + rho,
+           b + rho, which lies in both the footprint scaled by 1 + rho / b
+           and the ellipse of semi-axes sqrt(2 a^2 + 2 rho^2) (>= a +
+           rho); the query takes the smaller of the two, by the Cholesky
+           factor of its matrix in a tangent basis t1, t2 (S: the
+           footprint's). A footprint more than 8 rho across its minor axis
+           needs none of this: the average over a pixel that small is the
+           value at its centre within 1.5%. */
+        pds__v3 t1, t2, ex, ey;
+        if (pds__pixel_axes(&job->frame, r->p, sc.np, &ex, &ey)) {
+            double rho = 1.5 * (pds__length(ex) + pds__length(ey)), au, av, bu, bv, s11, s12, s22, b2, g, q, l11,
+                   l21, l22;
+            pds__onb(sc.np, &t1, &t2);
+            au = pds__dot(hu, t1);
+            av = pds__dot(hv, t1);
+            bu = pds__dot(hu, t2);
+            bv = pds__dot(hv, t2);
+            s11 = au * au + av * av;
+            s12 = au * bu + av * bv;
+            s22 = bu * bu + bv * bv;
+            b2 = 0.5 * (s11 + s22) - sqrt(0.25 * (s11 - s22) * (s11 - s22) + s12 * s12);
+            if (!(b2 > 64.0 * rho * rho)) {
+                g = b2 > 0.0 ? (1.0 + rho / sqrt(b2)) * (1.0 + rho / sqrt(b2)) : HUGE_VAL;
+                q = 2.0 * rho * rho;
+                /* det(g S) = g^2 det S against det(2 S + q I) */
+                if (g * g * (s11 * s22 - s12 * s12) < (2.0 * s11 + q) * (2.0 * s22 + q) - 4.0 * s12 * s12) {
+                    s11 *= g;
+                    s12 *= g;
+                    s22 *= g;
+                } else {
+                    s11 = 2.0 * s11 + q;
+                    s12 = 2.0 * s12;
+                    s22 = 2.0 * s22 + q;
+                }
+                l11 = sqrt(s11);
+                l21 = s12 / l11;
+                l22 = sqrt(fmax(s22 - l21 * l21, 0.0));
+                memcpy(sc.M0, sc.M, sizeof sc.M);
+                if (isfinite(l11) && isfinite(l21) && l22 > 0.0 && isfinite(l22) &&
+                    pds__filter_matrix(pds__add(pds__scale(t1, 2.0 * l11), pds__scale(t2, 2.0 * l21)),
+                                       pds__scale(t2, 2.0 * l22), sc.np, sc.M)) {
+                    sc.spread = 1;
+                    major = pds__footprint_major_axis(pds__add(pds__scale(t1, 2.0 * l11), pds__scale(t2, 2.0 * l21)),
+                                                      pds__scale(t2, 2.0 * l22));
+                    sc.plane_max = job->plane_tolerance * major;
+                }
+            }
+        }
+    }
     buf->splatted++;
     if (buf->dbg) pds__debug_landing(buf->dbg, &job->frame, photon, r->p, r->dpdu, r->dpdv);
     /* the eye vertices within the major semi-axis that are inside the
@@ -14337,6 +14588,31 @@ static double pds__half_spread(pds__v3 a, pds__v3 b)
 static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *start,
                             const double flux0[3], long i, int level);
 
+/* Defocused needles (progressive PDS; an extension). A convex mirror or
+   the rim of a glass ball spreads a thin tube of light over a long, faint
+   streak: its footprint is a needle, correct to first order, but a pass
+   holds few such photons and the faint tail becomes radial streaks. The
+   tube's cross-section A (|Du x Dv . d|) against the one it would have had
+   without any specular surface, A0 = |Du0 x Dv0| + |Dd0u x Dd0v| L^2 (L
+   the path's length), says how far the light was spread: m = A / A0 > 1
+   defocused, < 1 focused. A defocused footprint's minor axis is widened
+   to at least min_aspect m times its major one (round from m = 1 /
+   min_aspect on): faint light is smooth on the scale of its footprints,
+   while a focused needle (a caustic's focal line, m < 1) keeps the shape
+   that draws the line. */
+static void pds__defocus_widen(const pds__photon_job *job, const pds__ray_diff *start, double travel, pds__v3 ng,
+                               pds__ray_diff *r)
+{
+    double a0 = pds__length(pds__cross(start->dpdu, start->dpdv)) +
+                pds__length(pds__cross(start->dddu, start->dddv)) * travel * travel;
+    double a = fabs(pds__dot(pds__cross(r->dpdu, r->dpdv), r->d)), m, aspect;
+    pds__v3 np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
+    if (!(a0 > 0.0) || !(a > a0)) return;
+    m = a / a0;
+    aspect = job->min_aspect * m < 1.0 ? job->min_aspect * m : 1.0;
+    (void)pds__footprint_widen_to(&r->dpdu, &r->dpdv, np, aspect, 0.0);
+}
+
 /* Split the photon that left the light as (start, flux0) into four. */
 static void pds__split_photon(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *start,
                               const double flux0[3], long i, int level)
@@ -14372,6 +14648,7 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
     /* the path recorder (>>debug) follows the photon, not its sub-photons:
        a split photon's recorded path ends where it split */
     pds__path_rec *rec = level == 0 && buf->path && i < buf->path->photon_end ? buf->path : NULL;
+    double travel = 0.0; /* the path's length so far */
     for (c = 0; c < 3; c++) flux[c] = flux0[c];
     for (depth = 0; depth <= job->max_depth; depth++) {
         pds__tri_hit th;
@@ -14385,10 +14662,12 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
         pds__scene_fill_hit(s, &th, r.p, r.d, &hit);
         if (job->differentials && !pds__diff_transfer(&r, th.t, hit.ng)) return;
         r.p = hit.position;
+        travel += th.t;
         pds__beer(sigma, th.t, flux);
         m = &s->materials.items[hit.material];
         if (!pds__material_is_specular(m)) {
             if (depth > 0 && m->type != PDS_MAT_EMISSIVE) {
+                if (job->defocus_widen) pds__defocus_widen(job, start, travel, hit.ng, &r);
                 if (rec) pds__path_note(rec, i, depth + 1, PDS_TRACE_LAND, hit.material, th.tri, &r, flux);
                 job->land(job, buf, &r, hit.ng, flux, lam, i);
             }
@@ -15460,9 +15739,12 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.smoothing = opt->smoothing;
     job.plane_tolerance = opt->plane_tolerance;
     job.min_aspect = progressive ? opt->pass_min_aspect : opt->min_aspect;
+    job.defocus_widen = progressive && job.min_aspect > 0.0;
     job.min_width = progressive ? opt->pass_min_width : opt->method == PDS_METHOD_PDS ? opt->min_width : 0.0;
     job.eye = pds__v(s->camera.position.x, s->camera.position.y, s->camera.position.z);
     job.frame = pds__camera_setup(&s->camera, width, height);
+    for (i = 0; splats && !job.spread && i < nvertices; i++)
+        job.spread = vertices[i].px[0] != 0.0f || vertices[i].px[1] != 0.0f || vertices[i].px[2] != 0.0f;
     job.sample_angle = 2.0 * tan(0.5 * s->camera.fov_deg * PDS__PI / 180.0) / height /
                        sqrt((double)(opt->spp > 0 ? opt->spp : s->camera.spp > 0 ? s->camera.spp : 1));
     job.eps = 1e-6 * pds__scene_scale(s);
@@ -18142,9 +18424,9 @@ static pds__eye_vertex *pds__join_rows(pds__render_job *job, size_t *count)
 
 /* What a render will hold at once, beyond the scene, from its options
    alone (an upper bound: every eye sample is taken to record a vertex,
-   every photon emitted to be stored). Per eye vertex: the vertex (88 bytes)
-   in its row array, which grows by doubling (up to 2 x 88), and its copy in
-   the joined array, 264 bytes in all (the kd-tree's 21 bytes and the
+   every photon emitted to be stored). Per eye vertex: the vertex (112 bytes)
+   in its row array, which grows by doubling (up to 2 x 112), and its copy in
+   the joined array, 336 bytes in all (the kd-tree's 21 bytes and the
    tree-ordered copy come after the rows are freed). Per stored photon of
    pm: 64 bytes, twice while the threads' arrays are merged, plus 21 of
    kd-tree; pdm: 88 bytes, twice. */
@@ -18330,6 +18612,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *op
         job.tracer.paths = PDS_PATHS_NO_CAUSTICS;
         job.record_eye = photons;
         job.tracer.eye_splits = pds__eye_splits(scene, opt);
+        job.merge_eye = pds__eye_merges(opt) && !(cam->aperture > 0.0) && cam->filter == PDS_FILTER_BOX;
     }
     if (opt->method == PDS_METHOD_GI) {
         /* Pass 1 builds the global and shadow maps; gi's eye path computes
@@ -18347,6 +18630,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *op
         job.path_ctx = &gmap;
         job.row_counts = (long *)calloc((size_t)h * 4, sizeof *job.row_counts);
         job.record_eye = photons;
+        job.merge_eye = pds__eye_merges(popt) && !(cam->aperture > 0.0) && cam->filter == PDS_FILTER_BOX;
         /* The final gather is the costly part of gi's eye pass, and only
            the part's rows not yet kept need it; the other rows (every row
            is rendered when the caustic method is pds or splat, whose

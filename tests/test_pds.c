@@ -529,7 +529,175 @@ static void test_pds_split_photons_carry_their_parents_flux(pds_test_ctx *t)
     pds_image_free(&b);
 }
 
+/* pds__kernel_over_pixel against a fine midpoint rule over the pixel's
+   parallelogram: within 1% of the kernel's peak for pixels small against
+   the footprint (the moment-matched evaluation) and within 4% for pixels
+   up to half the footprint's radius (the 4 x 4 rule); and the average over
+   any pixel carries the kernel's whole weight (its integral over the
+   footprint's plane is 1, as the kernel's is). */
+static void test_pds_kernel_averaged_over_a_pixel_matches_fine_quadrature(pds_test_ctx *t)
+{
+    static const double cases[][6] = {
+        /* u, m1, m2 */
+        {0.0, 0.0, 0.05, 0.0, 0.0, 0.05},   {0.5, 0.3, 0.1, 0.02, -0.03, 0.08}, {0.9, 0.1, 0.12, 0.0, 0.0, 0.12},
+        {0.2, -0.7, 0.3, 0.1, 0.0, 0.25},   {0.95, 0.2, 0.5, 0.0, 0.1, 0.45},   {0.0, 0.0, 0.2, 0.2, -0.2, 0.2},
+        {1.1, 0.0, 0.3, 0.0, 0.0, 0.3},     {0.4, 0.4, 2.0, 0.0, 0.0, 1.5},
+    };
+    const double peak = 3.0 / PDS__PI;
+    size_t c;
+    int i, j, n = 400;
+    double u0[2] = {0.3, -0.4}, z[2] = {0.0, 0.0};
+    CHECK(t, pds__kernel_over_pixel(u0, z, z) == pds__kernel_silverman(0.25), "a point pixel is the kernel");
+    for (c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        const double *q = cases[c];
+        double u[2] = {q[0], q[1]}, m1[2] = {q[2], q[3]}, m2[2] = {q[4], q[5]}, fine = 0.0, got, tol;
+        double l = fmax(sqrt(m1[0] * m1[0] + m1[1] * m1[1]), sqrt(m2[0] * m2[0] + m2[1] * m2[1]));
+        for (i = 0; i < n; i++)
+            for (j = 0; j < n; j++) {
+                double a = (2.0 * i + 1.0) / n - 1.0, b = (2.0 * j + 1.0) / n - 1.0;
+                double x = u[0] + a * m1[0] + b * m2[0], y = u[1] + a * m1[1] + b * m2[1];
+                fine += pds__kernel_silverman(x * x + y * y);
+            }
+        fine /= (double)n * n;
+        got = pds__kernel_over_pixel(u, m1, m2);
+        tol = l <= 0.125 ? 0.01 * peak : l <= 0.5 ? 0.04 * peak : 0.25 * fine + 0.02 * peak;
+        CHECK(t, fabs(got - fine) <= tol, "case %zu: %g, fine quadrature %g", c, got, fine);
+    }
+    for (c = 0; c < 4; c++) {
+        static const double px[4][4] = {{0.05, 0.0, 0.0, 0.05}, {0.3, 0.1, -0.1, 0.2}, {1.0, 0.0, 0.0, 0.2},
+                                         {2.0, 0.5, 0.0, 2.0}};
+        double m1[2] = {px[c][0], px[c][1]}, m2[2] = {px[c][2], px[c][3]}, sum = 0.0, h = 0.01;
+        double reach = 1.0 + fabs(m1[0]) + fabs(m1[1]) + fabs(m2[0]) + fabs(m2[1]);
+        int m = (int)ceil(reach / h);
+        for (i = -m; i < m; i++)
+            for (j = -m; j < m; j++) {
+                double u[2] = {(i + 0.5) * h, (j + 0.5) * h};
+                sum += pds__kernel_over_pixel(u, m1, m2) * h * h;
+            }
+        CHECK(t, fabs(sum - 1.0) < 0.005, "pixel %zu: the average's integral %g, not 1", c, sum);
+    }
+}
+
+/* pds__eye_merge: four samples of one pixel on a floor seen straight from
+   the camera become one vertex carrying their summed importance and
+   weight at their weighted centroid, with the pixel's half-axes on the
+   floor (the corner rays' hits lie at centre +- px +- py); a sample of
+   another material, and one seen through something (its wo does not point
+   at the camera), stay apart. */
+static void test_pds_eye_merge_sums_a_pixels_samples_at_their_centroid(pds_test_ctx *t)
+{
+    pds_camera cam;
+    pds__camera_frame f;
+    pds__eye_vertex v[6];
+    pds__v3 up = pds__v(0.0, 1.0, 0.0), centre, ex, ey;
+    double wsum = 0.0, cx = 0.0, cz = 0.0;
+    int k, c, px = 37, py = 21;
+    size_t n;
+    memset(&cam, 0, sizeof cam);
+    cam.position = (pds_vec3){0.0, 2.0, 3.0};
+    cam.look_at = (pds_vec3){0.0, 0.0, 0.0};
+    cam.up = (pds_vec3){0.0, 1.0, 0.0};
+    cam.fov_deg = 40.0;
+    cam.width = 64;
+    cam.height = 48;
+    f = pds__camera_setup(&cam, 64, 48);
+    memset(v, 0, sizeof v);
+    for (k = 0; k < 6; k++) {
+        /* samples at the 2x2 strata's centres; the floor y = 0 */
+        double sx = px + 0.25 + 0.5 * (k % 2), sy = py + 0.25 + 0.5 * ((k / 2) % 2);
+        pds__v3 d = pds__camera_dir(&f, sx, sy), x = pds__add(f.origin, pds__scale(d, -f.origin.y / d.y));
+        double beta[3] = {0.25, 0.25 * (1 + k), 0.25};
+        pds_material m;
+        memset(&m, 0, sizeof m);
+        m.type = PDS_MAT_DIFFUSE;
+        m.albedo[0] = m.albedo[1] = m.albedo[2] = 0.5;
+        REQUIRE(t, pds__eye_vertex_set(&v[k], &m, x, up, up, pds__scale(d, -1.0), beta, k == 4 ? 1 : 0),
+                "vertex %d", k);
+        v[k].pixel = py * 64 + px;
+        if (k < 4) {
+            double w = v[k].weight[0] + v[k].weight[1] + v[k].weight[2];
+            wsum += w;
+            cx += w * x.x;
+            cz += w * x.z;
+        }
+    }
+    /* the sixth sees the floor through something: its wo is turned */
+    pds__f3_set(v[5].wo, pds__normalize(pds__v(0.3, 1.0, 0.2)));
+    n = pds__eye_merge(v, 6, &f);
+    REQUIRE(t, n == 3, "%zu vertices left, want 3", n);
+    CHECK(t, v[0].material == 0 && fabs(v[0].importance[1] - 0.25 * (1 + 2 + 3 + 4)) < 1e-6 &&
+                 fabs(v[0].importance[0] - 1.0) < 1e-6 && fabs(v[0].weight[1] - 0.5 / PDS__PI * 2.5) < 1e-6,
+          "merged importance %g %g, weight %g", v[0].importance[0], v[0].importance[1], v[0].weight[1]);
+    CHECK(t, fabs(v[0].pos[0] - cx / wsum) < 1e-6 && fabs(v[0].pos[2] - cz / wsum) < 1e-6 && fabs(v[0].pos[1]) < 1e-6,
+          "merged at %g %g %g, want the weighted centroid %g 0 %g", v[0].pos[0], v[0].pos[1], v[0].pos[2], cx / wsum,
+          cz / wsum);
+    CHECK(t, v[1].px[0] == 0.0f && v[2].px[0] == 0.0f && v[1].py[2] == 0.0f && v[2].py[2] == 0.0f,
+          "the unmerged vertices have no pixel axes");
+    CHECK(t, (v[1].material == 1) != (v[2].material == 1), "the other material's sample is kept");
+    /* the pixel's corners on the floor against centre +- px +- py, the axes
+       taken at the pixel's centre */
+    {
+        pds__v3 d = pds__camera_dir(&f, px + 0.5, py + 0.5);
+        centre = pds__add(f.origin, pds__scale(d, -f.origin.y / d.y));
+        REQUIRE(t, pds__pixel_axes(&f, centre, up, &ex, &ey), "pixel axes");
+        for (k = 0; k < 8; k++) {
+            /* the corners, then the points halfway to them: the error of
+               the linear map is of second order, a quarter there */
+            double sc = k < 4 ? 1.0 : 0.5, a = (k % 2 ? 1.0 : -1.0) * sc, b = ((k / 2) % 2 ? 1.0 : -1.0) * sc;
+            pds__v3 dc = pds__camera_dir(&f, px + 0.5 + 0.5 * a, py + 0.5 - 0.5 * b);
+            pds__v3 hit = pds__add(f.origin, pds__scale(dc, -f.origin.y / dc.y));
+            pds__v3 lin = pds__add(centre, pds__add(pds__scale(ex, a), pds__scale(ey, b)));
+            CHECK(t, pds__length(pds__sub(hit, lin)) < (k < 4 ? 0.04 : 0.01) * pds__length(ex), "corner %d off by %g (axis %g)", k,
+                  pds__length(pds__sub(hit, lin)), pds__length(ex));
+        }
+        for (c = 0; c < 3; c++) {
+            CHECK(t, fabs(v[0].px[c] - pds__v3_get(ex, c)) < 0.01 * pds__length(ex),
+                  "merged px[%d] %g, at the centre %g", c, v[0].px[c], pds__v3_get(ex, c));
+        }
+    }
+}
+
+/* pds__defocus_widen: a photon from a point light (no positional
+   differential, directional ones of length 0.01) that travelled 2 units
+   has the unfocused cross-section 0.01^2 x 2^2 = 4e-4. Landing straight
+   down on a floor as a needle 0.4 x 0.01 (cross-section 4e-3, m = 10, past
+   the 1 / 0.15 that makes it round) it becomes round, its major axis
+   kept; as a needle 0.08 x 0.01 (8e-4, m = 2) its minor axis becomes
+   0.15 m = 0.3 of the major; as a focused needle 0.02 x 0.002 (4e-5,
+   m = 0.1) it keeps its shape. */
+static void test_pds_defocused_needles_widen_and_focused_ones_do_not(pds_test_ctx *t)
+{
+    static const double cases[3][3] = {{0.4, 0.01, 1.0}, {0.08, 0.01, 0.3}, {0.02, 0.002, 0.1}};
+    pds__photon_job job;
+    pds__ray_diff start, r;
+    pds__v3 ng = pds__v(0.0, 1.0, 0.0);
+    int k;
+    memset(&job, 0, sizeof job);
+    job.min_aspect = 0.15;
+    memset(&start, 0, sizeof start);
+    start.d = pds__v(0.0, -1.0, 0.0);
+    start.dddu = pds__v(0.01, 0.0, 0.0);
+    start.dddv = pds__v(0.0, 0.0, 0.01);
+    for (k = 0; k < 3; k++) {
+        double major, aniso;
+        memset(&r, 0, sizeof r);
+        r.d = pds__v(0.0, -1.0, 0.0);
+        r.dpdu = pds__v(cases[k][0], 0.0, 0.0);
+        r.dpdv = pds__v(0.0, 0.0, cases[k][1]);
+        pds__defocus_widen(&job, &start, 2.0, ng, &r);
+        major = pds__footprint_major_axis(r.dpdu, r.dpdv);
+        aniso = pds__footprint_anisotropy(r.dpdu, r.dpdv);
+        CHECK(t, fabs(major - 0.5 * cases[k][0]) < 1e-12, "case %d: major semi-axis %g, was %g", k, major,
+              0.5 * cases[k][0]);
+        CHECK(t, fabs(aniso - cases[k][2]) < 1e-9, "case %d: minor / major %g, want %g", k, aniso, cases[k][2]);
+    }
+}
+
 static const pds_test_case tests_pds[] = {
+    {"pds_defocused_needles_widen_and_focused_ones_do_not", test_pds_defocused_needles_widen_and_focused_ones_do_not},
+    {"pds_kernel_averaged_over_a_pixel_matches_fine_quadrature",
+     test_pds_kernel_averaged_over_a_pixel_matches_fine_quadrature},
+    {"pds_eye_merge_sums_a_pixels_samples_at_their_centroid", test_pds_eye_merge_sums_a_pixels_samples_at_their_centroid},
     {"pds_footprint_width_floor_raises_both_semi_axes", test_pds_footprint_width_floor_raises_both_semi_axes},
     {"progressive_pds_schedule_shrinks_footprint_areas_as_i_to_alpha_minus_1",
      test_progressive_pds_schedule_shrinks_footprint_areas_as_i_to_alpha_minus_1},
