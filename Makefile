@@ -65,15 +65,16 @@ update-golden: tests/test_pds
 # radius (0.004, about a pixel on the floor), as the paper used 10M-photon
 # photon mapping. The gold ring's come from path tracing; the glass
 # bunny's (a scanned mesh, fetched) from ppm with 24 x 1M photons. The ring
-# and octahedron (a point light) gets ppm with 128 x 2M photons at its full
-# 512 x 512, the image-space caustics' benchmark size (some 15 minutes).
+# and octahedron (a point light) gets ppm with 64 x 2M photons at its full
+# 512 x 512 and 16 samples a pixel, the image-space caustics' benchmark
+# size (21 minutes on a busy machine).
 references: pds
 	./pds render scenes/refraction.scene --method ppm --caustics-only --photons 1000000 --passes 32 \
 	  --radius 0.004 --res 256x256 --spp 64 --seed 1000 --quiet -o scenes/refraction.ref.pfm
 	./pds render scenes/reflection.scene --method ppm --caustics-only --photons 1000000 --passes 32 \
 	  --radius 0.004 --res 256x256 --spp 64 --seed 1000 --quiet -o scenes/reflection.ref.pfm
-	./pds render scenes/ring_octahedron.scene --method ppm --caustics-only --photons 2000000 --passes 128 \
-	  --radius 0.008 --spp 4 --quiet -o scenes/ring_octahedron.ref.pfm
+	./pds render scenes/ring_octahedron.scene --method ppm --caustics-only --photons 2000000 --passes 64 \
+	  --radius 0.008 --spp 16 --seed 1000 --quiet -o scenes/ring_octahedron.ref.pfm
 	./pds render scenes/cardioid.scene --method pt --spp 4096 --res 256x192 --quiet -o scenes/cardioid.ref.pfm
 	./pds render scenes/cardioid.scene --method pt --caustics-only --spp 4096 --res 256x192 --quiet \
 	  -o scenes/cardioid.caustics.ref.pfm
