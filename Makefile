@@ -14,6 +14,9 @@
 #                   its line count, its build and its tests (README "A small core")
 #   make windows    MinGW-w64 cross-build: pds.exe and tests/test_pds.exe;
 #                   make windows-test runs the tests under wine (README "Windows")
+#   make povray-compare  PDS, pm and POV-Ray (if installed) at equal CPU time on
+#                   scenes/ball.scene against tests/ref_ball, an independent
+#                   exact-sphere reference (README "PDS against POV-Ray"; minutes)
 #   make CC=clang   any C99 compiler works
 CC ?= cc
 OPT ?= -O2
@@ -110,6 +113,20 @@ gallery: pds
 render: pds
 	./pds render scenes/demo.scene -o demo.png
 
+# The POV-Ray comparison (README "PDS against POV-Ray"): tests/ref_ball is
+# an independent reference of scenes/ball.scene (no pds code: an exact
+# sphere, light tracing into a floor grid, both Fresnel branches at the
+# eye); tests/ball_metrics measures images against it (pds.c only reads
+# the images). Neither is part of the library or of make test.
+tests/ref_ball: tests/ref_ball.c
+	$(CC) $(WARN) $(CFLAGS) -o $@ tests/ref_ball.c $(LDLIBS)
+
+tests/ball_metrics: tests/ball_metrics.c pds.c pds.h
+	$(CC) $(WARN) $(CFLAGS) -I. -o $@ tests/ball_metrics.c pds.c $(LDLIBS)
+
+povray-compare: pds tests/ref_ball tests/ball_metrics
+	sh tests/povray_compare.sh
+
 # The small core (README "A small core"): pds.c without the PNG writer,
 # the baselines and the benchmarks. Prints the lines of pds.c that are in
 # it, builds the tool and the core's tests, runs them (about 20 s of CPU),
@@ -201,9 +218,11 @@ fuzz-regress: $(FUZZ_TARGETS:%=$(FUZZ_OUT)/fuzz_%)
 	for t in $(FUZZ_TARGETS); do sh tests/fuzz/run.sh $$t 0 || exit 1; done
 
 clean:
-	rm -f pds pds-san pds-core pds.exe tests/test_pds tests/test_pds-san tests/test_core tests/test_pds.exe demo.png
+	rm -f pds pds-san pds-core pds.exe tests/test_pds tests/test_pds-san tests/test_core tests/test_pds.exe demo.png \
+	  tests/ref_ball tests/ball_metrics
 	rm -rf tests/out
 
 .PHONY: all test sanitize render bench bunny clean update-golden references gallery fuzz fuzz-regress core windows \
+  povray-compare \
   windows-test \
   $(FUZZ_TARGETS:%=fuzz-%)

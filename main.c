@@ -88,6 +88,7 @@ typedef struct command_help {
     const char *details;  /* options and notes, indented six spaces; may be "" */
     const char *more;     /* their continuation (a C99 compiler need not take a
                              string literal longer than 4095 characters) */
+    const char *rest;     /* and its continuation; may be "" */
     int takes_options;    /* follows the option syntax of render (the footer applies) */
 } command_help;
 
@@ -175,6 +176,9 @@ static const command_help help_table[] = {
      "      --gather-mix F          gi: share of cosine-sampled gather directions, the rest following\n"
      "                              the global map's photons (default 0.25; 1 = cosine sampling)\n"
      "      --no-shadow-photons     gi: a shadow ray for every light sample\n"
+     "      --global-map M          gi: photons (default) or streams (streamed photon mapping)\n"
+     "      --stream-radius R       gi streams: rs (default: the scene's largest side / 16)\n"
+     "",
      "      --method isc            image-space caustics (Wyman and Davis 2006): interactive, approximate;\n"
      "                              --photons N: a light-space buffer of side sqrt(N) per light; --time:\n"
      "                              frames, each with its buffer offset anew, averaged until it is spent\n"
@@ -195,12 +199,12 @@ static const command_help help_table[] = {
      "      --exr-compression C     OpenEXR compression: zip (default), zips or none\n"
      "      Parts of another scene, other options, another pds version or a shard given twice are\n"
      "      refused.\n",
-     "", 0},
+     "", "", 0},
     {"sweep", "sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]",
      "render once per value of one parameter and compare each with REF",
      "      --method NAME           the method swept (default pds)\n"
      "      --param NAME            smoothing, min-aspect, k, radius, alpha, photons, spp, max-photons,\n"
-     "                              passes, max-radius, streams or stream-photons\n"
+     "                              passes, max-radius, streams, stream-photons, stream-radius, ...\n"
      "      --values A,B,...        the values, comma-separated\n"
      "      --ref REF.pfm           the reference (PFM or OpenEXR, the renders' resolution; a warning\n"
      "                              if its kind, full or caustics-only, is not the renders')\n"
@@ -210,7 +214,7 @@ static const command_help help_table[] = {
      "      --resume                load the renders kept in DIR/entries (an interrupted sweep) and\n"
      "                              render only the others\n"
      "      and any render option, e.g. --photons N, --res WxH, --caustics-only\n",
-     "", 1},
+     "", "", 1},
     {"race", "race SCENE --ref REF.pfm (--time T | --photons N | --budgets LIST) --methods LIST [options]",
      "every method on the same budget, side by side against REF",
      "      --methods LIST          e.g. pds,pm:k=50,pdm,splat:radius=0.05,ppm; options for one\n"
@@ -229,10 +233,10 @@ static const command_help help_table[] = {
      "      --resume                load the entries kept in DIR/entries (an interrupted race) and\n"
      "                              render only the others\n"
      "      and any render option; it applies to every method it concerns\n",
-     "", 1},
+     "", "", 1},
     {"compare", "compare A.pfm REF.pfm",
-     "RMSE and SSIM of A against the reference REF (PFM or OpenEXR; a warning if their kinds differ)", "", "", 0},
-    {"pixel", "pixel IMAGE.pfm X Y [R]", "mean value of the pixels within R (default 0) of pixel X,Y (PFM or OpenEXR)", "", "", 0},
+     "RMSE and SSIM of A against the reference REF (PFM or OpenEXR; a warning if their kinds differ)", "", "", "", 0},
+    {"pixel", "pixel IMAGE.pfm X Y [R]", "mean value of the pixels within R (default 0) of pixel X,Y (PFM or OpenEXR)", "", "", "", 0},
     {"trace-photon", "trace-photon SCENE --photon I [options]",
      "one caustic photon's path with its differentials beside finite differences",
      "      --photon I              the photon's number (0 = the first the renderer emits)\n"
@@ -244,9 +248,9 @@ static const command_help help_table[] = {
      "      bounce Du x + Dtheta x and Dv x + Dphi x, eq. 7), Dtheta omega, Dphi omega, each beside\n"
      "      the central difference of neighbouring photons traced by the renderer, and the\n"
      "      footprint's semi-axes and area (eq. 4)\n",
-     "", 0},
+     "", "", 0},
     {"info", "info FILE [-D NAME=VALUE] [--obj-material M]", "what a scene or OBJ file holds, and its warnings",
-     "      -D NAME=VALUE, --obj-material M   as for render: the scene as render would load it\n", "", 0},
+     "      -D NAME=VALUE, --obj-material M   as for render: the scene as render would load it\n", "", "", 0},
     {"bench", "bench WHAT [ARGS]", "micro-benchmarks (figures, never pass/fail):",
      "      rays MESH [N]           BVH build and ray throughput, one thread (N rays, default 1000000)\n"
      "      pt [SCENE]              path-traced samples per second, 1 thread and all threads\n"
@@ -258,8 +262,8 @@ static const command_help help_table[] = {
      "      isc [SCENE]             image-space caustics: frames per second per gather at 512x512 with\n"
      "                              512^2, 1024^2, 2048^2 photons, dynamic and static lighting, beside\n"
      "                              the paper's and PDS's times\n",
-     "", 0},
-    {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", "", 0},
+     "", "", 0},
+    {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", "", "", 0},
 };
 #define N_COMMANDS (sizeof help_table / sizeof help_table[0])
 
@@ -283,8 +287,8 @@ static void print_overview(FILE *f)
     fputs("usage: pds COMMAND [ARGS]     (pds COMMAND --help: one command's options)\n\ncommands:\n", f);
     for (i = 0; i < N_COMMANDS; i++) {
         const command_help *h = &help_table[i];
-        if (strlen(h->synopsis) <= 26) fprintf(f, "  %-26s  %s\n%s%s", h->synopsis, h->summary, h->details, h->more);
-        else fprintf(f, "  %s\n%30s%s\n%s%s", h->synopsis, "", h->summary, h->details, h->more);
+        if (strlen(h->synopsis) <= 26) fprintf(f, "  %-26s  %s\n%s%s%s", h->synopsis, h->summary, h->details, h->more, h->rest);
+        else fprintf(f, "  %s\n%30s%s\n%s%s%s", h->synopsis, "", h->summary, h->details, h->more, h->rest);
     }
     fputs("  --help, -h                  this text\n"
           "  --version                   the version\n"
@@ -297,7 +301,7 @@ static void print_overview(FILE *f)
 /* `pds COMMAND --help`. */
 static void print_command_help(const command_help *h, FILE *f)
 {
-    fprintf(f, "usage: pds %s\n  %s\n%s%s", h->synopsis, h->summary, h->details, h->more);
+    fprintf(f, "usage: pds %s\n  %s\n%s%s%s", h->synopsis, h->summary, h->details, h->more, h->rest);
     if (h->takes_options) fputs(option_syntax_help, f);
     else fputs("      -h, --help              this text\n", f);
 }
@@ -1142,6 +1146,17 @@ static int set_named(const char *shown, const char *v, const char *const *names,
     return usage_error("%s takes %s, got '%s'%s", shown, list, v, suggest_text(&sug, hint, sizeof hint));
 }
 
+/* --global-map photons|streams: the values of pds_global_map */
+static const char *const global_map_names[] = {"photons", "streams"};
+
+static int set_global_map(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    int k = 0, r = set_named(shown, v, global_map_names, 2, &k);
+    (void)s;
+    if (!r) c->opt.global_map = (pds_global_map)k;
+    return r;
+}
+
 /* --gather: isc's gather by name, or gi's final-gather rays as a count. */
 static int set_gather(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
@@ -1243,7 +1258,7 @@ static const opt_spec option_table[] = {
     {"--streams", NULL, "streams", set_long, OPTF(streams), 0, -1, "a whole number of 0 or more", M_SPM, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--stream-photons", NULL, "stream_photons", set_int, OPTF(stream_photons), 0, 10000,
-     "a whole number from 0 to 10000", M_SPM, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+     "a whole number from 0 to 10000", M_SPM | M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--max-photons", NULL, "max_photons", set_long, OPTF(max_photons), 1, 100000000,
      "a whole number from 1 to 100000000", M_PDM | M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--radius", NULL, "radius", set_double, OPTF(radius), 0, PDS_MAX_COORD, "a positive distance in scene units",
@@ -1263,6 +1278,10 @@ static const opt_spec option_table[] = {
     {"--gather-mix", NULL, "gather_mix", set_double, OPTF(gather_mix), 0, 1, "a number above 0 and at most 1", M_GI,
      C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--no-shadow-photons", NULL, "shadow_photons", set_flag, OPTF(shadow_photons), 0, 0, "", M_GI, C_ALL, F_PER_METHOD},
+    {"--global-map", NULL, "global_map", set_global_map, 0, 0, 0, "photons or streams", M_GI, C_ALL,
+     F_VALUE | F_PER_METHOD},
+    {"--stream-radius", NULL, "stream_radius", set_double, OPTF(stream_radius), 0, PDS_MAX_COORD,
+     "a positive distance in scene units", M_GI, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--light-res", NULL, "light_res", set_int, OPTF(light_resolution), 1, PDS_MAX_RESOLUTION,
      "a whole number from 1 to 16384", M_ISC, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--history", NULL, "history", set_int, OPTF(history), 1, 64, "a whole number from 1 to 64", M_ISC, C_ALL,
@@ -1554,6 +1573,12 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
                c->opt.global_k, c->opt.gather, c->opt.gather_mix, c->opt.shadow_photons, st->global_stored,
                st->shadow_stored, st->shadow_rays, st->shadow_rays_saved, st->gather_rays,
                (unsigned long)st->map_bytes, st->time_map_s, st->time_eye_s, st->time_photons_s);
+        if (c->opt.global_map == PDS_GLOBAL_STREAMS) {
+            printf(" global_map=streams stream_photons=%d", c->opt.stream_photons);
+            if (c->opt.stream_radius > 0.0) printf(" stream_radius=%g", c->opt.stream_radius);
+            else printf(" stream_radius=auto");
+            printf(" global_streams=%ld", st->global_streams);
+        }
     } else if (m == PDS_METHOD_ISC) {
         char params[256];
         format_params(&c->opt, params, sizeof params);

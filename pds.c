@@ -47,12 +47,15 @@
      >>baselines  pm, pdm, splat, ppm
      >>streams    streamed photon mapping (spm): streams of a leading photon
                   and associated photons, concentrated at specular surfaces,
-                  gathered stream by stream (eqs. 1-2)
+                  gathered stream by stream (eqs. 1-2); for caustics (its
+                  streams in gi's global map are in >>gi)
      >>photonpass the photon pass all photon methods share: time planning,
                   tracing threads, gathers, the caustic image
-     >>gi         Jensen's two-pass global illumination: global photon map,
-                  shadow photons, importance-sampled final gather, caustics
-                  from any caustic method
+     >>gi         Jensen's two-pass global illumination: global photon map
+                  (single photons, or streams: seed paper 003's streams
+                  where they mean something), shadow photons,
+                  importance-sampled final gather, caustics from any
+                  caustic method
      >>isc        image-space caustics (Wyman and Davis 2006): light-space
                   photon buffer, points, quads, eye- and light-space
                   gathers, temporal filter, animation frames, static
@@ -984,8 +987,10 @@ enum pds__rng_purpose {
                              dim 2, 3 = the photons' and the pixels' wavelength shift */
     PDS__RNG_STRATA = 11, /* index = pixel, dim = pass: the pixel samples' stratification pattern */
     PDS__RNG_LENS = 12,   /* thin lens: index = camera sample (as PIXEL), dim 0, 1 = the lens point */
-    PDS__RNG_ENV_NEE = 13 /* the environment's sky parts in next-event estimation:
+    PDS__RNG_ENV_NEE = 13, /* the environment's sky parts in next-event estimation:
                              index = camera sample, dim = 4 x the bounce's PIXEL dim + 0..3 */
+    PDS__RNG_STREAM = 20  /* gi's streams: index = stream number, dim = PDS__GI_STREAM_DIMS
+                             x the leader's bounce + 2 x associated photon + 0, 1 */
 };
 
 static uint64_t pds__mix64(uint64_t z)
@@ -11612,9 +11617,10 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
    count says which. */
 
 #define PDS__PARTIAL_MAGIC "PDSPART\n"
-#define PDS__PARTIAL_VERSION 3u
+#define PDS__PARTIAL_VERSION 4u
 #define PDS__PARTIAL_MAX_SHARDS 1000000
-#define PDS__PARTIAL_NOPT 44    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT 46    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT_V3 44 /* format version 3's, still read */
 #define PDS__PARTIAL_NOPT_V2 31 /* format version 2's, still read */
 
 enum { PDS__SPLIT_ROWS = 0, PDS__SPLIT_PHOTONS = 1, PDS__SPLIT_GATHER = 2 };
@@ -11794,11 +11800,15 @@ static void pds__partial_opt_encode(const pds_options *o, uint64_t v[PDS__PARTIA
     v[41] = (uint64_t)(int64_t)o->history;
     v[42] = (uint64_t)(int64_t)o->orbit;
     memcpy(&v[43], &o->orbit_deg, sizeof o->orbit_deg);
+    /* format version 4: gi's streams */
+    v[44] = (uint64_t)(int64_t)o->global_map;
+    memcpy(&v[45], &o->stream_radius, sizeof o->stream_radius);
 }
 
 /* nopt: how many the file holds (31 in format version 2, whose renders
    all had the later ones at their defaults: gi, spm and isc were not
-   stored then); the rest stay at their defaults. */
+   stored then; 44 in version 3, before gi's streams); the rest stay at
+   their defaults. */
 static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nopt, pds_options *o)
 {
     double d[13];
@@ -11825,7 +11835,7 @@ static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nop
     o->max_photons = (long)(int64_t)v[15];
     o->split_depth = PDS__OPT_INT(v[29]);
     o->spectral = PDS__OPT_INT(v[30]);
-    if (nopt >= PDS__PARTIAL_NOPT) {
+    if (nopt >= PDS__PARTIAL_NOPT_V3) {
         o->streams = (long)(int64_t)v[31];
         o->stream_photons = PDS__OPT_INT(v[32]);
         o->caustics = (pds_method)PDS__OPT_INT(v[33]);
@@ -11839,6 +11849,10 @@ static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nop
         o->history = PDS__OPT_INT(v[41]);
         o->orbit = (pds_orbit)PDS__OPT_INT(v[42]);
         memcpy(&o->orbit_deg, &v[43], sizeof o->orbit_deg);
+    }
+    if (nopt >= PDS__PARTIAL_NOPT) {
+        o->global_map = (pds_global_map)PDS__OPT_INT(v[44]);
+        memcpy(&o->stream_radius, &v[45], sizeof o->stream_radius);
     }
 #undef PDS__OPT_INT
     for (k = 0; k < 13; k++) memcpy(&d[k], &v[16 + k], sizeof d[k]);
@@ -12113,28 +12127,29 @@ pds_status pds_partial_merge(const pds_partial *const *parts, const char *const 
 
      offset  bytes  field
      0       8      magic "PDSPART\n"
-     8       4      format version (3)
+     8       4      format version (4)
      12      16     library version string, NUL-padded ("0.1.0")
      28      8      scene content hash (pds_scene_hash)
      36      512    scene path as loaded, NUL-padded
      548     4 x 5  width, height, shard index (0-based), shard count, split
-     568     8 x 44 options (pds__partial_opt_encode's order)
-     920     8 x 13 rows done, units total, units own, units done, n_planned
+     568     8 x 46 options (pds__partial_opt_encode's order)
+     936     8 x 13 rows done, units total, units own, units done, n_planned
                     (binary64), emitted, unit (binary64), splatted,
                     degenerate, saturated, invalid, eye vertices, reserved 0
-     1024    ...    eye values of the rows done (rows I, I+N, ...: each
+     1040    ...    eye values of the rows done (rows I, I+N, ...: each
                     width x 3 binary64), then, unless split is 0, the photon
                     sums S+ and then S- (each width x height x 3 of: low 64
                     bits, high 64 bits)
      end-8   8      check: FNV-1a 64 of every byte before it
-   Format version 2 is read too: the same with 31 options (its counts at
-   816, its eye values at 920); version 1 is refused. */
+   Format versions 2 and 3 are read too: the same with 31 options (counts
+   at 816, eye values at 920) and with 44 (counts at 920, eye values at
+   1024); version 1 is refused. */
 
 /* Where the counts and the eye values begin, for a file of nopt options. */
 #define PDS__PARTIAL_COUNTS_AT(nopt) (568u + 8u * (unsigned)(nopt))
 #define PDS__PARTIAL_HEADER_AT(nopt) (PDS__PARTIAL_COUNTS_AT(nopt) + 8u * 13u)
-#define PDS__PARTIAL_COUNTS PDS__PARTIAL_COUNTS_AT(PDS__PARTIAL_NOPT) /* 920: the counts */
-#define PDS__PARTIAL_HEADER PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT) /* 1024 */
+#define PDS__PARTIAL_COUNTS PDS__PARTIAL_COUNTS_AT(PDS__PARTIAL_NOPT) /* 936: the counts */
+#define PDS__PARTIAL_HEADER PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT) /* 1040 */
 
 static void pds__put_u32(unsigned char *b, uint32_t v)
 {
@@ -12255,7 +12270,10 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
 /* Options in a file of this format version; 0: a version not read. */
 static int pds__partial_nopt(uint32_t version)
 {
-    return version == PDS__PARTIAL_VERSION ? PDS__PARTIAL_NOPT : version == 2u ? PDS__PARTIAL_NOPT_V2 : 0;
+    return version == PDS__PARTIAL_VERSION ? PDS__PARTIAL_NOPT
+           : version == 3u                 ? PDS__PARTIAL_NOPT_V3
+           : version == 2u                 ? PDS__PARTIAL_NOPT_V2
+                                           : 0;
 }
 
 /* The checks of a partial file's header (k bytes of it in head). */
@@ -12270,7 +12288,7 @@ static pds_status pds__partial_head_check(const char *path, const unsigned char 
     nopt = pds__partial_nopt(version);
     if (!nopt)
         return pds__fail(err, PDS_ERR_PARSE, path, 0, 0,
-                         "partial file format version %lu; this pds reads versions 2 and %u",
+                         "partial file format version %lu; this pds reads versions 2 to %u",
                          (unsigned long)version, PDS__PARTIAL_VERSION);
     if (k < PDS__PARTIAL_HEADER_AT(nopt))
         return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "truncated: %lu bytes", (unsigned long)k);
@@ -15541,7 +15559,9 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
    What nfa and rs shape (streams whose leader first meets a diffuse
    surface: direct light and what follows it) is the eye pass's part here,
    so rs does not enter the caustic image at all, and nfa only says how
-   many photons a stream stands for: a render of nfs streams counts
+   many photons a stream stands for (gi's global map, whose photons do
+   first meet diffuse surfaces, can be a map of streams with nfa and rs:
+   >>gi, "streams in the global map"): a render of nfs streams counts
    nfs (nfa + 1) emitted photons, and with no stream count given spm emits
    photons / (nfa + 1) streams, as many photons as pm would.
 
@@ -16070,6 +16090,11 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
    Jensen's), measured by the test that compares it with shadow rays
    everywhere. Delta-light shadows are exact on either side.
 
+   Streams (global_map = PDS_GLOBAL_STREAMS): the global map of streamed
+   photon mapping (seed paper 003, >>streams), where its streams mean
+   something: their leaders first meet diffuse surfaces. See "streams in
+   the global map" below.
+
    Determinism: global photon i is a pure function of (seed, i) (Halton
    points for its emission, PDS__RNG_GLOBAL for its bounces); threads
    take fixed batches and the stores are sorted by (photon, order) before
@@ -16086,12 +16111,25 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
 
 /* A photon of the global map: position, travel direction, geometric
    normal of the surface facing the photon, flux (W), and where it stands
-   among the stores: emitted photon number, then order. 64 bytes. */
+   among the stores: emitted photon (stream) number, then order; with
+   streams, a leader holds the number of photons of its stream (itself and
+   the associated photons stored right after it), else 0. 64 bytes. */
 typedef struct pds__gi_photon {
     float pos[3], dir[3], ng[3], flux[3];
     long index;
     int seq;
+    int lead;
 } pds__gi_photon;
+
+/* A stream of the global map (streams only): its leader's position, the
+   distance of its farthest photon from the leader, and its photons in the
+   map (first the leader, count in all). 32 bytes (24 where long is 4). */
+typedef struct pds__gi_stream {
+    float pos[3];
+    float reach;
+    long first;
+    long count;
+} pds__gi_stream;
 
 /* A direct (first hit) or shadow photon: position, geometric normal
    facing the light it came from, that light. 48 bytes. */
@@ -16117,7 +16155,11 @@ typedef struct pds__gi_map {
     const pds_scene *scene;
     pds__gi_photon *photons;
     size_t n;
-    pds__kdtree tree;
+    pds__kdtree tree;    /* over the photons, or with streams the leaders */
+    pds__gi_stream *streams; /* NULL: a map of single photons */
+    size_t nstreams;
+    double reach;        /* streams: the largest reach */
+    int nfa;             /* streams: associated photons per stream */
     pds__gi_shadow_photon *shadow;
     size_t ns;
     pds__kdtree stree;
@@ -16133,9 +16175,12 @@ typedef struct pds__gi_map {
 typedef struct pds__gi_build {
     const pds_scene *scene;
     uint64_t seed, halton_seed;
-    long n;              /* photons to emit */
+    long n;              /* photons (streams) to emit */
     int max_depth;
     double eps;
+    int streams;         /* 1: streams of a leader and nfa associated photons */
+    int nfa;             /* streams: associated photons per stream */
+    double rs;           /* streams: the stream radius */
     pds__gi_buf *bufs;
     pds__mutex lock;
     int next_buf;        /* guarded by lock */
@@ -16192,16 +16237,93 @@ static void pds__gi_shadow_line(const pds__gi_build *b, pds__gi_buf *buf, long i
     }
 }
 
+/* --- streams in the global map (seed paper 003) -------------------------
+   The paper's streams (>>streams for the paper's rules) where they mean
+   something: in the global map, whose photons first meet diffuse
+   surfaces. Stream s is global photon s of the single-photon map (the
+   same emission and bounces, PDS__RNG_GLOBAL), its leader, which carries
+   the stream's energy, Es = Ez / nfs at emission (eq. 1; Ez / pmf for the
+   light picked with probability pmf), and nfa associated photons:
+   - where the leader meets a diffuse (non-specular) surface at x, "each
+     associated photon is assigned a random point within the region
+     surrounding the new position of the leading photon of a radius
+     denoting the stream's width" (sect. 3.1, 3a): a point y uniform by
+     area in the disc of radius rs about x in x's tangent plane. It leaves
+     from where the leader left (the light, or the leader's last diffuse
+     hit) towards y, so its direction deviates from the leader's by the
+     angle under which the disc is seen ("directions of propagation
+     deviating from the direction of the leading photon in the area with
+     a radius (rs)", sect. 3), and is stored where it really lands (y on a
+     flat surface; elsewhere when a corner or an object is in the way,
+     which gives the paper's colour bleeding between objects, sect. 4);
+   - the stream's energy is "equally divided among all the photons in the
+     stream (nfa+1)" (sect. 3): each photon stores the stream's flux over
+     nfa + 1;
+   - an associated photon that does not land on a non-specular surface
+     within 2 rs of x (it meets glass, a mirror or a light, leaves the
+     scene, or leaves its side of the surface) is eliminated and its
+     energy given to the leader, the paper's rule for a specular event
+     (3b), so a stream stores exactly its flux at every diffuse hit;
+   - the leader then bounces on by the BSDF with Russian roulette, as a
+     single photon, carrying the whole stream's energy, and at its next
+     diffuse hit the associated photons are aimed anew ("the stream decay
+     mechanism [18]", which the paper does not describe, is taken as this:
+     the stream keeps its nfa photons while its leader is diffusely
+     reflected and loses them all at the first specular event);
+   - where the leader meets a specular surface "all associated photons are
+     eliminated and the sum of their energy values is assigned to the
+     leading photon" (3b): from there on the stream is its leader alone.
+   The gather (pds__gi_stream_radiance) is eq. 2. */
+
+/* Associated photon j of stream i at the leader's diffuse hit `hit`
+   (bounce `depth`), leaving from o (n: the normal of the side it leaves
+   from, or zero at a point light). Returns 1 and fills *p (flux set by
+   the caller) if it lands on a non-specular surface within 2 rs of the
+   leader's hit, else 0. */
+#define PDS__GI_STREAM_DIMS 32768 /* RNG_STREAM dimensions per leader bounce: 2 x (nfa <= 10000) */
+static int pds__gi_associate(const pds__gi_build *b, long i, int depth, int j, pds__v3 o, pds__v3 n,
+                             const pds_hit *hit, pds__gi_photon *p)
+{
+    const pds_scene *s = b->scene;
+    uint64_t dim = (uint64_t)depth * PDS__GI_STREAM_DIMS + 2 * (uint64_t)j;
+    double u1 = pds__rng_uniform(b->seed, PDS__RNG_STREAM, (uint64_t)i, dim);
+    double u2 = pds__rng_uniform(b->seed, PDS__RNG_STREAM, (uint64_t)i, dim + 1);
+    double r = b->rs * sqrt(u1), phi = 2.0 * PDS__PI * u2;
+    pds__v3 b1, b2, y, d;
+    pds__tri_hit th;
+    pds_hit h;
+    const pds_material *m;
+    pds__onb(hit->ng, &b1, &b2);
+    y = pds__add(hit->position, pds__add(pds__scale(b1, r * cos(phi)), pds__scale(b2, r * sin(phi))));
+    d = pds__sub(y, o);
+    if (!(pds__dot(d, d) > 0.0)) return 0;
+    d = pds__normalize(d);
+    if (pds__dot(n, n) > 0.0 && !(pds__dot(d, n) > 0.0)) return 0;
+    if (!pds__bvh_intersect(&s->bvh, o, d, 0.0, DBL_MAX, &th)) return 0;
+    pds__scene_fill_hit(s, &th, o, d, &h);
+    m = &s->materials.items[h.material];
+    if (m->type == PDS_MAT_EMISSIVE || pds__material_is_specular(m)) return 0;
+    if (pds__length(pds__sub(h.position, hit->position)) > 2.0 * b->rs) return 0;
+    memset(p, 0, sizeof *p);
+    pds__f3_set(p->pos, h.position);
+    pds__f3_set(p->dir, d);
+    pds__f3_set(p->ng, pds__dot(h.ng, d) < 0.0 ? h.ng : pds__scale(h.ng, -1.0));
+    p->index = i;
+    return 1;
+}
+
 /* Trace global photon i: emission, stores at non-specular hits, Russian
-   roulette by the albedo (Jensen 1996, sect. 3). */
+   roulette by the albedo (Jensen 1996, sect. 3). With streams, photon i
+   is the leader of stream i, and at each of its stores the associated
+   photons are aimed and stored after it (above). */
 static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long i)
 {
     const pds_scene *s = b->scene;
     const double *sigma = NULL;
     pds__light_emit e;
-    pds__v3 org, dir;
+    pds__v3 org, dir, nside;
     double u[4], pmf, flux[3];
-    int k, c, depth, stores = 0;
+    int k, c, depth, stores = 0, seq = 0, live = b->streams ? b->nfa : 0;
     for (c = 0; c < 4; c++) u[c] = pds__halton(b->halton_seed, (uint64_t)i, c);
     k = pds__lights_pick(&s->light_table, pds__halton(b->halton_seed, (uint64_t)i, 4), &pmf);
     if (k < 0 || !(pmf > 0.0)) return;
@@ -16209,6 +16331,7 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
     for (c = 0; c < 3; c++) flux[c] = e.flux[c] / ((double)b->n * pmf);
     dir = e.dir;
     org = pds__add(e.pos, pds__scale(e.normal, pds__dot(e.normal, dir) >= 0.0 ? b->eps : -b->eps));
+    nside = pds__dot(e.normal, dir) >= 0.0 ? e.normal : pds__scale(e.normal, -1.0);
     pds__gi_shadow_line(b, buf, i, k, org, dir);
     for (depth = 0; depth <= b->max_depth; depth++) {
         pds__tri_hit th;
@@ -16223,15 +16346,35 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
         if (m->type == PDS_MAT_EMISSIVE) return;
         if (!pds__material_is_specular(m)) {
             pds__gi_photon p;
-            if (stores == PDS__GI_MAX_STORES) return;
+            size_t lead_at = buf->n;
+            int j, landed = 0;
+            if (stores++ == PDS__GI_MAX_STORES) return;
             memset(&p, 0, sizeof p);
             pds__f3_set(p.pos, hit.position);
             pds__f3_set(p.dir, dir);
             pds__f3_set(p.ng, pds__dot(hit.ng, dir) < 0.0 ? hit.ng : pds__scale(hit.ng, -1.0));
             for (c = 0; c < 3; c++) p.flux[c] = (float)flux[c];
             p.index = i;
-            p.seq = stores++;
+            p.seq = seq++;
+            p.lead = b->streams;
             if (!pds__gi_push(buf, &p)) return;
+            if (live > 0) {
+                /* the stream's photons share its flux; the eliminated
+                   associated photons' shares stay with the leader */
+                double share[3];
+                for (c = 0; c < 3; c++) share[c] = flux[c] / (live + 1.0);
+                for (j = 0; j < live; j++) {
+                    pds__gi_photon a;
+                    if (!pds__gi_associate(b, i, depth, j, org, nside, &hit, &a)) continue;
+                    for (c = 0; c < 3; c++) a.flux[c] = (float)share[c];
+                    a.seq = seq++;
+                    if (!pds__gi_push(buf, &a)) return;
+                    landed++;
+                }
+                for (c = 0; c < 3; c++)
+                    buf->p[lead_at].flux[c] = (float)(share[c] + (double)(live - landed) * share[c]);
+                buf->p[lead_at].lead = 1 + landed;
+            }
         }
         if (depth == b->max_depth) return;
         for (c = 0; c < 3; c++)
@@ -16247,8 +16390,10 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
         }
         for (c = 0; c < 3; c++) flux[c] *= bs.weight[c] / q;
         if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        if (bs.delta) live = 0; /* a specular event: the stream is its leader alone */
         dir = bs.wi;
         org = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, dir) >= 0.0 ? b->eps : -b->eps));
+        nside = pds__dot(hit.ng, dir) >= 0.0 ? hit.ng : pds__scale(hit.ng, -1.0);
     }
 }
 
@@ -16289,6 +16434,7 @@ static int pds__gi_shadow_cmp(const void *a, const void *b)
 static void pds__gi_map_free(pds__gi_map *g)
 {
     free(g->photons);
+    free(g->streams);
     free(g->shadow);
     pds__kdtree_free(&g->tree);
     pds__kdtree_free(&g->stree);
@@ -16297,8 +16443,48 @@ static void pds__gi_map_free(pds__gi_map *g)
 
 static size_t pds__gi_map_bytes(const pds__gi_map *g)
 {
-    return g->n * sizeof *g->photons + pds__kdtree_memory(&g->tree) + g->ns * sizeof *g->shadow +
-           pds__kdtree_memory(&g->stree);
+    return g->n * sizeof *g->photons + g->nstreams * sizeof *g->streams + pds__kdtree_memory(&g->tree) +
+           g->ns * sizeof *g->shadow + pds__kdtree_memory(&g->stree);
+}
+
+/* rs in scene units: the option, or 1/16 of the largest side of the
+   scene's bounds (README, "Streams in gi's global map"). */
+static double pds__gi_stream_radius(const pds_scene *s, const pds_options *opt)
+{
+    pds__v3 e = pds__sub(s->bounds_max, s->bounds_min);
+    double side = fmax(e.x, fmax(e.y, e.z));
+    if (opt->stream_radius > 0.0) return opt->stream_radius;
+    return side > 0.0 ? side / 16.0 : 1.0;
+}
+
+/* The streams of a map sorted in stream order (each leader followed by
+   its associated photons): one record per leader, with its reach. */
+static int pds__gi_streams_index(pds__gi_map *g)
+{
+    size_t i, ns = 0;
+    for (i = 0; i < g->n; i++) ns += g->photons[i].lead > 0;
+    g->streams = (pds__gi_stream *)malloc(sizeof *g->streams * (ns ? ns : 1));
+    if (!g->streams) return 0;
+    for (i = 0; i < g->n; i++) {
+        const pds__gi_photon *p = &g->photons[i];
+        pds__gi_stream *st;
+        long j;
+        double reach = 0.0;
+        if (p->lead <= 0) continue;
+        st = &g->streams[g->nstreams++];
+        memset(st, 0, sizeof *st);
+        memcpy(st->pos, p->pos, sizeof st->pos);
+        st->first = (long)i;
+        st->count = p->lead;
+        for (j = 1; j < p->lead; j++) {
+            pds__v3 d = pds__sub(pds__f3_get(g->photons[i + (size_t)j].pos), pds__f3_get(p->pos));
+            reach = fmax(reach, pds__length(d));
+        }
+        st->reach = (float)reach;
+        if ((double)st->reach < reach) st->reach = nextafterf(st->reach, FLT_MAX); /* never short */
+        if (reach > g->reach) g->reach = reach;
+    }
+    return 1;
 }
 
 /* Pass 1: emit n photons on the threads, merge the stores in photon
@@ -16322,6 +16508,15 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
     b.seed = opt->seed;
     b.halton_seed = pds__rng_bits(opt->seed, PDS__RNG_GLOBAL, 0, 0);
     b.n = opt->global_photons;
+    if (opt->global_map == PDS_GLOBAL_STREAMS) {
+        /* nfs streams of nfa + 1 photons: as many photons as the
+           single-photon map's */
+        b.streams = 1;
+        b.nfa = opt->stream_photons;
+        b.rs = pds__gi_stream_radius(s, opt);
+        b.n = opt->global_photons / (opt->stream_photons + 1L);
+        g->nfa = opt->stream_photons;
+    }
     b.max_depth = opt->max_depth;
     b.eps = 1e-6 * pds__scene_scale(s);
     b.bufs = (pds__gi_buf *)calloc((size_t)threads, sizeof *b.bufs);
@@ -16356,8 +16551,17 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
     }
     qsort(g->photons, g->n, sizeof *g->photons, pds__gi_photon_cmp);
     qsort(g->shadow, g->ns, sizeof *g->shadow, pds__gi_shadow_cmp);
-    st = pds__kdtree_build(&g->tree, g->n ? &g->photons[0].pos[0] : NULL, sizeof *g->photons / sizeof(float), g->n,
-                           err);
+    if (b.streams) {
+        if (!pds__gi_streams_index(g)) {
+            pds__gi_map_free(g);
+            return pds__nomem(err);
+        }
+        st = pds__kdtree_build(&g->tree, g->nstreams ? &g->streams[0].pos[0] : NULL,
+                               sizeof *g->streams / sizeof(float), g->nstreams, err);
+    } else {
+        st = pds__kdtree_build(&g->tree, g->n ? &g->photons[0].pos[0] : NULL, sizeof *g->photons / sizeof(float),
+                               g->n, err);
+    }
     if (!st)
         st = pds__kdtree_build(&g->stree, g->ns ? &g->shadow[0].pos[0] : NULL, sizeof *g->shadow / sizeof(float),
                                g->ns, err);
@@ -16365,11 +16569,79 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
     return st;
 }
 
+/* The streams' estimate, eq. 2 of seed paper 003:
+     L(x, wr) = 1/dA sum_{i=1..k} fr(x, wi, wr) Ei
+   over the k nearest leaders, dA the circle of the search sphere's
+   radius r, here the k-th leader's distance (as Jensen's k nearest;
+   the paper's R is a fixed cap, which gi's map does not have).
+   Ambiguity: Ei is "the energy of stream i ... the sum of the energies
+   of the constituent photons". Counting a stream's whole energy at its
+   leader would never use the associated photons' hit points, which the
+   paper stores, and would be photon mapping with nfs photons; here Ei is
+   the energy its photons bring into the circle, each with its own
+   direction in fr, so a stream whose leader lies outside the circle adds
+   the photons it has inside (the range query reaches r plus the largest
+   stream reach). Each photon is weighted by the cone filter of the
+   single-photon map (Jensen 1996, eq. 4, k = 1: w = 1 - d/r, dA times
+   1 - 2/3), the kernel density the paper allows for streams (sect. 6),
+   so that streams and single photons differ in nothing else. Nothing
+   from fewer than min(8, k) leaders, like the single-photon estimate. */
+typedef struct pds__gi_stream_sum {
+    const pds__gi_map *g;
+    const pds_material *m;
+    pds__v3 x, wo, ns, ng, ngw;
+    double r, r2;
+    double L[3];
+} pds__gi_stream_sum;
+
+static void pds__gi_stream_visit(void *vctx, size_t index, double dist2)
+{
+    pds__gi_stream_sum *a = (pds__gi_stream_sum *)vctx;
+    const pds__gi_stream *st = &a->g->streams[index];
+    long j;
+    int c;
+    if (st->count > 1 ? dist2 > (a->r + st->reach) * (a->r + st->reach) : dist2 > a->r2) return; /* none inside */
+    for (j = 0; j < st->count; j++) {
+        const pds__gi_photon *p = &a->g->photons[st->first + j];
+        pds__v3 d = pds__sub(pds__f3_get(p->pos), a->x);
+        double d2 = pds__dot(d, d), f[3], pdf, w;
+        if (d2 > a->r2 || pds__dot(pds__f3_get(p->ng), a->ngw) <= 0.0) continue;
+        pds__bsdf_eval(a->m, a->x, a->wo, pds__scale(pds__f3_get(p->dir), -1.0), a->ns, a->ng, f, &pdf);
+        w = 1.0 - sqrt(d2 / a->r2);
+        for (c = 0; c < 3; c++) a->L[c] += f[c] * p->flux[c] * w;
+    }
+}
+
+static void pds__gi_stream_radiance(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 ns,
+                                    pds__v3 ng, double L[3])
+{
+    size_t idx[PDS__GI_MAX_K], n;
+    double d2[PDS__GI_MAX_K], area;
+    pds__gi_stream_sum a;
+    int c;
+    L[0] = L[1] = L[2] = 0.0;
+    n = pds__kdtree_knn(&g->tree, x, (size_t)g->k, DBL_MAX, idx, d2);
+    if (n < (size_t)(g->k < 8 ? g->k : 8) || !(d2[n - 1] > 0.0)) return;
+    memset(&a, 0, sizeof a);
+    a.g = g;
+    a.m = m;
+    a.x = x;
+    a.wo = wo;
+    a.ns = ns;
+    a.ng = ng;
+    a.ngw = pds__dot(ng, wo) >= 0.0 ? ng : pds__scale(ng, -1.0);
+    a.r2 = d2[n - 1];
+    a.r = sqrt(a.r2);
+    pds__kdtree_range(&g->tree, x, a.r + g->reach, pds__gi_stream_visit, &a);
+    area = (1.0 / 3.0) * PDS__PI * a.r2;
+    for (c = 0; c < 3; c++) L[c] = a.L[c] / area;
+}
+
 /* The global map's radiance estimate (Jensen 1996, eq. 3, cone filter
    eq. 4 with k = 1): L(x, wo) = sum_p f(x, wo, wp) dPhi_p w_p /
    ((1 - 2/3) pi r^2), r the distance of the k-th nearest photon, photons
    from the other side of the surface skipped, nothing from fewer than
-   min(8, k) photons. */
+   min(8, k) photons. A map of streams gives the streams' estimate. */
 static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 ns,
                              pds__v3 ng, double L[3])
 {
@@ -16377,6 +16649,10 @@ static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v
     double d2[PDS__GI_MAX_K], r2, area;
     pds__v3 ngw = pds__dot(ng, wo) >= 0.0 ? ng : pds__scale(ng, -1.0);
     int c;
+    if (g->streams) {
+        pds__gi_stream_radiance(g, m, x, wo, ns, ng, L);
+        return;
+    }
     L[0] = L[1] = L[2] = 0.0;
     n = pds__kdtree_knn(&g->tree, x, (size_t)g->k, DBL_MAX, idx, d2);
     if (n < (size_t)(g->k < 8 ? g->k : 8)) return;
@@ -16502,13 +16778,25 @@ static void pds__gi_guide_build(const pds__gi_map *g, pds__v3 x, pds__v3 n, pds_
 {
     enum { M = PDS__GI_GRID * PDS__GI_GRID };
     double h[M], total = 0.0;
-    size_t idx[PDS__GI_GUIDE_K], cnt = 0, j;
+    size_t idx[PDS__GI_GUIDE_K], guide[PDS__GI_GUIDE_K], cnt = 0, j;
     double d2[PDS__GI_GUIDE_K];
     int i;
     for (i = 0; i < M; i++) h[i] = 0.0;
-    if (mix < 1.0) cnt = pds__kdtree_knn(&g->tree, x, PDS__GI_GUIDE_K, DBL_MAX, idx, d2);
+    if (mix < 1.0 && g->streams) {
+        /* streams: the photons of the nearest leaders, about as many */
+        size_t ks = PDS__GI_GUIDE_K / ((size_t)g->nfa + 1), ls, l;
+        ls = pds__kdtree_knn(&g->tree, x, ks ? ks : 1, DBL_MAX, idx, d2);
+        for (l = 0; l < ls && cnt < PDS__GI_GUIDE_K; l++) {
+            const pds__gi_stream *st = &g->streams[idx[l]];
+            long q;
+            for (q = 0; q < st->count && cnt < PDS__GI_GUIDE_K; q++) guide[cnt++] = (size_t)(st->first + q);
+        }
+    } else if (mix < 1.0) {
+        cnt = pds__kdtree_knn(&g->tree, x, PDS__GI_GUIDE_K, DBL_MAX, idx, d2);
+        for (j = 0; j < cnt; j++) guide[j] = idx[j];
+    }
     for (j = 0; j < cnt; j++) {
-        const pds__gi_photon *p = &g->photons[idx[j]];
+        const pds__gi_photon *p = &g->photons[guide[j]];
         pds__v3 wi = pds__scale(pds__f3_get(p->dir), -1.0);
         double z = pds__dot(wi, n), u0, phi, w;
         int r, col;
@@ -18282,6 +18570,8 @@ void pds_options_default(pds_options *opt)
     opt->shadow_photons = 1;
     opt->streams = 0;
     opt->stream_photons = 10;
+    opt->global_map = PDS_GLOBAL_PHOTONS;
+    opt->stream_radius = 0.0;
 }
 
 void pds_debug_init(pds_debug *d)
@@ -18578,6 +18868,10 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the gather's cosine share must be above 0 and at most 1");
     if (opt->shadow_photons != 0 && opt->shadow_photons != 1)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "shadow photons must be 0 or 1");
+    if ((unsigned)opt->global_map > (unsigned)PDS_GLOBAL_STREAMS)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown global map %d", (int)opt->global_map);
+    if (!(opt->stream_radius >= 0.0 && opt->stream_radius <= 1e12))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the stream radius must be between 0 and 1e12");
     if ((unsigned)opt->paths > (unsigned)PDS_PATHS_CAUSTICS_ONLY)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown light path selection %d", (int)opt->paths);
     if (opt->shard_count < 1 || opt->shard_count > PDS__PARTIAL_MAX_SHARDS || opt->shard_index < 0 ||
@@ -18679,6 +18973,8 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
         double gbytes = (double)opt->global_photons *
                         (PDS__GI_MAX_STORES * (2.0 * sizeof(pds__gi_photon) + 21.0) +
                          (PDS__GI_MAX_SHADOW + 1) * (2.0 * sizeof(pds__gi_shadow_photon) + 21.0));
+        if (opt->global_map == PDS_GLOBAL_STREAMS)
+            gbytes += (double)opt->global_photons * PDS__GI_MAX_STORES * sizeof(pds__gi_stream);
         copt.method = opt->caustics;
         if ((st = pds_render_estimate_get(scene, &copt, est, err))) return st;
         est->memory_bytes += gbytes;
@@ -18950,6 +19246,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *op
             stats->gather_rays += job.row_counts[4 * (size_t)y + 2];
         }
         stats->global_stored = (long)gmap.n;
+        stats->global_streams = (long)gmap.nstreams;
         stats->shadow_stored = (long)gmap.ns;
         free(job.row_counts);
         free(row_values);

@@ -469,6 +469,15 @@ typedef enum pds_kernel {
     PDS_KERNEL_NONE        /* uniform disc */
 } pds_kernel;
 
+/* What gi's global photon map holds (pds_options.global_map). */
+typedef enum pds_global_map {
+    PDS_GLOBAL_PHOTONS = 0, /* Jensen 1996: single photons, k nearest per estimate */
+    PDS_GLOBAL_STREAMS      /* streamed photon mapping (seed paper 003): streams
+                               of a leading photon and stream_photons associated
+                               photons landing within stream_radius of it, the
+                               k nearest leaders per estimate */
+} pds_global_map;
+
 /* Which light paths a render computes. Caustic paths are L S+ D ...: light
    that reaches a non-specular vertex through one or more specular bounces.
    The photon methods compute those; the eye pass computes the rest. For
@@ -598,6 +607,14 @@ typedef struct pds_options {
     int shadow_photons; /* gi: 1 = shadow photons decide where shadow rays are
                            needed, 0 = a shadow ray for every light sample
                            (default 1) */
+    pds_global_map global_map; /* gi: single photons or streams (default
+                           PDS_GLOBAL_PHOTONS); streams: global_photons /
+                           (stream_photons + 1) streams of stream_photons + 1
+                           photons, global_k leaders per estimate */
+    double stream_radius; /* gi with streams: rs, the radius (scene units)
+                           around a leader's diffuse hit within which its
+                           associated photons are aimed; 0 = 1/16 of the
+                           largest side of the scene's bounds (default 0) */
     /* image-space caustics (isc) */
     pds_isc_gather isc_gather; /* default PDS_ISC_EYE */
     int light_resolution; /* side of the light-space photon buffer: side^2
@@ -772,6 +789,8 @@ typedef struct pds_render_stats {
     long shadow_rays_saved; /* gi: light samples the shadow photons decided
                                without a shadow ray */
     long gather_rays;       /* gi: final-gather rays traced */
+    long global_streams;    /* gi with streams: streams stored (a leader's
+                               diffuse hit and its associated photons) */
     long streams;           /* spm: streams emitted; photons = streams x
                                (stream_photons + 1) */
     size_t memory_bytes;    /* largest working memory the render held at once
@@ -791,8 +810,9 @@ typedef struct pds_render_stats {
    and for the photon methods 96 more (the partial state's two exact
    sums) plus 48 per thread, 96 per thread in spectral renders; gi: its
    caustic method's needs plus, per global photon, at most 8 global-map
-   stores of 149 bytes and 5 shadow stores of 117 bytes, each counted
-   twice while the threads' arrays are merged, with the kd-tree), the
+   stores of 149 bytes (with streams 32 more) and 5 shadow stores of 117
+   bytes, each counted twice while the threads' arrays are merged, with the
+   kd-tree), the
    pixel samples of one eye pass, and the machine's physical memory (0 if
    unknown). With a time budget the photon count is not known in advance
    and counts as 0. */
