@@ -89,6 +89,7 @@ typedef struct command_help {
     const char *details;  /* options and notes, indented six spaces; may be "" */
     const char *more;     /* their continuation (a C99 compiler need not take a
                              string literal longer than 4095 characters) */
+    const char *rest;     /* and its continuation; may be "" */
     int takes_options;    /* follows the option syntax of render (the footer applies) */
 } command_help;
 
@@ -176,17 +177,19 @@ static const command_help help_table[] = {
      "      --gather-mix F          gi: share of cosine-sampled gather directions, the rest following\n"
      "                              the global map's photons (default 0.25; 1 = cosine sampling)\n"
      "      --no-shadow-photons     gi: a shadow ray for every light sample\n"
+     "      --global-map M          gi: photons (default) or streams (streamed photon mapping)\n"
+     "      --stream-radius R       gi streams: rs (default: the scene's largest side / 16)\n"
+     "",
      "      --method isc            image-space caustics (Wyman and Davis 2006): interactive, approximate;\n"
      "                              --photons N: a light-space buffer of side sqrt(N) per light; --time:\n"
      "                              frames, each with its buffer offset anew, averaged until it is spent\n"
      "      --gather G              isc: points, quads, eye (default) or light (gi: a number)\n"
-     "      --light-res N           isc: side of the light-space photon buffer, N^2 photons per light\n"
-     "                              (default: from --photons)\n"
+     "      --light-res N           isc: N x N photons per light in its light-space buffer (default: --photons)\n"
      "      --history N             isc: temporal filter, the last N frames averaged (default 4; 1 = off)\n"
      "      --frames N              isc: an animation of N frames, OUT.0000.png, OUT.0001.png, ...\n"
-     "      --orbit WHAT            --frames: light (default), camera or none turns about the vertical\n"
-     "                              line through the camera's look-at point\n"
-     "      --orbit-step DEG        --frames: degrees per frame, counter-clockwise from above (default 2)\n",
+     "      --orbit WHAT            --frames: light (default), camera or none turns about the look-at point\n"
+     "      --orbit-step DEG        --frames: degrees per frame, counter-clockwise from above (default 2)\n"
+     "      --static-lighting       --frames: keep each light's photons of frame 0 (orbit camera or none)\n",
      1},
     {"merge", "merge -o OUT.png|OUT.pfm|OUT.exr [--partial] PART.pdsp...",
      "the image of the shards of one render (pds render --shard I/N)",
@@ -197,12 +200,12 @@ static const command_help help_table[] = {
      "      --exr-compression C     OpenEXR compression: zip (default), zips or none\n"
      "      Parts of another scene, other options, another pds version or a shard given twice are\n"
      "      refused.\n",
-     "", 0},
+     "", "", 0},
     {"sweep", "sweep SCENE --param NAME --values A,B,... --ref REF.pfm [options]",
      "render once per value of one parameter and compare each with REF",
      "      --method NAME           the method swept (default pds)\n"
      "      --param NAME            smoothing, min-aspect, k, radius, alpha, photons, spp, max-photons,\n"
-     "                              passes, max-radius, streams or stream-photons\n"
+     "                              passes, max-radius, streams, stream-photons, stream-radius, ...\n"
      "      --values A,B,...        the values, comma-separated\n"
      "      --ref REF.pfm           the reference (PFM or OpenEXR, the renders' resolution; a warning\n"
      "                              if its kind, full or caustics-only, is not the renders')\n"
@@ -212,7 +215,7 @@ static const command_help help_table[] = {
      "      --resume                load the renders kept in DIR/entries (an interrupted sweep) and\n"
      "                              render only the others\n"
      "      and any render option, e.g. --photons N, --res WxH, --caustics-only\n",
-     "", 1},
+     "", "", 1},
     {"race", "race SCENE --ref REF.pfm (--time T | --photons N | --budgets LIST) --methods LIST [options]",
      "every method on the same budget, side by side against REF",
      "      --methods LIST          e.g. pds,pm:k=50,pdm,splat:radius=0.05,ppm; options for one\n"
@@ -231,10 +234,10 @@ static const command_help help_table[] = {
      "      --resume                load the entries kept in DIR/entries (an interrupted race) and\n"
      "                              render only the others\n"
      "      and any render option; it applies to every method it concerns\n",
-     "", 1},
+     "", "", 1},
     {"compare", "compare A.pfm REF.pfm",
-     "RMSE and SSIM of A against the reference REF (PFM or OpenEXR; a warning if their kinds differ)", "", "", 0},
-    {"pixel", "pixel IMAGE.pfm X Y [R]", "mean value of the pixels within R (default 0) of pixel X,Y (PFM or OpenEXR)", "", "", 0},
+     "RMSE and SSIM of A against the reference REF (PFM or OpenEXR; a warning if their kinds differ)", "", "", "", 0},
+    {"pixel", "pixel IMAGE.pfm X Y [R]", "mean value of the pixels within R (default 0) of pixel X,Y (PFM or OpenEXR)", "", "", "", 0},
     {"trace-photon", "trace-photon SCENE --photon I [options]",
      "one caustic photon's path with its differentials beside finite differences",
      "      --photon I              the photon's number (0 = the first the renderer emits)\n"
@@ -246,9 +249,9 @@ static const command_help help_table[] = {
      "      bounce Du x + Dtheta x and Dv x + Dphi x, eq. 7), Dtheta omega, Dphi omega, each beside\n"
      "      the central difference of neighbouring photons traced by the renderer, and the\n"
      "      footprint's semi-axes and area (eq. 4)\n",
-     "", 0},
+     "", "", 0},
     {"info", "info FILE [-D NAME=VALUE] [--obj-material M]", "what a scene or OBJ file holds, and its warnings",
-     "      -D NAME=VALUE, --obj-material M   as for render: the scene as render would load it\n", "", 0},
+     "      -D NAME=VALUE, --obj-material M   as for render: the scene as render would load it\n", "", "", 0},
     {"bench", "bench WHAT [ARGS]", "micro-benchmarks (figures, never pass/fail):",
      "      rays MESH [N]           BVH build and ray throughput, one thread (N rays, default 1000000)\n"
      "      pt [SCENE]              path-traced samples per second, 1 thread and all threads\n"
@@ -258,9 +261,10 @@ static const command_help help_table[] = {
      "      filter                  eq. 12 filter matrices per second against a general 3x3 inverse\n"
      "      kdtree                  eye-path map build, range and nearest-neighbour queries per second\n"
      "      isc [SCENE]             image-space caustics: frames per second per gather at 512x512 with\n"
-     "                              512^2, 1024^2, 2048^2 photons, beside the paper's and PDS's times\n",
-     "", 0},
-    {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", "", 0},
+     "                              512^2, 1024^2, 2048^2 photons, dynamic and static lighting, beside\n"
+     "                              the paper's and PDS's times\n",
+     "", "", 0},
+    {"help", "help [COMMAND]", "this text, or one command's (as pds COMMAND --help)", "", "", "", 0},
 };
 #define N_COMMANDS (sizeof help_table / sizeof help_table[0])
 
@@ -284,8 +288,8 @@ static void print_overview(FILE *f)
     fputs("usage: pds COMMAND [ARGS]     (pds COMMAND --help: one command's options)\n\ncommands:\n", f);
     for (i = 0; i < N_COMMANDS; i++) {
         const command_help *h = &help_table[i];
-        if (strlen(h->synopsis) <= 26) fprintf(f, "  %-26s  %s\n%s%s", h->synopsis, h->summary, h->details, h->more);
-        else fprintf(f, "  %s\n%30s%s\n%s%s", h->synopsis, "", h->summary, h->details, h->more);
+        if (strlen(h->synopsis) <= 26) fprintf(f, "  %-26s  %s\n%s%s%s", h->synopsis, h->summary, h->details, h->more, h->rest);
+        else fprintf(f, "  %s\n%30s%s\n%s%s%s", h->synopsis, "", h->summary, h->details, h->more, h->rest);
     }
     fputs("  --help, -h                  this text\n"
           "  --version                   the version\n"
@@ -298,7 +302,7 @@ static void print_overview(FILE *f)
 /* `pds COMMAND --help`. */
 static void print_command_help(const command_help *h, FILE *f)
 {
-    fprintf(f, "usage: pds %s\n  %s\n%s%s", h->synopsis, h->summary, h->details, h->more);
+    fprintf(f, "usage: pds %s\n  %s\n%s%s%s", h->synopsis, h->summary, h->details, h->more, h->rest);
     if (h->takes_options) fputs(option_syntax_help, f);
     else fputs("      -h, --help              this text\n", f);
 }
@@ -1143,6 +1147,17 @@ static int set_named(const char *shown, const char *v, const char *const *names,
     return usage_error("%s takes %s, got '%s'%s", shown, list, v, suggest_text(&sug, hint, sizeof hint));
 }
 
+/* --global-map photons|streams: the values of pds_global_map */
+static const char *const global_map_names[] = {"photons", "streams"};
+
+static int set_global_map(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
+{
+    int k = 0, r = set_named(shown, v, global_map_names, 2, &k);
+    (void)s;
+    if (!r) c->opt.global_map = (pds_global_map)k;
+    return r;
+}
+
 /* --gather: isc's gather by name, or gi's final-gather rays as a count. */
 static int set_gather(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
@@ -1244,7 +1259,7 @@ static const opt_spec option_table[] = {
     {"--streams", NULL, "streams", set_long, OPTF(streams), 0, -1, "a whole number of 0 or more", M_SPM, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--stream-photons", NULL, "stream_photons", set_int, OPTF(stream_photons), 0, 10000,
-     "a whole number from 0 to 10000", M_SPM, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+     "a whole number from 0 to 10000", M_SPM | M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--max-photons", NULL, "max_photons", set_long, OPTF(max_photons), 1, 100000000,
      "a whole number from 1 to 100000000", M_PDM | M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--radius", NULL, "radius", set_double, OPTF(radius), 0, PDS_MAX_COORD, "a positive distance in scene units",
@@ -1264,6 +1279,10 @@ static const opt_spec option_table[] = {
     {"--gather-mix", NULL, "gather_mix", set_double, OPTF(gather_mix), 0, 1, "a number above 0 and at most 1", M_GI,
      C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--no-shadow-photons", NULL, "shadow_photons", set_flag, OPTF(shadow_photons), 0, 0, "", M_GI, C_ALL, F_PER_METHOD},
+    {"--global-map", NULL, "global_map", set_global_map, 0, 0, 0, "photons or streams", M_GI, C_ALL,
+     F_VALUE | F_PER_METHOD},
+    {"--stream-radius", NULL, "stream_radius", set_double, OPTF(stream_radius), 0, PDS_MAX_COORD,
+     "a positive distance in scene units", M_GI, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
     {"--light-res", NULL, "light_res", set_int, OPTF(light_resolution), 1, PDS_MAX_RESOLUTION,
      "a whole number from 1 to 16384", M_ISC, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--history", NULL, "history", set_int, OPTF(history), 1, 64, "a whole number from 1 to 64", M_ISC, C_ALL,
@@ -1273,6 +1292,7 @@ static const opt_spec option_table[] = {
     {"--orbit", NULL, "orbit", set_orbit, 0, 0, 0, "none, light or camera", M_ISC, C_RENDER, F_VALUE},
     {"--orbit-step", NULL, "orbit_step", set_double, OPTF(orbit_deg), -360, 360, "degrees from -360 to 360", M_ISC,
      C_RENDER, F_VALUE},
+    {"--static-lighting", NULL, "static_lighting", set_flag, OPTF(static_lighting), 1, 1, "", M_ISC, C_RENDER, 0},
     {"--spp", NULL, "spp", set_int, OPTF(spp), 1, PDS_MAX_SPP, "a whole number from 1 to 65536", M_ALL & ~M_ISC, C_ALL,
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--res", NULL, "res", set_res, 0, 0, 0, "WIDTHxHEIGHT", M_ALL, C_ALL, F_VALUE},
@@ -1498,7 +1518,8 @@ static void format_params(const pds_options *o, char *buf, size_t n)
                  distance_text(o->max_radius, "none", d, sizeof d));
         break;
     case PDS_METHOD_ISC:
-        snprintf(buf, n, " gather=%s history=%d", gather_names[o->isc_gather], o->history);
+        snprintf(buf, n, " gather=%s history=%d%s", gather_names[o->isc_gather], o->history,
+                 o->static_lighting ? " static_lighting=1" : "");
         break;
     default: break;
     }
@@ -1553,6 +1574,12 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
                c->opt.global_k, c->opt.gather, c->opt.gather_mix, c->opt.shadow_photons, st->global_stored,
                st->shadow_stored, st->shadow_rays, st->shadow_rays_saved, st->gather_rays,
                (unsigned long)st->map_bytes, st->time_map_s, st->time_eye_s, st->time_photons_s);
+        if (c->opt.global_map == PDS_GLOBAL_STREAMS) {
+            printf(" global_map=streams stream_photons=%d", c->opt.stream_photons);
+            if (c->opt.stream_radius > 0.0) printf(" stream_radius=%g", c->opt.stream_radius);
+            else printf(" stream_radius=auto");
+            printf(" global_streams=%ld", st->global_streams);
+        }
     } else if (m == PDS_METHOD_ISC) {
         char params[256];
         format_params(&c->opt, params, sizeof params);
@@ -1895,6 +1922,10 @@ static int cmd_render(int argc, char **argv)
         return usage_error("%s", "--frames renders an animation with --method isc only");
     if (c.frames > 0 && c.opt.time_s > 0.0)
         return usage_error("%s", "--frames and --time exclude each other (a time budget is for a still)");
+    if (c.opt.static_lighting && c.opt.method == PDS_METHOD_ISC && c.frames == 0)
+        return usage_error("%s", "--static-lighting keeps the photons from frame to frame: it is for --frames");
+    if (c.opt.static_lighting && c.frames > 0 && c.opt.orbit == PDS_ORBIT_LIGHT)
+        return usage_error("%s", "--static-lighting keeps the light where it is: give --orbit camera or --orbit none");
     output = c.output;
     if (!output && resume) {
         /* OUT.png.pdsp continues OUT.png; a shard's file continues itself */
@@ -2504,13 +2535,48 @@ static const double paper_ring[3][8] = {{151.2, 39.6, 52.8, 59.3, 40.3, 1.5, 34.
                                         {57.6, 11.7, 35.4, 59.0, 12.5, 0.4, 16.0, 8.4},
                                         {18.8, 0.0, 15.2, 58.3, 2.8, 0.0, 5.0, 2.6}};
 
+/* Frames per second of an isc animation of n frames at 512x512 with
+   res^2 photons: wall and CPU time of frames 1..n-1 (frame 0, which
+   traces the eye buffer, and with static lighting the photon buffer, is
+   timed apart as *first_s). 0 on success. */
+static int isc_fps(const pds_scene *scene, int gather, int res, int threads, int still_light, int n, double *fps,
+                   double *cpu_per_frame, double *first_s)
+{
+    pds_options opt;
+    pds_render_stats st;
+    pds_error err;
+    isc_clock clk;
+    double t0;
+    pds_options_default(&opt);
+    opt.method = PDS_METHOD_ISC;
+    opt.isc_gather = (pds_isc_gather)gather;
+    opt.light_resolution = res;
+    opt.width = opt.height = 512;
+    opt.threads = threads;
+    opt.orbit = still_light ? PDS_ORBIT_CAMERA : PDS_ORBIT_LIGHT;
+    opt.static_lighting = still_light;
+    clk.n = 0;
+    clk.wall[0] = 0.0;
+    t0 = pds_time_now();
+    if (pds_render_frames(scene, &opt, n, isc_clock_frame, &clk, &st, &err) != PDS_OK) {
+        fprintf(stderr, "%s\n", pds_error_string(&err));
+        return 1;
+    }
+    *fps = (n - 1) / (clk.wall[n - 1] - clk.wall[0]);
+    *cpu_per_frame = (clk.cpu[n - 1] - clk.cpu[0]) / (n - 1);
+    *first_s = clk.wall[0] - t0;
+    return 0;
+}
+
 /* Image-space caustics' frames per second at 512x512 with 512^2, 1024^2
-   and 2048^2 photons, for each gather: an animation whose light turns 2
-   degrees a frame (the paper's dynamic lighting: photons, gathers and
-   direct light every frame; the camera stands still, so the eye buffer is
-   traced once, in the first frame, which is timed apart as "first_s").
-   Beside it the paper's Table 1 and PDS's time for one 512x512 image
-   with as many photons (1 sample per pixel). */
+   and 2048^2 photons, for each gather, in the paper's two settings:
+   dynamic lighting, the light turning 2 degrees a frame (photons, gathers
+   and direct light every frame; the camera stands still, so the eye
+   buffer is traced once), and static lighting, the camera turning 2
+   degrees a frame about a still light (the photon buffer and the light
+   map traced once; eye buffer, direct light, projections and the eye's
+   gathers every frame). Beside them the paper's Table 1 and PDS's time
+   for one 512x512 image with as many photons (1 sample per pixel). */
 static int bench_isc(int argc, char **argv)
 {
     static const char *const gname[4] = {"points", "quads", "eye", "light"};
@@ -2534,39 +2600,24 @@ static int bench_isc(int argc, char **argv)
         }
         pds_s = st.time_total_s;
         for (g = 0; g < 4; g++) {
-            pds_options opt;
-            isc_clock clk;
-            int n = frames_for[r];
-            double wall, cpu;
-            pds_options_default(&opt);
-            opt.method = PDS_METHOD_ISC;
-            opt.isc_gather = (pds_isc_gather)g;
-            opt.light_resolution = res;
-            opt.width = opt.height = 512;
-            opt.threads = threads;
-            opt.orbit = PDS_ORBIT_LIGHT;
-            clk.n = 0;
-            clk.wall[0] = 0.0;
-            {
-                double t0 = pds_time_now();
-                if (pds_render_frames(scene, &opt, n, isc_clock_frame, &clk, &st, &err) != PDS_OK) {
-                    fprintf(stderr, "%s\n", pds_error_string(&err));
+            double fps[2], cpu[2], first[2];
+            char paper[96];
+            int n = frames_for[r], k;
+            for (k = 0; k < 2; k++)
+                if (isc_fps(scene, g, res, threads, k, n, &fps[k], &cpu[k], &first[k])) {
                     pds_scene_free(scene);
                     return 1;
                 }
-                wall = clk.wall[n - 1] - clk.wall[0];
-                cpu = clk.cpu[n - 1] - clk.cpu[0];
-                char paper[96];
-                if (paper_ring[r][g] > 0.0)
-                    snprintf(paper, sizeof paper, "paper_fps_dynamic=%g/%g paper_fps_static=%g/%g",
-                             paper_octahedron[r][4 + g], paper_ring[r][4 + g], paper_octahedron[r][g], paper_ring[r][g]);
-                else
-                    snprintf(paper, sizeof paper, "paper_fps_dynamic=n/a paper_fps_static=n/a");
-                printf("bench isc gather=%s photons=%d^2 res=512x512 frames=%d fps=%.2f cpu_s_per_frame=%.4f "
-                       "first_s=%.3f threads=%d %s pds_s=%.3f\n",
-                       gname[g], res, n - 1, (n - 1) / wall, cpu / (n - 1), clk.wall[0] - t0, st.threads, paper, pds_s);
-                fflush(stdout);
-            }
+            if (paper_ring[r][g] > 0.0)
+                snprintf(paper, sizeof paper, "paper_fps_dynamic=%g/%g paper_fps_static=%g/%g",
+                         paper_octahedron[r][4 + g], paper_ring[r][4 + g], paper_octahedron[r][g], paper_ring[r][g]);
+            else
+                snprintf(paper, sizeof paper, "paper_fps_dynamic=n/a paper_fps_static=n/a");
+            printf("bench isc gather=%s photons=%d^2 res=512x512 frames=%d fps=%.2f fps_static=%.2f "
+                   "cpu_s_per_frame=%.4f cpu_s_per_frame_static=%.4f first_s=%.3f first_s_static=%.3f threads=%d "
+                   "%s pds_s=%.3f\n",
+                   gname[g], res, n - 1, fps[0], fps[1], cpu[0], cpu[1], first[0], first[1], threads, paper, pds_s);
+            fflush(stdout);
         }
     }
     pds_scene_free(scene);

@@ -54,17 +54,20 @@
      >>baselines  pm, pdm, splat, ppm (not in PDS_NO_BASELINES)
      >>streams    streamed photon mapping (spm): streams of a leading photon
                   and associated photons, concentrated at specular surfaces,
-                  gathered stream by stream (eqs. 1-2) (not in
+                  gathered stream by stream (eqs. 1-2); for caustics (its
+                  streams in gi's global map are in >>gi) (not in
                   PDS_NO_BASELINES)
      >>photonpass the photon pass all photon methods share: time planning,
                   tracing threads, gathers, the caustic image
-     >>gi         Jensen's two-pass global illumination: global photon map,
-                  shadow photons, importance-sampled final gather, caustics
-                  from any caustic method (not in PDS_NO_GI)
+     >>gi         Jensen's two-pass global illumination: global photon map
+                  (single photons, or streams: seed paper 003's streams
+                  where they mean something), shadow photons,
+                  importance-sampled final gather, caustics from any
+                  caustic method (not in PDS_NO_GI)
      >>isc        image-space caustics (Wyman and Davis 2006): light-space
                   photon buffer, points, quads, eye- and light-space
-                  gathers, temporal filter, animation frames (not in
-                  PDS_NO_ISC)
+                  gathers, temporal filter, animation frames, static
+                  lighting, spectral photons (not in PDS_NO_ISC)
      >>api        public entry points: render, options, teaching views,
                   trace-photon, benchmarks (not in PDS_NO_BENCH)
 */
@@ -1005,11 +1008,14 @@ enum pds__rng_purpose {
     PDS__RNG_GLOBAL = 7,  /* gi's global photons: index = photon number */
     PDS__RNG_GATHER = 8,  /* gi's final gather: index = camera sample */
     PDS__RNG_WAVELENGTH = 9, /* index = pixel: its samples' wavelength rotation */
-    PDS__RNG_ISC = 10,    /* isc: index = frame, dim 0, 1 = the light-space grid's offset */
+    PDS__RNG_ISC = 10,    /* isc: index = frame, dim 0, 1 = the light-space grid's offset,
+                             dim 2, 3 = the photons' and the pixels' wavelength shift */
     PDS__RNG_STRATA = 11, /* index = pixel, dim = pass: the pixel samples' stratification pattern */
     PDS__RNG_LENS = 12,   /* thin lens: index = camera sample (as PIXEL), dim 0, 1 = the lens point */
-    PDS__RNG_ENV_NEE = 13 /* the environment's sky parts in next-event estimation:
+    PDS__RNG_ENV_NEE = 13, /* the environment's sky parts in next-event estimation:
                              index = camera sample, dim = 4 x the bounce's PIXEL dim + 0..3 */
+    PDS__RNG_STREAM = 20  /* gi's streams: index = stream number, dim = PDS__GI_STREAM_DIMS
+                             x the leader's bounce + 2 x associated photon + 0, 1 */
 };
 
 static uint64_t pds__mix64(uint64_t z)
@@ -5155,6 +5161,9 @@ static int pds__spectral_meet(double lambda_p, double lambda_e, double e[3], dou
    render that would be spectral (a dispersive material in the scene, or
    pds_options.spectral), so every path and photon is RGB (lambda = 0).
    The stand-ins do what the spectral functions do at lambda = 0. */
+#define PDS__LAMBDA_MIN 380.0   /* nm: the range >>isc's bins name */
+#define PDS__LAMBDA_MAX 780.0
+#define PDS__SPECTRAL_BINS 16
 static int pds__material_is_dispersive(const pds_material *m)
 {
     return m->type == PDS_MAT_DIELECTRIC && m->dispersion != PDS_DISPERSION_NONE;
@@ -11728,9 +11737,10 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
    count says which. */
 
 #define PDS__PARTIAL_MAGIC "PDSPART\n"
-#define PDS__PARTIAL_VERSION 3u
+#define PDS__PARTIAL_VERSION 4u
 #define PDS__PARTIAL_MAX_SHARDS 1000000
-#define PDS__PARTIAL_NOPT 44    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT 46    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT_V3 44 /* format version 3's, still read */
 #define PDS__PARTIAL_NOPT_V2 31 /* format version 2's, still read */
 
 enum { PDS__SPLIT_ROWS = 0, PDS__SPLIT_PHOTONS = 1, PDS__SPLIT_GATHER = 2 };
@@ -11910,11 +11920,15 @@ static void pds__partial_opt_encode(const pds_options *o, uint64_t v[PDS__PARTIA
     v[41] = (uint64_t)(int64_t)o->history;
     v[42] = (uint64_t)(int64_t)o->orbit;
     memcpy(&v[43], &o->orbit_deg, sizeof o->orbit_deg);
+    /* format version 4: gi's streams */
+    v[44] = (uint64_t)(int64_t)o->global_map;
+    memcpy(&v[45], &o->stream_radius, sizeof o->stream_radius);
 }
 
 /* nopt: how many the file holds (31 in format version 2, whose renders
    all had the later ones at their defaults: gi, spm and isc were not
-   stored then); the rest stay at their defaults. */
+   stored then; 44 in version 3, before gi's streams); the rest stay at
+   their defaults. */
 static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nopt, pds_options *o)
 {
     double d[13];
@@ -11941,7 +11955,7 @@ static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nop
     o->max_photons = (long)(int64_t)v[15];
     o->split_depth = PDS__OPT_INT(v[29]);
     o->spectral = PDS__OPT_INT(v[30]);
-    if (nopt >= PDS__PARTIAL_NOPT) {
+    if (nopt >= PDS__PARTIAL_NOPT_V3) {
         o->streams = (long)(int64_t)v[31];
         o->stream_photons = PDS__OPT_INT(v[32]);
         o->caustics = (pds_method)PDS__OPT_INT(v[33]);
@@ -11955,6 +11969,10 @@ static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nop
         o->history = PDS__OPT_INT(v[41]);
         o->orbit = (pds_orbit)PDS__OPT_INT(v[42]);
         memcpy(&o->orbit_deg, &v[43], sizeof o->orbit_deg);
+    }
+    if (nopt >= PDS__PARTIAL_NOPT) {
+        o->global_map = (pds_global_map)PDS__OPT_INT(v[44]);
+        memcpy(&o->stream_radius, &v[45], sizeof o->stream_radius);
     }
 #undef PDS__OPT_INT
     for (k = 0; k < 13; k++) memcpy(&d[k], &v[16 + k], sizeof d[k]);
@@ -12230,28 +12248,29 @@ pds_status pds_partial_merge(const pds_partial *const *parts, const char *const 
 
      offset  bytes  field
      0       8      magic "PDSPART\n"
-     8       4      format version (3)
+     8       4      format version (4)
      12      16     library version string, NUL-padded ("0.1.0")
      28      8      scene content hash (pds_scene_hash)
      36      512    scene path as loaded, NUL-padded
      548     4 x 5  width, height, shard index (0-based), shard count, split
-     568     8 x 44 options (pds__partial_opt_encode's order)
-     920     8 x 13 rows done, units total, units own, units done, n_planned
+     568     8 x 46 options (pds__partial_opt_encode's order)
+     936     8 x 13 rows done, units total, units own, units done, n_planned
                     (binary64), emitted, unit (binary64), splatted,
                     degenerate, saturated, invalid, eye vertices, reserved 0
-     1024    ...    eye values of the rows done (rows I, I+N, ...: each
+     1040    ...    eye values of the rows done (rows I, I+N, ...: each
                     width x 3 binary64), then, unless split is 0, the photon
                     sums S+ and then S- (each width x height x 3 of: low 64
                     bits, high 64 bits)
      end-8   8      check: FNV-1a 64 of every byte before it
-   Format version 2 is read too: the same with 31 options (its counts at
-   816, its eye values at 920); version 1 is refused. */
+   Format versions 2 and 3 are read too: the same with 31 options (counts
+   at 816, eye values at 920) and with 44 (counts at 920, eye values at
+   1024); version 1 is refused. */
 
 /* Where the counts and the eye values begin, for a file of nopt options. */
 #define PDS__PARTIAL_COUNTS_AT(nopt) (568u + 8u * (unsigned)(nopt))
 #define PDS__PARTIAL_HEADER_AT(nopt) (PDS__PARTIAL_COUNTS_AT(nopt) + 8u * 13u)
-#define PDS__PARTIAL_COUNTS PDS__PARTIAL_COUNTS_AT(PDS__PARTIAL_NOPT) /* 920: the counts */
-#define PDS__PARTIAL_HEADER PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT) /* 1024 */
+#define PDS__PARTIAL_COUNTS PDS__PARTIAL_COUNTS_AT(PDS__PARTIAL_NOPT) /* 936: the counts */
+#define PDS__PARTIAL_HEADER PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT) /* 1040 */
 
 static void pds__put_u32(unsigned char *b, uint32_t v)
 {
@@ -12372,7 +12391,10 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
 /* Options in a file of this format version; 0: a version not read. */
 static int pds__partial_nopt(uint32_t version)
 {
-    return version == PDS__PARTIAL_VERSION ? PDS__PARTIAL_NOPT : version == 2u ? PDS__PARTIAL_NOPT_V2 : 0;
+    return version == PDS__PARTIAL_VERSION ? PDS__PARTIAL_NOPT
+           : version == 3u                 ? PDS__PARTIAL_NOPT_V3
+           : version == 2u                 ? PDS__PARTIAL_NOPT_V2
+                                           : 0;
 }
 
 /* The checks of a partial file's header (k bytes of it in head). */
@@ -12387,7 +12409,7 @@ static pds_status pds__partial_head_check(const char *path, const unsigned char 
     nopt = pds__partial_nopt(version);
     if (!nopt)
         return pds__fail(err, PDS_ERR_PARSE, path, 0, 0,
-                         "partial file format version %lu; this pds reads versions 2 and %u",
+                         "partial file format version %lu; this pds reads versions 2 to %u",
                          (unsigned long)version, PDS__PARTIAL_VERSION);
     if (k < PDS__PARTIAL_HEADER_AT(nopt))
         return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "truncated: %lu bytes", (unsigned long)k);
@@ -15720,7 +15742,9 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
    What nfa and rs shape (streams whose leader first meets a diffuse
    surface: direct light and what follows it) is the eye pass's part here,
    so rs does not enter the caustic image at all, and nfa only says how
-   many photons a stream stands for: a render of nfs streams counts
+   many photons a stream stands for (gi's global map, whose photons do
+   first meet diffuse surfaces, can be a map of streams with nfa and rs:
+   >>gi, "streams in the global map"): a render of nfs streams counts
    nfs (nfa + 1) emitted photons, and with no stream count given spm emits
    photons / (nfa + 1) streams, as many photons as pm would.
 
@@ -16250,6 +16274,11 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
    Jensen's), measured by the test that compares it with shadow rays
    everywhere. Delta-light shadows are exact on either side.
 
+   Streams (global_map = PDS_GLOBAL_STREAMS): the global map of streamed
+   photon mapping (seed paper 003, >>streams), where its streams mean
+   something: their leaders first meet diffuse surfaces. See "streams in
+   the global map" below.
+
    Determinism: global photon i is a pure function of (seed, i) (Halton
    points for its emission, PDS__RNG_GLOBAL for its bounces); threads
    take fixed batches and the stores are sorted by (photon, order) before
@@ -16266,12 +16295,25 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
 
 /* A photon of the global map: position, travel direction, geometric
    normal of the surface facing the photon, flux (W), and where it stands
-   among the stores: emitted photon number, then order. 64 bytes. */
+   among the stores: emitted photon (stream) number, then order; with
+   streams, a leader holds the number of photons of its stream (itself and
+   the associated photons stored right after it), else 0. 64 bytes. */
 typedef struct pds__gi_photon {
     float pos[3], dir[3], ng[3], flux[3];
     long index;
     int seq;
+    int lead;
 } pds__gi_photon;
+
+/* A stream of the global map (streams only): its leader's position, the
+   distance of its farthest photon from the leader, and its photons in the
+   map (first the leader, count in all). 32 bytes (24 where long is 4). */
+typedef struct pds__gi_stream {
+    float pos[3];
+    float reach;
+    long first;
+    long count;
+} pds__gi_stream;
 
 /* A direct (first hit) or shadow photon: position, geometric normal
    facing the light it came from, that light. 48 bytes. */
@@ -16297,7 +16339,11 @@ typedef struct pds__gi_map {
     const pds_scene *scene;
     pds__gi_photon *photons;
     size_t n;
-    pds__kdtree tree;
+    pds__kdtree tree;    /* over the photons, or with streams the leaders */
+    pds__gi_stream *streams; /* NULL: a map of single photons */
+    size_t nstreams;
+    double reach;        /* streams: the largest reach */
+    int nfa;             /* streams: associated photons per stream */
     pds__gi_shadow_photon *shadow;
     size_t ns;
     pds__kdtree stree;
@@ -16313,9 +16359,12 @@ typedef struct pds__gi_map {
 typedef struct pds__gi_build {
     const pds_scene *scene;
     uint64_t seed, halton_seed;
-    long n;              /* photons to emit */
+    long n;              /* photons (streams) to emit */
     int max_depth;
     double eps;
+    int streams;         /* 1: streams of a leader and nfa associated photons */
+    int nfa;             /* streams: associated photons per stream */
+    double rs;           /* streams: the stream radius */
     pds__gi_buf *bufs;
     pds__mutex lock;
     int next_buf;        /* guarded by lock */
@@ -16372,16 +16421,93 @@ static void pds__gi_shadow_line(const pds__gi_build *b, pds__gi_buf *buf, long i
     }
 }
 
+/* --- streams in the global map (seed paper 003) -------------------------
+   The paper's streams (>>streams for the paper's rules) where they mean
+   something: in the global map, whose photons first meet diffuse
+   surfaces. Stream s is global photon s of the single-photon map (the
+   same emission and bounces, PDS__RNG_GLOBAL), its leader, which carries
+   the stream's energy, Es = Ez / nfs at emission (eq. 1; Ez / pmf for the
+   light picked with probability pmf), and nfa associated photons:
+   - where the leader meets a diffuse (non-specular) surface at x, "each
+     associated photon is assigned a random point within the region
+     surrounding the new position of the leading photon of a radius
+     denoting the stream's width" (sect. 3.1, 3a): a point y uniform by
+     area in the disc of radius rs about x in x's tangent plane. It leaves
+     from where the leader left (the light, or the leader's last diffuse
+     hit) towards y, so its direction deviates from the leader's by the
+     angle under which the disc is seen ("directions of propagation
+     deviating from the direction of the leading photon in the area with
+     a radius (rs)", sect. 3), and is stored where it really lands (y on a
+     flat surface; elsewhere when a corner or an object is in the way,
+     which gives the paper's colour bleeding between objects, sect. 4);
+   - the stream's energy is "equally divided among all the photons in the
+     stream (nfa+1)" (sect. 3): each photon stores the stream's flux over
+     nfa + 1;
+   - an associated photon that does not land on a non-specular surface
+     within 2 rs of x (it meets glass, a mirror or a light, leaves the
+     scene, or leaves its side of the surface) is eliminated and its
+     energy given to the leader, the paper's rule for a specular event
+     (3b), so a stream stores exactly its flux at every diffuse hit;
+   - the leader then bounces on by the BSDF with Russian roulette, as a
+     single photon, carrying the whole stream's energy, and at its next
+     diffuse hit the associated photons are aimed anew ("the stream decay
+     mechanism [18]", which the paper does not describe, is taken as this:
+     the stream keeps its nfa photons while its leader is diffusely
+     reflected and loses them all at the first specular event);
+   - where the leader meets a specular surface "all associated photons are
+     eliminated and the sum of their energy values is assigned to the
+     leading photon" (3b): from there on the stream is its leader alone.
+   The gather (pds__gi_stream_radiance) is eq. 2. */
+
+/* Associated photon j of stream i at the leader's diffuse hit `hit`
+   (bounce `depth`), leaving from o (n: the normal of the side it leaves
+   from, or zero at a point light). Returns 1 and fills *p (flux set by
+   the caller) if it lands on a non-specular surface within 2 rs of the
+   leader's hit, else 0. */
+#define PDS__GI_STREAM_DIMS 32768 /* RNG_STREAM dimensions per leader bounce: 2 x (nfa <= 10000) */
+static int pds__gi_associate(const pds__gi_build *b, long i, int depth, int j, pds__v3 o, pds__v3 n,
+                             const pds_hit *hit, pds__gi_photon *p)
+{
+    const pds_scene *s = b->scene;
+    uint64_t dim = (uint64_t)depth * PDS__GI_STREAM_DIMS + 2 * (uint64_t)j;
+    double u1 = pds__rng_uniform(b->seed, PDS__RNG_STREAM, (uint64_t)i, dim);
+    double u2 = pds__rng_uniform(b->seed, PDS__RNG_STREAM, (uint64_t)i, dim + 1);
+    double r = b->rs * sqrt(u1), phi = 2.0 * PDS__PI * u2;
+    pds__v3 b1, b2, y, d;
+    pds__tri_hit th;
+    pds_hit h;
+    const pds_material *m;
+    pds__onb(hit->ng, &b1, &b2);
+    y = pds__add(hit->position, pds__add(pds__scale(b1, r * cos(phi)), pds__scale(b2, r * sin(phi))));
+    d = pds__sub(y, o);
+    if (!(pds__dot(d, d) > 0.0)) return 0;
+    d = pds__normalize(d);
+    if (pds__dot(n, n) > 0.0 && !(pds__dot(d, n) > 0.0)) return 0;
+    if (!pds__bvh_intersect(&s->bvh, o, d, 0.0, DBL_MAX, &th)) return 0;
+    pds__scene_fill_hit(s, &th, o, d, &h);
+    m = &s->materials.items[h.material];
+    if (m->type == PDS_MAT_EMISSIVE || pds__material_is_specular(m)) return 0;
+    if (pds__length(pds__sub(h.position, hit->position)) > 2.0 * b->rs) return 0;
+    memset(p, 0, sizeof *p);
+    pds__f3_set(p->pos, h.position);
+    pds__f3_set(p->dir, d);
+    pds__f3_set(p->ng, pds__dot(h.ng, d) < 0.0 ? h.ng : pds__scale(h.ng, -1.0));
+    p->index = i;
+    return 1;
+}
+
 /* Trace global photon i: emission, stores at non-specular hits, Russian
-   roulette by the albedo (Jensen 1996, sect. 3). */
+   roulette by the albedo (Jensen 1996, sect. 3). With streams, photon i
+   is the leader of stream i, and at each of its stores the associated
+   photons are aimed and stored after it (above). */
 static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long i)
 {
     const pds_scene *s = b->scene;
     const double *sigma = NULL;
     pds__light_emit e;
-    pds__v3 org, dir;
+    pds__v3 org, dir, nside;
     double u[4], pmf, flux[3];
-    int k, c, depth, stores = 0;
+    int k, c, depth, stores = 0, seq = 0, live = b->streams ? b->nfa : 0;
     for (c = 0; c < 4; c++) u[c] = pds__halton(b->halton_seed, (uint64_t)i, c);
     k = pds__lights_pick(&s->light_table, pds__halton(b->halton_seed, (uint64_t)i, 4), &pmf);
     if (k < 0 || !(pmf > 0.0)) return;
@@ -16389,6 +16515,7 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
     for (c = 0; c < 3; c++) flux[c] = e.flux[c] / ((double)b->n * pmf);
     dir = e.dir;
     org = pds__add(e.pos, pds__scale(e.normal, pds__dot(e.normal, dir) >= 0.0 ? b->eps : -b->eps));
+    nside = pds__dot(e.normal, dir) >= 0.0 ? e.normal : pds__scale(e.normal, -1.0);
     pds__gi_shadow_line(b, buf, i, k, org, dir);
     for (depth = 0; depth <= b->max_depth; depth++) {
         pds__tri_hit th;
@@ -16403,15 +16530,35 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
         if (m->type == PDS_MAT_EMISSIVE) return;
         if (!pds__material_is_specular(m)) {
             pds__gi_photon p;
-            if (stores == PDS__GI_MAX_STORES) return;
+            size_t lead_at = buf->n;
+            int j, landed = 0;
+            if (stores++ == PDS__GI_MAX_STORES) return;
             memset(&p, 0, sizeof p);
             pds__f3_set(p.pos, hit.position);
             pds__f3_set(p.dir, dir);
             pds__f3_set(p.ng, pds__dot(hit.ng, dir) < 0.0 ? hit.ng : pds__scale(hit.ng, -1.0));
             for (c = 0; c < 3; c++) p.flux[c] = (float)flux[c];
             p.index = i;
-            p.seq = stores++;
+            p.seq = seq++;
+            p.lead = b->streams;
             if (!pds__gi_push(buf, &p)) return;
+            if (live > 0) {
+                /* the stream's photons share its flux; the eliminated
+                   associated photons' shares stay with the leader */
+                double share[3];
+                for (c = 0; c < 3; c++) share[c] = flux[c] / (live + 1.0);
+                for (j = 0; j < live; j++) {
+                    pds__gi_photon a;
+                    if (!pds__gi_associate(b, i, depth, j, org, nside, &hit, &a)) continue;
+                    for (c = 0; c < 3; c++) a.flux[c] = (float)share[c];
+                    a.seq = seq++;
+                    if (!pds__gi_push(buf, &a)) return;
+                    landed++;
+                }
+                for (c = 0; c < 3; c++)
+                    buf->p[lead_at].flux[c] = (float)(share[c] + (double)(live - landed) * share[c]);
+                buf->p[lead_at].lead = 1 + landed;
+            }
         }
         if (depth == b->max_depth) return;
         for (c = 0; c < 3; c++)
@@ -16427,8 +16574,10 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
         }
         for (c = 0; c < 3; c++) flux[c] *= bs.weight[c] / q;
         if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        if (bs.delta) live = 0; /* a specular event: the stream is its leader alone */
         dir = bs.wi;
         org = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, dir) >= 0.0 ? b->eps : -b->eps));
+        nside = pds__dot(hit.ng, dir) >= 0.0 ? hit.ng : pds__scale(hit.ng, -1.0);
     }
 }
 
@@ -16469,6 +16618,7 @@ static int pds__gi_shadow_cmp(const void *a, const void *b)
 static void pds__gi_map_free(pds__gi_map *g)
 {
     free(g->photons);
+    free(g->streams);
     free(g->shadow);
     pds__kdtree_free(&g->tree);
     pds__kdtree_free(&g->stree);
@@ -16477,8 +16627,48 @@ static void pds__gi_map_free(pds__gi_map *g)
 
 static size_t pds__gi_map_bytes(const pds__gi_map *g)
 {
-    return g->n * sizeof *g->photons + pds__kdtree_memory(&g->tree) + g->ns * sizeof *g->shadow +
-           pds__kdtree_memory(&g->stree);
+    return g->n * sizeof *g->photons + g->nstreams * sizeof *g->streams + pds__kdtree_memory(&g->tree) +
+           g->ns * sizeof *g->shadow + pds__kdtree_memory(&g->stree);
+}
+
+/* rs in scene units: the option, or 1/16 of the largest side of the
+   scene's bounds (README, "Streams in gi's global map"). */
+static double pds__gi_stream_radius(const pds_scene *s, const pds_options *opt)
+{
+    pds__v3 e = pds__sub(s->bounds_max, s->bounds_min);
+    double side = fmax(e.x, fmax(e.y, e.z));
+    if (opt->stream_radius > 0.0) return opt->stream_radius;
+    return side > 0.0 ? side / 16.0 : 1.0;
+}
+
+/* The streams of a map sorted in stream order (each leader followed by
+   its associated photons): one record per leader, with its reach. */
+static int pds__gi_streams_index(pds__gi_map *g)
+{
+    size_t i, ns = 0;
+    for (i = 0; i < g->n; i++) ns += g->photons[i].lead > 0;
+    g->streams = (pds__gi_stream *)malloc(sizeof *g->streams * (ns ? ns : 1));
+    if (!g->streams) return 0;
+    for (i = 0; i < g->n; i++) {
+        const pds__gi_photon *p = &g->photons[i];
+        pds__gi_stream *st;
+        long j;
+        double reach = 0.0;
+        if (p->lead <= 0) continue;
+        st = &g->streams[g->nstreams++];
+        memset(st, 0, sizeof *st);
+        memcpy(st->pos, p->pos, sizeof st->pos);
+        st->first = (long)i;
+        st->count = p->lead;
+        for (j = 1; j < p->lead; j++) {
+            pds__v3 d = pds__sub(pds__f3_get(g->photons[i + (size_t)j].pos), pds__f3_get(p->pos));
+            reach = fmax(reach, pds__length(d));
+        }
+        st->reach = (float)reach;
+        if ((double)st->reach < reach) st->reach = nextafterf(st->reach, FLT_MAX); /* never short */
+        if (reach > g->reach) g->reach = reach;
+    }
+    return 1;
 }
 
 /* Pass 1: emit n photons on the threads, merge the stores in photon
@@ -16502,6 +16692,15 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
     b.seed = opt->seed;
     b.halton_seed = pds__rng_bits(opt->seed, PDS__RNG_GLOBAL, 0, 0);
     b.n = opt->global_photons;
+    if (opt->global_map == PDS_GLOBAL_STREAMS) {
+        /* nfs streams of nfa + 1 photons: as many photons as the
+           single-photon map's */
+        b.streams = 1;
+        b.nfa = opt->stream_photons;
+        b.rs = pds__gi_stream_radius(s, opt);
+        b.n = opt->global_photons / (opt->stream_photons + 1L);
+        g->nfa = opt->stream_photons;
+    }
     b.max_depth = opt->max_depth;
     b.eps = 1e-6 * pds__scene_scale(s);
     b.bufs = (pds__gi_buf *)calloc((size_t)threads, sizeof *b.bufs);
@@ -16536,8 +16735,17 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
     }
     qsort(g->photons, g->n, sizeof *g->photons, pds__gi_photon_cmp);
     qsort(g->shadow, g->ns, sizeof *g->shadow, pds__gi_shadow_cmp);
-    st = pds__kdtree_build(&g->tree, g->n ? &g->photons[0].pos[0] : NULL, sizeof *g->photons / sizeof(float), g->n,
-                           err);
+    if (b.streams) {
+        if (!pds__gi_streams_index(g)) {
+            pds__gi_map_free(g);
+            return pds__nomem(err);
+        }
+        st = pds__kdtree_build(&g->tree, g->nstreams ? &g->streams[0].pos[0] : NULL,
+                               sizeof *g->streams / sizeof(float), g->nstreams, err);
+    } else {
+        st = pds__kdtree_build(&g->tree, g->n ? &g->photons[0].pos[0] : NULL, sizeof *g->photons / sizeof(float),
+                               g->n, err);
+    }
     if (!st)
         st = pds__kdtree_build(&g->stree, g->ns ? &g->shadow[0].pos[0] : NULL, sizeof *g->shadow / sizeof(float),
                                g->ns, err);
@@ -16545,11 +16753,79 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
     return st;
 }
 
+/* The streams' estimate, eq. 2 of seed paper 003:
+     L(x, wr) = 1/dA sum_{i=1..k} fr(x, wi, wr) Ei
+   over the k nearest leaders, dA the circle of the search sphere's
+   radius r, here the k-th leader's distance (as Jensen's k nearest;
+   the paper's R is a fixed cap, which gi's map does not have).
+   Ambiguity: Ei is "the energy of stream i ... the sum of the energies
+   of the constituent photons". Counting a stream's whole energy at its
+   leader would never use the associated photons' hit points, which the
+   paper stores, and would be photon mapping with nfs photons; here Ei is
+   the energy its photons bring into the circle, each with its own
+   direction in fr, so a stream whose leader lies outside the circle adds
+   the photons it has inside (the range query reaches r plus the largest
+   stream reach). Each photon is weighted by the cone filter of the
+   single-photon map (Jensen 1996, eq. 4, k = 1: w = 1 - d/r, dA times
+   1 - 2/3), the kernel density the paper allows for streams (sect. 6),
+   so that streams and single photons differ in nothing else. Nothing
+   from fewer than min(8, k) leaders, like the single-photon estimate. */
+typedef struct pds__gi_stream_sum {
+    const pds__gi_map *g;
+    const pds_material *m;
+    pds__v3 x, wo, ns, ng, ngw;
+    double r, r2;
+    double L[3];
+} pds__gi_stream_sum;
+
+static void pds__gi_stream_visit(void *vctx, size_t index, double dist2)
+{
+    pds__gi_stream_sum *a = (pds__gi_stream_sum *)vctx;
+    const pds__gi_stream *st = &a->g->streams[index];
+    long j;
+    int c;
+    if (st->count > 1 ? dist2 > (a->r + st->reach) * (a->r + st->reach) : dist2 > a->r2) return; /* none inside */
+    for (j = 0; j < st->count; j++) {
+        const pds__gi_photon *p = &a->g->photons[st->first + j];
+        pds__v3 d = pds__sub(pds__f3_get(p->pos), a->x);
+        double d2 = pds__dot(d, d), f[3], pdf, w;
+        if (d2 > a->r2 || pds__dot(pds__f3_get(p->ng), a->ngw) <= 0.0) continue;
+        pds__bsdf_eval(a->m, a->x, a->wo, pds__scale(pds__f3_get(p->dir), -1.0), a->ns, a->ng, f, &pdf);
+        w = 1.0 - sqrt(d2 / a->r2);
+        for (c = 0; c < 3; c++) a->L[c] += f[c] * p->flux[c] * w;
+    }
+}
+
+static void pds__gi_stream_radiance(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 ns,
+                                    pds__v3 ng, double L[3])
+{
+    size_t idx[PDS__GI_MAX_K], n;
+    double d2[PDS__GI_MAX_K], area;
+    pds__gi_stream_sum a;
+    int c;
+    L[0] = L[1] = L[2] = 0.0;
+    n = pds__kdtree_knn(&g->tree, x, (size_t)g->k, DBL_MAX, idx, d2);
+    if (n < (size_t)(g->k < 8 ? g->k : 8) || !(d2[n - 1] > 0.0)) return;
+    memset(&a, 0, sizeof a);
+    a.g = g;
+    a.m = m;
+    a.x = x;
+    a.wo = wo;
+    a.ns = ns;
+    a.ng = ng;
+    a.ngw = pds__dot(ng, wo) >= 0.0 ? ng : pds__scale(ng, -1.0);
+    a.r2 = d2[n - 1];
+    a.r = sqrt(a.r2);
+    pds__kdtree_range(&g->tree, x, a.r + g->reach, pds__gi_stream_visit, &a);
+    area = (1.0 / 3.0) * PDS__PI * a.r2;
+    for (c = 0; c < 3; c++) L[c] = a.L[c] / area;
+}
+
 /* The global map's radiance estimate (Jensen 1996, eq. 3, cone filter
    eq. 4 with k = 1): L(x, wo) = sum_p f(x, wo, wp) dPhi_p w_p /
    ((1 - 2/3) pi r^2), r the distance of the k-th nearest photon, photons
    from the other side of the surface skipped, nothing from fewer than
-   min(8, k) photons. */
+   min(8, k) photons. A map of streams gives the streams' estimate. */
 static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 ns,
                              pds__v3 ng, double L[3])
 {
@@ -16557,6 +16833,10 @@ static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v
     double d2[PDS__GI_MAX_K], r2, area;
     pds__v3 ngw = pds__dot(ng, wo) >= 0.0 ? ng : pds__scale(ng, -1.0);
     int c;
+    if (g->streams) {
+        pds__gi_stream_radiance(g, m, x, wo, ns, ng, L);
+        return;
+    }
     L[0] = L[1] = L[2] = 0.0;
     n = pds__kdtree_knn(&g->tree, x, (size_t)g->k, DBL_MAX, idx, d2);
     if (n < (size_t)(g->k < 8 ? g->k : 8)) return;
@@ -16682,13 +16962,25 @@ static void pds__gi_guide_build(const pds__gi_map *g, pds__v3 x, pds__v3 n, pds_
 {
     enum { M = PDS__GI_GRID * PDS__GI_GRID };
     double h[M], total = 0.0;
-    size_t idx[PDS__GI_GUIDE_K], cnt = 0, j;
+    size_t idx[PDS__GI_GUIDE_K], guide[PDS__GI_GUIDE_K], cnt = 0, j;
     double d2[PDS__GI_GUIDE_K];
     int i;
     for (i = 0; i < M; i++) h[i] = 0.0;
-    if (mix < 1.0) cnt = pds__kdtree_knn(&g->tree, x, PDS__GI_GUIDE_K, DBL_MAX, idx, d2);
+    if (mix < 1.0 && g->streams) {
+        /* streams: the photons of the nearest leaders, about as many */
+        size_t ks = PDS__GI_GUIDE_K / ((size_t)g->nfa + 1), ls, l;
+        ls = pds__kdtree_knn(&g->tree, x, ks ? ks : 1, DBL_MAX, idx, d2);
+        for (l = 0; l < ls && cnt < PDS__GI_GUIDE_K; l++) {
+            const pds__gi_stream *st = &g->streams[idx[l]];
+            long q;
+            for (q = 0; q < st->count && cnt < PDS__GI_GUIDE_K; q++) guide[cnt++] = (size_t)(st->first + q);
+        }
+    } else if (mix < 1.0) {
+        cnt = pds__kdtree_knn(&g->tree, x, PDS__GI_GUIDE_K, DBL_MAX, idx, d2);
+        for (j = 0; j < cnt; j++) guide[j] = idx[j];
+    }
     for (j = 0; j < cnt; j++) {
-        const pds__gi_photon *p = &g->photons[idx[j]];
+        const pds__gi_photon *p = &g->photons[guide[j]];
         pds__v3 wi = pds__scale(pds__f3_get(p->dir), -1.0);
         double z = pds__dot(wi, n), u0, phi, w;
         int r, col;
@@ -16956,7 +17248,8 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
 #define PDS__GI_MAX_K 1000
 typedef struct pds__gi_photon { float unused; } pds__gi_photon;
 typedef struct pds__gi_shadow_photon { float unused; } pds__gi_shadow_photon;
-typedef struct pds__gi_map { int record_only; size_t n, ns; } pds__gi_map;
+typedef struct pds__gi_stream { float unused; } pds__gi_stream;
+typedef struct pds__gi_map { int record_only; size_t n, ns, nstreams; } pds__gi_map;
 static void pds__gi_map_free(pds__gi_map *g) { (void)g; }
 static size_t pds__gi_map_bytes(const pds__gi_map *g) { (void)g; return 0; }
 static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pds_options *opt, int threads,
@@ -17031,6 +17324,35 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
       light-space grid by its own sub-texel offset, so a static scene's
       frames sample different photons and the filter averages them; with a
       moving light or camera it lags (ghosting), as the paper says.
+   5. Static lighting (sect. 4: "the photon buffer does not need
+      rerendering under static lighting"; Table 1's static columns): with
+      pds_options.static_lighting, for frames whose light and scene stand
+      still (the camera orbits, or nothing), each light's buffer is traced
+      once, at frame 0's grid offset, and so is the light gather's map;
+      later frames redo only the eye buffer and direct light (if the
+      camera moved), the photons' projections and the gathers that depend
+      on the eye, and the filter. Every frame is what rendering it anew
+      with the option gives, bit for bit. The frames' own grid offsets are
+      given up: a still camera's frames are all alike.
+   6. Spectral renders (>>spectral; a dispersive material, or
+      pds_options.spectral): photon (i, j) carries a wavelength, one in
+      each of 16 strata per 4 x 4 block by a Bayer matrix, rotated by the
+      frame's offset (pds__isc_wavelength), and goes on spectrally from its
+      first dispersive material (with pds_options.spectral, its first
+      specular one): its e becomes its value at lambda times the film
+      weight W(lambda), and n(lambda) refracts it, so a prism fans the
+      buffer out. The gathers sum these signed values as they sum RGB
+      ones (in floating point: no separate negative sums are needed).
+      Quads join photons 4 apart, which share a wavelength. The eye
+      buffer's rays take the pixels' wavelengths the same way and turn
+      spectral at dispersive glass only: such a pixel holds at its own
+      wavelength, and takes its direct light and the gathered irradiance
+      there (the irradiance as a colour, uplifted: the gathers do not keep
+      the photons' wavelengths apart). A pixel seen through a prism thus
+      shows one wavelength, in a 4 x 4 dither (a time budget's frames keep
+      the first frame's eye buffer and so its wavelengths).
+      The receiver's colour filters a spectral photon's light as RGB
+      (exact for grey receivers).
 
    Approximations (README "Image-space caustics"): point and spot lights
    only; one specular path per photon and per pixel; no indirect diffuse
@@ -17040,7 +17362,8 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
    and eye-space resolutions.
 
    Determinism: the only random numbers are the frame offsets, (seed,
-   PDS__RNG_ISC, frame). Work is split over threads in fixed chunks that
+   PDS__RNG_ISC, frame) (frame 0 with static lighting), of the grid and
+   of the wavelengths. Work is split over threads in fixed chunks that
    write only their own outputs; every sum over photons is done by one
    thread in photon order. So images do not depend on the thread count. */
 
@@ -17094,6 +17417,28 @@ static void pds__isc_intensity(const pds_light *l, pds__v3 dir, double I[3])
     }
 }
 
+/* Wavelengths of a spectral render (>>spectral): light-space photon
+   (i, j), and pixel (x, y), take the value b in 0..15 of its place in the
+   4 x 4 Bayer matrix (an ordered dither, Bayer 1973), rotated by the
+   frame's uniform u: lambda = 380 nm + 25 nm ((b + 16 u) mod 16). So
+   every 4 x 4 block of photons or pixels holds one wavelength in each of
+   the PDS__SPECTRAL_BINS = 16 strata of the range (25 nm apart), the
+   photons 4 apart that share one can span a caustic polygon (quads), and
+   over frames (or seeds) each photon's and each pixel's wavelength is
+   uniform on the whole range (a Cranley-Patterson rotation of the 16
+   dither values), so no pixel keeps one part of the spectrum. */
+#define PDS__ISC_LAMBDA_SIDE 4
+typedef char pds__isc_bins_are_16[PDS__SPECTRAL_BINS == PDS__ISC_LAMBDA_SIDE * PDS__ISC_LAMBDA_SIDE ? 1 : -1];
+static const unsigned char pds__isc_bayer[4][4] = {{0, 8, 2, 10}, {12, 4, 14, 6}, {3, 11, 1, 9}, {15, 7, 13, 5}};
+
+static double pds__isc_wavelength(long i, long j, double u)
+{
+    double bin = (PDS__LAMBDA_MAX - PDS__LAMBDA_MIN) / PDS__SPECTRAL_BINS;
+    double t = pds__isc_bayer[j & 3][i & 3] + PDS__SPECTRAL_BINS * u;
+    if (t >= PDS__SPECTRAL_BINS) t -= PDS__SPECTRAL_BINS;
+    return PDS__LAMBDA_MIN + bin * t;
+}
+
 /* The one specular continuation ISC follows (a rasteriser's single path):
    mirrors and conductors reflect, dielectrics refract, or reflect under
    total internal reflection. It is pds__bsdf_sample's event with the
@@ -17124,12 +17469,18 @@ typedef struct pds__isc_photon {
     unsigned path;
 } pds__isc_photon;
 
-/* Trace the photon leaving light l's position in unit direction dir. */
+/* Trace the photon leaving light l's position in unit direction dir.
+   Spectral renders: lambda (nm) is its wavelength, from which it goes on
+   spectrally at its first dispersive material (spectral_all: its first
+   specular one), as the other methods' photons do (>>spectral): its
+   weight becomes its value at lambda times the film weight W(lambda),
+   and materials are taken at lambda; 0 in RGB renders. */
 static void pds__isc_trace(const pds_scene *s, const pds_light *l, pds__v3 dir, int max_depth, double eps,
-                           pds__isc_photon *ph)
+                           double lambda, int spectral_all, pds__isc_photon *ph)
 {
-    double w[3];
+    double w[3], sigma_buf[3], lam = 0.0;
     const double *sigma = NULL;
+    pds_material m_lambda;
     pds__v3 org = l->position;
     unsigned path = 2166136261u; /* FNV-1a offset basis */
     int depth, c;
@@ -17153,9 +17504,32 @@ static void pds__isc_trace(const pds_scene *s, const pds_light *l, pds__v3 dir, 
             ph->path = path ? path : 1u;
             return;
         }
+        if (lambda > 0.0 && lam == 0.0 && (spectral_all || pds__material_is_dispersive(m))) {
+            double film[3], phi = pds__spectral_value(w, lambda);
+            pds__film_weight(lambda, film);
+            for (c = 0; c < 3; c++) w[c] = phi * film[c];
+            if (sigma) {
+                memcpy(sigma_buf, sigma, sizeof sigma_buf);
+                pds__spectral_uplift(lambda, sigma_buf);
+                sigma = sigma_buf;
+            }
+            lam = lambda;
+        }
+        if (lam > 0.0) {
+            pds__spectral_material(m, lam, &m_lambda);
+            m = &m_lambda;
+        }
         if (depth == max_depth || !pds__isc_specular(m, &hit, dir, PDS__IMPORTANCE, &bs)) return;
+        pds__spectral_uplift(lam, bs.weight);
         for (c = 0; c < 3; c++) w[c] *= bs.weight[c];
-        if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        if (m->type == PDS_MAT_DIELECTRIC) {
+            sigma = pds__medium_absorption(m, bs.side);
+            if (sigma && lam > 0.0) {
+                /* m_lambda's, which the next material overwrites */
+                memcpy(sigma_buf, sigma, sizeof sigma_buf);
+                sigma = sigma_buf;
+            }
+        }
         path = (path ^ (unsigned)(2 * hit.material + bs.transmitted)) * 16777619u;
         path = (path ^ (unsigned)(bs.side > 0)) * 16777619u;
         org = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, bs.wi) >= 0.0 ? eps : -eps));
@@ -17163,7 +17537,7 @@ static void pds__isc_trace(const pds_scene *s, const pds_light *l, pds__v3 dir, 
     }
 }
 
-/* What the eye sees through pixel p's centre, 56 bytes:
+/* What the eye sees through pixel p's centre, 60 bytes:
      pos, n  first non-specular point, its unit geometric normal facing
              the eye path
      ns      the shading normal there, on the same side (pds__bsdf_frame)
@@ -17171,10 +17545,15 @@ static void pds__isc_trace(const pds_scene *s, const pds_light *l, pds__v3 dir, 
              caustic radiance = fr x irradiance
      area    eq. 5: the pixel's area on the surface (m^2), when seen
              directly; 0 otherwise
+     lambda  spectral renders: the pixel's wavelength (nm) when its path
+             went through dispersive glass (fr is then the path's value at
+             lambda times the film weight W(lambda), the same scalar in
+             every channel before W); 0 otherwise
      kind    0: nothing; 1: seen directly; 2: through specular surfaces */
 typedef struct pds__isc_pixel {
     float pos[3], n[3], ns[3], fr[3];
     float area;
+    float lambda;
     int kind;
 } pds__isc_pixel;
 
@@ -17196,6 +17575,11 @@ typedef struct pds__isc_frag {
 #define PDS__ISC_MIN_PHOTONS 3.0  /* sect. 3.2.2 step 5 */
 #define PDS__ISC_QUAD_MAX_PIXELS 4096 /* a quad's screen box larger than this is skipped */
 #define PDS__ISC_SUB 256          /* fixed-point subpixels of the quad rasteriser */
+/* What is done for a light (pds__isc.state), kept across the frames of
+   static lighting and cleared every frame otherwise. */
+#define PDS__ISC_TRACED 1         /* its buffer (and light map) is traced */
+#define PDS__ISC_NO_VIEW 2        /* no view holds its specular objects: no caustic */
+#define PDS__ISC_FLUX 4           /* points, eye: its photons' e holds their flux (W) */
 
 /* A render of one or more frames: the buffers live across frames (the
    temporal filter's history among them). */
@@ -17210,9 +17594,18 @@ typedef struct pds__isc {
     pds_light *lights;          /* this frame's lights (orbit applied) */
     size_t nlights;
     const pds_light *light;     /* the light whose photons are in ph */
+    size_t lk;                  /* its index */
+    int fixed_grid;             /* static lighting: every frame takes frame 0's grid offset */
+    int spectral, spectral_all; /* a spectral render (>>spectral); spectral photons from the light on */
+    double photon_u, eye_u;     /* spectral: the photons' and the pixels' wavelength offset */
+    int reuse;                  /* static lighting: each light's buffer (and light map) is
+                                   traced once and kept for the frames after */
+    unsigned char *state;       /* per light: PDS__ISC_TRACED, _NO_VIEW, _FLUX bits */
+    pds__isc_view *views, *lviews; /* per light: its photon view and light-map view */
     pds__isc_pixel *px;         /* w x h */
     double *direct;             /* 3 per pixel: direct radiance */
-    pds__isc_photon *ph;        /* res x res, one light at a time */
+    pds__isc_photon *ph_all;    /* res x res per light (reuse), else res x res */
+    pds__isc_photon *ph;        /* the current light's res x res in ph_all */
     unsigned char *mask;        /* res x res: may the photon meet a specular surface first? */
     pds__isc_view view;         /* that light's view */
     int *ph_pixel;              /* points, eye: the pixel each photon deposits into, -1 none */
@@ -17220,7 +17613,8 @@ typedef struct pds__isc {
     signed char *ph_front;      /* quads: 1 if in front of the camera */
     float *dep;                 /* eye, light: 4 per cell (flux or irradiance x omega, count) */
     unsigned char *near_row;    /* eye: a photon within the gather radius in the row */
-    float *lmap;                /* light: the gathered map, 4 per texel */
+    float *lmap_all;            /* light: the gathered maps, 4 per texel, per light (reuse) */
+    float *lmap;                /* light: the current light's map in lmap_all */
     pds__isc_view lview;        /* light: the map's view */
     pds__isc_est *est;          /* this frame's estimate */
     double *rgb;                /* the frame's image before conversion to float */
@@ -17291,7 +17685,11 @@ static double pds__isc_pixel_omega(const pds__camera_frame *f, int x, int y)
 /* The eye buffer's geometry: one ray through each pixel centre, through
    specular surfaces on the one-path rule, to the first diffuse point. It
    depends on the camera alone, so an animation whose camera stands still
-   traces it once. */
+   traces it once. Spectral renders: the ray carries the pixel's
+   wavelength and goes on spectrally from its first dispersive material
+   (>>spectral; even with pds_options.spectral, as one ray per pixel at one
+   wavelength would leave a fixed colour dither on every surface, where
+   the RGB ray gives the mean over the wavelengths). */
 static void pds__isc_eye_rows(pds__isc *ctx, long first, long last)
 {
     const pds_scene *s = ctx->scene;
@@ -17302,8 +17700,10 @@ static void pds__isc_eye_rows(pds__isc *ctx, long first, long last)
             size_t p = (size_t)y * (size_t)ctx->w + (size_t)x;
             pds__isc_pixel *out = &ctx->px[p];
             pds__v3 org = ctx->cam.origin, dir = pds__camera_dir(&ctx->cam, x + 0.5, y + 0.5);
-            double beta[3] = {1.0, 1.0, 1.0};
+            double beta[3] = {1.0, 1.0, 1.0}, sigma_buf[3], lam = 0.0;
+            double lambda = ctx->spectral ? pds__isc_wavelength(x, y, ctx->eye_u) : 0.0;
             const double *sigma = NULL;
+            pds_material m_lambda;
             int depth;
             memset(out, 0, sizeof *out);
             for (depth = 0; depth <= ctx->opt->max_depth; depth++) {
@@ -17318,10 +17718,31 @@ static void pds__isc_eye_rows(pds__isc *ctx, long first, long last)
                 pds__scene_fill_hit(s, &th, org, dir, &hit);
                 pds__beer(sigma, th.t, beta);
                 m = &s->materials.items[hit.material];
+                if (lambda > 0.0 && lam == 0.0 && pds__material_is_dispersive(m)) {
+                    /* the path turns spectral: its throughput and medium at lambda */
+                    lam = lambda;
+                    pds__spectral_uplift(lam, beta);
+                    if (sigma) {
+                        memcpy(sigma_buf, sigma, sizeof sigma_buf);
+                        pds__spectral_uplift(lam, sigma_buf);
+                        sigma = sigma_buf;
+                    }
+                }
+                if (lam > 0.0) {
+                    pds__spectral_material(m, lam, &m_lambda);
+                    m = &m_lambda;
+                }
                 if (pds__material_is_specular(m)) {
                     if (depth == ctx->opt->max_depth || !pds__isc_specular(m, &hit, dir, PDS__RADIANCE, &bs)) break;
+                    pds__spectral_uplift(lam, bs.weight);
                     for (c = 0; c < 3; c++) beta[c] *= bs.weight[c];
-                    if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+                    if (m->type == PDS_MAT_DIELECTRIC) {
+                        sigma = pds__medium_absorption(m, bs.side);
+                        if (sigma && lam > 0.0) {
+                            memcpy(sigma_buf, sigma, sizeof sigma_buf);
+                            sigma = sigma_buf;
+                        }
+                    }
                     org = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, bs.wi) >= 0.0 ? ctx->eps : -ctx->eps));
                     dir = bs.wi;
                     continue;
@@ -17333,6 +17754,13 @@ static void pds__isc_eye_rows(pds__isc *ctx, long first, long last)
                 pds__f3_set(out->pos, hit.position);
                 pds__f3_set(out->n, g);
                 pds__f3_set(out->ns, n);
+                if (lam > 0.0) {
+                    double film[3];
+                    pds__film_weight(lam, film);
+                    pds__spectral_uplift(lam, f);
+                    for (c = 0; c < 3; c++) f[c] *= film[c];
+                    out->lambda = (float)lam;
+                }
                 for (c = 0; c < 3; c++) out->fr[c] = (float)(beta[c] * f[c]);
                 out->kind = depth == 0 ? 1 : 2;
                 if (depth == 0)
@@ -17367,6 +17795,7 @@ static void pds__isc_direct_rows(pds__isc *ctx, long first, long last)
             if (pds__bvh_occluded(&s->bvh, pds__add(x, pds__scale(g, ctx->eps)), wi, 0.0, sqrt(d2) * (1.0 - 1e-4)))
                 continue;
             pds__isc_intensity(l, pds__scale(wi, -1.0), I);
+            pds__spectral_uplift(px->lambda, I); /* fr holds W(lambda) */
             for (c = 0; c < 3; c++) direct[c] += px->fr[c] * I[c] * cosine / d2;
         }
     }
@@ -17432,7 +17861,9 @@ static void pds__isc_photon_rows(pds__isc *ctx, long first, long last)
                 continue;
             }
             dir = pds__isc_view_dir(&ctx->view, i + ctx->view.jx, j + ctx->view.jy);
-            pds__isc_trace(ctx->scene, ctx->light, dir, ctx->opt->photon_depth, ctx->eps, &ctx->ph[k]);
+            pds__isc_trace(ctx->scene, ctx->light, dir, ctx->opt->photon_depth, ctx->eps,
+                           ctx->spectral ? pds__isc_wavelength(i, j, ctx->photon_u) : 0.0, ctx->spectral_all,
+                           &ctx->ph[k]);
         }
 }
 
@@ -17520,11 +17951,12 @@ static int pds__isc_same_surface(const pds__isc_pixel *p, pds__v3 x, pds__v3 n)
 /* --- points and eye: photons into the eye-space pixels ----------------- */
 
 /* Each photon's pixel (-1: none, or not on the surface seen there) and
-   flux (W, in e's place: the gathers after this one need no intensity). */
+   flux (W, in e's place: the gathers after this one need no intensity;
+   once per traced buffer, PDS__ISC_FLUX). */
 static void pds__isc_to_pixels(pds__isc *ctx, long first, long last)
 {
     long j;
-    int i, c;
+    int i, c, to_flux = !(ctx->state[ctx->lk] & PDS__ISC_FLUX);
     for (j = first; j < last; j++)
         for (i = 0; i < ctx->res; i++) {
             size_t k = (size_t)j * ctx->res + i;
@@ -17533,8 +17965,10 @@ static void pds__isc_to_pixels(pds__isc *ctx, long first, long last)
             long q;
             ctx->ph_pixel[k] = -1;
             if (!ph->path) continue;
-            omega = pds__isc_cell_omega(&ctx->view, i, (int)j);
-            for (c = 0; c < 3; c++) ph->e[c] = (float)(ph->e[c] * omega);
+            if (to_flux) {
+                omega = pds__isc_cell_omega(&ctx->view, i, (int)j);
+                for (c = 0; c < 3; c++) ph->e[c] = (float)(ph->e[c] * omega);
+            }
             if (!pds__camera_project(&ctx->cam, pds__f3_get(ph->pos), &px, &py)) continue;
             if (!(px >= 0.0 && py >= 0.0 && px < ctx->w && py < ctx->h)) continue;
             q = (long)py * ctx->w + (long)px;
@@ -17850,29 +18284,41 @@ static void pds__isc_raster(pds__isc *ctx, long j, const long long *a, const lon
         }
 }
 
+/* The photons a caustic polygon's corners are apart: 1, or in spectral
+   renders PDS__ISC_LAMBDA_SIDE, the nearest that share a wavelength. */
+static int pds__isc_quad_step(const pds__isc *ctx)
+{
+    return ctx->spectral ? PDS__ISC_LAMBDA_SIDE : 1;
+}
+
 /* The caustic polygons of light-space rows j and j + 1: quad (i, j) joins
    photons (i,j), (i+1,j), (i+1,j+1), (i,j+1) when all four followed the
    same specular path to surfaces facing the same way (Sect. 3.2.1: quads
    that stretch between surfaces are culled). Its irradiance: the beam's
    flux Phi_B = I omega_B (eq. 1; I the mean of the corners' e) over the
-   polygon's area (eqs. 2-3). */
+   polygon's area (eqs. 2-3). Spectral renders join photons (i,j),
+   (i+4,j), (i+4,j+4), (i,j+4) of one wavelength: each of the 16
+   wavelengths' polygons tile the caustic, and each is given 1/16 of its
+   irradiance (e is the flux at lambda times W(lambda), whose mean over
+   the strata is the colour). */
 static void pds__isc_quad_rows(pds__isc *ctx, long first, long last)
 {
     const pds__isc_view *v = &ctx->view;
     long j;
-    int i, c, r;
+    int i, c, r, step = pds__isc_quad_step(ctx);
+    double share = 1.0 / ((double)step * step);
     for (j = first; j < last; j++) {
         ctx->nfrags[j] = 0;
-        for (i = 0; i + 1 < ctx->res; i++) {
+        for (i = 0; i + step < ctx->res; i++) {
             size_t k[4];
             pds__v3 x[4], n0;
             double omega, area, e[3] = {0, 0, 0};
             float ef[3];
             int ok = 1;
             k[0] = (size_t)j * ctx->res + i;
-            k[1] = k[0] + 1;
-            k[2] = k[1] + (size_t)ctx->res;
-            k[3] = k[0] + (size_t)ctx->res;
+            k[1] = k[0] + (size_t)step;
+            k[2] = k[1] + (size_t)step * (size_t)ctx->res;
+            k[3] = k[0] + (size_t)step * (size_t)ctx->res;
             for (r = 0; r < 4 && ok; r++)
                 ok = ctx->ph[k[r]].path == ctx->ph[k[0]].path && ctx->ph[k[r]].path != 0 && ctx->ph_front[k[r]];
             if (!ok) continue;
@@ -17886,8 +18332,9 @@ static void pds__isc_quad_rows(pds__isc *ctx, long first, long last)
             area = 0.5 * (pds__length(pds__cross(pds__sub(x[1], x[0]), pds__sub(x[2], x[0]))) +
                           pds__length(pds__cross(pds__sub(x[2], x[0]), pds__sub(x[3], x[0]))));
             if (!(area > 0.0)) continue;
-            omega = pds__rect_solid_angle(pds__isc_plane(v, i + v->jx), pds__isc_plane(v, i + 1 + v->jx),
-                                          pds__isc_plane(v, j + v->jy), pds__isc_plane(v, j + 1 + v->jy));
+            omega = pds__rect_solid_angle(pds__isc_plane(v, i + v->jx), pds__isc_plane(v, i + step + v->jx),
+                                          pds__isc_plane(v, j + v->jy), pds__isc_plane(v, j + step + v->jy));
+            if (step > 1) omega *= share;
             for (c = 0; c < 3; c++) ef[c] = (float)(e[c] * omega / area);
             pds__isc_raster(ctx, j, &ctx->ph_xy[2 * k[0]], &ctx->ph_xy[2 * k[1]], &ctx->ph_xy[2 * k[2]], ef, x[0], n0);
             pds__isc_raster(ctx, j, &ctx->ph_xy[2 * k[0]], &ctx->ph_xy[2 * k[2]], &ctx->ph_xy[2 * k[3]], ef, x[0], n0);
@@ -17901,7 +18348,7 @@ static void pds__isc_quads_add(pds__isc *ctx)
     long j;
     size_t f;
     int c;
-    for (j = 0; j + 1 < ctx->res; j++)
+    for (j = 0; j + pds__isc_quad_step(ctx) < ctx->res; j++)
         for (f = 0; f < ctx->nfrags[j]; f++) {
             const pds__isc_frag *fr = &ctx->frags[j][f];
             for (c = 0; c < 3; c++) ctx->est[fr->pixel].e[c] += fr->e[c];
@@ -17919,25 +18366,47 @@ static pds__v3 pds__isc_orbit(pds__v3 p, pds__v3 c, double a)
     return pds__v(c.x + cos(a) * dx + sin(a) * dz, p.y, c.z - sin(a) * dx + cos(a) * dz);
 }
 
-/* Photons of light k for this frame, gathered into ctx->est. */
+/* Photons of light k for this frame, gathered into ctx->est. Static
+   lighting (ctx->reuse) traces each light's buffer, and builds its light
+   map, in the first frame only; the frames after redo only what depends
+   on the eye (Wyman and Davis sect. 4: "the photon buffer does not need
+   rerendering under static lighting"; their Table 1's static columns). */
 static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
 {
     size_t n = (size_t)ctx->res * (size_t)ctx->res, i;
-    double jx = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)frame, 0);
-    double jy = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)frame, 1);
+    int grid = ctx->fixed_grid ? 0 : frame, fresh;
+    double jx = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)grid, 0);
+    double jy = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)grid, 1);
     double t0 = pds_time_now(), t1;
     ctx->light = &ctx->lights[k];
-    if (!pds__isc_view_setup(ctx->scene, &ctx->target, ctx->light->position, ctx->res, jx, jy, &ctx->view)) return;
-    pds__isc_mask(ctx);
-    pds__isc_parallel(ctx, ctx->res, 4, pds__isc_photon_rows);
-    ctx->photons += (long)n;
-    for (i = 0; i < n; i++) ctx->landed += ctx->ph[i].path != 0;
+    ctx->lk = k;
+    ctx->ph = ctx->reuse ? ctx->ph_all + k * n : ctx->ph_all;
+    if (ctx->lmap_all) ctx->lmap = ctx->reuse ? ctx->lmap_all + 4 * k * n : ctx->lmap_all;
+    if (!ctx->reuse) ctx->state[k] = 0;
+    fresh = !(ctx->state[k] & PDS__ISC_TRACED);
+    if (fresh) {
+        ctx->state[k] = PDS__ISC_TRACED;
+        if (ctx->spectral) ctx->photon_u = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)grid, 2);
+        if (!pds__isc_view_setup(ctx->scene, &ctx->target, ctx->light->position, ctx->res, jx, jy, &ctx->view)) {
+            ctx->state[k] |= PDS__ISC_NO_VIEW;
+            return;
+        }
+        ctx->views[k] = ctx->view;
+        pds__isc_mask(ctx);
+        pds__isc_parallel(ctx, ctx->res, 4, pds__isc_photon_rows);
+        ctx->photons += (long)n;
+        for (i = 0; i < n; i++) ctx->landed += ctx->ph[i].path != 0;
+    } else {
+        if (ctx->state[k] & PDS__ISC_NO_VIEW) return;
+        ctx->view = ctx->views[k];
+    }
     t1 = pds_time_now();
     ctx->time_photons += t1 - t0;
     switch (ctx->gather) {
     case PDS_ISC_POINTS:
     case PDS_ISC_EYE:
         pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_pixels);
+        ctx->state[k] |= PDS__ISC_FLUX;
         if (ctx->gather == PDS_ISC_EYE) memset(ctx->dep, 0, sizeof *ctx->dep * 4 * (size_t)ctx->w * ctx->h);
         pds__isc_points(ctx, ctx->gather == PDS_ISC_EYE);
         if (ctx->gather == PDS_ISC_EYE) {
@@ -17946,22 +18415,28 @@ static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
         }
         break;
     case PDS_ISC_LIGHT:
-        pds__isc_light_map_view(ctx);
-        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_texels);
-        memset(ctx->dep, 0, sizeof *ctx->dep * 4 * n);
-        for (i = 0; i < n; i++) {
-            int m = ctx->ph_pixel[i], c;
-            if (m < 0) continue;
-            for (c = 0; c < 3; c++) ctx->dep[4 * (size_t)m + c] += ctx->ph[i].e[c];
-            ctx->dep[4 * (size_t)m + 3] += 1.0f;
+        if (fresh) {
+            /* the light map: the lighting's, not the eye's */
+            pds__isc_light_map_view(ctx);
+            pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_texels);
+            memset(ctx->dep, 0, sizeof *ctx->dep * 4 * n);
+            for (i = 0; i < n; i++) {
+                int m = ctx->ph_pixel[i], c;
+                if (m < 0) continue;
+                for (c = 0; c < 3; c++) ctx->dep[4 * (size_t)m + c] += ctx->ph[i].e[c];
+                ctx->dep[4 * (size_t)m + 3] += 1.0f;
+            }
+            pds__isc_parallel(ctx, ctx->res, 8, pds__isc_texel_irradiance);
+            pds__isc_parallel(ctx, ctx->res, 8, pds__isc_light_gather);
+            ctx->lviews[k] = ctx->lview;
+        } else {
+            ctx->lview = ctx->lviews[k];
         }
-        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_texel_irradiance);
-        pds__isc_parallel(ctx, ctx->res, 8, pds__isc_light_gather);
         pds__isc_parallel(ctx, ctx->h, 8, pds__isc_light_lookup);
         break;
     case PDS_ISC_QUADS:
         pds__isc_parallel(ctx, ctx->res, 8, pds__isc_to_screen);
-        pds__isc_parallel(ctx, ctx->res - 1, 4, pds__isc_quad_rows);
+        pds__isc_parallel(ctx, ctx->res - pds__isc_quad_step(ctx), 4, pds__isc_quad_rows);
         pds__isc_quads_add(ctx);
         break;
     }
@@ -17994,8 +18469,11 @@ static void pds__isc_frame(pds__isc *ctx, int frame, int accumulate, pds_image *
     ctx->cam = pds__camera_setup(&cam, ctx->w, ctx->h);
     /* the eye buffer when the camera moved (or on the first frame), its
        direct light when anything moved */
-    if (ctx->frames_done == 0 || (opt->orbit == PDS_ORBIT_CAMERA && angle != 0.0))
+    if (ctx->frames_done == 0 || (opt->orbit == PDS_ORBIT_CAMERA && angle != 0.0)) {
+        if (ctx->spectral)
+            ctx->eye_u = pds__rng_uniform(opt->seed, PDS__RNG_ISC, (uint64_t)(ctx->fixed_grid ? 0 : frame), 3);
         pds__isc_parallel(ctx, ctx->h, 4, pds__isc_eye_rows);
+    }
     if (ctx->frames_done == 0 || (opt->orbit != PDS_ORBIT_NONE && angle != 0.0))
         pds__isc_parallel(ctx, ctx->h, 4, pds__isc_direct_rows);
     ctx->time_eye += pds_time_now() - t0;
@@ -18027,6 +18505,14 @@ static void pds__isc_frame(pds__isc *ctx, int frame, int accumulate, pds_image *
             }
         }
         if (threshold && count < PDS__ISC_MIN_PHOTONS) e[0] = e[1] = e[2] = 0.0;
+        if (ctx->px[i].lambda > 0.0f) {
+            /* a pixel seen through dispersive glass holds at its own
+               wavelength: the irradiance's value there (>>spectral's RGB
+               photon at such a vertex; spectral photons' sums are taken
+               as their colour, a light map not telling them apart) */
+            double v = pds__spectral_value(e, ctx->px[i].lambda);
+            e[0] = e[1] = e[2] = v;
+        }
         for (c = 0; c < 3; c++) {
             double v = (opt->paths == PDS_PATHS_CAUSTICS_ONLY ? 0.0 : d[c]) + ctx->px[i].fr[c] * e[c] / n_hist;
             ctx->rgb[3 * i + c] = v;
@@ -18045,16 +18531,19 @@ static void pds__isc_free(pds__isc *ctx)
     free(ctx->nfrags);
     free(ctx->capfrags);
     free(ctx->lights);
+    free(ctx->state);
+    free(ctx->views);
+    free(ctx->lviews);
     free(ctx->px);
     free(ctx->direct);
-    free(ctx->ph);
+    free(ctx->ph_all);
     free(ctx->mask);
     free(ctx->ph_pixel);
     free(ctx->ph_xy);
     free(ctx->ph_front);
     free(ctx->dep);
     free(ctx->near_row);
-    free(ctx->lmap);
+    free(ctx->lmap_all);
     free(ctx->est);
     free(ctx->rgb);
     free(ctx->ring);
@@ -18075,21 +18564,24 @@ static int pds__isc_resolution(const pds_options *opt)
 /* Bytes an isc render holds: per pixel the eye buffer, direct light, the
    image in double, the estimate, its history (or the time budget's sums) and the deposits;
    per photon the buffer and its pixel, screen position or texel; the
-   light map. (Quad fragments come on top: about one per covered pixel.) */
-static double pds__isc_memory(const pds_options *opt, double npix)
+   light map; with static lighting a buffer and a light map per light.
+   (Quad fragments come on top: about one per covered pixel.) */
+static double pds__isc_memory(const pds_scene *s, const pds_options *opt, double npix)
 {
     double r2 = (double)pds__isc_resolution(opt) * pds__isc_resolution(opt);
+    double kept = opt->static_lighting && s->nlights > 1 ? (double)s->nlights - 1.0 : 0.0;
     int hist = opt->time_s > 0.0 ? 2 : opt->history;
     return npix * (sizeof(pds__isc_pixel) + 6 * sizeof(double) + (1 + hist) * sizeof(pds__isc_est) +
                    4 * sizeof(float) + 3 * sizeof(float)) +
-           r2 * (sizeof(pds__isc_photon) + sizeof(int) + 2 * sizeof(long long) + 2 + 8 * sizeof(float));
+           r2 * (sizeof(pds__isc_photon) + sizeof(int) + 2 * sizeof(long long) + 2 + 8 * sizeof(float)) +
+           kept * r2 * (sizeof(pds__isc_photon) + 4 * sizeof(float));
 }
 
 /* Set up a render of w x h pixels; the light checks of the method. */
 static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_options *opt, int w, int h, int threads,
                                 pds_error *err)
 {
-    size_t npix = (size_t)w * h, n, k;
+    size_t npix = (size_t)w * h, n, k, nbuf;
     int x, y;
     double sum = 0.0;
     memset(ctx, 0, sizeof *ctx);
@@ -18124,14 +18616,22 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
                              (unsigned long)k + 1);
     }
     n = (size_t)ctx->res * ctx->res;
+    ctx->fixed_grid = ctx->reuse = opt->static_lighting;
+    ctx->spectral = pds__render_is_spectral(s, opt);
+    ctx->spectral_all = ctx->spectral && opt->spectral;
+    nbuf = ctx->reuse && s->nlights > 1 ? s->nlights : 1;
     ctx->lights = (pds_light *)malloc(sizeof *ctx->lights * (s->nlights ? s->nlights : 1));
+    ctx->state = (unsigned char *)calloc(s->nlights ? s->nlights : 1, 1);
+    ctx->views = (pds__isc_view *)calloc(s->nlights ? s->nlights : 1, sizeof *ctx->views);
+    ctx->lviews = (pds__isc_view *)calloc(s->nlights ? s->nlights : 1, sizeof *ctx->lviews);
     ctx->px = (pds__isc_pixel *)calloc(npix, sizeof *ctx->px);
     ctx->direct = (double *)calloc(npix * 3, sizeof *ctx->direct);
     ctx->est = (pds__isc_est *)calloc(npix, sizeof *ctx->est);
     ctx->rgb = (double *)malloc(sizeof *ctx->rgb * 3 * npix);
     if (opt->time_s > 0.0) ctx->acc = (double *)calloc(npix * 4, sizeof *ctx->acc);
     else ctx->ring = (pds__isc_est *)calloc(npix * (size_t)ctx->history, sizeof *ctx->ring);
-    ctx->ph = (pds__isc_photon *)malloc(sizeof *ctx->ph * n);
+    if (n <= (size_t)-1 / sizeof *ctx->ph / nbuf) ctx->ph_all = (pds__isc_photon *)malloc(sizeof *ctx->ph * n * nbuf);
+    ctx->ph = ctx->ph_all;
     ctx->mask = (unsigned char *)malloc(n);
     ctx->ph_pixel = (int *)malloc(sizeof *ctx->ph_pixel * n);
     if (ctx->gather == PDS_ISC_QUADS) {
@@ -18147,9 +18647,11 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
     }
     if (ctx->gather == PDS_ISC_LIGHT) {
         ctx->dep = (float *)malloc(sizeof *ctx->dep * 4 * n);
-        ctx->lmap = (float *)malloc(sizeof *ctx->lmap * 4 * n);
+        if (n <= (size_t)-1 / (4 * sizeof *ctx->lmap) / nbuf)
+            ctx->lmap_all = (float *)malloc(sizeof *ctx->lmap * 4 * n * nbuf);
+        ctx->lmap = ctx->lmap_all;
     }
-    if (!ctx->lights || !ctx->px || !ctx->direct || !ctx->est || !ctx->rgb || !ctx->mask || (!ctx->acc && !ctx->ring) || !ctx->ph ||
+    if (!ctx->lights || !ctx->state || !ctx->views || !ctx->lviews || !ctx->px || !ctx->direct || !ctx->est || !ctx->rgb || !ctx->mask || (!ctx->acc && !ctx->ring) || !ctx->ph ||
         !ctx->ph_pixel || (ctx->gather == PDS_ISC_QUADS && (!ctx->ph_xy || !ctx->ph_front || !ctx->frags ||
                                                           !ctx->nfrags || !ctx->capfrags)) ||
         ((ctx->gather == PDS_ISC_EYE || ctx->gather == PDS_ISC_LIGHT) && !ctx->dep) ||
@@ -18210,10 +18712,11 @@ static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, in
         stats->time_eye_s = ctx.time_eye;
         stats->time_photons_s = ctx.time_photons;
         stats->time_gather_s = ctx.time_gather;
-        stats->memory_bytes = (size_t)pds__isc_memory(opt, (double)npix);
+        stats->memory_bytes = (size_t)pds__isc_memory(s, opt, (double)npix);
         for (i = 0; i < npix; i++) stats->eye_vertices += ctx.px[i].kind != 0;
         stats->spp = 1;
         stats->nonfinite = ctx.nonfinite;
+        stats->spectral = ctx.spectral;
     }
     pds__isc_free(&ctx);
     if (!st && last) *last = img;
@@ -18224,9 +18727,9 @@ static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, in
 /* This build leaves isc out: pds__options_check refuses the method, and
    so pds_render_frames. What >>api names of it stays, inert. */
 #define PDS__ISC_MAX_HISTORY 64
-static double pds__isc_memory(const pds_options *opt, double npix)
+static double pds__isc_memory(const pds_scene *s, const pds_options *opt, double npix)
 {
-    (void)opt, (void)npix;
+    (void)s, (void)opt, (void)npix;
     return 0.0;
 }
 static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, int w, int h, int threads, int frames,
@@ -18286,6 +18789,7 @@ void pds_options_default(pds_options *opt)
     opt->history = 4;
     opt->orbit = PDS_ORBIT_LIGHT;
     opt->orbit_deg = 2.0;
+    opt->static_lighting = 0;
     opt->caustics = PDS_METHOD_PDS;
     opt->global_photons = 100000;
     opt->global_k = 50;
@@ -18294,6 +18798,8 @@ void pds_options_default(pds_options *opt)
     opt->shadow_photons = 1;
     opt->streams = 0;
     opt->stream_photons = 10;
+    opt->global_map = PDS_GLOBAL_PHOTONS;
+    opt->stream_radius = 0.0;
 }
 
 void pds_debug_init(pds_debug *d)
@@ -18565,6 +19071,13 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown orbit %d", (int)opt->orbit);
     if (!(fabs(opt->orbit_deg) <= 360.0))
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "orbit step must be between -360 and 360 degrees");
+    if (opt->static_lighting != 0 && opt->static_lighting != 1)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "static lighting must be 0 or 1, got %d",
+                         opt->static_lighting);
+    if (opt->method == PDS_METHOD_ISC && opt->static_lighting && opt->time_s > 0.0)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                         "static lighting keeps one light-space grid, but a still with a time budget averages "
+                         "differently offset grids: leave out one of the two");
     if (opt->method != PDS_METHOD_PT && opt->method != PDS_METHOD_PREVIEW && opt->method != PDS_METHOD_ISC &&
         opt->method != PDS_METHOD_GI &&
         !pds__is_photon_method(opt->method))
@@ -18583,6 +19096,10 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the gather's cosine share must be above 0 and at most 1");
     if (opt->shadow_photons != 0 && opt->shadow_photons != 1)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "shadow photons must be 0 or 1");
+    if ((unsigned)opt->global_map > (unsigned)PDS_GLOBAL_STREAMS)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown global map %d", (int)opt->global_map);
+    if (!(opt->stream_radius >= 0.0 && opt->stream_radius <= 1e12))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the stream radius must be between 0 and 1e12");
     if ((unsigned)opt->paths > (unsigned)PDS_PATHS_CAUSTICS_ONLY)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown light path selection %d", (int)opt->paths);
     if (opt->shard_count < 1 || opt->shard_count > PDS__PARTIAL_MAX_SHARDS || opt->shard_index < 0 ||
@@ -18698,6 +19215,8 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
         double gbytes = (double)opt->global_photons *
                         (PDS__GI_MAX_STORES * (2.0 * sizeof(pds__gi_photon) + 21.0) +
                          (PDS__GI_MAX_SHADOW + 1) * (2.0 * sizeof(pds__gi_shadow_photon) + 21.0));
+        if (opt->global_map == PDS_GLOBAL_STREAMS)
+            gbytes += (double)opt->global_photons * PDS__GI_MAX_STORES * sizeof(pds__gi_stream);
         copt.method = opt->caustics;
         if ((st = pds_render_estimate_get(scene, &copt, est, err))) return st;
         est->memory_bytes += gbytes;
@@ -18728,7 +19247,7 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
     }
     if (opt->method == PDS_METHOD_ISC) {
         est->samples = npix;
-        bytes = npix * 3.0 * sizeof(float) + pds__isc_memory(opt, npix);
+        bytes = npix * 3.0 * sizeof(float) + pds__isc_memory(scene, opt, npix);
     }
     est->memory_bytes = bytes;
     est->available_bytes = pds__physical_memory();
@@ -18969,6 +19488,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *op
             stats->gather_rays += job.row_counts[4 * (size_t)y + 2];
         }
         stats->global_stored = (long)gmap.n;
+        stats->global_streams = (long)gmap.nstreams;
         stats->shadow_stored = (long)gmap.ns;
         free(job.row_counts);
         free(row_values);
@@ -19156,6 +19676,10 @@ pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int
                          pds_method_name(opt->method));
     if (frames < 1 || frames > 1000000)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "frame count %d is outside 1..1000000", frames);
+    if (opt->static_lighting && opt->orbit == PDS_ORBIT_LIGHT)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                         "static lighting keeps the photons of the first frame, so the light cannot orbit (orbit "
+                         "the camera, or nothing)");
     w = opt->width > 0 ? opt->width : scene->camera.width;
     h = opt->height > 0 ? opt->height : scene->camera.height;
     if ((st = pds__options_check(opt, w, h, err))) return st;

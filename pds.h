@@ -469,6 +469,15 @@ typedef enum pds_kernel {
     PDS_KERNEL_NONE        /* uniform disc */
 } pds_kernel;
 
+/* What gi's global photon map holds (pds_options.global_map). */
+typedef enum pds_global_map {
+    PDS_GLOBAL_PHOTONS = 0, /* Jensen 1996: single photons, k nearest per estimate */
+    PDS_GLOBAL_STREAMS      /* streamed photon mapping (seed paper 003): streams
+                               of a leading photon and stream_photons associated
+                               photons landing within stream_radius of it, the
+                               k nearest leaders per estimate */
+} pds_global_map;
+
 /* Which light paths a render computes. Caustic paths are L S+ D ...: light
    that reaches a non-specular vertex through one or more specular bounces.
    The photon methods compute those; the eye pass computes the rest. For
@@ -598,6 +607,14 @@ typedef struct pds_options {
     int shadow_photons; /* gi: 1 = shadow photons decide where shadow rays are
                            needed, 0 = a shadow ray for every light sample
                            (default 1) */
+    pds_global_map global_map; /* gi: single photons or streams (default
+                           PDS_GLOBAL_PHOTONS); streams: global_photons /
+                           (stream_photons + 1) streams of stream_photons + 1
+                           photons, global_k leaders per estimate */
+    double stream_radius; /* gi with streams: rs, the radius (scene units)
+                           around a leader's diffuse hit within which its
+                           associated photons are aimed; 0 = 1/16 of the
+                           largest side of the scene's bounds (default 0) */
     /* image-space caustics (isc) */
     pds_isc_gather isc_gather; /* default PDS_ISC_EYE */
     int light_resolution; /* side of the light-space photon buffer: side^2
@@ -609,6 +626,15 @@ typedef struct pds_options {
     pds_orbit orbit;    /* pds_render_frames: what turns (default PDS_ORBIT_LIGHT) */
     double orbit_deg;   /* pds_render_frames: degrees per frame, counter-
                            clockwise seen from above (default 2) */
+    int static_lighting; /* pds_render_frames: 1 = the lights and the scene
+                           stand still (orbit camera or none; not with a time
+                           budget): each light's photon buffer (and the light
+                           gather's map) is traced in the first frame, at
+                           frame 0's grid offset, and kept; the frames after
+                           redo only what depends on the eye (Wyman and Davis's
+                           "static lighting"). Each frame is what rendering it
+                           alone with this option gives. Stills are the same
+                           either way (default 0) */
     double memory_limit; /* bytes: pds_render refuses (PDS_ERR_LIMIT) a render
                            whose pds_render_estimate_get memory exceeds this;
                            0 = this machine's physical memory (default 0) */
@@ -767,6 +793,8 @@ typedef struct pds_render_stats {
     long shadow_rays_saved; /* gi: light samples the shadow photons decided
                                without a shadow ray */
     long gather_rays;       /* gi: final-gather rays traced */
+    long global_streams;    /* gi with streams: streams stored (a leader's
+                               diffuse hit and its associated photons) */
     long streams;           /* spm: streams emitted; photons = streams x
                                (stream_photons + 1) */
     size_t memory_bytes;    /* largest working memory the render held at once
@@ -786,8 +814,9 @@ typedef struct pds_render_stats {
    and for the photon methods 96 more (the partial state's two exact
    sums) plus 48 per thread, 96 per thread in spectral renders; gi: its
    caustic method's needs plus, per global photon, at most 8 global-map
-   stores of 149 bytes and 5 shadow stores of 117 bytes, each counted
-   twice while the threads' arrays are merged, with the kd-tree), the
+   stores of 149 bytes (with streams 32 more) and 5 shadow stores of 117
+   bytes, each counted twice while the threads' arrays are merged, with the
+   kd-tree), the
    pixel samples of one eye pass, and the machine's physical memory (0 if
    unknown). With a time budget the photon count is not known in advance
    and counts as 0. */
@@ -887,7 +916,8 @@ void pds_partial_free(pds_partial *part);
 unsigned long long pds_scene_hash(const pds_scene *scene);
 /* A hash of the options that may change the image: those a partial file
    keeps (every field but threads, progress, progress_user, debug,
-   memory_limit and the shard). Equal options give equal hashes; a tool
+   memory_limit, the shard, and static_lighting, which changes animation
+   frames only). Equal options give equal hashes; a tool
    that keeps finished renders uses it to know them again. */
 unsigned long long pds_options_hash(const pds_options *opt);
 
@@ -899,8 +929,10 @@ typedef pds_status (*pds_frame_fn)(void *user, int frame, const pds_image *image
 /* An animation of `frames` frames (method PDS_METHOD_ISC only): frame f
    turns opt->orbit by f x opt->orbit_deg and shifts the light-space photon
    grid by a sub-texel offset of its own, so the temporal filter
-   (opt->history) averages different photons even in a static scene. stats:
-   photons and times summed over the frames, passes = frames rendered. */
+   (opt->history) averages different photons even in a static scene; with
+   opt->static_lighting every frame keeps frame 0's photons instead (the
+   orbit must not be PDS_ORBIT_LIGHT). stats: photons traced and times
+   summed over the frames, passes = frames rendered. */
 pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int frames, pds_frame_fn fn,
                              void *user, pds_render_stats *stats, pds_error *err);
 

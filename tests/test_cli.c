@@ -432,6 +432,8 @@ static void test_cli_near_miss_names_get_a_suggestion(pds_test_ctx *t)
         {"render x.scene --method pdss", "pds render: unknown method 'pdss' (did you mean 'pds'?)\n"},
         {"render x.scene --kernel gausian", "--kernel knows cone, gaussian and none, got 'gausian' (did you mean "
                                             "'gaussian'?)\n"},
+        {"render x.scene --method gi --global-map stream", "pds render: --global-map takes photons or streams, got "
+                                                           "'stream' (did you mean 'streams'?)\n"},
         {"race x.scene --ref r.pfm --methds pt", "pds race: unknown option '--methds' (did you mean '--methods'?)\n"},
         {"race x.scene --ref r.pfm --methods pt,pmm --photons 3", "pds race: unknown method 'pmm' (did you mean 'pm', "
                                                                   "'pdm' or 'ppm'?)\n"},

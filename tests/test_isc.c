@@ -428,6 +428,278 @@ static void test_isc_temporal_filter_reduces_flicker(pds_test_ctx *t)
     isc_frames_free(&filtered);
 }
 
+/* The glass box and mirror under a point and a spot light: static
+   lighting keeps a buffer and a light map per light. */
+static const char isc_two_lights_scene[] =
+    "camera { position 0 4 3 look_at 0 0 0 fov 40 resolution 32 32 }\n"
+    "material floor diffuse { albedo 0.7 }\n"
+    "material glass dielectric { ior 1.5 }\n"
+    "material m mirror { reflectance 0.9 }\n"
+    "quad { material floor size 8 8 }\n"
+    "box { material glass size 0.8 0.5 0.6 rotate 35 1 0.3 0.2 translate 0.2 1.2 0 }\n"
+    "quad { material m size 0.6 0.6 rotate 100 0 0 1 translate 0.9 1 0.2 }\n"
+    "light point { position -0.5 3.5 0.4 power 50 }\n"
+    "light spot { position 1.5 3.2 -1 look_at 0.5 1 0 power 40 cone 25 35 }\n";
+
+static void isc_static_options(pds_options *opt, pds_isc_gather g, int history)
+{
+    pds_options_default(opt);
+    opt->method = PDS_METHOD_ISC;
+    opt->isc_gather = g;
+    opt->light_resolution = 64;
+    opt->width = opt->height = 48;
+    opt->history = history;
+    opt->orbit = PDS_ORBIT_CAMERA;
+    opt->orbit_deg = 7.0;
+    opt->static_lighting = 1;
+    opt->threads = 2;
+}
+
+/* Static lighting (Wyman and Davis, Table 1's "static" columns): with
+   the lights and the scene still, the frames keep each light's photon
+   buffer (and the light gather's map) traced in the first frame and redo only what
+   depends on the eye. With the camera orbiting and the temporal filter
+   on, every frame is bit for bit what recomputing everything each frame
+   from frame 0's grid gives; each frame with the filter off is what a
+   new render of that frame alone gives; each buffer is traced once; and
+   frame 0 is the still, with or without the option. */
+static void test_isc_static_lighting_frames_equal_frames_rendered_anew(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text(isc_two_lights_scene, &err);
+    size_t bytes = sizeof(float) * 3 * 48 * 48;
+    int g, f;
+    REQUIRE(t, s != NULL, "scene: %s", err.text);
+    for (g = 0; g < 4; g++) {
+        pds_options opt;
+        pds_render_stats st;
+        isc_frames anim, single;
+        pds__isc ctx;
+        pds_image img = {0, 0, NULL}, still = {0, 0, NULL};
+        int same = 0, alone = 0;
+        memset(&anim, 0, sizeof anim);
+        memset(&single, 0, sizeof single);
+        REQUIRE(t, pds_image_alloc(&img, 48, 48) == PDS_OK, "image");
+        isc_static_options(&opt, (pds_isc_gather)g, 4);
+        CHECK(t, pds_render_frames(s, &opt, 6, isc_keep_frame, &anim, &st, &err) == PDS_OK && anim.n == 6,
+              "%s: frames: %s", isc_gather_label[g], err.text);
+        CHECK(t, st.photons == 2 * 64 * 64 && st.splatted > 100, "%s: %ld photons traced for 6 frames, %ld landed",
+              isc_gather_label[g], st.photons, st.splatted);
+        /* the same frames with every buffer recomputed each frame */
+        if (anim.n == 6 && pds__isc_init(&ctx, s, &opt, 48, 48, 2, &err) == PDS_OK) {
+            ctx.reuse = 0;
+            for (f = 0; f < 6; f++) {
+                pds__isc_frame(&ctx, f, 0, &img);
+                same += memcmp(img.rgb, anim.rgb[f], bytes) == 0;
+            }
+            CHECK(t, ctx.photons == 6 * 2 * 64 * 64, "%s: recomputed %ld photons", isc_gather_label[g], ctx.photons);
+            pds__isc_free(&ctx);
+        }
+        CHECK(t, same == 6, "%s: %d of 6 frames equal the recomputed ones", isc_gather_label[g], same);
+        CHECK(t, anim.n == 6 && memcmp(anim.rgb[0], anim.rgb[5], bytes) != 0, "%s: the camera did not move",
+              isc_gather_label[g]);
+        /* frame 0 is the still, which the option does not change */
+        opt.static_lighting = 0;
+        if (anim.n == 6 && pds_render(s, &opt, &still, NULL, &err) == PDS_OK)
+            CHECK(t, memcmp(still.rgb, anim.rgb[0], bytes) == 0, "%s: frame 0 is not the still", isc_gather_label[g]);
+        pds_image_free(&still);
+        /* without the filter, frame 5 is frame 5 rendered alone */
+        isc_static_options(&opt, (pds_isc_gather)g, 1);
+        if (pds_render_frames(s, &opt, 6, isc_keep_frame, &single, NULL, &err) == PDS_OK && single.n == 6 &&
+            pds__isc_init(&ctx, s, &opt, 48, 48, 2, &err) == PDS_OK) {
+            pds__isc_frame(&ctx, 5, 0, &img);
+            alone = memcmp(img.rgb, single.rgb[5], bytes) == 0;
+            pds__isc_free(&ctx);
+        }
+        CHECK(t, alone, "%s: frame 5 of the animation is not frame 5 rendered alone", isc_gather_label[g]);
+        pds_image_free(&img);
+        isc_frames_free(&anim);
+        isc_frames_free(&single);
+    }
+    pds_scene_free(s);
+}
+
+/* Spectral isc: the fan scene of tests/test_spectral.c (an N-SF11 prism,
+   scenes/prism.obj, at minimum deviation for n_d before a screen), lit by
+   a narrow spot light where that test has a slit of collimated light
+   (isc takes point and spot lights only). Each light-space photon
+   carries a wavelength and is refracted with n(lambda), so the caustic on
+   the screen fans out: blue lands left of red, by the amount photon
+   mapping's photons give on the same scene, with the same light in each
+   channel. */
+static const char isc_fan_scene[] =
+    "camera { position 0.6 0.8 0.3 look_at 1.5 0.3 -0.85 fov 50 resolution 96 64 spp 4 }\n"
+    "material screen diffuse { albedo 0.8 }\n"
+    "material flint dielectric { %s }\n"
+    "quad { material screen size 3 3 rotate 90 0 0 1 translate 1.5 0.3 -0.8 }\n"
+    "mesh \"prism.obj\" { material flint scale 0.4 0.6 0.4 }\n"
+    "light spot { position -3.448 0.3 -2.131 direction 0.8369 0 0.5473 power 2000 cone 1 1.5 }\n";
+
+/* Render the fan scene (glass: the dielectric's law) as if it were a file
+   in scenes/ (for its mesh); caustics only. */
+static int isc_fan_render(const char *glass, pds_method method, pds_isc_gather g, int threads, pds_image *img,
+                          pds_render_stats *st)
+{
+    char text[1024];
+    pds_error err;
+    pds_scene *s = NULL;
+    pds_options opt;
+    int ok;
+    snprintf(text, sizeof text, isc_fan_scene, glass);
+    if (pds_scene_load_string(text, "scenes/isc-fan.scene", &s, &err) != PDS_OK) {
+        printf("  scene: %s\n", err.text);
+        return 0;
+    }
+    pds_options_default(&opt);
+    opt.method = method;
+    opt.isc_gather = g;
+    opt.light_resolution = 256;
+    opt.photons = 200000; /* pm */
+    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    opt.threads = threads;
+    ok = pds_render(s, &opt, img, st, &err) == PDS_OK;
+    if (!ok) printf("  render: %s\n", err.text);
+    pds_scene_free(s);
+    return ok;
+}
+
+/* The blue channel's centroid minus the red one's, in pixels along x,
+   and the light in each channel. */
+static double isc_fan_measure(const pds_image *img, double light[3])
+{
+    double wx[3] = {0, 0, 0};
+    int x, y, c;
+    for (c = 0; c < 3; c++) light[c] = 0.0;
+    for (y = 0; y < img->height; y++)
+        for (x = 0; x < img->width; x++)
+            for (c = 0; c < 3; c++) {
+                double v = fmax(0.0, img->rgb[3 * (y * img->width + x) + c]);
+                wx[c] += v * x;
+                light[c] += v;
+            }
+    return light[0] > 0.0 && light[2] > 0.0 ? wx[2] / light[2] - wx[0] / light[0] : 0.0;
+}
+
+static void test_isc_spectral_photons_fan_out_through_a_prism_as_pm_s(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    double pm_sep, pm_light[3], sep, light[3];
+    int g, c;
+    REQUIRE(t, isc_fan_render(SPECTRAL_SF11, PDS_METHOD_PM, PDS_ISC_EYE, 2, &img, &st), "pm");
+    pm_sep = isc_fan_measure(&img, pm_light);
+    pds_image_free(&img);
+    CHECK(t, pm_sep < -2.0, "pm: blue %.2f pixels right of red", pm_sep);
+    for (g = 0; g < 4; g++) {
+        REQUIRE(t, isc_fan_render(SPECTRAL_SF11, PDS_METHOD_ISC, (pds_isc_gather)g, 2, &img, &st), "%s",
+                isc_gather_label[g]);
+        sep = isc_fan_measure(&img, light);
+        CHECK(t, st.spectral == 1, "%s: not spectral", isc_gather_label[g]);
+        CHECK(t, fabs(sep / pm_sep - 1.0) < 0.1, "%s: fan %.2f pixels, pm %.2f", isc_gather_label[g], sep, pm_sep);
+        for (c = 0; c < 3; c++)
+            CHECK(t, fabs(light[c] / pm_light[c] - 1.0) < 0.1, "%s channel %d: %.4f, pm %.4f", isc_gather_label[g], c,
+                  light[c], pm_light[c]);
+        if (getenv("ISC_DBG"))
+            printf("%s sep %.3f (pm %.3f) light %.4f %.4f %.4f (pm %.4f %.4f %.4f)\n", isc_gather_label[g], sep, pm_sep,
+                   light[0], light[1], light[2], pm_light[0], pm_light[1], pm_light[2]);
+        pds_image_free(&img);
+    }
+    /* the same prism with a fixed index: no fan, and an RGB render */
+    REQUIRE(t, isc_fan_render("ior 1.7847", PDS_METHOD_ISC, PDS_ISC_EYE, 2, &img, &st), "fixed index");
+    sep = isc_fan_measure(&img, light);
+    CHECK(t, st.spectral == 0 && fabs(sep) < 0.05, "fixed index: spectral %d, blue %.3f pixels from red", st.spectral,
+          sep);
+    pds_image_free(&img);
+}
+
+/* The eye buffer through dispersive glass: the camera of
+   tests/test_spectral.c's eye-path test looks back through the prism at a
+   thin white diffuse strip lit by a point light. Each pixel's ray
+   refracts at its own wavelength, so the strip becomes a spectrum with
+   blue left of red, shifted as the path tracer shows it: one wavelength a
+   pixel is noisy (measured: 4.0 to 6.2 pixels over seeds 0-7), their mean
+   5.16 pixels (seeds 8-15: 5.55), pt 5.53 (5.48 at 256 samples a pixel).
+   With a fixed index there is no shift. */
+static const char isc_eye_scene[] =
+    "camera { position 1.355 0.3 -0.763 look_at 0.1 0.3 0.0577 fov 24 resolution 192 64 spp 64 }\n"
+    "material flint dielectric { %s }\n"
+    "material white diffuse { albedo 1 }\n"
+    "mesh \"prism.obj\" { material flint scale 0.4 0.6 0.4 }\n"
+    "quad { material white size 1.5 0.04 rotate 90 0 0 1 rotate 146.83 0 1 0 translate -1.774 0.3 -1.037 }\n"
+    "light point { position -1.342 0.8 -0.786 power 20 }\n";
+
+/* The blue channel's centroid minus the red one's, in pixels along x,
+   over the left 55% of the image: the strip seen through the prism (pt
+   also shows its reflection off the prism's face, further right, which
+   isc's one-path rule leaves out). */
+static double isc_strip_shift(const pds_image *img)
+{
+    double wx[3] = {0, 0, 0}, w[3] = {0, 0, 0};
+    int x, y, c;
+    for (y = 0; y < img->height; y++)
+        for (x = 0; x < img->width * 55 / 100; x++)
+            for (c = 0; c < 3; c += 2) {
+                double v = fmax(0.0, img->rgb[3 * (y * img->width + x) + c]);
+                wx[c] += v * x;
+                w[c] += v;
+            }
+    return w[0] > 0.0 && w[2] > 0.0 ? wx[2] / w[2] - wx[0] / w[0] : 0.0;
+}
+
+/* The strip's shift in a render by method (glass: the prism's law), the
+   mean over seeds 0..seeds-1. */
+static int isc_strip_render(const char *glass, pds_method method, int seeds, double *shift)
+{
+    char text[1024];
+    pds_error err;
+    pds_scene *s = NULL;
+    int k, ok = 1;
+    snprintf(text, sizeof text, isc_eye_scene, glass);
+    if (pds_scene_load_string(text, "scenes/isc-eye.scene", &s, &err) != PDS_OK) return 0;
+    *shift = 0.0;
+    for (k = 0; k < seeds && ok; k++) {
+        pds_options opt;
+        pds_image img = {0, 0, NULL};
+        pds_options_default(&opt);
+        opt.method = method;
+        opt.paths = PDS_PATHS_NO_CAUSTICS;
+        opt.seed = (unsigned long long)k;
+        opt.threads = 2;
+        ok = pds_render(s, &opt, &img, NULL, &err) == PDS_OK;
+        if (ok) *shift += isc_strip_shift(&img) / seeds;
+        pds_image_free(&img);
+    }
+    pds_scene_free(s);
+    return ok;
+}
+
+static void test_isc_spectral_eye_rays_see_a_strip_through_a_prism_as_a_spectrum(pds_test_ctx *t)
+{
+    double isc, pt, fixed;
+    REQUIRE(t, isc_strip_render(SPECTRAL_SF11, PDS_METHOD_ISC, 8, &isc), "isc");
+    REQUIRE(t, isc_strip_render(SPECTRAL_SF11, PDS_METHOD_PT, 1, &pt), "pt");
+    REQUIRE(t, isc_strip_render("ior 1.7847", PDS_METHOD_ISC, 1, &fixed), "isc, fixed index");
+    if (getenv("ISC_DBG")) printf("shift isc %.3f pt %.3f; fixed index isc %.3f\n", isc, pt, fixed);
+    CHECK(t, isc < -2.0, "isc: blue %.3f pixels right of red", isc);
+    CHECK(t, fabs(isc / pt - 1.0) < 0.15, "isc: blue %.3f pixels from red, pt %.3f", isc, pt);
+    CHECK(t, fabs(fixed) < 0.05, "isc, fixed index: blue %.3f pixels from red", fixed);
+}
+
+/* Spectral isc is the same bit for bit for any thread count: every gather. */
+static void test_isc_spectral_is_identical_for_any_thread_count(pds_test_ctx *t)
+{
+    int g;
+    for (g = 0; g < 4; g++) {
+        pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+        REQUIRE(t, isc_fan_render(SPECTRAL_SF11, PDS_METHOD_ISC, (pds_isc_gather)g, 1, &a, NULL), "1 thread");
+        REQUIRE(t, isc_fan_render(SPECTRAL_SF11, PDS_METHOD_ISC, (pds_isc_gather)g, 3, &b, NULL), "3 threads");
+        CHECK(t, memcmp(a.rgb, b.rgb, sizeof(float) * 3 * (size_t)a.width * a.height) == 0, "%s: 1 and 3 threads differ",
+              isc_gather_label[g]);
+        pds_image_free(&a);
+        pds_image_free(&b);
+    }
+}
+
 /* A light orbit moves the caustic: frame 45 degrees on is not frame 0,
    and a full turn brings it back. */
 static void test_isc_light_orbit_moves_the_caustic_and_returns(pds_test_ctx *t)
@@ -570,6 +842,15 @@ static void test_isc_refuses_what_it_cannot_render(pds_test_ctx *t)
     opt.history = 0;
     CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_ERR_INVALID_ARG && strstr(err.text, "history 0") != NULL,
           "history 0: %s", err.text);
+    opt.history = 4;
+    opt.static_lighting = 1;
+    CHECK(t, pds_render_frames(s, &opt, 3, isc_keep_frame, NULL, NULL, &err) == PDS_ERR_INVALID_ARG &&
+                 strstr(err.text, "the light cannot orbit") != NULL,
+          "static lighting, light orbit: %s", err.text);
+    opt.time_s = 1.0;
+    CHECK(t, pds_render(s, &opt, &img, NULL, &err) == PDS_ERR_INVALID_ARG &&
+                 strstr(err.text, "static lighting keeps one light-space grid") != NULL,
+          "static lighting, time budget: %s", err.text);
     pds_scene_free(s);
 }
 
@@ -597,6 +878,13 @@ static void test_isc_cli_frames_and_options(pds_test_ctx *t)
     CHECK(t, cli_run("render scenes/ring_octahedron.scene --method isc --gather eyes", out, sizeof out) == 2 &&
                  strstr(out, "pds render: --gather takes points, quads, eye or light, got 'eyes' (did you mean 'eye'?)"),
           "%s", out);
+    CHECK(t, cli_run("render scenes/ring_octahedron.scene --method isc --static-lighting", out, sizeof out) == 2 &&
+                 strstr(out, "pds render: --static-lighting keeps the photons from frame to frame: it is for --frames"),
+          "%s", out);
+    CHECK(t, cli_run("render scenes/ring_octahedron.scene --method isc --static-lighting --frames 2", out, sizeof out) ==
+                     2 &&
+                 strstr(out, "pds render: --static-lighting keeps the light where it is: give --orbit camera or --orbit none"),
+          "%s", out);
     CHECK(t, cli_run("render tests/golden/glass.scene --frames 3", out, sizeof out) == 2 &&
                  strstr(out, "--frames renders an animation with --method isc only"),
           "%s", out);
@@ -615,6 +903,11 @@ static const pds_test_case tests_isc[] = {
     {"isc_quads_cover_a_plane_mirrors_caustic_exactly_once", test_isc_quads_cover_a_plane_mirrors_caustic_exactly_once},
     {"isc_is_identical_for_any_thread_count", test_isc_is_identical_for_any_thread_count},
     {"isc_temporal_filter_reduces_flicker", test_isc_temporal_filter_reduces_flicker},
+    {"isc_static_lighting_frames_equal_frames_rendered_anew", test_isc_static_lighting_frames_equal_frames_rendered_anew},
+    {"isc_spectral_photons_fan_out_through_a_prism_as_pm_s", test_isc_spectral_photons_fan_out_through_a_prism_as_pm_s},
+    {"isc_spectral_eye_rays_see_a_strip_through_a_prism_as_a_spectrum",
+     test_isc_spectral_eye_rays_see_a_strip_through_a_prism_as_a_spectrum},
+    {"isc_spectral_is_identical_for_any_thread_count", test_isc_spectral_is_identical_for_any_thread_count},
     {"isc_light_orbit_moves_the_caustic_and_returns", test_isc_light_orbit_moves_the_caustic_and_returns},
     {"isc_time_budget_averages_offset_frames", test_isc_time_budget_averages_offset_frames},
     {"isc_frames_stop_when_the_callback_fails", test_isc_frames_stop_when_the_callback_fails},

@@ -35,12 +35,12 @@
 #include "test_differentials.c"
 #include "test_pds.c"
 #include "test_baselines.c"
-#include "test_streams.c"
 #include "test_exact.c"
 #include "test_limits.c"
 #include "test_spectral.c"
 #include "test_glossy.c"
 #include "test_gi.c"
+#include "test_streams.c" /* after test_gi.c: gi's streams use its helpers */
 #include "test_shards.c"
 #include "test_isc.c"
 #include "test_teach.c"

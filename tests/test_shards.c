@@ -500,38 +500,47 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     pds_partial_free(back);
     back = NULL;
     bytes = shards_slurp(path, &n);
-    REQUIRE(t, bytes != NULL && n > 1024, "slurp");
-    /* 1024 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
-    CHECK(t, n == 1024 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
-    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 3 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
+    REQUIRE(t, bytes != NULL && n > 1040, "slurp");
+    /* 1040 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
+    CHECK(t, n == 1040 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
+    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 4 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
                  bytes[548] == 24 && bytes[552] == 16 && bytes[556] == 1 && bytes[560] == 2 && bytes[564] == 1 &&
-                 bytes[568 + 8 * 41] == 4 && bytes[920 + 8] == 3,
+                 bytes[568 + 8 * 41] == 4 && bytes[936 + 8] == 3,
           "layout"); /* option 41 (history, default 4) and units total (3 passes) at their offsets */
     copy = (unsigned char *)malloc(n);
     REQUIRE(t, copy != NULL, "malloc");
-    /* format version 2 is read: the same part without options 31-43 (its
-       options at their defaults, as every version-2 render had them) */
-    memcpy(copy, bytes, 816);
-    memcpy(copy + 816, bytes + 920, n - 920);
-    copy[8] = 2;
-    pds__put_u64(copy + n - 104 - 8, pds__fnv1a64(copy, n - 104 - 8));
-    shards_spit(bad, copy, n - 104);
-    CHECK(t, pds_partial_read(bad, &back, &err) == PDS_OK, "version 2: %s", err.text);
-    if (back) {
-        pds_image_free(&ib);
-        pds_partial_get_info(back, &b);
-        CHECK(t, b.units_done == a.units_done && b.complete && shards_merge(&back, 1, 1, &ib, NULL, &err) == PDS_OK &&
-                     shards_same(&ia, &ib),
-              "version 2: another part or image read back");
-        CHECK(t, pds__partial_same_options(&p->opt, &back->opt), "version 2: other options read back");
-        pds_partial_free(back);
-        back = NULL;
+    {
+        /* format versions 2 and 3 are read: the same part without
+           options 31-45 and 44-45 (at their defaults, as every render
+           of those versions had them) */
+        static const struct { unsigned char version; size_t nopt; } old[2] = {{2, 31}, {3, 44}};
+        int v;
+        for (v = 0; v < 2; v++) {
+            size_t at = 568 + 8 * old[v].nopt, cut = 936 - at;
+            memcpy(copy, bytes, at);
+            memcpy(copy + at, bytes + 936, n - 936);
+            copy[8] = old[v].version;
+            pds__put_u64(copy + n - cut - 8, pds__fnv1a64(copy, n - cut - 8));
+            shards_spit(bad, copy, n - cut);
+            CHECK(t, pds_partial_read(bad, &back, &err) == PDS_OK, "version %d: %s", old[v].version, err.text);
+            if (back) {
+                pds_image_free(&ib);
+                pds_partial_get_info(back, &b);
+                CHECK(t, b.units_done == a.units_done && b.complete &&
+                             shards_merge(&back, 1, 1, &ib, NULL, &err) == PDS_OK && shards_same(&ia, &ib),
+                      "version %d: another part or image read back", old[v].version);
+                CHECK(t, pds__partial_same_options(&p->opt, &back->opt), "version %d: other options read back",
+                      old[v].version);
+                pds_partial_free(back);
+                back = NULL;
+            }
+        }
     }
     memcpy(copy, bytes, n);
     copy[8] = 1;
     shards_spit(bad, copy, n);
     CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE &&
-                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 and 3"),
+                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 4"),
           "format version: %s", err.text);
     memcpy(copy, bytes, n);
     memcpy(copy + 12, "9.9.9", 5);
@@ -572,7 +581,8 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
    1 = it may change the image, so it is stored (and parts that differ in
    it are not one render); 0 = it cannot change the image (threads and
    the order of work, callbacks, a memory guard, the shard, which the
-   header holds). */
+   header holds, isc's static lighting, which changes animation frames
+   only). */
 typedef struct shards_field {
     const char *name;
     size_t offset, size;
@@ -597,7 +607,9 @@ static const shards_field shards_fields[] = {
     SHARDS_FIELD(global_k, 1),       SHARDS_FIELD(gather, 1),          SHARDS_FIELD(gather_mix, 1),
     SHARDS_FIELD(shadow_photons, 1), SHARDS_FIELD(isc_gather, 1),      SHARDS_FIELD(light_resolution, 1),
     SHARDS_FIELD(history, 1),        SHARDS_FIELD(orbit, 1),           SHARDS_FIELD(orbit_deg, 1),
+    SHARDS_FIELD(global_map, 1),     SHARDS_FIELD(stream_radius, 1),
     SHARDS_FIELD(memory_limit, 0),   SHARDS_FIELD(shard_index, 0),     SHARDS_FIELD(shard_count, 0),
+    SHARDS_FIELD(static_lighting, 0),
 };
 
 /* The names of pds_options's fields as pds.h declares them: comments

@@ -2,8 +2,12 @@
    answers: the uniform caustic under the glass slab (eq. 2 with the
    search circle set by the k-th stream and by R), the flux of the
    streams, its equivalence with photon mapping when a stream is one
-   photon, determinism and the map's size. Uses the scenes and helpers of
-   test_pds.c and test_baselines.c. */
+   photon, determinism and the map's size. Then the streams of gi's
+   global map: where the associated photons land (chi-square against
+   the uniform disc), the flux of a stream against its leader's single
+   photon, the estimate on a uniform light, single-photon streams against
+   the single-photon map, determinism and the map's bytes. Uses the
+   scenes and helpers of test_pds.c, test_baselines.c and test_gi.c. */
 
 static long spm_test_streams = 100000;
 static int spm_test_k = 100;
@@ -206,6 +210,254 @@ static void test_spm_stream_count_and_its_limits(pds_test_ctx *t)
     CHECK(t, !strcmp(pds_method_name(PDS_METHOD_SPM), "spm"), "name");
 }
 
+/* ---------------------------------------------------- gi's streams */
+
+/* gi options with a map of streams of nfa associated photons, radius rs,
+   nfs streams. */
+static void gi_streams_options(pds_options *o, int threads, long nfs, int nfa, double rs)
+{
+    gi_options(o, threads);
+    o->global_map = PDS_GLOBAL_STREAMS;
+    o->stream_photons = nfa;
+    o->stream_radius = rs;
+    o->global_photons = nfs * (nfa + 1L);
+}
+
+/* Pearson's chi-square of counts against equal expected counts. */
+static double streams_chi2(const long *count, int bins, long total)
+{
+    double e = (double)total / bins, x = 0.0;
+    int i;
+    for (i = 0; i < bins; i++) x += (count[i] - e) * (count[i] - e) / e;
+    return x;
+}
+
+/* Sect. 3.1, 3a: each associated photon gets "a random point within the
+   region surrounding the new position of the leading photon of a radius
+   denoting the stream's width". Under a point light over a plane the
+   associated photons of every stream must lie within rs of its leader,
+   have left from the light towards where they lie (their directions
+   deviate from the leader's by the disc's angle), and be uniform by area
+   in the disc: (d / rs)^2 and the polar angle each uniform on 20 bins,
+   chi-square below 43.82 (19 degrees of freedom, 0.1 % false alarms;
+   the seed is fixed). The same data read as uniform in d / rs instead
+   must fail that bound by far, so the test can see a wrong law. */
+static void test_gi_streams_associated_photons_are_uniform_in_the_stream_disc(pds_test_ctx *t)
+{
+    enum { BINS = 20 };
+    pds_error err;
+    pds_scene *s = scene_from_text(gi_plane_scene, &err);
+    pds__gi_map g;
+    pds_options o;
+    long area_bins[BINS] = {0}, angle_bins[BINS] = {0}, radius_bins[BINS] = {0}, n = 0, outside = 0, astray = 0;
+    size_t i;
+    double rs = 0.3, chi_area, chi_angle, chi_radius;
+    pds__v3 light = pds__v(0.0, 1.0, 0.0);
+    REQUIRE(t, s, "scene: %s", err.text);
+    gi_streams_options(&o, 2, 3000, 20, rs);
+    REQUIRE(t, pds__gi_map_build(&g, s, &o, 2, &err) == PDS_OK, "map: %s", err.text);
+    CHECK(t, g.nstreams > 1200 && g.nstreams < 1800, "%lu streams landed of 3000 (about half go down)",
+          (unsigned long)g.nstreams);
+    for (i = 0; i < g.nstreams; i++) {
+        const pds__gi_stream *st = &g.streams[i];
+        const pds__gi_photon *lead = &g.photons[st->first];
+        long j;
+        for (j = 1; j < st->count; j++) {
+            const pds__gi_photon *p = &g.photons[st->first + j];
+            double dx = (double)p->pos[0] - lead->pos[0], dz = (double)p->pos[2] - lead->pos[2];
+            double q = (dx * dx + dz * dz) / (rs * rs), phi = atan2(dz, dx) + PDS__PI;
+            pds__v3 from_light = pds__normalize(pds__sub(pds__f3_get(p->pos), light));
+            int b;
+            outside += q > 1.0 + 1e-5 || p->index != lead->index;
+            astray += pds__length(pds__sub(from_light, pds__f3_get(p->dir))) > 1e-5;
+            b = (int)(q * BINS);
+            area_bins[b < BINS ? b : BINS - 1]++;
+            b = (int)(sqrt(q) * BINS);
+            radius_bins[b < BINS ? b : BINS - 1]++;
+            b = (int)(phi / (2.0 * PDS__PI) * BINS);
+            angle_bins[b < BINS ? b : BINS - 1]++;
+            n++;
+        }
+    }
+    chi_area = streams_chi2(area_bins, BINS, n);
+    chi_angle = streams_chi2(angle_bins, BINS, n);
+    chi_radius = streams_chi2(radius_bins, BINS, n);
+    CHECK(t, n > 20000, "%ld associated photons", n);
+    CHECK(t, outside == 0, "%ld associated photons outside their stream's disc", outside);
+    CHECK(t, astray == 0, "%ld associated photons did not come from the light", astray);
+    CHECK(t, chi_area < 43.82, "(d / rs)^2 not uniform: chi-square %.1f", chi_area);
+    CHECK(t, chi_angle < 43.82, "polar angle not uniform: chi-square %.1f", chi_angle);
+    CHECK(t, chi_radius > 10.0 * 43.82, "uniform in d / rs would pass too: chi-square %.1f", chi_radius);
+    pds__gi_map_free(&g);
+    pds_scene_free(s);
+}
+
+/* Energy: stream i's leader is photon i of the single-photon map of nfs
+   photons (the same emission and bounces), so at every diffuse hit the
+   stream's photons together must carry exactly that photon's flux, the
+   emitted Es = Ez / nfs (eq. 1) times the surface factors on the way
+   (albedo over the roulette's survival, Fresnel, absorption): the
+   associated photons share it (nfa + 1 ways) or give their share back
+   to the leader. In the box with a glass ball and a glossy one. */
+static void test_gi_streams_carry_their_leaders_flux(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text(gi_box_scene, &err);
+    pds__gi_map g1, gs;
+    pds_options o;
+    size_t i;
+    long shared = 0, bad = 0, moved = 0;
+    double worst = 0.0;
+    REQUIRE(t, s, "scene: %s", err.text);
+    gi_options(&o, 2);
+    o.global_photons = 4000;
+    REQUIRE(t, pds__gi_map_build(&g1, s, &o, 2, &err) == PDS_OK, "single photons: %s", err.text);
+    gi_streams_options(&o, 2, 4000, 5, 0.1);
+    REQUIRE(t, pds__gi_map_build(&gs, s, &o, 3, &err) == PDS_OK, "streams: %s", err.text);
+    REQUIRE(t, gs.nstreams == g1.n && g1.n > 5000, "%lu stream stores, %lu single stores", (unsigned long)gs.nstreams,
+            (unsigned long)g1.n);
+    for (i = 0; i < gs.nstreams; i++) {
+        const pds__gi_stream *st = &gs.streams[i];
+        const pds__gi_photon *p1 = &g1.photons[i];
+        double sum[3] = {0.0, 0.0, 0.0};
+        long j;
+        int c;
+        for (j = 0; j < st->count; j++)
+            for (c = 0; c < 3; c++) sum[c] += gs.photons[st->first + j].flux[c];
+        for (c = 0; c < 3; c++) {
+            double rel = fabs(sum[c] / p1->flux[c] - 1.0);
+            if (rel > worst) worst = rel;
+            bad += !(rel < 2e-6);
+        }
+        moved += memcmp(gs.photons[st->first].pos, p1->pos, sizeof p1->pos) != 0;
+        shared += st->count > 1;
+    }
+    CHECK(t, bad == 0, "%ld stream fluxes differ from their leader's photon, worst by %.3g", bad, worst);
+    CHECK(t, moved == 0, "%ld leaders are not where their single photon landed", moved);
+    CHECK(t, shared > (long)gs.nstreams / 2, "only %ld of %lu streams kept associated photons", shared,
+          (unsigned long)gs.nstreams);
+    pds__gi_map_free(&g1);
+    pds__gi_map_free(&gs);
+    pds_scene_free(s);
+}
+
+/* The streams' estimate (eq. 2 over the k nearest leaders, each
+   stream's photons inside the circle, cone filter) where the light is
+   uniform: a plane of albedo 0.5 under a directional light of
+   irradiance 2 W/m^2 over 8 x 8 units. At 25 points away from the edge,
+   L = 0.5 / pi x 2, within 8 % each and 2 % on average. */
+static void test_gi_streams_estimate_returns_a_uniform_irradiance(pds_test_ctx *t)
+{
+    static const char text[] =
+        "camera { position 0 3 0.000001 look_at 0 0 0 up 0 0 -1 fov 40 resolution 8 8 spp 1 }\n"
+        "material floor diffuse { albedo 0.5 }\n"
+        "quad { material floor size 20 20 }\n"
+        "light directional { direction 0 -1 0 irradiance 2 rect 0 3 0 8 0 0 0 0 8 }\n";
+    pds_error err;
+    pds_scene *s = scene_from_text(text, &err);
+    pds__gi_map g;
+    pds_options o;
+    int i, j, bad = 0, n = 0;
+    double exact = 0.5 / PDS__PI * 2.0, sum = 0.0, worst = 0.0;
+    pds__v3 up = pds__v(0.0, 1.0, 0.0);
+    REQUIRE(t, s, "scene: %s", err.text);
+    gi_streams_options(&o, 2, 20000, 10, 0.25);
+    o.global_k = 100;
+    REQUIRE(t, pds__gi_map_build(&g, s, &o, 2, &err) == PDS_OK, "map: %s", err.text);
+    CHECK(t, g.nstreams == 20000 && g.n > 210000, "%lu streams, %lu photons", (unsigned long)g.nstreams,
+          (unsigned long)g.n);
+    for (i = -2; i <= 2; i++) {
+        for (j = -2; j <= 2; j++) {
+            double L[3], rel;
+            pds__gi_radiance(&g, &s->materials.items[0], pds__v(0.5 * i, 0.0, 0.5 * j),
+                             pds__normalize(pds__v(0.3, 1.0, -0.2)), up, up, L);
+            rel = fabs(L[1] / exact - 1.0);
+            if (rel > worst) worst = rel;
+            bad += rel > 0.08;
+            sum += L[1];
+            n++;
+        }
+    }
+    CHECK(t, bad == 0, "%d of %d estimates off by more than 8%%, worst %.4f", bad, n, worst);
+    CHECK(t, fabs(sum / n / exact - 1.0) < 0.02, "mean estimate / exact = %.4f", sum / n / exact);
+    pds__gi_map_free(&g);
+    pds_scene_free(s);
+}
+
+/* Streams of one photon (nfa = 0) are the single photons: the same map,
+   the same k nearest, the same cone weights, so the same image but for
+   the order of the sums. */
+static void test_gi_streams_of_one_photon_are_the_single_photon_map(pds_test_ctx *t)
+{
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    pds_render_stats sa, sb;
+    pds_options o;
+    size_t i, n;
+    double worst = 0.0, total = 0.0;
+    gi_options(&o, 2);
+    o.paths = PDS_PATHS_NO_CAUSTICS;
+    o.global_photons = 20000;
+    REQUIRE(t, render_text(gi_box_scene, &o, &a, &sa), "single photons");
+    gi_streams_options(&o, 2, 20000, 0, 0.05);
+    o.paths = PDS_PATHS_NO_CAUSTICS;
+    REQUIRE(t, render_text(gi_box_scene, &o, &b, &sb), "streams of one photon");
+    n = (size_t)a.width * a.height * 3;
+    for (i = 0; i < n; i++) {
+        double d = fabs((double)a.rgb[i] - b.rgb[i]) / (1e-3 + a.rgb[i]);
+        if (d > worst) worst = d;
+        total += a.rgb[i];
+    }
+    CHECK(t, total > 0.0 && worst < 1e-5, "worst relative difference %g", worst);
+    CHECK(t, sa.global_stored == sb.global_stored && sb.global_streams == sb.global_stored && sa.global_streams == 0,
+          "stored %ld and %ld, streams %ld and %ld", sa.global_stored, sb.global_stored, sa.global_streams,
+          sb.global_streams);
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+
+/* The same image bit for bit on 1 and 3 threads, and the same counts;
+   the map's bytes are its photons, its stream records and the kd-tree
+   over the leaders (not over every photon), plus the shadow map. */
+static void test_gi_streams_are_identical_for_any_thread_count_and_counted(pds_test_ctx *t)
+{
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    pds_render_stats sa, sb;
+    pds_options o;
+    size_t node = 3 * sizeof(float) + sizeof(size_t) + 1, expect;
+    gi_streams_options(&o, 1, 4000, 10, 0.1);
+    REQUIRE(t, render_text(gi_box_scene, &o, &a, &sa), "1 thread");
+    o.threads = 3;
+    REQUIRE(t, render_text(gi_box_scene, &o, &b, &sb), "3 threads");
+    CHECK(t, memcmp(a.rgb, b.rgb, sizeof(float) * 3 * (size_t)a.width * a.height) == 0, "bitwise equal");
+    CHECK(t, sa.global_stored == sb.global_stored && sa.global_streams == sb.global_streams &&
+                 sa.global_streams > 4000 && sa.global_stored > 5 * sa.global_streams &&
+                 sa.gather_rays == sb.gather_rays && sa.map_bytes == sb.map_bytes,
+          "counts differ: stored %ld/%ld, streams %ld/%ld", sa.global_stored, sb.global_stored, sa.global_streams,
+          sb.global_streams);
+    expect = (size_t)sa.global_stored * sizeof(pds__gi_photon) +
+             (size_t)sa.global_streams * (sizeof(pds__gi_stream) + node) +
+             (size_t)sa.shadow_stored * (sizeof(pds__gi_shadow_photon) + node);
+    CHECK(t, sa.map_bytes == expect, "map_bytes %lu, expected %lu", (unsigned long)sa.map_bytes,
+          (unsigned long)expect);
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+
+static void test_gi_streams_reject_bad_options(pds_test_ctx *t)
+{
+    pds_options o;
+    pds_error err;
+    gi_streams_options(&o, 1, 100, 10, 0.1);
+    o.global_map = (pds_global_map)2;
+    CHECK(t, pds__options_check(&o, 8, 8, &err) == PDS_ERR_INVALID_ARG && !strcmp(err.message, "unknown global map 2"),
+          "%s", err.message);
+    gi_streams_options(&o, 1, 100, 10, -1.0);
+    CHECK(t, pds__options_check(&o, 8, 8, &err) == PDS_ERR_INVALID_ARG && strstr(err.message, "stream radius"), "%s",
+          err.message);
+    o.stream_radius = nan("");
+    CHECK(t, pds__options_check(&o, 8, 8, &err) == PDS_ERR_INVALID_ARG, "NaN radius");
+}
+
 static const pds_test_case tests_streams[] = {
     {"spm_finds_the_analytic_irradiance_of_a_uniform_caustic",
      test_spm_finds_the_analytic_irradiance_of_a_uniform_caustic},
@@ -217,4 +469,12 @@ static const pds_test_case tests_streams[] = {
     {"spm_is_identical_for_any_thread_count", test_spm_is_identical_for_any_thread_count},
     {"spm_map_bytes_count_the_stored_streams", test_spm_map_bytes_count_the_stored_streams},
     {"spm_stream_count_and_its_limits", test_spm_stream_count_and_its_limits},
+    {"gi_streams_associated_photons_are_uniform_in_the_stream_disc",
+     test_gi_streams_associated_photons_are_uniform_in_the_stream_disc},
+    {"gi_streams_carry_their_leaders_flux", test_gi_streams_carry_their_leaders_flux},
+    {"gi_streams_estimate_returns_a_uniform_irradiance", test_gi_streams_estimate_returns_a_uniform_irradiance},
+    {"gi_streams_of_one_photon_are_the_single_photon_map", test_gi_streams_of_one_photon_are_the_single_photon_map},
+    {"gi_streams_are_identical_for_any_thread_count_and_counted",
+     test_gi_streams_are_identical_for_any_thread_count_and_counted},
+    {"gi_streams_reject_bad_options", test_gi_streams_reject_bad_options},
 };
