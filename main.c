@@ -2107,6 +2107,15 @@ static int cmd_render(int argc, char **argv)
     pds_partial_free(part);
     pds_scene_free(scene);
     if (rc == 0 || rc == 130) print_render_line(&c, &stats, part_only ? part_path : output);
+    /* a budget the photon pass missed by more than race's tolerance (25%):
+       pm's or pdm's gather alone can outlast it at a high resolution */
+    if (rc == 0 && c.opt.time_s > 0.0 && is_photon_method(c.opt.method) && !stop_requested &&
+        stats.time_photons_s > 1.25 * c.opt.time_s)
+        fprintf(stderr, "pds render: warning: the photon pass took %.3g s of its %g s budget (%+.0f%%)%s\n",
+                stats.time_photons_s, c.opt.time_s, 100.0 * (stats.time_photons_s / c.opt.time_s - 1.0),
+                MBIT(c.opt.method) & M_MAP ? "; the map's build and gather come after the last photon, and "
+                                             "their cost grows with the eye vertices (--res, --spp) and k or --max-photons"
+                                           : "");
     pds_debug_free(&c.debug);
     return rc;
 }

@@ -772,6 +772,21 @@ static void test_harness_race_tune_keeps_the_quickest_when_every_value_overruns(
     remove(ref);
 }
 
+/* pds render warns when the photon pass missed its --time by more than
+   25%: 1 ms cannot hold even pm's calibration, map and gather. */
+static void test_harness_render_warns_of_a_missed_time_budget(pds_test_ctx *t)
+{
+    char out[8192], err[4096], args[512], path[256];
+    harness_path(path, sizeof path, "missed.pfm");
+    snprintf(args, sizeof args,
+             "render tests/golden/glass.scene --method pm --time 0.001 --res 32x24 --caustics-only --quiet -o %s", path);
+    REQUIRE(t, cli_run_split(args, out, sizeof out, err, sizeof err) == 0, "render failed: %s %s", out, err);
+    CHECK(t, strstr(err, "pds render: warning: the photon pass took ") && strstr(err, "of its 0.001 s budget") &&
+                 strstr(err, "the map's build and gather come after the last photon"),
+          "the warning: %s", err);
+    remove(path);
+}
+
 static void test_harness_race_budgets_draw_a_log_log_convergence_plot(pds_test_ctx *t)
 {
     static const char *const labels[4] = {"pds-1000ph", "pm-k20-1000ph", "pds-4000ph", "pm-k20-4000ph"};
@@ -979,6 +994,7 @@ static const pds_test_case tests_harness[] = {
      test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_seed},
     {"harness_race_tune_keeps_the_quickest_when_every_value_overruns",
      test_harness_race_tune_keeps_the_quickest_when_every_value_overruns},
+    {"harness_render_warns_of_a_missed_time_budget", test_harness_render_warns_of_a_missed_time_budget},
     {"harness_race_budgets_draw_a_log_log_convergence_plot", test_harness_race_budgets_draw_a_log_log_convergence_plot},
     {"harness_race_page_says_how_it_was_made", test_harness_race_page_says_how_it_was_made},
     {"harness_sweep_flags_an_optimum_at_the_edge_and_draws_photons_log_log",
