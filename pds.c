@@ -12826,12 +12826,16 @@ static int pds__eye_response(const pds_scene *s, const pds__eye_vertex *v, pds__
    traced part of the pixel, and which surfaces and branches of the glass
    it sees. So raising --spp costs the photon pass only where the samples
    see different things (glass, edges). Merged when both vertices are
-   Lambertian and RGB (no wavelength of their own), of one material, seen
-   straight from a pinhole camera (not through glass or a mirror, not
-   through a lens), their shading and geometric normals within 2.6 degrees
+   Lambertian and RGB (no wavelength of their own), of one material, both
+   seen straight from a pinhole camera or both not (through glass or a
+   mirror; never through a lens), their shading and geometric normals
+   within 2.6 degrees
    (cos > 0.999), the second within PDS__EYE_MERGE_PIXELS pixel widths of
-   the first and within 5% of that of its plane, with the box pixel
-   filter (a tent's samples spread over four pixels). Greedy in sample
+   the first (seen through something: one width of the pixel seen directly
+   at that distance, so a magnified view stays apart) and within 5% of that
+   of its plane, with the box pixel filter (a tent's samples spread over
+   four pixels). Seen through something, the pixel's half-axes on the
+   surface are what its samples covered (pds__eye_merge). Greedy in sample
    order, so the same for any thread count. Only the splatting methods
    (progressive PDS and splat) merge: a gather (pm, pdm, ppm, spm) has no
    kernel to average; the paper's one-pass PDS keeps its vertices. */
@@ -12877,22 +12881,36 @@ static size_t pds__eye_merge(pds__eye_vertex *v, size_t n, const pds__camera_fra
     size_t i, j, out = 0;
     for (i = 0; i < n; i++) {
         pds__eye_vertex m = v[i];
-        pds__v3 x = pds__f3_get(m.pos), sum, ex, ey;
-        double w0 = m.weight[0] + m.weight[1] + m.weight[2], wsum = w0, h;
-        int c, merged = 0;
-        if (!m.lambert || m.lambda != 0.0f || !pds__eye_direct(&m, f) ||
-            !pds__pixel_axes(f, x, pds__f3_get(m.n), &ex, &ey)) {
+        pds__v3 x = pds__f3_get(m.pos), nm = pds__f3_get(m.n), sum, ex, ey, t1, t2;
+        double w0 = m.weight[0] + m.weight[1] + m.weight[2], wsum = w0, h, m1[2] = {0.0, 0.0}, m2[3] = {0, 0, 0};
+        double wpix = 2.0 * pds__length(pds__sub(x, f->origin)) * f->tan_half_fov / f->height;
+        int c, merged = 0, direct = pds__eye_direct(&m, f);
+        if (!m.lambert || m.lambda != 0.0f || (direct && !pds__pixel_axes(f, x, nm, &ex, &ey))) {
             v[out++] = m;
             continue;
         }
-        h = PDS__EYE_MERGE_PIXELS * 2.0 * (pds__length(ex) > pds__length(ey) ? pds__length(ex) : pds__length(ey));
+        /* seen directly: within PDS__EYE_MERGE_PIXELS pixel widths; through
+           glass or a mirror: within one width of the pixel seen directly
+           at that distance (a magnified view is left as it is) */
+        h = direct ? PDS__EYE_MERGE_PIXELS * 2.0 * fmax(pds__length(ex), pds__length(ey)) : wpix;
+        pds__onb(nm, &t1, &t2);
         sum = pds__scale(x, w0);
         for (j = i + 1; j < n; j++) {
-            double w;
-            if (!pds__eye_direct(&v[j], f) || !pds__eye_mergeable(&m, &v[j], h)) continue;
+            pds__v3 d;
+            double w, a, b;
+            if (pds__eye_direct(&v[j], f) != direct || !pds__eye_mergeable(&m, &v[j], h)) continue;
             w = v[j].weight[0] + v[j].weight[1] + v[j].weight[2];
             sum = pds__add(sum, pds__scale(pds__f3_get(v[j].pos), w));
             wsum += w;
+            /* first and second moments in the tangent plane, about the first */
+            d = pds__sub(pds__f3_get(v[j].pos), x);
+            a = pds__dot(d, t1);
+            b = pds__dot(d, t2);
+            m1[0] += w * a;
+            m1[1] += w * b;
+            m2[0] += w * a * a;
+            m2[1] += w * a * b;
+            m2[2] += w * b * b;
             for (c = 0; c < 3; c++) {
                 m.importance[c] += v[j].importance[c];
                 m.weight[c] += v[j].weight[c];
@@ -12900,13 +12918,31 @@ static size_t pds__eye_merge(pds__eye_vertex *v, size_t n, const pds__camera_fra
             v[j--] = v[--n]; /* taken: the last one moves into its place */
             merged = 1;
         }
-        if (merged) {
+        if (merged && direct) {
             /* black surfaces (all weights 0) keep the first vertex's position */
             if (wsum > 0.0) pds__f3_set(m.pos, pds__scale(sum, 1.0 / wsum));
-            if (pds__pixel_axes(f, pds__f3_get(m.pos), pds__f3_get(m.n), &ex, &ey)) {
+            if (pds__pixel_axes(f, pds__f3_get(m.pos), nm, &ex, &ey)) {
                 pds__f3_set(m.px, ex);
                 pds__f3_set(m.py, ey);
             }
+        } else if (merged && wsum > 0.0) {
+            /* seen through something: the pixel's extent there is what its
+               samples covered. Their weighted covariance C in the plane; a
+               box of half-axis a has variance a^2 / 3 along it, so the
+               half-axes are sqrt(3 lambda) along C's eigenvectors, at most
+               1.5 half pixel widths (the splat's query reaches that far) */
+            double ca = m1[0] / wsum, cb = m1[1] / wsum, sxx = m2[0] / wsum - ca * ca, sxy = m2[1] / wsum - ca * cb;
+            double syy = m2[2] / wsum - cb * cb, mid = 0.5 * (sxx + syy);
+            double r = sqrt(0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy), l1 = mid + r, l2 = mid - r, th, a1, a2;
+            pds__v3 e1, e2;
+            pds__f3_set(m.pos, pds__add(x, pds__add(pds__scale(t1, ca), pds__scale(t2, cb))));
+            th = 0.5 * atan2(2.0 * sxy, sxx - syy);
+            e1 = pds__add(pds__scale(t1, cos(th)), pds__scale(t2, sin(th)));
+            e2 = pds__add(pds__scale(t1, -sin(th)), pds__scale(t2, cos(th)));
+            a1 = fmin(sqrt(3.0 * fmax(l1, 0.0)), 0.75 * wpix);
+            a2 = fmin(sqrt(3.0 * fmax(l2, 0.0)), 0.75 * wpix);
+            pds__f3_set(m.px, pds__scale(e1, a1));
+            pds__f3_set(m.py, pds__scale(e2, a2));
         }
         v[out++] = m;
     }

@@ -693,7 +693,52 @@ static void test_pds_defocused_needles_widen_and_focused_ones_do_not(pds_test_ct
     }
 }
 
+/* pds__eye_merge for samples seen through something (their wo does not
+   point at the camera): four at the corners of a 2a x 2b rectangle on the
+   floor, well inside a pixel's width, merge at its centre, and the
+   pixel's half-axes are sqrt(3) times their standard deviations (a box of
+   half-axis h has variance h^2 / 3) along the rectangle's sides. */
+static void test_pds_eye_merge_takes_the_spread_of_samples_seen_through_glass(pds_test_ctx *t)
+{
+    pds_camera cam;
+    pds__camera_frame f;
+    pds__eye_vertex v[4];
+    pds__v3 up = pds__v(0.0, 1.0, 0.0), c0 = pds__v(0.3, 0.0, -0.2), wo = pds__normalize(pds__v(0.5, 1.0, 0.1));
+    pds_material mat;
+    double wpix, a, b, beta[3] = {0.2, 0.2, 0.2}, ax, ay;
+    int k;
+    size_t n;
+    memset(&cam, 0, sizeof cam);
+    cam.position = (pds_vec3){0.0, 2.0, 3.0};
+    cam.look_at = (pds_vec3){0.0, 0.0, 0.0};
+    cam.up = (pds_vec3){0.0, 1.0, 0.0};
+    cam.fov_deg = 40.0;
+    f = pds__camera_setup(&cam, 64, 48);
+    wpix = 2.0 * pds__length(pds__sub(c0, f.origin)) * f.tan_half_fov / 48.0;
+    a = 0.2 * wpix;
+    b = 0.1 * wpix;
+    memset(&mat, 0, sizeof mat);
+    memset(v, 0, sizeof v); /* lambda 0: RGB vertices */
+    mat.type = PDS_MAT_DIFFUSE;
+    mat.albedo[0] = mat.albedo[1] = mat.albedo[2] = 0.5;
+    for (k = 0; k < 4; k++) {
+        pds__v3 x = pds__add(c0, pds__v(k % 2 ? a : -a, 0.0, k / 2 ? b : -b));
+        REQUIRE(t, pds__eye_vertex_set(&v[k], &mat, x, up, up, wo, beta, 0), "vertex %d", k);
+    }
+    n = pds__eye_merge(v, 4, &f);
+    REQUIRE(t, n == 1, "%zu vertices left, want 1", n);
+    CHECK(t, pds__length(pds__sub(pds__f3_get(v[0].pos), c0)) < 1e-9 * wpix + 1e-7, "merged at the centre");
+    CHECK(t, fabs(v[0].importance[0] - 0.8) < 1e-6, "importance %g", v[0].importance[0]);
+    ax = pds__length(pds__f3_get(v[0].px));
+    ay = pds__length(pds__f3_get(v[0].py));
+    CHECK(t, fabs(fmax(ax, ay) - sqrt(3.0) * a) < 1e-4 * wpix && fabs(fmin(ax, ay) - sqrt(3.0) * b) < 1e-4 * wpix,
+          "half-axes %g %g, want %g %g", ax, ay, sqrt(3.0) * a, sqrt(3.0) * b);
+    CHECK(t, fabs(ax > ay ? v[0].px[0] : v[0].py[0]) > 0.999 * fmax(ax, ay), "the longer axis runs along x");
+}
+
 static const pds_test_case tests_pds[] = {
+    {"pds_eye_merge_takes_the_spread_of_samples_seen_through_glass",
+     test_pds_eye_merge_takes_the_spread_of_samples_seen_through_glass},
     {"pds_defocused_needles_widen_and_focused_ones_do_not", test_pds_defocused_needles_widen_and_focused_ones_do_not},
     {"pds_kernel_averaged_over_a_pixel_matches_fine_quadrature",
      test_pds_kernel_averaged_over_a_pixel_matches_fine_quadrature},
