@@ -578,6 +578,21 @@ static void test_pds_kernel_averaged_over_a_pixel_matches_fine_quadrature(pds_te
     }
 }
 
+/* The merge tests' camera: 64 x 48 pixels, 40 degrees, looking down at
+   the origin from (0, 2, 3). */
+static pds__camera_frame merge_test_camera(void)
+{
+    pds_camera cam;
+    memset(&cam, 0, sizeof cam);
+    cam.position = (pds_vec3){0.0, 2.0, 3.0};
+    cam.look_at = (pds_vec3){0.0, 0.0, 0.0};
+    cam.up = (pds_vec3){0.0, 1.0, 0.0};
+    cam.fov_deg = 40.0;
+    cam.width = 64;
+    cam.height = 48;
+    return pds__camera_setup(&cam, 64, 48);
+}
+
 /* pds__eye_merge: four samples of one pixel on a floor seen straight from
    the camera become one vertex carrying their summed importance and
    weight at their weighted centroid, with the pixel's half-axes on the
@@ -586,21 +601,13 @@ static void test_pds_kernel_averaged_over_a_pixel_matches_fine_quadrature(pds_te
    at the camera), stay apart. */
 static void test_pds_eye_merge_sums_a_pixels_samples_at_their_centroid(pds_test_ctx *t)
 {
-    pds_camera cam;
     pds__camera_frame f;
     pds__eye_vertex v[6];
     pds__v3 up = pds__v(0.0, 1.0, 0.0), centre, ex, ey;
     double wsum = 0.0, cx = 0.0, cz = 0.0;
     int k, c, px = 37, py = 21;
     size_t n;
-    memset(&cam, 0, sizeof cam);
-    cam.position = (pds_vec3){0.0, 2.0, 3.0};
-    cam.look_at = (pds_vec3){0.0, 0.0, 0.0};
-    cam.up = (pds_vec3){0.0, 1.0, 0.0};
-    cam.fov_deg = 40.0;
-    cam.width = 64;
-    cam.height = 48;
-    f = pds__camera_setup(&cam, 64, 48);
+    f = merge_test_camera();
     memset(v, 0, sizeof v);
     for (k = 0; k < 6; k++) {
         /* samples at the 2x2 strata's centres; the floor y = 0 */
@@ -700,7 +707,6 @@ static void test_pds_defocused_needles_widen_and_focused_ones_do_not(pds_test_ct
    half-axis h has variance h^2 / 3) along the rectangle's sides. */
 static void test_pds_eye_merge_takes_the_spread_of_samples_seen_through_glass(pds_test_ctx *t)
 {
-    pds_camera cam;
     pds__camera_frame f;
     pds__eye_vertex v[4];
     pds__v3 up = pds__v(0.0, 1.0, 0.0), c0 = pds__v(0.3, 0.0, -0.2), wo = pds__normalize(pds__v(0.5, 1.0, 0.1));
@@ -708,12 +714,7 @@ static void test_pds_eye_merge_takes_the_spread_of_samples_seen_through_glass(pd
     double wpix, a, b, beta[3] = {0.2, 0.2, 0.2}, ax, ay;
     int k;
     size_t n;
-    memset(&cam, 0, sizeof cam);
-    cam.position = (pds_vec3){0.0, 2.0, 3.0};
-    cam.look_at = (pds_vec3){0.0, 0.0, 0.0};
-    cam.up = (pds_vec3){0.0, 1.0, 0.0};
-    cam.fov_deg = 40.0;
-    f = pds__camera_setup(&cam, 64, 48);
+    f = merge_test_camera();
     wpix = 2.0 * pds__length(pds__sub(c0, f.origin)) * f.tan_half_fov / 48.0;
     a = 0.2 * wpix;
     b = 0.1 * wpix;
