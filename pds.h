@@ -486,7 +486,9 @@ typedef enum pds_global_map {
 /* Which light paths a render computes. Caustic paths are L S+ D ...: light
    that reaches a non-specular vertex through one or more specular bounces.
    The photon methods compute those; the eye pass computes the rest. For
-   every method, ALL = NO_CAUSTICS + CAUSTICS_ONLY. */
+   every method, ALL = NO_CAUSTICS + CAUSTICS_ONLY (for spm in expectation:
+   its full image, a gi render, gathers the caustic streams at gi's eye
+   vertices, which take one branch at glass; CAUSTICS_ONLY at both). */
 typedef enum pds_paths {
     PDS_PATHS_ALL = 0,
     PDS_PATHS_NO_CAUSTICS,
