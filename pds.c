@@ -14321,11 +14321,58 @@ static int pds__emit_caustic_photon(const pds_scene *s, const pds__target *tg, i
 
 /* --- the eye-path map ---------------------------------------------------- */
 
+/* The splats' eye vertices in two kd-trees: v[0, n_single) are single
+   samples, v[n_single, n) merged vertices (pds__eye_merge), each part in
+   its tree's order. A splat searches the single samples with the
+   footprint itself and only the merged ones with the footprint grown by a
+   pixel (pds__splat), so a scene whose merged vertices are few does not
+   pay the wider query for all of them. */
 typedef struct pds__eye_map {
     pds__eye_vertex *v;
-    size_t n;
-    pds__kdtree tree;
+    size_t n, n_single;
+    pds__kdtree tree;          /* v[0, n_single) */
+    pds__kdtree merged;        /* v[n_single, n), indices from n_single */
 } pds__eye_map;
+
+/* A merged vertex stands for a pixel: its half-axes are not zero. */
+static int pds__eye_vertex_merged(const pds__eye_vertex *v)
+{
+    return v->px[0] != 0.0f || v->px[1] != 0.0f || v->px[2] != 0.0f;
+}
+
+/* Sort map->v[0, n) into its two parts, single samples first (in their
+   order), and build each part's tree; each part is then put in its tree's
+   order, so that a splat reads the vertices of one leaf from consecutive
+   memory (half the splat time went to cache misses on vertices scattered
+   in pixel order). */
+static pds_status pds__eye_map_build(pds__eye_map *map, pds_error *err)
+{
+    size_t n = map->n, i, k, part;
+    pds__eye_vertex *tmp = (pds__eye_vertex *)malloc(sizeof *tmp * (n ? n : 1));
+    pds_status st;
+    if (!tmp) return pds__nomem(err);
+    for (i = k = 0; i < n; i++)
+        if (!pds__eye_vertex_merged(&map->v[i])) tmp[k++] = map->v[i];
+    map->n_single = k;
+    for (i = 0; i < n; i++)
+        if (pds__eye_vertex_merged(&map->v[i])) tmp[k++] = map->v[i];
+    for (part = 0; part < 2; part++) {
+        size_t first = part ? map->n_single : 0, count = part ? n - map->n_single : map->n_single;
+        pds__kdtree *kd = part ? &map->merged : &map->tree;
+        st = pds__kdtree_build(kd, count ? &tmp[first].pos[0] : NULL, sizeof *tmp / sizeof(float), count, err);
+        if (st) {
+            pds__kdtree_free(&map->tree);
+            free(tmp);
+            return st;
+        }
+        for (i = 0; i < count; i++) {
+            map->v[first + i] = tmp[first + kd->perm[i]];
+            kd->perm[i] = i;
+        }
+    }
+    free(tmp);
+    return PDS_OK;
+}
 
 /* --- splatting ------------------------------------------------------------ */
 
@@ -14394,7 +14441,6 @@ typedef struct pds__photon_job {
     double min_width;          /* pds: widen to this many eye-sample spacings (0 = off) */
     pds__v3 eye;               /* camera position */
     pds__camera_frame frame;   /* the camera, for the debug views */
-    int spread;                /* some eye vertices are merged (pds__eye_merge) */
     int defocus_widen;         /* widen defocused needles (pds__defocus_widen) */
     double sample_angle;       /* angle between neighbouring eye samples (as a
                                   pinhole sees them: a thin lens moves each
@@ -14446,6 +14492,7 @@ typedef struct pds__splat_ctx {
     double plane_max;          /* topological-bias guard distance */
     double aniso;              /* m_a of this footprint (debug views) */
     double lambda;             /* the photon's wavelength; 0 in RGB renders */
+    size_t base;               /* the searched tree's first vertex in map->v */
     /* merged eye vertices (pds__eye_merge): the query searched the wider
        ellipse in M; M0 is the footprint's own */
     int spread;
@@ -14509,7 +14556,7 @@ static double pds__kernel_over_pixel(const double u[2], const double m1[2], cons
 static void pds__splat_visit(void *vctx, size_t index, double r2)
 {
     pds__splat_ctx *sc = (pds__splat_ctx *)vctx;
-    const pds__eye_vertex *v = &sc->job->map->v[index];
+    const pds__eye_vertex *v = &sc->job->map->v[sc->base + index];
     double k, w[3], e[3];
     int c;
     /* topological bias: a surface seen from the other side (the back of a
@@ -14539,6 +14586,66 @@ static void pds__splat_visit(void *vctx, size_t index, double r2)
         if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
     }
     if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, v->pixel, k, sc->aniso);
+}
+
+/* Merged eye vertices take the kernel averaged over their pixel
+   (pds__splat_visit), so the query of the merged ones must find every
+   vertex whose pixel meets the footprint: the footprint (semi-axes a >= b;
+   hu, hv its semi-axis vectors) grown by rho, 1.5 times the half-diagonal
+   of the pixel where the photon landed (the neighbours' distances and
+   slants are about the same). It lies in the ellipse of semi-axes a + rho,
+   b + rho, which lies in both the footprint scaled by 1 + rho / b and the
+   ellipse of semi-axes sqrt(2 a^2 + 2 rho^2) (>= a + rho); the query takes
+   the smaller of the two, by the Cholesky factor of its matrix in a
+   tangent basis t1, t2 (S: the footprint's). A footprint more than 8 rho
+   across its minor axis needs none of this: the average over a pixel that
+   small is the value at its centre within 1.5%. Sets sc->M to the grown
+   query (the footprint's own kept in sc->M0), *major to its reach, and
+   sc->spread. The guard against the topological bias (the slab around the
+   tangent plane) keeps the footprint's own thickness: a merged vertex's
+   samples lie on one flat patch, so the pixel widens it along the plane
+   only. (Growing the slab with the query let a photon on the torus light
+   the floor beneath it.) */
+static void pds__splat_grow_for_pixels(const pds__photon_job *job, pds__splat_ctx *sc, pds__v3 hu, pds__v3 hv,
+                                       double *major)
+{
+    pds__v3 t1, t2, ex, ey;
+    double rho, au, av, bu, bv, s11, s12, s22, b2, g, q, l11, l21, l22;
+    if (!pds__pixel_axes(&job->frame, sc->xp, sc->np, &ex, &ey)) return;
+    rho = 1.5 * (pds__length(ex) + pds__length(ey));
+    pds__onb(sc->np, &t1, &t2);
+    au = pds__dot(hu, t1);
+    av = pds__dot(hv, t1);
+    bu = pds__dot(hu, t2);
+    bv = pds__dot(hv, t2);
+    s11 = au * au + av * av;
+    s12 = au * bu + av * bv;
+    s22 = bu * bu + bv * bv;
+    b2 = 0.5 * (s11 + s22) - sqrt(0.25 * (s11 - s22) * (s11 - s22) + s12 * s12);
+    if (b2 > 64.0 * rho * rho) return;
+    g = b2 > 0.0 ? (1.0 + rho / sqrt(b2)) * (1.0 + rho / sqrt(b2)) : HUGE_VAL;
+    q = 2.0 * rho * rho;
+    /* det(g S) = g^2 det S against det(2 S + q I) */
+    if (g * g * (s11 * s22 - s12 * s12) < (2.0 * s11 + q) * (2.0 * s22 + q) - 4.0 * s12 * s12) {
+        s11 *= g;
+        s12 *= g;
+        s22 *= g;
+    } else {
+        s11 = 2.0 * s11 + q;
+        s12 = 2.0 * s12;
+        s22 = 2.0 * s22 + q;
+    }
+    l11 = sqrt(s11);
+    l21 = s12 / l11;
+    l22 = sqrt(fmax(s22 - l21 * l21, 0.0));
+    memcpy(sc->M0, sc->M, sizeof sc->M);
+    if (isfinite(l11) && isfinite(l21) && l22 > 0.0 && isfinite(l22) &&
+        pds__filter_matrix(pds__add(pds__scale(t1, 2.0 * l11), pds__scale(t2, 2.0 * l21)), pds__scale(t2, 2.0 * l22),
+                           sc->np, sc->M)) {
+        sc->spread = 1;
+        *major = pds__footprint_major_axis(pds__add(pds__scale(t1, 2.0 * l11), pds__scale(t2, 2.0 * l21)),
+                                           pds__scale(t2, 2.0 * l22));
+    }
 }
 
 /* Splat the photon r (already transferred to its hit on a non-specular
@@ -14625,66 +14732,19 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
     for (c = 0; c < 3; c++) sc.ep[c] = flux[c] / (ap * keep);
     sc.plane_max = job->plane_tolerance * major;
     sc.aniso = !buf->dbg ? 0.0 : job->fixed_radius > 0.0 ? 1.0 : pds__footprint_anisotropy(r->dpdu, r->dpdv);
-    if (job->spread) {
-        /* merged eye vertices take the kernel averaged over their pixel
-           (pds__splat_visit), so the query must find every vertex whose
-           pixel meets the footprint: the footprint (semi-axes a >= b)
-           grown by rho, 1.5 times the half-diagonal of the pixel where
-           the photon landed (the neighbours' distances and slants are
-           about the same). It lies in the ellipse of semi-axes a + rho,
-           b + rho, which lies in both the footprint scaled by 1 + rho / b
-           and the ellipse of semi-axes sqrt(2 a^2 + 2 rho^2) (>= a +
-           rho); the query takes the smaller of the two, by the Cholesky
-           factor of its matrix in a tangent basis t1, t2 (S: the
-           footprint's). A footprint more than 8 rho across its minor axis
-           needs none of this: the average over a pixel that small is the
-           value at its centre within 1.5%. */
-        pds__v3 t1, t2, ex, ey;
-        if (pds__pixel_axes(&job->frame, r->p, sc.np, &ex, &ey)) {
-            double rho = 1.5 * (pds__length(ex) + pds__length(ey)), au, av, bu, bv, s11, s12, s22, b2, g, q, l11,
-                   l21, l22;
-            pds__onb(sc.np, &t1, &t2);
-            au = pds__dot(hu, t1);
-            av = pds__dot(hv, t1);
-            bu = pds__dot(hu, t2);
-            bv = pds__dot(hv, t2);
-            s11 = au * au + av * av;
-            s12 = au * bu + av * bv;
-            s22 = bu * bu + bv * bv;
-            b2 = 0.5 * (s11 + s22) - sqrt(0.25 * (s11 - s22) * (s11 - s22) + s12 * s12);
-            if (!(b2 > 64.0 * rho * rho)) {
-                g = b2 > 0.0 ? (1.0 + rho / sqrt(b2)) * (1.0 + rho / sqrt(b2)) : HUGE_VAL;
-                q = 2.0 * rho * rho;
-                /* det(g S) = g^2 det S against det(2 S + q I) */
-                if (g * g * (s11 * s22 - s12 * s12) < (2.0 * s11 + q) * (2.0 * s22 + q) - 4.0 * s12 * s12) {
-                    s11 *= g;
-                    s12 *= g;
-                    s22 *= g;
-                } else {
-                    s11 = 2.0 * s11 + q;
-                    s12 = 2.0 * s12;
-                    s22 = 2.0 * s22 + q;
-                }
-                l11 = sqrt(s11);
-                l21 = s12 / l11;
-                l22 = sqrt(fmax(s22 - l21 * l21, 0.0));
-                memcpy(sc.M0, sc.M, sizeof sc.M);
-                if (isfinite(l11) && isfinite(l21) && l22 > 0.0 && isfinite(l22) &&
-                    pds__filter_matrix(pds__add(pds__scale(t1, 2.0 * l11), pds__scale(t2, 2.0 * l21)),
-                                       pds__scale(t2, 2.0 * l22), sc.np, sc.M)) {
-                    sc.spread = 1;
-                    major = pds__footprint_major_axis(pds__add(pds__scale(t1, 2.0 * l11), pds__scale(t2, 2.0 * l21)),
-                                                      pds__scale(t2, 2.0 * l22));
-                    sc.plane_max = job->plane_tolerance * major;
-                }
-            }
-        }
-    }
     buf->splatted++;
     if (buf->dbg) pds__debug_landing(buf->dbg, &job->frame, photon, r->p, r->dpdu, r->dpdv);
     /* the eye vertices within the major semi-axis that are inside the
-       ellipse and near the tangent plane (topological bias) */
+       ellipse and near the tangent plane (topological bias): the single
+       samples, then the merged vertices with the query grown by a pixel */
+    sc.base = 0;
     pds__kdtree_range_ellipse(&job->map->tree, r->p, major, (const double(*)[3])sc.M, sc.np, sc.plane_max, pds__splat_visit, &sc);
+    if (job->map->merged.n > 0) {
+        sc.base = job->map->n_single;
+        pds__splat_grow_for_pixels(job, &sc, hu, hv, &major);
+        pds__kdtree_range_ellipse(&job->map->merged, r->p, major, (const double(*)[3])sc.M, sc.np, sc.plane_max,
+                                  pds__splat_visit, &sc);
+    }
 }
 
 /* Splatting in the order photons land jumps about the eye-path map; each
@@ -15960,22 +16020,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     map.v = vertices;
     map.n = nvertices;
     if (splats) {
-        pds__eye_vertex *ordered;
-        st = pds__kdtree_build(&map.tree, nvertices ? &vertices[0].pos[0] : NULL, sizeof *vertices / sizeof(float),
-                               nvertices, err);
+        st = pds__eye_map_build(&map, err);
         if (st) return st;
-        /* put the vertices in the tree's order, so that a splat reads the
-           vertices of one leaf from consecutive memory (half the splat
-           time went to cache misses on vertices scattered in pixel order) */
-        ordered = (pds__eye_vertex *)malloc(sizeof *ordered * (nvertices ? nvertices : 1));
-        if (ordered) {
-            for (i = 0; i < nvertices; i++) {
-                ordered[i] = vertices[map.tree.perm[i]];
-                map.tree.perm[i] = i;
-            }
-            memcpy(vertices, ordered, sizeof *ordered * nvertices);
-            free(ordered);
-        }
     }
     job.scene = s;
     job.map = &map;
@@ -15988,8 +16034,6 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.min_width = progressive ? opt->pass_min_width : opt->method == PDS_METHOD_PDS ? opt->min_width : 0.0;
     job.eye = pds__v(s->camera.position.x, s->camera.position.y, s->camera.position.z);
     job.frame = pds__camera_setup(&s->camera, width, height);
-    for (i = 0; splats && !job.spread && i < nvertices; i++)
-        job.spread = vertices[i].px[0] != 0.0f || vertices[i].px[1] != 0.0f || vertices[i].px[2] != 0.0f;
     job.sample_angle = 2.0 * tan(0.5 * s->camera.fov_deg * PDS__PI / 180.0) / height /
                        sqrt((double)(opt->spp > 0 ? opt->spp : s->camera.spp > 0 ? s->camera.spp : 1));
     job.eps = 1e-6 * pds__scene_scale(s);
@@ -16022,6 +16066,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.bufs = (pds__splat_buf *)calloc((size_t)threads, sizeof *job.bufs);
     if (!job.bufs) {
         pds__kdtree_free(&map.tree);
+        pds__kdtree_free(&map.merged);
         return pds__nomem(err);
     }
     if (debug && (debug->views & ~(1u << PDS_DEBUG_EYE) & ~(1u << PDS_DEBUG_PATHS))) {
@@ -16226,7 +16271,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
                 stats->dropped_invalid += job.bufs[t].invalid;
             }
             stats->time_photons_s = pds_time_now() - t0;
-            stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + stats->map_bytes +
+            stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + pds__kdtree_memory(&map.merged) + stats->map_bytes +
                                    (size_t)job.nbufs * npix * (3 + (dbg && dbg[0].aniso ? 2 : 0) + (job.spectral ? 3 : 0)) *
                                        sizeof(pds__sum128);
         }
@@ -16244,6 +16289,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     free(dbg);
     free(paths);
     pds__kdtree_free(&map.tree);
+    pds__kdtree_free(&map.merged);
     if (st == PDS_ERR_NOMEM) return pds__nomem(err);
     return st;
 }
