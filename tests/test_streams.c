@@ -652,7 +652,9 @@ static void test_spm_refuses_bad_stream_radii_and_counts(pds_test_ctx *t)
 /* The pds tool: rs is an spm option of the full image (a note, not a
    refusal, with --caustics-only, saying why), refused when it is not a
    positive distance, and sweepable (two values, two different errors);
-   sweeping it with --caustics-only is refused. */
+   sweeping it with --caustics-only is refused. A race of spm against the
+   gi render it is gives both the same error; rs set for spm in a race of
+   caustics is refused. */
 static void test_spm_cli_takes_the_stream_radius(pds_test_ctx *t)
 {
     static const char *const bad[][2] = {
@@ -706,6 +708,23 @@ static void test_spm_cli_takes_the_stream_radius(pds_test_ctx *t)
              "--ref %s -o %s", small, ref, dir);
     CHECK(t, cli_run(args, out, sizeof out) == 2 &&
                  strstr(out, "pds sweep: --param stream-radius has no effect with --method spm and --caustics-only"),
+          "%s", out);
+    harness_rmtree(dir);
+    /* race: spm's full image and the gi render it is give the same error */
+    snprintf(args, sizeof args, "race tests/golden/glass.scene %s --photons 1500 --ref %s -o %s --methods "
+             "spm:stream-radius=0.4,gi:global-map=streams:caustics=spm:stream-radius=0.4:global-photons=1500",
+             small + strlen("--method spm "), ref, dir);
+    CHECK(t, cli_run(args, out, sizeof out) == 0, "%s", out);
+    {
+        const char *a = strstr(out, "race method=spm "), *b = strstr(out, "race method=gi ");
+        const char *ra = a ? strstr(a, " rmse=") : NULL, *rb = b ? strstr(b, " rmse=") : NULL;
+        CHECK(t, ra && rb && atof(ra + 6) > 0.0 && !strncmp(ra, rb, 16), "race: spm and gi differ: %s", out);
+    }
+    harness_rmtree(dir);
+    snprintf(args, sizeof args, "race tests/golden/glass.scene %s --caustics-only --photons 1500 --ref %s -o %s "
+             "--methods spm:stream-radius=0.4", small + strlen("--method spm "), ref, dir);
+    CHECK(t, cli_run(args, out, sizeof out) == 2 &&
+                 strstr(out, "pds race: --methods: stream-radius has no effect with spm and --caustics-only"),
           "%s", out);
     harness_rmtree(dir);
     remove(ref);
