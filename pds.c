@@ -94,7 +94,8 @@
      PDS_NO_PNG        the PNG and OpenEXR writers, the OpenEXR reader
                        and their deflate coder (write .pfm)
      PDS_NO_BASELINES  pm, pdm, splat, ppm and spm (pds, pt stay)
-     PDS_NO_GI         Jensen's two-pass global illumination (>>gi)
+     PDS_NO_GI         Jensen's two-pass global illumination (>>gi), and
+                       with it spm's full image (spm caustics stay)
      PDS_NO_ISC        image-space caustics and animation frames (>>isc)
      PDS_NO_ENV        the environment light: constant, CIE clear sky and
                        sun (>>lights; the parser refuses 'light environment')
