@@ -19212,7 +19212,8 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown rendering method %d", (int)opt->method);
     if (opt->method == PDS_METHOD_GI && !pds__is_photon_method(opt->caustics))
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
-                         "the caustic method of gi must be pds, pm, pdm, splat, ppm or spm, got %d", (int)opt->caustics);
+                         "the caustic method of gi must be pds, pm, pdm, splat, ppm or spm, got %d",
+                         (int)opt->caustics);
     if (opt->global_photons < 0 || opt->global_photons > 1000000000L)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "global photons %ld is outside 0..1e9", opt->global_photons);
     if (opt->global_k < 1 || opt->global_k > PDS__GI_MAX_K)
@@ -19389,10 +19390,12 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
                                    pds_error *err)
 {
     pds_options gi;
-    if (!scene || !opt || !est) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render_estimate_get: NULL argument");
+    if (!scene || !opt || !est)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render_estimate_get: NULL argument");
     if (opt->method == PDS_METHOD_SPM) {
         /* the checks of spm's own options (its stream count in the global map) */
-        int w = opt->width > 0 ? opt->width : scene->camera.width, h = opt->height > 0 ? opt->height : scene->camera.height;
+        int w = opt->width > 0 ? opt->width : scene->camera.width;
+        int h = opt->height > 0 ? opt->height : scene->camera.height;
         pds_status st = pds__options_check(opt, w, h, err);
         if (st) {
             memset(est, 0, sizeof *est);

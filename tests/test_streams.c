@@ -689,8 +689,9 @@ static void test_spm_cli_takes_the_stream_radius(pds_test_ctx *t)
     /* the reference: the same full image with rs 0.05 */
     snprintf(args, sizeof args, "render tests/golden/glass.scene %s --stream-radius 0.05 -o %s", small, ref);
     REQUIRE(t, cli_run(args, out, sizeof out) == 0, "%s", out);
-    snprintf(args, sizeof args, "sweep tests/golden/glass.scene %s --param stream-radius --values 0.05,0.4 --ref %s -o %s",
-             small, ref, dir);
+    snprintf(args, sizeof args,
+             "sweep tests/golden/glass.scene %s --param stream-radius --values 0.05,0.4 --ref %s -o %s", small, ref,
+             dir);
     CHECK(t, cli_run(args, out, sizeof out) == 0, "%s", out);
     snprintf(path, sizeof path, "%s/sweep.csv", dir);
     csv = harness_slurp(path, NULL);
