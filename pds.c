@@ -14592,10 +14592,13 @@ static void pds__splat_visit(void *vctx, size_t index, double r2)
    vertex whose pixel meets the footprint: the footprint (semi-axes a >= b;
    hu, hv its semi-axis vectors) grown by rho, 1.5 times the half-diagonal
    of the pixel where the photon landed (the neighbours' distances and
-   slants are about the same). It lies in the ellipse of semi-axes a + rho,
-   b + rho, which lies in both the footprint scaled by 1 + rho / b and the
-   ellipse of semi-axes sqrt(2 a^2 + 2 rho^2) (>= a + rho); the query takes
-   the smaller of the two, by the Cholesky factor of its matrix in a
+   slants are about the same). That set, the points within rho of the
+   ellipse, lies in both the footprint scaled by 1 + rho / b and the
+   ellipse of semi-axes sqrt(2 a^2 + 2 rho^2), sqrt(2 b^2 + 2 rho^2) (the
+   same axes; for a needle, a >> rho >> b, the latter is the smallest
+   ellipse around the 2a x 2rho rectangle the set nearly is, pi/2 times
+   the set's area); the query takes the smaller of the two, by the
+   Cholesky factor of its matrix in a
    tangent basis t1, t2 (S: the footprint's). A footprint more than 8 rho
    across its minor axis needs none of this: the average over a pixel that
    small is the value at its centre within 1.5%. Sets sc->M to the grown
