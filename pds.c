@@ -11739,9 +11739,10 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
    count says which. */
 
 #define PDS__PARTIAL_MAGIC "PDSPART\n"
-#define PDS__PARTIAL_VERSION 4u
+#define PDS__PARTIAL_VERSION 5u
 #define PDS__PARTIAL_MAX_SHARDS 1000000
-#define PDS__PARTIAL_NOPT 46    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT 47    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT_V4 46 /* format version 4's, still read */
 #define PDS__PARTIAL_NOPT_V3 44 /* format version 3's, still read */
 #define PDS__PARTIAL_NOPT_V2 31 /* format version 2's, still read */
 
@@ -11925,12 +11926,14 @@ static void pds__partial_opt_encode(const pds_options *o, uint64_t v[PDS__PARTIA
     /* format version 4: gi's streams */
     v[44] = (uint64_t)(int64_t)o->global_map;
     memcpy(&v[45], &o->stream_radius, sizeof o->stream_radius);
+    /* format version 5: the eye paths' diffuse bounces */
+    v[46] = (uint64_t)(int64_t)o->diffuse_bounces;
 }
 
 /* nopt: how many the file holds (31 in format version 2, whose renders
    all had the later ones at their defaults: gi, spm and isc were not
-   stored then; 44 in version 3, before gi's streams); the rest stay at
-   their defaults. */
+   stored then; 44 in version 3, before gi's streams; 46 in version 4,
+   before the diffuse bounces); the rest stay at their defaults. */
 static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nopt, pds_options *o)
 {
     double d[13];
@@ -11972,10 +11975,11 @@ static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nop
         o->orbit = (pds_orbit)PDS__OPT_INT(v[42]);
         memcpy(&o->orbit_deg, &v[43], sizeof o->orbit_deg);
     }
-    if (nopt >= PDS__PARTIAL_NOPT) {
+    if (nopt >= PDS__PARTIAL_NOPT_V4) {
         o->global_map = (pds_global_map)PDS__OPT_INT(v[44]);
         memcpy(&o->stream_radius, &v[45], sizeof o->stream_radius);
     }
+    if (nopt >= PDS__PARTIAL_NOPT) o->diffuse_bounces = PDS__OPT_INT(v[46]);
 #undef PDS__OPT_INT
     for (k = 0; k < 13; k++) memcpy(&d[k], &v[16 + k], sizeof d[k]);
     o->time_s = d[0];
@@ -12250,29 +12254,30 @@ pds_status pds_partial_merge(const pds_partial *const *parts, const char *const 
 
      offset  bytes  field
      0       8      magic "PDSPART\n"
-     8       4      format version (4)
+     8       4      format version (5)
      12      16     library version string, NUL-padded ("0.1.0")
      28      8      scene content hash (pds_scene_hash)
      36      512    scene path as loaded, NUL-padded
      548     4 x 5  width, height, shard index (0-based), shard count, split
-     568     8 x 46 options (pds__partial_opt_encode's order)
-     936     8 x 13 rows done, units total, units own, units done, n_planned
+     568     8 x 47 options (pds__partial_opt_encode's order)
+     944     8 x 13 rows done, units total, units own, units done, n_planned
                     (binary64), emitted, unit (binary64), splatted,
                     degenerate, saturated, invalid, eye vertices, reserved 0
-     1040    ...    eye values of the rows done (rows I, I+N, ...: each
+     1048    ...    eye values of the rows done (rows I, I+N, ...: each
                     width x 3 binary64), then, unless split is 0, the photon
                     sums S+ and then S- (each width x height x 3 of: low 64
                     bits, high 64 bits)
      end-8   8      check: FNV-1a 64 of every byte before it
-   Format versions 2 and 3 are read too: the same with 31 options (counts
-   at 816, eye values at 920) and with 44 (counts at 920, eye values at
-   1024); version 1 is refused. */
+   Format versions 2, 3 and 4 are read too: the same with 31 options
+   (counts at 816, eye values at 920), with 44 (counts at 920, eye values
+   at 1024) and with 46 (counts at 936, eye values at 1040); version 1 is
+   refused. */
 
 /* Where the counts and the eye values begin, for a file of nopt options. */
 #define PDS__PARTIAL_COUNTS_AT(nopt) (568u + 8u * (unsigned)(nopt))
 #define PDS__PARTIAL_HEADER_AT(nopt) (PDS__PARTIAL_COUNTS_AT(nopt) + 8u * 13u)
-#define PDS__PARTIAL_COUNTS PDS__PARTIAL_COUNTS_AT(PDS__PARTIAL_NOPT) /* 936: the counts */
-#define PDS__PARTIAL_HEADER PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT) /* 1040 */
+#define PDS__PARTIAL_COUNTS PDS__PARTIAL_COUNTS_AT(PDS__PARTIAL_NOPT) /* 944: the counts */
+#define PDS__PARTIAL_HEADER PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT) /* 1048 */
 
 static void pds__put_u32(unsigned char *b, uint32_t v)
 {
@@ -12394,6 +12399,7 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
 static int pds__partial_nopt(uint32_t version)
 {
     return version == PDS__PARTIAL_VERSION ? PDS__PARTIAL_NOPT
+           : version == 4u                 ? PDS__PARTIAL_NOPT_V4
            : version == 3u                 ? PDS__PARTIAL_NOPT_V3
            : version == 2u                 ? PDS__PARTIAL_NOPT_V2
                                            : 0;
@@ -12955,6 +12961,7 @@ typedef struct pds__tracer {
     const pds_scene *scene;
     pds_paths paths;
     int max_depth, rr_depth;
+    int max_diffuse;  /* pds_options.diffuse_bounces (-1: no limit) */
     uint64_t seed;
     double eps;  /* ray offset, relative to the scene's size */
     int spectral; /* one wavelength per camera sample (>>spectral) */
@@ -13169,6 +13176,9 @@ typedef struct pds__eye_path {
     double sigma[3];          /* Beer coefficients of the medium the ray is in, if has_sigma */
     const double *sigma_rgb;  /* spectral: the RGB ones for beta_rgb, or NULL */
     int has_sigma, depth, had_diffuse, specular_since, chromatic, splits_left;
+    int diffuse;              /* non-specular vertices so far */
+    int emission_only;        /* past the last diffuse bounce allowed: the
+                                 next hit counts only if it emits */
     double prev_pdf;          /* solid-angle pdf of the last non-specular BSDF sample */
     double lam;               /* the wavelength once the path is spectral, else 0 */
     uint64_t branch;
@@ -13316,6 +13326,7 @@ static void pds__eye_continue(pds__eye_sample *es, pds__eye_path *ps)
             }
             return;
         }
+        if (ps->emission_only) return;
         pds__scene_fill_hit(s, &th, ps->org, ps->dir, &hit);
         pds__beer(sigma, th.t, ps->beta);
         pds__beer(ps->sigma_rgb, th.t, ps->beta_rgb);
@@ -13349,6 +13360,10 @@ static void pds__eye_continue(pds__eye_sample *es, pds__eye_path *ps)
                               ps->lam, film_w, es->acc);
             ps->had_diffuse = 1;
             ps->specular_since = 0;
+            /* the last diffuse bounce allowed: one more ray, for the
+               emitter it may hit (the BSDF sample's half of the direct
+               light's multiple importance sampling) */
+            if (tr->max_diffuse >= 0 && ++ps->diffuse > tr->max_diffuse) ps->emission_only = 1;
         }
         if (ps->depth == tr->max_depth) return;
         if (!ps->had_diffuse && ps->splits_left > 0 && m->type == PDS_MAT_DIELECTRIC) {
@@ -14594,10 +14609,13 @@ static void pds__splat_visit(void *vctx, size_t index, double r2)
    vertex whose pixel meets the footprint: the footprint (semi-axes a >= b;
    hu, hv its semi-axis vectors) grown by rho, 1.5 times the half-diagonal
    of the pixel where the photon landed (the neighbours' distances and
-   slants are about the same). It lies in the ellipse of semi-axes a + rho,
-   b + rho, which lies in both the footprint scaled by 1 + rho / b and the
-   ellipse of semi-axes sqrt(2 a^2 + 2 rho^2) (>= a + rho); the query takes
-   the smaller of the two, by the Cholesky factor of its matrix in a
+   slants are about the same). That set, the points within rho of the
+   ellipse, lies in both the footprint scaled by 1 + rho / b and the
+   ellipse of semi-axes sqrt(2 a^2 + 2 rho^2), sqrt(2 b^2 + 2 rho^2) (the
+   same axes; for a needle, a >> rho >> b, the latter is the smallest
+   ellipse around the 2a x 2rho rectangle the set nearly is, pi/2 times
+   the set's area); the query takes the smaller of the two, by the
+   Cholesky factor of its matrix in a
    tangent basis t1, t2 (S: the footprint's). A footprint more than 8 rho
    across its minor axis needs none of this: the average over a pixel that
    small is the value at its centre within 1.5%. Sets sc->M to the grown
@@ -18844,6 +18862,7 @@ void pds_options_default(pds_options *opt)
     opt->seed = 0;
     opt->max_depth = 32;
     opt->rr_depth = 3;
+    opt->diffuse_bounces = -1;
     opt->time_s = 0.0;
     opt->progress = NULL;
     opt->progress_user = NULL;
@@ -19138,6 +19157,9 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
     if (opt->max_depth < 0 || opt->max_depth > 1000)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "max depth %d is outside 0..1000", opt->max_depth);
     if (opt->rr_depth < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "Russian roulette depth must be at least 1");
+    if (opt->diffuse_bounces < -1 || opt->diffuse_bounces > 1000)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "diffuse bounces %d is outside -1..1000",
+                         opt->diffuse_bounces);
     if (!(opt->time_s >= 0.0) || opt->time_s > 1e7)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "time budget must be between 0 and 1e7 seconds");
     if (opt->photons < 0)
@@ -19508,6 +19530,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
     job.tracer.paths = opt->paths;
     job.tracer.max_depth = opt->max_depth;
     job.tracer.rr_depth = opt->rr_depth;
+    job.tracer.max_diffuse = opt->diffuse_bounces;
     job.tracer.seed = opt->seed;
     job.tracer.eps = 1e-6 * pds__scene_scale(scene);
     job.tracer.spectral = pds__render_is_spectral(scene, opt);
