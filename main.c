@@ -1311,7 +1311,7 @@ static const opt_spec option_table[] = {
     {"--max-depth", NULL, "max_depth", set_max_depth, 0, 0, 1000, "a whole number from 0 to 1000", M_ALL, C_ALL,
      F_VALUE | F_PER_METHOD},
     {"--diffuse-bounces", NULL, "diffuse_bounces", set_int, OPTF(diffuse_bounces), 0, 1000,
-     "a whole number from 0 to 1000", M_PHOTON | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW), C_ALL,
+     "a whole number from 0 to 1000", (M_PHOTON & ~M_SPM) | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW), C_ALL,
      F_VALUE | F_PER_METHOD},
     {"--time", NULL, "time", set_double, OPTF(time_s), 0, 1e7, "a number of seconds above 0", M_ALL, C_ALL,
      F_VALUE | F_LO_OPEN},

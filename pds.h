@@ -529,7 +529,8 @@ typedef struct pds_options {
                            non-specular vertex seen through any mirrors
                            and glass, no indirect light (the transport of
                            a photon mapper without a global map, such as
-                           POV-Ray's). -1 = no limit (default -1) */
+                           POV-Ray's). -1 = no limit (default -1). Not gi's
+                           eye paths, nor spm's full image (a gi render) */
     double time_s;      /* > 0: render whole passes of spp samples until this
                            many seconds are spent (at least one pass); 0 = one
                            pass (default 0) */
