@@ -370,7 +370,7 @@ static void test_gi_streams_estimate_returns_a_uniform_irradiance(pds_test_ctx *
         for (j = -2; j <= 2; j++) {
             double L[3], rel;
             pds__gi_radiance(&g, &s->materials.items[0], pds__v(0.5 * i, 0.0, 0.5 * j),
-                             pds__normalize(pds__v(0.3, 1.0, -0.2)), up, up, L);
+                             pds__normalize(pds__v(0.3, 1.0, -0.2)), up, up, 0.0, L);
             rel = fabs(L[1] / exact - 1.0);
             if (rel > worst) worst = rel;
             bad += rel > 0.08;
