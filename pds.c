@@ -16360,6 +16360,14 @@ typedef struct pds__gi_stream {
     long count;
 } pds__gi_stream;
 
+/* A point of precomputed irradiance (Christensen 1999, below): where a
+   stored photon lies, its normal, the irradiance E (W/m^2) there and the
+   squared radius of the estimate. 40 bytes. */
+typedef struct pds__gi_irr {
+    float pos[3], ng[3], E[3];
+    float r2;
+} pds__gi_irr;
+
 /* A direct (first hit) or shadow photon: position, geometric normal
    facing the light it came from, that light. 48 bytes. */
 typedef struct pds__gi_shadow_photon {
@@ -16392,6 +16400,9 @@ typedef struct pds__gi_map {
     pds__gi_shadow_photon *shadow;
     size_t ns;
     pds__kdtree stree;
+    pds__gi_irr *irr;    /* precomputed irradiance, or NULL */
+    size_t nirr;
+    pds__kdtree itree;
     int k;               /* photons per radiance estimate */
     int gather;          /* gather rays per eye sample */
     double mix;          /* share of cosine sampling in the gather */
@@ -16696,15 +16707,18 @@ static void pds__gi_map_free(pds__gi_map *g)
     free(g->photons);
     free(g->streams);
     free(g->shadow);
+    free(g->irr);
     pds__kdtree_free(&g->tree);
     pds__kdtree_free(&g->stree);
+    pds__kdtree_free(&g->itree);
     memset(g, 0, sizeof *g);
 }
 
 static size_t pds__gi_map_bytes(const pds__gi_map *g)
 {
     return g->n * sizeof *g->photons + g->nstreams * sizeof *g->streams + pds__kdtree_memory(&g->tree) +
-           g->ns * sizeof *g->shadow + pds__kdtree_memory(&g->stree);
+           g->ns * sizeof *g->shadow + pds__kdtree_memory(&g->stree) + g->nirr * sizeof *g->irr +
+           pds__kdtree_memory(&g->itree);
 }
 
 /* rs in scene units: the option, or 1/16 of the largest side of the
@@ -16747,8 +16761,10 @@ static int pds__gi_streams_index(pds__gi_map *g)
     return 1;
 }
 
+static pds_status pds__gi_irradiance_build(pds__gi_map *g, int threads, pds_error *err);
+
 /* Pass 1: emit n photons on the threads, merge the stores in photon
-   order, build the two kd-trees. */
+   order, build the two kd-trees and the precomputed irradiance. */
 static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pds_options *opt, int threads,
                                     pds_error *err)
 {
@@ -16827,6 +16843,7 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
     if (!st)
         st = pds__kdtree_build(&g->stree, g->ns ? &g->shadow[0].pos[0] : NULL, sizeof *g->shadow / sizeof(float),
                                g->ns, err);
+    if (!st) st = pds__gi_irradiance_build(g, threads, err);
     if (st) pds__gi_map_free(g);
     return st;
 }
@@ -16879,7 +16896,7 @@ static void pds__gi_stream_visit(void *vctx, size_t index, double dist2)
 }
 
 static void pds__gi_stream_radiance(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 ns,
-                                    pds__v3 ng, double lambda_e, double L[3])
+                                    pds__v3 ng, double lambda_e, double L[3], double *r2)
 {
     size_t idx[PDS__GI_MAX_K], n;
     double d2[PDS__GI_MAX_K], area;
@@ -16899,6 +16916,7 @@ static void pds__gi_stream_radiance(const pds__gi_map *g, const pds_material *m,
     a.lambda_e = lambda_e;
     a.r2 = d2[n - 1];
     a.r = sqrt(a.r2);
+    if (r2) *r2 = a.r2;
     pds__kdtree_range(&g->tree, x, a.r + g->reach, pds__gi_stream_visit, &a);
     area = (1.0 / 3.0) * PDS__PI * a.r2;
     for (c = 0; c < 3; c++) L[c] = a.L[c] / area;
@@ -16915,15 +16933,16 @@ static void pds__gi_stream_radiance(const pds__gi_map *g, const pds_material *m,
    vertex (pds__spectral_meet: a spectral photon at its own wavelength,
    into a vertex at lambda_e only from its wavelength bin), so the
    estimate is already weighted by the film. */
-static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 ns,
-                             pds__v3 ng, double lambda_e, double L[3])
+static void pds__gi_estimate(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 ns,
+                             pds__v3 ng, double lambda_e, double L[3], double *r2_out)
 {
     size_t idx[PDS__GI_MAX_K], n, j;
     double d2[PDS__GI_MAX_K], r2, area;
     pds__v3 ngw = pds__dot(ng, wo) >= 0.0 ? ng : pds__scale(ng, -1.0);
     int c;
+    if (r2_out) *r2_out = 0.0;
     if (g->streams) {
-        pds__gi_stream_radiance(g, m, x, wo, ns, ng, lambda_e, L);
+        pds__gi_stream_radiance(g, m, x, wo, ns, ng, lambda_e, L, r2_out);
         return;
     }
     L[0] = L[1] = L[2] = 0.0;
@@ -16931,6 +16950,7 @@ static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v
     if (n < (size_t)(g->k < 8 ? g->k : 8)) return;
     r2 = d2[n - 1];
     if (!(r2 > 0.0)) return;
+    if (r2_out) *r2_out = r2;
     for (j = 0; j < n; j++) {
         const pds__gi_photon *p = &g->photons[idx[j]];
         double f[3], e[3], pdf, w;
@@ -16943,6 +16963,123 @@ static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v
     }
     area = (1.0 / 3.0) * PDS__PI * r2;
     for (c = 0; c < 3; c++) L[c] /= area;
+}
+
+/* The estimate alone (r2_out: the squared radius it used, 0 if none). */
+static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 ns,
+                             pds__v3 ng, double lambda_e, double L[3])
+{
+    pds__gi_estimate(g, m, x, wo, ns, ng, lambda_e, L, NULL);
+}
+
+/* --- precomputed irradiance (Christensen 1999) --------------------------
+   P. H. Christensen, "Faster photon map global illumination", Journal of
+   Graphics Tools 4(3), 1999: the final gather asks the global map for
+   radiance at many points x2, each a k-nearest search and k BRDF
+   evaluations; on Lambertian surfaces the radiance is the local albedo
+   over pi times the irradiance E, which varies slowly, so E is estimated
+   once, at every PDS__GI_IRR_STRIDE-th stored photon (Christensen takes
+   every fourth), and a gather ray that ends on a Lambertian surface takes
+   the estimate of the nearest such point whose normal is within
+   acos(PDS__GI_IRR_COS) of its own (and that lies within the radius of
+   that point's own estimate): one nearest-point search instead of k.
+       E(p) = sum_q dPhi_q w_q / ((1 - 2/3) pi r^2)
+   over p's k nearest photons q arriving on p's side, cone filter as in
+   pds__gi_radiance (Jensen 1996, eqs. 3-4), r the k-th distance; then
+       L(x2, wo) = albedo(x2) / pi E(p).
+   The estimate moves by at most the distance to p, a Voronoi cell of
+   about r / 2 (the points are a quarter of the photons), inside the
+   blur r of the density estimate itself. E is the map's own estimate
+   (single photons or streams) for a white Lambertian surface. Where no
+   point qualifies (a thin part, an edge) and on other surfaces the full
+   estimate answers; so it does in maps holding spectral photons, whose
+   contributions depend on the albedo at each photon's wavelength. Tested
+   in gi_precomputed_irradiance_matches_the_full_estimate. */
+#define PDS__GI_IRR_STRIDE 4
+#define PDS__GI_IRR_COS 0.9
+#define PDS__GI_IRR_K 4     /* nearest points looked at for one with a matching normal */
+
+/* Irradiance at p's position on its lit side (the record's ng): pi
+   times the radiance the map's own estimate (single photons or streams)
+   gives a white Lambertian surface there. */
+static void pds__gi_irradiance_at(const pds__gi_map *g, const pds_material *white, const pds__gi_photon *p,
+                                  pds__gi_irr *out)
+{
+    double L[3], r2;
+    pds__v3 x = pds__f3_get(p->pos), ng = pds__f3_get(p->ng);
+    int c;
+    memset(out, 0, sizeof *out);
+    memcpy(out->pos, p->pos, sizeof out->pos);
+    memcpy(out->ng, p->ng, sizeof out->ng);
+    pds__gi_estimate(g, white, x, ng, ng, ng, 0.0, L, &r2);
+    for (c = 0; c < 3; c++) out->E[c] = (float)(PDS__PI * L[c]);
+    out->r2 = (float)r2; /* 0 (no estimate): never chosen */
+}
+
+typedef struct pds__gi_irr_job {
+    pds__gi_map *g;
+    pds_material white; /* Lambertian, albedo 1 */
+    pds__mutex lock;
+    size_t next; /* guarded by lock: the next batch's first point */
+} pds__gi_irr_job;
+
+static void *pds__gi_irr_worker(void *arg)
+{
+    pds__gi_irr_job *job = (pds__gi_irr_job *)arg;
+    pds__gi_map *g = job->g;
+    for (;;) {
+        size_t first, i;
+        pds__mutex_lock(&job->lock);
+        first = job->next;
+        job->next += 1024;
+        pds__mutex_unlock(&job->lock);
+        if (first >= g->nirr) break;
+        for (i = first; i < g->nirr && i < first + 1024; i++)
+            pds__gi_irradiance_at(g, &job->white, &g->photons[i * PDS__GI_IRR_STRIDE], &g->irr[i]);
+    }
+    return NULL;
+}
+
+/* The points and their kd-tree, for a map of RGB photons (each point a
+   pure function of the map: the same for any thread count). */
+static pds_status pds__gi_irradiance_build(pds__gi_map *g, int threads, pds_error *err)
+{
+    pds__gi_irr_job job;
+    size_t i;
+    if (g->n == 0) return PDS_OK;
+    for (i = 0; i < g->n; i++)
+        if (g->photons[i].lambda > 0.0f) return PDS_OK;
+    g->nirr = (g->n + PDS__GI_IRR_STRIDE - 1) / PDS__GI_IRR_STRIDE;
+    g->irr = (pds__gi_irr *)malloc(sizeof *g->irr * g->nirr);
+    if (!g->irr) return pds__nomem(err);
+    memset(&job, 0, sizeof job);
+    job.g = g;
+    job.white.type = PDS_MAT_DIFFUSE;
+    job.white.albedo[0] = job.white.albedo[1] = job.white.albedo[2] = 1.0;
+    pds__mutex_init(&job.lock);
+    pds__run_threads(threads, pds__gi_irr_worker, &job);
+    pds__mutex_destroy(&job.lock);
+    return pds__kdtree_build(&g->itree, &g->irr[0].pos[0], sizeof *g->irr / sizeof(float), g->nirr, err);
+}
+
+/* L at x2 (Lambertian material m, geometric normal ngw facing wo) from
+   the nearest point with a matching normal; 0 if there is none (then the
+   caller asks the full estimate). */
+static int pds__gi_irradiance_lookup(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 ngw, double L[3])
+{
+    size_t idx[PDS__GI_IRR_K], n, j;
+    double d2[PDS__GI_IRR_K], albedo[3];
+    int c;
+    n = pds__kdtree_knn(&g->itree, x, PDS__GI_IRR_K, DBL_MAX, idx, d2);
+    for (j = 0; j < n; j++) {
+        const pds__gi_irr *q = &g->irr[idx[j]];
+        if (!(q->r2 > 0.0f) || d2[j] > (double)q->r2) continue;
+        if (pds__dot(pds__f3_get(q->ng), ngw) < PDS__GI_IRR_COS) continue;
+        pds__albedo_at(m, x, ngw, albedo);
+        for (c = 0; c < 3; c++) L[c] = albedo[c] / PDS__PI * q->E[c];
+        return 1;
+    }
+    return 0;
 }
 
 /* Count the direct and shadow photons of one light within a radius. */
@@ -17290,8 +17427,11 @@ static void pds__gi_incoming(const pds__gi_map *g, const pds__tracer *tr, pds__v
         scene_m = &s->materials.items[hit.material];
         m = pds__gi_ray_meet(r, scene_m, &m_lambda);
         if (!pds__material_is_specular(m)) {
+            pds__v3 wo = pds__scale(dir, -1.0), ngw = pds__dot(hit.ng, wo) >= 0.0 ? hit.ng : pds__scale(hit.ng, -1.0);
             w = pds__gi_ray_weight(r, &lambda_e);
-            pds__gi_radiance(g, m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, lambda_e, est);
+            if (!(g->irr && m->type == PDS_MAT_DIFFUSE && lambda_e == 0.0 &&
+                  pds__gi_irradiance_lookup(g, m, hit.position, ngw, est)))
+                pds__gi_radiance(g, m, hit.position, wo, hit.ns, hit.ng, lambda_e, est);
             for (c = 0; c < 3; c++) L[c] = w[c] * est[c];
             return;
         }
@@ -19025,9 +19165,12 @@ void pds_options_default(pds_options *opt)
     opt->caustics = PDS_METHOD_PDS;
     opt->global_photons = 100000;
     opt->global_k = 50;
-    opt->gather = 16;
-    opt->gather_mix = 0.25;
-    opt->shadow_photons = 1;
+    /* one cosine-sampled gather per camera sample and a shadow ray for
+       every light sample: the fastest to a given error in our scenes
+       (README "Global illumination", measured against pt) */
+    opt->gather = 1;
+    opt->gather_mix = 1.0;
+    opt->shadow_photons = 0;
     opt->streams = 0;
     opt->stream_photons = 10;
     opt->global_map = PDS_GLOBAL_PHOTONS;
