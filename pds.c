@@ -16827,8 +16827,25 @@ static int pds__gi_streams_index(pds__gi_map *g)
 
 static pds_status pds__gi_irradiance_build(pds__gi_map *g, int threads, pds_error *err);
 
+/* Does precomputing the irradiance (below) pay? One point costs one full
+   estimate and a lookup then about a quarter of one, so it pays when the
+   gathers ask for more than 4/3 of the map's size in estimates; with a
+   margin (some gather rays end on glass, glossy surfaces or nothing):
+   when pixels x samples x gathers exceed PDS__GI_IRR_PAYS times the
+   stored photons. The render's own numbers, so every shard decides the
+   same. */
+#define PDS__GI_IRR_PAYS 1.5
+static int pds__gi_irradiance_pays(const pds_scene *s, const pds_options *opt, size_t stored)
+{
+    double w = opt->width > 0 ? opt->width : s->camera.width;
+    double h = opt->height > 0 ? opt->height : s->camera.height;
+    double spp = opt->spp > 0 ? opt->spp : s->camera.spp;
+    return w * h * spp * opt->gather > PDS__GI_IRR_PAYS * (double)stored;
+}
+
 /* Pass 1: emit n photons on the threads, merge the stores in photon
-   order, build the two kd-trees and the precomputed irradiance. */
+   order, build the two kd-trees and, where it pays, the precomputed
+   irradiance. */
 static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pds_options *opt, int threads,
                                     pds_error *err)
 {
@@ -16907,7 +16924,7 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
     if (!st)
         st = pds__kdtree_build(&g->stree, g->ns ? &g->shadow[0].pos[0] : NULL, sizeof *g->shadow / sizeof(float),
                                g->ns, err);
-    if (!st) st = pds__gi_irradiance_build(g, threads, err);
+    if (!st && pds__gi_irradiance_pays(s, opt, g->n)) st = pds__gi_irradiance_build(g, threads, err);
     if (st) pds__gi_map_free(g);
     return st;
 }
@@ -17059,7 +17076,8 @@ static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v
    samples), that makes the image 1% brighter, every photon 0.4%
    (README "Global illumination"), at 1.5 times the cost of every fourth
    (and 0.43 times the cost of the full estimate), so every photon it
-   is. E is the map's own estimate (single photons or streams) for a
+   is. The points cost one full estimate each, so they are made only when
+   the gathers will ask for more estimates (pds__gi_irradiance_pays). E is the map's own estimate (single photons or streams) for a
    white Lambertian surface. Where no
    point qualifies (a thin part, an edge) and on other surfaces the full
    estimate answers; so it does in maps holding spectral photons, whose

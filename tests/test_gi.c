@@ -92,6 +92,11 @@ static void test_gi_precomputed_irradiance_matches_the_full_estimate(pds_test_ct
     o.global_photons = 100000;
     o.global_k = 100;
     REQUIRE(t, pds__gi_map_build(&g, s, &o, 2, &err) == PDS_OK, "map: %s", err.text);
+    /* 16 x 16 pixels of 1 sample and 8 gathers: too few for it to pay */
+    REQUIRE(t, g.irr == NULL && !pds__gi_irradiance_pays(s, &o, g.n), "precomputed for 2048 gathers");
+    o.spp = 1000;
+    CHECK(t, pds__gi_irradiance_pays(s, &o, g.n), "not precomputed for 2,048,000 gathers");
+    REQUIRE(t, pds__gi_irradiance_build(&g, 2, &err) == PDS_OK, "precomputed: %s", err.text);
     REQUIRE(t, g.irr != NULL && g.nirr == (g.n + PDS__GI_IRR_STRIDE - 1) / PDS__GI_IRR_STRIDE, "%lu points",
             (unsigned long)g.nirr);
     for (i = -5; i <= 5; i++) {
