@@ -62,7 +62,8 @@
      >>gi         Jensen's two-pass global illumination: global photon map
                   (single photons, or streams: seed paper 003's streams
                   where they mean something), shadow photons,
-                  importance-sampled final gather, caustics from any
+                  importance-sampled final gather, precomputed
+                  irradiance (Christensen 1999), caustics from any
                   caustic method, spectral rays and photons (not in
                   PDS_NO_GI)
      >>isc        image-space caustics (Wyman and Davis 2006): light-space
@@ -16333,7 +16334,9 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
      near x1 (Jensen 1995, "Importance driven path tracing using the
      photon map"); each follows specular surfaces to the first
      non-specular x2 and returns the global map's radiance estimate there
-     (eq. 3 with the cone filter, eq. 4, k = 1), which ends the recursion.
+     (eq. 3 with the cone filter, eq. 4, k = 1), which ends the recursion;
+     on a Lambertian x2 the irradiance precomputed at the map's photons
+     (Christensen 1999, below) where that pays.
      A gather ray that meets an emitter brings direct light (counted by
      the light sample) or a caustic (counted by the caustic method) and
      adds nothing, except at a glossy x1 (below).
