@@ -176,15 +176,17 @@ static const command_help help_table[] = {
      "      --global-photons N      gi: photons emitted for the global photon map (default 100000)\n"
      "      --global-k K            gi: nearest photons (streams: leaders) per global radiance estimate\n"
      "                              (default 50)\n"
-     "      --gather N              gi: final-gather rays per eye sample (default 16)\n"
+     "      --gather N              gi: final-gather rays per eye sample (default 1)\n"
      "      --gather-mix F          gi: share of cosine-sampled gather directions, the rest following\n"
-     "                              the global map's photons (default 0.25; 1 = cosine sampling)\n"
-     "      --no-shadow-photons     gi: a shadow ray for every light sample\n"
+     "                              the global map's photons (default 1 = cosine sampling)\n"
+     "      --shadow-photons        gi: shadow photons decide where shadow rays are needed\n"
+     "      --no-shadow-photons     gi: a shadow ray for every light sample (the default)\n"
      "      --global-map M          gi: photons (default) or streams (streamed photon mapping)\n"
      "      --stream-radius R       gi streams, spm: rs (default: the scene's largest side / 16)\n"
      "                              spm's full image is gi's with --global-map streams --caustics spm:\n"
-     "                              the five options above and --stream-radius are spm's too (not with\n"
-     "                              --caustics-only: rs never reaches a caustic stream), and --streams\n"
+     "                              --global-photons to --no-shadow-photons and --stream-radius are\n"
+     "                              spm's too (not with --caustics-only: rs never reaches a caustic\n"
+     "                              stream), and --streams\n"
      "                              is also the global map's nfs (default global-photons / (nfa + 1))\n"
      "      --method isc            image-space caustics (Wyman and Davis 2006): interactive, approximate;\n"
      "                              --photons N: a light-space buffer of side sqrt(N) per light; --time:\n"
@@ -945,7 +947,8 @@ static int set_int(const opt_spec *s, run_cfg *c, const char *shown, const char 
 }
 
 /* A flag (no value): the int field gets the table's lo, e.g.
-   --no-shadow-photons sets shadow_photons to 0, --spectral spectral to 1. */
+   --no-shadow-photons sets shadow_photons to 0, --shadow-photons to 1,
+   --spectral spectral to 1. */
 static int set_flag(const opt_spec *s, run_cfg *c, const char *shown, const char *v)
 {
     (void)shown;
@@ -1285,6 +1288,8 @@ static const opt_spec option_table[] = {
      F_VALUE | F_SWEEP | F_PER_METHOD | F_SPM_FULL},
     {"--gather-mix", NULL, "gather_mix", set_double, OPTF(gather_mix), 0, 1, "a number above 0 and at most 1",
      M_GI | M_SPM, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD | F_SPM_FULL},
+    {"--shadow-photons", NULL, "shadow_photons", set_flag, OPTF(shadow_photons), 1, 1, "", M_GI | M_SPM, C_ALL,
+     F_PER_METHOD | F_SPM_FULL},
     {"--no-shadow-photons", NULL, "shadow_photons", set_flag, OPTF(shadow_photons), 0, 0, "", M_GI | M_SPM, C_ALL,
      F_PER_METHOD | F_SPM_FULL},
     {"--global-map", NULL, "global_map", set_global_map, 0, 0, 0, "photons or streams", M_GI, C_ALL,

@@ -62,8 +62,10 @@
      >>gi         Jensen's two-pass global illumination: global photon map
                   (single photons, or streams: seed paper 003's streams
                   where they mean something), shadow photons,
-                  importance-sampled final gather, caustics from any
-                  caustic method (not in PDS_NO_GI)
+                  importance-sampled final gather, precomputed
+                  irradiance (Christensen 1999), caustics from any
+                  caustic method, spectral rays and photons (not in
+                  PDS_NO_GI)
      >>isc        image-space caustics (Wyman and Davis 2006): light-space
                   photon buffer, points, quads, eye- and light-space
                   gathers, temporal filter, animation frames, static
@@ -13419,7 +13421,7 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
    and values: 0 when only the vertex is wanted, not acc (a row of another
    shard, or one whose value the part already holds, >>partial). */
 typedef int (*pds__path_fn)(const void *ctx, const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx,
-                            double acc[3], pds__eye_vertex *rec, long counts[4], int values);
+                            double lambda, double acc[3], pds__eye_vertex *rec, long counts[4], int values);
 
 /* --- the render scheduler ----------------------------------------------- */
 /* Rows (from a list: all of them, or a shard's, >>partial) are handed out
@@ -13497,8 +13499,7 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
             pds__eye_vertex v[PDS__EYE_LEAVES];
             double lambda = job->tracer.spectral ? pds__eye_wavelength(job->seed, pixel, sample) : 0.0;
             int recorded, j;
-            v[0].lambda = 0.0f; /* gi's eye paths are RGB (>>spectral) */
-            recorded = job->path ? job->path(job->path_ctx, &job->tracer, org, dir, idx, acc,
+            recorded = job->path ? job->path(job->path_ctx, &job->tracer, org, dir, idx, lambda, acc,
                                              job->record_eye ? v : NULL, &job->row_counts[4 * (size_t)y],
                                              !job->row_values || job->row_values[y])
                                  : pds__trace_path(&job->tracer, org, dir, idx, lambda, acc,
@@ -16338,7 +16339,9 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
      near x1 (Jensen 1995, "Importance driven path tracing using the
      photon map"); each follows specular surfaces to the first
      non-specular x2 and returns the global map's radiance estimate there
-     (eq. 3 with the cone filter, eq. 4, k = 1), which ends the recursion.
+     (eq. 3 with the cone filter, eq. 4, k = 1), which ends the recursion;
+     on a Lambertian x2 the irradiance precomputed at the map's photons
+     (Christensen 1999, below) where that pays.
      A gather ray that meets an emitter brings direct light (counted by
      the light sample) or a caustic (counted by the caustic method) and
      adds nothing, except at a glossy x1 (below).
@@ -16384,6 +16387,11 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
    something: their leaders first meet diffuse surfaces. See "streams in
    the global map" below.
 
+   Spectral renders (>>spectral): global photons carry wavelengths and
+   turn spectral at their first dispersive material, as caustic photons
+   do; the eye paths and gather rays as the other methods' eye paths
+   ("gi's rays in spectral renders" below).
+
    Determinism: global photon i is a pure function of (seed, i) (Halton
    points for its emission, PDS__RNG_GLOBAL for its bounces); threads
    take fixed batches and the stores are sorted by (photon, order) before
@@ -16400,14 +16408,18 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
 
 /* A photon of the global map: position, travel direction, geometric
    normal of the surface facing the photon, flux (W), and where it stands
-   among the stores: emitted photon (stream) number, then order; with
-   streams, a leader holds the number of photons of its stream (itself and
-   the associated photons stored right after it), else 0. 64 bytes. */
+   among the stores: emitted photon (stream) number (at most 1e9, so 32
+   bits), then order; with streams, a leader holds the number of photons
+   of its stream (itself and the associated photons stored right after
+   it), else 0; lambda: spectral renders, the photon's wavelength once it
+   is spectral (its flux then its power at lambda times the film weight
+   W(lambda), as the caustic photons', >>spectral), else 0. 64 bytes. */
 typedef struct pds__gi_photon {
     float pos[3], dir[3], ng[3], flux[3];
-    long index;
+    int32_t index;
     int seq;
     int lead;
+    float lambda;
 } pds__gi_photon;
 
 /* A stream of the global map (streams only): its leader's position, the
@@ -16419,6 +16431,14 @@ typedef struct pds__gi_stream {
     long first;
     long count;
 } pds__gi_stream;
+
+/* A point of precomputed irradiance (Christensen 1999, below): where a
+   stored photon lies, its normal, the irradiance E (W/m^2) there and the
+   squared radius of the estimate. 40 bytes. */
+typedef struct pds__gi_irr {
+    float pos[3], ng[3], E[3];
+    float r2;
+} pds__gi_irr;
 
 /* A direct (first hit) or shadow photon: position, geometric normal
    facing the light it came from, that light. 48 bytes. */
@@ -16452,6 +16472,9 @@ typedef struct pds__gi_map {
     pds__gi_shadow_photon *shadow;
     size_t ns;
     pds__kdtree stree;
+    pds__gi_irr *irr;    /* precomputed irradiance, or NULL */
+    size_t nirr;
+    pds__kdtree itree;
     int k;               /* photons per radiance estimate */
     int gather;          /* gather rays per eye sample */
     double mix;          /* share of cosine sampling in the gather */
@@ -16470,6 +16493,9 @@ typedef struct pds__gi_build {
     int streams;         /* 1: streams of a leader and nfa associated photons */
     int nfa;             /* streams: associated photons per stream */
     double rs;           /* streams: the stream radius */
+    int spectral;        /* one wavelength per photon (>>spectral) */
+    int spectral_all;    /* ... spectral from the light on, not only from
+                            the first dispersive material */
     pds__gi_buf *bufs;
     pds__mutex lock;
     int next_buf;        /* guarded by lock */
@@ -16597,21 +16623,29 @@ static int pds__gi_associate(const pds__gi_build *b, long i, int depth, int j, p
     pds__f3_set(p->pos, h.position);
     pds__f3_set(p->dir, d);
     pds__f3_set(p->ng, pds__dot(h.ng, d) < 0.0 ? h.ng : pds__scale(h.ng, -1.0));
-    p->index = i;
+    p->index = (int32_t)i;
     return 1;
 }
 
 /* Trace global photon i: emission, stores at non-specular hits, Russian
    roulette by the albedo (Jensen 1996, sect. 3). With streams, photon i
    is the leader of stream i, and at each of its stores the associated
-   photons are aimed and stored after it (above). */
+   photons are aimed and stored after it (above). In a spectral render the
+   photon carries wavelength lambda (the seventh Halton dimension, as the
+   caustic photons) and turns spectral where it first meets a dispersive
+   material (with --spectral: at its first hit), as in >>pds's tracing:
+   its flux becomes its power at lambda times W(lambda), and from there on
+   materials are taken at lambda (>>spectral). */
 static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long i)
 {
     const pds_scene *s = b->scene;
     const double *sigma = NULL;
+    double sigma_buf[3];
+    pds_material m_lambda;
     pds__light_emit e;
     pds__v3 org, dir, nside;
     double u[4], pmf, flux[3];
+    double lambda = b->spectral ? pds__photon_wavelength(b->halton_seed, i) : 0.0, lam = 0.0;
     int k, c, depth, stores = 0, seq = 0, live = b->streams ? b->nfa : 0;
     for (c = 0; c < 4; c++) u[c] = pds__halton(b->halton_seed, (uint64_t)i, c);
     k = pds__lights_pick(&s->light_table, pds__halton(b->halton_seed, (uint64_t)i, 4), &pmf);
@@ -16633,6 +16667,18 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
         pds__beer(sigma, th.t, flux);
         m = &s->materials.items[hit.material];
         if (m->type == PDS_MAT_EMISSIVE) return;
+        if (lambda > 0.0 && lam == 0.0 && (b->spectral_all || pds__material_is_dispersive(m))) {
+            /* the photon turns spectral (>>spectral) */
+            double film[3], phi = pds__spectral_value(flux, lambda);
+            pds__film_weight(lambda, film);
+            for (c = 0; c < 3; c++) flux[c] = phi * film[c];
+            if (sigma) pds__spectral_uplift(lambda, sigma_buf);
+            lam = lambda;
+        }
+        if (lam > 0.0) {
+            pds__spectral_material(m, lam, &m_lambda);
+            m = &m_lambda;
+        }
         if (!pds__material_is_specular(m)) {
             pds__gi_photon p;
             size_t lead_at = buf->n;
@@ -16643,9 +16689,10 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
             pds__f3_set(p.dir, dir);
             pds__f3_set(p.ng, pds__dot(hit.ng, dir) < 0.0 ? hit.ng : pds__scale(hit.ng, -1.0));
             for (c = 0; c < 3; c++) p.flux[c] = (float)flux[c];
-            p.index = i;
+            p.index = (int32_t)i;
             p.seq = seq++;
             p.lead = b->streams;
+            p.lambda = (float)lam;
             if (!pds__gi_push(buf, &p)) return;
             if (live > 0) {
                 /* the stream's photons share its flux; the eliminated
@@ -16657,6 +16704,7 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
                     if (!pds__gi_associate(b, i, depth, j, org, nside, &hit, &a)) continue;
                     for (c = 0; c < 3; c++) a.flux[c] = (float)share[c];
                     a.seq = seq++;
+                    a.lambda = (float)lam;
                     if (!pds__gi_push(buf, &a)) return;
                     landed++;
                 }
@@ -16669,6 +16717,7 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
         for (c = 0; c < 3; c++)
             uu[c] = pds__rng_uniform(b->seed, PDS__RNG_GLOBAL, (uint64_t)i, 4 * (uint64_t)depth + (uint64_t)c);
         if (!pds__bsdf_sample(m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, uu, PDS__IMPORTANCE, &bs)) return;
+        pds__spectral_uplift(lam, bs.weight);
         q = 1.0;
         if (!bs.delta) {
             q = fmax(bs.weight[0], fmax(bs.weight[1], bs.weight[2]));
@@ -16678,7 +16727,12 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
                 return;
         }
         for (c = 0; c < 3; c++) flux[c] *= bs.weight[c] / q;
-        if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        if (m->type == PDS_MAT_DIELECTRIC) {
+            /* a copy: m may be m_lambda, which the next hit overwrites */
+            const double *a = pds__medium_absorption(m, bs.side);
+            if (a) memcpy(sigma_buf, a, sizeof sigma_buf);
+            sigma = a ? sigma_buf : NULL;
+        }
         if (bs.delta) live = 0; /* a specular event: the stream is its leader alone */
         dir = bs.wi;
         org = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, dir) >= 0.0 ? b->eps : -b->eps));
@@ -16725,15 +16779,18 @@ static void pds__gi_map_free(pds__gi_map *g)
     free(g->photons);
     free(g->streams);
     free(g->shadow);
+    free(g->irr);
     pds__kdtree_free(&g->tree);
     pds__kdtree_free(&g->stree);
+    pds__kdtree_free(&g->itree);
     memset(g, 0, sizeof *g);
 }
 
 static size_t pds__gi_map_bytes(const pds__gi_map *g)
 {
     return g->n * sizeof *g->photons + g->nstreams * sizeof *g->streams + pds__kdtree_memory(&g->tree) +
-           g->ns * sizeof *g->shadow + pds__kdtree_memory(&g->stree);
+           g->ns * sizeof *g->shadow + pds__kdtree_memory(&g->stree) + g->nirr * sizeof *g->irr +
+           pds__kdtree_memory(&g->itree);
 }
 
 /* rs in scene units: the option, or 1/16 of the largest side of the
@@ -16776,8 +16833,27 @@ static int pds__gi_streams_index(pds__gi_map *g)
     return 1;
 }
 
+static pds_status pds__gi_irradiance_build(pds__gi_map *g, int threads, pds_error *err);
+
+/* Does precomputing the irradiance (below) pay? One point costs one full
+   estimate and a lookup then about a quarter of one, so it pays when the
+   gathers ask for more than 4/3 of the map's size in estimates; with a
+   margin (some gather rays end on glass, glossy surfaces or nothing):
+   when pixels x samples x gathers exceed PDS__GI_IRR_PAYS times the
+   stored photons. The render's own numbers, so every shard decides the
+   same. */
+#define PDS__GI_IRR_PAYS 1.5
+static int pds__gi_irradiance_pays(const pds_scene *s, const pds_options *opt, size_t stored)
+{
+    double w = opt->width > 0 ? opt->width : s->camera.width;
+    double h = opt->height > 0 ? opt->height : s->camera.height;
+    double spp = opt->spp > 0 ? opt->spp : s->camera.spp;
+    return w * h * spp * opt->gather > PDS__GI_IRR_PAYS * (double)stored;
+}
+
 /* Pass 1: emit n photons on the threads, merge the stores in photon
-   order, build the two kd-trees. */
+   order, build the two kd-trees and, where it pays, the precomputed
+   irradiance. */
 static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pds_options *opt, int threads,
                                     pds_error *err)
 {
@@ -16808,6 +16884,8 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
     }
     b.max_depth = opt->max_depth;
     b.eps = 1e-6 * pds__scene_scale(s);
+    b.spectral = pds__render_is_spectral(s, opt);
+    b.spectral_all = b.spectral && opt->spectral;
     b.bufs = (pds__gi_buf *)calloc((size_t)threads, sizeof *b.bufs);
     if (!b.bufs) return pds__nomem(err);
     pds__mutex_init(&b.lock);
@@ -16854,6 +16932,7 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
     if (!st)
         st = pds__kdtree_build(&g->stree, g->ns ? &g->shadow[0].pos[0] : NULL, sizeof *g->shadow / sizeof(float),
                                g->ns, err);
+    if (!st && pds__gi_irradiance_pays(s, opt, g->n)) st = pds__gi_irradiance_build(g, threads, err);
     if (st) pds__gi_map_free(g);
     return st;
 }
@@ -16874,12 +16953,14 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
    single-photon map (Jensen 1996, eq. 4, k = 1: w = 1 - d/r, dA times
    1 - 2/3), the kernel density the paper allows for streams (sect. 6),
    so that streams and single photons differ in nothing else. Nothing
-   from fewer than min(8, k) leaders, like the single-photon estimate. */
+   from fewer than min(8, k) leaders, like the single-photon estimate.
+   Spectral photons and vertices meet as in pds__gi_radiance. */
 typedef struct pds__gi_stream_sum {
     const pds__gi_map *g;
     const pds_material *m;
     pds__v3 x, wo, ns, ng, ngw;
     double r, r2;
+    double lambda_e;
     double L[3];
 } pds__gi_stream_sum;
 
@@ -16893,16 +16974,18 @@ static void pds__gi_stream_visit(void *vctx, size_t index, double dist2)
     for (j = 0; j < st->count; j++) {
         const pds__gi_photon *p = &a->g->photons[st->first + j];
         pds__v3 d = pds__sub(pds__f3_get(p->pos), a->x);
-        double d2 = pds__dot(d, d), f[3], pdf, w;
+        double d2 = pds__dot(d, d), f[3], e[3], pdf, w;
         if (d2 > a->r2 || pds__dot(pds__f3_get(p->ng), a->ngw) <= 0.0) continue;
         pds__bsdf_eval(a->m, a->x, a->wo, pds__scale(pds__f3_get(p->dir), -1.0), a->ns, a->ng, f, &pdf);
+        for (c = 0; c < 3; c++) e[c] = p->flux[c];
+        if ((p->lambda > 0.0f || a->lambda_e > 0.0) && !pds__spectral_meet(p->lambda, a->lambda_e, e, f)) continue;
         w = 1.0 - sqrt(d2 / a->r2);
-        for (c = 0; c < 3; c++) a->L[c] += f[c] * p->flux[c] * w;
+        for (c = 0; c < 3; c++) a->L[c] += f[c] * e[c] * w;
     }
 }
 
 static void pds__gi_stream_radiance(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 ns,
-                                    pds__v3 ng, double L[3])
+                                    pds__v3 ng, double lambda_e, double L[3], double *r2)
 {
     size_t idx[PDS__GI_MAX_K], n;
     double d2[PDS__GI_MAX_K], area;
@@ -16919,8 +17002,10 @@ static void pds__gi_stream_radiance(const pds__gi_map *g, const pds_material *m,
     a.ns = ns;
     a.ng = ng;
     a.ngw = pds__dot(ng, wo) >= 0.0 ? ng : pds__scale(ng, -1.0);
+    a.lambda_e = lambda_e;
     a.r2 = d2[n - 1];
     a.r = sqrt(a.r2);
+    if (r2) *r2 = a.r2;
     pds__kdtree_range(&g->tree, x, a.r + g->reach, pds__gi_stream_visit, &a);
     area = (1.0 / 3.0) * PDS__PI * a.r2;
     for (c = 0; c < 3; c++) L[c] = a.L[c] / area;
@@ -16930,16 +17015,23 @@ static void pds__gi_stream_radiance(const pds__gi_map *g, const pds_material *m,
    eq. 4 with k = 1): L(x, wo) = sum_p f(x, wo, wp) dPhi_p w_p /
    ((1 - 2/3) pi r^2), r the distance of the k-th nearest photon, photons
    from the other side of the surface skipped, nothing from fewer than
-   min(8, k) photons. A map of streams gives the streams' estimate. */
-static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 ns,
-                             pds__v3 ng, double L[3])
+   min(8, k) photons. A map of streams gives the streams' estimate.
+   Spectral renders: x is seen at every wavelength (lambda_e = 0) or, at
+   the end of a chain through dispersive glass, at lambda_e only; each
+   photon, RGB or spectral, meets it as a caustic photon meets an eye
+   vertex (pds__spectral_meet: a spectral photon at its own wavelength,
+   into a vertex at lambda_e only from its wavelength bin), so the
+   estimate is already weighted by the film. */
+static void pds__gi_estimate(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 ns,
+                             pds__v3 ng, double lambda_e, double L[3], double *r2_out)
 {
     size_t idx[PDS__GI_MAX_K], n, j;
     double d2[PDS__GI_MAX_K], r2, area;
     pds__v3 ngw = pds__dot(ng, wo) >= 0.0 ? ng : pds__scale(ng, -1.0);
     int c;
+    if (r2_out) *r2_out = 0.0;
     if (g->streams) {
-        pds__gi_stream_radiance(g, m, x, wo, ns, ng, L);
+        pds__gi_stream_radiance(g, m, x, wo, ns, ng, lambda_e, L, r2_out);
         return;
     }
     L[0] = L[1] = L[2] = 0.0;
@@ -16947,16 +17039,144 @@ static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v
     if (n < (size_t)(g->k < 8 ? g->k : 8)) return;
     r2 = d2[n - 1];
     if (!(r2 > 0.0)) return;
+    if (r2_out) *r2_out = r2;
     for (j = 0; j < n; j++) {
         const pds__gi_photon *p = &g->photons[idx[j]];
-        double f[3], pdf, w;
+        double f[3], e[3], pdf, w;
         if (pds__dot(pds__f3_get(p->ng), ngw) <= 0.0) continue;
         pds__bsdf_eval(m, x, wo, pds__scale(pds__f3_get(p->dir), -1.0), ns, ng, f, &pdf);
+        for (c = 0; c < 3; c++) e[c] = p->flux[c];
+        if ((p->lambda > 0.0f || lambda_e > 0.0) && !pds__spectral_meet(p->lambda, lambda_e, e, f)) continue;
         w = 1.0 - sqrt(d2[j] / r2);
-        for (c = 0; c < 3; c++) L[c] += f[c] * p->flux[c] * w;
+        for (c = 0; c < 3; c++) L[c] += f[c] * e[c] * w;
     }
     area = (1.0 / 3.0) * PDS__PI * r2;
     for (c = 0; c < 3; c++) L[c] /= area;
+}
+
+/* The estimate alone (r2_out: the squared radius it used, 0 if none). */
+static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 wo, pds__v3 ns,
+                             pds__v3 ng, double lambda_e, double L[3])
+{
+    pds__gi_estimate(g, m, x, wo, ns, ng, lambda_e, L, NULL);
+}
+
+/* --- precomputed irradiance (Christensen 1999) --------------------------
+   P. H. Christensen, "Faster photon map global illumination", Journal of
+   Graphics Tools 4(3), 1999: the final gather asks the global map for
+   radiance at many points x2, each a k-nearest search and k BRDF
+   evaluations; on Lambertian surfaces the radiance is the local albedo
+   over pi times the irradiance E, which varies slowly, so E is estimated
+   once, at every PDS__GI_IRR_STRIDE-th stored photon, and a gather ray
+   that ends on a Lambertian surface takes the estimate of the nearest
+   such point whose normal is within acos(PDS__GI_IRR_COS) of its own (and
+   that lies within the radius of that point's own estimate): one
+   nearest-point search instead of k.
+       E(p) = sum_q dPhi_q w_q / ((1 - 2/3) pi r^2)
+   over p's k nearest photons q arriving on p's side, cone filter as in
+   pds__gi_radiance (Jensen 1996, eqs. 3-4), r the k-th distance; then
+       L(x2, wo) = albedo(x2) / pi E(p).
+   The estimate moves by the distance to p, inside the blur r of the
+   density estimate itself, but not evenly: the points follow the
+   photons, denser where it is brighter, so the nearest one lies more
+   often on the brighter side. Christensen takes every fourth photon;
+   measured in the Cornell box against the full estimate (4 seeds of 64
+   samples), that makes the image 1% brighter, every photon 0.4%
+   (README "Global illumination"), at 1.5 times the cost of every fourth
+   (and 0.43 times the cost of the full estimate), so every photon it
+   is. The points cost one full estimate each, so they are made only when
+   the gathers will ask for more estimates (pds__gi_irradiance_pays). E
+   is the map's own estimate (single photons or streams) for a white
+   Lambertian surface. Where no point qualifies (a thin part, an edge)
+   and on other surfaces the full
+   estimate answers; so it does in maps holding spectral photons, whose
+   contributions depend on the albedo at each photon's wavelength. Tested
+   in gi_precomputed_irradiance_matches_the_full_estimate. */
+#define PDS__GI_IRR_STRIDE 1
+#define PDS__GI_IRR_COS 0.9
+#define PDS__GI_IRR_K 4     /* nearest points looked at for one with a matching normal */
+
+/* Irradiance at p's position on its lit side (the record's ng): pi
+   times the radiance the map's own estimate (single photons or streams)
+   gives a white Lambertian surface there. */
+static void pds__gi_irradiance_at(const pds__gi_map *g, const pds_material *white, const pds__gi_photon *p,
+                                  pds__gi_irr *out)
+{
+    double L[3], r2;
+    pds__v3 x = pds__f3_get(p->pos), ng = pds__f3_get(p->ng);
+    int c;
+    memset(out, 0, sizeof *out);
+    memcpy(out->pos, p->pos, sizeof out->pos);
+    memcpy(out->ng, p->ng, sizeof out->ng);
+    pds__gi_estimate(g, white, x, ng, ng, ng, 0.0, L, &r2);
+    for (c = 0; c < 3; c++) out->E[c] = (float)(PDS__PI * L[c]);
+    out->r2 = (float)r2; /* 0 (no estimate): never chosen */
+}
+
+typedef struct pds__gi_irr_job {
+    pds__gi_map *g;
+    pds_material white; /* Lambertian, albedo 1 */
+    pds__mutex lock;
+    size_t next; /* guarded by lock: the next batch's first point */
+} pds__gi_irr_job;
+
+static void *pds__gi_irr_worker(void *arg)
+{
+    pds__gi_irr_job *job = (pds__gi_irr_job *)arg;
+    pds__gi_map *g = job->g;
+    for (;;) {
+        size_t first, i;
+        pds__mutex_lock(&job->lock);
+        first = job->next;
+        job->next += 1024;
+        pds__mutex_unlock(&job->lock);
+        if (first >= g->nirr) break;
+        for (i = first; i < g->nirr && i < first + 1024; i++)
+            pds__gi_irradiance_at(g, &job->white, &g->photons[i * PDS__GI_IRR_STRIDE], &g->irr[i]);
+    }
+    return NULL;
+}
+
+/* The points and their kd-tree, for a map of RGB photons (each point a
+   pure function of the map: the same for any thread count). */
+static pds_status pds__gi_irradiance_build(pds__gi_map *g, int threads, pds_error *err)
+{
+    pds__gi_irr_job job;
+    size_t i;
+    if (g->n == 0) return PDS_OK;
+    for (i = 0; i < g->n; i++)
+        if (g->photons[i].lambda > 0.0f) return PDS_OK;
+    g->nirr = (g->n + PDS__GI_IRR_STRIDE - 1) / PDS__GI_IRR_STRIDE;
+    g->irr = (pds__gi_irr *)malloc(sizeof *g->irr * g->nirr);
+    if (!g->irr) return pds__nomem(err);
+    memset(&job, 0, sizeof job);
+    job.g = g;
+    job.white.type = PDS_MAT_DIFFUSE;
+    job.white.albedo[0] = job.white.albedo[1] = job.white.albedo[2] = 1.0;
+    pds__mutex_init(&job.lock);
+    pds__run_threads(threads, pds__gi_irr_worker, &job);
+    pds__mutex_destroy(&job.lock);
+    return pds__kdtree_build(&g->itree, &g->irr[0].pos[0], sizeof *g->irr / sizeof(float), g->nirr, err);
+}
+
+/* L at x2 (Lambertian material m, geometric normal ngw facing wo) from
+   the nearest point with a matching normal; 0 if there is none (then the
+   caller asks the full estimate). */
+static int pds__gi_irradiance_lookup(const pds__gi_map *g, const pds_material *m, pds__v3 x, pds__v3 ngw, double L[3])
+{
+    size_t idx[PDS__GI_IRR_K], n, j;
+    double d2[PDS__GI_IRR_K], albedo[3];
+    int c;
+    n = pds__kdtree_knn(&g->itree, x, PDS__GI_IRR_K, DBL_MAX, idx, d2);
+    for (j = 0; j < n; j++) {
+        const pds__gi_irr *q = &g->irr[idx[j]];
+        if (!(q->r2 > 0.0f) || d2[j] > (double)q->r2) continue;
+        if (pds__dot(pds__f3_get(q->ng), ngw) < PDS__GI_IRR_COS) continue;
+        pds__albedo_at(m, x, ngw, albedo);
+        for (c = 0; c < 3; c++) L[c] = albedo[c] / PDS__PI * q->E[c];
+        return 1;
+    }
+    return 0;
 }
 
 /* Count the direct and shadow photons of one light within a radius. */
@@ -17004,17 +17224,124 @@ static int pds__gi_shadow_test(const pds__gi_map *g, pds__v3 x, pds__v3 ngw, int
     return direct > 0;
 }
 
+/* --- gi's rays in spectral renders ---------------------------------------
+   gi's eye path (camera to x1) and its gather rays (x1 along specular
+   surfaces to x2) are spectral as the other methods' eye paths are
+   (>>spectral, pds__trace_path): a camera sample's wavelength lambda, the
+   ray RGB until its chain first meets a dispersive material (with
+   --spectral: from the camera on), there its throughput replaced by its
+   value at lambda, materials and lights then taken at lambda and what it
+   sees weighted by the film's W(lambda). Alongside, the chain's RGB
+   weight is kept for a vertex whose chain met no dispersive material
+   (the eye vertex x1, or the point x2 where a gather ends), which holds
+   at every wavelength: the caustic method's photons meet x1, and the
+   global map's photons x2, as caustic photons meet an eye vertex
+   (pds__spectral_meet). A gather ray starts from x1's state, so a
+   gather from a point seen through a prism stays at that point's
+   wavelength. In RGB renders (lambda = 0) the state is the throughput
+   alone and every step below is the RGB one. */
+typedef struct pds__gi_ray {
+    double beta[3];           /* throughput (at lam in all three channels once spectral) */
+    double beta_rgb[3];       /* the chain's RGB weight, kept while lam > 0 */
+    double sigma[3];          /* Beer coefficients of the medium it is in (at lam once spectral), if has_sigma */
+    const double *sigma_rgb;  /* the RGB ones for beta_rgb, or NULL */
+    int has_sigma;
+    int chromatic;            /* its chain met a dispersive material: holds at lambda only */
+    double lambda;            /* the camera sample's wavelength; 0 in RGB renders */
+    double lam;               /* lambda once the ray is spectral, else 0 */
+    double film[3];           /* W(lambda) */
+} pds__gi_ray;
+
+/* A camera ray's state: throughput 1, RGB unless --spectral. */
+static void pds__gi_ray_start(pds__gi_ray *r, const pds__tracer *tr, double lambda)
+{
+    int c;
+    memset(r, 0, sizeof *r);
+    for (c = 0; c < 3; c++) r->beta[c] = r->beta_rgb[c] = 1.0;
+    r->lambda = lambda;
+    if (lambda > 0.0) {
+        pds__film_weight(lambda, r->film);
+        if (tr->spectral_all) r->lam = lambda;
+    }
+}
+
+/* Travel dist through the medium the ray is in (Beer). */
+static void pds__gi_ray_beer(pds__gi_ray *r, double dist)
+{
+    pds__beer(r->has_sigma ? r->sigma : NULL, dist, r->beta);
+    pds__beer(r->sigma_rgb, dist, r->beta_rgb);
+}
+
+/* The ray meets material m (the scene's): where it is dispersive the ray
+   becomes chromatic and, if still RGB, turns spectral. Returns the
+   material as the ray sees it (at lam, in *buf, once spectral). */
+static const pds_material *pds__gi_ray_meet(pds__gi_ray *r, const pds_material *m, pds_material *buf)
+{
+    if (r->lambda > 0.0 && pds__material_is_dispersive(m)) {
+        r->chromatic = 1;
+        if (r->lam == 0.0) {
+            r->lam = r->lambda;
+            pds__spectral_uplift(r->lam, r->beta);
+            if (r->has_sigma) pds__spectral_uplift(r->lam, r->sigma);
+        }
+    }
+    if (!(r->lam > 0.0)) return m;
+    pds__spectral_material(m, r->lam, buf);
+    return buf;
+}
+
+/* The ray leaves material m (as it sees it; scene_m the scene's) by a
+   BSDF sample of RGB weight w (and side, for a dielectric's medium): its
+   throughput times w (at lam once spectral). */
+static void pds__gi_ray_scatter(pds__gi_ray *r, const pds_material *m, const pds_material *scene_m, double w[3],
+                                int side)
+{
+    int c;
+    if (r->lam > 0.0) {
+        for (c = 0; c < 3; c++) r->beta_rgb[c] *= w[c];
+        if (scene_m->type == PDS_MAT_DIELECTRIC) r->sigma_rgb = pds__medium_absorption(scene_m, side);
+        pds__spectral_uplift(r->lam, w);
+    }
+    for (c = 0; c < 3; c++) r->beta[c] *= w[c];
+    if (m->type == PDS_MAT_DIELECTRIC) {
+        const double *a = pds__medium_absorption(m, side);
+        if (a) memcpy(r->sigma, a, sizeof r->sigma);
+        r->has_sigma = a != NULL;
+    }
+}
+
+/* The weight a vertex at the end of the ray's chain takes (the RGB one
+   if its chain met no dispersion) and the wavelength it holds at (0: at
+   every wavelength). */
+static const double *pds__gi_ray_weight(const pds__gi_ray *r, double *lambda_e)
+{
+    *lambda_e = r->chromatic ? r->lambda : 0.0;
+    return r->lam > 0.0 && !r->chromatic ? r->beta_rgb : r->beta;
+}
+
+/* Emitted radiance le (RGB) seen by the ray: into acc, times its
+   throughput, at lam and through the film once spectral. */
+static void pds__gi_ray_sees(const pds__gi_ray *r, double le[3], double acc[3])
+{
+    int c;
+    pds__spectral_uplift(r->lam, le);
+    for (c = 0; c < 3; c++) acc[c] += r->beta[c] * le[c] * (r->lam > 0.0 ? r->film[c] : 1.0);
+}
+
 /* Direct light at a non-specular vertex: one light sample (light picked
    by power), its shadow ray skipped where the shadow photons decide
    (counts[0] rays traced, counts[1] decided without one). With
    bsdf_rays > 0 gather rays sampling the BSDF (glossy vertices), the
    sample is weighted against them by the power heuristic with the
-   sample counts; else it counts alone. */
+   sample counts; else it counts alone. ray: the eye path's state (m is
+   the material as it sees it); a spectral path takes the BSDF and the
+   light at its wavelength. */
 static void pds__gi_direct(const pds__gi_map *g, const pds__tracer *tr, const pds_material *m, pds__v3 p, pds__v3 wo,
-                           pds__v3 ns, pds__v3 ng, const double beta[3], uint64_t idx, int bsdf_rays, double acc[3],
+                           pds__v3 ns, pds__v3 ng, const pds__gi_ray *ray, uint64_t idx, int bsdf_rays, double acc[3],
                            long counts[4])
 {
     const pds_scene *s = tr->scene;
+    const double *beta = ray->beta;
     double pmf, f[3], pdf_bsdf, cosine, mis = 1.0;
     pds__light_li li;
     pds__v3 n, ngw, org;
@@ -17039,6 +17366,11 @@ static void pds__gi_direct(const pds__gi_map *g, const pds__tracer *tr, const pd
         if (!known) return;
     }
     if (!li.delta && bsdf_rays > 0) mis = pds__mis_power(pmf * li.pdf, bsdf_rays * pdf_bsdf);
+    if (ray->lam > 0.0) {
+        pds__spectral_uplift(ray->lam, f);
+        pds__spectral_uplift(ray->lam, li.li);
+        for (c = 0; c < 3; c++) f[c] *= ray->film[c];
+    }
     for (c = 0; c < 3; c++) acc[c] += beta[c] * f[c] * li.li[c] * cosine / (pmf * li.pdf) * mis;
 }
 
@@ -17136,27 +17468,30 @@ static double pds__gi_guide_sample(const pds__gi_guide *gd, double ua, double ub
 /* Radiance arriving along (org, dir) from the scene as the gather sees
    it: through specular surfaces (Fresnel choice by the numbers of
    dimension dim on), the global map's estimate at the first non-specular
-   hit. An emitter reached with no specular bounce before it is returned
-   in *light (its index, else -1) with its radiance in L, the point and
-   normal for the MIS weight; one reached through a specular bounce is a
-   caustic of x1 and brings nothing. */
+   hit, times the ray's throughput r (pds__gi_ray; RGB renders start it at
+   1, spectral ones at the whole weight from the camera, so that it can
+   turn spectral on the way). An emitter reached with no specular bounce
+   before it is returned in *light (its index, else -1) with its radiance
+   times the throughput in L, the point and normal for the MIS weight; one
+   reached through a specular bounce is a caustic of x1 and brings
+   nothing. */
 static void pds__gi_incoming(const pds__gi_map *g, const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx,
-                             uint64_t dim, double L[3], int *light, pds__v3 *lx, pds__v3 *ln)
+                             uint64_t dim, pds__gi_ray *r, double L[3], int *light, pds__v3 *lx, pds__v3 *ln)
 {
     const pds_scene *s = tr->scene;
-    const double *sigma = NULL;
-    double beta[3] = {1.0, 1.0, 1.0};
+    pds_material m_lambda;
     int depth, c;
     L[0] = L[1] = L[2] = 0.0;
     *light = -1;
     for (depth = 0; depth <= tr->max_depth; depth++) {
         pds__tri_hit th;
         pds_hit hit;
-        double tl = 0.0, u[3], est[3];
+        double tl = 0.0, u[3], est[3], lambda_e, le[3];
+        const double *w;
         pds__v3 nl = pds__v(0.0, 0.0, 0.0);
         int found = pds__bvh_intersect(&s->bvh, org, dir, 0.0, DBL_MAX, &th);
         int lh = pds__hit_analytic_light(s, org, dir, found ? th.t : DBL_MAX, &tl, &nl);
-        const pds_material *m;
+        const pds_material *m, *scene_m;
         pds__bsdf_result bs;
         if (lh >= 0 || (found && s->materials.items[s->mesh.mat[th.tri]].type == PDS_MAT_EMISSIVE)) {
             if (depth > 0) return; /* a caustic of x1 */
@@ -17170,7 +17505,8 @@ static void pds__gi_incoming(const pds__gi_map *g, const pds__tracer *tr, pds__v
                 *ln = hit.ng;
             }
             if (lh < 0) return;
-            pds__light_le(&s->lights[lh], *ln, pds__scale(dir, -1.0), L);
+            pds__light_le(&s->lights[lh], *ln, pds__scale(dir, -1.0), le);
+            pds__gi_ray_sees(r, le, L);
             *light = lh;
             return;
         }
@@ -17179,22 +17515,27 @@ static void pds__gi_incoming(const pds__gi_map *g, const pds__tracer *tr, pds__v
                bounce it is a caustic of x1) */
             if (depth > 0 || !s->env_index1) return;
             *light = s->env_index1 - 1;
-            pds__env_radiance(&s->lights[*light], dir, L);
+            pds__env_radiance(&s->lights[*light], dir, le);
+            pds__gi_ray_sees(r, le, L);
             return;
         }
         pds__scene_fill_hit(s, &th, org, dir, &hit);
-        pds__beer(sigma, th.t, beta);
-        m = &s->materials.items[hit.material];
+        pds__gi_ray_beer(r, th.t);
+        scene_m = &s->materials.items[hit.material];
+        m = pds__gi_ray_meet(r, scene_m, &m_lambda);
         if (!pds__material_is_specular(m)) {
-            pds__gi_radiance(g, m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, est);
-            for (c = 0; c < 3; c++) L[c] = beta[c] * est[c];
+            pds__v3 wo = pds__scale(dir, -1.0), ngw = pds__dot(hit.ng, wo) >= 0.0 ? hit.ng : pds__scale(hit.ng, -1.0);
+            w = pds__gi_ray_weight(r, &lambda_e);
+            if (!(g->irr && m->type == PDS_MAT_DIFFUSE && lambda_e == 0.0 &&
+                  pds__gi_irradiance_lookup(g, m, hit.position, ngw, est)))
+                pds__gi_radiance(g, m, hit.position, wo, hit.ns, hit.ng, lambda_e, est);
+            for (c = 0; c < 3; c++) L[c] = w[c] * est[c];
             return;
         }
         if (depth == tr->max_depth) return;
         for (c = 0; c < 3; c++) u[c] = pds__rng_uniform(tr->seed, PDS__RNG_GATHER, idx, dim + 4 * (uint64_t)depth + (uint64_t)c);
         if (!pds__bsdf_sample(m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, u, PDS__RADIANCE, &bs)) return;
-        for (c = 0; c < 3; c++) beta[c] *= bs.weight[c];
-        if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        pds__gi_ray_scatter(r, m, scene_m, bs.weight, bs.side);
         org = pds__offset(tr, hit.position, hit.ng, bs.wi);
         dir = bs.wi;
     }
@@ -17206,15 +17547,21 @@ static void pds__gi_incoming(const pds__gi_map *g, const pds__tracer *tr, pds__v
 #define PDS__GI_RAY_DIMS 8192
 
 /* Indirect light at the non-specular vertex (m, x, wo, ns, ng) by nrays
-   gather rays, times beta, into acc; counts[2] += rays traced. Lambertian:
-   directions from the guided cells (mix: share of cosine sampling);
-   glossy: by the BSDF, with emitters hit straight away weighted against
-   the light sample (power heuristic, counts 1 and nrays). */
+   gather rays, into acc, for an eye path of state ray (m is the material
+   as it sees it); counts[2] += rays traced. Lambertian: directions from
+   the guided cells (mix: share of cosine sampling); glossy: by the BSDF,
+   with emitters hit straight away weighted against the light sample
+   (power heuristic, counts 1 and nrays). */
 static void pds__gi_gather(const pds__gi_map *g, const pds__tracer *tr, const pds_material *m, pds__v3 x, pds__v3 wo,
-                           pds__v3 ns, pds__v3 ng, const double beta[3], uint64_t idx, int nrays, double mix,
+                           pds__v3 ns, pds__v3 ng, const pds__gi_ray *ray, uint64_t idx, int nrays, double mix,
                            double acc[3], long counts[4])
 {
     const pds_scene *s = tr->scene;
+    const double *beta = ray->beta;
+    /* RGB renders: the gather ray's own throughput, times x1's weight at
+       the end (the order of the products that the images' bits hang on);
+       spectral ones: the whole weight travels with the ray */
+    int whole = ray->lambda > 0.0;
     pds__v3 n, ngw, b1, b2;
     pds__gi_guide gd;
     int side, j, c, glossy = m->type == PDS_MAT_GLOSSY;
@@ -17227,6 +17574,7 @@ static void pds__gi_gather(const pds__gi_map *g, const pds__tracer *tr, const pd
         double ub = pds__rng_uniform(tr->seed, PDS__RNG_GATHER, idx, dim + 1);
         double w[3], L[3], f[3], pdf;
         pds__v3 wi, lx, ln;
+        pds__gi_ray gr;
         int light;
         if (glossy) {
             double u[3] = {ua, ub, 0.5};
@@ -17251,7 +17599,15 @@ static void pds__gi_gather(const pds__gi_map *g, const pds__tracer *tr, const pd
             if (!(w[0] > 0.0 || w[1] > 0.0 || w[2] > 0.0)) continue;
         }
         counts[2]++;
-        pds__gi_incoming(g, tr, pds__offset(tr, x, ng, wi), wi, idx, dim + 4, L, &light, &lx, &ln);
+        if (whole) {
+            gr = *ray;
+            pds__gi_ray_scatter(&gr, m, m, w, 0);
+        } else {
+            pds__gi_ray_start(&gr, tr, 0.0);
+        }
+        gr.has_sigma = 0; /* x1's medium is not followed (as in RGB) */
+        gr.sigma_rgb = NULL;
+        pds__gi_incoming(g, tr, pds__offset(tr, x, ng, wi), wi, idx, dim + 4, &gr, L, &light, &lx, &ln);
         if (light >= 0) {
             /* direct light: only a glossy vertex counts it here, by MIS */
             double pl, mis;
@@ -17265,22 +17621,24 @@ static void pds__gi_gather(const pds__gi_map *g, const pds__tracer *tr, const pd
             mis = pds__mis_power(nrays * pdf, pl);
             for (c = 0; c < 3; c++) L[c] *= mis;
         }
-        for (c = 0; c < 3; c++) acc[c] += beta[c] * w[c] * L[c] / nrays;
+        for (c = 0; c < 3; c++) acc[c] += (whole ? L[c] : beta[c] * w[c] * L[c]) / nrays;
     }
 }
 
 /* gi's eye path (a pds__path_fn): through specular surfaces to the first
    non-specular vertex x1, which is recorded for the caustic method; there
    the light sample and the final gather. An emitter seen through the
-   specular chain gives its radiance. */
-static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double acc[3],
-                        pds__eye_vertex *rec, long counts[4], int values)
+   specular chain gives its radiance. lambda: the camera sample's
+   wavelength in a spectral render (pds__gi_ray), else 0. */
+static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double lambda,
+                        double acc[3], pds__eye_vertex *rec, long counts[4], int values)
 {
     const pds__gi_map *g = (const pds__gi_map *)ctx;
     const pds_scene *s = tr->scene;
-    double beta[3] = {1.0, 1.0, 1.0};
-    const double *sigma = NULL;
+    pds__gi_ray ray;
+    pds_material m_lambda;
     int depth, c;
+    pds__gi_ray_start(&ray, tr, lambda);
     for (depth = 0; depth <= tr->max_depth; depth++) {
         uint64_t dim = 2 + (uint64_t)depth * PDS__DIMS_PER_BOUNCE;
         pds__tri_hit th;
@@ -17289,7 +17647,7 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
         pds__v3 nl = pds__v(0.0, 0.0, 0.0);
         int found = pds__bvh_intersect(&s->bvh, org, dir, 0.0, DBL_MAX, &th);
         int lh = pds__hit_analytic_light(s, org, dir, found ? th.t : DBL_MAX, &tl, &nl);
-        const pds_material *m;
+        const pds_material *m, *scene_m;
         pds__bsdf_result bs;
         if (lh >= 0 || (found && s->materials.items[s->mesh.mat[th.tri]].type == PDS_MAT_EMISSIVE)) {
             double dist;
@@ -17302,42 +17660,48 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
                 if (lh < 0) return 0;
             }
             pds__light_le(&s->lights[lh], nl, pds__scale(dir, -1.0), le);
-            pds__beer(sigma, dist, beta);
-            for (c = 0; c < 3; c++) acc[c] += beta[c] * le[c];
+            pds__gi_ray_beer(&ray, dist);
+            pds__gi_ray_sees(&ray, le, acc);
             return 0;
         }
         if (!found) {
             /* the environment seen through the specular chain */
             if (g->record_only || !s->env_index1) return 0;
             pds__env_radiance(&s->lights[s->env_index1 - 1], dir, le);
-            pds__beer(sigma, DBL_MAX, beta);
-            for (c = 0; c < 3; c++) acc[c] += beta[c] * le[c];
+            pds__gi_ray_beer(&ray, DBL_MAX);
+            pds__gi_ray_sees(&ray, le, acc);
             return 0;
         }
         pds__scene_fill_hit(s, &th, org, dir, &hit);
-        pds__beer(sigma, th.t, beta);
-        m = &s->materials.items[hit.material];
+        pds__gi_ray_beer(&ray, th.t);
+        scene_m = &s->materials.items[hit.material];
+        m = pds__gi_ray_meet(&ray, scene_m, &m_lambda);
         if (!pds__material_is_specular(m)) {
             pds__v3 wo = pds__scale(dir, -1.0);
-            int recorded = rec && pds__eye_vertex_set(rec, m, hit.position, hit.ns, hit.ng, wo, beta, hit.material);
+            double lambda_e;
+            const double *imp = pds__gi_ray_weight(&ray, &lambda_e);
+            int recorded = rec && pds__eye_vertex_set(rec, m, hit.position, hit.ns, hit.ng, wo, imp, hit.material);
+            if (recorded) rec->lambda = (float)lambda_e;
             if (!g->record_only && values) {
                 int glossy = m->type == PDS_MAT_GLOSSY;
-                pds__gi_direct(g, tr, m, hit.position, wo, hit.ns, hit.ng, beta, idx, glossy ? g->gather : 0, acc,
+                pds__gi_direct(g, tr, m, hit.position, wo, hit.ns, hit.ng, &ray, idx, glossy ? g->gather : 0, acc,
                                counts);
-                pds__gi_gather(g, tr, m, hit.position, wo, hit.ns, hit.ng, beta, idx, g->gather, g->mix, acc, counts);
+                pds__gi_gather(g, tr, m, hit.position, wo, hit.ns, hit.ng, &ray, idx, g->gather, g->mix, acc, counts);
             }
             return recorded;
         }
         if (depth == tr->max_depth) return 0;
         for (c = 0; c < 3; c++) u[c] = pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 3 + (uint64_t)c);
         if (!pds__bsdf_sample(m, hit.position, pds__scale(dir, -1.0), hit.ns, hit.ng, u, PDS__RADIANCE, &bs)) return 0;
-        for (c = 0; c < 3; c++) beta[c] *= bs.weight[c];
-        if (m->type == PDS_MAT_DIELECTRIC) sigma = pds__medium_absorption(m, bs.side);
+        pds__gi_ray_scatter(&ray, m, scene_m, bs.weight, bs.side);
         if (depth + 1 >= tr->rr_depth) {
-            double b = fmax(beta[0], fmax(beta[1], beta[2]));
+            double b = fmax(ray.beta[0], fmax(ray.beta[1], ray.beta[2]));
             q = b < 1.0 ? b : 1.0;
             if (!(q > 0.0) || pds__rng_uniform(tr->seed, PDS__RNG_PIXEL, idx, dim + 6) >= q) return 0;
-            for (c = 0; c < 3; c++) beta[c] /= q;
+            for (c = 0; c < 3; c++) {
+                ray.beta[c] /= q;
+                ray.beta_rgb[c] /= q;
+            }
         }
         org = pds__offset(tr, hit.position, hit.ng, bs.wi);
         dir = bs.wi;
@@ -17363,10 +17727,10 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
     (void)g, (void)s, (void)opt, (void)threads;
     return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "this build leaves gi out (PDS_NO_GI)");
 }
-static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double acc[3],
-                        pds__eye_vertex *rec, long counts[4], int values)
+static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx, double lambda,
+                        double acc[3], pds__eye_vertex *rec, long counts[4], int values)
 {
-    (void)ctx, (void)tr, (void)org, (void)dir, (void)idx, (void)acc, (void)rec, (void)counts, (void)values;
+    (void)ctx, (void)tr, (void)org, (void)dir, (void)idx, (void)lambda, (void)acc, (void)rec, (void)counts, (void)values;
     return 0;
 }
 #endif /* PDS_NO_GI */
@@ -18899,9 +19263,12 @@ void pds_options_default(pds_options *opt)
     opt->caustics = PDS_METHOD_PDS;
     opt->global_photons = 100000;
     opt->global_k = 50;
-    opt->gather = 16;
-    opt->gather_mix = 0.25;
-    opt->shadow_photons = 1;
+    /* one cosine-sampled gather per camera sample and a shadow ray for
+       every light sample: the fastest to a given error in our scenes
+       (README "Global illumination", measured against pt) */
+    opt->gather = 1;
+    opt->gather_mix = 1.0;
+    opt->shadow_photons = 0;
     opt->streams = 0;
     opt->stream_photons = 10;
     opt->global_map = PDS_GLOBAL_PHOTONS;

@@ -623,14 +623,14 @@ typedef struct pds_options {
     int global_k;       /* gi: nearest photons (streams: leaders) per global
                            radiance estimate, 1..1000 (default 50) */
     int gather;         /* gi: final-gather rays per eye sample, 0..4096
-                           (default 16) */
+                           (default 1) */
     double gather_mix;  /* gi: share of cosine sampling in the final gather's
                            directions, (0, 1]; the rest follows the global
-                           map's incoming photons (default 0.25; 1 = plain
+                           map's incoming photons (default 1 = plain
                            cosine sampling) */
     int shadow_photons; /* gi: 1 = shadow photons decide where shadow rays are
                            needed, 0 = a shadow ray for every light sample
-                           (default 1) */
+                           (default 0) */
     pds_global_map global_map; /* gi: single photons or streams (default
                            PDS_GLOBAL_PHOTONS); streams: global_photons /
                            (stream_photons + 1) streams of stream_photons + 1
