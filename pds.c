@@ -15441,8 +15441,6 @@ static void pds__pm_estimate(const pds__gather *g, const pds__eye_vertex *v, con
         for (c = 0; c < 3; c++) e[c] = p->flux[c];
         if (!pds__eye_response(g->scene, v, pds__scale(pds__f3_get(p->dir), -1.0), p->lambda, e, f)) continue;
         w = pds__pm_weight(g->kernel, d2[j], r2);
-        for (c = 0; c < 3; c++) e[c] = p->flux[c];
-        if ((p->lambda > 0.0f || v->lambda > 0.0f) && !pds__spectral_meet(p->lambda, v->lambda, e, f)) continue;
         for (c = 0; c < 3; c++) sum[c] += f[c] * e[c] * w;
     }
     area = pds__pm_norm(g->kernel) * PDS__PI * r2;

@@ -478,7 +478,65 @@ static void test_spectral_images_are_identical_for_any_thread_count(pds_test_ctx
     }
 }
 
+/* pm's estimate at an eye vertex seen through dispersive glass (it holds
+   at lambda_e = 560 nm) from spectral photons: those of its wavelength
+   bin count with the bin count's weight, 16 (one photon in 16 falls in a
+   bin, so the expectation is right), once; those of another bin not at
+   all. So against the same vertex holding at every wavelength the
+   estimate is exactly 16 times as large from photons of its bin, and 0
+   from the others. (pm once applied the weight twice: 256 times, a
+   caustic seen through a dispersive ball too bright.) */
+static void test_spectral_pm_weighs_a_wavelength_bin_once(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text("material floor diffuse { albedo 0.5 0.6 0.7 }\nquad { material floor }\n", &err);
+    pds__stored_photon ph[12];
+    pds__eye_vertex v;
+    pds__gather g;
+    pds__v3 up = pds__v(0.0, 1.0, 0.0);
+    size_t idx[12];
+    double d2[12], beta[3] = {0.3, 0.3, 0.3};
+    double any[2][3] = {{0, 0, 0}, {0, 0, 0}}, one[2][3] = {{0, 0, 0}, {0, 0, 0}}; /* [bin: same, next] */
+    int i, c, pass;
+    REQUIRE(t, s != NULL, "scene: %s", err.text);
+    memset(&v, 0, sizeof v);
+    REQUIRE(t, pds__eye_vertex_set(&v, &s->materials.items[0], pds__v(0.0, 0.0, 0.0), up, up, up, beta, 0), "vertex");
+    memset(&g, 0, sizeof g);
+    g.scene = s;
+    g.photons = ph;
+    g.k = 12;
+    g.kernel = PDS_KERNEL_CONE;
+    for (pass = 0; pass < 2; pass++) {
+        memset(ph, 0, sizeof ph);
+        for (i = 0; i < 12; i++) {
+            double a = 2.0 * PDS__PI * i / 12.0, r = 0.01 * (1 + i);
+            pds__f3_set(ph[i].pos, pds__v(r * cos(a), 0.0, r * sin(a)));
+            pds__f3_set(ph[i].dir, pds__v(0.1 * cos(a), -1.0, 0.0));
+            pds__f3_set(ph[i].ng, up);
+            ph[i].flux[0] = 0.2f;
+            ph[i].flux[1] = 0.1f * (float)(1 + i % 3);
+            ph[i].flux[2] = 0.05f;
+            /* pass 0: within 560's bin [555, 580) nm; pass 1: the next bin */
+            ph[i].lambda = (float)(pass == 0 ? 556.0 + 2.0 * i : 581.0 + 2.0 * i);
+            idx[i] = (size_t)i;
+            d2[i] = r * r;
+        }
+        v.lambda = 0.0f;
+        pds__pm_estimate(&g, &v, idx, d2, 12, any[pass]);
+        v.lambda = 560.0f;
+        pds__pm_estimate(&g, &v, idx, d2, 12, one[pass]);
+    }
+    for (c = 0; c < 3; c++) {
+        CHECK(t, any[0][c] > 0.0 && fabs(one[0][c] / any[0][c] - 16.0) < 1e-9,
+              "channel %d: the estimate in its bin is %g times the achromatic one, want 16", c, one[0][c] / any[0][c]);
+        CHECK(t, any[1][c] > 0.0 && one[1][c] == 0.0, "channel %d: photons of the next bin give %g (achromatic %g)", c,
+              one[1][c], any[1][c]);
+    }
+    pds_scene_free(s);
+}
+
 static const pds_test_case tests_spectral[] = {
+    {"spectral_pm_weighs_a_wavelength_bin_once", test_spectral_pm_weighs_a_wavelength_bin_once},
     {"spectral_cie_fit_is_within_its_accuracy_of_the_cie_table",
      test_spectral_cie_fit_is_within_its_accuracy_of_the_cie_table},
     {"spectral_cie_fit_integrates_to_the_equal_energy_white_point",
