@@ -1538,6 +1538,14 @@ static const char *paths_name(pds_paths p)
     return p == PDS_PATHS_ALL ? "all" : p == PDS_PATHS_NO_CAUSTICS ? "no-caustics" : "caustics-only";
 }
 
+/* Did a time budget lower pm's or spm's k or pdm's max_photons? */
+static int gather_cap_lowered(const pds_options *o, const pds_render_stats *st)
+{
+    long asked = o->method == PDS_METHOD_PDM ? o->max_photons : (long)o->k;
+    return (o->method == PDS_METHOD_PM || o->method == PDS_METHOD_PDM || o->method == PDS_METHOD_SPM) &&
+           st->gather_cap > 0 && st->gather_cap < asked;
+}
+
 /* The final line of render. */
 static void print_render_line(const run_cfg *c, const pds_render_stats *st, const char *output)
 {
@@ -1561,6 +1569,9 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
         if (m == PDS_METHOD_PPM) printf(" passes=%d", st->passes);
         printf("%s", params);
         if (MBIT(m) & M_MAP) printf(" map_bytes=%lu", (unsigned long)st->map_bytes);
+        /* a time budget lowered the gather's cap so that the gather fits */
+        if (gather_cap_lowered(&c->opt, st))
+            printf(" %s_used=%ld", m == PDS_METHOD_PDM ? "max_photons" : "k", st->gather_cap);
         printf(" time_eye=%.3f time_photons=%.3f", st->time_eye_s, st->time_photons_s);
     } else if (m == PDS_METHOD_GI) {
         char params[256];

@@ -14429,6 +14429,11 @@ typedef struct pds__photon_job {
     long own_batches;          /* batches this call will run, for the progress */
     int cancelled;             /* guarded by lock: the progress callback said stop */
     double build_s, gather_s;  /* pm, pdm: time of the last map build and gather */
+    double gather_deadline;    /* pm, pdm, spm: with a time budget, pds_time_now()
+                                  by which the gather should end (>>baselines:
+                                  pds__gather_run), else 0 */
+    size_t gather_k;           /* pm, pdm, spm: the cap the last gather used */
+    size_t nsums;              /* entries of each thread's exact image (3 a pixel) */
     double gather_found;       /* pm, pdm: photons its queries returned */
     size_t map_photons;        /* pm, pdm: photons in the last map built */
 } pds__photon_job;
@@ -15130,7 +15135,9 @@ static void pds__pds_pass_plan(const pds_options *opt, long *k_total, long *m)
 /* Run progressive PDS passes into the job's sums: the passes first,
    first + stride, ... of the plan above, from the start-th of those on
    (a shard, or the rest of an interrupted render), or with a deadline,
-   whole passes while the last pass's duration still fits. The progress
+   whole passes while the end of one more, at the last pass's duration,
+   is nearer the deadline than now is (so the pass lands within half a
+   pass of it, early or late, rather than up to a whole pass early). The progress
    callback may stop it between passes. Returns the photons emitted;
    *passes gets the passes run. */
 static long pds__pds_passes(pds__photon_job *job, const pds_options *opt, int threads, double deadline, long first,
@@ -15148,7 +15155,7 @@ static long pds__pds_passes(pds__photon_job *job, const pds_options *opt, int th
     job->n_planned = (double)m;
     for (k = first + start * stride; k < k_max; k += stride) {
         double t = pds_time_now();
-        if (deadline > 0.0 && k > 0 && t + t_pass > deadline) break;
+        if (deadline > 0.0 && k > 0 && t + 0.5 * t_pass > deadline) break;
         job->smoothing = pds__pass_smoothing(opt->pass_smoothing, opt->pass_alpha, k + 1);
         pds__photon_run(job, threads, k * m);
         t_pass = pds_time_now() - t;
@@ -15290,6 +15297,9 @@ typedef struct pds__gather {
     int next_buf;              /* guarded by lock */
     int out_of_memory;         /* guarded by lock */
     double found;              /* guarded by lock: photons the queries returned */
+    size_t sample;             /* S > 0: gather only vertices i with i % S == 0
+                                  (phase 1) or only the others (phase 2) */
+    int sample_phase;
 } pds__gather;
 
 #define PDS__GATHER_CHUNK 1024
@@ -15318,8 +15328,10 @@ static void *pds__gather_worker(void *arg)
         for (i = first; i < last; i++) {
             const pds__eye_vertex *v = &g->v[i];
             double sum[3] = {0, 0, 0};
-            size_t n = pds__kdtree_knn(g->tree, pds__f3_get(v->pos), g->k, g->radius, idx, d2);
+            size_t n;
             int c;
+            if (g->sample && (i % g->sample == 0) != (g->sample_phase == 1)) continue;
+            n = pds__kdtree_knn(g->tree, pds__f3_get(v->pos), g->k, g->radius, idx, d2);
             found += n;
             if (n == 0) continue;
             g->estimate(g, v, idx, d2, n, sum);
@@ -15332,13 +15344,84 @@ static void *pds__gather_worker(void *arg)
     return NULL;
 }
 
-/* Run the gather on the threads that own the photon pass's images. */
-static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int threads, pds_error *err)
+/* One run of the gather workers over the vertices g->sample and
+   g->sample_phase select. */
+static void pds__gather_once(pds__gather *g, pds__photon_job *job, int threads)
 {
-    g->bufs = job->bufs;
+    g->next = 0;
+    g->next_buf = 0;
     pds__mutex_init(&g->lock);
     pds__run_threads(threads < job->nbufs ? threads : job->nbufs, pds__gather_worker, g);
     pds__mutex_destroy(&g->lock);
+}
+
+/* The gather under a time budget: the cap whose gather fits the time left,
+   from two measured samples of it. t_k and t_8 are the seconds a query
+   took (on all threads, on the final map) with the cap k and with a cap
+   of 8; a query's cost is taken to grow linearly with the cap between
+   them (it does with the photons found, which grow with the cap up to
+   those within reach). Returns the largest cap in [8, k] (k > 8) whose
+   queries take at most `per_query` seconds; 8 if none does. */
+static double pds__gather_cap_fit(double k, double t_k, double t_8, double per_query)
+{
+    double c;
+    if (t_k <= per_query) return k;
+    if (!(t_k > t_8)) return per_query >= t_8 ? k : 8.0;
+    c = floor(8.0 + (per_query - t_8) * (k - 8.0) / (t_k - t_8));
+    return fmin(k, fmax(8.0, c));
+}
+
+/* Zero the threads' exact images (pm, pdm, spm: only the gather writes
+   them). */
+static void pds__gather_clear(pds__photon_job *job, size_t nsums)
+{
+    int t;
+    for (t = 0; t < job->nbufs; t++) {
+        memset(job->bufs[t].sum, 0, nsums * sizeof(pds__sum128));
+        if (job->bufs[t].neg) memset(job->bufs[t].neg, 0, nsums * sizeof(pds__sum128));
+    }
+}
+
+/* Run the gather on the threads that own the photon pass's images. With a
+   time budget (job->gather_deadline > 0) the cap g->k is measured rather
+   than modelled (>>photonpass: step 3 of the plan): every 64th vertex is
+   gathered first; if the rest at that pace ends by the deadline, the rest
+   is gathered; else the sample is gathered again with a cap of 8, the cap
+   pds__gather_cap_fit gives is taken, and the whole gather is made with it
+   (the sample kept if that cap is 8). The images hold each vertex's
+   estimate once, whatever was measured. */
+static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int threads, pds_error *err)
+{
+    const size_t S = 64;
+    double k0 = (double)g->k;
+    g->bufs = job->bufs;
+    g->sample = 0;
+    if (job->gather_deadline > 0.0 && g->k > 8 && g->nv >= 64 * S) {
+        double ns = (double)((g->nv + S - 1) / S), t = pds_time_now(), t_k, t_8, cap;
+        g->sample = S;
+        g->sample_phase = 1;
+        pds__gather_once(g, job, threads);
+        t_k = (pds_time_now() - t) / ns;
+        if (!g->out_of_memory && t_k * ((double)g->nv - ns) > job->gather_deadline - pds_time_now()) {
+            pds__gather_clear(job, job->nsums);
+            g->found = 0.0;
+            g->k = 8;
+            t = pds_time_now();
+            pds__gather_once(g, job, threads);
+            t_8 = (pds_time_now() - t) / ns;
+            cap = pds__gather_cap_fit(k0, t_k, t_8, (job->gather_deadline - pds_time_now()) / (double)g->nv);
+            if (cap > 8.0) {
+                pds__gather_clear(job, job->nsums);
+                g->found = 0.0;
+                g->sample = 0;
+                g->k = (size_t)cap;
+            }
+        }
+        g->sample_phase = 2;
+    }
+    if (!g->out_of_memory) pds__gather_once(g, job, threads);
+    g->sample = 0;
+    job->gather_k = g->k;
     return g->out_of_memory ? pds__nomem(err) : PDS_OK;
 }
 
@@ -15684,9 +15767,28 @@ static double pds__default_radius(const pds_scene *s)
     return d > 0.0 ? d / 200.0 : 0.01;
 }
 
+/* Under a time budget: the photons of ppm's next pass, 0 for none, when
+   `left` seconds remain and the last pass of `photons` photons took
+   trace_s to trace and update_s to build its map and update the
+   vertices. A whole pass if it fits; else a shorter one whose tracing
+   fits beside an update as long as the last (an update costs the range
+   queries of every vertex even when few photons come), in whole batches
+   (PDS__PHOTON_BATCH); none if not one batch fits. Hachisuka et al.'s
+   recurrence holds for passes of any size: the estimate is
+   tau / (pi R^2 N_emitted) with N_emitted the photons of all passes. */
+static long pds__ppm_pass_photons(double left, double trace_s, double update_s, long photons)
+{
+    double n;
+    if (trace_s + update_s <= left) return photons;
+    if (!(trace_s > 0.0) || left <= update_s) return 0;
+    n = floor((double)photons * (left - update_s) / trace_s / PDS__PHOTON_BATCH) * PDS__PHOTON_BATCH;
+    return n >= (double)PDS__PHOTON_BATCH ? (long)n : 0;
+}
+
 /* Progressive photon mapping: passes of opt->photons photons, each
    updating every eye vertex, until opt->passes (or, with a time budget,
-   until the time is spent; at least one pass). Adds the radiance of each
+   until the time is spent: whole passes while they fit, then one shorter
+   pass, pds__ppm_pass_photons; at least one pass). Adds the radiance of each
    vertex into the exact sums of job->bufs[0] (for a factor n_planned /
    emitted of 1), unless the progress callback stopped it (job->cancelled:
    then nothing). *emitted_out gets the photons emitted. */
@@ -15702,18 +15804,31 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
     if (!state) return pds__nomem(err);
     for (i = 0; i < nv; i++) state[i].r2 = r0 * r0;
     for (pass = 0; !st; pass++) {
-        long this_pass;
+        long this_pass, next;
+        double tt = pds_time_now(), tu;
         pds__photon_run(job, threads, pass * (long)opt->photons);
         this_pass = job->batches_done * (long)PDS__PHOTON_BATCH;
         emitted += this_pass < job->n_total ? this_pass : job->n_total;
         for (t = 0; t < job->nbufs; t++)
             if (job->bufs[t].out_of_memory) st = PDS_ERR_NOMEM;
         if (job->cancelled) break;
+        tu = pds_time_now();
         if (!st) st = pds__ppm_update(job, opt, v, state, nv, threads, stats, err);
-        if (opt->time_s > 0.0 ? pds_time_now() - job->t0 >= opt->time_s : pass + 1 >= opt->passes) {
+        if (opt->time_s <= 0.0) {
+            if (pass + 1 >= opt->passes) {
+                pass++;
+                break;
+            }
+            continue;
+        }
+        /* a time budget: the next pass's size from this one's times */
+        next = pds__ppm_pass_photons(opt->time_s - (pds_time_now() - job->t0), (tu - tt) * (double)opt->photons /
+                                     (double)job->n_total, pds_time_now() - tu, opt->photons);
+        if (next == 0) {
             pass++;
             break;
         }
+        job->n_total = next;
     }
     if (!st && emitted > 0 && !job->cancelled) {
         /* L = tau / (pi R^2 N_emitted), times the vertex's importance */
@@ -15844,88 +15959,184 @@ static pds_status pds__spm_gather(pds__photon_job *job, const pds_options *opt, 
    map methods, the threads tracing photons, the methods' second halves,
    and the caustic image. */
 
-/* pm and pdm under a time budget: the map build and the gather come after
-   the last photon, so the tracing must stop early enough for them. Probe
-   them on the calibration photons (already stored in job->bufs) with every
-   s-th eye vertex, and model, for a map of m stored photons,
+/* pm, pdm and spm under a time budget: the map build and the gather come
+   after the last photon, so the tracing must stop early enough for them.
+   Probe them on the calibration photons (already stored in job->bufs)
+   with every s-th eye vertex, and model, for a map of m stored photons,
      build(m)  = build_probe m log m / (m_probe log m_probe)
-     gather(m) = nv c (1 + f) sqrt(max(1, log m / log m_probe)),
-   c = the probe's time per vertex / (1 + its photons found per vertex), and
-   f the photons a query will find: pm min(k, m); pdm the probe's count
-   scaled by the planned / emitted photons of the calibration (footprints
-   shrink as 1/N, so a finished map covers each vertex about as often as
-   the probe map would have with its planned count), at most k. (The
-   square root fits measured k-nearest queries better than log m does:
-   the top of the tree stays in cache.) Returns
-   the seconds left for tracing out of `remaining`, given the photons
-   traced per second (`rate`). The caller throws the probe's images away. */
+     gather(m) = nv (c0 + c1 f) sqrt(max(1, log m / log m_probe)) / P,
+   c0 + c1 f the time of a query that finds f photons, fitted to two probe
+   gathers, one with the cap and one with a cap of 8 (with one, or when
+   they found about as many photons, c0 = c1 = the probe's time per query
+   / (1 + its photons found per query)), f
+   the photons a query will find: pm and spm min(cap, m); pdm the probe's
+   count scaled by the planned / emitted photons of the calibration
+   (footprints shrink as 1/N, so a finished map covers each vertex about
+   as often as the probe map would have with its planned count), at most
+   the cap; P the threads' speed-up over the one-thread probe. (The square
+   root fits measured k-nearest queries better than log m does: the top of
+   the tree stays in cache.) The cap is pm's and spm's k, pdm's
+   max_photons.
+
+   The plan runs in rounds, so that what a busy machine does to the
+   threads is measured rather than assumed:
+   1. calibration (one thread) and probe (one thread: a probe of tens of
+      milliseconds on one core is not at the mercy of the other threads'
+      scheduling; a 1 ms probe on two threads of a busy machine planned no
+      tracing at all) give the one-thread rate and the model, with P = the
+      thread count;
+   2. the threads trace for half the planned tracing time; their measured
+      rate over the one-thread rate is P, and the plan is made again from
+      what is left, for the photons traced so far and the rest;
+   3. the gather measures rather than models (pds__gather_run): on the
+      final map, on all threads, it gathers every 64th vertex, and if the
+      rest at that pace would end after the budget, it measures the same
+      sample with a cap of 8 and takes the largest cap whose pace fits
+      (at least min(8, cap): Jensen's fewest photons for an estimate).
+      Only a gather that could not fit otherwise gets a lower cap, and
+      the render reports the cap it used (gather_cap).
+   Whatever the model says, tracing gets a quarter of the budget at least:
+   a render without caustics is no answer (and misses show in the time the
+   render reports). */
 /* What the probe measured (all times in seconds). */
 typedef struct pds__map_probe {
     double build_s, gather_s;  /* the probe map's build, its gather */
     double found;              /* photons one probe query returned, on average */
+    double gather2_s, found2;  /* the same with a cap of 8 (0, 0: not probed) */
     double map_photons;        /* photons the probe map held */
     double emitted;            /* photons emitted to fill it */
     double planned;            /* the photon count the calibration planned for */
     double queried;            /* eye vertices the probe gathered at */
-    int threads;               /* the probe ran on one thread, the gather will on these */
+    double parallel;           /* P: the gather's speed-up over the one-thread probe */
 } pds__map_probe;
 
-/* The model above, solved: the seconds of tracing, at `rate` photons per
-   second, after which tracing, build and gather of nv vertices fill
-   `remaining`. pdm: is the method pdm; k: pm's k or pdm's max_photons. */
-static double pds__map_plan(const pds__map_probe *p, int pdm, double k, size_t nv, double rate, double remaining)
+/* The model above: seconds to build a map of m stored photons and gather
+   it at nv vertices with this cap. pdm: is the method pdm. */
+static double pds__map_cost(const pds__map_probe *p, int pdm, double cap, size_t nv, double m)
 {
-    double share = p->map_photons / p->emitted, mlog = log(p->map_photons), lo = 0.0, hi = rate * remaining;
-    double per_vertex = p->gather_s / p->queried / (1.0 + p->found);
-    double found = fmin(k, p->found * p->planned / p->emitted);
+    double lm = log(fmax(2.0, m)) / log(p->map_photons);
+    double t1 = p->gather_s / p->queried, c0 = t1 / (1.0 + p->found), c1 = c0;
+    double f = pdm ? fmin(cap, p->found * p->planned / p->emitted) : fmin(cap, m);
+    if (p->found - p->found2 >= 0.5 * p->found && p->found2 > 0.0) {
+        /* the line through the two probes, its slope and intercept >= 0 */
+        double t2 = p->gather2_s / p->queried;
+        c1 = fmax(0.0, (t1 - t2) / (p->found - p->found2));
+        c0 = fmax(0.0, t1 - c1 * p->found);
+    }
+    return p->build_s * m / p->map_photons * fmax(1.0, lm) +
+           (double)nv * (c0 + c1 * f) * sqrt(fmax(1.0, lm)) / (p->parallel > 0.0 ? p->parallel : 1.0);
+}
+
+/* The model solved: the seconds of further tracing, at `rate` photons per
+   second, after which that tracing and the build and gather of nv
+   vertices fill `remaining`, `traced` photons having been traced already
+   (0 if even the map of those cannot be made in time). */
+static double pds__map_plan(const pds__map_probe *p, int pdm, double cap, size_t nv, double rate, double traced,
+                            double remaining)
+{
+    double share = p->map_photons / p->emitted, lo = 0.0, hi = rate * remaining;
     int i;
-    /* bisect for the photon count n whose tracing and map fill the budget */
+    /* bisect for the further photon count n whose tracing and map fill the budget */
     for (i = 0; i < 60; i++) {
-        double n = 0.5 * (lo + hi), m = fmax(2.0, n * share), lm = log(m) / mlog;
-        double f = pdm ? found : fmin(k, m);
-        double cost = n / rate + p->build_s * m / p->map_photons * fmax(1.0, lm) +
-                      per_vertex * (double)nv * (1.0 + f) * sqrt(fmax(1.0, lm)) / (p->threads > 0 ? p->threads : 1);
-        if (cost > remaining) hi = n;
+        double n = 0.5 * (lo + hi);
+        if (n / rate + pds__map_cost(p, pdm, cap, nv, (traced + n) * share) > remaining) hi = n;
         else lo = n;
     }
     return lo / rate;
 }
 
-static double pds__map_budget(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
-                              int threads, double rate, double remaining)
+/* Steps 1 and 2: the seconds of further tracing, and in *cap_out the cap
+   planned for: the requested one if the tracing then keeps a quarter of
+   `left`, else the largest in [min(8, cap), cap] that does (a bisection
+   over whole numbers: the tracing time falls as the cap grows); tracing
+   at least a quarter of `left` + `traced_s` (the tracing done so far)
+   minus `traced_s`. */
+static double pds__map_tracing(const pds__map_probe *p, int pdm, double cap, size_t nv, double rate, double traced,
+                               double traced_s, double left, double *cap_out)
 {
-    size_t step = nv / 8192 + 1, nsub = 0, i;
+    double lo = fmin(8.0, cap), hi = cap;
+    if (pds__map_plan(p, pdm, hi, nv, rate, traced, left) < 0.25 * left) {
+        while (hi - lo > 1.0) {
+            double mid = floor(0.5 * (lo + hi));
+            if (pds__map_plan(p, pdm, mid, nv, rate, traced, left) >= 0.25 * left) lo = mid;
+            else hi = mid;
+        }
+        cap = lo;
+    }
+    *cap_out = cap;
+    return fmax(0.25 * (left + traced_s) - traced_s, pds__map_plan(p, pdm, cap, nv, rate, traced, left));
+}
+
+/* The cap a map method's gather is asked for: pm's and spm's k, pdm's
+   max_photons. */
+static double pds__map_cap_requested(const pds_options *opt)
+{
+    return (double)(opt->method == PDS_METHOD_PDM ? opt->max_photons : opt->k);
+}
+
+/* Step 1's probe: fills *p from a build and gather of the calibration
+   photons at every s-th vertex; 0 if nothing could be measured (no
+   photon stored, say). */
+static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
+                              int threads, pds__map_probe *p)
+{
+    size_t step = nv / 8192 + 1, nsub = 0, i, nkept = 0;
     pds__eye_vertex *sub = (pds__eye_vertex *)malloc(sizeof *sub * (nv / step + 1));
-    pds__map_probe p;
+    pds__stored_photon *kept = NULL; /* pm, spm: the stored photons, which a gather consumes */
     pds_error ignored;
     pds_status st;
-    if (!sub) return remaining;
+    int two = pds__map_cap_requested(opt) > 8.0, t;
+    if (!sub) return 0;
     for (i = 0; i < nv; i += step) sub[nsub++] = v[i];
+    if (two && opt->method != PDS_METHOD_PDM) {
+        for (t = 0; t < job->nbufs; t++) nkept += job->bufs[t].nstored;
+        kept = (pds__stored_photon *)malloc(sizeof *kept * (nkept ? nkept : 1));
+        if (!kept) two = 0;
+        for (t = 0, nkept = 0; kept && t < job->nbufs; t++) {
+            if (job->bufs[t].nstored) memcpy(kept + nkept, job->bufs[t].stored, sizeof *kept * job->bufs[t].nstored);
+            nkept += job->bufs[t].nstored;
+        }
+    }
     job->build_s = job->gather_s = job->gather_found = 0.0;
     job->map_photons = 0;
-    /* one thread: a probe of tens of milliseconds on one core is not at
-       the mercy of the other threads' scheduling (a 1 ms probe on two
-       threads of a busy machine planned no tracing at all) */
     st = opt->method == PDS_METHOD_PM    ? pds__pm_gather(job, opt, sub, nsub, 1, NULL, &ignored)
          : opt->method == PDS_METHOD_SPM ? pds__spm_gather(job, opt, sub, nsub, 1, NULL, &ignored)
                                          : pds__pdm_gather(job, opt, sub, nsub, 1, NULL, &ignored);
+    if (st || job->map_photons < 2 || nsub == 0) {
+        free(sub);
+        free(kept);
+        return 0;
+    }
+    p->build_s = job->build_s;
+    p->gather_s = job->gather_s;
+    p->found = job->gather_found / (double)nsub;
+    p->gather2_s = p->found2 = 0.0;
+    if (two) {
+        /* the second probe, with a cap of 8, on the same photons */
+        pds_options low = *opt;
+        if (kept) {
+            free(job->bufs[0].stored);
+            job->bufs[0].stored = kept;
+            job->bufs[0].nstored = job->bufs[0].cap_stored = nkept;
+            kept = NULL;
+        }
+        if (opt->method == PDS_METHOD_PDM) low.max_photons = 8;
+        else low.k = 8;
+        st = opt->method == PDS_METHOD_PM    ? pds__pm_gather(job, &low, sub, nsub, 1, NULL, &ignored)
+             : opt->method == PDS_METHOD_SPM ? pds__spm_gather(job, &low, sub, nsub, 1, NULL, &ignored)
+                                             : pds__pdm_gather(job, &low, sub, nsub, 1, NULL, &ignored);
+        if (!st) {
+            p->gather2_s = job->gather_s;
+            p->found2 = job->gather_found / (double)nsub;
+        }
+    }
     free(sub);
-    if (st || job->map_photons < 2 || nsub == 0) return remaining;
-    p.build_s = job->build_s;
-    p.gather_s = job->gather_s;
-    p.found = job->gather_found / (double)nsub;
-    p.map_photons = (double)job->map_photons;
-    p.emitted = (double)job->n_total;
-    p.planned = job->n_planned;
-    p.queried = (double)nsub;
-    p.threads = threads;
-    /* whatever the model says, trace for a quarter of the time at least:
-       a render without caustics is no answer (and misses show in the
-       time the render reports) */
-    return fmax(0.25 * remaining,
-                pds__map_plan(&p, opt->method == PDS_METHOD_PDM,
-                              (double)(opt->method == PDS_METHOD_PDM ? opt->max_photons : opt->k), nv, rate,
-                              remaining));
+    p->map_photons = (double)job->map_photons;
+    p->emitted = (double)job->n_total;
+    p->planned = job->n_planned;
+    p->queried = (double)nsub;
+    p->parallel = threads;
+    return 1;
 }
 
 #endif /* PDS_NO_BASELINES */
@@ -15951,6 +16162,14 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     double t0 = pds_time_now();
     pds__debug_buf *dbg = NULL;          /* one per thread, if debug views are on */
     pds__path_rec *paths = NULL;         /* one per thread, if the paths view is on */
+    double rate1 = 0.0;                  /* a time budget: photons a second on one thread */
+#ifndef PDS_NO_BASELINES
+    pds__map_probe probe;                /* pm, pdm, spm under a time budget: the plan's model */
+    int map_method = opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPM;
+    int map_planned = 0;                 /* ... made from a probe */
+    double cap = pds__map_cap_requested(opt);
+    memset(&probe, 0, sizeof probe);
+#endif
     memset(&map, 0, sizeof map);
     memset(&job, 0, sizeof job);
     map.v = vertices;
@@ -16043,6 +16262,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         }
     }
     job.unit_stride = 1;
+    job.nsums = npix * 3;
 #ifndef PDS_NO_BASELINES
     if (!st && opt->method == PDS_METHOD_PPM) {
         st = pds__ppm_passes(&job, opt, vertices, nvertices, threads, &emitted, stats, err);
@@ -16065,7 +16285,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
            away) and plan for the rate it shows over the remaining time.
            For every method the image is normalised by the photons actually
            emitted before the deadline. */
-        double rate, tc = pds_time_now(), remaining;
+        double tc = pds_time_now(), remaining, rate;
         pds__mutex_init(&job.lock);
         job.n_total = 2 * PDS__PHOTON_BATCH;
         job.next_buf = 0;
@@ -16073,13 +16293,17 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         pds__run_threads(1, pds__photon_worker, &job);
         job.progress = opt->progress;
         pds__mutex_destroy(&job.lock);
-        rate = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6) * threads;
+        rate1 = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6);
+        rate = rate1 * threads;
         remaining = opt->time_s - (pds_time_now() - t0);
 #ifndef PDS_NO_BASELINES
-        if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPM) {
-            double tp = pds_time_now();
-            remaining = pds__map_budget(&job, opt, vertices, nvertices, threads, rate, fmax(remaining, 0.0));
-            remaining -= pds_time_now() - tp; /* the probe's own time */
+        if (map_method) {
+            /* the plan's step 1 (see pds__map_probe) */
+            map_planned = pds__map_probe_run(&job, opt, vertices, nvertices, threads, &probe);
+            remaining = opt->time_s - (pds_time_now() - t0);
+            if (map_planned)
+                remaining = pds__map_tracing(&probe, opt->method == PDS_METHOD_PDM, cap, nvertices, rate, 0.0, 0.0,
+                                             fmax(remaining, 0.0), &cap);
         }
 #endif
         for (t = 0; t < threads; t++) {
@@ -16112,7 +16336,26 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         }
         pds__mutex_init(&job.lock);
         job.next_buf = 0;
-        threads = pds__run_threads(threads, pds__photon_worker, &job);
+#ifndef PDS_NO_BASELINES
+        if (map_planned) {
+            /* the plan's step 2: half the tracing, then plan again from
+               the threads' measured rate */
+            double tr = pds_time_now(), tracing = job.deadline - tr, round_s, traced, rate_all, left;
+            job.deadline = tr + 0.5 * tracing;
+            pds__run_threads(threads, pds__photon_worker, &job);
+            round_s = pds_time_now() - tr;
+            traced = (double)job.batches_done * PDS__PHOTON_BATCH;
+            rate_all = traced / fmax(round_s, 1e-6);
+            left = opt->time_s - (pds_time_now() - t0);
+            tracing = pds__map_tracing(&probe, opt->method == PDS_METHOD_PDM, pds__map_cap_requested(opt),
+                                       nvertices, rate_all, traced, round_s, fmax(left, 0.0), &cap);
+            job.deadline = pds_time_now() + fmax(tracing, 0.0);
+            job.stop = 0;
+            job.next_buf = 0;
+        }
+        if (!job.cancelled)
+#endif
+            threads = pds__run_threads(threads, pds__photon_worker, &job);
         pds__mutex_destroy(&job.lock);
         if (splats && opt->time_s <= 0.0) {
             long j;
@@ -16136,12 +16379,16 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     if (opt->progress && !splats && !job.cancelled)
         (void)opt->progress(opt->progress_user, PDS_PHASE_GATHER, 0.0, pds_time_now() - t0); /* one unit: not stopped */
 #ifndef PDS_NO_BASELINES
+    /* the plan's step 3: the gather measures its cap on the final map */
+    if (map_method && opt->time_s > 0.0) job.gather_deadline = t0 + opt->time_s;
+    job.gather_k = (size_t)pds__map_cap_requested(opt);
     if (!st && !job.cancelled && opt->method == PDS_METHOD_PM)
         st = pds__pm_gather(&job, opt, vertices, nvertices, threads, stats, err);
     if (!st && !job.cancelled && opt->method == PDS_METHOD_PDM)
         st = pds__pdm_gather(&job, opt, vertices, nvertices, threads, stats, err);
     if (!st && !job.cancelled && opt->method == PDS_METHOD_SPM)
         st = pds__spm_gather(&job, opt, vertices, nvertices, threads, stats, err);
+    if (stats && map_method) stats->gather_cap = (long)job.gather_k;
 #endif
     if (!st && !splats && !job.cancelled) part->units_done = part->units_own;
     if (!st && stats &&

@@ -784,6 +784,11 @@ typedef struct pds_render_stats {
                                isc: the gathers (time_photons_s: the
                                light-space buffers, time_eye_s: the eye
                                buffer with its shadow rays) */
+    long gather_cap;        /* pm, spm: the k, pdm: the max_photons its gather
+                               used: the option's, or under a time budget
+                               when the gather with it could not fit the time
+                               left, the largest that fits, at least
+                               min(8, the option's) */
     size_t map_bytes;       /* pm, pdm, ppm, spm: peak size of the photon map;
                                gi: the global and shadow maps (plus the
                                caustic method's map) */
