@@ -2118,6 +2118,12 @@ static int cmd_render(int argc, char **argv)
     pds_partial_free(part);
     pds_scene_free(scene);
     if (rc == 0 || rc == 130) print_render_line(&c, &stats, part_only ? part_path : output);
+    /* a time budget that lowered the gather's cap */
+    if (rc == 0 && !c.quiet && gather_cap_lowered(&c.opt, &stats))
+        fprintf(stderr, "pds render: note: %s's gather with %s %ld would not have ended within the %g s budget; "
+                "it used %ld (the most that fitted, and 8 at least)\n", method_name(c.opt.method),
+                c.opt.method == PDS_METHOD_PDM ? "--max-photons" : "--k",
+                c.opt.method == PDS_METHOD_PDM ? c.opt.max_photons : (long)c.opt.k, c.opt.time_s, stats.gather_cap);
     /* a budget the photon pass missed by more than race's tolerance (25%):
        pm's or pdm's gather alone can outlast it at a high resolution */
     if (rc == 0 && c.opt.time_s > 0.0 && is_photon_method(c.opt.method) && !stop_requested &&
@@ -3690,8 +3696,8 @@ typedef struct roi_box {
 } roi_box;
 
 /* Budget checks (race.csv's budget_flag, a warning on stderr, a mark on
-   the page): under a time budget a render that took more than 25% more
-   or less than its budget, or a photon method that emitted fewer than
+   the page): under a time budget a render whose budgeted time
+   (budget_spent) was more than 25% more or less than its budget, or a photon method that emitted fewer than
    RACE_MIN_PHOTONS photons or fewer than 1% of the most any photon method
    emitted on that budget, is not an equal-time result. */
 enum { RACE_OVER_TIME = 1, RACE_UNDER_TIME = 2, RACE_FEW_PHOTONS = 4 };
@@ -4027,6 +4033,15 @@ static const tune_grid tune_grids[] = {
 };
 #define N_TUNE_GRIDS (sizeof tune_grids / sizeof tune_grids[0])
 
+/* The time a render's --time governs: a photon method's (and gi's) photon
+   pass, which the budget is for (the eye pass before it is the same for
+   every photon method and is not in it); any other method's whole
+   render. */
+static double budget_spent(const pds_options *o, const pds_render_stats *st)
+{
+    return (MBIT(o->method) & (M_PHOTON | M_GI)) ? st->time_photons_s : st->time_total_s;
+}
+
 /* One tuning render, for tune.csv. */
 typedef struct tune_row {
     int entry;         /* the race entry it tuned */
@@ -4034,6 +4049,7 @@ typedef struct tune_row {
     char value[32];    /* "20" */
     pds_metrics m;
     double time_s;
+    double spent_s;    /* the part of time_s its budget governs (budget_spent) */
     long photons;
     int chosen;
 } tune_row;
@@ -4098,13 +4114,14 @@ static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_
             snprintf(row->value, sizeof row->value, "%s", value);
             row->m = m;
             row->time_s = st.time_total_s;
+            row->spent_s = budget_spent(&c.opt, &st);
             row->photons = st.photons;
             row->chosen = 0;
             /* the first of equal RMSEs wins; NaN never does; nor does a
                render over its time budget */
             if (!isfinite(m.rmse)) continue;
-            if (quickest < 0 || row->time_s < log->rows[first + quickest].time_s) quickest = i;
-            if (budget_s > 0.0 && row->time_s > budget_s * (1.0 + RACE_TIME_TOLERANCE)) continue;
+            if (quickest < 0 || row->spent_s < log->rows[first + quickest].spent_s) quickest = i;
+            if (budget_s > 0.0 && row->spent_s > budget_s * (1.0 + RACE_TIME_TOLERANCE)) continue;
             if (best < 0 || m.rmse < log->rows[first + best].m.rmse) best = i;
         }
         if (best < 0 && quickest >= 0) {
@@ -4149,12 +4166,12 @@ static int race_check_budgets(race_entry *e, int n, const race_budgets *bud)
         long most = 0;
         t->flags = 0;
         if (!bud->by_time) continue; /* a photon budget is exact */
-        ratio = t->st.time_total_s / budget;
+        ratio = budget_spent(&t->cfg.opt, &t->st) / budget;
         if (ratio > 1.0 + RACE_TIME_TOLERANCE) t->flags |= RACE_OVER_TIME;
         else if (ratio < 1.0 - RACE_TIME_TOLERANCE) t->flags |= RACE_UNDER_TIME;
         if (t->flags)
             fprintf(stderr, "pds race: warning: %s took %.3g s of its %g s budget (%+.0f%%): more than %.0f%% off, "
-                    "not an equal-time result\n", t->label, t->st.time_total_s, budget, 100.0 * (ratio - 1.0),
+                    "not an equal-time result\n", t->label, budget_spent(&t->cfg.opt, &t->st), budget, 100.0 * (ratio - 1.0),
                     100.0 * RACE_TIME_TOLERANCE);
         if (!is_photon_method(t->cfg.opt.method) || t->cfg.opt.paths == PDS_PATHS_NO_CAUSTICS) continue;
         for (j = 0; j < n; j++)
@@ -4673,8 +4690,8 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
         sb_printf(b, "<li>");
         sb_xml(b, t->label);
         if (t->flags & (RACE_OVER_TIME | RACE_UNDER_TIME))
-            sb_printf(b, ": took %.3g s of its %s s budget (%+.0f%%, more than %.0f%% off)", t->st.time_total_s,
-                      bud->text[t->budget], 100.0 * (t->st.time_total_s / bud->value[t->budget] - 1.0),
+            sb_printf(b, ": took %.3g s of its %s s budget (%+.0f%%, more than %.0f%% off)", budget_spent(&t->cfg.opt, &t->st),
+                      bud->text[t->budget], 100.0 * (budget_spent(&t->cfg.opt, &t->st) / bud->value[t->budget] - 1.0),
                       100.0 * RACE_TIME_TOLERANCE);
         if (t->flags & RACE_FEW_PHOTONS)
             sb_printf(b, ": emitted only %ld photons (fewer than %d, or than 1%% of the most on its budget)",
@@ -5012,6 +5029,8 @@ static int cmd_race(int argc, char **argv)
         if (t->cfg.opt.method == PDS_METHOD_PPM) printf(" passes=%d", t->st.passes);
         if (t->cfg.opt.method == PDS_METHOD_SPM) printf(" streams=%ld", t->st.streams);
         if (MBIT(t->cfg.opt.method) & M_MAP) printf(" map_bytes=%lu", (unsigned long)t->st.map_bytes);
+        if (gather_cap_lowered(&t->cfg.opt, &t->st))
+            printf(" %s_used=%ld", t->cfg.opt.method == PDS_METHOD_PDM ? "max_photons" : "k", t->st.gather_cap);
         printf(" rmse=%.6f ssim=%.6f time=%.3f budget=%s", t->m.rmse, t->m.ssim, t->st.time_total_s,
                bud.text[t->budget]);
         if (t->tuned_keys[0]) printf(" tuned=%s", t->tuned_keys);
