@@ -1565,6 +1565,8 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
         else if (m != PDS_METHOD_PPM)
             printf(" stored=%ld", st->splatted);
         if (m == PDS_METHOD_SPM) printf(" streams=%ld", st->streams);
+        if (m == PDS_METHOD_PDS && !c->opt.progressive && c->opt.time_s > 0.0)
+            printf(" photons_planned=%.0f", st->photons_planned);
         printf(" eye_vertices=%ld", st->eye_vertices);
         if (m == PDS_METHOD_PPM) printf(" passes=%d", st->passes);
         printf("%s", params);
@@ -2118,6 +2120,14 @@ static int cmd_render(int argc, char **argv)
     pds_partial_free(part);
     pds_scene_free(scene);
     if (rc == 0 || rc == 130) print_render_line(&c, &stats, part_only ? part_path : output);
+    /* the paper's PDS whose splats did not fit its time budget */
+    if (rc == 0 && !c.quiet && c.opt.method == PDS_METHOD_PDS && !c.opt.progressive && c.opt.time_s > 0.0 &&
+        stats.photons < 0.8 * stats.photons_planned)
+        fprintf(stderr, "pds render: note: the splats of --smoothing %g did not fit in the %g s budget: %.0f photons "
+                "were planned, %ld emitted, so the footprints cover %.2f of s^2 (smoothing %.3g in effect)\n",
+                c.opt.smoothing, c.opt.time_s, stats.photons_planned, stats.photons,
+                (double)stats.photons / stats.photons_planned,
+                c.opt.smoothing * sqrt((double)stats.photons / stats.photons_planned));
     /* a time budget that lowered the gather's cap */
     if (rc == 0 && !c.quiet && gather_cap_lowered(&c.opt, &stats))
         fprintf(stderr, "pds render: note: %s's gather with %s %ld would not have ended within the %g s budget; "

@@ -16141,6 +16141,29 @@ static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, cons
 
 #endif /* PDS_NO_BASELINES */
 
+/* The paper's PDS under a time budget: N, the photon count of eqs. 5-6,
+   must be fixed before the first photon, and a photon's cost depends on
+   it. Its footprint covers s^2 A / N of the lit area A (eqs. 5-6), so the
+   eye vertices it splats to, and the cost of its splat, fall as 1/N:
+     cost per photon = a + b / N
+   (a: emission and tracing; b: all N splats of a render together, which
+   with s fixed cost the same whatever N is). Two calibration batches on
+   one thread, for N1 and N2 photons, took t1 and t2 seconds a photon;
+   solved for a and b (a at least a tenth of t1, b at least 0), tracing and
+   splatting N photons on `threads` threads fills `left` seconds when
+     N a + b = left threads,  N = (left threads - b) / a.
+   When the splats alone (b) take more than three quarters of that, the
+   smoothing cannot be held in the budget: N is then set as if tracing had
+   a quarter of it, and the deadline stops the photons early (the render
+   reports the photons emitted and the count planned, whose ratio is the
+   footprints' share of s^2). */
+static double pds__pds_plan(double t1, double n1, double t2, double n2, double left, int threads)
+{
+    double b = fmax(0.0, (t2 - t1) / (1.0 / n2 - 1.0 / n1)), a = fmax(0.1 * t1, t1 - b / n1);
+    double cpu = left * (threads > 0 ? threads : 1);
+    return (cpu - b >= 0.25 * cpu ? cpu - b : 0.25 * cpu) / a;
+}
+
 /* --- the photon pass --------------------------------------------------- */
 
 /* After the eye pass: emit and trace the caustic photons for method m,
@@ -16285,14 +16308,28 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
            away) and plan for the rate it shows over the remaining time.
            For every method the image is normalised by the photons actually
            emitted before the deadline. */
-        double tc = pds_time_now(), remaining, rate;
+        double tc = pds_time_now(), remaining, rate, t_1 = 0.0, t_2;
+        int paper = opt->method == PDS_METHOD_PDS; /* (not progressive: that branch is above) */
         pds__mutex_init(&job.lock);
         job.n_total = 2 * PDS__PHOTON_BATCH;
         job.next_buf = 0;
         job.progress = NULL; /* the calibration is not the pass the caller waits for */
+        if (paper) {
+            /* the paper's PDS: the first batch for opt->photons, the
+               second for half of them (pds__pds_plan) */
+            job.n_total = PDS__PHOTON_BATCH;
+            pds__run_threads(1, pds__photon_worker, &job);
+            t_1 = pds_time_now() - tc;
+            job.n_total = 2 * PDS__PHOTON_BATCH;
+            job.n_planned = job.n_planned / 2.0;
+            job.next_batch = 1; /* the run above counted past it */
+            job.stop = 0;
+            job.next_buf = 0;
+        }
         pds__run_threads(1, pds__photon_worker, &job);
         job.progress = opt->progress;
         pds__mutex_destroy(&job.lock);
+        t_2 = pds_time_now() - tc - t_1;
         rate1 = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6);
         rate = rate1 * threads;
         remaining = opt->time_s - (pds_time_now() - t0);
@@ -16315,13 +16352,21 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             job.bufs[t].nstored = job.bufs[t].ndstored = 0;
         }
         job.n_planned = fmax(rate * fmax(remaining, 0.0), (double)PDS__PHOTON_BATCH);
+        if (paper)
+            job.n_planned = fmax(pds__pds_plan(t_1 / PDS__PHOTON_BATCH, (double)opt->photons,
+                                               t_2 / PDS__PHOTON_BATCH, (double)opt->photons / 2.0,
+                                               fmax(remaining, 0.0), threads),
+                                 (double)PDS__PHOTON_BATCH);
         job.n_total = LONG_MAX - PDS__PHOTON_BATCH;
         job.deadline = pds_time_now() + fmax(remaining, 0.0);
-        if (job.n_planned <= (double)PDS__PHOTON_BATCH) {
-            /* no time left (pdm's gather alone can fill a small budget):
-               one batch, so the image still has caustics, and say so in time */
+        if (remaining <= 0.0 || job.n_planned <= (double)PDS__PHOTON_BATCH) {
+            /* no time left (the calibration or pdm's gather alone can fill
+               a small budget): one batch, so the image still has caustics,
+               and say so in time; PDS's for the calibration's count, whose
+               footprints are the cheapest it measured */
             job.n_total = PDS__PHOTON_BATCH;
             job.deadline = 0.0;
+            if (paper) job.n_planned = (double)opt->photons;
         }
         job.next_batch = job.batches_done = 0;
         job.stop = 0;
@@ -16453,6 +16498,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             st = PDS_ERR_NOMEM;
         if (stats) {
             if (opt->method != PDS_METHOD_PPM) stats->photons = emitted;
+            stats->photons_planned = job.n_planned;
             if (opt->method == PDS_METHOD_SPM) {
                 /* a stream stands for its leader and nfa associated photons */
                 stats->streams = emitted;

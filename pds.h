@@ -784,6 +784,11 @@ typedef struct pds_render_stats {
                                isc: the gathers (time_photons_s: the
                                light-space buffers, time_eye_s: the eye
                                buffer with its shadow rays) */
+    double photons_planned; /* the photon count the photons were weighted for
+                               (pds and pdm: N of eqs. 5-6); under a time
+                               budget the plan, which the photons emitted may
+                               fall short of (the paper's pds: its footprints
+                               then cover photons / photons_planned of s^2) */
     long gather_cap;        /* pm, spm: the k, pdm: the max_photons its gather
                                used: the option's, or under a time budget
                                when the gather with it could not fit the time
