@@ -16382,9 +16382,10 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         pds__mutex_init(&job.lock);
         job.next_buf = 0;
 #ifndef PDS_NO_BASELINES
-        if (map_planned) {
+        if (map_planned && job.deadline > 0.0) {
             /* the plan's step 2: half the tracing, then plan again from
-               the threads' measured rate */
+               the threads' measured rate (not for the one batch of no
+               time left) */
             double tr = pds_time_now(), tracing = job.deadline - tr, round_s, traced, rate_all, left;
             job.deadline = tr + 0.5 * tracing;
             pds__run_threads(threads, pds__photon_worker, &job);
