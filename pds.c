@@ -14433,6 +14433,7 @@ typedef struct pds__photon_job {
                                   by which the gather should end (>>baselines:
                                   pds__gather_run), else 0 */
     size_t gather_k;           /* pm, pdm, spm: the cap the last gather used */
+    double gather_radius;      /* ... and the search radius a time budget bounded it by (0: none) */
     size_t nsums;              /* entries of each thread's exact image (3 a pixel) */
     double gather_found;       /* pm, pdm: photons its queries returned */
     size_t map_photons;        /* pm, pdm: photons in the last map built */
@@ -15300,6 +15301,9 @@ typedef struct pds__gather {
     size_t sample;             /* S > 0: gather only vertices i with i % S == 0
                                   (phase 1) or only the others (phase 2) */
     int sample_phase;
+    double *kth;               /* phase 1, if not NULL: kth[i / S] = the squared
+                                  distance of the farthest photon found at i
+                                  (DBL_MAX: none) */
 } pds__gather;
 
 #define PDS__GATHER_CHUNK 1024
@@ -15333,6 +15337,7 @@ static void *pds__gather_worker(void *arg)
             if (g->sample && (i % g->sample == 0) != (g->sample_phase == 1)) continue;
             n = pds__kdtree_knn(g->tree, pds__f3_get(v->pos), g->k, g->radius, idx, d2);
             found += n;
+            if (g->kth && g->sample_phase == 1) g->kth[i / g->sample] = n ? d2[n - 1] : DBL_MAX;
             if (n == 0) continue;
             g->estimate(g, v, idx, d2, n, sum);
             for (c = 0; c < 3; c++)
@@ -15371,6 +15376,12 @@ static double pds__gather_cap_fit(double k, double t_k, double t_8, double per_q
     return fmin(k, fmax(8.0, c));
 }
 
+static int pds__cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
 /* Zero the threads' exact images (pm, pdm, spm: only the gather writes
    them). */
 static void pds__gather_clear(pds__photon_job *job, size_t nsums)
@@ -15384,28 +15395,38 @@ static void pds__gather_clear(pds__photon_job *job, size_t nsums)
 
 /* Run the gather on the threads that own the photon pass's images. With a
    time budget (job->gather_deadline > 0) the cap g->k is measured rather
-   than modelled (>>photonpass: step 3 of the plan): every 64th vertex is
-   gathered first; if the rest at that pace ends by the deadline, the rest
-   is gathered; else the sample is gathered again with a cap of 8, the cap
-   pds__gather_cap_fit gives is taken, and the whole gather is made with it
-   (the sample kept if that cap is 8). The images hold each vertex's
-   estimate once, whatever was measured. */
+   than modelled (>>photonpass: step 3 of the plan): about 256 vertices are
+   gathered first with that cap (and thrown away); if the whole gather at
+   that pace ends by the deadline, it is made; else every 64th vertex is
+   gathered with a cap of 8, the cap pds__gather_cap_fit gives is taken,
+   and the whole gather is made with it (the sample kept if that cap is 8,
+   and the rest gathered after it; a search radius bounded as below if
+   even 8 cannot end in time). The images hold each vertex's estimate
+   once, whatever was measured. */
 static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int threads, pds_error *err)
 {
     const size_t S = 64;
     double k0 = (double)g->k;
     g->bufs = job->bufs;
     g->sample = 0;
+    g->kth = NULL;
+    job->gather_radius = 0.0;
     if (job->gather_deadline > 0.0 && g->k > 8 && g->nv >= 64 * S) {
         double ns = (double)((g->nv + S - 1) / S), t = pds_time_now(), t_k, t_8, cap;
-        g->sample = S;
+        size_t S2 = g->nv / 256 > S ? g->nv / 256 : S; /* about 256 vertices */
+        /* the pace with the cap asked for, on a coarse sample (not kept:
+           a query with a cap of 500 can cost a hundred of a cap of 8) */
+        g->sample = S2;
         g->sample_phase = 1;
         pds__gather_once(g, job, threads);
-        t_k = (pds_time_now() - t) / ns;
-        if (!g->out_of_memory && t_k * ((double)g->nv - ns) > job->gather_deadline - pds_time_now()) {
-            pds__gather_clear(job, job->nsums);
-            g->found = 0.0;
+        t_k = (pds_time_now() - t) / (double)((g->nv + S2 - 1) / S2);
+        pds__gather_clear(job, job->nsums);
+        g->found = 0.0;
+        g->sample = 0;
+        if (!g->out_of_memory && t_k * (double)g->nv > job->gather_deadline - pds_time_now()) {
+            g->kth = (double *)malloc(sizeof *g->kth * (size_t)ns); /* none: no radius bound */
             g->k = 8;
+            g->sample = S;
             t = pds_time_now();
             pds__gather_once(g, job, threads);
             t_8 = (pds_time_now() - t) / ns;
@@ -15415,12 +15436,38 @@ static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int thre
                 g->found = 0.0;
                 g->sample = 0;
                 g->k = (size_t)cap;
+            } else if (g->kth && t_8 * ((double)g->nv - ns) > job->gather_deadline - pds_time_now()) {
+                /* even k = 8 cannot end in time: the queries far from
+                   every photon (whose k nearest lie far off, and whose
+                   estimate is a faint blur) cost the most; bound the
+                   search radius by the median, then the quartile, then
+                   the tenth of the sample's 8th-photon distances, the
+                   first whose sample's pace fits (the sample kept) */
+                static const double q[3] = {0.5, 0.25, 0.1};
+                double r0 = g->radius, *kth = g->kth;
+                int j;
+                g->kth = NULL; /* the trials below record nothing */
+                qsort(kth, (size_t)ns, sizeof *kth, pds__cmp_double);
+                for (j = 0; j < 3 && !g->out_of_memory; j++) {
+                    double r = sqrt(kth[(size_t)(q[j] * (ns - 1.0))]);
+                    if (!(r < r0) || !(r > 0.0)) continue;
+                    pds__gather_clear(job, job->nsums);
+                    g->found = 0.0;
+                    g->radius = r;
+                    job->gather_radius = r;
+                    t = pds_time_now();
+                    pds__gather_once(g, job, threads);
+                    if ((pds_time_now() - t) / ns * ((double)g->nv - ns) <= job->gather_deadline - pds_time_now()) break;
+                }
+                free(kth);
             }
         }
         g->sample_phase = 2;
     }
     if (!g->out_of_memory) pds__gather_once(g, job, threads);
     g->sample = 0;
+    free(g->kth);
+    g->kth = NULL;
     job->gather_k = g->k;
     return g->out_of_memory ? pds__nomem(err) : PDS_OK;
 }
@@ -16434,7 +16481,10 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         st = pds__pdm_gather(&job, opt, vertices, nvertices, threads, stats, err);
     if (!st && !job.cancelled && opt->method == PDS_METHOD_SPM)
         st = pds__spm_gather(&job, opt, vertices, nvertices, threads, stats, err);
-    if (stats && map_method) stats->gather_cap = (long)job.gather_k;
+    if (stats && map_method) {
+        stats->gather_cap = (long)job.gather_k;
+        stats->gather_radius = job.gather_radius;
+    }
 #endif
     if (!st && !splats && !job.cancelled) part->units_done = part->units_own;
     if (!st && stats &&

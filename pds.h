@@ -789,6 +789,9 @@ typedef struct pds_render_stats {
                                budget the plan, which the photons emitted may
                                fall short of (the paper's pds: its footprints
                                then cover photons / photons_planned of s^2) */
+    double gather_radius;   /* pm, pdm, spm: the search radius a time budget
+                               imposed when even a cap of 8 could not end in
+                               time (0 = none; see the README's --time) */
     long gather_cap;        /* pm, spm: the k, pdm: the max_photons its gather
                                used: the option's, or under a time budget
                                when the gather with it could not fit the time
