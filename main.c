@@ -1574,6 +1574,7 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
         /* a time budget lowered the gather's cap so that the gather fits */
         if (gather_cap_lowered(&c->opt, st))
             printf(" %s_used=%ld", m == PDS_METHOD_PDM ? "max_photons" : "k", st->gather_cap);
+        if (st->gather_radius > 0.0) printf(" max_radius_used=%g", st->gather_radius);
         printf(" time_eye=%.3f time_photons=%.3f", st->time_eye_s, st->time_photons_s);
     } else if (m == PDS_METHOD_GI) {
         char params[256];
@@ -2134,6 +2135,9 @@ static int cmd_render(int argc, char **argv)
                 "it used %ld (the most that fitted, and 8 at least)\n", method_name(c.opt.method),
                 c.opt.method == PDS_METHOD_PDM ? "--max-photons" : "--k",
                 c.opt.method == PDS_METHOD_PDM ? c.opt.max_photons : (long)c.opt.k, c.opt.time_s, stats.gather_cap);
+    if (rc == 0 && !c.quiet && stats.gather_radius > 0.0)
+        fprintf(stderr, "pds render: note: even 8 photons a query could not be gathered within the %g s budget; the "
+                "search radius was bounded by %g (max_radius_used)\n", c.opt.time_s, stats.gather_radius);
     /* a budget the photon pass missed by more than race's tolerance (25%):
        pm's or pdm's gather alone can outlast it at a high resolution */
     if (rc == 0 && c.opt.time_s > 0.0 && is_photon_method(c.opt.method) && !stop_requested &&
@@ -5174,6 +5178,7 @@ static int cmd_race(int argc, char **argv)
         if (MBIT(t->cfg.opt.method) & M_MAP) printf(" map_bytes=%lu", (unsigned long)t->st.map_bytes);
         if (gather_cap_lowered(&t->cfg.opt, &t->st))
             printf(" %s_used=%ld", t->cfg.opt.method == PDS_METHOD_PDM ? "max_photons" : "k", t->st.gather_cap);
+        if (t->st.gather_radius > 0.0) printf(" max_radius_used=%g", t->st.gather_radius);
         printf(" rmse=%.6f ssim=%.6f time=%.3f budget=%s", t->m.rmse, t->m.ssim, t->st.time_total_s,
                bud.text[t->budget]);
         if (t->tuned_keys[0]) printf(" tuned=%s", t->tuned_keys);

@@ -253,9 +253,14 @@ static void budget_quarter_second(pds_options *o) { o->time_s = 0.25; }
    calibration photons are thrown away): the image is the fixed-count
    image of the same number of photons, up to the fixed-point rounding,
    gathered with the k the budget left it (gather_cap; the k asked for
-   unless the gather could not fit). */
-static int budget_k;
-static void fixed_k(pds_options *o) { o->k = budget_k; }
+   unless the gather could not fit) and the search radius it bounded the
+   gather by, if any (gather_radius). */
+static pds_render_stats budget_used;
+static void fixed_k(pds_options *o)
+{
+    o->k = (int)budget_used.gather_cap;
+    o->max_radius = budget_used.gather_radius;
+}
 static void test_pm_under_a_time_budget_maps_only_the_photons_it_counts(pds_test_ctx *t)
 {
     pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
@@ -264,7 +269,7 @@ static void test_pm_under_a_time_budget_maps_only_the_photons_it_counts(pds_test
     REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, 0, 2, &a, &sa, budget_quarter_second), "pm --time");
     REQUIRE(t, sa.photons > 0, "no photons in time");
     REQUIRE(t, sa.gather_cap >= 8 && sa.gather_cap <= 50, "k used %ld", sa.gather_cap);
-    budget_k = (int)sa.gather_cap;
+    budget_used = sa;
     REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, sa.photons, 2, &b, &sb, fixed_k), "pm --photons");
     worst = baseline_worst_difference(&b, &a, &peak);
     CHECK(t, peak > 0.0 && worst <= 1e-5 * peak, "%ld photons: largest difference %g (peak %g)", sa.photons, worst,
