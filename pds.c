@@ -16032,9 +16032,12 @@ static pds_status pds__spm_gather(pds__photon_job *job, const pds_options *opt, 
       scheduling; a 1 ms probe on two threads of a busy machine planned no
       tracing at all) give the one-thread rate and the model, with P = the
       thread count;
-   2. the threads trace for half the planned tracing time; their measured
-      rate over the one-thread rate is P, and the plan is made again from
-      what is left, for the photons traced so far and the rest;
+   2. the threads trace for half the planned tracing time; the photons
+      traced so far are probed again, on all threads (P = 1) at about
+      1024 vertices (fewer for a cap above 50), so that the model's figures come from a map about half
+      the final size on the machine as it is loaded now; and the plan is
+      made again, for the photons traced and the rest, at the threads'
+      measured rate;
    3. the gather measures rather than models (pds__gather_run): on the
       final map, on all threads, it gathers every 64th vertex, and if the
       rest at that pace would end after the budget, it measures the same
@@ -16121,69 +16124,83 @@ static double pds__map_cap_requested(const pds_options *opt)
     return (double)(opt->method == PDS_METHOD_PDM ? opt->max_photons : opt->k);
 }
 
-/* Step 1's probe: fills *p from a build and gather of the calibration
-   photons at every s-th vertex; 0 if nothing could be measured (no
-   photon stored, say). */
+/* The probes of steps 1 and 2: fill *p from a build of the photons stored
+   so far (`emitted` emitted) and gathers at most about max_vertices of the
+   eye vertices, with the cap and with a cap of 8, on probe_threads
+   threads (of `threads`). The stored photons are left as they were; the
+   caller throws the probes' images away. 0 if nothing could be measured
+   (no photon stored, say). */
 static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
-                              int threads, pds__map_probe *p)
+                              int threads, int probe_threads, size_t max_vertices, double emitted,
+                              pds__map_probe *p)
 {
-    size_t step = nv / 8192 + 1, nsub = 0, i, nkept = 0;
+    size_t step = nv / max_vertices + 1, nsub = 0, i, nkept = 0;
     pds__eye_vertex *sub = (pds__eye_vertex *)malloc(sizeof *sub * (nv / step + 1));
     pds__stored_photon *kept = NULL; /* pm, spm: the stored photons, which a gather consumes */
+    pds_options low = *opt;
     pds_error ignored;
-    pds_status st;
-    int two = pds__map_cap_requested(opt) > 8.0, t;
+    pds_status st = PDS_OK;
+    int two = pds__map_cap_requested(opt) > 8.0, t, probe, ok = 1;
     if (!sub) return 0;
     for (i = 0; i < nv; i += step) sub[nsub++] = v[i];
-    if (two && opt->method != PDS_METHOD_PDM) {
+    if (opt->method != PDS_METHOD_PDM) {
         for (t = 0; t < job->nbufs; t++) nkept += job->bufs[t].nstored;
         kept = (pds__stored_photon *)malloc(sizeof *kept * (nkept ? nkept : 1));
-        if (!kept) two = 0;
         for (t = 0, nkept = 0; kept && t < job->nbufs; t++) {
             if (job->bufs[t].nstored) memcpy(kept + nkept, job->bufs[t].stored, sizeof *kept * job->bufs[t].nstored);
             nkept += job->bufs[t].nstored;
         }
+        if (!kept) ok = 0;
     }
-    job->build_s = job->gather_s = job->gather_found = 0.0;
-    job->map_photons = 0;
-    st = opt->method == PDS_METHOD_PM    ? pds__pm_gather(job, opt, sub, nsub, 1, NULL, &ignored)
-         : opt->method == PDS_METHOD_SPM ? pds__spm_gather(job, opt, sub, nsub, 1, NULL, &ignored)
-                                         : pds__pdm_gather(job, opt, sub, nsub, 1, NULL, &ignored);
-    if (st || job->map_photons < 2 || nsub == 0) {
-        free(sub);
-        free(kept);
-        return 0;
-    }
-    p->build_s = job->build_s;
-    p->gather_s = job->gather_s;
-    p->found = job->gather_found / (double)nsub;
+    if (opt->method == PDS_METHOD_PDM) low.max_photons = 8;
+    else low.k = 8;
     p->gather2_s = p->found2 = 0.0;
-    if (two) {
-        /* the second probe, with a cap of 8, on the same photons */
-        pds_options low = *opt;
-        if (kept) {
+    for (probe = 0; ok && probe < 1 + two; probe++) {
+        const pds_options *o = probe ? &low : opt;
+        if (kept && probe) {
+            /* the first gather took the photons: put a copy back */
+            pds__stored_photon *copy = (pds__stored_photon *)malloc(sizeof *copy * (nkept ? nkept : 1));
+            if (!copy) break;
+            memcpy(copy, kept, sizeof *copy * nkept);
             free(job->bufs[0].stored);
-            job->bufs[0].stored = kept;
+            job->bufs[0].stored = copy;
             job->bufs[0].nstored = job->bufs[0].cap_stored = nkept;
-            kept = NULL;
         }
-        if (opt->method == PDS_METHOD_PDM) low.max_photons = 8;
-        else low.k = 8;
-        st = opt->method == PDS_METHOD_PM    ? pds__pm_gather(job, &low, sub, nsub, 1, NULL, &ignored)
-             : opt->method == PDS_METHOD_SPM ? pds__spm_gather(job, &low, sub, nsub, 1, NULL, &ignored)
-                                             : pds__pdm_gather(job, &low, sub, nsub, 1, NULL, &ignored);
-        if (!st) {
+        job->build_s = job->gather_s = job->gather_found = 0.0;
+        job->map_photons = 0;
+        st = opt->method == PDS_METHOD_PM    ? pds__pm_gather(job, o, sub, nsub, probe_threads, NULL, &ignored)
+             : opt->method == PDS_METHOD_SPM ? pds__spm_gather(job, o, sub, nsub, probe_threads, NULL, &ignored)
+                                             : pds__pdm_gather(job, o, sub, nsub, probe_threads, NULL, &ignored);
+        if (st || job->map_photons < 2 || nsub == 0) {
+            ok = probe > 0; /* the first probe is needed, the second helps */
+            break;
+        }
+        if (probe == 0) {
+            p->build_s = job->build_s;
+            p->gather_s = job->gather_s;
+            p->found = job->gather_found / (double)nsub;
+            p->map_photons = (double)job->map_photons;
+        } else {
             p->gather2_s = job->gather_s;
             p->found2 = job->gather_found / (double)nsub;
         }
     }
+    if (kept) {
+        /* the stored photons as they were (in one thread's store) */
+        for (t = 0; t < job->nbufs; t++) {
+            free(job->bufs[t].stored);
+            job->bufs[t].stored = NULL;
+            job->bufs[t].nstored = job->bufs[t].cap_stored = 0;
+        }
+        job->bufs[0].stored = kept;
+        job->bufs[0].nstored = job->bufs[0].cap_stored = nkept;
+    }
     free(sub);
-    p->map_photons = (double)job->map_photons;
-    p->emitted = (double)job->n_total;
+    p->emitted = emitted;
     p->planned = job->n_planned;
     p->queried = (double)nsub;
-    p->parallel = threads;
-    return 1;
+    p->parallel = (double)threads / (double)(probe_threads > 0 ? probe_threads : 1);
+    return ok;
 }
 
 #endif /* PDS_NO_BASELINES */
@@ -16195,7 +16212,8 @@ static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, cons
      cost per photon = a + b / N
    (a: emission and tracing; b: all N splats of a render together, which
    with s fixed cost the same whatever N is). Two calibration batches on
-   one thread, for N1 and N2 photons, took t1 and t2 seconds a photon;
+   one thread, for N1 and N2 photons (4 and 1 times opt->photons), took t1
+   and t2 seconds a photon;
    solved for a and b (a at least a tenth of t1, b at least 0), tracing and
    splatting N photons on `threads` threads fills `left` seconds when
      N a + b = left threads,  N = (left threads - b) / a.
@@ -16234,7 +16252,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     pds__path_rec *paths = NULL;         /* one per thread, if the paths view is on */
     double rate1 = 0.0;                  /* a time budget: photons a second on one thread */
 #ifndef PDS_NO_BASELINES
-    pds__map_probe probe;                /* pm, pdm, spm under a time budget: the plan's model */
+    pds__map_probe probe, probe2;        /* pm, pdm, spm under a time budget: the plan's model */
     int map_method = opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPM;
     int map_planned = 0;                 /* ... made from a probe */
     double cap = pds__map_cap_requested(opt);
@@ -16355,35 +16373,44 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
            away) and plan for the rate it shows over the remaining time.
            For every method the image is normalised by the photons actually
            emitted before the deadline. */
-        double tc = pds_time_now(), remaining, rate, t_1 = 0.0, t_2;
+        double tc = pds_time_now(), remaining, rate, t_1 = 0.0, t_2, n_1 = 4.0 * (double)opt->photons;
         int paper = opt->method == PDS_METHOD_PDS; /* (not progressive: that branch is above) */
+        int second = 1;                             /* run the second calibration batch */
         pds__mutex_init(&job.lock);
         job.n_total = 2 * PDS__PHOTON_BATCH;
         job.next_buf = 0;
         job.progress = NULL; /* the calibration is not the pass the caller waits for */
         if (paper) {
-            /* the paper's PDS: the first batch for opt->photons, the
-               second for half of them (pds__pds_plan) */
+            /* the paper's PDS (pds__pds_plan): the first batch for four
+               times opt->photons (small footprints: the cheaper one), the
+               second for opt->photons, unless the first took a tenth of
+               the budget already (the splats are then most of its cost) */
             job.n_total = PDS__PHOTON_BATCH;
+            job.n_planned = n_1;
             pds__run_threads(1, pds__photon_worker, &job);
             t_1 = pds_time_now() - tc;
+            second = t_1 < 0.1 * opt->time_s;
             job.n_total = 2 * PDS__PHOTON_BATCH;
-            job.n_planned = job.n_planned / 2.0;
+            job.n_planned = (double)opt->photons;
             job.next_batch = 1; /* the run above counted past it */
             job.stop = 0;
             job.next_buf = 0;
         }
-        pds__run_threads(1, pds__photon_worker, &job);
+        if (second) pds__run_threads(1, pds__photon_worker, &job);
         job.progress = opt->progress;
         pds__mutex_destroy(&job.lock);
         t_2 = pds_time_now() - tc - t_1;
+        /* no second batch: as if a tenth of the first were tracing and the
+           rest splats, at opt->photons four times as costly */
+        if (!second) t_2 = t_1 * (0.1 + 0.9 * 4.0);
         rate1 = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6);
         rate = rate1 * threads;
         remaining = opt->time_s - (pds_time_now() - t0);
 #ifndef PDS_NO_BASELINES
         if (map_method) {
             /* the plan's step 1 (see pds__map_probe) */
-            map_planned = pds__map_probe_run(&job, opt, vertices, nvertices, threads, &probe);
+            map_planned = pds__map_probe_run(&job, opt, vertices, nvertices, threads, 1, 8192, (double)job.n_total,
+                                             &probe);
             remaining = opt->time_s - (pds_time_now() - t0);
             if (map_planned)
                 remaining = pds__map_tracing(&probe, opt->method == PDS_METHOD_PDM, cap, nvertices, rate, 0.0, 0.0,
@@ -16400,20 +16427,19 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         }
         job.n_planned = fmax(rate * fmax(remaining, 0.0), (double)PDS__PHOTON_BATCH);
         if (paper)
-            job.n_planned = fmax(pds__pds_plan(t_1 / PDS__PHOTON_BATCH, (double)opt->photons,
-                                               t_2 / PDS__PHOTON_BATCH, (double)opt->photons / 2.0,
-                                               fmax(remaining, 0.0), threads),
+            job.n_planned = fmax(pds__pds_plan(t_1 / PDS__PHOTON_BATCH, n_1, t_2 / PDS__PHOTON_BATCH,
+                                               (double)opt->photons, fmax(remaining, 0.0), threads),
                                  (double)PDS__PHOTON_BATCH);
         job.n_total = LONG_MAX - PDS__PHOTON_BATCH;
         job.deadline = pds_time_now() + fmax(remaining, 0.0);
         if (remaining <= 0.0 || job.n_planned <= (double)PDS__PHOTON_BATCH) {
             /* no time left (the calibration or pdm's gather alone can fill
                a small budget): one batch, so the image still has caustics,
-               and say so in time; PDS's for the calibration's count, whose
-               footprints are the cheapest it measured */
+               and say so in time; PDS's for 16 times opt->photons (small
+               footprints: cheap splats) */
             job.n_total = PDS__PHOTON_BATCH;
             job.deadline = 0.0;
-            if (paper) job.n_planned = (double)opt->photons;
+            if (paper) job.n_planned = 16.0 * (double)opt->photons;
         }
         job.next_batch = job.batches_done = 0;
         job.stop = 0;
@@ -16439,6 +16465,16 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             round_s = pds_time_now() - tr;
             traced = (double)job.batches_done * PDS__PHOTON_BATCH;
             rate_all = traced / fmax(round_s, 1e-6);
+            /* the model again, from the map of the photons traced so far
+               and a gather on all threads (its images thrown away) at
+               1024 vertices for a cap of 50, fewer for a larger cap (a
+               query of pdm's 500 can take a hundred of pm's; a query far
+               from every photon, 200 us) */
+            if (!job.cancelled &&
+                pds__map_probe_run(&job, opt, vertices, nvertices, threads, threads,
+                                   (size_t)fmax(256.0, 51200.0 / pds__map_cap_requested(opt)), traced, &probe2))
+                probe = probe2;
+            pds__gather_clear(&job, job.nsums);
             left = opt->time_s - (pds_time_now() - t0);
             tracing = pds__map_tracing(&probe, opt->method == PDS_METHOD_PDM, pds__map_cap_requested(opt),
                                        nvertices, rate_all, traced, round_s, fmax(left, 0.0), &cap);
