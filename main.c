@@ -147,6 +147,8 @@ static const command_help help_table[] = {
      "      --seed N                random seed (default 0); same seed, same image\n"
      "      --max-depth N           longest eye path in bounces (default 32) and, if given, longest\n"
      "                              photon path in specular bounces (default 16)\n"
+     "      --diffuse-bounces N     eye paths bounce off at most N non-specular surfaces (default: no\n"
+     "                              limit); 0: direct light and caustics, no indirect light\n"
      "      --time SECONDS          pt: passes of --spp samples until the time is spent;\n"
      "                              photon methods and gi: one eye pass, then caustic photons until the\n"
      "                              time is spent\n"
@@ -1301,6 +1303,9 @@ static const opt_spec option_table[] = {
     {"--seed", NULL, "seed", set_seed, 0, 0, 0, "a non-negative whole number", M_ALL, C_ALL, F_VALUE | F_PER_METHOD},
     {"--max-depth", NULL, "max_depth", set_max_depth, 0, 0, 1000, "a whole number from 0 to 1000", M_ALL, C_ALL,
      F_VALUE | F_PER_METHOD},
+    {"--diffuse-bounces", NULL, "diffuse_bounces", set_int, OPTF(diffuse_bounces), 0, 1000,
+     "a whole number from 0 to 1000", M_PHOTON | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW), C_ALL,
+     F_VALUE | F_PER_METHOD},
     {"--time", NULL, "time", set_double, OPTF(time_s), 0, 1e7, "a number of seconds above 0", M_ALL, C_ALL,
      F_VALUE | F_LO_OPEN},
     {"--no-caustics", NULL, "paths", set_paths, 0, 0, 0, "", M_ALL, C_ALL, 0},
@@ -1676,8 +1681,12 @@ static void render_meta(const run_cfg *c, const pds_render_stats *st, const char
     meta_put("pds:seed", "%llu", c->opt.seed);
     meta_put("pds:photons", "%ld", st ? st->photons : c->opt.photons);
     format_params(&c->opt, params, sizeof params);
-    meta_put("pds:options", "paths=%s spp=%d max_depth=%d%s%s", paths_name(c->opt.paths), st ? st->spp : c->opt.spp,
-             c->opt.max_depth, params, c->opt.spectral ? " spectral=1" : "");
+    {
+        char bounces[40] = "";
+        if (c->opt.diffuse_bounces >= 0) snprintf(bounces, sizeof bounces, " diffuse_bounces=%d", c->opt.diffuse_bounces);
+        meta_put("pds:options", "paths=%s spp=%d max_depth=%d%s%s%s", paths_name(c->opt.paths),
+                 st ? st->spp : c->opt.spp, c->opt.max_depth, bounces, params, c->opt.spectral ? " spectral=1" : "");
+    }
     if (st) {
         meta_put("pds:size", "%dx%d", st->width, st->height);
         meta_put("pds:time", "total=%.3f eye=%.3f photons=%.3f threads=%d", st->time_total_s, st->time_eye_s,

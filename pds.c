@@ -11737,9 +11737,10 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
    count says which. */
 
 #define PDS__PARTIAL_MAGIC "PDSPART\n"
-#define PDS__PARTIAL_VERSION 4u
+#define PDS__PARTIAL_VERSION 5u
 #define PDS__PARTIAL_MAX_SHARDS 1000000
-#define PDS__PARTIAL_NOPT 46    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT 47    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT_V4 46 /* format version 4's, still read */
 #define PDS__PARTIAL_NOPT_V3 44 /* format version 3's, still read */
 #define PDS__PARTIAL_NOPT_V2 31 /* format version 2's, still read */
 
@@ -11923,12 +11924,14 @@ static void pds__partial_opt_encode(const pds_options *o, uint64_t v[PDS__PARTIA
     /* format version 4: gi's streams */
     v[44] = (uint64_t)(int64_t)o->global_map;
     memcpy(&v[45], &o->stream_radius, sizeof o->stream_radius);
+    /* format version 5: the eye paths' diffuse bounces */
+    v[46] = (uint64_t)(int64_t)o->diffuse_bounces;
 }
 
 /* nopt: how many the file holds (31 in format version 2, whose renders
    all had the later ones at their defaults: gi, spm and isc were not
-   stored then; 44 in version 3, before gi's streams); the rest stay at
-   their defaults. */
+   stored then; 44 in version 3, before gi's streams; 46 in version 4,
+   before the diffuse bounces); the rest stay at their defaults. */
 static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nopt, pds_options *o)
 {
     double d[13];
@@ -11970,10 +11973,11 @@ static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nop
         o->orbit = (pds_orbit)PDS__OPT_INT(v[42]);
         memcpy(&o->orbit_deg, &v[43], sizeof o->orbit_deg);
     }
-    if (nopt >= PDS__PARTIAL_NOPT) {
+    if (nopt >= PDS__PARTIAL_NOPT_V4) {
         o->global_map = (pds_global_map)PDS__OPT_INT(v[44]);
         memcpy(&o->stream_radius, &v[45], sizeof o->stream_radius);
     }
+    if (nopt >= PDS__PARTIAL_NOPT) o->diffuse_bounces = PDS__OPT_INT(v[46]);
 #undef PDS__OPT_INT
     for (k = 0; k < 13; k++) memcpy(&d[k], &v[16 + k], sizeof d[k]);
     o->time_s = d[0];
@@ -12248,29 +12252,30 @@ pds_status pds_partial_merge(const pds_partial *const *parts, const char *const 
 
      offset  bytes  field
      0       8      magic "PDSPART\n"
-     8       4      format version (4)
+     8       4      format version (5)
      12      16     library version string, NUL-padded ("0.1.0")
      28      8      scene content hash (pds_scene_hash)
      36      512    scene path as loaded, NUL-padded
      548     4 x 5  width, height, shard index (0-based), shard count, split
-     568     8 x 46 options (pds__partial_opt_encode's order)
-     936     8 x 13 rows done, units total, units own, units done, n_planned
+     568     8 x 47 options (pds__partial_opt_encode's order)
+     944     8 x 13 rows done, units total, units own, units done, n_planned
                     (binary64), emitted, unit (binary64), splatted,
                     degenerate, saturated, invalid, eye vertices, reserved 0
-     1040    ...    eye values of the rows done (rows I, I+N, ...: each
+     1048    ...    eye values of the rows done (rows I, I+N, ...: each
                     width x 3 binary64), then, unless split is 0, the photon
                     sums S+ and then S- (each width x height x 3 of: low 64
                     bits, high 64 bits)
      end-8   8      check: FNV-1a 64 of every byte before it
-   Format versions 2 and 3 are read too: the same with 31 options (counts
-   at 816, eye values at 920) and with 44 (counts at 920, eye values at
-   1024); version 1 is refused. */
+   Format versions 2, 3 and 4 are read too: the same with 31 options
+   (counts at 816, eye values at 920), with 44 (counts at 920, eye values
+   at 1024) and with 46 (counts at 936, eye values at 1040); version 1 is
+   refused. */
 
 /* Where the counts and the eye values begin, for a file of nopt options. */
 #define PDS__PARTIAL_COUNTS_AT(nopt) (568u + 8u * (unsigned)(nopt))
 #define PDS__PARTIAL_HEADER_AT(nopt) (PDS__PARTIAL_COUNTS_AT(nopt) + 8u * 13u)
-#define PDS__PARTIAL_COUNTS PDS__PARTIAL_COUNTS_AT(PDS__PARTIAL_NOPT) /* 936: the counts */
-#define PDS__PARTIAL_HEADER PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT) /* 1040 */
+#define PDS__PARTIAL_COUNTS PDS__PARTIAL_COUNTS_AT(PDS__PARTIAL_NOPT) /* 944: the counts */
+#define PDS__PARTIAL_HEADER PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT) /* 1048 */
 
 static void pds__put_u32(unsigned char *b, uint32_t v)
 {
@@ -12392,6 +12397,7 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
 static int pds__partial_nopt(uint32_t version)
 {
     return version == PDS__PARTIAL_VERSION ? PDS__PARTIAL_NOPT
+           : version == 4u                 ? PDS__PARTIAL_NOPT_V4
            : version == 3u                 ? PDS__PARTIAL_NOPT_V3
            : version == 2u                 ? PDS__PARTIAL_NOPT_V2
                                            : 0;
@@ -12953,6 +12959,7 @@ typedef struct pds__tracer {
     const pds_scene *scene;
     pds_paths paths;
     int max_depth, rr_depth;
+    int max_diffuse;  /* pds_options.diffuse_bounces (-1: no limit) */
     uint64_t seed;
     double eps;  /* ray offset, relative to the scene's size */
     int spectral; /* one wavelength per camera sample (>>spectral) */
@@ -13167,6 +13174,9 @@ typedef struct pds__eye_path {
     double sigma[3];          /* Beer coefficients of the medium the ray is in, if has_sigma */
     const double *sigma_rgb;  /* spectral: the RGB ones for beta_rgb, or NULL */
     int has_sigma, depth, had_diffuse, specular_since, chromatic, splits_left;
+    int diffuse;              /* non-specular vertices so far */
+    int emission_only;        /* past the last diffuse bounce allowed: the
+                                 next hit counts only if it emits */
     double prev_pdf;          /* solid-angle pdf of the last non-specular BSDF sample */
     double lam;               /* the wavelength once the path is spectral, else 0 */
     uint64_t branch;
@@ -13314,6 +13324,7 @@ static void pds__eye_continue(pds__eye_sample *es, pds__eye_path *ps)
             }
             return;
         }
+        if (ps->emission_only) return;
         pds__scene_fill_hit(s, &th, ps->org, ps->dir, &hit);
         pds__beer(sigma, th.t, ps->beta);
         pds__beer(ps->sigma_rgb, th.t, ps->beta_rgb);
@@ -13347,6 +13358,10 @@ static void pds__eye_continue(pds__eye_sample *es, pds__eye_path *ps)
                               ps->lam, film_w, es->acc);
             ps->had_diffuse = 1;
             ps->specular_since = 0;
+            /* the last diffuse bounce allowed: one more ray, for the
+               emitter it may hit (the BSDF sample's half of the direct
+               light's multiple importance sampling) */
+            if (tr->max_diffuse >= 0 && ++ps->diffuse > tr->max_diffuse) ps->emission_only = 1;
         }
         if (ps->depth == tr->max_depth) return;
         if (!ps->had_diffuse && ps->splits_left > 0 && m->type == PDS_MAT_DIELECTRIC) {
@@ -14320,11 +14335,58 @@ static int pds__emit_caustic_photon(const pds_scene *s, const pds__target *tg, i
 
 /* --- the eye-path map ---------------------------------------------------- */
 
+/* The splats' eye vertices in two kd-trees: v[0, n_single) are single
+   samples, v[n_single, n) merged vertices (pds__eye_merge), each part in
+   its tree's order. A splat searches the single samples with the
+   footprint itself and only the merged ones with the footprint grown by a
+   pixel (pds__splat), so a scene whose merged vertices are few does not
+   pay the wider query for all of them. */
 typedef struct pds__eye_map {
     pds__eye_vertex *v;
-    size_t n;
-    pds__kdtree tree;
+    size_t n, n_single;
+    pds__kdtree tree;          /* v[0, n_single) */
+    pds__kdtree merged;        /* v[n_single, n), indices from n_single */
 } pds__eye_map;
+
+/* A merged vertex stands for a pixel: its half-axes are not zero. */
+static int pds__eye_vertex_merged(const pds__eye_vertex *v)
+{
+    return v->px[0] != 0.0f || v->px[1] != 0.0f || v->px[2] != 0.0f;
+}
+
+/* Sort map->v[0, n) into its two parts, single samples first (in their
+   order), and build each part's tree; each part is then put in its tree's
+   order, so that a splat reads the vertices of one leaf from consecutive
+   memory (half the splat time went to cache misses on vertices scattered
+   in pixel order). */
+static pds_status pds__eye_map_build(pds__eye_map *map, pds_error *err)
+{
+    size_t n = map->n, i, k, part;
+    pds__eye_vertex *tmp = (pds__eye_vertex *)malloc(sizeof *tmp * (n ? n : 1));
+    pds_status st;
+    if (!tmp) return pds__nomem(err);
+    for (i = k = 0; i < n; i++)
+        if (!pds__eye_vertex_merged(&map->v[i])) tmp[k++] = map->v[i];
+    map->n_single = k;
+    for (i = 0; i < n; i++)
+        if (pds__eye_vertex_merged(&map->v[i])) tmp[k++] = map->v[i];
+    for (part = 0; part < 2; part++) {
+        size_t first = part ? map->n_single : 0, count = part ? n - map->n_single : map->n_single;
+        pds__kdtree *kd = part ? &map->merged : &map->tree;
+        st = pds__kdtree_build(kd, count ? &tmp[first].pos[0] : NULL, sizeof *tmp / sizeof(float), count, err);
+        if (st) {
+            pds__kdtree_free(&map->tree);
+            free(tmp);
+            return st;
+        }
+        for (i = 0; i < count; i++) {
+            map->v[first + i] = tmp[first + kd->perm[i]];
+            kd->perm[i] = i;
+        }
+    }
+    free(tmp);
+    return PDS_OK;
+}
 
 /* --- splatting ------------------------------------------------------------ */
 
@@ -14393,7 +14455,6 @@ typedef struct pds__photon_job {
     double min_width;          /* pds: widen to this many eye-sample spacings (0 = off) */
     pds__v3 eye;               /* camera position */
     pds__camera_frame frame;   /* the camera, for the debug views */
-    int spread;                /* some eye vertices are merged (pds__eye_merge) */
     int defocus_widen;         /* widen defocused needles (pds__defocus_widen) */
     double sample_angle;       /* angle between neighbouring eye samples (as a
                                   pinhole sees them: a thin lens moves each
@@ -14451,6 +14512,7 @@ typedef struct pds__splat_ctx {
     double plane_max;          /* topological-bias guard distance */
     double aniso;              /* m_a of this footprint (debug views) */
     double lambda;             /* the photon's wavelength; 0 in RGB renders */
+    size_t base;               /* the searched tree's first vertex in map->v */
     /* merged eye vertices (pds__eye_merge): the query searched the wider
        ellipse in M; M0 is the footprint's own */
     int spread;
@@ -14514,7 +14576,7 @@ static double pds__kernel_over_pixel(const double u[2], const double m1[2], cons
 static void pds__splat_visit(void *vctx, size_t index, double r2)
 {
     pds__splat_ctx *sc = (pds__splat_ctx *)vctx;
-    const pds__eye_vertex *v = &sc->job->map->v[index];
+    const pds__eye_vertex *v = &sc->job->map->v[sc->base + index];
     double k, w[3], e[3];
     int c;
     /* topological bias: a surface seen from the other side (the back of a
@@ -14544,6 +14606,69 @@ static void pds__splat_visit(void *vctx, size_t index, double r2)
         if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
     }
     if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, v->pixel, k, sc->aniso);
+}
+
+/* Merged eye vertices take the kernel averaged over their pixel
+   (pds__splat_visit), so the query of the merged ones must find every
+   vertex whose pixel meets the footprint: the footprint (semi-axes a >= b;
+   hu, hv its semi-axis vectors) grown by rho, 1.5 times the half-diagonal
+   of the pixel where the photon landed (the neighbours' distances and
+   slants are about the same). That set, the points within rho of the
+   ellipse, lies in both the footprint scaled by 1 + rho / b and the
+   ellipse of semi-axes sqrt(2 a^2 + 2 rho^2), sqrt(2 b^2 + 2 rho^2) (the
+   same axes; for a needle, a >> rho >> b, the latter is the smallest
+   ellipse around the 2a x 2rho rectangle the set nearly is, pi/2 times
+   the set's area); the query takes the smaller of the two, by the
+   Cholesky factor of its matrix in a
+   tangent basis t1, t2 (S: the footprint's). A footprint more than 8 rho
+   across its minor axis needs none of this: the average over a pixel that
+   small is the value at its centre within 1.5%. Sets sc->M to the grown
+   query (the footprint's own kept in sc->M0), *major to its reach, and
+   sc->spread. The guard against the topological bias (the slab around the
+   tangent plane) keeps the footprint's own thickness: a merged vertex's
+   samples lie on one flat patch, so the pixel widens it along the plane
+   only. (Growing the slab with the query let a photon on the torus light
+   the floor beneath it.) */
+static void pds__splat_grow_for_pixels(const pds__photon_job *job, pds__splat_ctx *sc, pds__v3 hu, pds__v3 hv,
+                                       double *major)
+{
+    pds__v3 t1, t2, ex, ey;
+    double rho, au, av, bu, bv, s11, s12, s22, b2, g, q, l11, l21, l22;
+    if (!pds__pixel_axes(&job->frame, sc->xp, sc->np, &ex, &ey)) return;
+    rho = 1.5 * (pds__length(ex) + pds__length(ey));
+    pds__onb(sc->np, &t1, &t2);
+    au = pds__dot(hu, t1);
+    av = pds__dot(hv, t1);
+    bu = pds__dot(hu, t2);
+    bv = pds__dot(hv, t2);
+    s11 = au * au + av * av;
+    s12 = au * bu + av * bv;
+    s22 = bu * bu + bv * bv;
+    b2 = 0.5 * (s11 + s22) - sqrt(0.25 * (s11 - s22) * (s11 - s22) + s12 * s12);
+    if (b2 > 64.0 * rho * rho) return;
+    g = b2 > 0.0 ? (1.0 + rho / sqrt(b2)) * (1.0 + rho / sqrt(b2)) : HUGE_VAL;
+    q = 2.0 * rho * rho;
+    /* det(g S) = g^2 det S against det(2 S + q I) */
+    if (g * g * (s11 * s22 - s12 * s12) < (2.0 * s11 + q) * (2.0 * s22 + q) - 4.0 * s12 * s12) {
+        s11 *= g;
+        s12 *= g;
+        s22 *= g;
+    } else {
+        s11 = 2.0 * s11 + q;
+        s12 = 2.0 * s12;
+        s22 = 2.0 * s22 + q;
+    }
+    l11 = sqrt(s11);
+    l21 = s12 / l11;
+    l22 = sqrt(fmax(s22 - l21 * l21, 0.0));
+    memcpy(sc->M0, sc->M, sizeof sc->M);
+    if (isfinite(l11) && isfinite(l21) && l22 > 0.0 && isfinite(l22) &&
+        pds__filter_matrix(pds__add(pds__scale(t1, 2.0 * l11), pds__scale(t2, 2.0 * l21)), pds__scale(t2, 2.0 * l22),
+                           sc->np, sc->M)) {
+        sc->spread = 1;
+        *major = pds__footprint_major_axis(pds__add(pds__scale(t1, 2.0 * l11), pds__scale(t2, 2.0 * l21)),
+                                           pds__scale(t2, 2.0 * l22));
+    }
 }
 
 /* Splat the photon r (already transferred to its hit on a non-specular
@@ -14630,66 +14755,19 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
     for (c = 0; c < 3; c++) sc.ep[c] = flux[c] / (ap * keep);
     sc.plane_max = job->plane_tolerance * major;
     sc.aniso = !buf->dbg ? 0.0 : job->fixed_radius > 0.0 ? 1.0 : pds__footprint_anisotropy(r->dpdu, r->dpdv);
-    if (job->spread) {
-        /* merged eye vertices take the kernel averaged over their pixel
-           (pds__splat_visit), so the query must find every vertex whose
-           pixel meets the footprint: the footprint (semi-axes a >= b)
-           grown by rho, 1.5 times the half-diagonal of the pixel where
-           the photon landed (the neighbours' distances and slants are
-           about the same). It lies in the ellipse of semi-axes a + rho,
-           b + rho, which lies in both the footprint scaled by 1 + rho / b
-           and the ellipse of semi-axes sqrt(2 a^2 + 2 rho^2) (>= a +
-           rho); the query takes the smaller of the two, by the Cholesky
-           factor of its matrix in a tangent basis t1, t2 (S: the
-           footprint's). A footprint more than 8 rho across its minor axis
-           needs none of this: the average over a pixel that small is the
-           value at its centre within 1.5%. */
-        pds__v3 t1, t2, ex, ey;
-        if (pds__pixel_axes(&job->frame, r->p, sc.np, &ex, &ey)) {
-            double rho = 1.5 * (pds__length(ex) + pds__length(ey)), au, av, bu, bv, s11, s12, s22, b2, g, q, l11,
-                   l21, l22;
-            pds__onb(sc.np, &t1, &t2);
-            au = pds__dot(hu, t1);
-            av = pds__dot(hv, t1);
-            bu = pds__dot(hu, t2);
-            bv = pds__dot(hv, t2);
-            s11 = au * au + av * av;
-            s12 = au * bu + av * bv;
-            s22 = bu * bu + bv * bv;
-            b2 = 0.5 * (s11 + s22) - sqrt(0.25 * (s11 - s22) * (s11 - s22) + s12 * s12);
-            if (!(b2 > 64.0 * rho * rho)) {
-                g = b2 > 0.0 ? (1.0 + rho / sqrt(b2)) * (1.0 + rho / sqrt(b2)) : HUGE_VAL;
-                q = 2.0 * rho * rho;
-                /* det(g S) = g^2 det S against det(2 S + q I) */
-                if (g * g * (s11 * s22 - s12 * s12) < (2.0 * s11 + q) * (2.0 * s22 + q) - 4.0 * s12 * s12) {
-                    s11 *= g;
-                    s12 *= g;
-                    s22 *= g;
-                } else {
-                    s11 = 2.0 * s11 + q;
-                    s12 = 2.0 * s12;
-                    s22 = 2.0 * s22 + q;
-                }
-                l11 = sqrt(s11);
-                l21 = s12 / l11;
-                l22 = sqrt(fmax(s22 - l21 * l21, 0.0));
-                memcpy(sc.M0, sc.M, sizeof sc.M);
-                if (isfinite(l11) && isfinite(l21) && l22 > 0.0 && isfinite(l22) &&
-                    pds__filter_matrix(pds__add(pds__scale(t1, 2.0 * l11), pds__scale(t2, 2.0 * l21)),
-                                       pds__scale(t2, 2.0 * l22), sc.np, sc.M)) {
-                    sc.spread = 1;
-                    major = pds__footprint_major_axis(pds__add(pds__scale(t1, 2.0 * l11), pds__scale(t2, 2.0 * l21)),
-                                                      pds__scale(t2, 2.0 * l22));
-                    sc.plane_max = job->plane_tolerance * major;
-                }
-            }
-        }
-    }
     buf->splatted++;
     if (buf->dbg) pds__debug_landing(buf->dbg, &job->frame, photon, r->p, r->dpdu, r->dpdv);
     /* the eye vertices within the major semi-axis that are inside the
-       ellipse and near the tangent plane (topological bias) */
+       ellipse and near the tangent plane (topological bias): the single
+       samples, then the merged vertices with the query grown by a pixel */
+    sc.base = 0;
     pds__kdtree_range_ellipse(&job->map->tree, r->p, major, (const double(*)[3])sc.M, sc.np, sc.plane_max, pds__splat_visit, &sc);
+    if (job->map->merged.n > 0) {
+        sc.base = job->map->n_single;
+        pds__splat_grow_for_pixels(job, &sc, hu, hv, &major);
+        pds__kdtree_range_ellipse(&job->map->merged, r->p, major, (const double(*)[3])sc.M, sc.np, sc.plane_max,
+                                  pds__splat_visit, &sc);
+    }
 }
 
 /* Splatting in the order photons land jumps about the eye-path map; each
@@ -16263,22 +16341,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     map.v = vertices;
     map.n = nvertices;
     if (splats) {
-        pds__eye_vertex *ordered;
-        st = pds__kdtree_build(&map.tree, nvertices ? &vertices[0].pos[0] : NULL, sizeof *vertices / sizeof(float),
-                               nvertices, err);
+        st = pds__eye_map_build(&map, err);
         if (st) return st;
-        /* put the vertices in the tree's order, so that a splat reads the
-           vertices of one leaf from consecutive memory (half the splat
-           time went to cache misses on vertices scattered in pixel order) */
-        ordered = (pds__eye_vertex *)malloc(sizeof *ordered * (nvertices ? nvertices : 1));
-        if (ordered) {
-            for (i = 0; i < nvertices; i++) {
-                ordered[i] = vertices[map.tree.perm[i]];
-                map.tree.perm[i] = i;
-            }
-            memcpy(vertices, ordered, sizeof *ordered * nvertices);
-            free(ordered);
-        }
     }
     job.scene = s;
     job.map = &map;
@@ -16291,8 +16355,6 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.min_width = progressive ? opt->pass_min_width : opt->method == PDS_METHOD_PDS ? opt->min_width : 0.0;
     job.eye = pds__v(s->camera.position.x, s->camera.position.y, s->camera.position.z);
     job.frame = pds__camera_setup(&s->camera, width, height);
-    for (i = 0; splats && !job.spread && i < nvertices; i++)
-        job.spread = vertices[i].px[0] != 0.0f || vertices[i].px[1] != 0.0f || vertices[i].px[2] != 0.0f;
     job.sample_angle = 2.0 * tan(0.5 * s->camera.fov_deg * PDS__PI / 180.0) / height /
                        sqrt((double)(opt->spp > 0 ? opt->spp : s->camera.spp > 0 ? s->camera.spp : 1));
     job.eps = 1e-6 * pds__scene_scale(s);
@@ -16325,6 +16387,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.bufs = (pds__splat_buf *)calloc((size_t)threads, sizeof *job.bufs);
     if (!job.bufs) {
         pds__kdtree_free(&map.tree);
+        pds__kdtree_free(&map.merged);
         return pds__nomem(err);
     }
     if (debug && (debug->views & ~(1u << PDS_DEBUG_EYE) & ~(1u << PDS_DEBUG_PATHS))) {
@@ -16602,7 +16665,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
                 stats->dropped_invalid += job.bufs[t].invalid;
             }
             stats->time_photons_s = pds_time_now() - t0;
-            stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + stats->map_bytes +
+            stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + pds__kdtree_memory(&map.merged) + stats->map_bytes +
                                    (size_t)job.nbufs * npix * (3 + (dbg && dbg[0].aniso ? 2 : 0) + (job.spectral ? 3 : 0)) *
                                        sizeof(pds__sum128);
         }
@@ -16620,6 +16683,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     free(dbg);
     free(paths);
     pds__kdtree_free(&map.tree);
+    pds__kdtree_free(&map.merged);
     if (st == PDS_ERR_NOMEM) return pds__nomem(err);
     return st;
 }
@@ -19173,6 +19237,7 @@ void pds_options_default(pds_options *opt)
     opt->seed = 0;
     opt->max_depth = 32;
     opt->rr_depth = 3;
+    opt->diffuse_bounces = -1;
     opt->time_s = 0.0;
     opt->progress = NULL;
     opt->progress_user = NULL;
@@ -19432,6 +19497,9 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
     if (opt->max_depth < 0 || opt->max_depth > 1000)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "max depth %d is outside 0..1000", opt->max_depth);
     if (opt->rr_depth < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "Russian roulette depth must be at least 1");
+    if (opt->diffuse_bounces < -1 || opt->diffuse_bounces > 1000)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "diffuse bounces %d is outside -1..1000",
+                         opt->diffuse_bounces);
     if (!(opt->time_s >= 0.0) || opt->time_s > 1e7)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "time budget must be between 0 and 1e7 seconds");
     if (opt->photons < 0)
@@ -19769,6 +19837,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *op
     job.tracer.paths = opt->paths;
     job.tracer.max_depth = opt->max_depth;
     job.tracer.rr_depth = opt->rr_depth;
+    job.tracer.max_diffuse = opt->diffuse_bounces;
     job.tracer.seed = opt->seed;
     job.tracer.eps = 1e-6 * pds__scene_scale(scene);
     job.tracer.spectral = pds__render_is_spectral(scene, opt);

@@ -513,6 +513,16 @@ typedef struct pds_options {
     unsigned long long seed; /* default 0 */
     int max_depth;      /* longest eye path, in bounces (default 32) */
     int rr_depth;       /* Russian roulette from this bounce on (default 3) */
+    int diffuse_bounces; /* eye paths (pt and the photon methods' eye pass)
+                           go on past at most this many non-specular
+                           vertices; past the last they only collect the
+                           emitter their BSDF sample hits (its share of
+                           direct light by multiple importance sampling).
+                           0: direct light and caustics at the first
+                           non-specular vertex seen through any mirrors
+                           and glass, no indirect light (the transport of
+                           a photon mapper without a global map, such as
+                           POV-Ray's). -1 = no limit (default -1) */
     double time_s;      /* > 0: render whole passes of spp samples until this
                            many seconds are spent (at least one pass); 0 = one
                            pass (default 0) */

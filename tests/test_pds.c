@@ -737,7 +737,105 @@ static void test_pds_eye_merge_takes_the_spread_of_samples_seen_through_glass(pd
     CHECK(t, fabs(ax > ay ? v[0].px[0] : v[0].py[0]) > 0.999 * fmax(ax, ay), "the longer axis runs along x");
 }
 
+/* pds__splat through the two trees of the eye-path map (pds__eye_map_build)
+   against brute force over every vertex: 300 Lambertian vertices scattered
+   on the floor y = 0 around a needle footprint and 60 on a shelf 0.035
+   above it, a third of each merged (their pixels three times the camera's
+   there, so the kernel is averaged over them). Each vertex must get pi K
+   w Ep exactly as a loop over all of them gives it: single samples the
+   kernel at their point, merged ones its average over their pixel, and
+   none on the shelf, which is beyond the footprint's own guard slab
+   (0.25 of its major semi-axis 0.1): a query grown by the merged pixels
+   must not thicken it. */
+static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(pds_test_ctx *t)
+{
+    enum { NV = 360 };
+    pds__camera_frame f = merge_test_camera();
+    pds__eye_vertex *v = (pds__eye_vertex *)calloc(NV, sizeof *v);
+    pds__eye_vertex *orig = (pds__eye_vertex *)calloc(NV, sizeof *orig);
+    pds__sum128 *sum = (pds__sum128 *)calloc(3 * NV, sizeof *sum);
+    pds__photon_job job;
+    pds__splat_buf buf;
+    pds__eye_map map;
+    pds__ray_diff r;
+    pds__v3 up = pds__v(0.0, 1.0, 0.0);
+    pds_material m;
+    double flux[3] = {1.0, 2.0, 3.0}, beta[3] = {0.5, 0.5, 0.5}, M0[2][3], ap, tol, worst = 0.0;
+    int i, c, lit = 0, lit_merged = 0;
+    REQUIRE(t, v && orig && sum, "memory");
+    memset(&m, 0, sizeof m);
+    m.type = PDS_MAT_DIFFUSE;
+    m.albedo[0] = m.albedo[1] = m.albedo[2] = 0.6;
+    for (i = 0; i < NV; i++) {
+        double a = pds__rng_uniform(7, 1, (uint64_t)i, 0), b = pds__rng_uniform(7, 1, (uint64_t)i, 1);
+        pds__v3 x = pds__v(-0.16 + 0.32 * a, i < 300 ? 0.0 : 0.035, -0.06 + 0.12 * b), ex, ey;
+        REQUIRE(t, pds__eye_vertex_set(&v[i], &m, x, up, up, pds__normalize(pds__sub(f.origin, x)), beta, 0),
+                "vertex %d", i);
+        v[i].pixel = i;
+        if (i % 3 == 0) {
+            REQUIRE(t, pds__pixel_axes(&f, x, up, &ex, &ey), "pixel axes");
+            pds__f3_set(v[i].px, pds__scale(ex, 3.0));
+            pds__f3_set(v[i].py, pds__scale(ey, 3.0));
+        }
+        orig[i] = v[i];
+    }
+    memset(&map, 0, sizeof map);
+    map.v = v;
+    map.n = NV;
+    REQUIRE(t, pds__eye_map_build(&map, NULL) == PDS_OK, "eye map");
+    CHECK(t, map.n_single == 240 && map.merged.n == 120, "%zu single and %zu merged vertices, want 240 and 120",
+          map.n_single, map.merged.n);
+    memset(&job, 0, sizeof job);
+    job.map = &map;
+    job.frame = f;
+    job.eye = f.origin;
+    job.plane_tolerance = 0.25;
+    memset(&buf, 0, sizeof buf);
+    buf.sum = sum;
+    buf.unit = 1099511627776.0; /* 2^40 */
+    memset(&r, 0, sizeof r);
+    r.p = pds__v(0.01, 0.0, 0.005);
+    r.d = pds__v(0.0, -1.0, 0.0);
+    r.dpdu = pds__v(0.19, 0.0, 0.06);
+    r.dpdv = pds__v(-0.004, 0.0, 0.0127);
+    pds__splat(&job, &buf, &r, up, flux, 0.0, 0);
+    REQUIRE(t, pds__filter_matrix(r.dpdu, r.dpdv, up, M0), "filter matrix");
+    ap = pds__footprint_area(r.dpdu, r.dpdv);
+    tol = 0.25 * pds__footprint_major_axis(r.dpdu, r.dpdv);
+    for (i = 0; i < NV; i++) {
+        const pds__eye_vertex *o = &orig[i];
+        pds__v3 d = pds__sub(pds__f3_get(o->pos), r.p);
+        double u[2], m1[2], m2[2], k = 0.0;
+        int j;
+        for (j = 0; j < 2; j++) {
+            pds__v3 row = pds__v(M0[j][0], M0[j][1], M0[j][2]);
+            u[j] = pds__dot(row, d);
+            m1[j] = pds__dot(row, pds__f3_get(o->px));
+            m2[j] = pds__dot(row, pds__f3_get(o->py));
+        }
+        if (fabs(pds__dot(d, up)) <= tol) k = pds__kernel_over_pixel(u, m1, m2);
+        if (k > 0.0) {
+            lit++;
+            lit_merged += i % 3 == 0;
+        }
+        for (c = 0; c < 3; c++) {
+            double want = PDS__PI * k * o->weight[c] * flux[c] / ap, got = pds__sum128_value(sum[3 * i + c]) / buf.unit;
+            worst = fmax(worst, fabs(got - want) / (1e-9 + fabs(want)));
+        }
+    }
+    CHECK(t, worst < 1e-6, "a vertex's splat is %g off brute force (relative)", worst);
+    CHECK(t, lit > 30 && lit_merged > 10, "the footprint reaches %d vertices, %d merged: too few for a test", lit,
+          lit_merged);
+    pds__kdtree_free(&map.tree);
+    pds__kdtree_free(&map.merged);
+    free(v);
+    free(orig);
+    free(sum);
+}
+
 static const pds_test_case tests_pds[] = {
+    {"pds_splat_finds_single_and_merged_vertices_as_brute_force_does",
+     test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does},
     {"pds_eye_merge_takes_the_spread_of_samples_seen_through_glass",
      test_pds_eye_merge_takes_the_spread_of_samples_seen_through_glass},
     {"pds_defocused_needles_widen_and_focused_ones_do_not", test_pds_defocused_needles_widen_and_focused_ones_do_not},

@@ -174,6 +174,52 @@ static void test_pt_area_lights_give_the_analytic_irradiance(pds_test_ctx *t)
     }
 }
 
+/* --diffuse-bounces 0 keeps exactly the direct light: the disk light of
+   the test above as a mesh (found by light sampling and, through the one
+   ray that follows the last diffuse vertex, by BSDF sampling) beside a
+   bright wall. The plane point below the light gets E = pi L R^2 / (h^2 +
+   R^2) with the limit, for pt and for the photon methods' eye pass (pds,
+   no caustics here), and 13% more without it (the wall's light); with
+   --max-depth 0 instead, which ends the path at the vertex, the BSDF
+   sample's share of the light is lost (5% here). */
+static void test_pt_diffuse_bounces_0_leaves_exactly_the_direct_light(pds_test_ctx *t)
+{
+    static const char text[] =
+        "camera { position 2 0.6 0 look_at 0 0 0 fov 0.5 resolution 3 3 spp 4096 }\n"
+        "material white diffuse { albedo 0.5 }\n"
+        "material wall diffuse { albedo 0.9 }\n"
+        "material lamp emissive { radiance 2 }\n"
+        "quad { material white size 20 20 }\n"
+        "quad { material wall size 4 4 rotate -90 0 0 1 translate -0.6 2 0 }\n"
+        "disk { material lamp radius 0.5 segments 1024 rotate 180 1 0 0 translate 0 1 0 }\n";
+    static const pds_method methods[2] = {PDS_METHOD_PT, PDS_METHOD_PDS};
+    double expect = 0.5 / PDS__PI * (PDS__PI * 2.0 * 0.25 / (1.0 + 0.25)), r;
+    pds_options opt;
+    pds_image img = {0, 0, NULL};
+    int k;
+    for (k = 0; k < 2; k++) {
+        pds_options_default(&opt);
+        opt.method = methods[k];
+        opt.diffuse_bounces = 0;
+        REQUIRE(t, render_text(text, &opt, &img, NULL), "render %d", k);
+        r = img.rgb[3 * 4 + 1] / expect;
+        CHECK(t, fabs(r - 1.0) < 0.02, "%s, 0 diffuse bounces: the direct light %g of the analytic",
+              k ? "pds" : "pt", r);
+        pds_image_free(&img);
+    }
+    pds_options_default(&opt);
+    opt.method = PDS_METHOD_PT;
+    REQUIRE(t, render_text(text, &opt, &img, NULL), "render without a limit");
+    r = img.rgb[3 * 4 + 1] / expect;
+    CHECK(t, r > 1.08, "no limit: %g of the direct light, want the wall's light on top", r);
+    pds_image_free(&img);
+    opt.max_depth = 0;
+    REQUIRE(t, render_text(text, &opt, &img, NULL), "render at depth 0");
+    r = img.rgb[3 * 4 + 1] / expect;
+    CHECK(t, r < 0.97, "max depth 0: %g of the direct light, want the BSDF sample's share missing", r);
+    pds_image_free(&img);
+}
+
 static void test_pt_delta_light_caustics_are_left_to_photons(pds_test_ctx *t)
 {
     static const char text[] =
@@ -351,6 +397,7 @@ static const pds_test_case tests_render[] = {
     {"pt_furnace_converges_to_the_analytic_radiance", test_pt_furnace_converges_to_the_analytic_radiance},
     {"pt_point_light_on_a_plane_matches_inverse_square_law", test_pt_point_light_on_a_plane_matches_inverse_square_law},
     {"pt_area_lights_give_the_analytic_irradiance", test_pt_area_lights_give_the_analytic_irradiance},
+    {"pt_diffuse_bounces_0_leaves_exactly_the_direct_light", test_pt_diffuse_bounces_0_leaves_exactly_the_direct_light},
     {"pt_delta_light_caustics_are_left_to_photons", test_pt_delta_light_caustics_are_left_to_photons},
     {"pt_time_budget_renders_whole_passes", test_pt_time_budget_renders_whole_passes},
     {"render_rejects_bad_options", test_render_rejects_bad_options},

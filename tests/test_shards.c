@@ -500,25 +500,26 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     pds_partial_free(back);
     back = NULL;
     bytes = shards_slurp(path, &n);
-    REQUIRE(t, bytes != NULL && n > 1040, "slurp");
-    /* 1040 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
-    CHECK(t, n == 1040 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
-    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 4 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
+    REQUIRE(t, bytes != NULL && n > 1048, "slurp");
+    /* 1048 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
+    CHECK(t, n == 1048 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
+    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 5 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
                  bytes[548] == 24 && bytes[552] == 16 && bytes[556] == 1 && bytes[560] == 2 && bytes[564] == 1 &&
-                 bytes[568 + 8 * 41] == 4 && bytes[936 + 8] == 3,
-          "layout"); /* option 41 (history, default 4) and units total (3 passes) at their offsets */
+                 bytes[568 + 8 * 41] == 4 && bytes[568 + 8 * 46] == 0xff && bytes[944 + 8] == 3,
+          "layout"); /* options 41 (history, default 4) and 46 (diffuse bounces, default -1) and units total (3
+                        passes) at their offsets */
     copy = (unsigned char *)malloc(n);
     REQUIRE(t, copy != NULL, "malloc");
     {
-        /* format versions 2 and 3 are read: the same part without
-           options 31-45 and 44-45 (at their defaults, as every render
-           of those versions had them) */
-        static const struct { unsigned char version; size_t nopt; } old[2] = {{2, 31}, {3, 44}};
+        /* format versions 2, 3 and 4 are read: the same part without
+           options 31-46, 44-46 and 46 (at their defaults, as every
+           render of those versions had them) */
+        static const struct { unsigned char version; size_t nopt; } old[3] = {{2, 31}, {3, 44}, {4, 46}};
         int v;
-        for (v = 0; v < 2; v++) {
-            size_t at = 568 + 8 * old[v].nopt, cut = 936 - at;
+        for (v = 0; v < 3; v++) {
+            size_t at = 568 + 8 * old[v].nopt, cut = 944 - at;
             memcpy(copy, bytes, at);
-            memcpy(copy + at, bytes + 936, n - 936);
+            memcpy(copy + at, bytes + 944, n - 944);
             copy[8] = old[v].version;
             pds__put_u64(copy + n - cut - 8, pds__fnv1a64(copy, n - cut - 8));
             shards_spit(bad, copy, n - cut);
@@ -540,7 +541,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     copy[8] = 1;
     shards_spit(bad, copy, n);
     CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE &&
-                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 4"),
+                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 5"),
           "format version: %s", err.text);
     memcpy(copy, bytes, n);
     memcpy(copy + 12, "9.9.9", 5);
@@ -607,7 +608,7 @@ static const shards_field shards_fields[] = {
     SHARDS_FIELD(global_k, 1),       SHARDS_FIELD(gather, 1),          SHARDS_FIELD(gather_mix, 1),
     SHARDS_FIELD(shadow_photons, 1), SHARDS_FIELD(isc_gather, 1),      SHARDS_FIELD(light_resolution, 1),
     SHARDS_FIELD(history, 1),        SHARDS_FIELD(orbit, 1),           SHARDS_FIELD(orbit_deg, 1),
-    SHARDS_FIELD(global_map, 1),     SHARDS_FIELD(stream_radius, 1),
+    SHARDS_FIELD(global_map, 1),     SHARDS_FIELD(stream_radius, 1),   SHARDS_FIELD(diffuse_bounces, 1),
     SHARDS_FIELD(memory_limit, 0),   SHARDS_FIELD(shard_index, 0),     SHARDS_FIELD(shard_count, 0),
     SHARDS_FIELD(static_lighting, 0),
 };
