@@ -57,8 +57,10 @@
                   gathered stream by stream (eqs. 1-2); for caustics (its
                   streams in gi's global map are in >>gi) (not in
                   PDS_NO_BASELINES)
-     >>photonpass the photon pass all photon methods share: time planning,
-                  tracing threads, gathers, the caustic image
+     >>photonpass the photon pass all photon methods share: time budgets
+                  (the map methods' plan in rounds from probes, the
+                  paper's PDS's a + b/N plan), tracing threads, gathers,
+                  the caustic image
      >>gi         Jensen's two-pass global illumination: global photon map
                   (single photons, or streams: seed paper 003's streams
                   where they mean something), shadow photons,
