@@ -121,12 +121,19 @@ static void test_map_tracing_lowers_the_cap_only_when_it_must(pds_test_ctx *t)
 }
 
 /* Step 3 through the production path: a deadline certainly passed (a
-   budget of 1e-9 s) makes the gather measure its sample and fall to a cap
-   of 8, and the image is then pm's with k = 8 of the photons it counted
-   (one batch: no time was left to trace), each vertex's estimate once
-   (the sample kept, the rest gathered after it). */
+   budget of 1e-9 s) makes the gather measure its samples, fall to a cap
+   of 8 and, as even that cannot end in time, bound its search radius by
+   the tenth of the sample's 8th-photon distances (the last trial). The
+   image is then pm's with k = 8 and that maximum radius, of the photons
+   it counted (one batch: no time was left to trace), each vertex's
+   estimate once (the sample kept, the rest gathered after it). */
 static void budget_gone(pds_options *o) { o->time_s = 1e-9; }
-static void pm_k8(pds_options *o) { o->k = 8; }
+static double budget_radius;
+static void pm_k8(pds_options *o)
+{
+    o->k = 8;
+    o->max_radius = budget_radius;
+}
 
 static void test_gather_past_its_deadline_uses_a_cap_of_8(pds_test_ctx *t)
 {
@@ -134,8 +141,11 @@ static void test_gather_past_its_deadline_uses_a_cap_of_8(pds_test_ctx *t)
     pds_render_stats sa, sb;
     double worst, peak;
     REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, 0, 2, &a, &sa, budget_gone), "pm --time 1e-9");
-    CHECK(t, sa.photons == PDS__PHOTON_BATCH && sa.gather_cap == 8 && sa.eye_vertices >= 64 * 64,
-          "photons %ld k used %ld vertices %ld", sa.photons, sa.gather_cap, sa.eye_vertices);
+    CHECK(t, sa.photons == PDS__PHOTON_BATCH && sa.gather_cap == 8 && sa.eye_vertices >= 64 * 64 &&
+                 sa.gather_radius > 0.0,
+          "photons %ld k used %ld radius %g vertices %ld", sa.photons, sa.gather_cap, sa.gather_radius,
+          sa.eye_vertices);
+    budget_radius = sa.gather_radius;
     REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, sa.photons, 2, &b, &sb, pm_k8), "pm k 8");
     CHECK(t, sb.gather_cap == 8, "a photon budget keeps its k: %ld", sb.gather_cap);
     worst = baseline_worst_difference(&b, &a, &peak);
