@@ -16113,9 +16113,10 @@ static pds_status pds__spm_gather(pds__photon_job *job, const pds_options *opt, 
       tracing at all) give the one-thread rate and the model, with P = the
       thread count;
    2. the threads trace for half the planned tracing time; the photons
-      traced so far are probed again, on all threads (P = 1) at about
-      1024 vertices (fewer for a cap above 50), so that the model's figures come from a map about half
-      the final size on the machine as it is loaded now; and the plan is
+      traced so far are probed again (one thread, P = the thread count)
+      at about 1024 vertices (fewer for a cap above 50), so that the
+      model's figures come from a map about half the final size on the
+      machine as it is loaded now; and the plan is
       made again, for the photons traced and the rest, at the threads'
       measured rate;
    3. the gather measures rather than models (pds__gather_run): on the
@@ -16531,12 +16532,13 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             traced = (double)job.batches_done * PDS__PHOTON_BATCH;
             rate_all = traced / fmax(round_s, 1e-6);
             /* the model again, from the map of the photons traced so far
-               and a gather on all threads (its images thrown away) at
-               1024 vertices for a cap of 50, fewer for a larger cap (a
-               query of pdm's 500 can take a hundred of pm's; a query far
-               from every photon, 200 us) */
+               and a gather (its images thrown away) at 1024 vertices for a
+               cap of 50, fewer for a larger cap (a query of pdm's 500 can
+               take a hundred of pm's; a query far from every photon, 200
+               us), on one thread (so few vertices are one or two of the
+               gather's chunks: more threads would not share them) */
             if (!job.cancelled &&
-                pds__map_probe_run(&job, opt, vertices, nvertices, threads, threads,
+                pds__map_probe_run(&job, opt, vertices, nvertices, threads, 1,
                                    (size_t)fmax(256.0, 51200.0 / pds__map_cap_requested(opt)), traced, &probe2))
                 probe = probe2;
             pds__gather_clear(&job, job.nsums);
