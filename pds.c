@@ -15914,8 +15914,9 @@ static long pds__ppm_pass_photons(double left, double trace_s, double update_s, 
 
 /* Progressive photon mapping: passes of opt->photons photons, each
    updating every eye vertex, until opt->passes (or, with a time budget,
-   until the time is spent: whole passes while they fit, then one shorter
-   pass, pds__ppm_pass_photons; at least one pass). Adds the radiance of each
+   until the time is spent: each pass as long as pds__ppm_pass_photons
+   finds room for, whole while they fit, then shorter ones; at least one
+   pass). Adds the radiance of each
    vertex into the exact sums of job->bufs[0] (for a factor n_planned /
    emitted of 1), unless the progress callback stopped it (job->cancelled:
    then nothing). *emitted_out gets the photons emitted. */
