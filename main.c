@@ -130,8 +130,8 @@ static const command_help help_table[] = {
      "      --k N                   pm: photons (spm: streams) per estimate (default 50)\n"
      "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
      "      --max-radius R          pm, spm: largest gather radius in scene units (default: no limit)\n"
-     "      --streams N             spm: streams (default: photons / (stream-photons + 1))\n"
-     "      --stream-photons N      spm: associated photons per stream (default 10)\n"
+     "      --streams N             spm: streams nfs (default photons / (stream-photons + 1)); below\n"
+     "      --stream-photons N      spm, gi: associated photons per stream nfa (default 10)\n"
      "      --max-photons N         pdm: most photons gathered per estimate (default 500)\n"
      "      --radius R              splat: splat radius; ppm: initial radius (default: from the scene)\n"
      "      --alpha A               ppm: radius reduction, 0 < A <= 1 (default 0.7)\n"
@@ -170,18 +170,22 @@ static const command_help help_table[] = {
      "                              the file; -o, --threads, --exposure, --progress, --quiet may be given,\n"
      "                              and the render's own -D and --obj-material: they are not in the file)\n"
      "      The first Ctrl-C (SIGINT) or SIGTERM stops after the batch under way and writes OUT and\n"
-     "      OUT.pdsp (exit status 130); a second one aborts.\n"
+     "      OUT.pdsp (exit status 130); a second one aborts.\n",
      "      --caustics NAME         gi: the caustic method, pds (default), pm, pdm, splat, ppm or spm,\n"
      "                              with its own options above\n"
      "      --global-photons N      gi: photons emitted for the global photon map (default 100000)\n"
-     "      --global-k K            gi: nearest photons per global radiance estimate (default 50)\n"
+     "      --global-k K            gi: nearest photons (streams: leaders) per global radiance estimate\n"
+     "                              (default 50)\n"
      "      --gather N              gi: final-gather rays per eye sample (default 16)\n"
      "      --gather-mix F          gi: share of cosine-sampled gather directions, the rest following\n"
      "                              the global map's photons (default 0.25; 1 = cosine sampling)\n"
      "      --no-shadow-photons     gi: a shadow ray for every light sample\n"
      "      --global-map M          gi: photons (default) or streams (streamed photon mapping)\n"
-     "      --stream-radius R       gi streams: rs (default: the scene's largest side / 16)\n"
-     "",
+     "      --stream-radius R       gi streams, spm: rs (default: the scene's largest side / 16)\n"
+     "                              spm's full image is gi's with --global-map streams --caustics spm:\n"
+     "                              the five options above and --stream-radius are spm's too (not with\n"
+     "                              --caustics-only: rs never reaches a caustic stream), and --streams\n"
+     "                              is also the global map's nfs (default global-photons / (nfa + 1))\n"
      "      --method isc            image-space caustics (Wyman and Davis 2006): interactive, approximate;\n"
      "                              --photons N: a light-space buffer of side sqrt(N) per light; --time:\n"
      "                              frames, each with its buffer offset anew, averaged until it is spent\n"
@@ -903,7 +907,8 @@ enum {
     F_VALUE = 1,      /* takes a value */
     F_PER_METHOD = 2, /* race: may be set for one method, pm:k=50 */
     F_SWEEP = 4,      /* sweep: may be the --param swept */
-    F_LO_OPEN = 8     /* numbers: the lower bound itself is not allowed */
+    F_LO_OPEN = 8,    /* numbers: the lower bound itself is not allowed */
+    F_SPM_FULL = 16   /* spm: shapes its full image only (gi's part of it), not --caustics-only */
 };
 enum { C_RENDER = 1, C_SWEEP = 2, C_RACE = 4, C_ALL = 7 };
 
@@ -1272,19 +1277,21 @@ static const opt_spec option_table[] = {
      F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--caustics", NULL, "caustics", set_caustics, 0, 0, 0, "a caustic method", M_GI, C_ALL, F_VALUE | F_PER_METHOD},
     {"--global-photons", NULL, "global_photons", set_long, OPTF(global_photons), 0, 1e9,
-     "a whole number from 0 to 1e9", M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
-    {"--global-k", NULL, "global_k", set_int, OPTF(global_k), 1, 1000, "a whole number from 1 to 1000", M_GI, C_ALL,
-     F_VALUE | F_SWEEP | F_PER_METHOD},
+     "a whole number from 0 to 1e9", M_GI | M_SPM, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD | F_SPM_FULL},
+    {"--global-k", NULL, "global_k", set_int, OPTF(global_k), 1, 1000, "a whole number from 1 to 1000", M_GI | M_SPM,
+     C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD | F_SPM_FULL},
     {"--gather", NULL, "gather", set_gather, OPTF(gather), 0, 4096,
-     "points, quads, eye or light (isc), or a whole number from 0 to 4096 (gi)", M_GI | M_ISC, C_ALL,
-     F_VALUE | F_SWEEP | F_PER_METHOD},
-    {"--gather-mix", NULL, "gather_mix", set_double, OPTF(gather_mix), 0, 1, "a number above 0 and at most 1", M_GI,
-     C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
-    {"--no-shadow-photons", NULL, "shadow_photons", set_flag, OPTF(shadow_photons), 0, 0, "", M_GI, C_ALL, F_PER_METHOD},
+     "points, quads, eye or light (isc), or a whole number from 0 to 4096 (gi, spm)", M_GI | M_SPM | M_ISC, C_ALL,
+     F_VALUE | F_SWEEP | F_PER_METHOD | F_SPM_FULL},
+    {"--gather-mix", NULL, "gather_mix", set_double, OPTF(gather_mix), 0, 1, "a number above 0 and at most 1",
+     M_GI | M_SPM, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD | F_SPM_FULL},
+    {"--no-shadow-photons", NULL, "shadow_photons", set_flag, OPTF(shadow_photons), 0, 0, "", M_GI | M_SPM, C_ALL,
+     F_PER_METHOD | F_SPM_FULL},
     {"--global-map", NULL, "global_map", set_global_map, 0, 0, 0, "photons or streams", M_GI, C_ALL,
      F_VALUE | F_PER_METHOD},
     {"--stream-radius", NULL, "stream_radius", set_double, OPTF(stream_radius), 0, PDS_MAX_COORD,
-     "a positive distance in scene units", M_GI, C_ALL, F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD},
+     "a positive distance in scene units", M_GI | M_SPM, C_ALL,
+     F_VALUE | F_LO_OPEN | F_SWEEP | F_PER_METHOD | F_SPM_FULL},
     {"--light-res", NULL, "light_res", set_int, OPTF(light_resolution), 1, PDS_MAX_RESOLUTION,
      "a whole number from 1 to 16384", M_ISC, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--history", NULL, "history", set_int, OPTF(history), 1, 64, "a whole number from 1 to 64", M_ISC, C_ALL,
@@ -1304,7 +1311,7 @@ static const opt_spec option_table[] = {
     {"--max-depth", NULL, "max_depth", set_max_depth, 0, 0, 1000, "a whole number from 0 to 1000", M_ALL, C_ALL,
      F_VALUE | F_PER_METHOD},
     {"--diffuse-bounces", NULL, "diffuse_bounces", set_int, OPTF(diffuse_bounces), 0, 1000,
-     "a whole number from 0 to 1000", M_PHOTON | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW), C_ALL,
+     "a whole number from 0 to 1000", (M_PHOTON & ~M_SPM) | MBIT(PDS_METHOD_PT) | MBIT(PDS_METHOD_PREVIEW), C_ALL,
      F_VALUE | F_PER_METHOD},
     {"--time", NULL, "time", set_double, OPTF(time_s), 0, 1e7, "a number of seconds above 0", M_ALL, C_ALL,
      F_VALUE | F_LO_OPEN},
@@ -1448,6 +1455,23 @@ static double option_number(const opt_spec *s, const run_cfg *c)
     return *FIELD(c, s, double);
 }
 
+/* Is option s one that does nothing for o because o is spm with
+   --caustics-only? The options of gi's part of spm's full image (its
+   global map of streams and final gather) do not reach the caustics. */
+static int spm_caustics_idle(const opt_spec *s, const pds_options *o)
+{
+    return o->method == PDS_METHOD_SPM && o->paths == PDS_PATHS_CAUSTICS_ONLY && (s->flags & F_SPM_FULL);
+}
+
+/* Why, for spm_caustics_idle's options. */
+static const char *spm_caustics_idle_why(const opt_spec *s)
+{
+    if (!strcmp(s->name, "--stream-radius"))
+        return "rs spreads a stream's associated photons about its leader's diffuse hits, and a caustic stream loses "
+               "them at its first specular hit";
+    return "it shapes the global map and final gather of spm's full image; the caustics are spm's streams alone";
+}
+
 /* Options given that change nothing for the methods in mask get a note on
    stderr; not an error, since scripts hand one set of options to several
    methods. where: "with --method pt", "for any method raced". */
@@ -1456,7 +1480,14 @@ static void note_idle_options(const run_cfg *c, unsigned mask, const char *where
     size_t i;
     for (i = 0; i < N_OPTIONS; i++) {
         char list[128];
-        if (!c->given[i] || (option_table[i].methods & mask)) continue;
+        if (!c->given[i]) continue;
+        if ((option_table[i].methods & mask) == M_SPM && c->opt.paths == PDS_PATHS_CAUSTICS_ONLY &&
+            (option_table[i].flags & F_SPM_FULL)) {
+            fprintf(stderr, "pds %s: note: %s has no effect %s and --caustics-only (%s)\n", current_command,
+                    option_table[i].name, where, spm_caustics_idle_why(&option_table[i]));
+            continue;
+        }
+        if (option_table[i].methods & mask) continue;
         method_join(option_table[i].methods, " and ", list, sizeof list);
         fprintf(stderr, "pds %s: note: %s has no effect %s (it is for %s)\n", current_command, option_table[i].name,
                 where, list);
@@ -1521,6 +1552,15 @@ static void format_params(const pds_options *o, char *buf, size_t n)
     case PDS_METHOD_SPM:
         snprintf(buf, n, " stream_photons=%d k=%d max_radius=%s", o->stream_photons, o->k,
                  distance_text(o->max_radius, "none", d, sizeof d));
+        if (o->paths != PDS_PATHS_CAUSTICS_ONLY) {
+            /* the full image's global map of streams and final gather; a
+               stream count given is the global map's too */
+            size_t used = strlen(buf);
+            snprintf(buf + used, n - used, " stream_radius=%s global_photons=%ld global_k=%d gather=%d gather_mix=%g"
+                     " shadow_photons=%d", distance_text(o->stream_radius, "auto", d, sizeof d),
+                     o->streams > 0 ? o->streams * (o->stream_photons + 1L) : o->global_photons, o->global_k,
+                     o->gather, o->gather_mix, o->shadow_photons);
+        }
         break;
     case PDS_METHOD_ISC:
         snprintf(buf, n, " gather=%s history=%d%s", gather_names[o->isc_gather], o->history,
@@ -1581,6 +1621,13 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
             printf(" %s_used=%ld", m == PDS_METHOD_PDM ? "max_photons" : "k", st->gather_cap);
         if (st->gather_radius > 0.0) printf(" max_radius_used=%g", st->gather_radius);
         printf(" time_eye=%.3f time_photons=%.3f", st->time_eye_s, st->time_photons_s);
+        if (m == PDS_METHOD_SPM && c->opt.paths != PDS_PATHS_CAUSTICS_ONLY) {
+            /* the full image: gi's global map of streams and final gather
+               (map_bytes above holds both maps, time_map both builds) */
+            printf(" global_stored=%ld global_streams=%ld shadow_stored=%ld shadow_rays=%ld shadow_rays_saved=%ld"
+                   " gather_rays=%ld time_map=%.3f", st->global_stored, st->global_streams, st->shadow_stored,
+                   st->shadow_rays, st->shadow_rays_saved, st->gather_rays, st->time_map_s);
+        }
     } else if (m == PDS_METHOD_GI) {
         char params[256];
         pds_options co = c->opt;
@@ -3710,6 +3757,9 @@ static int cmd_sweep(int argc, char **argv)
         return usage_error("--param %s has no effect with --method %s (%s is for %s)", param, method_name(method),
                            param, list);
     }
+    if (spm_caustics_idle(ps, &base.opt))
+        return usage_error("--param %s has no effect with --method spm and --caustics-only (%s)", param,
+                           spm_caustics_idle_why(ps));
     if (!strcmp(param, "photons") && option_given(&base, "--time"))
         return usage_error("%s", "--param photons and --time exclude each other (the time decides the photon count)");
     /* the values: validated all before anything is rendered */
@@ -4107,6 +4157,11 @@ static int parse_race_methods(const char *list, const run_cfg *base, race_entry 
             if (!(s->methods & MBIT(r->cfg.opt.method))) {
                 method_join(s->methods, " and ", methods, sizeof methods);
                 rc = usage_error("--methods: %s has no effect with %s (%s is for %s)", param, item, param, methods);
+                break;
+            }
+            if (spm_caustics_idle(s, &r->cfg.opt)) {
+                rc = usage_error("--methods: %s has no effect with %s and --caustics-only (%s)", param, item,
+                                 spm_caustics_idle_why(s));
                 break;
             }
             snprintf(shown, sizeof shown, "%s:%s", item, param);

@@ -55,8 +55,8 @@
      >>streams    streamed photon mapping (spm): streams of a leading photon
                   and associated photons, concentrated at specular surfaces,
                   gathered stream by stream (eqs. 1-2); for caustics (its
-                  streams in gi's global map are in >>gi) (not in
-                  PDS_NO_BASELINES)
+                  streams in gi's global map are in >>gi; spm's full image,
+                  gi's with both, in >>api) (not in PDS_NO_BASELINES)
      >>photonpass the photon pass all photon methods share: time budgets
                   (the map methods' plan in rounds from probes, the
                   paper's PDS's a + b/N plan), tracing threads, gathers,
@@ -70,8 +70,9 @@
                   photon buffer, points, quads, eye- and light-space
                   gathers, temporal filter, animation frames, static
                   lighting, spectral photons (not in PDS_NO_ISC)
-     >>api        public entry points: render, options, teaching views,
-                  trace-photon, benchmarks (not in PDS_NO_BENCH)
+     >>api        public entry points: render (spm's full image as gi's
+                  with streams), options, teaching views, trace-photon,
+                  benchmarks (not in PDS_NO_BENCH)
 */
 
 /* ===================================================================== */
@@ -95,7 +96,8 @@
      PDS_NO_PNG        the PNG and OpenEXR writers, the OpenEXR reader
                        and their deflate coder (write .pfm)
      PDS_NO_BASELINES  pm, pdm, splat, ppm and spm (pds, pt stay)
-     PDS_NO_GI         Jensen's two-pass global illumination (>>gi)
+     PDS_NO_GI         Jensen's two-pass global illumination (>>gi), and
+                       with it spm's full image (spm caustics stay)
      PDS_NO_ISC        image-space caustics and animation frames (>>isc)
      PDS_NO_ENV        the environment light: constant, CIE clear sky and
                        sun (>>lights; the parser refuses 'light environment')
@@ -16019,13 +16021,16 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
      stream's energy (56 bytes; it has no associated photons left);
    - the gather is eq. 2 over those records (pds__spm_estimate).
    What nfa and rs shape (streams whose leader first meets a diffuse
-   surface: direct light and what follows it) is the eye pass's part here,
-   so rs does not enter the caustic image at all, and nfa only says how
-   many photons a stream stands for (gi's global map, whose photons do
-   first meet diffuse surfaces, can be a map of streams with nfa and rs:
-   >>gi, "streams in the global map"): a render of nfs streams counts
+   surface: direct light and what follows it) is not caustic light, so
+   rs does not enter the caustic image at all, and nfa only says how
+   many photons a stream stands for: a render of nfs streams counts
    nfs (nfa + 1) emitted photons, and with no stream count given spm emits
-   photons / (nfa + 1) streams, as many photons as pm would.
+   photons / (nfa + 1) streams, as many photons as pm would. Those
+   streams are gi's global map of streams (>>gi, "streams in the global
+   map"), and spm's full image is the paper's whole system: gi's two
+   passes with that map and these caustic streams (>>api,
+   pds__spm_as_gi); with PDS_PATHS_CAUSTICS_ONLY spm is this section
+   alone.
 
    Ambiguities and the choices made (README, "Streamed photon mapping"):
    - dA: "the circle with a radius equal to radius R of the nearest leading
@@ -19474,6 +19479,41 @@ static int pds__is_photon_method(pds_method m)
            m == PDS_METHOD_PPM || m == PDS_METHOD_SPM;
 }
 
+/* spm's full image is seed paper 003's whole system. The paper's streams
+   light the scene everywhere: nfs streams leave the light, a stream that
+   meets a diffuse surface spreads its nfa associated photons within rs
+   of its leader (sect. 3.1, step 3a) and every diffuse hit is stored
+   (sect. 3.2), while a stream that meets glass or a mirror first loses
+   its associated photons and becomes a caustic (step 3b). In PDS's
+   split of the light (Jensen's eq. 2, >>gi) those are two parts:
+     - the caustics (L S+ D): spm's caustic streams (>>streams), as
+       --caustics-only renders them, bit for bit;
+     - everything else: gi's two passes with the paper's streams in the
+       global map (>>gi, "streams in the global map": nfs streams of
+       nfa + 1 photons, radius rs, eq. 2 over the global_k nearest
+       leaders), the direct light by light samples and the indirect light
+       by the final gather.
+   So an spm render without --caustics-only is a gi render with
+   global_map = PDS_GLOBAL_STREAMS and caustics = PDS_METHOD_SPM and every
+   other option as given, with one exception: a stream count given
+   (streams > 0) is nfs of both maps, the global map's as well as the
+   caustic streams, so the global map emits nfs (nfa + 1) photons instead
+   of global_photons (with streams = 0 each map keeps its own photon
+   count: photons / (nfa + 1) caustic streams, global_photons / (nfa + 1)
+   global ones). pds__options_check keeps nfs (nfa + 1) within the global
+   map's 1e9 photons. Returns opt itself when it is not an spm full
+   image, else *gi filled. */
+static const pds_options *pds__spm_as_gi(const pds_options *opt, pds_options *gi)
+{
+    if (opt->method != PDS_METHOD_SPM || opt->paths == PDS_PATHS_CAUSTICS_ONLY) return opt;
+    *gi = *opt;
+    gi->method = PDS_METHOD_GI;
+    gi->caustics = PDS_METHOD_SPM;
+    gi->global_map = PDS_GLOBAL_STREAMS;
+    if (opt->streams > 0) gi->global_photons = opt->streams * (opt->stream_photons + 1L);
+    return gi;
+}
+
 const char *pds_method_name(pds_method method)
 {
     switch (method) {
@@ -19546,6 +19586,12 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
     if (opt->streams < 0 || opt->streams > (LONG_MAX - PDS__PHOTON_BATCH) / (opt->stream_photons + 1L))
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "stream count %ld is outside 0..%ld", opt->streams,
                          (LONG_MAX - PDS__PHOTON_BATCH) / (opt->stream_photons + 1L));
+    if (opt->method == PDS_METHOD_SPM && opt->paths != PDS_PATHS_CAUSTICS_ONLY &&
+        opt->streams > 1000000000L / (opt->stream_photons + 1L))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                         "stream count %ld is outside 0..%ld: spm's full image also emits that many streams of %d "
+                         "photons into its global map, at most 1e9 photons",
+                         opt->streams, 1000000000L / (opt->stream_photons + 1L), opt->stream_photons + 1);
     if (!(opt->max_radius >= 0.0) || !(opt->radius >= 0.0) || opt->max_radius > 1e12 || opt->radius > 1e12)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "radii must be between 0 and 1e12");
     if ((unsigned)opt->isc_gather > (unsigned)PDS_ISC_LIGHT)
@@ -19573,7 +19619,8 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "unknown rendering method %d", (int)opt->method);
     if (opt->method == PDS_METHOD_GI && !pds__is_photon_method(opt->caustics))
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
-                         "the caustic method of gi must be pds, pm, pdm, splat or ppm, got %d", (int)opt->caustics);
+                         "the caustic method of gi must be pds, pm, pdm, splat, ppm or spm, got %d",
+                         (int)opt->caustics);
     if (opt->global_photons < 0 || opt->global_photons > 1000000000L)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "global photons %ld is outside 0..1e9", opt->global_photons);
     if (opt->global_k < 1 || opt->global_k > PDS__GI_MAX_K)
@@ -19609,6 +19656,10 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
 #ifdef PDS_NO_GI
     if (opt->method == PDS_METHOD_GI)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "this build leaves gi out (PDS_NO_GI)");
+    if (opt->method == PDS_METHOD_SPM && opt->paths != PDS_PATHS_CAUSTICS_ONLY)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0,
+                         "this build leaves gi out (PDS_NO_GI), whose two passes make spm's full image: render spm "
+                         "with caustics only");
 #endif
 #ifdef PDS_NO_ISC
     if (opt->method == PDS_METHOD_ISC)
@@ -19674,15 +19725,14 @@ static pds__eye_vertex *pds__join_rows(pds__render_job *job, size_t *count)
    the joined array, 336 bytes in all (the kd-tree's 21 bytes and the
    tree-ordered copy come after the rows are freed). Per stored photon of
    pm: 64 bytes, twice while the threads' arrays are merged, plus 21 of
-   kd-tree; pdm: 88 bytes, twice. */
-pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *opt, pds_render_estimate *est,
-                                   pds_error *err)
+   kd-tree; pdm: 88 bytes, twice. spm's full image: gi's (pds__spm_as_gi). */
+static pds_status pds__render_estimate(const pds_scene *scene, const pds_options *opt, pds_render_estimate *est,
+                                       pds_error *err)
 {
     const pds_camera *cam;
     int w, h, spp, threads;
     double npix, photons, vertex_bytes = 3.0 * sizeof(pds__eye_vertex), bytes;
     pds_status st;
-    if (!scene || !opt || !est) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render_estimate_get: NULL argument");
     memset(est, 0, sizeof *est);
     cam = &scene->camera;
     w = opt->width > 0 ? opt->width : cam->width;
@@ -19707,7 +19757,7 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
         if (opt->global_map == PDS_GLOBAL_STREAMS)
             gbytes += (double)opt->global_photons * PDS__GI_MAX_STORES * sizeof(pds__gi_stream);
         copt.method = opt->caustics;
-        if ((st = pds_render_estimate_get(scene, &copt, est, err))) return st;
+        if ((st = pds__render_estimate(scene, &copt, est, err))) return st;
         est->memory_bytes += gbytes;
         return PDS_OK;
     }
@@ -19741,6 +19791,25 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
     est->memory_bytes = bytes;
     est->available_bytes = pds__physical_memory();
     return PDS_OK;
+}
+
+pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *opt, pds_render_estimate *est,
+                                   pds_error *err)
+{
+    pds_options gi;
+    if (!scene || !opt || !est)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render_estimate_get: NULL argument");
+    if (opt->method == PDS_METHOD_SPM) {
+        /* the checks of spm's own options (its stream count in the global map) */
+        int w = opt->width > 0 ? opt->width : scene->camera.width;
+        int h = opt->height > 0 ? opt->height : scene->camera.height;
+        pds_status st = pds__options_check(opt, w, h, err);
+        if (st) {
+            memset(est, 0, sizeof *est);
+            return st;
+        }
+    }
+    return pds__render_estimate(scene, pds__spm_as_gi(opt, &gi), est, err);
 }
 
 /* A new partial for opt's shard of a render of scene at width x height:
@@ -19813,10 +19882,14 @@ static pds_partial *pds__partial_new(const pds_scene *scene, const pds_options *
      - the rows whose eye vertices the photon pass needs: all rows for pds
        and splat (every photon may land in any pixel), the part's rows for
        pm, pdm and ppm; the eye values of the part's rows are kept once
-       the whole eye pass is done. */
-static pds_status pds__render_into(const pds_scene *scene, const pds_options *opt, pds_partial *part,
+       the whole eye pass is done.
+   spm's full image is rendered as the gi render it is (pds__spm_as_gi);
+   the part keeps the options as given. */
+static pds_status pds__render_into(const pds_scene *scene, const pds_options *given, pds_partial *part,
                                    pds_render_stats *stats, pds_error *err)
 {
+    pds_options spm_gi;
+    const pds_options *opt = pds__spm_as_gi(given, &spm_gi);
     pds__render_job job;
     const pds_camera *cam = &scene->camera;
     int w = part->width, h = part->height, threads, max_passes, photons, own_list, completed, j, y;

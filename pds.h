@@ -438,8 +438,13 @@ typedef enum pds_method {
     PDS_METHOD_GI,         /* Jensen's two-pass global illumination (Jensen
                               1996): global photon map, shadow photons, final
                               gather, caustics from a caustic method */
-    PDS_METHOD_SPM,        /* streamed photon mapping: streams of a leading photon and
-                              associated photons, gathered stream by stream */
+    PDS_METHOD_SPM,        /* streamed photon mapping (seed paper 003): streams of a
+                              leading photon and associated photons, gathered
+                              stream by stream. PDS_PATHS_CAUSTICS_ONLY: its caustic
+                              streams; otherwise the paper's whole system, the gi
+                              render with global_map PDS_GLOBAL_STREAMS and caustics
+                              PDS_METHOD_SPM (streams > 0 also sets the global map's
+                              photons: streams x (stream_photons + 1)) */
     PDS_METHOD_ISC         /* image-space caustics (Wyman and Davis 2006): a
                               light-space photon buffer gathered in image space;
                               interactive, approximate; point and spot lights */
@@ -481,7 +486,9 @@ typedef enum pds_global_map {
 /* Which light paths a render computes. Caustic paths are L S+ D ...: light
    that reaches a non-specular vertex through one or more specular bounces.
    The photon methods compute those; the eye pass computes the rest. For
-   every method, ALL = NO_CAUSTICS + CAUSTICS_ONLY. */
+   every method, ALL = NO_CAUSTICS + CAUSTICS_ONLY (for spm in expectation:
+   its full image, a gi render, gathers the caustic streams at gi's eye
+   vertices, which take one branch at glass; CAUSTICS_ONLY at both). */
 typedef enum pds_paths {
     PDS_PATHS_ALL = 0,
     PDS_PATHS_NO_CAUSTICS,
@@ -522,7 +529,8 @@ typedef struct pds_options {
                            non-specular vertex seen through any mirrors
                            and glass, no indirect light (the transport of
                            a photon mapper without a global map, such as
-                           POV-Ray's). -1 = no limit (default -1) */
+                           POV-Ray's). -1 = no limit (default -1). Not gi's
+                           eye paths, nor spm's full image (a gi render) */
     double time_s;      /* > 0: render whole passes of spp samples until this
                            many seconds are spent (at least one pass); 0 = one
                            pass (default 0) */
@@ -588,8 +596,11 @@ typedef struct pds_options {
     long streams;       /* spm: streams nfs; 0 = photons / (stream_photons + 1),
                            the streams that emit as many photons as pm
                            would (default 0); with time_s > 0 streams are
-                           emitted until the time is spent instead */
-    int stream_photons; /* spm: associated photons per stream nfa, 0..10000; a
+                           emitted until the time is spent instead. spm's
+                           full image: nfs > 0 is the global map's too
+                           (global_photons = nfs (nfa + 1), at most 1e9);
+                           0 leaves it global_photons / (nfa + 1) */
+    int stream_photons; /* spm, gi streams: associated photons per stream nfa, 0..10000; a
                            stream is nfa + 1 photons of one nfa+1-th of its
                            energy each (default 10, the paper's comparison) */
     struct pds_debug *debug; /* if not NULL, the teaching views it asks for
@@ -605,9 +616,12 @@ typedef struct pds_options {
                            eye path's first non-specular vertex: pds, pm,
                            pdm, splat or ppm, with their own options
                            (default PDS_METHOD_PDS) */
+    /* gi; spm's full image uses global_photons, global_k, gather,
+       gather_mix, shadow_photons and stream_radius too (its global map is
+       always of streams, its caustics spm's) */
     long global_photons; /* gi: photons emitted for the global map (default 100000) */
-    int global_k;       /* gi: nearest photons per global radiance estimate,
-                           1..1000 (default 50) */
+    int global_k;       /* gi: nearest photons (streams: leaders) per global
+                           radiance estimate, 1..1000 (default 50) */
     int gather;         /* gi: final-gather rays per eye sample, 0..4096
                            (default 16) */
     double gather_mix;  /* gi: share of cosine sampling in the final gather's
@@ -621,7 +635,7 @@ typedef struct pds_options {
                            PDS_GLOBAL_PHOTONS); streams: global_photons /
                            (stream_photons + 1) streams of stream_photons + 1
                            photons, global_k leaders per estimate */
-    double stream_radius; /* gi with streams: rs, the radius (scene units)
+    double stream_radius; /* gi with streams, spm's full image: rs, the radius (scene units)
                            around a leader's diffuse hit within which its
                            associated photons are aimed; 0 = 1/16 of the
                            largest side of the scene's bounds (default 0) */
@@ -810,6 +824,7 @@ typedef struct pds_render_stats {
     size_t map_bytes;       /* pm, pdm, ppm, spm: peak size of the photon map;
                                gi: the global and shadow maps (plus the
                                caustic method's map) */
+    /* gi's own figures, also of spm's full image (a gi render): */
     long global_stored;     /* gi: photons stored in the global map */
     long shadow_stored;     /* gi: direct and shadow photons stored */
     long shadow_rays;       /* gi: shadow rays traced */
@@ -881,7 +896,8 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt,
        shard builds the whole global and shadow maps (each estimate needs
        all of them) and runs the final gather only for the eye samples of
        the rows it keeps (with pds or splat caustics the other rows' eye
-       vertices are recorded without it).
+       vertices are recorded without it). spm's full image is a gi render
+       with spm caustics, and splits so.
      isc: rows I, I + N, ... of the frame, all or none: its gathers need
        the whole frame, so every shard renders the whole frame in one go
        and keeps its rows.

@@ -99,6 +99,10 @@ photon_method pds
 photon_method pds-depth2 --max-depth 2
 photon_method pds-tuned --max-depth 2 --spp 16 --pass-min-width 3
 photon_method pm --method pm
+#    The same light transport as POV-Ray's and the reference's: direct light
+#    and caustics at the first non-specular vertex, no indirect light.
+photon_method pds-direct --diffuse-bounces 0
+photon_method pm-direct --method pm --diffuse-bounces 0
 
 # 3. POV-Ray, if installed: 3 x 3 and 4 x 4 regular samples a pixel
 #    (antialiasing method 1, threshold 0, no jitter, linear averaging),

@@ -946,8 +946,9 @@ static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
         {"pdm", "--max-photons 200 --smoothing 8", " max_photons=200 smoothing=8 map_bytes="},
         {"splat", "--radius 0.05", " radius=0.05 time_eye="},
         {"ppm", "--passes 3 --alpha 0.5 --radius 0.1", " passes=3 radius=0.1 alpha=0.5 map_bytes="},
-        {"spm", "--streams 300 --stream-photons 4 --k 20 --max-radius 0.5",
-         " stream_photons=4 k=20 max_radius=0.5 map_bytes="},
+        {"spm", "--streams 300 --stream-photons 4 --k 20 --max-radius 0.5 --stream-radius 0.2 --global-k 30 --gather 3",
+         " stream_photons=4 k=20 max_radius=0.5 stream_radius=0.2 global_photons=1500 global_k=30 gather=3 "
+         "gather_mix=0.25 shadow_photons=1 map_bytes="},
     };
     char out[32768], args[1024], png[256], prefix[128];
     size_t i;

@@ -891,7 +891,7 @@ static void test_isc_cli_frames_and_options(pds_test_ctx *t)
     CHECK(t, cli_run("render tests/golden/glass.scene --method pm --gather eye --res 8x6 --spp 1 --photons 100 --quiet "
                      "-o /tmp/pds_isc_note.png",
                      out, sizeof out) == 0 &&
-                 strstr(out, "pds render: note: --gather has no effect with --method pm (it is for gi and isc)"),
+                 strstr(out, "pds render: note: --gather has no effect with --method pm (it is for gi, spm and isc)"),
           "%s", out);
     remove("/tmp/pds_isc_note.png");
 }

@@ -25,22 +25,25 @@ typedef struct shards_case {
     pds_method method;
     int progressive;
     pds_method caustics; /* gi */
+    pds_paths paths;     /* default PDS_PATHS_ALL */
 } shards_case;
 
 static const shards_case shards_cases[] = {
-    {"pds (progressive)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS},
-    {"pds (paper)", PDS_METHOD_PDS, 0, PDS_METHOD_PDS},
-    {"splat", PDS_METHOD_SPLAT, 0, PDS_METHOD_PDS},
-    {"pm", PDS_METHOD_PM, 0, PDS_METHOD_PDS},
-    {"pdm", PDS_METHOD_PDM, 0, PDS_METHOD_PDS},
-    {"ppm", PDS_METHOD_PPM, 0, PDS_METHOD_PDS},
-    {"pt", PDS_METHOD_PT, 0, PDS_METHOD_PDS},
+    {"pds (progressive)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL},
+    {"pds (paper)", PDS_METHOD_PDS, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
+    {"splat", PDS_METHOD_SPLAT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
+    {"pm", PDS_METHOD_PM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
+    {"pdm", PDS_METHOD_PDM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
+    {"ppm", PDS_METHOD_PPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
+    {"pt", PDS_METHOD_PT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
     /* 7: gi with caustics split by photon passes (the gather of every
        row's eye vertex but the shard's own is skipped); 8: by gathers */
-    {"gi (pds caustics)", PDS_METHOD_GI, 1, PDS_METHOD_PDS},
-    {"gi (pm caustics)", PDS_METHOD_GI, 0, PDS_METHOD_PM},
-    {"spm", PDS_METHOD_SPM, 0, PDS_METHOD_PDS},
-    {"isc", PDS_METHOD_ISC, 0, PDS_METHOD_PDS},
+    {"gi (pds caustics)", PDS_METHOD_GI, 1, PDS_METHOD_PDS, PDS_PATHS_ALL},
+    {"gi (pm caustics)", PDS_METHOD_GI, 0, PDS_METHOD_PM, PDS_PATHS_ALL},
+    /* 9: spm's full image, gi's with streams and spm caustics */
+    {"spm", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
+    {"isc", PDS_METHOD_ISC, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
+    {"spm (caustics only)", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_CAUSTICS_ONLY},
 };
 
 static void shards_options(const shards_case *c, pds_options *opt)
@@ -49,9 +52,11 @@ static void shards_options(const shards_case *c, pds_options *opt)
     opt->method = c->method;
     opt->progressive = c->progressive;
     opt->caustics = c->caustics;
-    opt->global_photons = 3000; /* gi */
+    opt->paths = c->paths;
+    opt->global_photons = 3000; /* gi, spm */
     opt->gather = 4;
-    opt->stream_photons = 4; /* spm: 1200 streams */
+    opt->stream_photons = 4; /* spm: 1200 caustic streams, 600 global ones */
+    opt->stream_radius = 0.2;
     opt->light_resolution = 64; /* isc */
     opt->photons = 6000;      /* pds: 6 batches; progressive: 3 passes of 2000 */
     opt->pass_photons = 2048;
@@ -110,7 +115,7 @@ static void test_shards_merge_equals_the_single_run_bit_for_bit(pds_test_ctx *t)
             CHECK(t, st.partial == 0 && st.done_fraction == 1.0, "%s: shard %d is not whole", c->name, i);
             gather_rays += st.gather_rays;
         }
-        if (c->method == PDS_METHOD_GI)
+        if (c->method == PDS_METHOD_GI || (c->method == PDS_METHOD_SPM && c->paths != PDS_PATHS_CAUSTICS_ONLY))
             CHECK(t, fst.gather_rays > 0 && gather_rays == fst.gather_rays,
                   "%s: %ld gather rays in the shards, %ld in one", c->name, gather_rays, fst.gather_rays);
         shuffled[0] = parts[2];
@@ -480,6 +485,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
         opt.global_photons = d.global_photons;
         opt.gather = d.gather;
         opt.stream_photons = d.stream_photons;
+        opt.stream_radius = d.stream_radius; /* format version 4 */
         opt.light_resolution = d.light_resolution;
     }
     opt.shard_index = 1;
@@ -912,15 +918,16 @@ static void test_shards_cli_checkpoints_leave_the_image_unchanged(pds_test_ctx *
     remove(out);
 }
 
-/* gi, spm and isc through the pds tool: two shards merged are the render
-   in one go, byte for byte; gi with pds caustics checkpoints between its
+/* gi, spm (its full image, gi's with streams) and isc through the pds
+   tool: two shards merged are the render in one go, byte for byte; gi with pds caustics checkpoints between its
    photon passes and ends with the same image; an animation (--frames) is
    not split or checkpointed. */
 static void test_shards_cli_gi_spm_isc_shards_merge_and_checkpoint(pds_test_ctx *t)
 {
     static const char *const methods[] = {
         "--method gi --global-photons 2000 --gather 2 --photons 6000 --pass-photons 2048",
-        "--method spm --photons 6000 --stream-photons 4", "--method isc --light-res 48"};
+        "--method spm --photons 6000 --stream-photons 4 --global-photons 2000 --gather 2 --stream-radius 0.3",
+        "--method isc --light-res 48"};
     char dir[128], args[1200], text[4096], p1[200], p2[200], out[200], whole_path[200];
     pds_image whole = {0, 0, NULL}, got = {0, 0, NULL};
     pds_error err;

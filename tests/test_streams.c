@@ -458,6 +458,281 @@ static void test_gi_streams_reject_bad_options(pds_test_ctx *t)
     CHECK(t, pds__options_check(&o, 8, 8, &err) == PDS_ERR_INVALID_ARG, "NaN radius");
 }
 
+/* ---------------------------------------------------- spm's full image */
+
+/* spm's full image in the small box of test_gi.c (glass and glossy balls,
+   a quad light): 24 x 24 pixels, 2 samples, 4 gathers, 1,000 caustic
+   streams and 1,000 global streams of 6 photons, rs 0.1 (the box is 2
+   units). */
+static void spm_full_options(pds_options *o, int threads)
+{
+    gi_options(o, threads);
+    o->method = PDS_METHOD_SPM;
+    o->spp = 2;
+    o->gather = 4;
+    o->stream_photons = 5;
+    o->photons = 6000;        /* 1,000 caustic streams */
+    o->global_photons = 6000; /* 1,000 global streams */
+    o->stream_radius = 0.1;
+    o->k = 30;
+    o->global_k = 30;
+}
+
+static int spm_same_pixels(const pds_image *a, const pds_image *b)
+{
+    return a->width == b->width && a->height == b->height &&
+           memcmp(a->rgb, b->rgb, sizeof(float) * 3 * (size_t)a->width * (size_t)a->height) == 0;
+}
+
+/* The contract of pds__spm_as_gi: spm without --caustics-only is the gi
+   render with a global map of streams and spm's caustic streams, all
+   other options as given, bit for bit; a stream count given is nfs of
+   both maps (the global map then emits nfs (nfa + 1) photons whatever
+   global_photons says). And it is streams: a global map of single photons
+   gives another image. */
+static void test_spm_full_image_is_gi_with_streams_and_spm_caustics(pds_test_ctx *t)
+{
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL}, c = {0, 0, NULL};
+    pds_render_stats sa, sb;
+    pds_options o, g;
+    size_t i, n;
+    double total = 0.0;
+    spm_full_options(&o, 2);
+    g = o;
+    g.method = PDS_METHOD_GI;
+    g.caustics = PDS_METHOD_SPM;
+    g.global_map = PDS_GLOBAL_STREAMS;
+    REQUIRE(t, render_text(gi_box_scene, &o, &a, &sa), "spm");
+    REQUIRE(t, render_text(gi_box_scene, &g, &b, &sb), "gi, streams, spm caustics");
+    n = (size_t)a.width * a.height * 3;
+    for (i = 0; i < n; i++) total += a.rgb[i];
+    CHECK(t, total > 0.0 && spm_same_pixels(&a, &b), "spm's full image is not gi's (mean %g)", total / (double)n);
+    CHECK(t, sa.streams == 1000 && sa.photons == 6000 && sa.global_streams == sb.global_streams &&
+                 sa.global_streams > 1000 && sa.global_stored == sb.global_stored && sa.gather_rays == sb.gather_rays &&
+                 sa.gather_rays > 0 && sa.map_bytes == sb.map_bytes,
+          "streams %ld, photons %ld, global streams %ld/%ld, stored %ld/%ld, gathers %ld/%ld", sa.streams, sa.photons,
+          sa.global_streams, sb.global_streams, sa.global_stored, sb.global_stored, sa.gather_rays, sb.gather_rays);
+    pds_image_free(&a);
+    pds_image_free(&b);
+    /* nfs given: 700 caustic and 700 global streams (4,200 photons each) */
+    o.streams = 700;
+    o.global_photons = 123456; /* not used: nfs decides */
+    g.streams = 700;
+    g.global_photons = 700 * 6;
+    REQUIRE(t, render_text(gi_box_scene, &o, &a, &sa), "spm, 700 streams");
+    REQUIRE(t, render_text(gi_box_scene, &g, &b, &sb), "gi, 700 streams");
+    CHECK(t, spm_same_pixels(&a, &b) && sa.streams == 700 && sa.global_streams == sb.global_streams,
+          "with nfs given: streams %ld, global streams %ld/%ld", sa.streams, sa.global_streams, sb.global_streams);
+    g.global_map = PDS_GLOBAL_PHOTONS;
+    REQUIRE(t, render_text(gi_box_scene, &g, &c, NULL), "gi, single photons");
+    CHECK(t, !spm_same_pixels(&a, &c), "a global map of single photons gives spm's image");
+    pds_image_free(&a);
+    pds_image_free(&b);
+    pds_image_free(&c);
+}
+
+/* rs places a stream's associated photons about its leader's diffuse
+   hits: it changes the full image (the global map) and not one bit of the
+   caustics-only image, nor do the global map's and the gather's options,
+   since a caustic stream has lost its associated photons at its first
+   specular hit. */
+static void test_spm_stream_radius_shapes_the_full_image_not_the_caustics(pds_test_ctx *t)
+{
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    pds_render_stats sa, sb;
+    pds_options o;
+    size_t i, n, differ = 0;
+    spm_full_options(&o, 2);
+    o.stream_radius = 0.05;
+    REQUIRE(t, render_text(gi_box_scene, &o, &a, &sa), "rs 0.05");
+    o.stream_radius = 0.4;
+    REQUIRE(t, render_text(gi_box_scene, &o, &b, &sb), "rs 0.4");
+    n = (size_t)a.width * a.height * 3;
+    for (i = 0; i < n; i++) differ += a.rgb[i] != b.rgb[i];
+    CHECK(t, differ > n / 4, "rs 0.05 and 0.4: only %lu of %lu values differ", (unsigned long)differ,
+          (unsigned long)n);
+    CHECK(t, sa.global_streams == sb.global_streams && sa.global_stored != sb.global_stored,
+          "the streams are the same, their photons not: stored %ld and %ld", sa.global_stored, sb.global_stored);
+    pds_image_free(&a);
+    pds_image_free(&b);
+    o.paths = PDS_PATHS_CAUSTICS_ONLY;
+    o.stream_radius = 0.05;
+    REQUIRE(t, render_text(gi_box_scene, &o, &a, &sa), "caustics only, rs 0.05");
+    o.stream_radius = 0.4;
+    o.global_photons = 50000;
+    o.global_k = 7;
+    o.gather = 1;
+    o.gather_mix = 1.0;
+    o.shadow_photons = 0;
+    REQUIRE(t, render_text(gi_box_scene, &o, &b, &sb), "caustics only, rs 0.4 and other gi options");
+    CHECK(t, sa.splatted > 100 && spm_same_pixels(&a, &b), "rs or gi's options changed the caustics (%ld stored)",
+          sa.splatted);
+    CHECK(t, sa.global_stored == 0 && sa.gather_rays == 0, "caustics only built a global map (%ld stored)",
+          sa.global_stored);
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+
+/* ALL = NO_CAUSTICS + CAUSTICS_ONLY for spm in expectation: its full
+   image gathers the caustic streams at gi's eye vertices (one branch at
+   glass), --caustics-only at the photon methods' (both branches), so
+   their caustic light agrees in total but not pixel by pixel. The
+   branch choices of 1,152 camera samples move the full image's caustic
+   total by up to 9 % (seeds 0 to 5 here: 0.95 to 1.09 of the caustics
+   only image's); caustics counted twice, or not at all, would be 100 %
+   off, so the bound is 20 %. */
+static void test_spm_full_image_holds_the_caustics_only_light(pds_test_ctx *t)
+{
+    pds_image all = {0, 0, NULL}, nc = {0, 0, NULL}, co = {0, 0, NULL};
+    pds_options o;
+    size_t i, n;
+    double full = 0.0, rest = 0.0, caustic = 0.0;
+    spm_full_options(&o, 2);
+    o.photons = 60000; /* 10,000 caustic streams */
+    REQUIRE(t, render_text(gi_box_scene, &o, &all, NULL), "all");
+    o.paths = PDS_PATHS_NO_CAUSTICS;
+    REQUIRE(t, render_text(gi_box_scene, &o, &nc, NULL), "no caustics");
+    o.paths = PDS_PATHS_CAUSTICS_ONLY;
+    REQUIRE(t, render_text(gi_box_scene, &o, &co, NULL), "caustics only");
+    n = (size_t)all.width * all.height * 3;
+    for (i = 0; i < n; i++) {
+        full += all.rgb[i];
+        rest += nc.rgb[i];
+        caustic += co.rgb[i];
+    }
+    CHECK(t, caustic > 0.01 * full && fabs((full - rest) / caustic - 1.0) < 0.2,
+          "the full image's caustic light %g, caustics only %g (the rest %g)", full - rest, caustic, rest);
+    pds_image_free(&all);
+    pds_image_free(&nc);
+    pds_image_free(&co);
+}
+
+static void test_spm_full_image_is_identical_for_any_thread_count(pds_test_ctx *t)
+{
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    pds_options o;
+    spm_full_options(&o, 1);
+    REQUIRE(t, render_text(gi_box_scene, &o, &a, NULL), "1 thread");
+    o.threads = 3;
+    REQUIRE(t, render_text(gi_box_scene, &o, &b, NULL), "3 threads");
+    CHECK(t, spm_same_pixels(&a, &b), "bitwise equal");
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+
+/* rs must be a distance (0: the scene's largest side / 16); a stream
+   count must fit the global map's 1e9 photons in the full image only. */
+static void test_spm_refuses_bad_stream_radii_and_counts(pds_test_ctx *t)
+{
+    static const double bad[] = {-1.0, 2e12, -1e-300};
+    pds_options o;
+    pds_error err;
+    size_t i;
+    spm_full_options(&o, 1);
+    for (i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        o.stream_radius = bad[i];
+        CHECK(t, pds__options_check(&o, 8, 8, &err) == PDS_ERR_INVALID_ARG &&
+                     !strcmp(err.message, "the stream radius must be between 0 and 1e12"),
+              "rs %g: %s", bad[i], err.message);
+    }
+    o.stream_radius = nan("");
+    CHECK(t, pds__options_check(&o, 8, 8, &err) == PDS_ERR_INVALID_ARG, "NaN radius");
+    o.stream_radius = 0.0;
+    CHECK(t, pds__options_check(&o, 8, 8, &err) == PDS_OK, "rs 0 (automatic): %s", err.message);
+    o.streams = 1000000000L / 6 + 1;
+    CHECK(t, pds__options_check(&o, 8, 8, &err) == PDS_ERR_INVALID_ARG &&
+                 !strcmp(err.message, "stream count 166666667 is outside 0..166666666: spm's full image also emits "
+                                      "that many streams of 6 photons into its global map, at most 1e9 photons"),
+          "%s", err.message);
+    o.paths = PDS_PATHS_CAUSTICS_ONLY;
+    CHECK(t, pds__options_check(&o, 8, 8, &err) == PDS_OK, "caustics only: %s", err.message);
+}
+
+#ifdef PDS_TEST_POSIX
+/* The pds tool: rs is an spm option of the full image (a note, not a
+   refusal, with --caustics-only, saying why), refused when it is not a
+   positive distance, and sweepable (two values, two different errors);
+   sweeping it with --caustics-only is refused. A race of spm against the
+   gi render it is gives both the same error; rs set for spm in a race of
+   caustics is refused. */
+static void test_spm_cli_takes_the_stream_radius(pds_test_ctx *t)
+{
+    static const char *const bad[][2] = {
+        {"-1", "pds render: --stream-radius needs a positive distance in scene units, got '-1'\n"},
+        {"0", "pds render: --stream-radius needs a positive distance in scene units, got '0'\n"},
+        {"wide", "pds render: --stream-radius needs a positive distance in scene units, got 'wide'\n"},
+    };
+    static const char small[] = "--method spm --streams 300 --stream-photons 4 --global-k 20 --gather 2 "
+                                "--res 16x12 --spp 1 --quiet";
+    char out[32768], args[1024], dir[256], ref[256], png[256], path[300], *csv, *line;
+    size_t i;
+    double rmse[2] = {-1.0, -1.0};
+    harness_path(png, sizeof png, "spm.png");
+    harness_path(ref, sizeof ref, "spm-ref.pfm");
+    harness_path(dir, sizeof dir, "spm-sweep");
+    for (i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        snprintf(args, sizeof args, "render tests/golden/glass.scene %s --stream-radius %s -o %s", small, bad[i][0],
+                 png);
+        CHECK(t, cli_run(args, out, sizeof out) == 2 && strstr(out, bad[i][1]) == out, "rs %s: %s", bad[i][0], out);
+    }
+    snprintf(args, sizeof args, "render tests/golden/glass.scene %s --stream-radius 0.2 -o %s", small, png);
+    CHECK(t, cli_run(args, out, sizeof out) == 0 && !strstr(out, "note:") && strstr(out, " stream_radius=0.2 "),
+          "%s", out);
+    snprintf(args, sizeof args, "render tests/golden/glass.scene %s --stream-radius 0.2 --caustics-only -o %s", small,
+             png);
+    CHECK(t, cli_run(args, out, sizeof out) == 0 &&
+                 strstr(out, "pds render: note: --stream-radius has no effect with --method spm and --caustics-only "
+                             "(rs spreads a stream's associated photons about its leader's diffuse hits, and a "
+                             "caustic stream loses them at its first specular hit)\n") &&
+                 !strstr(out, "stream_radius="),
+          "%s", out);
+    /* the reference: the same full image with rs 0.05 */
+    snprintf(args, sizeof args, "render tests/golden/glass.scene %s --stream-radius 0.05 -o %s", small, ref);
+    REQUIRE(t, cli_run(args, out, sizeof out) == 0, "%s", out);
+    snprintf(args, sizeof args,
+             "sweep tests/golden/glass.scene %s --param stream-radius --values 0.05,0.4 --ref %s -o %s", small, ref,
+             dir);
+    CHECK(t, cli_run(args, out, sizeof out) == 0, "%s", out);
+    snprintf(path, sizeof path, "%s/sweep.csv", dir);
+    csv = harness_slurp(path, NULL);
+    /* method,param,value,photons,spp,passes,map_bytes,rmse,...: the 8th field */
+    for (line = csv ? strchr(csv, '\n') : NULL, i = 0; line && line[1] && i < 2; line = strchr(line + 1, '\n'), i++) {
+        const char *f = line + 1;
+        int k;
+        for (k = 0; k < 7 && f; k++) f = strchr(f, ',') ? strchr(f, ',') + 1 : NULL;
+        rmse[i] = f ? atof(f) : -1.0;
+    }
+    CHECK(t, rmse[0] == 0.0 && rmse[1] > 0.0, "sweep of rs: RMSE %g and %g against rs 0.05's image\n%s", rmse[0],
+          rmse[1], csv ? csv : out);
+    free(csv);
+    snprintf(args, sizeof args, "sweep tests/golden/glass.scene %s --caustics-only --param stream-radius --values 0.1 "
+             "--ref %s -o %s", small, ref, dir);
+    CHECK(t, cli_run(args, out, sizeof out) == 2 &&
+                 strstr(out, "pds sweep: --param stream-radius has no effect with --method spm and --caustics-only"),
+          "%s", out);
+    harness_rmtree(dir);
+    /* race: spm's full image and the gi render it is give the same error */
+    snprintf(args, sizeof args, "race tests/golden/glass.scene %s --photons 1500 --ref %s -o %s --methods "
+             "spm:stream-radius=0.4,gi:global-map=streams:caustics=spm:stream-radius=0.4:global-photons=1500",
+             small + strlen("--method spm "), ref, dir);
+    CHECK(t, cli_run(args, out, sizeof out) == 0, "%s", out);
+    {
+        const char *a = strstr(out, "race method=spm "), *b = strstr(out, "race method=gi ");
+        const char *ra = a ? strstr(a, " rmse=") : NULL, *rb = b ? strstr(b, " rmse=") : NULL;
+        CHECK(t, ra && rb && atof(ra + 6) > 0.0 && !strncmp(ra, rb, 16), "race: spm and gi differ: %s", out);
+    }
+    harness_rmtree(dir);
+    snprintf(args, sizeof args, "race tests/golden/glass.scene %s --caustics-only --photons 1500 --ref %s -o %s "
+             "--methods spm:stream-radius=0.4", small + strlen("--method spm "), ref, dir);
+    CHECK(t, cli_run(args, out, sizeof out) == 2 &&
+                 strstr(out, "pds race: --methods: stream-radius has no effect with spm and --caustics-only"),
+          "%s", out);
+    harness_rmtree(dir);
+    remove(ref);
+    remove(png);
+}
+#endif
+
 static const pds_test_case tests_streams[] = {
     {"spm_finds_the_analytic_irradiance_of_a_uniform_caustic",
      test_spm_finds_the_analytic_irradiance_of_a_uniform_caustic},
@@ -477,4 +752,13 @@ static const pds_test_case tests_streams[] = {
     {"gi_streams_are_identical_for_any_thread_count_and_counted",
      test_gi_streams_are_identical_for_any_thread_count_and_counted},
     {"gi_streams_reject_bad_options", test_gi_streams_reject_bad_options},
+    {"spm_full_image_is_gi_with_streams_and_spm_caustics", test_spm_full_image_is_gi_with_streams_and_spm_caustics},
+    {"spm_stream_radius_shapes_the_full_image_not_the_caustics",
+     test_spm_stream_radius_shapes_the_full_image_not_the_caustics},
+    {"spm_full_image_holds_the_caustics_only_light", test_spm_full_image_holds_the_caustics_only_light},
+    {"spm_full_image_is_identical_for_any_thread_count", test_spm_full_image_is_identical_for_any_thread_count},
+    {"spm_refuses_bad_stream_radii_and_counts", test_spm_refuses_bad_stream_radii_and_counts},
+#ifdef PDS_TEST_POSIX
+    {"spm_cli_takes_the_stream_radius", test_spm_cli_takes_the_stream_radius},
+#endif
 };
