@@ -1588,6 +1588,14 @@ static const char *paths_name(pds_paths p)
     return p == PDS_PATHS_ALL ? "all" : p == PDS_PATHS_NO_CAUSTICS ? "no-caustics" : "caustics-only";
 }
 
+/* Did a time budget lower pm's or spm's k or pdm's max_photons? */
+static int gather_cap_lowered(const pds_options *o, const pds_render_stats *st)
+{
+    long asked = o->method == PDS_METHOD_PDM ? o->max_photons : (long)o->k;
+    return (o->method == PDS_METHOD_PM || o->method == PDS_METHOD_PDM || o->method == PDS_METHOD_SPM) &&
+           st->gather_cap > 0 && st->gather_cap < asked;
+}
+
 /* The final line of render. */
 static void print_render_line(const run_cfg *c, const pds_render_stats *st, const char *output)
 {
@@ -1607,10 +1615,16 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
         else if (m != PDS_METHOD_PPM)
             printf(" stored=%ld", st->splatted);
         if (m == PDS_METHOD_SPM) printf(" streams=%ld", st->streams);
+        if (m == PDS_METHOD_PDS && !c->opt.progressive && c->opt.time_s > 0.0)
+            printf(" photons_planned=%.0f", st->photons_planned);
         printf(" eye_vertices=%ld", st->eye_vertices);
         if (m == PDS_METHOD_PPM) printf(" passes=%d", st->passes);
         printf("%s", params);
         if (MBIT(m) & M_MAP) printf(" map_bytes=%lu", (unsigned long)st->map_bytes);
+        /* a time budget lowered the gather's cap so that the gather fits */
+        if (gather_cap_lowered(&c->opt, st))
+            printf(" %s_used=%ld", m == PDS_METHOD_PDM ? "max_photons" : "k", st->gather_cap);
+        if (st->gather_radius > 0.0) printf(" max_radius_used=%g", st->gather_radius);
         printf(" time_eye=%.3f time_photons=%.3f", st->time_eye_s, st->time_photons_s);
         if (m == PDS_METHOD_SPM && c->opt.paths != PDS_PATHS_CAUSTICS_ONLY) {
             /* the full image: gi's global map of streams and final gather
@@ -2168,6 +2182,23 @@ static int cmd_render(int argc, char **argv)
     pds_partial_free(part);
     pds_scene_free(scene);
     if (rc == 0 || rc == 130) print_render_line(&c, &stats, part_only ? part_path : output);
+    /* the paper's PDS whose splats did not fit its time budget */
+    if (rc == 0 && !c.quiet && c.opt.method == PDS_METHOD_PDS && !c.opt.progressive && c.opt.time_s > 0.0 &&
+        stats.photons < 0.8 * stats.photons_planned)
+        fprintf(stderr, "pds render: note: the splats of --smoothing %g did not fit in the %g s budget: %.0f photons "
+                "were planned, %ld emitted, so the footprints cover %.2f of s^2 (smoothing %.3g in effect)\n",
+                c.opt.smoothing, c.opt.time_s, stats.photons_planned, stats.photons,
+                (double)stats.photons / stats.photons_planned,
+                c.opt.smoothing * sqrt((double)stats.photons / stats.photons_planned));
+    /* a time budget that lowered the gather's cap */
+    if (rc == 0 && !c.quiet && gather_cap_lowered(&c.opt, &stats))
+        fprintf(stderr, "pds render: note: %s's gather with %s %ld would not have ended within the %g s budget; "
+                "it used %ld (the most that fitted, and 8 at least)\n", method_name(c.opt.method),
+                c.opt.method == PDS_METHOD_PDM ? "--max-photons" : "--k",
+                c.opt.method == PDS_METHOD_PDM ? c.opt.max_photons : (long)c.opt.k, c.opt.time_s, stats.gather_cap);
+    if (rc == 0 && !c.quiet && stats.gather_radius > 0.0)
+        fprintf(stderr, "pds render: note: even 8 photons a query could not be gathered within the %g s budget; the "
+                "search radius was bounded by %g (max_radius_used)\n", c.opt.time_s, stats.gather_radius);
     /* a budget the photon pass missed by more than race's tolerance (25%):
        pm's or pdm's gather alone can outlast it at a high resolution */
     if (rc == 0 && c.opt.time_s > 0.0 && is_photon_method(c.opt.method) && !stop_requested &&
@@ -2821,6 +2852,138 @@ static int bench_memory(int argc, char **argv)
     return 0;
 }
 
+/* --- bench budget --------------------------------------------------------- */
+
+static int cmp_double(const void *a, const void *b);
+
+/* Does each photon method hold its --time? For each scene, size (square,
+   W x W) and budget T, render each method (caustics only, the scene's
+   spp, all threads) `runs` times and print the median, least and most of
+   landed / T, landed being the time the budget governs: the photon pass
+   (the eye pass before it is printed beside it). "paper" is the paper's
+   PDS (--smoothing 12, not progressive); gi is Jensen's two-pass method,
+   whose caustic pass (pds) the budget governs. The last line counts the
+   cases whose median lands within 15% of T. */
+typedef struct bench_budget_method {
+    const char *name;
+    pds_method method;
+    int progressive;
+} bench_budget_method;
+
+static int bench_budget_list(const char *text, double *out, int max, double lo, double hi)
+{
+    int n = 0;
+    const char *p = text;
+    while (*p) {
+        char *end;
+        double v = strtod(p, &end);
+        if (end == p || !(v >= lo && v <= hi) || n == max || (*end != ',' && *end != '\0')) return -1;
+        out[n++] = v;
+        p = *end == ',' ? end + 1 : end;
+    }
+    return n;
+}
+
+static int bench_budget(int argc, char **argv)
+{
+    static const bench_budget_method all[] = {
+        {"pds", PDS_METHOD_PDS, 1}, {"paper", PDS_METHOD_PDS, 0}, {"pm", PDS_METHOD_PM, 0},
+        {"pdm", PDS_METHOD_PDM, 0}, {"splat", PDS_METHOD_SPLAT, 0}, {"ppm", PDS_METHOD_PPM, 0},
+        {"spm", PDS_METHOD_SPM, 0}, {"gi", PDS_METHOD_GI, 0},
+    };
+    static const char *default_scenes[] = {"scenes/refraction.scene", "scenes/reflection.scene"};
+    double times[8] = {1, 3}, sizes[4] = {256, 512}, runs_d = 3;
+    int ntimes = 2, nsizes = 2, runs = 3, nscenes = 0, i, cases = 0, held = 0;
+    unsigned use = 0x7Fu; /* all but gi */
+    const char *scenes[64];
+    for (i = 0; i < argc; i++) {
+        if (!strcmp(argv[i], "--times") && i + 1 < argc) {
+            if ((ntimes = bench_budget_list(argv[++i], times, 8, 0.01, 3600)) < 1)
+                return usage_error("bench budget: --times needs up to 8 seconds from 0.01 to 3600, got '%s'", argv[i]);
+        } else if (!strcmp(argv[i], "--sizes") && i + 1 < argc) {
+            if ((nsizes = bench_budget_list(argv[++i], sizes, 4, 8, 4096)) < 1)
+                return usage_error("bench budget: --sizes needs up to 4 widths from 8 to 4096, got '%s'", argv[i]);
+        } else if (!strcmp(argv[i], "--runs") && i + 1 < argc) {
+            if (bench_budget_list(argv[++i], &runs_d, 1, 1, 99) != 1 || runs_d != floor(runs_d))
+                return usage_error("bench budget: --runs needs a whole number from 1 to 99, got '%s'", argv[i]);
+            runs = (int)runs_d;
+        } else if (!strcmp(argv[i], "--methods") && i + 1 < argc) {
+            char list[256], *tok;
+            snprintf(list, sizeof list, "%s", argv[++i]);
+            use = 0;
+            for (tok = strtok(list, ","); tok; tok = strtok(NULL, ",")) {
+                size_t k;
+                for (k = 0; k < sizeof all / sizeof all[0] && strcmp(all[k].name, tok); k++) {}
+                if (k == sizeof all / sizeof all[0])
+                    return usage_error("bench budget: unknown method '%s' (pds, paper, pm, pdm, splat, ppm, spm, gi)", tok);
+                use |= 1u << k;
+            }
+        } else if (argv[i][0] == '-') {
+            return usage_error("bench budget: unknown option '%s' (--times, --sizes, --runs, --methods)", argv[i]);
+        } else if (nscenes < 64) {
+            scenes[nscenes++] = argv[i];
+        } else {
+            return usage_error("%s", "bench budget takes at most 64 scenes");
+        }
+    }
+    if (nscenes == 0) {
+        nscenes = 2;
+        scenes[0] = default_scenes[0];
+        scenes[1] = default_scenes[1];
+    }
+    printf("bench budget runs=%d (landed/T: the photon pass over its --time T; median, least, most)\n", runs);
+    for (i = 0; i < nscenes; i++) {
+        pds_scene *scene = NULL;
+        pds_error err;
+        int si, ti;
+        size_t k;
+        if (load_any(scenes[i], &scene, &err) != PDS_OK) {
+            fprintf(stderr, "%s\n", pds_error_string(&err));
+            return 1;
+        }
+        for (si = 0; si < nsizes; si++)
+            for (ti = 0; ti < ntimes; ti++)
+                for (k = 0; k < sizeof all / sizeof all[0]; k++) {
+                    double landed[99], eye[99];
+                    long photons = 0;
+                    int r;
+                    if (!(use & (1u << k))) continue;
+                    for (r = 0; r < runs; r++) {
+                        pds_options opt;
+                        pds_image img = {0, 0, NULL};
+                        pds_render_stats st;
+                        pds_options_default(&opt);
+                        opt.method = all[k].method;
+                        opt.progressive = all[k].progressive;
+                        opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+                        opt.width = opt.height = (int)sizes[si];
+                        opt.time_s = times[ti];
+                        if (pds_render(scene, &opt, &img, &st, &err) != PDS_OK) {
+                            fprintf(stderr, "%s (bench budget %s)\n", pds_error_string(&err), all[k].name);
+                            pds_scene_free(scene);
+                            return 1;
+                        }
+                        pds_image_free(&img);
+                        landed[r] = st.time_photons_s / times[ti];
+                        eye[r] = st.time_eye_s;
+                        photons = st.photons;
+                    }
+                    qsort(landed, (size_t)runs, sizeof landed[0], cmp_double);
+                    qsort(eye, (size_t)runs, sizeof eye[0], cmp_double);
+                    cases++;
+                    held += fabs(landed[runs / 2] - 1.0) <= 0.15;
+                    printf("bench budget scene=%s res=%dx%d T=%g method=%s landed_over_T=%.3f min=%.3f max=%.3f "
+                           "eye_s=%.3f photons=%ld\n",
+                           scenes[i], (int)sizes[si], (int)sizes[si], times[ti], all[k].name, landed[runs / 2],
+                           landed[0], landed[runs - 1], eye[runs / 2], photons);
+                    fflush(stdout);
+                }
+        pds_scene_free(scene);
+    }
+    printf("bench budget cases=%d within_15_percent=%d\n", cases, held);
+    return 0;
+}
+
 static int cmd_bench(int argc, char **argv)
 {
     pds_error err;
@@ -2846,6 +3009,7 @@ static int cmd_bench(int argc, char **argv)
     if (!strcmp(argv[0], "pass")) return bench_pass(argc - 1, argv + 1);
     if (!strcmp(argv[0], "memory")) return bench_memory(argc - 1, argv + 1);
     if (!strcmp(argv[0], "isc")) return bench_isc(argc - 1, argv + 1);
+    if (!strcmp(argv[0], "budget")) return bench_budget(argc - 1, argv + 1);
     if (!strcmp(argv[0], "filter")) {
         pds_bench_filter_result r;
         if (pds_bench_filter(2000000, &r, &err) != PDS_OK) {
@@ -2867,14 +3031,15 @@ static int cmd_bench(int argc, char **argv)
         return 0;
     }
     {
-        static const char *const names[] = {"rays", "pt", "photons", "pass", "memory", "filter", "kdtree", "isc"};
+        static const char *const names[] = {"rays", "pt", "photons", "pass", "memory", "filter", "kdtree", "isc",
+                                            "budget"};
         char hint[256];
         suggestion sug;
         size_t i;
         suggest_init(&sug, argv[0]);
         for (i = 0; i < sizeof names / sizeof names[0]; i++) suggest_consider(&sug, names[i]);
         if (!suggest_text(&sug, hint, sizeof hint)[0])
-            snprintf(hint, sizeof hint, " (rays, pt, photons, pass, memory, filter, kdtree, isc)");
+            snprintf(hint, sizeof hint, " (rays, pt, photons, pass, memory, filter, kdtree, isc, budget)");
         return usage_error("unknown benchmark '%s'%s", argv[0], hint);
     }
 }
@@ -3743,10 +3908,11 @@ typedef struct roi_box {
 } roi_box;
 
 /* Budget checks (race.csv's budget_flag, a warning on stderr, a mark on
-   the page): under a time budget a render that took more than 25% more
-   or less than its budget, or a photon method that emitted fewer than
-   RACE_MIN_PHOTONS photons or fewer than 1% of the most any photon method
-   emitted on that budget, is not an equal-time result. */
+   the page): under a time budget a render whose budgeted time
+   (budget_spent) was more than 25% more or less than its budget, or a
+   photon method that emitted fewer than RACE_MIN_PHOTONS photons or fewer
+   than 1% of the most any photon method emitted on that budget, is not an
+   equal-time result. */
 enum { RACE_OVER_TIME = 1, RACE_UNDER_TIME = 2, RACE_FEW_PHOTONS = 4 };
 #define RACE_TIME_TOLERANCE 0.25
 #define RACE_MIN_PHOTONS 10000
@@ -4085,13 +4251,22 @@ static const tune_grid tune_grids[] = {
 };
 #define N_TUNE_GRIDS (sizeof tune_grids / sizeof tune_grids[0])
 
+/* The time a render's --time governs: a photon method's (and gi's) photon
+   pass, which the budget is for (the eye pass before it is the same for
+   every photon method and is not in it); any other method's whole
+   render. */
+static double budget_spent(const pds_options *o, const pds_render_stats *st)
+{
+    return (MBIT(o->method) & (M_PHOTON | M_GI)) ? st->time_photons_s : st->time_total_s;
+}
+
 /* One tuning render, for tune.csv. */
 typedef struct tune_row {
     int entry;         /* the race entry it tuned */
     const char *key;   /* "k" */
     char value[32];    /* "20" */
     pds_metrics m;
-    double time_s;
+    double time_s;     /* the time its budget governs (budget_spent) */
     long photons;
     int chosen;
 } tune_row;
@@ -4155,7 +4330,7 @@ static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_
             row->key = tg->key;
             snprintf(row->value, sizeof row->value, "%s", value);
             row->m = m;
-            row->time_s = st.time_total_s;
+            row->time_s = budget_spent(&c.opt, &st);
             row->photons = st.photons;
             row->chosen = 0;
             /* the first of equal RMSEs wins; NaN never does; nor does a
@@ -4207,12 +4382,12 @@ static int race_check_budgets(race_entry *e, int n, const race_budgets *bud)
         long most = 0;
         t->flags = 0;
         if (!bud->by_time) continue; /* a photon budget is exact */
-        ratio = t->st.time_total_s / budget;
+        ratio = budget_spent(&t->cfg.opt, &t->st) / budget;
         if (ratio > 1.0 + RACE_TIME_TOLERANCE) t->flags |= RACE_OVER_TIME;
         else if (ratio < 1.0 - RACE_TIME_TOLERANCE) t->flags |= RACE_UNDER_TIME;
         if (t->flags)
             fprintf(stderr, "pds race: warning: %s took %.3g s of its %g s budget (%+.0f%%): more than %.0f%% off, "
-                    "not an equal-time result\n", t->label, t->st.time_total_s, budget, 100.0 * (ratio - 1.0),
+                    "not an equal-time result\n", t->label, budget_spent(&t->cfg.opt, &t->st), budget, 100.0 * (ratio - 1.0),
                     100.0 * RACE_TIME_TOLERANCE);
         if (!is_photon_method(t->cfg.opt.method) || t->cfg.opt.paths == PDS_PATHS_NO_CAUSTICS) continue;
         for (j = 0; j < n; j++)
@@ -4731,8 +4906,8 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
         sb_printf(b, "<li>");
         sb_xml(b, t->label);
         if (t->flags & (RACE_OVER_TIME | RACE_UNDER_TIME))
-            sb_printf(b, ": took %.3g s of its %s s budget (%+.0f%%, more than %.0f%% off)", t->st.time_total_s,
-                      bud->text[t->budget], 100.0 * (t->st.time_total_s / bud->value[t->budget] - 1.0),
+            sb_printf(b, ": took %.3g s of its %s s budget (%+.0f%%, more than %.0f%% off)", budget_spent(&t->cfg.opt, &t->st),
+                      bud->text[t->budget], 100.0 * (budget_spent(&t->cfg.opt, &t->st) / bud->value[t->budget] - 1.0),
                       100.0 * RACE_TIME_TOLERANCE);
         if (t->flags & RACE_FEW_PHOTONS)
             sb_printf(b, ": emitted only %ld photons (fewer than %d, or than 1%% of the most on its budget)",
@@ -5070,6 +5245,9 @@ static int cmd_race(int argc, char **argv)
         if (t->cfg.opt.method == PDS_METHOD_PPM) printf(" passes=%d", t->st.passes);
         if (t->cfg.opt.method == PDS_METHOD_SPM) printf(" streams=%ld", t->st.streams);
         if (MBIT(t->cfg.opt.method) & M_MAP) printf(" map_bytes=%lu", (unsigned long)t->st.map_bytes);
+        if (gather_cap_lowered(&t->cfg.opt, &t->st))
+            printf(" %s_used=%ld", t->cfg.opt.method == PDS_METHOD_PDM ? "max_photons" : "k", t->st.gather_cap);
+        if (t->st.gather_radius > 0.0) printf(" max_radius_used=%g", t->st.gather_radius);
         printf(" rmse=%.6f ssim=%.6f time=%.3f budget=%s", t->m.rmse, t->m.ssim, t->st.time_total_s,
                bud.text[t->budget]);
         if (t->tuned_keys[0]) printf(" tuned=%s", t->tuned_keys);

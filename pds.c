@@ -57,8 +57,10 @@
                   gathered stream by stream (eqs. 1-2); for caustics (its
                   streams in gi's global map are in >>gi; spm's full image,
                   gi's with both, in >>api) (not in PDS_NO_BASELINES)
-     >>photonpass the photon pass all photon methods share: time planning,
-                  tracing threads, gathers, the caustic image
+     >>photonpass the photon pass all photon methods share: time budgets
+                  (the map methods' plan in rounds from probes, the
+                  paper's PDS's a + b/N plan), tracing threads, gathers,
+                  the caustic image
      >>gi         Jensen's two-pass global illumination: global photon map
                   (single photons, or streams: seed paper 003's streams
                   where they mean something), shadow photons,
@@ -14493,6 +14495,12 @@ typedef struct pds__photon_job {
     long own_batches;          /* batches this call will run, for the progress */
     int cancelled;             /* guarded by lock: the progress callback said stop */
     double build_s, gather_s;  /* pm, pdm: time of the last map build and gather */
+    double gather_deadline;    /* pm, pdm, spm: with a time budget, pds_time_now()
+                                  by which the gather should end (>>baselines:
+                                  pds__gather_run), else 0 */
+    size_t gather_k;           /* pm, pdm, spm: the cap the last gather used */
+    double gather_radius;      /* ... and the search radius a time budget bounded it by (0: none) */
+    size_t nsums;              /* entries of each thread's exact image (3 a pixel) */
     double gather_found;       /* pm, pdm: photons its queries returned */
     size_t map_photons;        /* pm, pdm: photons in the last map built */
 } pds__photon_job;
@@ -15211,7 +15219,9 @@ static void pds__pds_pass_plan(const pds_options *opt, long *k_total, long *m)
 /* Run progressive PDS passes into the job's sums: the passes first,
    first + stride, ... of the plan above, from the start-th of those on
    (a shard, or the rest of an interrupted render), or with a deadline,
-   whole passes while the last pass's duration still fits. The progress
+   whole passes while the end of one more, at the last pass's duration,
+   is nearer the deadline than now is (so the pass lands within half a
+   pass of it, early or late, rather than up to a whole pass early). The progress
    callback may stop it between passes. Returns the photons emitted;
    *passes gets the passes run. */
 static long pds__pds_passes(pds__photon_job *job, const pds_options *opt, int threads, double deadline, long first,
@@ -15229,7 +15239,7 @@ static long pds__pds_passes(pds__photon_job *job, const pds_options *opt, int th
     job->n_planned = (double)m;
     for (k = first + start * stride; k < k_max; k += stride) {
         double t = pds_time_now();
-        if (deadline > 0.0 && k > 0 && t + t_pass > deadline) break;
+        if (deadline > 0.0 && k > 0 && t + 0.5 * t_pass > deadline) break;
         job->smoothing = pds__pass_smoothing(opt->pass_smoothing, opt->pass_alpha, k + 1);
         pds__photon_run(job, threads, k * m);
         t_pass = pds_time_now() - t;
@@ -15371,6 +15381,12 @@ typedef struct pds__gather {
     int next_buf;              /* guarded by lock */
     int out_of_memory;         /* guarded by lock */
     double found;              /* guarded by lock: photons the queries returned */
+    size_t sample;             /* S > 0: gather only vertices i with i % S == 0
+                                  (phase 1) or only the others (phase 2) */
+    int sample_phase;
+    double *kth;               /* phase 1, if not NULL: kth[i / S] = the squared
+                                  distance of the farthest photon found at i
+                                  (DBL_MAX: none) */
 } pds__gather;
 
 #define PDS__GATHER_CHUNK 1024
@@ -15399,9 +15415,12 @@ static void *pds__gather_worker(void *arg)
         for (i = first; i < last; i++) {
             const pds__eye_vertex *v = &g->v[i];
             double sum[3] = {0, 0, 0};
-            size_t n = pds__kdtree_knn(g->tree, pds__f3_get(v->pos), g->k, g->radius, idx, d2);
+            size_t n;
             int c;
+            if (g->sample && (i % g->sample == 0) != (g->sample_phase == 1)) continue;
+            n = pds__kdtree_knn(g->tree, pds__f3_get(v->pos), g->k, g->radius, idx, d2);
             found += n;
+            if (g->kth && g->sample_phase == 1) g->kth[i / g->sample] = n ? d2[n - 1] : DBL_MAX;
             if (n == 0) continue;
             g->estimate(g, v, idx, d2, n, sum);
             for (c = 0; c < 3; c++)
@@ -15413,13 +15432,126 @@ static void *pds__gather_worker(void *arg)
     return NULL;
 }
 
-/* Run the gather on the threads that own the photon pass's images. */
-static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int threads, pds_error *err)
+/* One run of the gather workers over the vertices g->sample and
+   g->sample_phase select. */
+static void pds__gather_once(pds__gather *g, pds__photon_job *job, int threads)
 {
-    g->bufs = job->bufs;
+    g->next = 0;
+    g->next_buf = 0;
     pds__mutex_init(&g->lock);
     pds__run_threads(threads < job->nbufs ? threads : job->nbufs, pds__gather_worker, g);
     pds__mutex_destroy(&g->lock);
+}
+
+/* The gather under a time budget: the cap whose gather fits the time left,
+   from two measured samples of it. t_k and t_8 are the seconds a query
+   took (on all threads, on the final map) with the cap k and with a cap
+   of 8; a query's cost is taken to grow linearly with the cap between
+   them (it does with the photons found, which grow with the cap up to
+   those within reach). Returns the largest cap in [8, k] (k > 8) whose
+   queries take at most `per_query` seconds; 8 if none does. */
+static double pds__gather_cap_fit(double k, double t_k, double t_8, double per_query)
+{
+    double c;
+    if (t_k <= per_query) return k;
+    if (!(t_k > t_8)) return per_query >= t_8 ? k : 8.0;
+    c = floor(8.0 + (per_query - t_8) * (k - 8.0) / (t_k - t_8));
+    return fmin(k, fmax(8.0, c));
+}
+
+static int pds__cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Zero the threads' exact images (pm, pdm, spm: only the gather writes
+   them). */
+static void pds__gather_clear(pds__photon_job *job, size_t nsums)
+{
+    int t;
+    for (t = 0; t < job->nbufs; t++) {
+        memset(job->bufs[t].sum, 0, nsums * sizeof(pds__sum128));
+        if (job->bufs[t].neg) memset(job->bufs[t].neg, 0, nsums * sizeof(pds__sum128));
+    }
+}
+
+/* Run the gather on the threads that own the photon pass's images. With a
+   time budget (job->gather_deadline > 0) the cap g->k is measured rather
+   than modelled (>>photonpass: step 3 of the plan): about 256 vertices are
+   gathered first with that cap (and thrown away); if the whole gather at
+   that pace ends by the deadline, it is made; else every 64th vertex is
+   gathered with a cap of 8, the cap pds__gather_cap_fit gives is taken,
+   and the whole gather is made with it (the sample kept if that cap is 8,
+   and the rest gathered after it; a search radius bounded as below if
+   even 8 cannot end in time). The images hold each vertex's estimate
+   once, whatever was measured. */
+static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int threads, pds_error *err)
+{
+    const size_t S = 64;
+    double k0 = (double)g->k;
+    g->bufs = job->bufs;
+    g->sample = 0;
+    g->kth = NULL;
+    job->gather_radius = 0.0;
+    if (job->gather_deadline > 0.0 && g->k > 8 && g->nv >= 64 * S) {
+        double ns = (double)((g->nv + S - 1) / S), t = pds_time_now(), t_k, t_8, cap;
+        size_t S2 = g->nv / 256 > S ? g->nv / 256 : S; /* about 256 vertices */
+        /* the pace with the cap asked for, on a coarse sample (not kept:
+           a query with a cap of 500 can cost a hundred of a cap of 8) */
+        g->sample = S2;
+        g->sample_phase = 1;
+        pds__gather_once(g, job, threads);
+        t_k = (pds_time_now() - t) / (double)((g->nv + S2 - 1) / S2);
+        pds__gather_clear(job, job->nsums);
+        g->found = 0.0;
+        g->sample = 0;
+        if (!g->out_of_memory && t_k * (double)g->nv > job->gather_deadline - pds_time_now()) {
+            g->kth = (double *)malloc(sizeof *g->kth * (size_t)ns); /* none: no radius bound */
+            g->k = 8;
+            g->sample = S;
+            t = pds_time_now();
+            pds__gather_once(g, job, threads);
+            t_8 = (pds_time_now() - t) / ns;
+            cap = pds__gather_cap_fit(k0, t_k, t_8, (job->gather_deadline - pds_time_now()) / (double)g->nv);
+            if (cap > 8.0) {
+                pds__gather_clear(job, job->nsums);
+                g->found = 0.0;
+                g->sample = 0;
+                g->k = (size_t)cap;
+            } else if (g->kth && t_8 * ((double)g->nv - ns) > job->gather_deadline - pds_time_now()) {
+                /* even k = 8 cannot end in time: the queries far from
+                   every photon (whose k nearest lie far off, and whose
+                   estimate is a faint blur) cost the most; bound the
+                   search radius by the median, then the quartile, then
+                   the tenth of the sample's 8th-photon distances, the
+                   first whose sample's pace fits (the sample kept) */
+                static const double q[3] = {0.5, 0.25, 0.1};
+                double r0 = g->radius, *kth = g->kth;
+                int j;
+                g->kth = NULL; /* the trials below record nothing */
+                qsort(kth, (size_t)ns, sizeof *kth, pds__cmp_double);
+                for (j = 0; j < 3 && !g->out_of_memory; j++) {
+                    double r = sqrt(kth[(size_t)(q[j] * (ns - 1.0))]);
+                    if (!(r < r0) || !(r > 0.0)) continue;
+                    pds__gather_clear(job, job->nsums);
+                    g->found = 0.0;
+                    g->radius = r;
+                    job->gather_radius = r;
+                    t = pds_time_now();
+                    pds__gather_once(g, job, threads);
+                    if ((pds_time_now() - t) / ns * ((double)g->nv - ns) <= job->gather_deadline - pds_time_now()) break;
+                }
+                free(kth);
+            }
+        }
+        g->sample_phase = 2;
+    }
+    if (!g->out_of_memory) pds__gather_once(g, job, threads);
+    g->sample = 0;
+    free(g->kth);
+    g->kth = NULL;
+    job->gather_k = g->k;
     return g->out_of_memory ? pds__nomem(err) : PDS_OK;
 }
 
@@ -15763,9 +15895,29 @@ static double pds__default_radius(const pds_scene *s)
     return d > 0.0 ? d / 200.0 : 0.01;
 }
 
+/* Under a time budget: the photons of ppm's next pass, 0 for none, when
+   `left` seconds remain and the last pass of `photons` photons took
+   trace_s to trace and update_s to build its map and update the
+   vertices. A whole pass if it fits; else a shorter one whose tracing
+   fits beside an update as long as the last (an update costs the range
+   queries of every vertex even when few photons come), in whole batches
+   (PDS__PHOTON_BATCH); none if not one batch fits. Hachisuka et al.'s
+   recurrence holds for passes of any size: the estimate is
+   tau / (pi R^2 N_emitted) with N_emitted the photons of all passes. */
+static long pds__ppm_pass_photons(double left, double trace_s, double update_s, long photons)
+{
+    double n;
+    if (trace_s + update_s <= left) return photons;
+    if (!(trace_s > 0.0) || left <= update_s) return 0;
+    n = floor((double)photons * (left - update_s) / trace_s / PDS__PHOTON_BATCH) * PDS__PHOTON_BATCH;
+    return n >= (double)PDS__PHOTON_BATCH ? (long)n : 0;
+}
+
 /* Progressive photon mapping: passes of opt->photons photons, each
    updating every eye vertex, until opt->passes (or, with a time budget,
-   until the time is spent; at least one pass). Adds the radiance of each
+   until the time is spent: each pass as long as pds__ppm_pass_photons
+   finds room for, whole while they fit, then shorter ones; at least one
+   pass). Adds the radiance of each
    vertex into the exact sums of job->bufs[0] (for a factor n_planned /
    emitted of 1), unless the progress callback stopped it (job->cancelled:
    then nothing). *emitted_out gets the photons emitted. */
@@ -15781,18 +15933,31 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
     if (!state) return pds__nomem(err);
     for (i = 0; i < nv; i++) state[i].r2 = r0 * r0;
     for (pass = 0; !st; pass++) {
-        long this_pass;
+        long this_pass, next;
+        double tt = pds_time_now(), tu;
         pds__photon_run(job, threads, pass * (long)opt->photons);
         this_pass = job->batches_done * (long)PDS__PHOTON_BATCH;
         emitted += this_pass < job->n_total ? this_pass : job->n_total;
         for (t = 0; t < job->nbufs; t++)
             if (job->bufs[t].out_of_memory) st = PDS_ERR_NOMEM;
         if (job->cancelled) break;
+        tu = pds_time_now();
         if (!st) st = pds__ppm_update(job, opt, v, state, nv, threads, stats, err);
-        if (opt->time_s > 0.0 ? pds_time_now() - job->t0 >= opt->time_s : pass + 1 >= opt->passes) {
+        if (opt->time_s <= 0.0) {
+            if (pass + 1 >= opt->passes) {
+                pass++;
+                break;
+            }
+            continue;
+        }
+        /* a time budget: the next pass's size from this one's times */
+        next = pds__ppm_pass_photons(opt->time_s - (pds_time_now() - job->t0), (tu - tt) * (double)opt->photons /
+                                     (double)job->n_total, pds_time_now() - tu, opt->photons);
+        if (next == 0) {
             pass++;
             break;
         }
+        job->n_total = next;
     }
     if (!st && emitted > 0 && !job->cancelled) {
         /* L = tau / (pi R^2 N_emitted), times the vertex's importance */
@@ -15926,91 +16091,229 @@ static pds_status pds__spm_gather(pds__photon_job *job, const pds_options *opt, 
    map methods, the threads tracing photons, the methods' second halves,
    and the caustic image. */
 
-/* pm and pdm under a time budget: the map build and the gather come after
-   the last photon, so the tracing must stop early enough for them. Probe
-   them on the calibration photons (already stored in job->bufs) with every
-   s-th eye vertex, and model, for a map of m stored photons,
+/* pm, pdm and spm under a time budget: the map build and the gather come
+   after the last photon, so the tracing must stop early enough for them.
+   Probe them on the calibration photons (already stored in job->bufs)
+   with every s-th eye vertex, and model, for a map of m stored photons,
      build(m)  = build_probe m log m / (m_probe log m_probe)
-     gather(m) = nv c (1 + f) sqrt(max(1, log m / log m_probe)),
-   c = the probe's time per vertex / (1 + its photons found per vertex), and
-   f the photons a query will find: pm min(k, m); pdm the probe's count
-   scaled by the planned / emitted photons of the calibration (footprints
-   shrink as 1/N, so a finished map covers each vertex about as often as
-   the probe map would have with its planned count), at most k. (The
-   square root fits measured k-nearest queries better than log m does:
-   the top of the tree stays in cache.) Returns
-   the seconds left for tracing out of `remaining`, given the photons
-   traced per second (`rate`). The caller throws the probe's images away. */
+     gather(m) = nv (c0 + c1 f) sqrt(max(1, log m / log m_probe)) / P,
+   c0 + c1 f the time of a query that finds f photons, fitted to two probe
+   gathers, one with the cap and one with a cap of 8 (with one, or when
+   they found about as many photons, c0 = c1 = the probe's time per query
+   / (1 + its photons found per query)), f
+   the photons a query will find: pm and spm min(cap, m); pdm the probe's
+   count scaled by the planned / emitted photons of the calibration
+   (footprints shrink as 1/N, so a finished map covers each vertex about
+   as often as the probe map would have with its planned count), at most
+   the cap; P the threads' speed-up over the one-thread probe. (The square
+   root fits measured k-nearest queries better than log m does: the top of
+   the tree stays in cache.) The cap is pm's and spm's k, pdm's
+   max_photons.
+
+   The plan runs in rounds, so that what a busy machine does to the
+   threads is measured rather than assumed:
+   1. calibration (one thread) and probe (one thread: a probe of tens of
+      milliseconds on one core is not at the mercy of the other threads'
+      scheduling; a 1 ms probe on two threads of a busy machine planned no
+      tracing at all) give the one-thread rate and the model, with P = the
+      thread count;
+   2. the threads trace for half the planned tracing time; the photons
+      traced so far are probed again (one thread, P = the thread count)
+      at about 1024 vertices (fewer for a cap above 50), so that the
+      model's figures come from a map about half the final size on the
+      machine as it is loaded now; and the plan is
+      made again, for the photons traced and the rest, at the threads'
+      measured rate;
+   3. the gather measures rather than models (pds__gather_run): on the
+      final map, on all threads, it gathers every 64th vertex, and if the
+      rest at that pace would end after the budget, it measures the same
+      sample with a cap of 8 and takes the largest cap whose pace fits
+      (at least min(8, cap): Jensen's fewest photons for an estimate).
+      Only a gather that could not fit otherwise gets a lower cap, and
+      the render reports the cap it used (gather_cap).
+   Whatever the model says, tracing gets a quarter of the budget at least:
+   a render without caustics is no answer (and misses show in the time the
+   render reports). */
 /* What the probe measured (all times in seconds). */
 typedef struct pds__map_probe {
     double build_s, gather_s;  /* the probe map's build, its gather */
     double found;              /* photons one probe query returned, on average */
+    double gather2_s, found2;  /* the same with a cap of 8 (0, 0: not probed) */
     double map_photons;        /* photons the probe map held */
     double emitted;            /* photons emitted to fill it */
     double planned;            /* the photon count the calibration planned for */
     double queried;            /* eye vertices the probe gathered at */
-    int threads;               /* the probe ran on one thread, the gather will on these */
+    double parallel;           /* P: the gather's speed-up over the one-thread probe */
 } pds__map_probe;
 
-/* The model above, solved: the seconds of tracing, at `rate` photons per
-   second, after which tracing, build and gather of nv vertices fill
-   `remaining`. pdm: is the method pdm; k: pm's k or pdm's max_photons. */
-static double pds__map_plan(const pds__map_probe *p, int pdm, double k, size_t nv, double rate, double remaining)
+/* The model above: seconds to build a map of m stored photons and gather
+   it at nv vertices with this cap. pdm: is the method pdm. */
+static double pds__map_cost(const pds__map_probe *p, int pdm, double cap, size_t nv, double m)
 {
-    double share = p->map_photons / p->emitted, mlog = log(p->map_photons), lo = 0.0, hi = rate * remaining;
-    double per_vertex = p->gather_s / p->queried / (1.0 + p->found);
-    double found = fmin(k, p->found * p->planned / p->emitted);
+    double lm = log(fmax(2.0, m)) / log(p->map_photons);
+    double t1 = p->gather_s / p->queried, c0 = t1 / (1.0 + p->found), c1 = c0;
+    double f = pdm ? fmin(cap, p->found * p->planned / p->emitted) : fmin(cap, m);
+    if (p->found - p->found2 >= 0.5 * p->found && p->found2 > 0.0) {
+        /* the line through the two probes, its slope and intercept >= 0 */
+        double t2 = p->gather2_s / p->queried;
+        c1 = fmax(0.0, (t1 - t2) / (p->found - p->found2));
+        c0 = fmax(0.0, t1 - c1 * p->found);
+    }
+    return p->build_s * m / p->map_photons * fmax(1.0, lm) +
+           (double)nv * (c0 + c1 * f) * sqrt(fmax(1.0, lm)) / (p->parallel > 0.0 ? p->parallel : 1.0);
+}
+
+/* The model solved: the seconds of further tracing, at `rate` photons per
+   second, after which that tracing and the build and gather of nv
+   vertices fill `remaining`, `traced` photons having been traced already
+   (0 if even the map of those cannot be made in time). */
+static double pds__map_plan(const pds__map_probe *p, int pdm, double cap, size_t nv, double rate, double traced,
+                            double remaining)
+{
+    double share = p->map_photons / p->emitted, lo = 0.0, hi = rate * remaining;
     int i;
-    /* bisect for the photon count n whose tracing and map fill the budget */
+    /* bisect for the further photon count n whose tracing and map fill the budget */
     for (i = 0; i < 60; i++) {
-        double n = 0.5 * (lo + hi), m = fmax(2.0, n * share), lm = log(m) / mlog;
-        double f = pdm ? found : fmin(k, m);
-        double cost = n / rate + p->build_s * m / p->map_photons * fmax(1.0, lm) +
-                      per_vertex * (double)nv * (1.0 + f) * sqrt(fmax(1.0, lm)) / (p->threads > 0 ? p->threads : 1);
-        if (cost > remaining) hi = n;
+        double n = 0.5 * (lo + hi);
+        if (n / rate + pds__map_cost(p, pdm, cap, nv, (traced + n) * share) > remaining) hi = n;
         else lo = n;
     }
     return lo / rate;
 }
 
-static double pds__map_budget(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
-                              int threads, double rate, double remaining)
+/* Steps 1 and 2: the seconds of further tracing, and in *cap_out the cap
+   planned for: the requested one if the tracing then keeps a quarter of
+   `left`, else the largest in [min(8, cap), cap] that does (a bisection
+   over whole numbers: the tracing time falls as the cap grows); tracing
+   at least a quarter of `left` + `traced_s` (the tracing done so far)
+   minus `traced_s`. */
+static double pds__map_tracing(const pds__map_probe *p, int pdm, double cap, size_t nv, double rate, double traced,
+                               double traced_s, double left, double *cap_out)
 {
-    size_t step = nv / 8192 + 1, nsub = 0, i;
+    double lo = fmin(8.0, cap), hi = cap;
+    if (pds__map_plan(p, pdm, hi, nv, rate, traced, left) < 0.25 * left) {
+        while (hi - lo > 1.0) {
+            double mid = floor(0.5 * (lo + hi));
+            if (pds__map_plan(p, pdm, mid, nv, rate, traced, left) >= 0.25 * left) lo = mid;
+            else hi = mid;
+        }
+        cap = lo;
+    }
+    *cap_out = cap;
+    return fmax(0.25 * (left + traced_s) - traced_s, pds__map_plan(p, pdm, cap, nv, rate, traced, left));
+}
+
+/* The cap a map method's gather is asked for: pm's and spm's k, pdm's
+   max_photons. */
+static double pds__map_cap_requested(const pds_options *opt)
+{
+    return (double)(opt->method == PDS_METHOD_PDM ? opt->max_photons : opt->k);
+}
+
+/* The probes of steps 1 and 2: fill *p from a build of the photons stored
+   so far (`emitted` emitted) and gathers at most about max_vertices of the
+   eye vertices, with the cap and with a cap of 8, on probe_threads
+   threads (of `threads`). The stored photons are left as they were; the
+   caller throws the probes' images away. 0 if nothing could be measured
+   (no photon stored, say). */
+static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
+                              int threads, int probe_threads, size_t max_vertices, double emitted,
+                              pds__map_probe *p)
+{
+    size_t step = nv / max_vertices + 1, nsub = 0, i, nkept = 0;
     pds__eye_vertex *sub = (pds__eye_vertex *)malloc(sizeof *sub * (nv / step + 1));
-    pds__map_probe p;
+    pds__stored_photon *kept = NULL; /* pm, spm: the stored photons, which a gather consumes */
+    pds_options low = *opt;
     pds_error ignored;
-    pds_status st;
-    if (!sub) return remaining;
+    pds_status st = PDS_OK;
+    int two = pds__map_cap_requested(opt) > 8.0, t, probe, ok = 1;
+    if (!sub) return 0;
     for (i = 0; i < nv; i += step) sub[nsub++] = v[i];
-    job->build_s = job->gather_s = job->gather_found = 0.0;
-    job->map_photons = 0;
-    /* one thread: a probe of tens of milliseconds on one core is not at
-       the mercy of the other threads' scheduling (a 1 ms probe on two
-       threads of a busy machine planned no tracing at all) */
-    st = opt->method == PDS_METHOD_PM    ? pds__pm_gather(job, opt, sub, nsub, 1, NULL, &ignored)
-         : opt->method == PDS_METHOD_SPM ? pds__spm_gather(job, opt, sub, nsub, 1, NULL, &ignored)
-                                         : pds__pdm_gather(job, opt, sub, nsub, 1, NULL, &ignored);
+    if (opt->method != PDS_METHOD_PDM) {
+        for (t = 0; t < job->nbufs; t++) nkept += job->bufs[t].nstored;
+        kept = (pds__stored_photon *)malloc(sizeof *kept * (nkept ? nkept : 1));
+        for (t = 0, nkept = 0; kept && t < job->nbufs; t++) {
+            if (job->bufs[t].nstored) memcpy(kept + nkept, job->bufs[t].stored, sizeof *kept * job->bufs[t].nstored);
+            nkept += job->bufs[t].nstored;
+        }
+        if (!kept) ok = 0;
+    }
+    if (opt->method == PDS_METHOD_PDM) low.max_photons = 8;
+    else low.k = 8;
+    p->gather2_s = p->found2 = 0.0;
+    for (probe = 0; ok && probe < 1 + two; probe++) {
+        const pds_options *o = probe ? &low : opt;
+        if (kept && probe) {
+            /* the first gather took the photons: put a copy back */
+            pds__stored_photon *copy = (pds__stored_photon *)malloc(sizeof *copy * (nkept ? nkept : 1));
+            if (!copy) break;
+            memcpy(copy, kept, sizeof *copy * nkept);
+            free(job->bufs[0].stored);
+            job->bufs[0].stored = copy;
+            job->bufs[0].nstored = job->bufs[0].cap_stored = nkept;
+        }
+        job->build_s = job->gather_s = job->gather_found = 0.0;
+        job->map_photons = 0;
+        st = opt->method == PDS_METHOD_PM    ? pds__pm_gather(job, o, sub, nsub, probe_threads, NULL, &ignored)
+             : opt->method == PDS_METHOD_SPM ? pds__spm_gather(job, o, sub, nsub, probe_threads, NULL, &ignored)
+                                             : pds__pdm_gather(job, o, sub, nsub, probe_threads, NULL, &ignored);
+        if (st || job->map_photons < 2 || nsub == 0) {
+            ok = probe > 0; /* the first probe is needed, the second helps */
+            break;
+        }
+        if (probe == 0) {
+            p->build_s = job->build_s;
+            p->gather_s = job->gather_s;
+            p->found = job->gather_found / (double)nsub;
+            p->map_photons = (double)job->map_photons;
+        } else {
+            p->gather2_s = job->gather_s;
+            p->found2 = job->gather_found / (double)nsub;
+        }
+    }
+    if (kept) {
+        /* the stored photons as they were (in one thread's store) */
+        for (t = 0; t < job->nbufs; t++) {
+            free(job->bufs[t].stored);
+            job->bufs[t].stored = NULL;
+            job->bufs[t].nstored = job->bufs[t].cap_stored = 0;
+        }
+        job->bufs[0].stored = kept;
+        job->bufs[0].nstored = job->bufs[0].cap_stored = nkept;
+    }
     free(sub);
-    if (st || job->map_photons < 2 || nsub == 0) return remaining;
-    p.build_s = job->build_s;
-    p.gather_s = job->gather_s;
-    p.found = job->gather_found / (double)nsub;
-    p.map_photons = (double)job->map_photons;
-    p.emitted = (double)job->n_total;
-    p.planned = job->n_planned;
-    p.queried = (double)nsub;
-    p.threads = threads;
-    /* whatever the model says, trace for a quarter of the time at least:
-       a render without caustics is no answer (and misses show in the
-       time the render reports) */
-    return fmax(0.25 * remaining,
-                pds__map_plan(&p, opt->method == PDS_METHOD_PDM,
-                              (double)(opt->method == PDS_METHOD_PDM ? opt->max_photons : opt->k), nv, rate,
-                              remaining));
+    p->emitted = emitted;
+    p->planned = job->n_planned;
+    p->queried = (double)nsub;
+    p->parallel = (double)threads / (double)(probe_threads > 0 ? probe_threads : 1);
+    return ok;
 }
 
 #endif /* PDS_NO_BASELINES */
+
+/* The paper's PDS under a time budget: N, the photon count of eqs. 5-6,
+   must be fixed before the first photon, and a photon's cost depends on
+   it. Its footprint covers s^2 A / N of the lit area A (eqs. 5-6), so the
+   eye vertices it splats to, and the cost of its splat, fall as 1/N:
+     cost per photon = a + b / N
+   (a: emission and tracing; b: all N splats of a render together, which
+   with s fixed cost the same whatever N is). Two calibration batches on
+   one thread, for N1 and N2 photons (4 and 1 times opt->photons), took t1
+   and t2 seconds a photon;
+   solved for a and b (a at least a tenth of t1, b at least 0), tracing and
+   splatting N photons on `threads` threads fills `left` seconds when
+     N a + b = left threads,  N = (left threads - b) / a.
+   When the splats alone (b) take more than three quarters of that, the
+   smoothing cannot be held in the budget: N is then set as if tracing had
+   a quarter of it, and the deadline stops the photons early (the render
+   reports the photons emitted and the count planned, whose ratio is the
+   footprints' share of s^2). */
+static double pds__pds_plan(double t1, double n1, double t2, double n2, double left, int threads)
+{
+    double b = fmax(0.0, (t2 - t1) / (1.0 / n2 - 1.0 / n1)), a = fmax(0.1 * t1, t1 - b / n1);
+    double cpu = left * (threads > 0 ? threads : 1);
+    return (cpu - b >= 0.25 * cpu ? cpu - b : 0.25 * cpu) / a;
+}
 
 /* --- the photon pass --------------------------------------------------- */
 
@@ -16033,6 +16336,14 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     double t0 = pds_time_now();
     pds__debug_buf *dbg = NULL;          /* one per thread, if debug views are on */
     pds__path_rec *paths = NULL;         /* one per thread, if the paths view is on */
+    double rate1 = 0.0;                  /* a time budget: photons a second on one thread */
+#ifndef PDS_NO_BASELINES
+    pds__map_probe probe, probe2;        /* pm, pdm, spm under a time budget: the plan's model */
+    int map_method = opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPM;
+    int map_planned = 0;                 /* ... made from a probe */
+    double cap = pds__map_cap_requested(opt);
+    memset(&probe, 0, sizeof probe);
+#endif
     memset(&map, 0, sizeof map);
     memset(&job, 0, sizeof job);
     map.v = vertices;
@@ -16110,6 +16421,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         }
     }
     job.unit_stride = 1;
+    job.nsums = npix * 3;
 #ifndef PDS_NO_BASELINES
     if (!st && opt->method == PDS_METHOD_PPM) {
         st = pds__ppm_passes(&job, opt, vertices, nvertices, threads, &emitted, stats, err);
@@ -16132,21 +16444,48 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
            away) and plan for the rate it shows over the remaining time.
            For every method the image is normalised by the photons actually
            emitted before the deadline. */
-        double rate, tc = pds_time_now(), remaining;
+        double tc = pds_time_now(), remaining, rate, t_1 = 0.0, t_2, n_1 = 4.0 * (double)opt->photons;
+        int paper = opt->method == PDS_METHOD_PDS; /* (not progressive: that branch is above) */
+        int second = 1;                             /* run the second calibration batch */
         pds__mutex_init(&job.lock);
         job.n_total = 2 * PDS__PHOTON_BATCH;
         job.next_buf = 0;
         job.progress = NULL; /* the calibration is not the pass the caller waits for */
-        pds__run_threads(1, pds__photon_worker, &job);
+        if (paper) {
+            /* the paper's PDS (pds__pds_plan): the first batch for four
+               times opt->photons (small footprints: the cheaper one), the
+               second for opt->photons, unless the first took a tenth of
+               the budget already (the splats are then most of its cost) */
+            job.n_total = PDS__PHOTON_BATCH;
+            job.n_planned = n_1;
+            pds__run_threads(1, pds__photon_worker, &job);
+            t_1 = pds_time_now() - tc;
+            second = t_1 < 0.1 * opt->time_s;
+            job.n_total = 2 * PDS__PHOTON_BATCH;
+            job.n_planned = (double)opt->photons;
+            job.next_batch = 1; /* the run above counted past it */
+            job.stop = 0;
+            job.next_buf = 0;
+        }
+        if (second) pds__run_threads(1, pds__photon_worker, &job);
         job.progress = opt->progress;
         pds__mutex_destroy(&job.lock);
-        rate = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6) * threads;
+        t_2 = pds_time_now() - tc - t_1;
+        /* no second batch: as if a tenth of the first were tracing and the
+           rest splats, at opt->photons four times as costly */
+        if (!second) t_2 = t_1 * (0.1 + 0.9 * 4.0);
+        rate1 = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6);
+        rate = rate1 * threads;
         remaining = opt->time_s - (pds_time_now() - t0);
 #ifndef PDS_NO_BASELINES
-        if (opt->method == PDS_METHOD_PM || opt->method == PDS_METHOD_PDM || opt->method == PDS_METHOD_SPM) {
-            double tp = pds_time_now();
-            remaining = pds__map_budget(&job, opt, vertices, nvertices, threads, rate, fmax(remaining, 0.0));
-            remaining -= pds_time_now() - tp; /* the probe's own time */
+        if (map_method) {
+            /* the plan's step 1 (see pds__map_probe) */
+            map_planned = pds__map_probe_run(&job, opt, vertices, nvertices, threads, 1, 8192, (double)job.n_total,
+                                             &probe);
+            remaining = opt->time_s - (pds_time_now() - t0);
+            if (map_planned)
+                remaining = pds__map_tracing(&probe, opt->method == PDS_METHOD_PDM, cap, nvertices, rate, 0.0, 0.0,
+                                             fmax(remaining, 0.0), &cap);
         }
 #endif
         for (t = 0; t < threads; t++) {
@@ -16158,13 +16497,20 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             job.bufs[t].nstored = job.bufs[t].ndstored = 0;
         }
         job.n_planned = fmax(rate * fmax(remaining, 0.0), (double)PDS__PHOTON_BATCH);
+        if (paper)
+            job.n_planned = fmax(pds__pds_plan(t_1 / PDS__PHOTON_BATCH, n_1, t_2 / PDS__PHOTON_BATCH,
+                                               (double)opt->photons, fmax(remaining, 0.0), threads),
+                                 (double)PDS__PHOTON_BATCH);
         job.n_total = LONG_MAX - PDS__PHOTON_BATCH;
         job.deadline = pds_time_now() + fmax(remaining, 0.0);
-        if (job.n_planned <= (double)PDS__PHOTON_BATCH) {
-            /* no time left (pdm's gather alone can fill a small budget):
-               one batch, so the image still has caustics, and say so in time */
+        if (remaining <= 0.0 || job.n_planned <= (double)PDS__PHOTON_BATCH) {
+            /* no time left (the calibration or pdm's gather alone can fill
+               a small budget): one batch, so the image still has caustics,
+               and say so in time; PDS's for 16 times opt->photons (small
+               footprints: cheap splats) */
             job.n_total = PDS__PHOTON_BATCH;
             job.deadline = 0.0;
+            if (paper) job.n_planned = 16.0 * (double)opt->photons;
         }
         job.next_batch = job.batches_done = 0;
         job.stop = 0;
@@ -16179,7 +16525,38 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         }
         pds__mutex_init(&job.lock);
         job.next_buf = 0;
-        threads = pds__run_threads(threads, pds__photon_worker, &job);
+#ifndef PDS_NO_BASELINES
+        if (map_planned && job.deadline > 0.0) {
+            /* the plan's step 2: half the tracing, then plan again from
+               the threads' measured rate (not for the one batch of no
+               time left) */
+            double tr = pds_time_now(), tracing = job.deadline - tr, round_s, traced, rate_all, left;
+            job.deadline = tr + 0.5 * tracing;
+            pds__run_threads(threads, pds__photon_worker, &job);
+            round_s = pds_time_now() - tr;
+            traced = (double)job.batches_done * PDS__PHOTON_BATCH;
+            rate_all = traced / fmax(round_s, 1e-6);
+            /* the model again, from the map of the photons traced so far
+               and a gather (its images thrown away) at 1024 vertices for a
+               cap of 50, fewer for a larger cap (a query of pdm's 500 can
+               take a hundred of pm's; a query far from every photon, 200
+               us), on one thread (so few vertices are one or two of the
+               gather's chunks: more threads would not share them) */
+            if (!job.cancelled &&
+                pds__map_probe_run(&job, opt, vertices, nvertices, threads, 1,
+                                   (size_t)fmax(256.0, 51200.0 / pds__map_cap_requested(opt)), traced, &probe2))
+                probe = probe2;
+            pds__gather_clear(&job, job.nsums);
+            left = opt->time_s - (pds_time_now() - t0);
+            tracing = pds__map_tracing(&probe, opt->method == PDS_METHOD_PDM, pds__map_cap_requested(opt),
+                                       nvertices, rate_all, traced, round_s, fmax(left, 0.0), &cap);
+            job.deadline = pds_time_now() + fmax(tracing, 0.0);
+            job.stop = 0;
+            job.next_buf = 0;
+        }
+        if (!job.cancelled)
+#endif
+            threads = pds__run_threads(threads, pds__photon_worker, &job);
         pds__mutex_destroy(&job.lock);
         if (splats && opt->time_s <= 0.0) {
             long j;
@@ -16203,12 +16580,19 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     if (opt->progress && !splats && !job.cancelled)
         (void)opt->progress(opt->progress_user, PDS_PHASE_GATHER, 0.0, pds_time_now() - t0); /* one unit: not stopped */
 #ifndef PDS_NO_BASELINES
+    /* the plan's step 3: the gather measures its cap on the final map */
+    if (map_method && opt->time_s > 0.0) job.gather_deadline = t0 + opt->time_s;
+    job.gather_k = (size_t)pds__map_cap_requested(opt);
     if (!st && !job.cancelled && opt->method == PDS_METHOD_PM)
         st = pds__pm_gather(&job, opt, vertices, nvertices, threads, stats, err);
     if (!st && !job.cancelled && opt->method == PDS_METHOD_PDM)
         st = pds__pdm_gather(&job, opt, vertices, nvertices, threads, stats, err);
     if (!st && !job.cancelled && opt->method == PDS_METHOD_SPM)
         st = pds__spm_gather(&job, opt, vertices, nvertices, threads, stats, err);
+    if (stats && map_method) {
+        stats->gather_cap = (long)job.gather_k;
+        stats->gather_radius = job.gather_radius;
+    }
 #endif
     if (!st && !splats && !job.cancelled) part->units_done = part->units_own;
     if (!st && stats &&
@@ -16273,6 +16657,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             st = PDS_ERR_NOMEM;
         if (stats) {
             if (opt->method != PDS_METHOD_PPM) stats->photons = emitted;
+            stats->photons_planned = job.n_planned;
             if (opt->method == PDS_METHOD_SPM) {
                 /* a stream stands for its leader and nfa associated photons */
                 stats->streams = emitted;

@@ -808,6 +808,19 @@ typedef struct pds_render_stats {
                                isc: the gathers (time_photons_s: the
                                light-space buffers, time_eye_s: the eye
                                buffer with its shadow rays) */
+    double photons_planned; /* the photon count the photons were weighted for
+                               (pds and pdm: N of eqs. 5-6); under a time
+                               budget the plan, which the photons emitted may
+                               fall short of (the paper's pds: its footprints
+                               then cover photons / photons_planned of s^2) */
+    double gather_radius;   /* pm, pdm, spm: the search radius a time budget
+                               imposed when even a cap of 8 could not end in
+                               time (0 = none; see the README's --time) */
+    long gather_cap;        /* pm, spm: the k, pdm: the max_photons its gather
+                               used: the option's, or under a time budget
+                               when the gather with it could not fit the time
+                               left, the largest that fits, at least
+                               min(8, the option's) */
     size_t map_bytes;       /* pm, pdm, ppm, spm: peak size of the photon map;
                                gi: the global and shadow maps (plus the
                                caustic method's map) */

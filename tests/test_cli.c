@@ -443,6 +443,9 @@ static void test_cli_near_miss_names_get_a_suggestion(pds_test_ctx *t)
         {"sweep x.scene --param smothing --values 1 --ref r.pfm", "got 'smothing' (did you mean 'smoothing'?)\n"},
         {"rendr x.scene", "pds: unknown command 'rendr' (did you mean 'render'?)\n"},
         {"bench kdtre", "pds bench: unknown benchmark 'kdtre' (did you mean 'kdtree'?)\n"},
+        {"bench budget --runs 0", "pds bench: bench budget: --runs needs a whole number from 1 to 99, got '0'\n"},
+        {"bench budget --methods pds,pmm", "bench budget: unknown method 'pmm' (pds, paper, pm, pdm, splat, ppm, spm, gi)"},
+        {"bench budget --times 1,x", "bench budget: --times needs up to 8 seconds from 0.01 to 3600, got '1,x'"},
     };
     char out[8192];
     size_t i;

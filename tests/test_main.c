@@ -35,6 +35,7 @@
 #include "test_differentials.c"
 #include "test_pds.c"
 #include "test_baselines.c"
+#include "test_budget.c"
 #include "test_exact.c"
 #include "test_limits.c"
 #include "test_spectral.c"
@@ -67,6 +68,7 @@ int main(int argc, char **argv)
         PDS_SUITE(tests_differentials),
         PDS_SUITE(tests_pds),
         PDS_SUITE(tests_baselines),
+        PDS_SUITE(tests_budget),
         PDS_SUITE(tests_streams),
         PDS_SUITE(tests_exact),
         PDS_SUITE(tests_limits),

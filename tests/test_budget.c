@@ -1,0 +1,189 @@
+/* tests/test_budget.c - time budgets (--time): the planners' decisions on
+   fixed figures with known answers (no clock involved), and the gather's
+   measured cap through the production path with a deadline that has
+   certainly passed. Nothing here asserts a wall time. Uses the slab scene
+   and helpers of test_pds.c and test_baselines.c. */
+
+/* The paper's PDS: with a photon costing a + b/N (a = 1e-5 s, b = 2 s),
+   the calibration batches at N1 = 1e5 and N2 = 5e4 took 3e-5 and 5e-5 s a
+   photon. On 2 threads for 2 s (4 CPU-s) the plan is N a + b = 4, N =
+   2e5; for 1 s (2 CPU-s) the splats alone fill it, and N is planned for a
+   quarter of it: 0.25 x 2 / 1e-5 = 5e4. */
+static void test_pds_plan_solves_the_cost_of_tracing_and_splats(pds_test_ctx *t)
+{
+    double a = 1e-5, b = 2.0, n;
+    n = pds__pds_plan(a + b / 1e5, 1e5, a + b / 5e4, 5e4, 2.0, 2);
+    CHECK_NEAR(t, n, 2e5, 1e-3);
+    CHECK_NEAR(t, n * a + b, 4.0, 1e-9);
+    CHECK_NEAR(t, pds__pds_plan(a + b / 1e5, 1e5, a + b / 5e4, 5e4, 1.0, 2), 5e4, 1e-3);
+    /* no splat cost (the second batch no slower): all of it is tracing */
+    CHECK_NEAR(t, pds__pds_plan(1e-5, 1e5, 1e-5, 5e4, 1.0, 1), 1e5, 1e-3);
+}
+
+#ifndef PDS_NO_BASELINES
+/* ppm's next pass: whole while it fits; else the tracing that fits beside
+   an update as long as the last one, in whole batches; else none. */
+static void test_ppm_pass_photons_fit_the_time_left(pds_test_ctx *t)
+{
+    CHECK(t, pds__ppm_pass_photons(10.0, 2.0, 1.0, 100000) == 100000, "a whole pass fits");
+    CHECK(t, pds__ppm_pass_photons(3.0, 2.0, 1.0, 100000) == 100000, "exactly fits");
+    /* 2 s left, 1 s for the update: half the tracing, 50,000 photons, in
+       whole batches of 1024: 48 x 1024 */
+    CHECK(t, pds__ppm_pass_photons(2.0, 2.0, 1.0, 100000) == 48 * PDS__PHOTON_BATCH, "%ld",
+          pds__ppm_pass_photons(2.0, 2.0, 1.0, 100000));
+    CHECK(t, pds__ppm_pass_photons(0.9, 2.0, 1.0, 100000) == 0, "the update alone does not fit");
+    CHECK(t, pds__ppm_pass_photons(1.01, 2.0, 1.0, 100000) == 0, "not one batch fits");
+    CHECK(t, pds__ppm_pass_photons(-1.0, 2.0, 1.0, 100000) == 0, "the budget is spent");
+}
+
+/* The gather's cap from two samples: a query taking c microseconds at cap
+   c (t_50 = 50 us, t_8 = 8 us) fits 20 us at a cap of 20. */
+static void test_gather_cap_fit_interpolates_the_two_samples(pds_test_ctx *t)
+{
+    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, 20e-6), 20.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, 20.5e-6), 20.0, 1e-9); /* whole caps, rounded down */
+    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, 60e-6), 50.0, 1e-9);   /* never above the cap asked */
+    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, 1e-6), 8.0, 1e-9);     /* nor below 8 */
+    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, -1.0), 8.0, 1e-9);     /* the deadline passed */
+    /* a noisy pair whose cap-8 sample was no quicker */
+    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 60e-6, 45e-6), 8.0, 1e-9);
+}
+
+/* The map plan's figures: a probe of 1024 vertices, 2000 stored photons
+   of 4000 emitted (planned 100000), built in 0.1 ms; gathered with the cap
+   (50 found a query) in 1 ms and with a cap of 8 (8 found) in 0.3 ms: a
+   query costs c0 + c1 f with c1 = (1e-3 - 0.3e-3) / 1024 / 42 and c0 =
+   0.3e-3 / 1024 - 8 c1. */
+static void budget_probe(pds__map_probe *p)
+{
+    p->build_s = 1e-4;
+    p->gather_s = 1e-3;
+    p->found = 50.0;
+    p->gather2_s = 0.3e-3;
+    p->found2 = 8.0;
+    p->map_photons = 2000.0;
+    p->emitted = 4000.0;
+    p->planned = 100000.0;
+    p->queried = 1024.0;
+    p->parallel = 2.0;
+}
+
+static void test_map_cost_is_the_line_through_the_two_probes(pds_test_ctx *t)
+{
+    pds__map_probe p;
+    double c1 = 0.7e-3 / 1024.0 / 42.0, c0 = 0.3e-3 / 1024.0 - 8.0 * c1, m = 2000.0;
+    budget_probe(&p);
+    /* a map the probe's size: the build as probed, the gather of 1e5
+       vertices at cap 20 on P = 2 */
+    CHECK_NEAR(t, pds__map_cost(&p, 0, 20.0, 100000, m), 1e-4 + 1e5 * (c0 + c1 * 20.0) / 2.0, 1e-12);
+    /* pm finds no more photons than the map holds */
+    CHECK_NEAR(t, pds__map_cost(&p, 0, 50.0, 100000, 30.0) > 0.0, 1.0, 0.0);
+    /* with one probe (found2 = 0): c0 = c1 = the time a query / (1 + found) */
+    p.found2 = p.gather2_s = 0.0;
+    CHECK_NEAR(t, pds__map_cost(&p, 0, 20.0, 100000, m),
+               1e-4 + 1e5 * (1e-3 / 1024.0 / 51.0) * 21.0 / 2.0, 1e-12);
+}
+
+/* Steps 1-2 of the plan: the cap asked for is kept when the tracing keeps
+   a quarter of the time; else the largest that does; more photons traced
+   already leave less tracing; a quarter of the budget is traced at least. */
+static void test_map_tracing_lowers_the_cap_only_when_it_must(pds_test_ctx *t)
+{
+    pds__map_probe p;
+    double cap, tr, tr_more;
+    budget_probe(&p);
+    /* 1e5 vertices, 1e6 photons a second, 5 s: k = 50 leaves room */
+    tr = pds__map_tracing(&p, 0, 50.0, 100000, 1e6, 0.0, 0.0, 5.0, &cap);
+    CHECK(t, cap == 50.0 && tr >= 1.25 && tr < 5.0, "cap %g tracing %g", cap, tr);
+    /* 2e6 vertices in 1 s: the gather at k = 50 alone takes about 1 s, at
+       k = 8 0.3 s, so the cap falls to the largest that keeps a quarter */
+    tr = pds__map_tracing(&p, 0, 50.0, 2000000, 1e6, 0.0, 0.0, 1.0, &cap);
+    CHECK(t, cap > 8.0 && cap < 50.0, "cap %g", cap);
+    CHECK(t, pds__map_plan(&p, 0, cap, 2000000, 1e6, 0.0, 1.0) >= 0.25 &&
+                 pds__map_plan(&p, 0, cap + 1.0, 2000000, 1e6, 0.0, 1.0) < 0.25,
+          "cap %g: tracing %g, at cap + 1 %g", cap, pds__map_plan(&p, 0, cap, 2000000, 1e6, 0.0, 1.0),
+          pds__map_plan(&p, 0, cap + 1.0, 2000000, 1e6, 0.0, 1.0));
+    CHECK_NEAR(t, tr, pds__map_plan(&p, 0, cap, 2000000, 1e6, 0.0, 1.0), 1e-12);
+    /* 1e7 vertices: even k = 8 leaves less than a quarter: 8, and a
+       quarter of the budget traced */
+    tr = pds__map_tracing(&p, 0, 50.0, 10000000, 1e6, 0.0, 0.0, 1.0, &cap);
+    CHECK(t, cap == 8.0 && fabs(tr - 0.25) < 1e-12, "cap %g tracing %g", cap, tr);
+    /* round 2: 2e6 photons traced in 0.5 s of 4.5 s left: less to trace
+       than from scratch, and the plan's cost fills what is left */
+    tr = pds__map_tracing(&p, 0, 50.0, 100000, 1e6, 0.0, 0.0, 4.5, &cap);
+    tr_more = pds__map_tracing(&p, 0, 50.0, 100000, 1e6, 2e6, 0.5, 4.5, &cap);
+    CHECK(t, tr_more < tr, "tracing %g after 2e6 photons, %g before", tr_more, tr);
+    CHECK_NEAR(t, tr_more + pds__map_cost(&p, 0, 50.0, 100000, (2e6 + tr_more * 1e6) * 0.5), 4.5, 1e-6);
+    /* a budget the map of what is traced already exceeds: the floor, a
+       quarter of (left + traced_s) minus traced_s */
+    tr = pds__map_tracing(&p, 0, 50.0, 10000000, 1e6, 2e6, 0.5, 0.01, &cap);
+    CHECK(t, tr <= 0.0 && cap == 8.0, "tracing %g cap %g", tr, cap);
+}
+
+/* Step 3 through the production path: a deadline certainly passed (a
+   budget of 1e-9 s) makes the gather measure its samples, fall to a cap
+   of 8 and, as even that cannot end in time, bound its search radius by
+   the tenth of the sample's 8th-photon distances (the last trial). The
+   image is then pm's with k = 8 and that maximum radius, of the photons
+   it counted (one batch: no time was left to trace), each vertex's
+   estimate once (the sample kept, the rest gathered after it). */
+static void budget_gone(pds_options *o) { o->time_s = 1e-9; }
+static double budget_radius;
+static void pm_k8(pds_options *o)
+{
+    o->k = 8;
+    o->max_radius = budget_radius;
+}
+
+static void test_gather_past_its_deadline_uses_a_cap_of_8(pds_test_ctx *t)
+{
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    pds_render_stats sa, sb;
+    double worst, peak;
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, 0, 2, &a, &sa, budget_gone), "pm --time 1e-9");
+    CHECK(t, sa.photons == PDS__PHOTON_BATCH && sa.gather_cap == 8 && sa.eye_vertices >= 64 * 64 &&
+                 sa.gather_radius > 0.0,
+          "photons %ld k used %ld radius %g vertices %ld", sa.photons, sa.gather_cap, sa.gather_radius,
+          sa.eye_vertices);
+    budget_radius = sa.gather_radius;
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PM, sa.photons, 2, &b, &sb, pm_k8), "pm k 8");
+    CHECK(t, sb.gather_cap == 8, "a photon budget keeps its k: %ld", sb.gather_cap);
+    worst = baseline_worst_difference(&b, &a, &peak);
+    CHECK(t, peak > 0.0 && worst <= 1e-5 * peak, "largest difference %g (peak %g)", worst, peak);
+    pds_image_free(&a);
+    pds_image_free(&b);
+}
+#endif
+
+/* The paper's PDS with no time left traces one batch for 16 times the
+   photon count asked for (small footprints: cheap splats), not for 1024
+   photons (whose footprints could each cover much of the image). */
+static void paper_gone(pds_options *o)
+{
+    o->time_s = 1e-9;
+    o->photons = 50000;
+}
+
+static void test_paper_pds_without_time_keeps_small_footprints(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    REQUIRE(t, photon_render_text(slab_scene, PDS_METHOD_PDS, 0, 12.0, PDS_PATHS_CAUSTICS_ONLY, 2, &img, &st,
+                                  paper_gone),
+            "pds --time 1e-9");
+    CHECK(t, st.photons == PDS__PHOTON_BATCH && st.photons_planned == 16.0 * 50000.0, "photons %ld planned %g", st.photons,
+          st.photons_planned);
+    pds_image_free(&img);
+}
+
+static const pds_test_case tests_budget[] = {
+    {"pds_plan_solves_the_cost_of_tracing_and_splats", test_pds_plan_solves_the_cost_of_tracing_and_splats},
+#ifndef PDS_NO_BASELINES
+    {"ppm_pass_photons_fit_the_time_left", test_ppm_pass_photons_fit_the_time_left},
+    {"gather_cap_fit_interpolates_the_two_samples", test_gather_cap_fit_interpolates_the_two_samples},
+    {"map_cost_is_the_line_through_the_two_probes", test_map_cost_is_the_line_through_the_two_probes},
+    {"map_tracing_lowers_the_cap_only_when_it_must", test_map_tracing_lowers_the_cap_only_when_it_must},
+    {"gather_past_its_deadline_uses_a_cap_of_8", test_gather_past_its_deadline_uses_a_cap_of_8},
+#endif
+    {"paper_pds_without_time_keeps_small_footprints", test_paper_pds_without_time_keeps_small_footprints},
+};
