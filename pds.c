@@ -5214,6 +5214,20 @@ static int pds__spectral_meet(double lambda_p, double lambda_e, double e[3], dou
 }
 #endif /* PDS_NO_SPECTRAL */
 
+/* A photon turns spectral where it first meets a dispersive material (or,
+   with --spectral, as it leaves the light): from there it carries its
+   power at lambda times the film weight W(lambda) that turns spectral
+   radiance into sRGB, and the Beer coefficients of the medium it is in
+   (sigma, if it is in one) at lambda. */
+static void pds__photon_turn_spectral(double lambda, double flux[3], double *sigma)
+{
+    double film[3], phi = pds__spectral_value(flux, lambda);
+    int c;
+    pds__film_weight(lambda, film);
+    for (c = 0; c < 3; c++) flux[c] = phi * film[c];
+    if (sigma) pds__spectral_uplift(lambda, sigma);
+}
+
 /* ===================================================================== */
 /* >>lights                                                              */
 /* ===================================================================== */
@@ -15002,13 +15016,7 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
             return;
         }
         if (lambda > 0.0 && lam == 0.0 && (job->spectral_all || pds__material_is_dispersive(m))) {
-            /* the photon turns spectral: its power at lambda times the
-               film weight W(lambda) that turns spectral radiance into
-               sRGB, and the medium it is in at lambda (>>spectral) */
-            double film[3], phi = pds__spectral_value(flux, lambda);
-            pds__film_weight(lambda, film);
-            for (c = 0; c < 3; c++) flux[c] = phi * film[c];
-            if (sigma) pds__spectral_uplift(lambda, sigma_buf);
+            pds__photon_turn_spectral(lambda, flux, sigma ? sigma_buf : NULL);
             lam = lambda;
         }
         if (lam > 0.0) {
@@ -17051,11 +17059,7 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
         m = &s->materials.items[hit.material];
         if (m->type == PDS_MAT_EMISSIVE) return;
         if (lambda > 0.0 && lam == 0.0 && (b->spectral_all || pds__material_is_dispersive(m))) {
-            /* the photon turns spectral (>>spectral) */
-            double film[3], phi = pds__spectral_value(flux, lambda);
-            pds__film_weight(lambda, film);
-            for (c = 0; c < 3; c++) flux[c] = phi * film[c];
-            if (sigma) pds__spectral_uplift(lambda, sigma_buf);
+            pds__photon_turn_spectral(lambda, flux, sigma ? sigma_buf : NULL);
             lam = lambda;
         }
         if (lam > 0.0) {
