@@ -332,6 +332,18 @@ static void test_gi_image_is_identical_for_any_thread_count(pds_test_ctx *t)
     pds_image_free(&b);
 }
 
+/* The box rendered whole, without caustics and with caustics only (o's
+   paths end at PDS_PATHS_CAUSTICS_ONLY); 1 on success. */
+static int gi_box_three_ways(pds_options *o, pds_image *all, pds_image *nc, pds_image *co)
+{
+    o->paths = PDS_PATHS_ALL;
+    if (!render_text(gi_box_scene, o, all, NULL)) return 0;
+    o->paths = PDS_PATHS_NO_CAUSTICS;
+    if (!render_text(gi_box_scene, o, nc, NULL)) return 0;
+    o->paths = PDS_PATHS_CAUSTICS_ONLY;
+    return render_text(gi_box_scene, o, co, NULL);
+}
+
 /* ALL = NO_CAUSTICS + CAUSTICS_ONLY: the eye pass and the caustic method
    never count the same light twice (pm as the caustic method here). */
 static void test_gi_full_image_is_eye_pass_plus_caustics(pds_test_ctx *t)
@@ -342,11 +354,7 @@ static void test_gi_full_image_is_eye_pass_plus_caustics(pds_test_ctx *t)
     double worst = 0.0, caustic = 0.0;
     gi_options(&o, 2);
     o.caustics = PDS_METHOD_PM;
-    REQUIRE(t, render_text(gi_box_scene, &o, &all, NULL), "all");
-    o.paths = PDS_PATHS_NO_CAUSTICS;
-    REQUIRE(t, render_text(gi_box_scene, &o, &nc, NULL), "no caustics");
-    o.paths = PDS_PATHS_CAUSTICS_ONLY;
-    REQUIRE(t, render_text(gi_box_scene, &o, &co, NULL), "caustics only");
+    REQUIRE(t, gi_box_three_ways(&o, &all, &nc, &co), "render");
     n = (size_t)all.width * all.height * 3;
     for (i = 0; i < n; i++) {
         double rel = fabs((double)all.rgb[i] - nc.rgb[i] - co.rgb[i]) / (1e-6 + all.rgb[i]);
