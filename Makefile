@@ -71,7 +71,9 @@ update-golden: tests/test_pds
 # 512 x 512 and 16 samples a pixel, the image-space caustics' benchmark
 # size (21 minutes on a busy machine); the cognac glass ppm with 64 x 2M
 # photons from a radius of half a pixel on the table (11 minutes; a
-# 24 x 1M-photon render from radius 0.02 differs from it by RMSE 0.0013).
+# 24 x 1M-photon render from radius 0.02 differs from it by RMSE 0.0013);
+# Newton's prism (spectral) ppm with 40 x 1M photons at 240 x 160, seed
+# 1001 (about a minute).
 references: pds
 	./pds render scenes/refraction.scene --method ppm --caustics-only --photons 1000000 --passes 32 \
 	  --radius 0.004 --res 256x256 --spp 64 --seed 1000 --quiet -o scenes/refraction.ref.pfm
@@ -84,6 +86,8 @@ references: pds
 	  -o scenes/cardioid.caustics.ref.pfm
 	./pds render scenes/cognac.scene --method ppm --caustics-only --photons 2000000 --passes 64 \
 	  --radius 0.01 --res 256x256 --spp 64 --seed 1000 --quiet -o scenes/cognac.caustics.ref.pfm
+	./pds render scenes/prism.scene --method ppm --caustics-only --photons 1000000 --passes 40 \
+	  --radius 0.004 --res 240x160 --spp 64 --seed 1001 --quiet -o scenes/prism.caustics.ref.pfm
 	$(MAKE) $(BUNNY)
 	./pds render scenes/bunny.scene --method ppm --caustics-only --photons 1000000 --passes 24 \
 	  --radius 0.01 --res 256x256 --spp 64 --seed 1000 --quiet -o scenes/bunny.caustics.ref.pfm
