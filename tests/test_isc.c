@@ -179,15 +179,16 @@ static void test_isc_quads_cover_a_plane_mirrors_caustic_exactly_once(pds_test_c
 /* A glass box (flat faces, IOR 1.5) tilted above a floor under a point
    light, and a mirror beside it: photons refract twice, reflect, or are
    totally internally reflected. */
-static const char isc_glass_scene[] =
-    "camera { position 0 4 3 look_at 0 0 0 fov 40 resolution 32 32 }\n"
-    "material floor diffuse { albedo 0.7 }\n"
-    "material glass dielectric { ior 1.5 }\n"
-    "material m mirror { reflectance 0.9 }\n"
-    "quad { material floor size 8 8 }\n"
-    "box { material glass size 0.8 0.5 0.6 rotate 35 1 0.3 0.2 translate 0.2 1.2 0 }\n"
-    "quad { material m size 0.6 0.6 rotate 100 0 0 1 translate 0.9 1 0.2 }\n"
-    "light point { position -0.5 3.5 0.4 power 50 }\n";
+#define ISC_GLASS_SCENE                                                                                  \
+    "camera { position 0 4 3 look_at 0 0 0 fov 40 resolution 32 32 }\n"                                  \
+    "material floor diffuse { albedo 0.7 }\n"                                                             \
+    "material glass dielectric { ior 1.5 }\n"                                                             \
+    "material m mirror { reflectance 0.9 }\n"                                                             \
+    "quad { material floor size 8 8 }\n"                                                                 \
+    "box { material glass size 0.8 0.5 0.6 rotate 35 1 0.3 0.2 translate 0.2 1.2 0 }\n"                  \
+    "quad { material m size 0.6 0.6 rotate 100 0 0 1 translate 0.9 1 0.2 }\n"                            \
+    "light point { position -0.5 3.5 0.4 power 50 }\n"
+static const char isc_glass_scene[] = ISC_GLASS_SCENE;
 
 /* The unpolarised Fresnel reflectance, written out (Born and Wolf). */
 static double isc_fresnel(double ci, double n1, double n2)
@@ -430,15 +431,7 @@ static void test_isc_temporal_filter_reduces_flicker(pds_test_ctx *t)
 
 /* The glass box and mirror under a point and a spot light: static
    lighting keeps a buffer and a light map per light. */
-static const char isc_two_lights_scene[] =
-    "camera { position 0 4 3 look_at 0 0 0 fov 40 resolution 32 32 }\n"
-    "material floor diffuse { albedo 0.7 }\n"
-    "material glass dielectric { ior 1.5 }\n"
-    "material m mirror { reflectance 0.9 }\n"
-    "quad { material floor size 8 8 }\n"
-    "box { material glass size 0.8 0.5 0.6 rotate 35 1 0.3 0.2 translate 0.2 1.2 0 }\n"
-    "quad { material m size 0.6 0.6 rotate 100 0 0 1 translate 0.9 1 0.2 }\n"
-    "light point { position -0.5 3.5 0.4 power 50 }\n"
+static const char isc_two_lights_scene[] = ISC_GLASS_SCENE
     "light spot { position 1.5 3.2 -1 look_at 0.5 1 0 power 40 cone 25 35 }\n";
 
 static void isc_static_options(pds_options *opt, pds_isc_gather g, int history)
