@@ -119,6 +119,9 @@ static const command_help help_table[] = {
      "      --pass-min-aspect A     progressive pds: as --min-aspect (default 0.15)\n"
      "      --pass-min-width W      progressive pds: as --min-width (default 1.5)\n"
      "      --pass-photons N        progressive pds: photons per pass, at most (default 16384)\n"
+     "      --eye-rounds R          progressive pds: passes splat into R eye passes of spp samples each\n"
+     "                              (--photons: R runs of passes; --time: 0, the default, re-traces the\n"
+     "                              eye pass as the time goes, R > 1 at most R times; 1 = one eye pass)\n"
      "      --split-depth N         progressive pds: split a photon whose footprint the surface's curvature\n"
      "                              makes non-linear into 4 sub-photons, at most N times (default 1; 0 = never)\n"
      "      --split-angle A         progressive pds: split above a normal turn of A radians over the\n"
@@ -134,13 +137,13 @@ static const command_help help_table[] = {
      "      --stream-photons N      spm, gi: associated photons per stream nfa (default 10)\n"
      "      --max-photons N         pdm: most photons gathered per estimate (default 500)\n"
      "      --radius R              splat: splat radius; ppm: initial radius (default: from the scene)\n"
-     "      --alpha A               ppm: radius reduction, 0 < A <= 1 (default 0.7)\n"
+     "      --alpha A               ppm: radius reduction, 0 < A <= 1 (default 0.7)\n",
      "      --passes N              ppm: photon passes (default 10; with --time, until the time is spent)\n"
      "                              memory: pm and pdm store every photon, spm every stream, so their\n"
      "                              memory grows with --photons (the final line reports map_bytes); ppm\n"
      "                              keeps one pass's photons, pds and splat none\n"
      "      -D NAME=VALUE           the scene's `define NAME` is VALUE\n"
-     "      --obj-material M        a bare .obj in its studio: auto, diffuse, glass or metal\n",
+     "      --obj-material M        a bare .obj in its studio: auto, diffuse, glass or metal\n"
      "      --spp N                 samples per pixel (per pass with --time; default: the scene's)\n"
      "      --res WxH               resolution (default: the scene camera's)\n"
      "      --threads N             worker threads (default: all cores); the image does not depend on it\n"
@@ -1254,6 +1257,8 @@ static const opt_spec option_table[] = {
      M_PDS | M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--pass-photons", NULL, "pass_photons", set_long, OPTF(pass_photons), 1, 1e9, "a whole number from 1 to 1e9",
      M_PDS | M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--eye-rounds", NULL, "eye_rounds", set_int, OPTF(eye_rounds), 0, PDS_MAX_SPP, "a whole number from 0 to 65536",
+     M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--split-depth", NULL, "split_depth", set_int, OPTF(split_depth), 0, 8, "a whole number from 0 to 8", M_PDS | M_GI,
      C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--split-angle", NULL, "split_angle", set_double, OPTF(split_angle), 0, 10, "an angle above 0 and at most 10 radians",
@@ -1542,7 +1547,9 @@ static void format_params(const pds_options *o, char *buf, size_t n)
             snprintf(buf, n, " progressive=1 pass_smoothing=%g pass_photons=%ld pass_alpha=%g pass_min_aspect=%g"
                      " pass_min_width=%g split_depth=%d split_angle=%g", o->pass_smoothing, o->pass_photons,
                      o->pass_alpha, o->pass_min_aspect, o->pass_min_width, o->split_depth, o->split_angle);
-        else
+        if (o->progressive && o->eye_rounds)
+            snprintf(buf + strlen(buf), n - strlen(buf), " eye_rounds=%d", o->eye_rounds);
+        if (!o->progressive)
             snprintf(buf, n, " smoothing=%g", o->smoothing);
         break;
     case PDS_METHOD_PM:

@@ -561,6 +561,17 @@ typedef struct pds_options {
                            one pass with smoothing, min_aspect and min_width
                            (default 1) */
     long pass_photons;  /* progressive pds: photons per pass, at most (default 16384) */
+    int eye_rounds;     /* progressive pds: eye rounds, passes splatting into
+                           a new eye pass of spp samples each (the image's
+                           eye samples then add up as its photons do).
+                           Under a photon budget, R > 1 splits the passes
+                           into R runs of consecutive passes (at most one
+                           per pass), each with its own eye pass; 0 or 1:
+                           one eye pass. Under a time budget, 0 (default)
+                           or R > 1 trace a new eye pass whenever the
+                           photon passes since the last one took as long
+                           as it did (at most R rounds, 0: no limit); 1:
+                           one eye pass. Default 0. */
     double pass_alpha;  /* progressive pds: pass i's footprint areas shrink as
                            i^(pass_alpha - 1), in (0, 1] (default 2/3) */
     double pass_smoothing; /* progressive pds: s_1 of the first pass (default 2) */

@@ -491,7 +491,7 @@ static void test_harness_bad_usage_exits_2_with_a_message(pds_test_ctx *t)
         {"sweep S --param spp", "sweep needs --values A,B,..."},
         {"sweep S --param spp --values 1,2", "sweep needs --ref REFERENCE.pfm"},
         {"sweep S --param foo --values 1 --ref R",
-         "--param knows photons, smoothing, min-aspect, min-width, pass-smoothing, pass-min-aspect, pass-min-width, pass-photons, split-depth, split-angle, pass-alpha, k, max-radius, streams, stream-photons, max-photons, radius, alpha, passes, global-photons, global-k, gather, gather-mix, stream-radius, light-res, history and spp, got 'foo'"},
+         "--param knows photons, smoothing, min-aspect, min-width, pass-smoothing, pass-min-aspect, pass-min-width, pass-photons, eye-rounds, split-depth, split-angle, pass-alpha, k, max-radius, streams, stream-photons, max-photons, radius, alpha, passes, global-photons, global-k, gather, gather-mix, stream-radius, light-res, history and spp, got 'foo'"},
         {"sweep S --param k --values 1 --ref R", "--param k has no effect with --method pds (k is for pm, gi and spm)"},
         {"sweep S --method pt --param spp --values 1,,4 --ref R",
          "--values needs a comma-separated list of values, got '1,,4'"},

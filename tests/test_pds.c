@@ -407,12 +407,13 @@ static void progressive_quarter_second(pds_options *o)
 {
     progressive_small_passes_3000(o);
     o->time_s = 0.25;
+    o->eye_rounds = 1; /* one eye pass, as a photon budget's */
 }
 
 /* Under a time budget progressive PDS runs whole passes: the photon count
    is a multiple of the pass size, and each pass is the same photons as
    without a budget (the image of a budget that ran K passes equals the
-   image of K passes' photons). */
+   image of K passes' photons, with one eye pass as theirs). */
 static void test_progressive_pds_under_a_time_budget_runs_whole_passes(pds_test_ctx *t)
 {
     pds_image timed = {0, 0, NULL}, counted = {0, 0, NULL};
@@ -432,6 +433,113 @@ static void test_progressive_pds_under_a_time_budget_runs_whole_passes(pds_test_
           worst);
     pds_image_free(&timed);
     pds_image_free(&counted);
+}
+
+/* Eye rounds (pds__pds_passes): a photon budget's K passes in R runs of
+   consecutive passes, round floor(k R / K); under a time budget a round is
+   due once the passes since the last eye pass took as long as it did, and
+   only if a pass can still follow it. */
+static void test_eye_rounds_are_runs_of_consecutive_passes(pds_test_ctx *t)
+{
+    static const long seven_in_three[7] = {0, 0, 0, 1, 1, 2, 2};
+    long k, bad = 0;
+    for (k = 0; k < 7; k++) bad += pds__eye_round_of(k, 7, 3) != seven_in_three[k];
+    CHECK(t, bad == 0, "7 passes in 3 rounds: %ld passes in the wrong round", bad);
+    for (k = 0; k < 5; k++) bad += pds__eye_round_of(k, 5, 5) != k || pds__eye_round_of(k, 5, 1) != 0;
+    CHECK(t, bad == 0, "one round a pass, or one round: %ld wrong", bad);
+    /* a billion passes in 65536 rounds: no overflow, the last pass in the last round */
+    CHECK(t, pds__eye_round_of(999999999L, 1000000000L, 65536) == 65535 &&
+                 pds__eye_round_of(15258L, 1000000000L, 65536) == 0 && pds__eye_round_of(15259L, 1000000000L, 65536) == 1,
+          "large counts: %ld", pds__eye_round_of(999999999L, 1000000000L, 65536));
+    CHECK(t, !pds__eye_round_due(0.09, 0.1, 0.03, 0.0, 10.0) && pds__eye_round_due(0.1, 0.1, 0.03, 0.0, 10.0),
+          "a round is due once the passes took as long as the eye pass");
+    CHECK(t, pds__eye_round_due(0.2, 0.1, 0.04, 9.88, 10.0) && !pds__eye_round_due(0.2, 0.1, 0.04, 9.89, 10.0),
+          "a round only if half a pass still fits after it (9.88 + 0.1 + 0.02 = 10)");
+}
+
+/* The full image of the mirror scene, direct light and caustic: a point
+   light of 100 W at (0, 1, 0) and its image in the mirror (reflectance
+   0.9) at (2, 1, 0) light the floor (albedo 0.5); relative RMS error over
+   the inner pixels. */
+static double mirror_full_error(const pds_image *img)
+{
+    double sum = 0.0;
+    int x, y, n = 0;
+    for (y = 3; y < 21; y++) {
+        for (x = 3; x < 21; x++) {
+            pds__v3 p = floor_point(2.0, 30.0, 24, x, y);
+            pds__v3 a = pds__sub(pds__v(0.0, 1.0, 0.0), p), b = pds__sub(pds__v(2.0, 1.0, 0.0), p);
+            double a2 = pds__dot(a, a), b2 = pds__dot(b, b);
+            double E = 100.0 / (4.0 * PDS__PI) * ((1.0 / sqrt(a2)) / a2 + 0.9 * (1.0 / sqrt(b2)) / b2);
+            double rel = img->rgb[3 * (y * 24 + x) + 1] / (0.5 / PDS__PI * E) - 1.0;
+            sum += rel * rel;
+            n++;
+        }
+    }
+    return sqrt(sum / n);
+}
+
+static void eye_rounds_8(pds_options *o)
+{
+    progressive_small_passes(o);
+    o->eye_rounds = 8;
+}
+
+/* Eye rounds under a photon budget: 64 passes splatting into 8 eye passes
+   of 16 samples a pixel (8 x 16 = 128 samples, reported as spp), the
+   direct light the mean of the 8 eye passes'. The full image matches the
+   analytic direct light and caustic as closely as one eye pass's does, the
+   same bits for 1 and 2 threads, and the rounds did change the eye
+   samples (the image is not the one eye pass's). */
+static void test_pds_eye_rounds_keep_the_analytic_image(pds_test_ctx *t)
+{
+    pds_image one = {0, 0, NULL}, rounds = {0, 0, NULL}, rounds1 = {0, 0, NULL};
+    pds_render_stats st, st1;
+    double e_one, e_rounds;
+    REQUIRE(t, photon_render_text(mirror_scene, PDS_METHOD_PDS, 131072, 3.0, PDS_PATHS_ALL, 2, &one, &st1,
+                                  progressive_small_passes),
+            "render");
+    REQUIRE(t, photon_render_text(mirror_scene, PDS_METHOD_PDS, 131072, 3.0, PDS_PATHS_ALL, 2, &rounds, &st, eye_rounds_8),
+            "render");
+    REQUIRE(t, photon_render_text(mirror_scene, PDS_METHOD_PDS, 131072, 3.0, PDS_PATHS_ALL, 1, &rounds1, NULL, eye_rounds_8),
+            "render");
+    e_one = mirror_full_error(&one);
+    e_rounds = mirror_full_error(&rounds);
+    CHECK(t, st1.spp == 16 && st.spp == 128 && st.passes == 64 && st.photons == 131072,
+          "spp %d and %d, %d passes, %ld photons", st1.spp, st.spp, st.passes, st.photons);
+    CHECK(t, e_rounds < 0.005 && e_rounds < 1.5 * e_one, "relative error %g with 8 eye rounds, %g with one", e_rounds,
+          e_one);
+    CHECK(t, memcmp(rounds.rgb, rounds1.rgb, sizeof *rounds.rgb * 3 * 24 * 24) == 0, "1 and 2 threads differ");
+    CHECK(t, memcmp(rounds.rgb, one.rgb, sizeof *one.rgb * 3 * 24 * 24) != 0, "the rounds changed nothing");
+    pds_image_free(&one);
+    pds_image_free(&rounds);
+    pds_image_free(&rounds1);
+}
+
+static void quarter_second_with_rounds(pds_options *o)
+{
+    progressive_small_passes_3000(o);
+    o->time_s = 0.25;
+}
+
+/* Under a time budget progressive PDS traces eye rounds as the time goes
+   (here the eye pass of 24 x 24 pixels costs far less than a pass of 3000
+   photons, so there are several), and the direct light is the mean of
+   theirs: the full image matches the analytic one (an image that kept the
+   first eye pass's direct light but divided by the rounds' samples would be
+   dark by their ratio). */
+static void test_pds_time_budget_eye_rounds_keep_the_analytic_image(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    double e;
+    REQUIRE(t, photon_render_text(mirror_scene, PDS_METHOD_PDS, 100000, 3.0, PDS_PATHS_ALL, 2, &img, &st,
+                                  quarter_second_with_rounds),
+            "render");
+    e = mirror_full_error(&img);
+    CHECK(t, st.spp > 16 && st.spp % 16 == 0 && st.spp <= 16 * st.passes, "spp %d over %d passes", st.spp, st.passes);
+    CHECK(t, e < 0.005, "relative error %g (%d passes, spp %d)", e, st.passes, st.spp);
+    pds_image_free(&img);
 }
 
 /* Sub-photons tile their parent's share of the emission domain: their
@@ -847,6 +955,9 @@ static const pds_test_case tests_pds[] = {
      test_progressive_pds_schedule_shrinks_footprint_areas_as_i_to_alpha_minus_1},
     {"progressive_pds_error_falls_as_photons_are_added", test_progressive_pds_error_falls_as_photons_are_added},
     {"progressive_pds_under_a_time_budget_runs_whole_passes", test_progressive_pds_under_a_time_budget_runs_whole_passes},
+    {"eye_rounds_are_runs_of_consecutive_passes", test_eye_rounds_are_runs_of_consecutive_passes},
+    {"pds_eye_rounds_keep_the_analytic_image", test_pds_eye_rounds_keep_the_analytic_image},
+    {"pds_time_budget_eye_rounds_keep_the_analytic_image", test_pds_time_budget_eye_rounds_keep_the_analytic_image},
     {"pds_footprint_widening_keeps_the_major_axis", test_pds_footprint_widening_keeps_the_major_axis},
     {"pds_footprint_widening_conserves_the_caustic_light", test_pds_footprint_widening_conserves_the_caustic_light},
     {"pds_plane_mirror_reflects_the_mirrored_point_light", test_pds_plane_mirror_reflects_the_mirrored_point_light},

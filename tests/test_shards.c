@@ -26,24 +26,28 @@ typedef struct shards_case {
     int progressive;
     pds_method caustics; /* gi */
     pds_paths paths;     /* default PDS_PATHS_ALL */
+    int eye_rounds;      /* progressive pds */
 } shards_case;
 
 static const shards_case shards_cases[] = {
-    {"pds (progressive)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL},
-    {"pds (paper)", PDS_METHOD_PDS, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
-    {"splat", PDS_METHOD_SPLAT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
-    {"pm", PDS_METHOD_PM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
-    {"pdm", PDS_METHOD_PDM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
-    {"ppm", PDS_METHOD_PPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
-    {"pt", PDS_METHOD_PT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
+    {"pds (progressive)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
+    {"pds (paper)", PDS_METHOD_PDS, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
+    {"splat", PDS_METHOD_SPLAT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
+    {"pm", PDS_METHOD_PM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
+    {"pdm", PDS_METHOD_PDM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
+    {"ppm", PDS_METHOD_PPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
+    {"pt", PDS_METHOD_PT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
     /* 7: gi with caustics split by photon passes (the gather of every
        row's eye vertex but the shard's own is skipped); 8: by gathers */
-    {"gi (pds caustics)", PDS_METHOD_GI, 1, PDS_METHOD_PDS, PDS_PATHS_ALL},
-    {"gi (pm caustics)", PDS_METHOD_GI, 0, PDS_METHOD_PM, PDS_PATHS_ALL},
+    {"gi (pds caustics)", PDS_METHOD_GI, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
+    {"gi (pm caustics)", PDS_METHOD_GI, 0, PDS_METHOD_PM, PDS_PATHS_ALL, 0},
     /* 9: spm's full image, gi's with streams and spm caustics */
-    {"spm", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
-    {"isc", PDS_METHOD_ISC, 0, PDS_METHOD_PDS, PDS_PATHS_ALL},
-    {"spm (caustics only)", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_CAUSTICS_ONLY},
+    {"spm", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
+    {"isc", PDS_METHOD_ISC, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
+    {"spm (caustics only)", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_CAUSTICS_ONLY, 0},
+    /* 12: a photon budget's eye rounds, one a pass: every shard traces
+       every round's direct light and the rounds of its passes */
+    {"pds (eye rounds)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 3},
 };
 
 static void shards_options(const shards_case *c, pds_options *opt)
@@ -53,6 +57,7 @@ static void shards_options(const shards_case *c, pds_options *opt)
     opt->progressive = c->progressive;
     opt->caustics = c->caustics;
     opt->paths = c->paths;
+    opt->eye_rounds = c->eye_rounds;
     opt->global_photons = 3000; /* gi, spm */
     opt->gather = 4;
     opt->stream_photons = 4; /* spm: 1200 caustic streams, 600 global ones */
@@ -237,7 +242,10 @@ static void test_shards_interrupt_and_resume_equal_the_uninterrupted_render(pds_
                 /* gi in its eye pass and after its first photon pass (pds
                    caustics), and in its photon pass (pm caustics: its
                    photons start over); spm in its eye pass and photons */
-                {7, 3, 1}, {7, 17, 1}, {8, 18, 1}, {9, 3, 1}, {9, 18, 1}};
+                {7, 3, 1}, {7, 17, 1}, {8, 18, 1}, {9, 3, 1}, {9, 18, 1},
+                /* eye rounds: in the second round's direct light (16 rows
+                   of each of 3 rounds first), after the second pass */
+                {12, 20, 1}, {12, 50, 1}};
     pds_error err;
     pds_scene *s = shards_load(shards_scene, &err);
     char path[128];
@@ -506,26 +514,27 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     pds_partial_free(back);
     back = NULL;
     bytes = shards_slurp(path, &n);
-    REQUIRE(t, bytes != NULL && n > 1048, "slurp");
-    /* 1048 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
-    CHECK(t, n == 1048 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
-    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 5 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
+    REQUIRE(t, bytes != NULL && n > 1056, "slurp");
+    /* 1056 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
+    CHECK(t, n == 1056 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
+    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 6 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
                  bytes[548] == 24 && bytes[552] == 16 && bytes[556] == 1 && bytes[560] == 2 && bytes[564] == 1 &&
-                 bytes[568 + 8 * 41] == 4 && bytes[568 + 8 * 46] == 0xff && bytes[944 + 8] == 3,
-          "layout"); /* options 41 (history, default 4) and 46 (diffuse bounces, default -1) and units total (3
-                        passes) at their offsets */
+                 bytes[568 + 8 * 41] == 4 && bytes[568 + 8 * 46] == 0xff && bytes[568 + 8 * 47] == 0 &&
+                 bytes[952 + 8] == 3,
+          "layout"); /* options 41 (history, default 4), 46 (diffuse bounces, default -1) and 47 (eye rounds,
+                        default 0) and units total (3 passes) at their offsets */
     copy = (unsigned char *)malloc(n);
     REQUIRE(t, copy != NULL, "malloc");
     {
-        /* format versions 2, 3 and 4 are read: the same part without
-           options 31-46, 44-46 and 46 (at their defaults, as every
+        /* format versions 2 to 5 are read: the same part without
+           options 31-47, 44-47, 46-47 and 47 (at their defaults, as every
            render of those versions had them) */
-        static const struct { unsigned char version; size_t nopt; } old[3] = {{2, 31}, {3, 44}, {4, 46}};
+        static const struct { unsigned char version; size_t nopt; } old[4] = {{2, 31}, {3, 44}, {4, 46}, {5, 47}};
         int v;
-        for (v = 0; v < 3; v++) {
-            size_t at = 568 + 8 * old[v].nopt, cut = 944 - at;
+        for (v = 0; v < 4; v++) {
+            size_t at = 568 + 8 * old[v].nopt, cut = 952 - at;
             memcpy(copy, bytes, at);
-            memcpy(copy + at, bytes + 944, n - 944);
+            memcpy(copy + at, bytes + 952, n - 952);
             copy[8] = old[v].version;
             pds__put_u64(copy + n - cut - 8, pds__fnv1a64(copy, n - cut - 8));
             shards_spit(bad, copy, n - cut);
@@ -547,7 +556,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     copy[8] = 1;
     shards_spit(bad, copy, n);
     CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE &&
-                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 5"),
+                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 6"),
           "format version: %s", err.text);
     memcpy(copy, bytes, n);
     memcpy(copy + 12, "9.9.9", 5);
@@ -616,7 +625,7 @@ static const shards_field shards_fields[] = {
     SHARDS_FIELD(history, 1),        SHARDS_FIELD(orbit, 1),           SHARDS_FIELD(orbit_deg, 1),
     SHARDS_FIELD(global_map, 1),     SHARDS_FIELD(stream_radius, 1),   SHARDS_FIELD(diffuse_bounces, 1),
     SHARDS_FIELD(memory_limit, 0),   SHARDS_FIELD(shard_index, 0),     SHARDS_FIELD(shard_count, 0),
-    SHARDS_FIELD(static_lighting, 0),
+    SHARDS_FIELD(static_lighting, 0), SHARDS_FIELD(eye_rounds, 1),
 };
 
 /* The names of pds_options's fields as pds.h declares them: comments
