@@ -50,7 +50,8 @@
                   per-thread counts, the photon path recorder and the
                   paths OBJ
      >>pds        photon differential splatting: aimed caustic photons,
-                  tracing with differentials, splatting into the eye-path map
+                  tracing with differentials, splatting into the eye-path
+                  map; progressive passes and their eye rounds
      >>baselines  pm, pdm, splat, ppm (not in PDS_NO_BASELINES)
      >>streams    streamed photon mapping (spm): streams of a leading photon
                   and associated photons, concentrated at specular surfaces,
@@ -16426,7 +16427,10 @@ static double pds__pds_plan(double t1, double n1, double t2, double n2, double l
    the part's photon units that are not done yet (>>partial), and add the
    caustic light into the part's exact sums (importance already carries
    1/spp). debug, if not NULL, receives the teaching views it asks for
-   (>>debug; a render in one go only). */
+   (>>debug; a render in one go only). rounds, if not NULL, are the eye
+   rounds progressive PDS may trace (pds__pds_passes; vertices are then
+   round rounds->round's, owned by rounds->ctx, which frees them when a
+   round replaces them). */
 static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, pds__eye_vertex *vertices,
                                    size_t nvertices, int width, int height, int threads, pds_partial *part,
                                    pds_debug *debug, const pds__eye_rounds *rounds, pds_render_stats *stats,
