@@ -12991,6 +12991,10 @@ typedef struct pds__tracer {
     int spectral_all; /* ... and spectral from the camera on, not only
                          from the first dispersive material */
     int eye_splits;   /* levels of splitting at glass (pds__trace_path) */
+    int vertices_only; /* record the eye vertices and compute no light (a
+                         photon method's caustics-only image, whose eye
+                         values are 0): a branch ends at its first
+                         non-specular vertex */
 } pds__tracer;
 
 /* Power heuristic with exponent 2. */
@@ -13379,6 +13383,7 @@ static void pds__eye_continue(pds__eye_sample *es, pds__eye_path *ps)
                     es->nrec++;
                 }
             }
+            if (tr->vertices_only) return;
             pds__direct_light(tr, m, hit.position, pds__scale(ps->dir, -1.0), hit.ns, hit.ng, ps->beta, es->idx, dim,
                               ps->lam, film_w, es->acc);
             ps->had_diffuse = 1;
@@ -20457,6 +20462,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
         /* The eye pass computes everything but the caustics and records the
            eye-path vertices; the photon pass adds the caustics. */
         job.tracer.paths = PDS_PATHS_NO_CAUSTICS;
+        job.tracer.vertices_only = photons && opt->paths == PDS_PATHS_CAUSTICS_ONLY;
         job.record_eye = photons;
         job.tracer.eye_splits = pds__eye_splits(scene, opt);
         job.merge_eye = pds__eye_merges(opt) && !(cam->aperture > 0.0) && cam->filter == PDS_FILTER_BOX;
