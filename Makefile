@@ -131,6 +131,9 @@ render: pds
 tests/ref_ball: tests/ref_ball.c
 	$(CC) $(WARN) $(CFLAGS) -o $@ tests/ref_ball.c $(LDLIBS)
 
+tests/ref_light: tests/ref_light.c pds.c pds.h
+	$(CC) $(WARN) $(CFLAGS) -I. -o $@ tests/ref_light.c pds.c $(LDLIBS)
+
 tests/ball_metrics: tests/ball_metrics.c pds.c pds.h
 	$(CC) $(WARN) $(CFLAGS) -I. -o $@ tests/ball_metrics.c pds.c $(LDLIBS)
 
@@ -250,7 +253,7 @@ fuzz-regress: $(FUZZ_TARGETS:%=$(FUZZ_OUT)/fuzz_%)
 
 clean:
 	rm -f pds pds-san pds-core pds.exe tests/test_pds tests/test_pds-san tests/test_core tests/test_pds.exe demo.png \
-	  tests/ref_ball tests/ball_metrics
+	  tests/ref_ball tests/ball_metrics tests/ref_light
 	rm -rf tests/out
 
 .PHONY: all test sanitize render bench bunny clean update-golden references gallery fuzz fuzz-regress core windows \

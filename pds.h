@@ -885,6 +885,17 @@ pds_status pds_render_estimate_get(const pds_scene *scene, const pds_options *op
 pds_status pds_render(const pds_scene *scene, const pds_options *opt,
                       pds_image *out, pds_render_stats *stats, pds_error *err);
 
+/* A reference for caustics seen directly (tests/ref_light.c makes the
+   shipped ones): light tracing, every caustic photon that lands where the
+   pinhole camera sees it directly added into the pixel it projects to,
+   with no density kernel, so that focal lines are not blurred. The
+   caustics-only image at opt's resolution (or the camera's) from
+   opt->photons photons (opt->seed, threads, photon_depth, spectral);
+   caustics seen through glass or in a mirror are not in it. The same bits
+   for any thread count. */
+pds_status pds_render_light_traced(const pds_scene *scene, const pds_options *opt, pds_image *out,
+                                   pds_error *err);
+
 /* ------------------------------------------------- shards, interrupt, resume */
 
 /* A render is a sum, and its exact state can be kept, continued and merged.
