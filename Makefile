@@ -62,10 +62,13 @@ update-golden: tests/test_pds
 # Each reference has 64 samples a pixel and its own seed (1000): its eye
 # samples are not those of the renders it judges (seed 0 by default).
 # The case studies are lit by collimated light, which a path tracer cannot
-# render through glass or metal: their caustics-only references are
-# progressive photon mapping with 32 x 1M photons from a small initial
-# radius (0.004, about a pixel on the floor), as the paper used 10M-photon
-# photon mapping. The gold ring's come from path tracing; the glass
+# render through glass or metal. The refraction case's camera sees its
+# floor directly, so its caustics-only reference is light traced
+# (tests/ref_light: no density kernel, 1.5 x 10^9 photons, a quarter of an
+# hour); the reflection case's camera also sees the floor in the ring's
+# metal, which light tracing cannot, so its reference is progressive
+# photon mapping with 64 x 4M photons from a radius of 0.001 (a quarter of
+# a pixel on the floor; a few minutes). The gold ring's come from path tracing; the glass
 # bunny's (a scanned mesh, fetched) from ppm with 24 x 1M photons. The ring
 # and octahedron (a point light) gets ppm with 64 x 2M photons at its full
 # 512 x 512 and 16 samples a pixel, the image-space caustics' benchmark
@@ -74,11 +77,11 @@ update-golden: tests/test_pds
 # 24 x 1M-photon render from radius 0.02 differs from it by RMSE 0.0013);
 # Newton's prism (spectral) ppm with 40 x 1M photons at 240 x 160, seed
 # 1001 (about a minute).
-references: pds
-	./pds render scenes/refraction.scene --method ppm --caustics-only --photons 1000000 --passes 32 \
-	  --radius 0.004 --res 256x256 --spp 64 --seed 1000 --quiet -o scenes/refraction.ref.pfm
-	./pds render scenes/reflection.scene --method ppm --caustics-only --photons 1000000 --passes 32 \
-	  --radius 0.004 --res 256x256 --spp 64 --seed 1000 --quiet -o scenes/reflection.ref.pfm
+references: pds tests/ref_light
+	tests/ref_light scenes/refraction.scene --photons 1500000000 --res 256x256 --seed 1000 \
+	  -o scenes/refraction.ref.pfm
+	./pds render scenes/reflection.scene --method ppm --caustics-only --photons 4000000 --passes 64 \
+	  --radius 0.001 --res 256x256 --spp 64 --seed 1003 --quiet -o scenes/reflection.ref.pfm
 	./pds render scenes/ring_octahedron.scene --method ppm --caustics-only --photons 2000000 --passes 64 \
 	  --radius 0.008 --spp 16 --seed 1000 --quiet -o scenes/ring_octahedron.ref.pfm
 	./pds render scenes/cardioid.scene --method pt --spp 4096 --res 256x192 --quiet -o scenes/cardioid.ref.pfm

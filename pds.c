@@ -15351,6 +15351,8 @@ static long pds__pds_passes(pds__photon_job *job, pds__eye_map *map, const pds_o
             }
         }
         job->smoothing = pds__pass_smoothing(opt->pass_smoothing, opt->pass_alpha, k + 1);
+        /* the width floor shrinks as the footprints do (s_i / s_1) */
+        job->min_width = opt->pass_min_width * pds__pass_smoothing(1.0, opt->pass_alpha, k + 1);
         pds__photon_run(job, threads, k * m);
         t_pass = pds_time_now() - t;
         t_photons += t_pass;

@@ -22,6 +22,9 @@ int main(int argc, char **argv)
 {
     const char *scene_path = NULL, *out = NULL;
     pds_options opt;
+    pds_image_write_options wo;
+    static pds_image_meta meta; /* 25 kB: not on the stack */
+    char text[64];
     pds_scene *scene = NULL;
     pds_image img = {0, 0, NULL};
     pds_error err;
@@ -58,14 +61,26 @@ int main(int argc, char **argv)
         return 1;
     }
     t0 = pds_time_now();
-    if (pds_render_light_traced(scene, &opt, &img, &err) != PDS_OK || pds_image_write_pfm(out, &img, &err) != PDS_OK) {
+    /* what the image is, as pds render writes it: a reference of the
+       caustics alone */
+    pds_image_write_options_default(&wo);
+    wo.meta = &meta;
+    pds_image_meta_set(&meta, PDS_META_KIND, PDS_META_KIND_CAUSTICS);
+    pds_image_meta_set(&meta, PDS_META_METHOD, "light tracing (tests/ref_light)");
+    pds_image_meta_set(&meta, "pds:version", PDS_VERSION_STRING);
+    pds_image_meta_set(&meta, "pds:scene", scene_path);
+    snprintf(text, sizeof text, "%ld", opt.photons);
+    pds_image_meta_set(&meta, "pds:photons", text);
+    snprintf(text, sizeof text, "%llu", opt.seed);
+    pds_image_meta_set(&meta, "pds:seed", text);
+    if (pds_render_light_traced(scene, &opt, &img, &err) != PDS_OK || pds_image_write_with(out, &img, &wo, &err) != PDS_OK) {
         fprintf(stderr, "%s\n", err.text);
         pds_image_free(&img);
         pds_scene_free(scene);
         return 1;
     }
-    printf("ref_light photons=%ld width=%d height=%d seed=%lu time=%.1f output=%s\n", opt.photons, img.width, img.height,
-           (unsigned long)opt.seed, pds_time_now() - t0, out);
+    printf("ref_light photons=%ld width=%d height=%d seed=%llu time=%.1f output=%s\n", opt.photons, img.width,
+           img.height, opt.seed, pds_time_now() - t0, out);
     pds_image_free(&img);
     pds_scene_free(scene);
     return 0;
