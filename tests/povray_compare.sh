@@ -103,7 +103,9 @@ photon_method pm --method pm
 #    and caustics at the first non-specular vertex, no indirect light.
 photon_method pds-direct --diffuse-bounces 0
 photon_method pm-direct --method pm --diffuse-bounces 0
-#    ... and PDS's passes splatting into 16 eye passes (64 samples a pixel)
+#    ... and PDS's passes splatting into 4 or 16 eye passes (16 or 64
+#    samples a pixel)
+photon_method pds-rounds4 --diffuse-bounces 0 --eye-rounds 4
 photon_method pds-rounds --diffuse-bounces 0 --eye-rounds 16
 
 # 3. POV-Ray, if installed: 3 x 3 and 4 x 4 regular samples a pixel
