@@ -340,23 +340,31 @@ static void test_progressive_pds_schedule_shrinks_footprint_areas_as_i_to_alpha_
     CHECK_NEAR(t, pds__pass_smoothing(3.0, 1.0, 77), 3.0, 1e-12);
 }
 
-/* RMSE, relative to the answer, of the plane mirror's caustic (the point
-   light mirrored: E = 0.9 P / (4 pi d^2) cos) over the inner pixels. */
-static double mirror_caustic_error(const pds_image *img)
+/* RMSE, relative to the answer, of the plane mirror scene over the inner
+   pixels: its caustic (the point light of 100 W at (0, 1, 0) mirrored at
+   (2, 1, 0) by reflectance 0.9: E = 0.9 P / (4 pi d^2) cos on the floor of
+   albedo 0.5), plus `direct` times the light's own direct light. */
+static double mirror_error(const pds_image *img, double direct)
 {
     double sum = 0.0;
     int x, y, n = 0;
     for (y = 3; y < 21; y++) {
         for (x = 3; x < 21; x++) {
             pds__v3 p = floor_point(2.0, 30.0, 24, x, y);
-            pds__v3 d = pds__sub(pds__v(2.0, 1.0, 0.0), p);
-            double d2 = pds__dot(d, d), E = 0.9 * 100.0 / (4.0 * PDS__PI) * (1.0 / sqrt(d2)) / d2;
-            double expect = 0.5 / PDS__PI * E, rel = img->rgb[3 * (y * 24 + x) + 1] / expect - 1.0;
+            pds__v3 a = pds__sub(pds__v(0.0, 1.0, 0.0), p), b = pds__sub(pds__v(2.0, 1.0, 0.0), p);
+            double a2 = pds__dot(a, a), b2 = pds__dot(b, b);
+            double E = 100.0 / (4.0 * PDS__PI) * (direct * (1.0 / sqrt(a2)) / a2 + 0.9 * (1.0 / sqrt(b2)) / b2);
+            double rel = img->rgb[3 * (y * 24 + x) + 1] / (0.5 / PDS__PI * E) - 1.0;
             sum += rel * rel;
             n++;
         }
     }
     return sqrt(sum / n);
+}
+
+static double mirror_caustic_error(const pds_image *img)
+{
+    return mirror_error(img, 0.0);
 }
 
 static void progressive_small_passes(pds_options *o)
@@ -457,26 +465,10 @@ static void test_eye_rounds_are_runs_of_consecutive_passes(pds_test_ctx *t)
           "a round only if half a pass still fits after it (9.88 + 0.1 + 0.02 = 10)");
 }
 
-/* The full image of the mirror scene, direct light and caustic: a point
-   light of 100 W at (0, 1, 0) and its image in the mirror (reflectance
-   0.9) at (2, 1, 0) light the floor (albedo 0.5); relative RMS error over
-   the inner pixels. */
+/* The full image of the mirror scene: direct light and caustic. */
 static double mirror_full_error(const pds_image *img)
 {
-    double sum = 0.0;
-    int x, y, n = 0;
-    for (y = 3; y < 21; y++) {
-        for (x = 3; x < 21; x++) {
-            pds__v3 p = floor_point(2.0, 30.0, 24, x, y);
-            pds__v3 a = pds__sub(pds__v(0.0, 1.0, 0.0), p), b = pds__sub(pds__v(2.0, 1.0, 0.0), p);
-            double a2 = pds__dot(a, a), b2 = pds__dot(b, b);
-            double E = 100.0 / (4.0 * PDS__PI) * ((1.0 / sqrt(a2)) / a2 + 0.9 * (1.0 / sqrt(b2)) / b2);
-            double rel = img->rgb[3 * (y * 24 + x) + 1] / (0.5 / PDS__PI * E) - 1.0;
-            sum += rel * rel;
-            n++;
-        }
-    }
-    return sqrt(sum / n);
+    return mirror_error(img, 1.0);
 }
 
 static void eye_rounds_8(pds_options *o)
