@@ -123,7 +123,7 @@ static const command_help help_table[] = {
      "                              (--photons: R runs of passes; --time: 0, the default, re-traces the\n"
      "                              eye pass as the time goes, R > 1 at most R times; 1 = one eye pass)\n"
      "      --split-depth N         progressive pds: split a photon whose footprint the surface's curvature\n"
-     "                              makes non-linear into 4 sub-photons, at most N times (default 1; 0 = never)\n"
+     "                              makes non-linear into 4 sub-photons, at most N times (default 0: never)\n"
      "      --split-angle A         progressive pds: split above a normal turn of A radians over the\n"
      "                              footprint (default 0.2)\n"
      "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"

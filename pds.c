@@ -19858,7 +19858,7 @@ void pds_options_default(pds_options *opt)
     opt->min_width = 0.0;
     opt->plane_tolerance = 0.25;
     opt->photon_depth = 16;
-    opt->split_depth = 1;
+    opt->split_depth = 0;
     opt->split_angle = 0.2;
     opt->debug = NULL;
     opt->k = 50;

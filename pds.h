@@ -587,7 +587,7 @@ typedef struct pds_options {
                            photon whose footprint the surface's curvature
                            makes non-linear is re-traced as four sub-photons
                            with half its differentials, at most this many
-                           times over (0 = never; default 1, at most 8);
+                           times over (0 = never, the default; at most 8);
                            a sub-photon that is still not linear at the last
                            level keeps at most that normal turn and spread */
     double split_angle; /* pds: split when the surface normal turns by more
