@@ -20761,13 +20761,13 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
         else if (completed == job.nrows)
             st = pds__photon_pass(scene, popt, verts, nv, w, h, threads, part, opt->debug,
                                   rounds.rounds > 1 ? &rounds : NULL, stats, err);
-        if (!st && rounds.rounds > 1 && opt->time_s > 0.0) {
+        if (!st && completed == job.nrows && rounds.rounds > 1 && opt->time_s > 0.0) {
             /* a time budget's rounds: the values are the mean of all
                (one part, every row its own) */
             int zero = opt->paths == PDS_PATHS_CAUSTICS_ONLY;
             for (i = 0; i < npix * 3; i++) part->eye[i] = zero ? 0.0 : job.sum[i] / ((double)job.spp * rc.traced);
             job.pass = (int)rc.traced;
-        } else if (rounds.rounds > 1) {
+        } else if (!st && completed == job.nrows && rounds.rounds > 1) {
             job.pass = (int)rounds.rounds; /* for stats->spp: the caustic's samples */
         }
         free(rc.verts);
