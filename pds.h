@@ -570,7 +570,8 @@ typedef struct pds_options {
                            one eye pass. Under a time budget, 0 (default)
                            or R > 1 trace a new eye pass whenever the
                            photon passes since the last one took as long
-                           as it did (at most R rounds, 0: no limit); 1:
+                           as it did (at most R rounds, 0: no limit) in a
+                           render of one shard without teaching views; 1:
                            one eye pass. Default 0. */
     double pass_alpha;  /* progressive pds: pass i's footprint areas shrink as
                            i^(pass_alpha - 1), in (0, 1] (default 2/3) */
