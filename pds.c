@@ -16917,13 +16917,20 @@ static pds_status pds__light_trace_image(const pds_scene *s, const pds_options *
         pds__mutex_destroy(&job.lock);
         st = pds_image_alloc(out, width, height);
     }
-    for (i = 0; !st && i < npix * 3; i++) {
-        pds__sum128 pos = {0, 0}, neg = {0, 0};
-        for (t = 0; t < threads; t++) {
-            pds__sum128_add_bits(&pos, job.bufs[t].sum[i].lo, job.bufs[t].sum[i].hi);
-            pds__sum128_add_bits(&neg, job.bufs[t].neg[i].lo, job.bufs[t].neg[i].hi);
-        }
-        out->rgb[i] = (float)((pds__sum128_value(pos) - pds__sum128_value(neg)) / job.bufs[0].unit);
+    if (!st) {
+        /* the threads' exact sums into the first's, and the image from them
+           as a render's (no eye part; every photon planned was emitted) */
+        double *zero = (double *)calloc(npix * 3, sizeof *zero);
+        for (i = 0; i < npix * 3; i++)
+            for (t = 1; t < threads; t++) {
+                pds__sum128_add_bits(&job.bufs[0].sum[i], job.bufs[t].sum[i].lo, job.bufs[t].sum[i].hi);
+                pds__sum128_add_bits(&job.bufs[0].neg[i], job.bufs[t].neg[i].lo, job.bufs[t].neg[i].hi);
+            }
+        if (!zero || pds__partial_image(zero, job.bufs[0].sum, job.bufs[0].neg, job.bufs[0].unit, (double)opt->photons,
+                                        opt->photons, npix * 3, out->rgb) < 0)
+            st = PDS_ERR_NOMEM;
+        free(zero);
+        if (st) pds_image_free(out);
     }
     for (t = 0; t < threads; t++) {
         free(job.bufs[t].sum);
@@ -20495,7 +20502,7 @@ static pds_status pds__eye_retrace(void *vctx, long round, pds__eye_vertex **v, 
     pds__eye_vertex *all;
     size_t count = 0;
     int y;
-    if ((round + 1) * (long)job->spp > (long)job->total_spp_max) return PDS_OK; /* no sample indices left */
+    if (((long long)round + 1) * job->spp > (long long)job->total_spp_max) return PDS_OK; /* no sample indices left */
     for (y = 0; y < job->frame.height; y++) {
         job->row_vertices[y] = NULL;
         job->row_count[y] = job->row_cap[y] = 0;
