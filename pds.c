@@ -16513,8 +16513,12 @@ static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, cons
      cost per photon = a + b / N
    (a: emission and tracing; b: all N splats of a render together, which
    with s fixed cost the same whatever N is). Two calibration batches on
-   one thread, for N1 and N2 photons (4 and 1 times opt->photons), took t1
-   and t2 seconds a photon;
+   one thread, for N1 = 4 opt->photons and N2 = N1 / q photons, took t1
+   and t2 seconds a photon (q = 4 when the first batch took at most a
+   fortieth of the budget, else less, so that neither batch takes much
+   more than a tenth of it: q = 0.1 T / (B t1); no second batch below
+   q = 1.5, whose t2 is then taken as if nine tenths of the first were
+   splats);
    solved for a and b (a at least a tenth of t1, b at least 0), tracing and
    splatting N photons on `threads` threads fills `left` seconds when
      N a + b = left threads,  N = (left threads - b) / a.
@@ -16522,12 +16526,19 @@ static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, cons
    smoothing cannot be held in the budget: N is then set as if tracing had
    a quarter of it, and the deadline stops the photons early (the render
    reports the photons emitted and the count planned, whose ratio is the
-   footprints' share of s^2). */
+   footprints' share of s^2). The deadline is looked at between batches
+   (PDS__PHOTON_BATCH photons on one thread), so N is at least the count
+   whose batch, B (a + b / N), takes an eighth of `left`:
+     N >= B b / (left / 8 - B a)
+   (at 512 x 512 the quarter rule planned 6,132 photons for 0.22 s, whose
+   batches of huge footprints took 1.3 s each: 3.4 s for a 1 s budget). */
 static double pds__pds_plan(double t1, double n1, double t2, double n2, double left, int threads)
 {
     double b = fmax(0.0, (t2 - t1) / (1.0 / n2 - 1.0 / n1)), a = fmax(0.1 * t1, t1 - b / n1);
-    double cpu = left * (threads > 0 ? threads : 1);
-    return (cpu - b >= 0.25 * cpu ? cpu - b : 0.25 * cpu) / a;
+    double cpu = left * (threads > 0 ? threads : 1), batch = (double)PDS__PHOTON_BATCH;
+    double n = (cpu - b >= 0.25 * cpu ? cpu - b : 0.25 * cpu) / a;
+    if (left / 8.0 > batch * a) n = fmax(n, batch * b / (left / 8.0 - batch * a));
+    return n;
 }
 
 /* --- the photon pass --------------------------------------------------- */
@@ -16671,7 +16682,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
            away) and plan for the rate it shows over the remaining time.
            For every method the image is normalised by the photons actually
            emitted before the deadline. */
-        double tc = pds_time_now(), remaining, rate, t_1 = 0.0, t_2, n_1 = 4.0 * (double)opt->photons;
+        double tc = pds_time_now(), remaining, rate, t_1 = 0.0, t_2, n_1 = 4.0 * (double)opt->photons, n_2 = 0.0, q;
         int paper = opt->method == PDS_METHOD_PDS; /* (not progressive: that branch is above) */
         int second = 1;                             /* run the second calibration batch */
         pds__mutex_init(&job.lock);
@@ -16681,15 +16692,20 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         if (paper) {
             /* the paper's PDS (pds__pds_plan): the first batch for four
                times opt->photons (small footprints: the cheaper one), the
-               second for opt->photons, unless the first took a tenth of
-               the budget already (the splats are then most of its cost) */
+               second for fewer (below) */
             job.n_total = PDS__PHOTON_BATCH;
             job.n_planned = n_1;
             pds__run_threads(1, pds__photon_worker, &job);
             t_1 = pds_time_now() - tc;
-            second = t_1 < 0.1 * opt->time_s;
+            /* the second batch's footprints q times the first's (q <= 4),
+               so that it too takes about a tenth of the budget at most
+               (all splats: q times t_1); none below q = 1.5, too near
+               the first to tell a from b */
+            q = fmin(4.0, 0.1 * opt->time_s / fmax(t_1, 1e-9));
+            second = q >= 1.5;
+            n_2 = n_1 / q;
             job.n_total = 2 * PDS__PHOTON_BATCH;
-            job.n_planned = (double)opt->photons;
+            job.n_planned = n_2;
             job.next_batch = 1; /* the run above counted past it */
             job.stop = 0;
             job.next_buf = 0;
@@ -16726,7 +16742,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.n_planned = fmax(rate * fmax(remaining, 0.0), (double)PDS__PHOTON_BATCH);
         if (paper)
             job.n_planned = fmax(pds__pds_plan(t_1 / PDS__PHOTON_BATCH, n_1, t_2 / PDS__PHOTON_BATCH,
-                                               (double)opt->photons, fmax(remaining, 0.0), threads),
+                                               second ? n_2 : (double)opt->photons, fmax(remaining, 0.0), threads),
                                  (double)PDS__PHOTON_BATCH);
         job.n_total = LONG_MAX - PDS__PHOTON_BATCH;
         job.deadline = pds_time_now() + fmax(remaining, 0.0);

@@ -20,6 +20,23 @@ static void test_pds_plan_solves_the_cost_of_tracing_and_splats(pds_test_ctx *t)
     CHECK_NEAR(t, pds__pds_plan(1e-5, 1e5, 1e-5, 5e4, 1.0, 1), 1e5, 1e-3);
 }
 
+/* A smoothing whose splats cannot fit (a = 1e-4 s, b = 13 CPU-s, on 2
+   threads for 1 s): the quarter rule alone would plan 0.25 x 2 / 1e-4 =
+   5,000 photons, whose batches of 1024 would each take 1024 (a + b / N)
+   = 2.8 s on one thread; N is raised until a batch takes an eighth of
+   the time left, N = 1024 b / (1 / 8 - 1024 a). */
+static void test_pds_plan_keeps_a_batch_within_an_eighth_of_the_time(pds_test_ctx *t)
+{
+    double a = 1e-4, b = 13.0, n, expect = 1024.0 * 13.0 / (1.0 / 8.0 - 1024.0 * 1e-4);
+    n = pds__pds_plan(a + b / 1e5, 1e5, a + b / 2.5e4, 2.5e4, 1.0, 2);
+    CHECK(t, fabs(n / expect - 1.0) < 1e-9, "N %g, expected %g", n, expect);
+    CHECK_NEAR(t, 1024.0 * (a + b / n), 1.0 / 8.0, 1e-12);
+    /* 0.5 s: not even the tracing of a batch fits an eighth (0.1024 s
+       against 0.0625): the quarter rule stands */
+    n = pds__pds_plan(a + b / 1e5, 1e5, a + b / 2.5e4, 2.5e4, 0.5, 2);
+    CHECK(t, fabs(n / 2500.0 - 1.0) < 1e-9, "N %g, expected 2500", n);
+}
+
 #ifndef PDS_NO_BASELINES
 /* The gather's samples (pds__gather_sampled): runs of PDS__SAMPLE_RUN
    neighbours, one a block of S runs; the count and the places agree with
@@ -241,6 +258,7 @@ static void test_paper_pds_without_time_keeps_small_footprints(pds_test_ctx *t)
 
 static const pds_test_case tests_budget[] = {
     {"pds_plan_solves_the_cost_of_tracing_and_splats", test_pds_plan_solves_the_cost_of_tracing_and_splats},
+    {"pds_plan_keeps_a_batch_within_an_eighth_of_the_time", test_pds_plan_keeps_a_batch_within_an_eighth_of_the_time},
 #ifndef PDS_NO_BASELINES
     {"gather_sample_is_counted_and_spread", test_gather_sample_is_counted_and_spread},
     {"ppm_pass_photons_fit_the_time_left", test_ppm_pass_photons_fit_the_time_left},
