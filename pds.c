@@ -16152,9 +16152,23 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
     for (pass = 0; !st; pass++) {
         long this_pass, next;
         double tt = pds_time_now(), tu;
+        /* a time budget: the first pass traces a quarter of it at most,
+           so that its update (which the next passes' sizes are planned
+           from) comes in time too when one pass of --photons would not */
+        job->deadline = opt->time_s > 0.0 && pass == 0 ? job->t0 + 0.25 * opt->time_s : 0.0;
         pds__photon_run(job, threads, pass * (long)opt->photons);
+        job->deadline = 0.0;
+        if (job->batches_done == 0 && !job->cancelled) {
+            /* the quarter was gone before the first batch: one batch, so
+               that the image has caustics (and the overrun shows) */
+            long n = job->n_total;
+            job->n_total = n < PDS__PHOTON_BATCH ? n : PDS__PHOTON_BATCH;
+            pds__photon_run(job, threads, pass * (long)opt->photons);
+            job->n_total = n;
+        }
         this_pass = job->batches_done * (long)PDS__PHOTON_BATCH;
-        emitted += this_pass < job->n_total ? this_pass : job->n_total;
+        if (this_pass > job->n_total) this_pass = job->n_total;
+        emitted += this_pass;
         for (t = 0; t < job->nbufs; t++)
             if (job->bufs[t].out_of_memory) st = PDS_ERR_NOMEM;
         if (job->cancelled) break;
@@ -16169,7 +16183,7 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
         }
         /* a time budget: the next pass's size from this one's times */
         next = pds__ppm_pass_photons(opt->time_s - (pds_time_now() - job->t0), (tu - tt) * (double)opt->photons /
-                                     (double)job->n_total, pds_time_now() - tu, opt->photons);
+                                     (double)(this_pass > 0 ? this_pass : 1), pds_time_now() - tu, opt->photons);
         if (next == 0) {
             pass++;
             break;

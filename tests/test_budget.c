@@ -128,6 +128,27 @@ static void test_gather_cap_fit_follows_the_photons_found(pds_test_ctx *t)
     CHECK_NEAR(t, pds__gather_cap_fit(50.0, 9e-6, 8e-6, 8.5e-6, found, 10), 50.0, 1e-9);
 }
 
+/* ppm under a budget already spent: the first pass (a quarter of the
+   budget at most) still traces one batch, and no pass follows. */
+static void ppm_gone(pds_options *o)
+{
+    o->time_s = 1e-9;
+    o->photons = 50000;
+}
+
+static void test_ppm_past_its_deadline_traces_one_batch(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    double peak = 0.0;
+    size_t i;
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PPM, 0, 2, &img, &st, ppm_gone), "ppm --time 1e-9");
+    CHECK(t, st.photons == PDS__PHOTON_BATCH && st.passes == 1, "photons %ld passes %d", st.photons, st.passes);
+    for (i = 0; i < (size_t)img.width * img.height * 3; i++) peak = fmax(peak, img.rgb[i]);
+    CHECK(t, peak > 0.0, "a caustic");
+    pds_image_free(&img);
+}
+
 /* The map plan's figures: a probe of 1024 vertices, 2000 stored photons
    of 4000 emitted (planned 100000), built in 0.1 ms; gathered with the cap
    (50 found a query) in 1 ms and with a cap of 8 (8 found) in 0.3 ms: a
@@ -262,6 +283,7 @@ static const pds_test_case tests_budget[] = {
 #ifndef PDS_NO_BASELINES
     {"gather_sample_is_counted_and_spread", test_gather_sample_is_counted_and_spread},
     {"ppm_pass_photons_fit_the_time_left", test_ppm_pass_photons_fit_the_time_left},
+    {"ppm_past_its_deadline_traces_one_batch", test_ppm_past_its_deadline_traces_one_batch},
     {"gather_cap_fit_interpolates_the_two_samples", test_gather_cap_fit_interpolates_the_two_samples},
     {"gather_cap_fit_follows_the_photons_found", test_gather_cap_fit_follows_the_photons_found},
     {"map_cost_is_the_line_through_the_two_probes", test_map_cost_is_the_line_through_the_two_probes},
