@@ -15621,31 +15621,33 @@ static double pds__gather_found(const float *found, size_t n, double c)
 }
 
 /* The gather under a time budget: the cap whose gather fits the time left,
-   from two measured samples of it. t_k and t_8 are the seconds a query
-   took (on all threads, on the final map) with the cap k and with a cap
-   of 8; a query's cost grows linearly with the photons it finds, so at a
-   cap c it takes
-     t(c) = t_8 + (t_k - t_8) (F(c) - F(8)) / (F(k) - F(8)),
+   from measured samples of it. t0 and t1 are the seconds a query took
+   (on all threads, on the final map) with caps c0 < c1 (8 and the cap
+   asked for; then the cap chosen and one of those); a query's cost grows
+   linearly with the photons it finds, so at a cap c between them it
+   takes
+     t(c) = t0 + (t1 - t0) (F(c) - F(c0)) / (F(c1) - F(c0)),
    F from the photons each query of the cap-k sample found
    (pds__gather_found; found NULL: F(c) = c, the line through the two).
    Most queries find the cap at small caps and what lies within reach at
    large ones, so t(c) bends down: the line through the two samples
    under-rated caps between them (pdm on the refraction case: 6.3 us
    a query planned, 8.4 us taken at a cap of 149). Returns the largest
-   cap in [8, k] (k > 8) whose queries take at most `per_query` seconds;
-   8 if none does. */
-static double pds__gather_cap_fit(double k, double t_k, double t_8, double per_query, const float *found, size_t n)
+   cap in [c0, c1] whose queries take at most `per_query` seconds; c0 if
+   none does. */
+static double pds__gather_cap_fit(double c0, double t0, double c1, double t1, double per_query, const float *found,
+                                  size_t n)
 {
-    double lo = 8.0, hi = k, f8, fk;
-    if (t_k <= per_query) return k;
-    if (!(t_k > t_8)) return per_query >= t_8 ? k : 8.0;
-    f8 = pds__gather_found(found, n, 8.0);
-    fk = pds__gather_found(found, n, k);
-    if (!(fk > f8)) return per_query >= t_8 ? k : 8.0;
+    double lo = c0, hi = c1, f0, f1;
+    if (t1 <= per_query) return c1;
+    if (!(t1 > t0)) return per_query >= t0 ? c1 : c0;
+    f0 = pds__gather_found(found, n, c0);
+    f1 = pds__gather_found(found, n, c1);
+    if (!(f1 > f0)) return per_query >= t0 ? c1 : c0;
     /* t(c) grows with c: bisect over whole caps for the largest that fits */
     while (hi - lo > 1.0) {
         double mid = floor(0.5 * (lo + hi));
-        if (t_8 + (t_k - t_8) * (pds__gather_found(found, n, mid) - f8) / (fk - f8) <= per_query) lo = mid;
+        if (t0 + (t1 - t0) * (pds__gather_found(found, n, mid) - f0) / (f1 - f0) <= per_query) lo = mid;
         else hi = mid;
     }
     return lo;
@@ -15713,13 +15715,31 @@ static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int thre
             t = pds_time_now();
             pds__gather_once(g, job, threads);
             t_8 = (pds_time_now() - t) / ns;
-            cap = pds__gather_cap_fit(k0, t_k, t_8, (job->gather_deadline - pds_time_now()) / (double)g->nv,
+            cap = pds__gather_cap_fit(8.0, t_8, k0, t_k, (job->gather_deadline - pds_time_now()) / (double)g->nv,
                                       nfound, nfound ? n2 : 0);
             if (cap > 8.0) {
+                /* the cap chosen, measured on the same sample: the fit
+                   again between it and the nearer of the two (a query's
+                   cost is not quite linear in the photons found: pdm's
+                   cap of 66 on the demo scene took 6.6 us a query where
+                   the line through caps 8 and 500 said 9.3); kept if
+                   it stands */
+                double t_c, c2, left_q;
                 pds__gather_clear(job, job->nsums);
                 g->found = 0.0;
-                g->sample = 0;
                 g->k = (size_t)cap;
+                t = pds_time_now();
+                pds__gather_once(g, job, threads);
+                t_c = (pds_time_now() - t) / ns;
+                left_q = (job->gather_deadline - pds_time_now()) / ((double)g->nv - ns);
+                c2 = t_c <= left_q ? pds__gather_cap_fit(cap, t_c, k0, t_k, left_q, nfound, nfound ? n2 : 0)
+                                   : pds__gather_cap_fit(8.0, t_8, cap, t_c, left_q, nfound, nfound ? n2 : 0);
+                if (c2 != cap) {
+                    pds__gather_clear(job, job->nsums);
+                    g->found = 0.0;
+                    g->sample = 0;
+                    g->k = (size_t)c2;
+                }
             } else if (g->kth && t_8 * ((double)g->nv - ns) > job->gather_deadline - pds_time_now()) {
                 /* even k = 8 cannot end in time: the queries far from
                    every photon (whose k nearest lie far off, and whose
@@ -16118,16 +16138,22 @@ static double pds__default_radius(const pds_scene *s)
    vertices. A whole pass if it fits; else a shorter one whose tracing
    fits beside an update as long as the last (an update costs the range
    queries of every vertex even when few photons come), in whole batches
-   (PDS__PHOTON_BATCH); none if not one batch fits. Hachisuka et al.'s
+   (PDS__PHOTON_BATCH); if not one batch fits, one batch when that pass
+   would end nearer T than stopping now (its overrun less than the time
+   left: at 512 x 512 an update of a million vertices is most of a
+   second, and stopping a pass early left a quarter of a 3 s budget
+   unused); else none. Hachisuka et al.'s
    recurrence holds for passes of any size: the estimate is
    tau / (pi R^2 N_emitted) with N_emitted the photons of all passes. */
 static long pds__ppm_pass_photons(double left, double trace_s, double update_s, long photons)
 {
-    double n;
+    double n, batch = (double)PDS__PHOTON_BATCH;
     if (trace_s + update_s <= left) return photons;
-    if (!(trace_s > 0.0) || left <= update_s) return 0;
-    n = floor((double)photons * (left - update_s) / trace_s / PDS__PHOTON_BATCH) * PDS__PHOTON_BATCH;
-    return n >= (double)PDS__PHOTON_BATCH ? (long)n : 0;
+    if (!(trace_s > 0.0) || !(left > 0.0)) return 0;
+    n = floor((double)photons * (left - update_s) / trace_s / batch) * batch;
+    if (n >= batch) return (long)n;
+    if (update_s + trace_s * batch / (double)photons - left >= left) return 0;
+    return photons < PDS__PHOTON_BATCH ? photons : PDS__PHOTON_BATCH;
 }
 
 /* Progressive photon mapping: passes of opt->photons photons, each

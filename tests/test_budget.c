@@ -79,7 +79,8 @@ static void test_gather_sample_is_counted_and_spread(pds_test_ctx *t)
 
 #ifndef PDS_NO_BASELINES
 /* ppm's next pass: whole while it fits; else the tracing that fits beside
-   an update as long as the last one, in whole batches; else none. */
+   an update as long as the last one, in whole batches; else one batch if
+   its pass ends nearer T than stopping now; else none. */
 static void test_ppm_pass_photons_fit_the_time_left(pds_test_ctx *t)
 {
     CHECK(t, pds__ppm_pass_photons(10.0, 2.0, 1.0, 100000) == 100000, "a whole pass fits");
@@ -88,8 +89,12 @@ static void test_ppm_pass_photons_fit_the_time_left(pds_test_ctx *t)
        whole batches of 1024: 48 x 1024 */
     CHECK(t, pds__ppm_pass_photons(2.0, 2.0, 1.0, 100000) == 48 * PDS__PHOTON_BATCH, "%ld",
           pds__ppm_pass_photons(2.0, 2.0, 1.0, 100000));
-    CHECK(t, pds__ppm_pass_photons(0.9, 2.0, 1.0, 100000) == 0, "the update alone does not fit");
-    CHECK(t, pds__ppm_pass_photons(1.01, 2.0, 1.0, 100000) == 0, "not one batch fits");
+    /* one batch traces in 2 x 1024 / 1e5 = 0.02 s: with 0.9 s left the
+       pass overruns by 0.12 s, nearer T than 0.9 s early */
+    CHECK(t, pds__ppm_pass_photons(0.9, 2.0, 1.0, 100000) == PDS__PHOTON_BATCH, "the update alone does not fit");
+    CHECK(t, pds__ppm_pass_photons(1.01, 2.0, 1.0, 100000) == PDS__PHOTON_BATCH, "not one batch fits");
+    /* 0.4 s left: 0.62 s over is farther from T than 0.4 s early */
+    CHECK(t, pds__ppm_pass_photons(0.4, 2.0, 1.0, 100000) == 0, "stopping is nearer T");
     CHECK(t, pds__ppm_pass_photons(-1.0, 2.0, 1.0, 100000) == 0, "the budget is spent");
 }
 
@@ -97,13 +102,13 @@ static void test_ppm_pass_photons_fit_the_time_left(pds_test_ctx *t)
    c (t_50 = 50 us, t_8 = 8 us) fits 20 us at a cap of 20. */
 static void test_gather_cap_fit_interpolates_the_two_samples(pds_test_ctx *t)
 {
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, 20e-6, NULL, 0), 20.0, 1e-9);
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, 20.5e-6, NULL, 0), 20.0, 1e-9); /* whole caps, rounded down */
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, 60e-6, NULL, 0), 50.0, 1e-9);   /* never above the cap asked */
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, 1e-6, NULL, 0), 8.0, 1e-9);     /* nor below 8 */
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, -1.0, NULL, 0), 8.0, 1e-9);     /* the deadline passed */
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 20e-6, NULL, 0), 20.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 20.5e-6, NULL, 0), 20.0, 1e-9); /* whole caps, rounded down */
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 60e-6, NULL, 0), 50.0, 1e-9);   /* never above the cap asked */
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 1e-6, NULL, 0), 8.0, 1e-9);     /* nor below 8 */
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, -1.0, NULL, 0), 8.0, 1e-9);     /* the deadline passed */
     /* a noisy pair whose cap-8 sample was no quicker */
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 60e-6, 45e-6, NULL, 0), 8.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 60e-6, 50.0, 50e-6, 45e-6, NULL, 0), 8.0, 1e-9);
 }
 
 /* The cap from the photons the sample's queries found: half of them
@@ -119,13 +124,17 @@ static void test_gather_cap_fit_follows_the_photons_found(pds_test_ctx *t)
     for (i = 0; i < 10; i++) found[i] = i % 2 ? 50.0f : 12.0f;
     CHECK_NEAR(t, pds__gather_found(found, 10, 8.0), 8.0, 1e-12);
     CHECK_NEAR(t, pds__gather_found(found, 10, 30.0), 21.0, 1e-12);
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 31e-6, 8e-6, 16.2e-6, found, 10), 20.0, 1e-9);
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 31e-6, 8e-6, 16.2e-6, NULL, 0), 22.0, 1e-9);
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 31e-6, 8e-6, 31e-6, found, 10), 50.0, 1e-9);
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 31e-6, 8e-6, 7e-6, found, 10), 8.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 31e-6, 16.2e-6, found, 10), 20.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 31e-6, 16.2e-6, NULL, 0), 22.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 31e-6, 31e-6, found, 10), 50.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 31e-6, 7e-6, found, 10), 8.0, 1e-9);
+    /* the refit between the cap chosen (20, measured at 12 us, quicker
+       than the fit said) and 50: t(c) = 12 + 19 (F(c) - 16) / 15 us fits
+       16.2 us up to F(c) = 19.3, c = 26.6 */
+    CHECK_NEAR(t, pds__gather_cap_fit(20.0, 12e-6, 50.0, 31e-6, 16.2e-6, found, 10), 26.0, 1e-9);
     /* every query found at most 8: any cap costs t_8 */
     for (i = 0; i < 10; i++) found[i] = 8.0f;
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 9e-6, 8e-6, 8.5e-6, found, 10), 50.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 9e-6, 8.5e-6, found, 10), 50.0, 1e-9);
 }
 
 /* ppm under a budget already spent: the first pass (a quarter of the
