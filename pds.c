@@ -15543,7 +15543,9 @@ typedef struct pds__gather {
    visit the same kd-tree nodes, as the whole gather's do; a sample of
    single vertices far apart pays a cache miss at every node of every
    query and measured queries two to five times slower than the gather
-   then ran (pm, k = 8, refraction case: 0.9 against 0.43 us). The place
+   then ran (pm, k = 8, refraction case: 0.9 against 0.43 us), and runs of
+   16 (one pixel's samples at 16 spp) still three times (the ring and
+   octahedron: 1.57 against 0.48 us on two threads). The place
    moves from block to block because a block is often a whole number of
    image rows: at the same place in each, the sample would be a stripe of
    the image (one column of 4 pixels a row at 256 x 256 and 4 samples a
@@ -15698,15 +15700,16 @@ static void pds__gather_clear(pds__photon_job *job, size_t nsums)
 /* Run the gather on the threads that own the photon pass's images. With a
    time budget (job->gather_deadline > 0) the cap g->k is measured rather
    than modelled (>>photonpass: step 3 of the plan): a sample of about
-   2048 vertices is gathered first with that cap (and thrown away; the
-   photons each query found are kept); if the whole gather at that pace
-   ends by the deadline, it is made; else a 64th of the vertices is
-   gathered with a cap of 8, the cap pds__gather_cap_fit gives is taken,
-   and the whole gather is made with it (the sample kept if that cap is 8,
-   and the rest gathered after it; a search radius bounded as below if
-   even 8 cannot end in time). Samples are runs of neighbours
-   (pds__gather_sampled). The images hold each vertex's estimate once,
-   whatever was measured. */
+   2048 vertices (fewer for a cap above 50) is gathered first with that
+   cap (and thrown away; the photons each query found are kept); if the
+   whole gather at that pace ends by the deadline, it is made; else a
+   64th of the vertices is gathered with a cap of 8, the cap
+   pds__gather_cap_fit gives is taken, measured on the same sample and
+   fitted again, and the whole gather is made with it (the sample kept
+   if the cap stood or is 8, and the rest gathered after it; a search
+   radius bounded as below if even 8 cannot end in time). Samples are
+   runs of neighbours (pds__gather_sampled). The images hold each
+   vertex's estimate once, whatever was measured. */
 static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int threads, pds_error *err)
 {
     const size_t S = 64;
@@ -15718,7 +15721,11 @@ static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int thre
     job->gather_radius = 0.0;
     if (job->gather_deadline > 0.0 && g->k > 8 && g->nv >= 64 * S) {
         double ns = (double)pds__gather_sample_count(g->nv, S), t, t_k, t_8, cap;
-        size_t S2 = g->nv / 2048 > S ? g->nv / 2048 : S; /* about 2048 vertices */
+        /* about 2048 vertices at a cap of 50, fewer at a larger cap (at
+           least 256: 2048 of pdm's queries at 500 took 0.28 s on the
+           Cornell box at 512 x 512) */
+        size_t want = (size_t)fmax(256.0, fmin(2048.0, 102400.0 / k0));
+        size_t S2 = g->nv / want > S ? g->nv / want : S;
         size_t n2 = pds__gather_sample_count(g->nv, S2);
         /* the pace with the cap asked for, on a coarse sample (not kept:
            a query with a cap of 500 can cost a hundred of a cap of 8) */
@@ -16183,9 +16190,10 @@ static long pds__ppm_pass_photons(double left, double trace_s, double update_s, 
 
 /* Progressive photon mapping: passes of opt->photons photons, each
    updating every eye vertex, until opt->passes (or, with a time budget,
-   until the time is spent: each pass as long as pds__ppm_pass_photons
-   finds room for, whole while they fit, then shorter ones; at least one
-   pass). Adds the radiance of each
+   until the time is spent: the first pass tracing for a quarter of it
+   at most, then each pass as long as pds__ppm_pass_photons finds room
+   for, whole while they fit, then shorter ones; at least one pass of one
+   batch). Adds the radiance of each
    vertex into the exact sums of job->bufs[0] (for a factor n_planned /
    emitted of 1), unless the progress callback stopped it (job->cancelled:
    then nothing). *emitted_out gets the photons emitted. */
@@ -16788,7 +16796,12 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
 #ifndef PDS_NO_BASELINES
         if (map_method) {
             /* the plan's step 1 (see pds__map_probe) */
-            map_planned = pds__map_probe_run(&job, opt, vertices, nvertices, threads, 1, 8192, (double)job.n_total,
+            /* 8192 vertices for a cap of 50, fewer for a larger cap (on
+               the calibration's few photons a pdm query finds all of
+               them: 8192 queries at a cap of 500 took half of a 1 s
+               budget at 512 x 512) */
+            map_planned = pds__map_probe_run(&job, opt, vertices, nvertices, threads, 1,
+                                             (size_t)fmin(8192.0, fmax(512.0, 409600.0 / cap)), (double)job.n_total,
                                              &probe);
             remaining = opt->time_s - (pds_time_now() - t0);
             if (map_planned)
@@ -16847,13 +16860,14 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             /* the model again, from the map of the photons traced so far
                and a gather (its images thrown away) at 4096 vertices for a
                cap of 50, fewer for a larger cap (a query of pdm's 500 can
-               take a hundred of pm's; a query far from every photon, 200
-               us; at least 1024), on all threads, so that the pace is
-               the threads' on the machine as loaded now (tens of
-               milliseconds: long enough to measure) */
+               take a hundred of pm's, 466 us on the Cornell box at 512 x
+               512; a query far from every photon, 200 us; at least 256),
+               on all threads, so that the pace is the threads' on the
+               machine as loaded now (tens of milliseconds: long enough
+               to measure) */
             if (!job.cancelled &&
                 pds__map_probe_run(&job, opt, vertices, nvertices, threads, threads,
-                                   (size_t)fmax(1024.0, 204800.0 / pds__map_cap_requested(opt)), traced, &probe2))
+                                   (size_t)fmax(256.0, 204800.0 / pds__map_cap_requested(opt)), traced, &probe2))
                 probe = probe2;
             pds__gather_clear(&job, job.nsums);
             left = opt->time_s - (pds_time_now() - t0);
