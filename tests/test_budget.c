@@ -103,10 +103,12 @@ static void test_ppm_pass_photons_fit_the_time_left(pds_test_ctx *t)
 static void test_gather_cap_fit_interpolates_the_two_samples(pds_test_ctx *t)
 {
     CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 20e-6, NULL, 0), 20.0, 1e-9);
-    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 20.5e-6, NULL, 0), 20.0, 1e-9); /* whole caps, rounded down */
-    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 60e-6, NULL, 0), 50.0, 1e-9);   /* never above the cap asked */
-    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 1e-6, NULL, 0), 8.0, 1e-9);     /* nor below 8 */
-    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, -1.0, NULL, 0), 8.0, 1e-9);     /* the deadline passed */
+    /* whole caps, rounded down; never above the cap asked, nor below 8;
+       8 when the deadline passed */
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 20.5e-6, NULL, 0), 20.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 60e-6, NULL, 0), 50.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 1e-6, NULL, 0), 8.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, -1.0, NULL, 0), 8.0, 1e-9);
     /* a noisy pair whose cap-8 sample was no quicker */
     CHECK_NEAR(t, pds__gather_cap_fit(8.0, 60e-6, 50.0, 50e-6, 45e-6, NULL, 0), 8.0, 1e-9);
 }
