@@ -11,7 +11,8 @@
                   bounded file reading, string map, exact order-free sums,
                   time
      >>math       3-vectors in double precision, orthonormal bases, transforms
-     >>mesh       the triangle store every shape ends up in; material table
+     >>mesh       the triangle store every shape ends up in; material table;
+                  glass and mirror normals averaged at footprint scales
      >>rng        counter-based random numbers: f(seed, purpose, index, dim);
                   Halton points; stratified pixel samples (correlated
                   multi-jittered, Kensler 2013)
@@ -32,7 +33,8 @@
                   include and variables (define, $NAME, -D); a bare OBJ
                   in its studio
      >>differentials  photon differentials: emission (eqs. 2-6), transfer,
-                  reflection, refraction (Igehy 1999), footprint, eq. 12
+                  reflection, refraction (Igehy 1999), the normal's
+                  derivative at a footprint's scale, footprint, eq. 12
      >>image      PFM read/write (with a metadata trailer), PNG write (tEXt
                   metadata, tone curves: clamp, Reinhard 2002, Narkowicz's
                   ACES fit), OpenEXR write and read (deflate, inflate)
