@@ -16966,29 +16966,56 @@ static pds_status pds__light_trace_image(const pds_scene *s, const pds_options *
      sampled from the incoming directions of the global map's photons
      near x1 (Jensen 1995, "Importance driven path tracing using the
      photon map"); each follows specular surfaces to the first
-     non-specular x2 and returns the global map's radiance estimate there
-     (eq. 3 with the cone filter, eq. 4, k = 1), which ends the recursion;
-     on a Lambertian x2 the irradiance precomputed at the map's photons
-     (Christensen 1999, below) where that pays.
+     non-specular x2 and returns the light leaving x2 towards x1, which
+     ends the recursion (below).
      A gather ray that meets an emitter brings direct light (counted by
      the light sample) or a caustic (counted by the caustic method) and
      adds nothing, except at a glossy x1 (below).
    The four parts partition the light reflected at x1, so the image is
    complete: a caustic seen after a further diffuse bounce (L S+ D D E)
-   comes through the gather, in the global map's estimate at x2.
+   comes through the gather.
+
+   At x2 the light is split once more, by the vertex before x2 on the
+   light path (x2 = D, any non-specular vertex):
+   - L x2 (no vertex between the light and x2): one light sample with its
+     shadow ray, as at x1 (at a glossy x2 weighted by MIS against one
+     BSDF sample that meets the emitter);
+   - L (S|D)* S x2 (a caustic on x2) and L (S|D)* D x2 (light that left
+     a non-specular surface before): the global map's radiance estimate
+     (eq. 3 with the cone filter, eq. 4, k = 1), or on a Lambertian x2
+     the irradiance precomputed at the map's photons (Christensen 1999,
+     below) where that pays. The map leaves out the direct photons (a
+     photon's first hit, L D), so it holds exactly these paths.
+   Jensen lets the estimate at x2 answer for all of it; that blurs the
+   direct light, usually the largest part, by the estimate's disc and
+   darkens it wherever the disc leaves the surface (corners, edges), and
+   no number of camera samples removes that bias. Now the map's blur
+   touches only light that was reflected or refracted on its way, a
+   smaller and smoother share. Every eye path is thus split as
+       E S* x1 ...: x1 = D, then
+         L x1                      the light sample at x1
+         L S+ x1                   the caustic method at x1
+         L x2 S* x1                the light sample at x2 (gather)
+         L (S|D)* (S|D) x2 S* x1   the global map at x2 (gather)
+       E S* L                      the emitter seen through the chain
+   and each path L (S|D)* E is counted in exactly one line. A map of
+   streams (global_map = PDS_GLOBAL_STREAMS, seed paper 003's system)
+   keeps its direct streams, and there the estimate at x2 answers for
+   all of the light leaving x2, as in Jensen's method.
 
    Glossy x1: its gather rays sample the GGX BRDF instead (Jensen treats
    highly glossy surfaces by Monte Carlo ray tracing, sect. 4.2), and
    direct light is combined from the light sample and the gather rays
    that hit an emitter straight away, by multiple importance sampling
-   (Veach 1997, power heuristic with the sample counts). At x2 every
-   non-specular surface, glossy ones too, is the global map's estimate
-   with its own BRDF: smooth glossy surfaces seen only in a gather are
+   (Veach 1997, power heuristic with the sample counts). At x2 the map's
+   part of a glossy surface is its estimate with its own BRDF: the
+   indirect light on smooth glossy surfaces seen only in a gather is
    blurred by the density estimate (Jensen notes the same, sect. 5).
 
    Pass 1, the global photon map (sect. 3): photons leave the lights with
    the lights' own emission (not aimed), are stored at every non-specular
-   hit (at most PDS__GI_MAX_STORES per photon) and continue by the BSDF
+   hit but their first (at most PDS__GI_MAX_STORES per photon; a map of
+   streams stores the first too) and continue by the BSDF
    with Russian roulette by the albedo: survive with q = the largest
    channel of the sampled weight (capped at 1), the flux divided by q, so
    stored flux stays of the same size. Specular surfaces reflect and
@@ -17304,9 +17331,10 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
             m = &m_lambda;
         }
         if (!pds__material_is_specular(m) && (depth > 0 || b->streams)) {
-            /* a direct photon (its first hit, L D) is not stored in a
-               map of single photons: the light sample at x2 counts that
-               light (the partition above) */
+            /* a photon's first hit (L D) is not stored in a map of
+               single photons: the light sample at x2 counts that light
+               (the partition above; the shadow map keeps its own record
+               of first hits, pds__gi_shadow_line) */
             pds__gi_photon p;
             size_t lead_at = buf->n;
             int j, landed = 0;
