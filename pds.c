@@ -1054,18 +1054,43 @@ static double pds__rng_uniform(uint64_t seed, uint64_t purpose, uint64_t index, 
    function of (seed, index, dim). Spreading the photons evenly over the
    lights' area and directions removes most of the low-frequency noise of
    smooth caustics at no cost. dim < 8. */
+/* The radical inverse of i in base b, sum_k d_k b^-(k+1) for the digits
+   d_k of i. Written out once per base below so that the compiler turns
+   the division by a constant into a multiplication (a 64-bit division by
+   a variable costs tens of cycles, and each photon takes six of these
+   loops); every version does the same arithmetic, so the values do not
+   depend on which one runs. */
+#define PDS__RADICAL_INVERSE(b)                                                                                        \
+    do {                                                                                                               \
+        const double inv = 1.0 / (b);                                                                                  \
+        double f = inv, r = 0.0;                                                                                       \
+        while (i > 0) {                                                                                                \
+            r += f * (double)(i % (b));                                                                                \
+            i /= (b);                                                                                                  \
+            f *= inv;                                                                                                  \
+        }                                                                                                              \
+        return r;                                                                                                      \
+    } while (0)
+
+static double pds__radical_inverse(uint64_t i, int dim)
+{
+    switch (dim & 7) {
+    case 0: PDS__RADICAL_INVERSE(2u);
+    case 1: PDS__RADICAL_INVERSE(3u);
+    case 2: PDS__RADICAL_INVERSE(5u);
+    case 3: PDS__RADICAL_INVERSE(7u);
+    case 4: PDS__RADICAL_INVERSE(11u);
+    case 5: PDS__RADICAL_INVERSE(13u);
+    case 6: PDS__RADICAL_INVERSE(17u);
+    default: PDS__RADICAL_INVERSE(19u);
+    }
+}
+#undef PDS__RADICAL_INVERSE
+
 static double pds__halton(uint64_t seed, uint64_t index, int dim)
 {
-    static const unsigned primes[8] = {2, 3, 5, 7, 11, 13, 17, 19};
-    unsigned base = primes[dim & 7];
-    double inv = 1.0 / base, f = inv, r = 0.0, u;
-    uint64_t i = index + 1; /* index 0 would give 0 in every dimension */
-    while (i > 0) {
-        r += f * (double)(i % base);
-        i /= base;
-        f *= inv;
-    }
-    u = r + pds__rng_uniform(seed, 5, 0, (uint64_t)dim);
+    /* index 0 would give 0 in every dimension */
+    double u = pds__radical_inverse(index + 1, dim) + pds__rng_uniform(seed, 5, 0, (uint64_t)dim);
     return u >= 1.0 ? u - 1.0 : u;
 }
 
