@@ -63,12 +63,13 @@
                   paper's PDS's a + b/N plan), tracing threads, gathers,
                   the caustic image
      >>gi         Jensen's two-pass global illumination: global photon map
-                  (single photons, or streams: seed paper 003's streams
-                  where they mean something), shadow photons,
-                  importance-sampled final gather, precomputed
-                  irradiance (Christensen 1999), caustics from any
-                  caustic method, spectral rays and photons (not in
-                  PDS_NO_GI)
+                  (single photons less their first hits, or streams:
+                  seed paper 003's streams where they mean something),
+                  shadow photons, importance-sampled final gather whose
+                  end x2 takes its direct light from a light sample and
+                  the rest from the map, precomputed irradiance
+                  (Christensen 1999), caustics from any caustic method,
+                  spectral rays and photons (not in PDS_NO_GI)
      >>isc        image-space caustics (Wyman and Davis 2006): light-space
                   photon buffer, points, quads, eye- and light-space
                   gathers, temporal filter, animation frames, static
