@@ -857,8 +857,15 @@ static double pds__xform_det(const pds__xform *x)
    unit shading normal; idx[3*t..3*t+2] the corners of triangle t, mat[t]
    its material. */
 
+/* Normals at a footprint's scale (pds__mesh_smooth_normals) */
+#define PDS__NORMAL_LEVELS 3   /* averaged fields, over about 2, 4 and 8 edges */
+#define PDS__NORMAL_BEND 0.966 /* corners whose normals differ by more (15 degrees) are not averaged together */
+#define PDS__NORMAL_NOISE 2.0  /* pds__mesh_normal_diff: the noise ratio above which the averaged fields count */
+
 typedef struct pds__mesh {
     float *pos, *nrm;
+    float *smooth;       /* PDS__NORMAL_LEVELS fields of 3 * nverts: the normals
+                            at footprint scales (pds__mesh_smooth_normals) */
     size_t nverts, cap_pos, cap_nrm;
     int *idx, *mat;
     size_t ntris, cap_idx, cap_mat;
@@ -872,6 +879,7 @@ static void pds__mesh_free(pds__mesh *m)
 {
     free(m->pos);
     free(m->nrm);
+    free(m->smooth);
     free(m->idx);
     free(m->mat);
     memset(m, 0, sizeof *m);
@@ -994,6 +1002,98 @@ static int pds__materials_add(pds__materials *ms, const pds_material *m)
     if (!pds__names_put(&ms->index, m->name, strlen(m->name), (int)ms->count)) return -1;
     ms->items[ms->count] = *m;
     return (int)ms->count++;
+}
+
+/* Normals at the scale of a footprint (an extension). The vertex normals
+   of a scanned or exported mesh carry noise from one triangle to the next,
+   so the derivative of the interpolated normal within one triangle is the
+   noise's, often many times the surface's curvature. A photon whose
+   footprint spans many such triangles extrapolated it over the footprint
+   and was spread as if the glass were that curved, though the light those
+   normals really scatter is already in the photons' own directions: on a
+   glass sphere whose vertex normals were tilted at random by 0.085 rad,
+   the floor around its caustic got 21% too much light at 2 million
+   photons, blurred out of the focus (light-traced reference), where pm
+   converged. The derivative a footprint needs is that of the normal field
+   at its own scale (pds__mesh_normal_diff). Field l (1 ..
+   PDS__NORMAL_LEVELS) holds the vertex normals averaged 4^l times over
+   their one-ring (each vertex with the vertices it shares a triangle
+   with, then normalised): a diffusion over about 2^l edges. On a smooth
+   tessellation the average keeps the normals (a circle's normals averaged
+   over an arc are its normal at the arc's middle), so the derivative stays
+   the curvature, while independent noise averages out. Two corners whose
+   normals differ by more than PDS__NORMAL_BEND are not averaged together
+   (a crease the loader did not split), and only the vertices of mirror,
+   conductor and dielectric triangles, over those triangles: a photon's
+   differentials turn nowhere else. Returns -1 out of memory. */
+static int pds__mesh_smooth_normals(pds__mesh *m, const pds__materials *mats)
+{
+    size_t nv = m->nverts, t, i;
+    unsigned char *active = NULL;
+    double *acc = NULL;
+    float *cur, *next;
+    int level, any = 0, done = 0;
+    free(m->smooth);
+    m->smooth = NULL;
+    if (nv == 0) return 0;
+    active = (unsigned char *)calloc(m->ntris, 1);
+    if (!active) return -1;
+    for (t = 0; t < m->ntris; t++) {
+        pds_material_type ty = m->mat[t] >= 0 && (size_t)m->mat[t] < mats->count ? mats->items[m->mat[t]].type
+                                                                                  : PDS_MAT_DIFFUSE;
+        active[t] = ty == PDS_MAT_MIRROR || ty == PDS_MAT_CONDUCTOR || ty == PDS_MAT_DIELECTRIC;
+        any |= active[t];
+    }
+    if (!any) {
+        free(active);
+        return 0;
+    }
+    m->smooth = (float *)malloc(sizeof(float) * 3 * nv * PDS__NORMAL_LEVELS);
+    acc = (double *)malloc(sizeof(double) * 3 * nv);
+    next = (float *)malloc(sizeof(float) * 3 * nv);
+    if (!m->smooth || !acc || !next) {
+        free(m->smooth);
+        m->smooth = NULL;
+        free(acc);
+        free(next);
+        free(active);
+        return -1;
+    }
+    cur = m->nrm;
+    for (level = 1; level <= PDS__NORMAL_LEVELS; level++) {
+        float *dst = m->smooth + 3 * nv * (size_t)(level - 1);
+        int total = 1 << (2 * level); /* 4^level averagings from the normals */
+        for (; done < total; done++) {
+            for (i = 0; i < 3 * nv; i++) acc[i] = cur[i];
+            for (t = 0; t < m->ntris; t++) {
+                const int *ix = &m->idx[3 * t];
+                int c, k;
+                if (!active[t]) continue;
+                for (c = 0; c < 3; c++) {
+                    const float *na = cur + 3 * (size_t)ix[c];
+                    int j;
+                    for (j = 1; j <= 2; j++) {
+                        const float *nb = cur + 3 * (size_t)ix[(c + j) % 3];
+                        /* a bend sharper than PDS__NORMAL_BEND between two
+                           corners is the shape, not noise: not averaged */
+                        if ((double)na[0] * nb[0] + (double)na[1] * nb[1] + (double)na[2] * nb[2] < PDS__NORMAL_BEND) continue;
+                        for (k = 0; k < 3; k++) acc[3 * (size_t)ix[c] + (size_t)k] += nb[k];
+                    }
+                }
+            }
+            for (i = 0; i < nv; i++) {
+                double l = sqrt(acc[3 * i] * acc[3 * i] + acc[3 * i + 1] * acc[3 * i + 1] + acc[3 * i + 2] * acc[3 * i + 2]);
+                int k;
+                for (k = 0; k < 3; k++) next[3 * i + k] = l > 0.0 ? (float)(acc[3 * i + k] / l) : cur[3 * i + k];
+            }
+            memcpy(dst, next, sizeof(float) * 3 * nv);
+            cur = dst;
+        }
+    }
+    free(acc);
+    free(next);
+    free(active);
+    return 0;
 }
 
 /* ===================================================================== */
@@ -8266,13 +8366,15 @@ static pds_status pds__scene_finish(pds_scene *s, pds_error *err)
         /* the BVH build holds about 112 bytes a triangle on top of the mesh
            (measured: a 2.1M-triangle sphere peaks at 139 bytes a triangle
            in all); refuse before starting what cannot fit */
-        double need = (double)s->mesh.ntris * 112.0 + (double)s->mesh.nverts * 24.0 + (double)s->mesh.ntris * 16.0;
+        double need = (double)s->mesh.ntris * 112.0 + (double)s->mesh.nverts * (24.0 + 12.0 * PDS__NORMAL_LEVELS) +
+                      (double)s->mesh.ntris * 16.0;
         double have = pds__physical_memory();
         if (have > 0.0 && need > have)
             return pds__fail(err, PDS_ERR_LIMIT, s->path, 0, 0,
                              "%lu triangles need about %.1f GB to load, more than this machine's %.1f GB",
                              (unsigned long)s->mesh.ntris, need / 1e9, have / 1e9);
     }
+    if (pds__mesh_smooth_normals(&s->mesh, &s->materials)) return pds__nomem(err);
     t0 = pds_time_now();
     st = pds__bvh_build(&s->bvh, s->mesh.pos, s->mesh.idx, s->mesh.ntris, err);
     s->bvh_build_s = pds_time_now() - t0;
@@ -9106,26 +9208,78 @@ static int pds__diff_transfer(pds__ray_diff *r, double t, pds__v3 ng)
    Flat triangles (equal vertex normals) and degenerate data give 0. The
    result is for the normal as stored (pds__scene_fill_hit's ns): negate it
    wherever that normal is negated. */
-static void pds__mesh_normal_diff(const pds__mesh *m, long tri, double u, double v, pds__v3 dp, pds__v3 *dn)
+/* The derivative along dp of the normalised interpolation of the normals
+   nrm[3 * i ...] at the corners of triangle tri, at (u, v). */
+static pds__v3 pds__tri_normal_diff(const pds__mesh *m, const float *nrm, long tri, double u, double v, pds__v3 dp)
 {
     const int *ix = &m->idx[3 * tri];
     pds__v3 p0 = pds__mesh_pos(m, ix[0]), p1 = pds__mesh_pos(m, ix[1]), p2 = pds__mesh_pos(m, ix[2]);
-    pds__v3 n0 = pds__mesh_nrm(m, ix[0]), n1 = pds__mesh_nrm(m, ix[1]), n2 = pds__mesh_nrm(m, ix[2]);
+    pds__v3 n0 = pds__v(nrm[3 * ix[0]], nrm[3 * ix[0] + 1], nrm[3 * ix[0] + 2]);
+    pds__v3 n1 = pds__v(nrm[3 * ix[1]], nrm[3 * ix[1] + 1], nrm[3 * ix[1] + 2]);
+    pds__v3 n2 = pds__v(nrm[3 * ix[2]], nrm[3 * ix[2] + 1], nrm[3 * ix[2] + 2]);
     pds__v3 e1 = pds__sub(p1, p0), e2 = pds__sub(p2, p0), g = pds__cross(e1, e2);
-    pds__v3 a = pds__cross(e2, g), b = pds__cross(e1, g), n, dnu;
+    pds__v3 a = pds__cross(e2, g), b = pds__cross(e1, g), n, dnu, dn;
     double ae = pds__dot(a, e1), be = pds__dot(b, e2), du, dv, nn, ndn, inv;
-    *dn = pds__v(0.0, 0.0, 0.0);
-    if (ae == 0.0 || be == 0.0) return;
+    if (ae == 0.0 || be == 0.0) return pds__v(0.0, 0.0, 0.0);
     du = pds__dot(a, dp) / ae;
     dv = pds__dot(b, dp) / be;
     n = pds__add(pds__add(pds__scale(n0, 1.0 - u - v), pds__scale(n1, u)), pds__scale(n2, v));
     dnu = pds__add(pds__scale(pds__sub(n1, n0), du), pds__scale(pds__sub(n2, n0), dv));
     nn = pds__dot(n, n);
-    if (!(nn > 0.0)) return; /* the hit then uses the geometric normal: constant */
+    if (!(nn > 0.0)) return pds__v(0.0, 0.0, 0.0); /* the hit then uses the geometric normal: constant */
     ndn = pds__dot(n, dnu);
     inv = 1.0 / (nn * sqrt(nn));
-    *dn = pds__scale(pds__sub(pds__scale(dnu, nn), pds__scale(n, ndn)), inv);
-    if (!pds__diff_finite(*dn)) *dn = pds__v(0.0, 0.0, 0.0);
+    dn = pds__scale(pds__sub(pds__scale(dnu, nn), pds__scale(n, ndn)), inv);
+    return pds__diff_finite(dn) ? dn : pds__v(0.0, 0.0, 0.0);
+}
+
+/* The shading normal's differential *dn along dp at (u, v) of triangle
+   tri, for a footprint of half-width scale there. Within a triangle (a
+   footprint at most its size e = sqrt(2 area) across) and on smooth
+   normals: the derivative of the interpolated vertex normals, as ray
+   differentials take it (Igehy 1999). On noisy normals: the derivative of
+   the averaged fields at the footprint's scale (pds__mesh_smooth_normals;
+   field l at about 2^l edges, interpolated in log2(2 scale / e), the
+   footprint's width in triangles). Noise is told from shape by how far
+   the one derivative lies from the other, rho = |DN - DN_avg| / |DN_avg|:
+   on smooth normals averaging changes the derivative only where the
+   curvature itself changes over the footprint (a few tens of percent on
+   the cognac glass's coarse revolve), on noise by several times its
+   size. The averaged derivative's weight rises from 0 at rho =
+   PDS__NORMAL_NOISE to 1 at 1.5 times that; the blend keeps only its part
+   across the shading normal, so that it stays the derivative of a unit
+   vector. */
+static void pds__mesh_normal_diff(const pds__mesh *m, long tri, double u, double v, pds__v3 dp, double scale,
+                                  pds__v3 *dn)
+{
+    const int *ix = &m->idx[3 * tri];
+    double e, lambda, f, rho, w;
+    int l0;
+    pds__v3 n, ds;
+    *dn = pds__tri_normal_diff(m, m->nrm, tri, u, v, dp);
+    if (!m->smooth || !(scale > 0.0)) return;
+    e = sqrt(pds__mesh_tri_area2(m, ix[0], ix[1], ix[2]));
+    if (!(2.0 * scale > e)) return;
+    lambda = log2(2.0 * scale / e);
+    if (lambda > PDS__NORMAL_LEVELS) lambda = PDS__NORMAL_LEVELS;
+    l0 = (int)lambda;
+    f = lambda - l0;
+    ds = *dn;
+    if (l0 > 0) ds = pds__tri_normal_diff(m, m->smooth + 3 * m->nverts * (size_t)(l0 - 1), tri, u, v, dp);
+    if (f > 0.0)
+        ds = pds__add(pds__scale(ds, 1.0 - f),
+                      pds__scale(pds__tri_normal_diff(m, m->smooth + 3 * m->nverts * (size_t)l0, tri, u, v, dp), f));
+    rho = pds__length(pds__sub(*dn, ds)) / (pds__length(ds) + 1e-300);
+    w = (rho - PDS__NORMAL_NOISE) / (0.5 * PDS__NORMAL_NOISE);
+    if (!(w > 0.0)) return;
+    if (w > 1.0) w = 1.0;
+    *dn = pds__add(pds__scale(*dn, 1.0 - w), pds__scale(ds, w));
+    n = pds__add(pds__add(pds__scale(pds__mesh_nrm(m, ix[0]), 1.0 - u - v), pds__scale(pds__mesh_nrm(m, ix[1]), u)),
+                 pds__scale(pds__mesh_nrm(m, ix[2]), v));
+    if (pds__dot(n, n) > 0.0) {
+        n = pds__normalize(n);
+        *dn = pds__sub(*dn, pds__scale(n, pds__dot(n, *dn)));
+    }
 }
 
 /* Igehy's reflected directional differential for incident unit d, unit
@@ -14565,6 +14719,10 @@ typedef struct pds__photon_job {
                                   by which the gather should end (>>baselines:
                                   pds__gather_run), else 0 */
     size_t gather_k;           /* pm, pdm, spm: the cap the last gather used */
+    size_t probe_k2;           /* the map methods' probe (pds__map_probe_run), if
+                                  > 0: pds__gather_run gathers twice on the one
+                                  map, with the cap and then with this cap */
+    double probe_s[2], probe_found[2]; /* ... the seconds and photons found of each */
     double gather_radius;      /* ... and the search radius a time budget bounded it by (0: none) */
     size_t nsums;              /* entries of each thread's exact image (3 a pixel) */
     double gather_found;       /* pm, pdm: photons its queries returned */
@@ -15110,8 +15268,9 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
         {
             pds__v3 nsu = pds__normalize(hit.ns);
             double agree = pds__dot(n, nsu);
-            pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdu, &dndu);
-            pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdv, &dndv);
+            double scale = 0.5 * fmax(pds__length(r.dpdu), pds__length(r.dpdv));
+            pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdu, scale, &dndu);
+            pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdv, scale, &dndv);
             if (agree < -0.999999) {
                 dndu = pds__scale(dndu, -1.0);
                 dndv = pds__scale(dndv, -1.0);
@@ -15520,15 +15679,61 @@ typedef struct pds__gather {
     int next_buf;              /* guarded by lock */
     int out_of_memory;         /* guarded by lock */
     double found;              /* guarded by lock: photons the queries returned */
-    size_t sample;             /* S > 0: gather only vertices i with i % S == 0
-                                  (phase 1) or only the others (phase 2) */
+    size_t sample;             /* S > 0: gather only the vertices of the sample
+                                  (pds__gather_sampled: phase 1) or only the
+                                  others (phase 2) */
     int sample_phase;
-    double *kth;               /* phase 1, if not NULL: kth[i / S] = the squared
-                                  distance of the farthest photon found at i
-                                  (DBL_MAX: none) */
+    double *kth;               /* phase 1, if not NULL: kth[pds__gather_sample_at(i,
+                                  S)] = the squared distance of the farthest
+                                  photon found at i (DBL_MAX: none) */
+    float *nfound;             /* phase 1, if not NULL: nfound[pds__gather_sample_at(i,
+                                  S)] = the photons found at i */
 } pds__gather;
 
-#define PDS__GATHER_CHUNK 1024
+#define PDS__GATHER_CHUNK 1024 /* a whole number of PDS__SAMPLE_RUN */
+
+/* A gather's sample (under a time budget, to measure its pace): runs of
+   PDS__SAMPLE_RUN consecutive vertices, one run in every block of S runs,
+   at a place in its block that a hash of the block's number picks.
+   Consecutive vertices are neighbouring pixels' samples, whose queries
+   visit the same kd-tree nodes, as the whole gather's do; a sample of
+   single vertices far apart pays a cache miss at every node of every
+   query and measured queries two to five times slower than the gather
+   then ran (pm, k = 8, refraction case: 0.9 against 0.43 us), and runs of
+   16 (one pixel's samples at 16 spp) still three times (the ring and
+   octahedron: 1.57 against 0.48 us on two threads). The place
+   moves from block to block because a block is often a whole number of
+   image rows: at the same place in each, the sample would be a stripe of
+   the image (one column of 4 pixels a row at 256 x 256 and 4 samples a
+   pixel, S = 64), and the queries of a stripe are not the image's
+   (reflection case: its k = 8 queries 2.5 times quicker). */
+#define PDS__SAMPLE_RUN 64
+
+/* The run of block b that the sample takes. */
+static size_t pds__gather_sample_run(size_t b, size_t S)
+{
+    return (size_t)(pds__mix64((uint64_t)b + 0x5A17u) % (uint64_t)S);
+}
+
+static int pds__gather_sampled(size_t i, size_t S)
+{
+    size_t r = i / PDS__SAMPLE_RUN;
+    return r % S == pds__gather_sample_run(r / S, S);
+}
+
+/* The place of sampled vertex i among the sample's, and the sample's size
+   among nv vertices. */
+static size_t pds__gather_sample_at(size_t i, size_t S)
+{
+    return i / (PDS__SAMPLE_RUN * S) * PDS__SAMPLE_RUN + i % PDS__SAMPLE_RUN;
+}
+
+static size_t pds__gather_sample_count(size_t nv, size_t S)
+{
+    size_t block = PDS__SAMPLE_RUN * S, last = nv / block, r = nv % block;
+    size_t first = PDS__SAMPLE_RUN * pds__gather_sample_run(last, S); /* the last block's run, from its start */
+    return last * PDS__SAMPLE_RUN + (r > first ? (r - first < PDS__SAMPLE_RUN ? r - first : PDS__SAMPLE_RUN) : 0);
+}
 
 static void *pds__gather_worker(void *arg)
 {
@@ -15556,10 +15761,14 @@ static void *pds__gather_worker(void *arg)
             double sum[3] = {0, 0, 0};
             size_t n;
             int c;
-            if (g->sample && (i % g->sample == 0) != (g->sample_phase == 1)) continue;
+            if (g->sample && i % PDS__SAMPLE_RUN == 0 && pds__gather_sampled(i, g->sample) != (g->sample_phase == 1)) {
+                i += PDS__SAMPLE_RUN - 1; /* the whole run is not this phase's (chunks are whole runs) */
+                continue;
+            }
             n = pds__kdtree_knn(g->tree, pds__f3_get(v->pos), g->k, g->radius, idx, d2);
             found += n;
-            if (g->kth && g->sample_phase == 1) g->kth[i / g->sample] = n ? d2[n - 1] : DBL_MAX;
+            if (g->kth && g->sample_phase == 1) g->kth[pds__gather_sample_at(i, g->sample)] = n ? d2[n - 1] : DBL_MAX;
+            if (g->nfound && g->sample_phase == 1) g->nfound[pds__gather_sample_at(i, g->sample)] = (float)n;
             if (n == 0) continue;
             g->estimate(g, v, idx, d2, n, sum);
             for (c = 0; c < 3; c++)
@@ -15582,20 +15791,49 @@ static void pds__gather_once(pds__gather *g, pds__photon_job *job, int threads)
     pds__mutex_destroy(&g->lock);
 }
 
-/* The gather under a time budget: the cap whose gather fits the time left,
-   from two measured samples of it. t_k and t_8 are the seconds a query
-   took (on all threads, on the final map) with the cap k and with a cap
-   of 8; a query's cost is taken to grow linearly with the cap between
-   them (it does with the photons found, which grow with the cap up to
-   those within reach). Returns the largest cap in [8, k] (k > 8) whose
-   queries take at most `per_query` seconds; 8 if none does. */
-static double pds__gather_cap_fit(double k, double t_k, double t_8, double per_query)
+/* F(c): the photons a query finds on average with a cap of c, when the
+   sample's queries with a larger cap found found[0..n-1] (each finds
+   min(c, what it found)); c itself when found is NULL. */
+static double pds__gather_found(const float *found, size_t n, double c)
 {
-    double c;
-    if (t_k <= per_query) return k;
-    if (!(t_k > t_8)) return per_query >= t_8 ? k : 8.0;
-    c = floor(8.0 + (per_query - t_8) * (k - 8.0) / (t_k - t_8));
-    return fmin(k, fmax(8.0, c));
+    double sum = 0.0;
+    size_t i;
+    if (!found || n == 0) return c;
+    for (i = 0; i < n; i++) sum += fmin(c, (double)found[i]);
+    return sum / (double)n;
+}
+
+/* The gather under a time budget: the cap whose gather fits the time left,
+   from measured samples of it. t0 and t1 are the seconds a query took
+   (on all threads, on the final map) with caps c0 < c1 (8 and the cap
+   asked for; then the cap chosen and one of those); a query's cost grows
+   linearly with the photons it finds, so at a cap c between them it
+   takes
+     t(c) = t0 + (t1 - t0) (F(c) - F(c0)) / (F(c1) - F(c0)),
+   F from the photons each query of the cap-k sample found
+   (pds__gather_found; found NULL: F(c) = c, the line through the two).
+   Most queries find the cap at small caps and what lies within reach at
+   large ones, so t(c) bends down: the line through the two samples
+   under-rated caps between them (pdm on the refraction case: 6.3 us
+   a query planned, 8.4 us taken at a cap of 149). Returns the largest
+   cap in [c0, c1] whose queries take at most `per_query` seconds; c0 if
+   none does. */
+static double pds__gather_cap_fit(double c0, double t0, double c1, double t1, double per_query, const float *found,
+                                  size_t n)
+{
+    double lo = c0, hi = c1, f0, f1;
+    if (t1 <= per_query) return c1;
+    if (!(t1 > t0)) return per_query >= t0 ? c1 : c0;
+    f0 = pds__gather_found(found, n, c0);
+    f1 = pds__gather_found(found, n, c1);
+    if (!(f1 > f0)) return per_query >= t0 ? c1 : c0;
+    /* t(c) grows with c: bisect over whole caps for the largest that fits */
+    while (hi - lo > 1.0) {
+        double mid = floor(0.5 * (lo + hi));
+        if (t0 + (t1 - t0) * (pds__gather_found(found, n, mid) - f0) / (f1 - f0) <= per_query) lo = mid;
+        else hi = mid;
+    }
+    return lo;
 }
 
 static int pds__cmp_double(const void *a, const void *b)
@@ -15617,31 +15855,44 @@ static void pds__gather_clear(pds__photon_job *job, size_t nsums)
 
 /* Run the gather on the threads that own the photon pass's images. With a
    time budget (job->gather_deadline > 0) the cap g->k is measured rather
-   than modelled (>>photonpass: step 3 of the plan): about 256 vertices are
-   gathered first with that cap (and thrown away); if the whole gather at
-   that pace ends by the deadline, it is made; else every 64th vertex is
-   gathered with a cap of 8, the cap pds__gather_cap_fit gives is taken,
-   and the whole gather is made with it (the sample kept if that cap is 8,
-   and the rest gathered after it; a search radius bounded as below if
-   even 8 cannot end in time). The images hold each vertex's estimate
-   once, whatever was measured. */
+   than modelled (>>photonpass: step 3 of the plan): a sample of about
+   2048 vertices (fewer for a cap above 50) is gathered first with that
+   cap (and thrown away; the photons each query found are kept); if the
+   whole gather at that pace ends by the deadline, it is made; else a
+   64th of the vertices is gathered with a cap of 8, the cap
+   pds__gather_cap_fit gives is taken, measured on the same sample and
+   fitted again, and the whole gather is made with it (the sample kept
+   if the cap stood or is 8, and the rest gathered after it; a search
+   radius bounded as below if even 8 cannot end in time). Samples are
+   runs of neighbours (pds__gather_sampled). The images hold each
+   vertex's estimate once, whatever was measured. */
 static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int threads, pds_error *err)
 {
     const size_t S = 64;
     double k0 = (double)g->k;
+    float *nfound = NULL; /* the photons each query of the cap-k sample found */
     g->bufs = job->bufs;
     g->sample = 0;
     g->kth = NULL;
     job->gather_radius = 0.0;
     if (job->gather_deadline > 0.0 && g->k > 8 && g->nv >= 64 * S) {
-        double ns = (double)((g->nv + S - 1) / S), t = pds_time_now(), t_k, t_8, cap;
-        size_t S2 = g->nv / 256 > S ? g->nv / 256 : S; /* about 256 vertices */
+        double ns = (double)pds__gather_sample_count(g->nv, S), t, t_k, t_8, cap;
+        /* about 2048 vertices at a cap of 50, fewer at a larger cap (at
+           least 256: 2048 of pdm's queries at 500 took 0.28 s on the
+           Cornell box at 512 x 512) */
+        size_t want = (size_t)fmax(256.0, fmin(2048.0, 102400.0 / k0));
+        size_t S2 = g->nv / want > S ? g->nv / want : S;
+        size_t n2 = pds__gather_sample_count(g->nv, S2);
         /* the pace with the cap asked for, on a coarse sample (not kept:
            a query with a cap of 500 can cost a hundred of a cap of 8) */
+        g->nfound = (float *)malloc(sizeof *g->nfound * n2); /* none: F(c) = c */
         g->sample = S2;
         g->sample_phase = 1;
+        t = pds_time_now();
         pds__gather_once(g, job, threads);
-        t_k = (pds_time_now() - t) / (double)((g->nv + S2 - 1) / S2);
+        t_k = (pds_time_now() - t) / (double)n2;
+        nfound = g->nfound;
+        g->nfound = NULL;
         pds__gather_clear(job, job->nsums);
         g->found = 0.0;
         g->sample = 0;
@@ -15652,12 +15903,31 @@ static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int thre
             t = pds_time_now();
             pds__gather_once(g, job, threads);
             t_8 = (pds_time_now() - t) / ns;
-            cap = pds__gather_cap_fit(k0, t_k, t_8, (job->gather_deadline - pds_time_now()) / (double)g->nv);
+            cap = pds__gather_cap_fit(8.0, t_8, k0, t_k, (job->gather_deadline - pds_time_now()) / (double)g->nv,
+                                      nfound, nfound ? n2 : 0);
             if (cap > 8.0) {
+                /* the cap chosen, measured on the same sample: the fit
+                   again between it and the nearer of the two (a query's
+                   cost is not quite linear in the photons found: pdm's
+                   cap of 66 on the demo scene took 6.6 us a query where
+                   the line through caps 8 and 500 said 9.3); kept if
+                   it stands */
+                double t_c, c2, left_q;
                 pds__gather_clear(job, job->nsums);
                 g->found = 0.0;
-                g->sample = 0;
                 g->k = (size_t)cap;
+                t = pds_time_now();
+                pds__gather_once(g, job, threads);
+                t_c = (pds_time_now() - t) / ns;
+                left_q = (job->gather_deadline - pds_time_now()) / ((double)g->nv - ns);
+                c2 = t_c <= left_q ? pds__gather_cap_fit(cap, t_c, k0, t_k, left_q, nfound, nfound ? n2 : 0)
+                                   : pds__gather_cap_fit(8.0, t_8, cap, t_c, left_q, nfound, nfound ? n2 : 0);
+                if (c2 != cap) {
+                    pds__gather_clear(job, job->nsums);
+                    g->found = 0.0;
+                    g->sample = 0;
+                    g->k = (size_t)c2;
+                }
             } else if (g->kth && t_8 * ((double)g->nv - ns) > job->gather_deadline - pds_time_now()) {
                 /* even k = 8 cannot end in time: the queries far from
                    every photon (whose k nearest lie far off, and whose
@@ -15686,10 +15956,26 @@ static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int thre
         }
         g->sample_phase = 2;
     }
-    if (!g->out_of_memory) pds__gather_once(g, job, threads);
+    if (job->probe_k2 > 0) {
+        /* the map probe: the two gathers, each timed, on the one map */
+        size_t k = g->k;
+        int j;
+        for (j = 0; j < 2 && !g->out_of_memory; j++) {
+            double t = pds_time_now();
+            g->k = j ? job->probe_k2 : k;
+            g->found = 0.0;
+            pds__gather_once(g, job, threads);
+            job->probe_s[j] = pds_time_now() - t;
+            job->probe_found[j] = g->found;
+        }
+        g->k = k;
+    } else if (!g->out_of_memory) {
+        pds__gather_once(g, job, threads);
+    }
     g->sample = 0;
     free(g->kth);
     g->kth = NULL;
+    free(nfound);
     job->gather_k = g->k;
     return g->out_of_memory ? pds__nomem(err) : PDS_OK;
 }
@@ -16040,23 +16326,30 @@ static double pds__default_radius(const pds_scene *s)
    vertices. A whole pass if it fits; else a shorter one whose tracing
    fits beside an update as long as the last (an update costs the range
    queries of every vertex even when few photons come), in whole batches
-   (PDS__PHOTON_BATCH); none if not one batch fits. Hachisuka et al.'s
+   (PDS__PHOTON_BATCH); if not one batch fits, one batch when that pass
+   would end nearer T than stopping now (its overrun less than the time
+   left: at 512 x 512 an update of a million vertices is most of a
+   second, and stopping a pass early left a quarter of a 3 s budget
+   unused); else none. Hachisuka et al.'s
    recurrence holds for passes of any size: the estimate is
    tau / (pi R^2 N_emitted) with N_emitted the photons of all passes. */
 static long pds__ppm_pass_photons(double left, double trace_s, double update_s, long photons)
 {
-    double n;
+    double n, batch = (double)PDS__PHOTON_BATCH;
     if (trace_s + update_s <= left) return photons;
-    if (!(trace_s > 0.0) || left <= update_s) return 0;
-    n = floor((double)photons * (left - update_s) / trace_s / PDS__PHOTON_BATCH) * PDS__PHOTON_BATCH;
-    return n >= (double)PDS__PHOTON_BATCH ? (long)n : 0;
+    if (!(trace_s > 0.0) || !(left > 0.0)) return 0;
+    n = floor((double)photons * (left - update_s) / trace_s / batch) * batch;
+    if (n >= batch) return (long)n;
+    if (update_s + trace_s * batch / (double)photons - left >= left) return 0;
+    return photons < PDS__PHOTON_BATCH ? photons : PDS__PHOTON_BATCH;
 }
 
 /* Progressive photon mapping: passes of opt->photons photons, each
    updating every eye vertex, until opt->passes (or, with a time budget,
-   until the time is spent: each pass as long as pds__ppm_pass_photons
-   finds room for, whole while they fit, then shorter ones; at least one
-   pass). Adds the radiance of each
+   until the time is spent: the first pass tracing for a quarter of it
+   at most, then each pass as long as pds__ppm_pass_photons finds room
+   for, whole while they fit, then shorter ones; at least one pass of one
+   batch). Adds the radiance of each
    vertex into the exact sums of job->bufs[0] (for a factor n_planned /
    emitted of 1), unless the progress callback stopped it (job->cancelled:
    then nothing). *emitted_out gets the photons emitted. */
@@ -16074,9 +16367,23 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
     for (pass = 0; !st; pass++) {
         long this_pass, next;
         double tt = pds_time_now(), tu;
+        /* a time budget: the first pass traces a quarter of it at most,
+           so that its update (which the next passes' sizes are planned
+           from) comes in time too when one pass of --photons would not */
+        job->deadline = opt->time_s > 0.0 && pass == 0 ? job->t0 + 0.25 * opt->time_s : 0.0;
         pds__photon_run(job, threads, pass * (long)opt->photons);
+        job->deadline = 0.0;
+        if (job->batches_done == 0 && !job->cancelled) {
+            /* the quarter was gone before the first batch: one batch, so
+               that the image has caustics (and the overrun shows) */
+            long n = job->n_total;
+            job->n_total = n < PDS__PHOTON_BATCH ? n : PDS__PHOTON_BATCH;
+            pds__photon_run(job, threads, pass * (long)opt->photons);
+            job->n_total = n;
+        }
         this_pass = job->batches_done * (long)PDS__PHOTON_BATCH;
-        emitted += this_pass < job->n_total ? this_pass : job->n_total;
+        if (this_pass > job->n_total) this_pass = job->n_total;
+        emitted += this_pass;
         for (t = 0; t < job->nbufs; t++)
             if (job->bufs[t].out_of_memory) st = PDS_ERR_NOMEM;
         if (job->cancelled) break;
@@ -16091,7 +16398,7 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
         }
         /* a time budget: the next pass's size from this one's times */
         next = pds__ppm_pass_photons(opt->time_s - (pds_time_now() - job->t0), (tu - tt) * (double)opt->photons /
-                                     (double)job->n_total, pds_time_now() - tu, opt->photons);
+                                     (double)(this_pass > 0 ? this_pass : 1), pds_time_now() - tu, opt->photons);
         if (next == 0) {
             pass++;
             break;
@@ -16257,22 +16564,30 @@ static pds_status pds__spm_gather(pds__photon_job *job, const pds_options *opt, 
       tracing at all) give the one-thread rate and the model, with P = the
       thread count;
    2. the threads trace for half the planned tracing time; the photons
-      traced so far are probed again (one thread, P = the thread count)
-      at about 1024 vertices (fewer for a cap above 50), so that the
-      model's figures come from a map about half the final size on the
-      machine as it is loaded now; and the plan is
-      made again, for the photons traced and the rest, at the threads'
-      measured rate;
+      traced so far are probed again, on all threads (P = 1) at about
+      4096 vertices (fewer for a cap above 50; tens of milliseconds), so
+      that the model's figures come from a map about half the final size
+      on the machine as it is loaded now; and the plan is made again, for
+      the photons traced and the rest, at the threads' measured rate;
    3. the gather measures rather than models (pds__gather_run): on the
-      final map, on all threads, it gathers every 64th vertex, and if the
-      rest at that pace would end after the budget, it measures the same
-      sample with a cap of 8 and takes the largest cap whose pace fits
-      (at least min(8, cap): Jensen's fewest photons for an estimate).
-      Only a gather that could not fit otherwise gets a lower cap, and
-      the render reports the cap it used (gather_cap).
-   Whatever the model says, tracing gets a quarter of the budget at least:
-   a render without caustics is no answer (and misses show in the time the
-   render reports). */
+      final map, on all threads, it gathers about 2048 vertices, and if
+      the rest at that pace would end after the budget, it measures a
+      sample of a 64th of the vertices with a cap of 8 and takes the
+      largest cap whose pace fits (at least min(8, cap): Jensen's fewest
+      photons for an estimate), from the photons each query found
+      (pds__gather_cap_fit). Only a gather that could not fit otherwise
+      gets a lower cap, and the render reports the cap it used
+      (gather_cap).
+   Every probe and sample is of runs of neighbouring vertices, scattered
+   over the image (pds__gather_sampled): queries of single vertices far
+   apart ran two to five times slower than the gather they were to
+   foretell, and the plan undershot by as much (pm, pdm and spm landed at
+   0.55-0.76 of T). A probe builds its map once for both of its gathers
+   (a build of the half-size map had been a sixth of a 3 s budget).
+   Whatever the model says, tracing gets a quarter of the budget at least
+   (half when not even a cap of 8 fits: the gather will bound its radius,
+   step 3, at a cost the model does not know): a render without caustics
+   is no answer (and misses show in the time the render reports). */
 /* What the probe measured (all times in seconds). */
 typedef struct pds__map_probe {
     double build_s, gather_s;  /* the probe map's build, its gather */
@@ -16329,7 +16644,7 @@ static double pds__map_plan(const pds__map_probe *p, int pdm, double cap, size_t
 static double pds__map_tracing(const pds__map_probe *p, int pdm, double cap, size_t nv, double rate, double traced,
                                double traced_s, double left, double *cap_out)
 {
-    double lo = fmin(8.0, cap), hi = cap;
+    double lo = fmin(8.0, cap), hi = cap, floor_share = 0.25;
     if (pds__map_plan(p, pdm, hi, nv, rate, traced, left) < 0.25 * left) {
         while (hi - lo > 1.0) {
             double mid = floor(0.5 * (lo + hi));
@@ -16337,9 +16652,13 @@ static double pds__map_tracing(const pds__map_probe *p, int pdm, double cap, siz
             else hi = mid;
         }
         cap = lo;
+        /* not even the smallest cap fits: the gather will bound its
+           search radius (step 3), at a cost the model does not know; it
+           gets the other half */
+        if (pds__map_plan(p, pdm, cap, nv, rate, traced, left) < 0.25 * left) floor_share = 0.5;
     }
     *cap_out = cap;
-    return fmax(0.25 * (left + traced_s) - traced_s, pds__map_plan(p, pdm, cap, nv, rate, traced, left));
+    return fmax(floor_share * (left + traced_s) - traced_s, pds__map_plan(p, pdm, cap, nv, rate, traced, left));
 }
 
 /* The cap a map method's gather is asked for: pm's and spm's k, pdm's
@@ -16349,25 +16668,25 @@ static double pds__map_cap_requested(const pds_options *opt)
     return (double)(opt->method == PDS_METHOD_PDM ? opt->max_photons : opt->k);
 }
 
-/* The probes of steps 1 and 2: fill *p from a build of the photons stored
-   so far (`emitted` emitted) and gathers at most about max_vertices of the
-   eye vertices, with the cap and with a cap of 8, on probe_threads
-   threads (of `threads`). The stored photons are left as they were; the
-   caller throws the probes' images away. 0 if nothing could be measured
-   (no photon stored, say). */
+/* The probes of steps 1 and 2: fill *p from one build of the photons
+   stored so far (`emitted` emitted) and two gathers at about max_vertices
+   of the eye vertices (runs of neighbours, pds__gather_sampled), with the
+   cap and with a cap of 8, on probe_threads threads (of `threads`). The
+   stored photons are left as they were; the caller throws the probes'
+   images away. 0 if nothing could be measured (no photon stored, say). */
 static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, const pds__eye_vertex *v, size_t nv,
                               int threads, int probe_threads, size_t max_vertices, double emitted,
                               pds__map_probe *p)
 {
     size_t step = nv / max_vertices + 1, nsub = 0, i, nkept = 0;
-    pds__eye_vertex *sub = (pds__eye_vertex *)malloc(sizeof *sub * (nv / step + 1));
+    pds__eye_vertex *sub = (pds__eye_vertex *)malloc(sizeof *sub * (pds__gather_sample_count(nv, step) + 1));
     pds__stored_photon *kept = NULL; /* pm, spm: the stored photons, which a gather consumes */
-    pds_options low = *opt;
     pds_error ignored;
     pds_status st = PDS_OK;
-    int two = pds__map_cap_requested(opt) > 8.0, t, probe, ok = 1;
+    int t, ok = 1;
     if (!sub) return 0;
-    for (i = 0; i < nv; i += step) sub[nsub++] = v[i];
+    for (i = 0; i < nv; i++)
+        if (pds__gather_sampled(i, step)) sub[nsub++] = v[i]; /* runs of neighbours, as the gather meets them */
     if (opt->method != PDS_METHOD_PDM) {
         for (t = 0; t < job->nbufs; t++) nkept += job->bufs[t].nstored;
         kept = (pds__stored_photon *)malloc(sizeof *kept * (nkept ? nkept : 1));
@@ -16377,38 +16696,24 @@ static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, cons
         }
         if (!kept) ok = 0;
     }
-    if (opt->method == PDS_METHOD_PDM) low.max_photons = 8;
-    else low.k = 8;
-    p->gather2_s = p->found2 = 0.0;
-    for (probe = 0; ok && probe < 1 + two; probe++) {
-        const pds_options *o = probe ? &low : opt;
-        if (kept && probe) {
-            /* the first gather took the photons: put a copy back */
-            pds__stored_photon *copy = (pds__stored_photon *)malloc(sizeof *copy * (nkept ? nkept : 1));
-            if (!copy) break;
-            memcpy(copy, kept, sizeof *copy * nkept);
-            free(job->bufs[0].stored);
-            job->bufs[0].stored = copy;
-            job->bufs[0].nstored = job->bufs[0].cap_stored = nkept;
-        }
-        job->build_s = job->gather_s = job->gather_found = 0.0;
-        job->map_photons = 0;
-        st = opt->method == PDS_METHOD_PM    ? pds__pm_gather(job, o, sub, nsub, probe_threads, NULL, &ignored)
-             : opt->method == PDS_METHOD_SPM ? pds__spm_gather(job, o, sub, nsub, probe_threads, NULL, &ignored)
-                                             : pds__pdm_gather(job, o, sub, nsub, probe_threads, NULL, &ignored);
-        if (st || job->map_photons < 2 || nsub == 0) {
-            ok = probe > 0; /* the first probe is needed, the second helps */
-            break;
-        }
-        if (probe == 0) {
-            p->build_s = job->build_s;
-            p->gather_s = job->gather_s;
-            p->found = job->gather_found / (double)nsub;
-            p->map_photons = (double)job->map_photons;
-        } else {
-            p->gather2_s = job->gather_s;
-            p->found2 = job->gather_found / (double)nsub;
-        }
+    /* one map, gathered with the cap and (if it is above 8) with a cap of 8 */
+    job->probe_k2 = pds__map_cap_requested(opt) > 8.0 ? 8 : 0;
+    job->probe_s[1] = job->probe_found[1] = 0.0;
+    job->build_s = job->gather_s = job->gather_found = 0.0;
+    job->map_photons = 0;
+    if (ok)
+        st = opt->method == PDS_METHOD_PM    ? pds__pm_gather(job, opt, sub, nsub, probe_threads, NULL, &ignored)
+             : opt->method == PDS_METHOD_SPM ? pds__spm_gather(job, opt, sub, nsub, probe_threads, NULL, &ignored)
+                                             : pds__pdm_gather(job, opt, sub, nsub, probe_threads, NULL, &ignored);
+    job->probe_k2 = 0;
+    if (st || job->map_photons < 2 || nsub == 0) ok = 0;
+    if (ok) {
+        p->build_s = job->build_s;
+        p->gather_s = job->probe_s[0];
+        p->found = job->probe_found[0] / (double)nsub;
+        p->gather2_s = job->probe_s[1];
+        p->found2 = job->probe_found[1] / (double)nsub;
+        p->map_photons = (double)job->map_photons;
     }
     if (kept) {
         /* the stored photons as they were (in one thread's store) */
@@ -16437,8 +16742,12 @@ static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, cons
      cost per photon = a + b / N
    (a: emission and tracing; b: all N splats of a render together, which
    with s fixed cost the same whatever N is). Two calibration batches on
-   one thread, for N1 and N2 photons (4 and 1 times opt->photons), took t1
-   and t2 seconds a photon;
+   one thread, for N1 = 4 opt->photons and N2 = N1 / q photons, took t1
+   and t2 seconds a photon (q = 4 when the first batch took at most a
+   fortieth of the budget, else less, so that neither batch takes much
+   more than a tenth of it: q = 0.1 T / (B t1); no second batch below
+   q = 1.5, whose t2 is then taken as if nine tenths of the first were
+   splats);
    solved for a and b (a at least a tenth of t1, b at least 0), tracing and
    splatting N photons on `threads` threads fills `left` seconds when
      N a + b = left threads,  N = (left threads - b) / a.
@@ -16446,12 +16755,19 @@ static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, cons
    smoothing cannot be held in the budget: N is then set as if tracing had
    a quarter of it, and the deadline stops the photons early (the render
    reports the photons emitted and the count planned, whose ratio is the
-   footprints' share of s^2). */
+   footprints' share of s^2). The deadline is looked at between batches
+   (PDS__PHOTON_BATCH photons on one thread), so N is at least the count
+   whose batch, B (a + b / N), takes an eighth of `left`:
+     N >= B b / (left / 8 - B a)
+   (at 512 x 512 the quarter rule planned 6,132 photons for 0.22 s, whose
+   batches of huge footprints took 1.3 s each: 3.4 s for a 1 s budget). */
 static double pds__pds_plan(double t1, double n1, double t2, double n2, double left, int threads)
 {
     double b = fmax(0.0, (t2 - t1) / (1.0 / n2 - 1.0 / n1)), a = fmax(0.1 * t1, t1 - b / n1);
-    double cpu = left * (threads > 0 ? threads : 1);
-    return (cpu - b >= 0.25 * cpu ? cpu - b : 0.25 * cpu) / a;
+    double cpu = left * (threads > 0 ? threads : 1), batch = (double)PDS__PHOTON_BATCH;
+    double n = (cpu - b >= 0.25 * cpu ? cpu - b : 0.25 * cpu) / a;
+    if (left / 8.0 > batch * a) n = fmax(n, batch * b / (left / 8.0 - batch * a));
+    return n;
 }
 
 /* --- the photon pass --------------------------------------------------- */
@@ -16595,7 +16911,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
            away) and plan for the rate it shows over the remaining time.
            For every method the image is normalised by the photons actually
            emitted before the deadline. */
-        double tc = pds_time_now(), remaining, rate, t_1 = 0.0, t_2, n_1 = 4.0 * (double)opt->photons;
+        double tc = pds_time_now(), remaining, rate, t_1 = 0.0, t_2, n_1 = 4.0 * (double)opt->photons, n_2 = 0.0, q;
         int paper = opt->method == PDS_METHOD_PDS; /* (not progressive: that branch is above) */
         int second = 1;                             /* run the second calibration batch */
         pds__mutex_init(&job.lock);
@@ -16605,15 +16921,20 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         if (paper) {
             /* the paper's PDS (pds__pds_plan): the first batch for four
                times opt->photons (small footprints: the cheaper one), the
-               second for opt->photons, unless the first took a tenth of
-               the budget already (the splats are then most of its cost) */
+               second for fewer (below) */
             job.n_total = PDS__PHOTON_BATCH;
             job.n_planned = n_1;
             pds__run_threads(1, pds__photon_worker, &job);
             t_1 = pds_time_now() - tc;
-            second = t_1 < 0.1 * opt->time_s;
+            /* the second batch's footprints q times the first's (q <= 4),
+               so that it too takes about a tenth of the budget at most
+               (all splats: q times t_1); none below q = 1.5, too near
+               the first to tell a from b */
+            q = fmin(4.0, 0.1 * opt->time_s / fmax(t_1, 1e-9));
+            second = q >= 1.5;
+            n_2 = n_1 / q;
             job.n_total = 2 * PDS__PHOTON_BATCH;
-            job.n_planned = (double)opt->photons;
+            job.n_planned = n_2;
             job.next_batch = 1; /* the run above counted past it */
             job.stop = 0;
             job.next_buf = 0;
@@ -16631,7 +16952,12 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
 #ifndef PDS_NO_BASELINES
         if (map_method) {
             /* the plan's step 1 (see pds__map_probe) */
-            map_planned = pds__map_probe_run(&job, opt, vertices, nvertices, threads, 1, 8192, (double)job.n_total,
+            /* 8192 vertices for a cap of 50, fewer for a larger cap (on
+               the calibration's few photons a pdm query finds all of
+               them: 8192 queries at a cap of 500 took half of a 1 s
+               budget at 512 x 512) */
+            map_planned = pds__map_probe_run(&job, opt, vertices, nvertices, threads, 1,
+                                             (size_t)fmin(8192.0, fmax(512.0, 409600.0 / cap)), (double)job.n_total,
                                              &probe);
             remaining = opt->time_s - (pds_time_now() - t0);
             if (map_planned)
@@ -16650,7 +16976,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.n_planned = fmax(rate * fmax(remaining, 0.0), (double)PDS__PHOTON_BATCH);
         if (paper)
             job.n_planned = fmax(pds__pds_plan(t_1 / PDS__PHOTON_BATCH, n_1, t_2 / PDS__PHOTON_BATCH,
-                                               (double)opt->photons, fmax(remaining, 0.0), threads),
+                                               second ? n_2 : (double)opt->photons, fmax(remaining, 0.0), threads),
                                  (double)PDS__PHOTON_BATCH);
         job.n_total = LONG_MAX - PDS__PHOTON_BATCH;
         job.deadline = pds_time_now() + fmax(remaining, 0.0);
@@ -16688,14 +17014,16 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             traced = (double)job.batches_done * PDS__PHOTON_BATCH;
             rate_all = traced / fmax(round_s, 1e-6);
             /* the model again, from the map of the photons traced so far
-               and a gather (its images thrown away) at 1024 vertices for a
+               and a gather (its images thrown away) at 4096 vertices for a
                cap of 50, fewer for a larger cap (a query of pdm's 500 can
-               take a hundred of pm's; a query far from every photon, 200
-               us), on one thread (so few vertices are one or two of the
-               gather's chunks: more threads would not share them) */
+               take a hundred of pm's, 466 us on the Cornell box at 512 x
+               512; a query far from every photon, 200 us; at least 256),
+               on all threads, so that the pace is the threads' on the
+               machine as loaded now (tens of milliseconds: long enough
+               to measure) */
             if (!job.cancelled &&
-                pds__map_probe_run(&job, opt, vertices, nvertices, threads, 1,
-                                   (size_t)fmax(256.0, 51200.0 / pds__map_cap_requested(opt)), traced, &probe2))
+                pds__map_probe_run(&job, opt, vertices, nvertices, threads, threads,
+                                   (size_t)fmax(256.0, 204800.0 / pds__map_cap_requested(opt)), traced, &probe2))
                 probe = probe2;
             pds__gather_clear(&job, job.nsums);
             left = opt->time_s - (pds_time_now() - t0);

@@ -20,9 +20,67 @@ static void test_pds_plan_solves_the_cost_of_tracing_and_splats(pds_test_ctx *t)
     CHECK_NEAR(t, pds__pds_plan(1e-5, 1e5, 1e-5, 5e4, 1.0, 1), 1e5, 1e-3);
 }
 
+/* A smoothing whose splats cannot fit (a = 1e-4 s, b = 13 CPU-s, on 2
+   threads for 1 s): the quarter rule alone would plan 0.25 x 2 / 1e-4 =
+   5,000 photons, whose batches of 1024 would each take 1024 (a + b / N)
+   = 2.8 s on one thread; N is raised until a batch takes an eighth of
+   the time left, N = 1024 b / (1 / 8 - 1024 a). */
+static void test_pds_plan_keeps_a_batch_within_an_eighth_of_the_time(pds_test_ctx *t)
+{
+    double a = 1e-4, b = 13.0, n, expect = 1024.0 * 13.0 / (1.0 / 8.0 - 1024.0 * 1e-4);
+    n = pds__pds_plan(a + b / 1e5, 1e5, a + b / 2.5e4, 2.5e4, 1.0, 2);
+    CHECK(t, fabs(n / expect - 1.0) < 1e-9, "N %g, expected %g", n, expect);
+    CHECK_NEAR(t, 1024.0 * (a + b / n), 1.0 / 8.0, 1e-12);
+    /* 0.5 s: not even the tracing of a batch fits an eighth (0.1024 s
+       against 0.0625): the quarter rule stands */
+    n = pds__pds_plan(a + b / 1e5, 1e5, a + b / 2.5e4, 2.5e4, 0.5, 2);
+    CHECK(t, fabs(n / 2500.0 - 1.0) < 1e-9, "N %g, expected 2500", n);
+}
+
+#ifndef PDS_NO_BASELINES
+/* The gather's samples (pds__gather_sampled): runs of PDS__SAMPLE_RUN
+   neighbours, one a block of S runs; the count and the places agree with
+   the selection, and at 256 x 256 with 4 samples a pixel (a block of 64
+   runs is then exactly 16 image rows) the runs fall at many places
+   across a row, not in one column. */
+static void test_gather_sample_is_counted_and_spread(pds_test_ctx *t)
+{
+    static const size_t nvs[4] = {262144, 252824, 4097, 100};
+    static const size_t Ss[3] = {1, 4, 64};
+    int a, b;
+    for (a = 0; a < 4; a++)
+        for (b = 0; b < 3; b++) {
+            size_t nv = nvs[a], S = Ss[b], i, n = 0, count = pds__gather_sample_count(nv, S);
+            unsigned char *seen = (unsigned char *)calloc(count + 1, 1);
+            int dup = 0;
+            REQUIRE(t, seen != NULL, "memory");
+            for (i = 0; i < nv; i++)
+                if (pds__gather_sampled(i, S)) {
+                    size_t at = pds__gather_sample_at(i, S);
+                    if (at >= count || seen[at]) dup++;
+                    else seen[at] = 1;
+                    n++;
+                }
+            CHECK(t, n == count && dup == 0, "nv %zu S %zu: %zu sampled, counted %zu, %d misplaced", nv, S, n, count,
+                  dup);
+            free(seen);
+        }
+    {
+        /* rows of 1024 vertices: which of a row's 16 runs are sampled */
+        size_t i;
+        int places[16] = {0}, distinct = 0, p;
+        for (i = 0; i < 262144; i += PDS__SAMPLE_RUN)
+            if (pds__gather_sampled(i, 64)) places[(i % 1024) / PDS__SAMPLE_RUN] = 1;
+        for (p = 0; p < 16; p++) distinct += places[p];
+        CHECK(t, distinct >= 12, "the sample's runs sit at %d of a row's 16 places", distinct);
+    }
+}
+#endif
+
 #ifndef PDS_NO_BASELINES
 /* ppm's next pass: whole while it fits; else the tracing that fits beside
-   an update as long as the last one, in whole batches; else none. */
+   an update as long as the last one, in whole batches; else one batch if
+   its pass ends nearer T than stopping now; else none. */
 static void test_ppm_pass_photons_fit_the_time_left(pds_test_ctx *t)
 {
     CHECK(t, pds__ppm_pass_photons(10.0, 2.0, 1.0, 100000) == 100000, "a whole pass fits");
@@ -31,8 +89,12 @@ static void test_ppm_pass_photons_fit_the_time_left(pds_test_ctx *t)
        whole batches of 1024: 48 x 1024 */
     CHECK(t, pds__ppm_pass_photons(2.0, 2.0, 1.0, 100000) == 48 * PDS__PHOTON_BATCH, "%ld",
           pds__ppm_pass_photons(2.0, 2.0, 1.0, 100000));
-    CHECK(t, pds__ppm_pass_photons(0.9, 2.0, 1.0, 100000) == 0, "the update alone does not fit");
-    CHECK(t, pds__ppm_pass_photons(1.01, 2.0, 1.0, 100000) == 0, "not one batch fits");
+    /* one batch traces in 2 x 1024 / 1e5 = 0.02 s: with 0.9 s left the
+       pass overruns by 0.12 s, nearer T than 0.9 s early */
+    CHECK(t, pds__ppm_pass_photons(0.9, 2.0, 1.0, 100000) == PDS__PHOTON_BATCH, "the update alone does not fit");
+    CHECK(t, pds__ppm_pass_photons(1.01, 2.0, 1.0, 100000) == PDS__PHOTON_BATCH, "not one batch fits");
+    /* 0.4 s left: 0.62 s over is farther from T than 0.4 s early */
+    CHECK(t, pds__ppm_pass_photons(0.4, 2.0, 1.0, 100000) == 0, "stopping is nearer T");
     CHECK(t, pds__ppm_pass_photons(-1.0, 2.0, 1.0, 100000) == 0, "the budget is spent");
 }
 
@@ -40,13 +102,62 @@ static void test_ppm_pass_photons_fit_the_time_left(pds_test_ctx *t)
    c (t_50 = 50 us, t_8 = 8 us) fits 20 us at a cap of 20. */
 static void test_gather_cap_fit_interpolates_the_two_samples(pds_test_ctx *t)
 {
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, 20e-6), 20.0, 1e-9);
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, 20.5e-6), 20.0, 1e-9); /* whole caps, rounded down */
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, 60e-6), 50.0, 1e-9);   /* never above the cap asked */
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, 1e-6), 8.0, 1e-9);     /* nor below 8 */
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 8e-6, -1.0), 8.0, 1e-9);     /* the deadline passed */
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 20e-6, NULL, 0), 20.0, 1e-9);
+    /* whole caps, rounded down; never above the cap asked, nor below 8;
+       8 when the deadline passed */
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 20.5e-6, NULL, 0), 20.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 60e-6, NULL, 0), 50.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, 1e-6, NULL, 0), 8.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 50e-6, -1.0, NULL, 0), 8.0, 1e-9);
     /* a noisy pair whose cap-8 sample was no quicker */
-    CHECK_NEAR(t, pds__gather_cap_fit(50.0, 50e-6, 60e-6, 45e-6), 8.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 60e-6, 50.0, 50e-6, 45e-6, NULL, 0), 8.0, 1e-9);
+}
+
+/* The cap from the photons the sample's queries found: half of them
+   find 50 photons within reach at a cap of 50, half only 12, and a
+   query costs 1 us a photon found, so F(c) = (c + min(c, 12)) / 2, t_8 =
+   8 us, t_50 = 31 us. 16.2 us a query allows F(c) = 16.2: c = 20.4, a
+   cap of 20. The line through the two samples would allow 8 + 8.2 x 42 /
+   23 = 22.97, a cap of 22, whose queries take 17 us. */
+static void test_gather_cap_fit_follows_the_photons_found(pds_test_ctx *t)
+{
+    float found[10];
+    int i;
+    for (i = 0; i < 10; i++) found[i] = i % 2 ? 50.0f : 12.0f;
+    CHECK_NEAR(t, pds__gather_found(found, 10, 8.0), 8.0, 1e-12);
+    CHECK_NEAR(t, pds__gather_found(found, 10, 30.0), 21.0, 1e-12);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 31e-6, 16.2e-6, found, 10), 20.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 31e-6, 16.2e-6, NULL, 0), 22.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 31e-6, 31e-6, found, 10), 50.0, 1e-9);
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 31e-6, 7e-6, found, 10), 8.0, 1e-9);
+    /* the refit between the cap chosen (20, measured at 12 us, quicker
+       than the fit said) and 50: t(c) = 12 + 19 (F(c) - 16) / 15 us fits
+       16.2 us up to F(c) = 19.3, c = 26.6 */
+    CHECK_NEAR(t, pds__gather_cap_fit(20.0, 12e-6, 50.0, 31e-6, 16.2e-6, found, 10), 26.0, 1e-9);
+    /* every query found at most 8: any cap costs t_8 */
+    for (i = 0; i < 10; i++) found[i] = 8.0f;
+    CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 9e-6, 8.5e-6, found, 10), 50.0, 1e-9);
+}
+
+/* ppm under a budget already spent: the first pass (a quarter of the
+   budget at most) still traces one batch, and no pass follows. */
+static void ppm_gone(pds_options *o)
+{
+    o->time_s = 1e-9;
+    o->photons = 50000;
+}
+
+static void test_ppm_past_its_deadline_traces_one_batch(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st;
+    double peak = 0.0;
+    size_t i;
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PPM, 0, 2, &img, &st, ppm_gone), "ppm --time 1e-9");
+    CHECK(t, st.photons == PDS__PHOTON_BATCH && st.passes == 1, "photons %ld passes %d", st.photons, st.passes);
+    for (i = 0; i < (size_t)img.width * img.height * 3; i++) peak = fmax(peak, img.rgb[i]);
+    CHECK(t, peak > 0.0, "a caustic");
+    pds_image_free(&img);
 }
 
 /* The map plan's figures: a probe of 1024 vertices, 2000 stored photons
@@ -104,10 +215,11 @@ static void test_map_tracing_lowers_the_cap_only_when_it_must(pds_test_ctx *t)
           "cap %g: tracing %g, at cap + 1 %g", cap, pds__map_plan(&p, 0, cap, 2000000, 1e6, 0.0, 1.0),
           pds__map_plan(&p, 0, cap + 1.0, 2000000, 1e6, 0.0, 1.0));
     CHECK_NEAR(t, tr, pds__map_plan(&p, 0, cap, 2000000, 1e6, 0.0, 1.0), 1e-12);
-    /* 1e7 vertices: even k = 8 leaves less than a quarter: 8, and a
-       quarter of the budget traced */
+    /* 1e7 vertices: even k = 8 leaves less than a quarter: 8, and half
+       the budget traced (the gather will bound its radius, at a cost the
+       model does not know) */
     tr = pds__map_tracing(&p, 0, 50.0, 10000000, 1e6, 0.0, 0.0, 1.0, &cap);
-    CHECK(t, cap == 8.0 && fabs(tr - 0.25) < 1e-12, "cap %g tracing %g", cap, tr);
+    CHECK(t, cap == 8.0 && fabs(tr - 0.5) < 1e-12, "cap %g tracing %g", cap, tr);
     /* round 2: 2e6 photons traced in 0.5 s of 4.5 s left: less to trace
        than from scratch, and the plan's cost fills what is left */
     tr = pds__map_tracing(&p, 0, 50.0, 100000, 1e6, 0.0, 0.0, 4.5, &cap);
@@ -178,9 +290,13 @@ static void test_paper_pds_without_time_keeps_small_footprints(pds_test_ctx *t)
 
 static const pds_test_case tests_budget[] = {
     {"pds_plan_solves_the_cost_of_tracing_and_splats", test_pds_plan_solves_the_cost_of_tracing_and_splats},
+    {"pds_plan_keeps_a_batch_within_an_eighth_of_the_time", test_pds_plan_keeps_a_batch_within_an_eighth_of_the_time},
 #ifndef PDS_NO_BASELINES
+    {"gather_sample_is_counted_and_spread", test_gather_sample_is_counted_and_spread},
     {"ppm_pass_photons_fit_the_time_left", test_ppm_pass_photons_fit_the_time_left},
+    {"ppm_past_its_deadline_traces_one_batch", test_ppm_past_its_deadline_traces_one_batch},
     {"gather_cap_fit_interpolates_the_two_samples", test_gather_cap_fit_interpolates_the_two_samples},
+    {"gather_cap_fit_follows_the_photons_found", test_gather_cap_fit_follows_the_photons_found},
     {"map_cost_is_the_line_through_the_two_probes", test_map_cost_is_the_line_through_the_two_probes},
     {"map_tracing_lowers_the_cap_only_when_it_must", test_map_tracing_lowers_the_cap_only_when_it_must},
     {"gather_past_its_deadline_uses_a_cap_of_8", test_gather_past_its_deadline_uses_a_cap_of_8},
