@@ -65,12 +65,13 @@
                   paper's PDS's a + b/N plan), tracing threads, gathers,
                   the caustic image
      >>gi         Jensen's two-pass global illumination: global photon map
-                  (single photons, or streams: seed paper 003's streams
-                  where they mean something), shadow photons,
-                  importance-sampled final gather, precomputed
-                  irradiance (Christensen 1999), caustics from any
-                  caustic method, spectral rays and photons (not in
-                  PDS_NO_GI)
+                  (single photons less their first hits, or streams:
+                  seed paper 003's streams where they mean something),
+                  shadow photons, importance-sampled final gather whose
+                  end x2 takes its direct light from a light sample and
+                  the rest from the map, precomputed irradiance
+                  (Christensen 1999), caustics from any caustic method,
+                  spectral rays and photons (not in PDS_NO_GI)
      >>isc        image-space caustics (Wyman and Davis 2006): light-space
                   photon buffer, points, quads, eye- and light-space
                   gathers, temporal filter, animation frames, static
@@ -17321,29 +17322,56 @@ static pds_status pds__light_trace_image(const pds_scene *s, const pds_options *
      sampled from the incoming directions of the global map's photons
      near x1 (Jensen 1995, "Importance driven path tracing using the
      photon map"); each follows specular surfaces to the first
-     non-specular x2 and returns the global map's radiance estimate there
-     (eq. 3 with the cone filter, eq. 4, k = 1), which ends the recursion;
-     on a Lambertian x2 the irradiance precomputed at the map's photons
-     (Christensen 1999, below) where that pays.
+     non-specular x2 and returns the light leaving x2 towards x1, which
+     ends the recursion (below).
      A gather ray that meets an emitter brings direct light (counted by
      the light sample) or a caustic (counted by the caustic method) and
      adds nothing, except at a glossy x1 (below).
    The four parts partition the light reflected at x1, so the image is
    complete: a caustic seen after a further diffuse bounce (L S+ D D E)
-   comes through the gather, in the global map's estimate at x2.
+   comes through the gather.
+
+   At x2 the light is split once more, by the vertex before x2 on the
+   light path (x2 = D, any non-specular vertex):
+   - L x2 (no vertex between the light and x2): one light sample with its
+     shadow ray, as at x1 (at a glossy x2 weighted by MIS against one
+     BSDF sample that meets the emitter);
+   - L (S|D)* S x2 (a caustic on x2) and L (S|D)* D x2 (light that left
+     a non-specular surface before): the global map's radiance estimate
+     (eq. 3 with the cone filter, eq. 4, k = 1), or on a Lambertian x2
+     the irradiance precomputed at the map's photons (Christensen 1999,
+     below) where that pays. The map leaves out the direct photons (a
+     photon's first hit, L D), so it holds exactly these paths.
+   Jensen lets the estimate at x2 answer for all of it; that blurs the
+   direct light, usually the largest part, by the estimate's disc and
+   darkens it wherever the disc leaves the surface (corners, edges), and
+   no number of camera samples removes that bias. Now the map's blur
+   touches only light that was reflected or refracted on its way, a
+   smaller and smoother share. Every eye path is thus split as
+       E S* x1 ...: x1 = D, then
+         L x1                      the light sample at x1
+         L S+ x1                   the caustic method at x1
+         L x2 S* x1                the light sample at x2 (gather)
+         L (S|D)* (S|D) x2 S* x1   the global map at x2 (gather)
+       E S* L                      the emitter seen through the chain
+   and each path L (S|D)* E is counted in exactly one line. A map of
+   streams (global_map = PDS_GLOBAL_STREAMS, seed paper 003's system)
+   keeps its direct streams, and there the estimate at x2 answers for
+   all of the light leaving x2, as in Jensen's method.
 
    Glossy x1: its gather rays sample the GGX BRDF instead (Jensen treats
    highly glossy surfaces by Monte Carlo ray tracing, sect. 4.2), and
    direct light is combined from the light sample and the gather rays
    that hit an emitter straight away, by multiple importance sampling
-   (Veach 1997, power heuristic with the sample counts). At x2 every
-   non-specular surface, glossy ones too, is the global map's estimate
-   with its own BRDF: smooth glossy surfaces seen only in a gather are
+   (Veach 1997, power heuristic with the sample counts). At x2 the map's
+   part of a glossy surface is its estimate with its own BRDF: the
+   indirect light on smooth glossy surfaces seen only in a gather is
    blurred by the density estimate (Jensen notes the same, sect. 5).
 
    Pass 1, the global photon map (sect. 3): photons leave the lights with
    the lights' own emission (not aimed), are stored at every non-specular
-   hit (at most PDS__GI_MAX_STORES per photon) and continue by the BSDF
+   hit but their first (at most PDS__GI_MAX_STORES per photon; a map of
+   streams stores the first too) and continue by the BSDF
    with Russian roulette by the albedo: survive with q = the largest
    channel of the sampled weight (capped at 1), the flux divided by q, so
    stored flux stays of the same size. Specular surfaces reflect and
@@ -17658,7 +17686,11 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
             pds__spectral_material(m, lam, &m_lambda);
             m = &m_lambda;
         }
-        if (!pds__material_is_specular(m)) {
+        if (!pds__material_is_specular(m) && (depth > 0 || b->streams)) {
+            /* a photon's first hit (L D) is not stored in a map of
+               single photons: the light sample at x2 counts that light
+               (the partition above; the shadow map keeps its own record
+               of first hits, pds__gi_shadow_line) */
             pds__gi_photon p;
             size_t lead_at = buf->n;
             int j, landed = 0;
@@ -18308,16 +18340,17 @@ static void pds__gi_ray_sees(const pds__gi_ray *r, double le[3], double acc[3])
 }
 
 /* Direct light at a non-specular vertex: one light sample (light picked
-   by power), its shadow ray skipped where the shadow photons decide
-   (counts[0] rays traced, counts[1] decided without one). With
-   bsdf_rays > 0 gather rays sampling the BSDF (glossy vertices), the
-   sample is weighted against them by the power heuristic with the
-   sample counts; else it counts alone. ray: the eye path's state (m is
-   the material as it sees it); a spectral path takes the BSDF and the
-   light at its wavelength. */
+   by power; numbers dim..dim+2 of PDS__RNG_GATHER), its shadow ray
+   skipped where the shadow photons decide (counts[0] rays traced,
+   counts[1] decided without one). With bsdf_rays > 0 rays sampling the
+   BSDF (glossy vertices), the sample is weighted against them by the
+   power heuristic with the sample counts; else it counts alone. ray: the
+   state of the eye path (at x1) or of the gather ray (at x2), m the
+   material as it sees it; a spectral path takes the BSDF and the light
+   at its wavelength. */
 static void pds__gi_direct(const pds__gi_map *g, const pds__tracer *tr, const pds_material *m, pds__v3 p, pds__v3 wo,
-                           pds__v3 ns, pds__v3 ng, const pds__gi_ray *ray, uint64_t idx, int bsdf_rays, double acc[3],
-                           long counts[4])
+                           pds__v3 ns, pds__v3 ng, const pds__gi_ray *ray, uint64_t idx, uint64_t dim, int bsdf_rays,
+                           double acc[3], long counts[4])
 {
     const pds_scene *s = tr->scene;
     const double *beta = ray->beta;
@@ -18325,9 +18358,9 @@ static void pds__gi_direct(const pds__gi_map *g, const pds__tracer *tr, const pd
     pds__light_li li;
     pds__v3 n, ngw, org;
     int side, k, c, known = -1;
-    double u0 = pds__rng_uniform(tr->seed, PDS__RNG_GATHER, idx, 0);
-    double u1 = pds__rng_uniform(tr->seed, PDS__RNG_GATHER, idx, 1);
-    double u2 = pds__rng_uniform(tr->seed, PDS__RNG_GATHER, idx, 2);
+    double u0 = pds__rng_uniform(tr->seed, PDS__RNG_GATHER, idx, dim);
+    double u1 = pds__rng_uniform(tr->seed, PDS__RNG_GATHER, idx, dim + 1);
+    double u2 = pds__rng_uniform(tr->seed, PDS__RNG_GATHER, idx, dim + 2);
     k = pds__lights_pick(&s->light_table, u0, &pmf);
     if (k < 0 || !(pmf > 0.0)) return;
     if (!pds__light_sample_li(&s->light_table, &s->lights[k], k, &s->mesh, p, u1, u2, &li)) return;
@@ -18444,18 +18477,114 @@ static double pds__gi_guide_sample(const pds__gi_guide *gd, double ua, double ub
     return p / gd->cdf[M];
 }
 
+/* What a ray from org along dir meets first, if that is an emitter (an
+   analytic light at distance tl, normal nl, or an emissive triangle of
+   the hit th; found: a triangle was hit at all) or, when it meets
+   nothing, the environment: returns 1 with the light in *light (-1: an
+   emissive triangle of no light, which brings nothing), its radiance
+   towards the ray in le and, for the MIS weight, the point and normal in
+   lx, ln. Returns 0 if the ray meets a surface that is no emitter (or
+   nothing, in a scene without environment). */
+static int pds__gi_emitter(const pds_scene *s, pds__v3 org, pds__v3 dir, int found, const pds__tri_hit *th, int lh,
+                           double tl, pds__v3 nl, int *light, double le[3], pds__v3 *lx, pds__v3 *ln)
+{
+    pds_hit hit;
+    *light = -1;
+    if (lh >= 0) {
+        *lx = pds__add(org, pds__scale(dir, tl));
+        *ln = nl;
+    } else if (found && s->materials.items[s->mesh.mat[th->tri]].type == PDS_MAT_EMISSIVE) {
+        pds__scene_fill_hit(s, th, org, dir, &hit);
+        lh = pds__light_of_triangle(&s->light_table, th->tri);
+        *lx = hit.position;
+        *ln = hit.ng;
+        if (lh < 0) return 1;
+    } else if (!found && s->env_index1) {
+        *light = s->env_index1 - 1;
+        pds__env_radiance(&s->lights[*light], dir, le);
+        return 1;
+    } else {
+        return 0;
+    }
+    pds__light_le(&s->lights[lh], *ln, pds__scale(dir, -1.0), le);
+    *light = lh;
+    return 1;
+}
+
+/* The density of light `light` being sampled (pds__gi_direct: picked by
+   power, then its own sample) in direction wi from x, which meets it at
+   lx with normal ln: the other side of the MIS weights. */
+static double pds__gi_light_pdf(const pds_scene *s, int light, pds__v3 x, pds__v3 wi, pds__v3 lx, pds__v3 ln)
+{
+    double pmf = pds__lights_pmf(&s->light_table, light);
+    if (s->lights[light].type == PDS_LIGHT_ENVIRONMENT)
+        return pmf * pds__env_pdf(&s->lights[light], &s->light_table.env_p[3 * light], wi);
+    return pmf * pds__light_pdf_li(&s->light_table, &s->lights[light], light, &s->mesh, x, lx, ln);
+}
+
+/* The light leaving the gather's end x2 (a non-specular hit, material m
+   as the ray r sees it, scene_m the scene's) towards x1, times r's
+   throughput, into L (the partition of the light at x2 in the section's
+   prologue):
+   - direct (L x2): one light sample, as at x1 (pds__gi_direct, numbers
+     dim..dim+2); at a glossy x2 weighted by the power heuristic against
+     one BSDF sample (numbers dim+3..dim+5) that counts the emitter it
+     meets straight away;
+   - the rest (L (S|D)* S x2 and L (S|D)* D x2: caustics on x2 and light
+     that left a non-specular surface before) from the global map, which
+     holds no direct photons: its estimate (Jensen 1996, eqs. 3-4) or on
+     a Lambertian x2 the precomputed irradiance.
+   A map of streams (seed paper 003's system) stores its direct streams
+   too: there the estimate alone is all of it. */
+static void pds__gi_leaving_x2(const pds__gi_map *g, const pds__tracer *tr, const pds_material *m,
+                               const pds_material *scene_m, const pds_hit *hit, pds__v3 wo, pds__gi_ray *r,
+                               uint64_t idx, uint64_t dim, double L[3], long counts[4])
+{
+    const pds_scene *s = tr->scene;
+    pds__v3 ngw = pds__dot(hit->ng, wo) >= 0.0 ? hit->ng : pds__scale(hit->ng, -1.0);
+    double est[3], lambda_e;
+    const double *w = pds__gi_ray_weight(r, &lambda_e);
+    int c, glossy = m->type == PDS_MAT_GLOSSY;
+    if (!(g->irr && m->type == PDS_MAT_DIFFUSE && lambda_e == 0.0 &&
+          pds__gi_irradiance_lookup(g, m, hit->position, ngw, est)))
+        pds__gi_radiance(g, m, hit->position, wo, hit->ns, hit->ng, lambda_e, est);
+    for (c = 0; c < 3; c++) L[c] = w[c] * est[c];
+    if (g->streams) return;
+    pds__gi_direct(g, tr, m, hit->position, wo, hit->ns, hit->ng, r, idx, dim, glossy, L, counts);
+    if (glossy) {
+        double u[3], tl = 0.0, le[3], seen[3] = {0.0, 0.0, 0.0}, mis;
+        pds__bsdf_result bs;
+        pds__tri_hit th;
+        pds__v3 org, nl = pds__v(0.0, 0.0, 0.0), lx, ln;
+        pds__gi_ray rr = *r;
+        int found, lh, light;
+        for (c = 0; c < 3; c++) u[c] = pds__rng_uniform(tr->seed, PDS__RNG_GATHER, idx, dim + 3 + (uint64_t)c);
+        if (!pds__bsdf_sample(m, hit->position, wo, hit->ns, hit->ng, u, PDS__RADIANCE, &bs) || !(bs.pdf > 0.0))
+            return;
+        org = pds__offset(tr, hit->position, hit->ng, bs.wi);
+        found = pds__bvh_intersect(&s->bvh, org, bs.wi, 0.0, DBL_MAX, &th);
+        lh = pds__hit_analytic_light(s, org, bs.wi, found ? th.t : DBL_MAX, &tl, &nl);
+        if (!pds__gi_emitter(s, org, bs.wi, found, &th, lh, tl, nl, &light, le, &lx, &ln) || light < 0) return;
+        mis = pds__mis_power(bs.pdf, pds__gi_light_pdf(s, light, hit->position, bs.wi, lx, ln));
+        pds__gi_ray_scatter(&rr, m, scene_m, bs.weight, bs.side);
+        pds__gi_ray_sees(&rr, le, seen);
+        for (c = 0; c < 3; c++) L[c] += seen[c] * mis;
+    }
+}
+
 /* Radiance arriving along (org, dir) from the scene as the gather sees
    it: through specular surfaces (Fresnel choice by the numbers of
-   dimension dim on), the global map's estimate at the first non-specular
-   hit, times the ray's throughput r (pds__gi_ray; RGB renders start it at
-   1, spectral ones at the whole weight from the camera, so that it can
-   turn spectral on the way). An emitter reached with no specular bounce
-   before it is returned in *light (its index, else -1) with its radiance
-   times the throughput in L, the point and normal for the MIS weight; one
-   reached through a specular bounce is a caustic of x1 and brings
-   nothing. */
+   dimension dim on), at the first non-specular hit x2 the light leaving
+   it (pds__gi_leaving_x2), times the ray's throughput r (pds__gi_ray;
+   RGB renders start it at 1, spectral ones at the whole weight from the
+   camera, so that it can turn spectral on the way). An emitter reached
+   with no specular bounce before it is returned in *light (its index,
+   else -1) with its radiance times the throughput in L, the point and
+   normal for the MIS weight; one reached through a specular bounce is a
+   caustic of x1 and brings nothing. counts as pds__gi_direct's. */
 static void pds__gi_incoming(const pds__gi_map *g, const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint64_t idx,
-                             uint64_t dim, pds__gi_ray *r, double L[3], int *light, pds__v3 *lx, pds__v3 *ln)
+                             uint64_t dim, pds__gi_ray *r, double L[3], int *light, pds__v3 *lx, pds__v3 *ln,
+                             long counts[4])
 {
     const pds_scene *s = tr->scene;
     pds_material m_lambda;
@@ -18465,50 +18594,26 @@ static void pds__gi_incoming(const pds__gi_map *g, const pds__tracer *tr, pds__v
     for (depth = 0; depth <= tr->max_depth; depth++) {
         pds__tri_hit th;
         pds_hit hit;
-        double tl = 0.0, u[3], est[3], lambda_e, le[3];
-        const double *w;
+        double tl = 0.0, u[3], le[3];
         pds__v3 nl = pds__v(0.0, 0.0, 0.0);
         int found = pds__bvh_intersect(&s->bvh, org, dir, 0.0, DBL_MAX, &th);
         int lh = pds__hit_analytic_light(s, org, dir, found ? th.t : DBL_MAX, &tl, &nl);
         const pds_material *m, *scene_m;
         pds__bsdf_result bs;
-        if (lh >= 0 || (found && s->materials.items[s->mesh.mat[th.tri]].type == PDS_MAT_EMISSIVE)) {
-            if (depth > 0) return; /* a caustic of x1 */
-            if (lh >= 0) {
-                *lx = pds__add(org, pds__scale(dir, tl));
-                *ln = nl;
-            } else {
-                pds__scene_fill_hit(s, &th, org, dir, &hit);
-                lh = pds__light_of_triangle(&s->light_table, th.tri);
-                *lx = hit.position;
-                *ln = hit.ng;
-            }
-            if (lh < 0) return;
-            pds__light_le(&s->lights[lh], *ln, pds__scale(dir, -1.0), le);
-            pds__gi_ray_sees(r, le, L);
-            *light = lh;
+        if (pds__gi_emitter(s, org, dir, found, &th, lh, tl, nl, light, le, lx, ln)) {
+            /* through a specular bounce: a caustic of x1 */
+            if (depth > 0) *light = -1;
+            if (*light >= 0) pds__gi_ray_sees(r, le, L);
             return;
         }
-        if (!found) {
-            /* the environment, seen straight away (through a specular
-               bounce it is a caustic of x1) */
-            if (depth > 0 || !s->env_index1) return;
-            *light = s->env_index1 - 1;
-            pds__env_radiance(&s->lights[*light], dir, le);
-            pds__gi_ray_sees(r, le, L);
-            return;
-        }
+        if (!found) return;
         pds__scene_fill_hit(s, &th, org, dir, &hit);
         pds__gi_ray_beer(r, th.t);
         scene_m = &s->materials.items[hit.material];
         m = pds__gi_ray_meet(r, scene_m, &m_lambda);
         if (!pds__material_is_specular(m)) {
-            pds__v3 wo = pds__scale(dir, -1.0), ngw = pds__dot(hit.ng, wo) >= 0.0 ? hit.ng : pds__scale(hit.ng, -1.0);
-            w = pds__gi_ray_weight(r, &lambda_e);
-            if (!(g->irr && m->type == PDS_MAT_DIFFUSE && lambda_e == 0.0 &&
-                  pds__gi_irradiance_lookup(g, m, hit.position, ngw, est)))
-                pds__gi_radiance(g, m, hit.position, wo, hit.ns, hit.ng, lambda_e, est);
-            for (c = 0; c < 3; c++) L[c] = w[c] * est[c];
+            pds__gi_leaving_x2(g, tr, m, scene_m, &hit, pds__scale(dir, -1.0), r, idx, dim + 4 * (uint64_t)depth, L,
+                               counts);
             return;
         }
         if (depth == tr->max_depth) return;
@@ -18586,18 +18691,12 @@ static void pds__gi_gather(const pds__gi_map *g, const pds__tracer *tr, const pd
         }
         gr.has_sigma = 0; /* x1's medium is not followed (as in RGB) */
         gr.sigma_rgb = NULL;
-        pds__gi_incoming(g, tr, pds__offset(tr, x, ng, wi), wi, idx, dim + 4, &gr, L, &light, &lx, &ln);
+        pds__gi_incoming(g, tr, pds__offset(tr, x, ng, wi), wi, idx, dim + 4, &gr, L, &light, &lx, &ln, counts);
         if (light >= 0) {
             /* direct light: only a glossy vertex counts it here, by MIS */
-            double pl, mis;
+            double mis;
             if (!glossy) continue;
-            if (s->lights[light].type == PDS_LIGHT_ENVIRONMENT)
-                pl = pds__lights_pmf(&s->light_table, light) *
-                     pds__env_pdf(&s->lights[light], &s->light_table.env_p[3 * light], wi);
-            else
-                pl = pds__lights_pmf(&s->light_table, light) *
-                     pds__light_pdf_li(&s->light_table, &s->lights[light], light, &s->mesh, x, lx, ln);
-            mis = pds__mis_power(nrays * pdf, pl);
+            mis = pds__mis_power(nrays * pdf, pds__gi_light_pdf(s, light, x, wi, lx, ln));
             for (c = 0; c < 3; c++) L[c] *= mis;
         }
         for (c = 0; c < 3; c++) acc[c] += (whole ? L[c] : beta[c] * w[c] * L[c]) / nrays;
@@ -18663,7 +18762,7 @@ static int pds__gi_path(const void *ctx, const pds__tracer *tr, pds__v3 org, pds
             if (recorded) rec->lambda = (float)lambda_e;
             if (!g->record_only && values) {
                 int glossy = m->type == PDS_MAT_GLOSSY;
-                pds__gi_direct(g, tr, m, hit.position, wo, hit.ns, hit.ng, &ray, idx, glossy ? g->gather : 0, acc,
+                pds__gi_direct(g, tr, m, hit.position, wo, hit.ns, hit.ng, &ray, idx, 0, glossy ? g->gather : 0, acc,
                                counts);
                 pds__gi_gather(g, tr, m, hit.position, wo, hit.ns, hit.ng, &ray, idx, g->gather, g->mix, acc, counts);
             }
