@@ -77,6 +77,14 @@ static void test_gather_sample_is_counted_and_spread(pds_test_ctx *t)
 }
 #endif
 
+/* A budget already spent, for 50,000 photons (a pass's or the paper's
+   PDS's N). */
+static void budget_spent(pds_options *o)
+{
+    o->time_s = 1e-9;
+    o->photons = 50000;
+}
+
 #ifndef PDS_NO_BASELINES
 /* ppm's next pass: whole while it fits; else the tracing that fits beside
    an update as long as the last one, in whole batches; else one batch if
@@ -141,11 +149,6 @@ static void test_gather_cap_fit_follows_the_photons_found(pds_test_ctx *t)
 
 /* ppm under a budget already spent: the first pass (a quarter of the
    budget at most) still traces one batch, and no pass follows. */
-static void ppm_gone(pds_options *o)
-{
-    o->time_s = 1e-9;
-    o->photons = 50000;
-}
 
 static void test_ppm_past_its_deadline_traces_one_batch(pds_test_ctx *t)
 {
@@ -153,7 +156,7 @@ static void test_ppm_past_its_deadline_traces_one_batch(pds_test_ctx *t)
     pds_render_stats st;
     double peak = 0.0;
     size_t i;
-    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PPM, 0, 2, &img, &st, ppm_gone), "ppm --time 1e-9");
+    REQUIRE(t, baseline_render(slab_scene, PDS_METHOD_PPM, 0, 2, &img, &st, budget_spent), "ppm --time 1e-9");
     CHECK(t, st.photons == PDS__PHOTON_BATCH && st.passes == 1, "photons %ld passes %d", st.photons, st.passes);
     for (i = 0; i < (size_t)img.width * img.height * 3; i++) peak = fmax(peak, img.rgb[i]);
     CHECK(t, peak > 0.0, "a caustic");
@@ -270,18 +273,13 @@ static void test_gather_past_its_deadline_uses_a_cap_of_8(pds_test_ctx *t)
 /* The paper's PDS with no time left traces one batch for 16 times the
    photon count asked for (small footprints: cheap splats), not for 1024
    photons (whose footprints could each cover much of the image). */
-static void paper_gone(pds_options *o)
-{
-    o->time_s = 1e-9;
-    o->photons = 50000;
-}
 
 static void test_paper_pds_without_time_keeps_small_footprints(pds_test_ctx *t)
 {
     pds_image img = {0, 0, NULL};
     pds_render_stats st;
     REQUIRE(t, photon_render_text(slab_scene, PDS_METHOD_PDS, 0, 12.0, PDS_PATHS_CAUSTICS_ONLY, 2, &img, &st,
-                                  paper_gone),
+                                  budget_spent),
             "pds --time 1e-9");
     CHECK(t, st.photons == PDS__PHOTON_BATCH && st.photons_planned == 16.0 * 50000.0, "photons %ld planned %g", st.photons,
           st.photons_planned);
