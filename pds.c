@@ -1027,7 +1027,37 @@ static int pds__materials_add(pds__materials *ms, const pds_material *m)
    normals differ by more than PDS__NORMAL_BEND are not averaged together
    (a crease the loader did not split), and only the vertices of mirror,
    conductor and dielectric triangles, over those triangles: a photon's
-   differentials turn nowhere else. Returns -1 out of memory. */
+   differentials turn nowhere else. Normals found smooth after the first
+   field (pds__mesh_normals_noisy) keep none: m->smooth stays NULL and
+   the per-triangle derivative serves at every scale. Returns -1 out of
+   memory. */
+/* Are the normals of the active triangles noisy? Along each edge (a, b)
+   the normals turn by n_b - n_a, and the first averaged field s1 by
+   s1_b - s1_a; smooth normals turn about as their average does, noise
+   turns them by several times as much. Noisy when more than 5% of the
+   edges turn by more than twice the average's turn plus its change. */
+static int pds__mesh_normals_noisy(const pds__mesh *m, const unsigned char *active, const float *s1)
+{
+    size_t t, edges = 0, noisy = 0;
+    for (t = 0; t < m->ntris; t++) {
+        const int *ix = &m->idx[3 * t];
+        int c, k;
+        if (!active[t]) continue;
+        for (c = 0; c < 3; c++) {
+            size_t a = 3 * (size_t)ix[c], b = 3 * (size_t)ix[(c + 1) % 3];
+            double d0 = 0.0, d1 = 0.0;
+            for (k = 0; k < 3; k++) {
+                double turn0 = (double)m->nrm[b + k] - m->nrm[a + k], turn1 = (double)s1[b + k] - s1[a + k];
+                d0 += (turn0 - turn1) * (turn0 - turn1);
+                d1 += turn1 * turn1;
+            }
+            edges++;
+            noisy += d0 > PDS__NORMAL_NOISE * PDS__NORMAL_NOISE * d1;
+        }
+    }
+    return noisy > edges / 20;
+}
+
 static int pds__mesh_smooth_normals(pds__mesh *m, const pds__materials *mats)
 {
     size_t nv = m->nverts, t, i;
@@ -1090,6 +1120,13 @@ static int pds__mesh_smooth_normals(pds__mesh *m, const pds__materials *mats)
             }
             memcpy(dst, next, sizeof(float) * 3 * nv);
             cur = dst;
+        }
+        if (level == 1 && !pds__mesh_normals_noisy(m, active, m->smooth)) {
+            /* smooth normals: the per-triangle derivative serves at every
+               scale, and the other fields are not needed */
+            free(m->smooth);
+            m->smooth = NULL;
+            break;
         }
     }
     free(acc);
