@@ -867,7 +867,11 @@ static double pds__xform_det(const pds__xform *x)
 typedef struct pds__mesh {
     float *pos, *nrm;
     float *smooth;       /* PDS__NORMAL_LEVELS fields of 3 * nverts: the normals
-                            at footprint scales (pds__mesh_smooth_normals) */
+                            at footprint scales (pds__mesh_smooth_normals);
+                            NULL when the normals are smooth. One decision
+                            for the whole scene's mesh: beside a noisy mesh a
+                            smooth one gets fields too, which its own
+                            derivatives, agreeing with them, then ignore */
     size_t nverts, cap_pos, cap_nrm;
     int *idx, *mat;
     size_t ntris, cap_idx, cap_mat;
