@@ -6972,12 +6972,15 @@ static void pds__kd_offer(size_t *idx, double *dist2, size_t *cnt, size_t k, dou
     }
 }
 
-/* Up to k nearest points with dist2 <= rmax^2 (rmax may be DBL_MAX), into
-   idx[] (caller's indices) and dist2[] sorted by increasing distance,
-   ties by smaller index; the caller gives room for k. Returns the count.
-   No allocation: the heap lives in idx[]/dist2[]. */
-static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double rmax,
-                              size_t *idx, double *dist2)
+/* Up to k nearest points with dist2 <= bound2, into idx[] (caller's
+   indices) and dist2[] sorted by increasing distance, ties by smaller
+   index; the caller gives room for k. Returns the count. No allocation:
+   the heap lives in idx[]/dist2[]. bound2 is the pruning distance until
+   the heap is full; the answer is that of every point within bound2, so
+   a bound2 known to hold the k nearest (pds__kdtree_knn_hint) finds the
+   same points as a larger one, only sooner. */
+static size_t pds__kdtree_knn_within(const pds__kdtree *kd, pds__v3 c, size_t k, double bound2, size_t *idx,
+                                     double *dist2)
 {
     pds__kd_entry stk[PDS__KD_STACK];
     size_t lo = 0, hi, i, cnt = 0;
@@ -6985,16 +6988,16 @@ static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double
     double q[3], ox = 0.0, oy = 0.0, oz = 0.0, bound;
     const float *pts;
     const unsigned char *axis;
-    if (!kd || kd->n == 0 || k == 0 || !(rmax >= 0.0) || !pds__kd_query_ok(c)) return 0;
+    if (!kd || kd->n == 0 || k == 0 || !(bound2 >= 0.0) || !pds__kd_query_ok(c)) return 0;
     pts = kd->pts;
     axis = kd->axis;
     hi = kd->n;
     q[0] = c.x;
     q[1] = c.y;
     q[2] = c.z;
-    /* bound: the pruning distance, rmax^2 until the heap is full, then
-       the k-th best so far (which is <= rmax^2) */
-    bound = rmax * rmax;
+    /* bound: the pruning distance, bound2 until the heap is full, then
+       the k-th best so far (which is <= bound2) */
+    bound = bound2;
     for (;;) {
         /* Down to the leaf holding the query, medians deferred as in the
            range query; each waiting node is re-checked against the
@@ -7038,6 +7041,35 @@ static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double
         pds__kd_sift_down_bottom_up(idx, dist2, i - 1);
     }
     return cnt;
+}
+
+/* Up to k nearest points with dist2 <= rmax^2 (rmax may be DBL_MAX):
+   pds__kdtree_knn_within with bound2 = rmax^2. */
+static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double rmax,
+                              size_t *idx, double *dist2)
+{
+    if (!(rmax >= 0.0)) return 0;
+    return pds__kdtree_knn_within(kd, c, k, rmax * rmax, idx, dist2);
+}
+
+/* A bound on the k-th distance at c from a query made before at p that
+   found k points (the k-th at squared distance pk2): those k points lie
+   within sqrt(pk2) of p, so within sqrt(pk2) + |c - p| of c (the
+   triangle inequality), and the k nearest of c no farther. Gathers ask
+   neighbouring vertices one after another, so the bound is tight, and a
+   query far from every point, which without it would search wide until
+   its heap held k good candidates, starts pruning at once. The margin
+   of 1e-9 covers the rounding of the distances (relative 1e-16): the
+   bound must not fall below a k-th distance that pds__kd_dist2 rounds
+   up. Returns min(bound, rmax^2); rmax^2 alone when there is no earlier
+   query (pk2 < 0). */
+static double pds__kdtree_knn_hint(pds__v3 c, pds__v3 p, double pk2, double rmax)
+{
+    double r2 = rmax * rmax, h;
+    if (!(pk2 >= 0.0) || !pds__kd_query_ok(p)) return r2;
+    h = sqrt(pk2) + pds__length(pds__sub(c, p));
+    h = h * h * (1.0 + 1e-9);
+    return h < r2 ? h : r2;
 }
 #endif
 
@@ -15785,6 +15817,8 @@ static void *pds__gather_worker(void *arg)
     size_t *idx = (size_t *)malloc(sizeof *idx * g->k);
     double *d2 = (double *)malloc(sizeof *d2 * g->k);
     size_t found = 0;
+    pds__v3 prev = pds__v(0.0, 0.0, 0.0);
+    double prev_k2 = -1.0; /* the last query's k-th squared distance (-1: none) */
     pds__mutex_lock(&g->lock);
     buf = &g->bufs[g->next_buf++];
     if (!idx || !d2) g->out_of_memory = 1;
@@ -15808,7 +15842,12 @@ static void *pds__gather_worker(void *arg)
                 i += PDS__SAMPLE_RUN - 1; /* the whole run is not this phase's (chunks are whole runs) */
                 continue;
             }
-            n = pds__kdtree_knn(g->tree, pds__f3_get(v->pos), g->k, g->radius, idx, d2);
+            /* the k nearest within the radius, searched within the
+               bound the last query gives (the same photons, sooner) */
+            n = pds__kdtree_knn_within(g->tree, pds__f3_get(v->pos), g->k,
+                                       pds__kdtree_knn_hint(pds__f3_get(v->pos), prev, prev_k2, g->radius), idx, d2);
+            prev = pds__f3_get(v->pos);
+            prev_k2 = n == g->k ? d2[n - 1] : -1.0;
             found += n;
             if (g->kth && g->sample_phase == 1) g->kth[pds__gather_sample_at(i, g->sample)] = n ? d2[n - 1] : DBL_MAX;
             if (g->nfound && g->sample_phase == 1) g->nfound[pds__gather_sample_at(i, g->sample)] = (float)n;
@@ -16364,34 +16403,59 @@ static double pds__default_radius(const pds_scene *s)
 }
 
 /* Under a time budget: the photons of ppm's next pass, 0 for none, when
-   `left` seconds remain and the last pass of `photons` photons took
-   trace_s to trace and update_s to build its map and update the
-   vertices. A whole pass if it fits; else a shorter one whose tracing
-   fits beside an update as long as the last (an update costs the range
-   queries of every vertex even when few photons come), in whole batches
-   (PDS__PHOTON_BATCH); if not one batch fits, one batch when that pass
-   would end nearer T than stopping now (its overrun less than the time
-   left: at 512 x 512 an update of a million vertices is most of a
-   second, and stopping a pass early left a quarter of a 3 s budget
-   unused); else none. Hachisuka et al.'s
+   `left` seconds remain, tracing `photons` photons takes trace_s and an
+   update (the pass's map and the range queries of every vertex) takes
+     update(n) = fixed_s + per_photon_s n
+   for a pass of n photons: a fixed part for the queries of every vertex,
+   even those no photon reaches, and a part for each photon a vertex
+   finds, which is most of it wherever a vertex's disc holds many photons
+   (the ring and octahedron at 256 x 256, 16 samples a pixel: 100,000
+   photons traced in 0.022 s took 0.5 s to update, 1,024 took 0.025 s).
+   A whole pass if it fits; else the pass whose tracing and update fill
+   the time left, in whole batches (PDS__PHOTON_BATCH); if not one batch
+   fits, one batch when that pass would end nearer T than stopping now
+   (its overrun less than the time left); else none. Hachisuka et al.'s
    recurrence holds for passes of any size: the estimate is
    tau / (pi R^2 N_emitted) with N_emitted the photons of all passes. */
-static long pds__ppm_pass_photons(double left, double trace_s, double update_s, long photons)
+static long pds__ppm_pass_photons(double left, double trace_s, double fixed_s, double per_photon_s, long photons)
 {
-    double n, batch = (double)PDS__PHOTON_BATCH;
-    if (trace_s + update_s <= left) return photons;
-    if (!(trace_s > 0.0) || !(left > 0.0)) return 0;
-    n = floor((double)photons * (left - update_s) / trace_s / batch) * batch;
+    double n, batch = (double)PDS__PHOTON_BATCH, c = trace_s / (double)(photons > 0 ? photons : 1) + per_photon_s;
+    if (fixed_s + c * (double)photons <= left) return photons;
+    if (!(c > 0.0) || !(left > 0.0)) return 0;
+    n = floor((left - fixed_s) / c / batch) * batch;
     if (n >= batch) return (long)n;
-    if (update_s + trace_s * batch / (double)photons - left >= left) return 0;
+    if (fixed_s + c * batch - left >= left) return 0;
     return photons < PDS__PHOTON_BATCH ? photons : PDS__PHOTON_BATCH;
+}
+
+/* The update's cost model of pds__ppm_pass_photons from the pass just
+   made (n photons, its update took u seconds) and the one before it
+   (n_prev, u_prev; n_prev 0: none): the line through the two when their
+   sizes differ by a factor of 2 at least and it has no negative part
+   gives the fixed part; else *fixed_s stays (0 at first: all of it per
+   photon, the larger estimate for a larger pass). The per-photon part
+   is then the rest of this pass's update, which follows the radii as
+   they shrink (a vertex's disc holds fewer photons every pass). */
+static void pds__ppm_update_model(double n, double u, double n_prev, double u_prev, double *fixed_s,
+                                  double *per_photon_s)
+{
+    if (n_prev > 0.0 && (n >= 2.0 * n_prev || n_prev >= 2.0 * n)) {
+        double b = (u - u_prev) / (n - n_prev), a = u - b * n;
+        if (b >= 0.0 && a >= 0.0) *fixed_s = a;
+    }
+    if (*fixed_s > u) *fixed_s = u;
+    *per_photon_s = n > 0.0 ? (u - *fixed_s) / n : 0.0;
 }
 
 /* Progressive photon mapping: passes of opt->photons photons, each
    updating every eye vertex, until opt->passes (or, with a time budget,
-   until the time is spent: the first pass tracing for a quarter of it
-   at most, then each pass as long as pds__ppm_pass_photons finds room
-   for, whole while they fit, then shorter ones; at least one pass of one
+   until the time is spent: the first pass tracing for a 200th of it at
+   most, a pass whose update is measured before much of the budget is
+   gone (a pass's update grows with its photons, and a first pass of a
+   quarter of T took 1.2 s to update on the ring and octahedron at 256 x
+   256: 1.66 T), then each pass as long as pds__ppm_pass_photons finds
+   room for, from the updates measured so far (pds__ppm_update_model),
+   whole while they fit, then shorter ones; at least one pass of one
    batch). Adds the radiance of each
    vertex into the exact sums of job->bufs[0] (for a factor n_planned /
    emitted of 1), unless the progress callback stopped it (job->cancelled:
@@ -16405,15 +16469,17 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
     size_t i;
     pds_status st = PDS_OK;
     int t;
+    double fixed_s = 0.0, per_photon_s = 0.0; /* a time budget: the update's model */
+    double n_prev = 0.0, u_prev = 0.0;        /* ... and the pass before */
     if (!state) return pds__nomem(err);
     for (i = 0; i < nv; i++) state[i].r2 = r0 * r0;
     for (pass = 0; !st; pass++) {
         long this_pass, next;
         double tt = pds_time_now(), tu;
-        /* a time budget: the first pass traces a quarter of it at most,
+        /* a time budget: the first pass traces a 200th of it at most,
            so that its update (which the next passes' sizes are planned
            from) comes in time too when one pass of --photons would not */
-        job->deadline = opt->time_s > 0.0 && pass == 0 ? job->t0 + 0.25 * opt->time_s : 0.0;
+        job->deadline = opt->time_s > 0.0 && pass == 0 ? job->t0 + opt->time_s / 200.0 : 0.0;
         pds__photon_run(job, threads, pass * (long)opt->photons);
         job->deadline = 0.0;
         if (job->batches_done == 0 && !job->cancelled) {
@@ -16440,8 +16506,11 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
             continue;
         }
         /* a time budget: the next pass's size from this one's times */
+        pds__ppm_update_model((double)this_pass, pds_time_now() - tu, n_prev, u_prev, &fixed_s, &per_photon_s);
+        n_prev = (double)this_pass;
+        u_prev = pds_time_now() - tu;
         next = pds__ppm_pass_photons(opt->time_s - (pds_time_now() - job->t0), (tu - tt) * (double)opt->photons /
-                                     (double)(this_pass > 0 ? this_pass : 1), pds_time_now() - tu, opt->photons);
+                                     (double)(this_pass > 0 ? this_pass : 1), fixed_s, per_photon_s, opt->photons);
         if (next == 0) {
             pass++;
             break;
