@@ -14795,9 +14795,10 @@ typedef struct pds__photon_job {
                                   pds__gather_run), else 0 */
     size_t gather_k;           /* pm, pdm, spm: the cap the last gather used */
     size_t probe_k2;           /* the map methods' probe (pds__map_probe_run), if
-                                  > 0: pds__gather_run gathers twice on the one
-                                  map, with the cap and then with this cap */
-    double probe_s[2], probe_found[2]; /* ... the seconds and photons found of each */
+                                  > 0: pds__gather_run gathers three times on the
+                                  one map, with the cap, with this cap, and with
+                                  this cap within a bounded radius */
+    double probe_s[3], probe_found[3]; /* ... the seconds and photons found of each */
     double gather_radius;      /* ... and the search radius a time budget bounded it by (0: none) */
     size_t nsums;              /* entries of each thread's exact image (3 a pixel) */
     double gather_found;       /* pm, pdm: photons its queries returned */
@@ -16039,18 +16040,41 @@ static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int thre
         g->sample_phase = 2;
     }
     if (job->probe_k2 > 0) {
-        /* the map probe: the two gathers, each timed, on the one map */
+        /* the map probe: three gathers, each timed, on the one map: with
+           the cap; with the cap probe_k2 (8), each query's farthest
+           photon kept; and with that cap within the tenth of those
+           distances, the radius the gather bounds its search by when
+           nothing else fits (the last of its trials above), so that the
+           plan knows what that gather costs */
         size_t k = g->k;
+        double r0 = g->radius, *kth = (double *)malloc(sizeof *kth * (g->nv ? g->nv : 1));
         int j;
-        for (j = 0; j < 2 && !g->out_of_memory; j++) {
-            double t = pds_time_now();
+        for (j = 0; j < 3 && !g->out_of_memory; j++) {
+            double t;
+            if (j == 2) {
+                double r;
+                if (!kth) break;
+                qsort(kth, g->nv, sizeof *kth, pds__cmp_double);
+                r = sqrt(kth[(size_t)(0.1 * ((double)g->nv - 1.0))]);
+                if (!(r < r0) || !(r > 0.0)) break;
+                g->radius = r;
+            }
             g->k = j ? job->probe_k2 : k;
             g->found = 0.0;
+            /* the second gather: every vertex (a sample of S = 1), kth[i]
+               the 8th distance of vertex i */
+            g->kth = j == 1 ? kth : NULL;
+            g->sample = j == 1 && kth ? 1 : 0;
+            g->sample_phase = 1;
+            t = pds_time_now();
             pds__gather_once(g, job, threads);
             job->probe_s[j] = pds_time_now() - t;
             job->probe_found[j] = g->found;
         }
         g->k = k;
+        g->radius = r0;
+        g->kth = NULL;
+        free(kth);
     } else if (!g->out_of_memory) {
         pds__gather_once(g, job, threads);
     }
@@ -16705,6 +16729,7 @@ typedef struct pds__map_probe {
     double build_s, gather_s;  /* the probe map's build, its gather */
     double found;              /* photons one probe query returned, on average */
     double gather2_s, found2;  /* the same with a cap of 8 (0, 0: not probed) */
+    double gather3_s;          /* the same within the bounded radius (0: not probed) */
     double map_photons;        /* photons the probe map held */
     double emitted;            /* photons emitted to fill it */
     double planned;            /* the photon count the calibration planned for */
@@ -16713,13 +16738,19 @@ typedef struct pds__map_probe {
 } pds__map_probe;
 
 /* The model above: seconds to build a map of m stored photons and gather
-   it at nv vertices with this cap. pdm: is the method pdm. */
-static double pds__map_cost(const pds__map_probe *p, int pdm, double cap, size_t nv, double m)
+   it at nv vertices with this cap. pdm: is the method pdm. bounded (and
+   a probe of it): the gather of a cap of 8 within the radius the gather
+   bounds its search by (step 3), at the probe's pace, gather3_s /
+   queried a query, times the same sqrt(log m / log m_probe) / P. */
+static double pds__map_cost(const pds__map_probe *p, int pdm, double cap, int bounded, size_t nv, double m)
 {
     double lm = log(fmax(2.0, m)) / log(p->map_photons);
     double t1 = p->gather_s / p->queried, c0 = t1 / (1.0 + p->found), c1 = c0;
     double f = pdm ? fmin(cap, p->found * p->planned / p->emitted) : fmin(cap, m);
-    if (p->found - p->found2 >= 0.5 * p->found && p->found2 > 0.0) {
+    if (bounded && p->gather3_s > 0.0) {
+        c0 = p->gather3_s / p->queried;
+        c1 = f = 0.0;
+    } else if (p->found - p->found2 >= 0.5 * p->found && p->found2 > 0.0) {
         /* the line through the two probes, its slope and intercept >= 0 */
         double t2 = p->gather2_s / p->queried;
         c1 = fmax(0.0, (t1 - t2) / (p->found - p->found2));
@@ -16733,15 +16764,15 @@ static double pds__map_cost(const pds__map_probe *p, int pdm, double cap, size_t
    second, after which that tracing and the build and gather of nv
    vertices fill `remaining`, `traced` photons having been traced already
    (0 if even the map of those cannot be made in time). */
-static double pds__map_plan(const pds__map_probe *p, int pdm, double cap, size_t nv, double rate, double traced,
-                            double remaining)
+static double pds__map_plan(const pds__map_probe *p, int pdm, double cap, int bounded, size_t nv, double rate,
+                            double traced, double remaining)
 {
     double share = p->map_photons / p->emitted, lo = 0.0, hi = rate * remaining;
     int i;
     /* bisect for the further photon count n whose tracing and map fill the budget */
     for (i = 0; i < 60; i++) {
         double n = 0.5 * (lo + hi);
-        if (n / rate + pds__map_cost(p, pdm, cap, nv, (traced + n) * share) > remaining) hi = n;
+        if (n / rate + pds__map_cost(p, pdm, cap, bounded, nv, (traced + n) * share) > remaining) hi = n;
         else lo = n;
     }
     return lo / rate;
@@ -16752,25 +16783,29 @@ static double pds__map_plan(const pds__map_probe *p, int pdm, double cap, size_t
    `left`, else the largest in [min(8, cap), cap] that does (a bisection
    over whole numbers: the tracing time falls as the cap grows); tracing
    at least a quarter of `left` + `traced_s` (the tracing done so far)
-   minus `traced_s`. */
+   minus `traced_s`. When not even the smallest cap keeps a quarter, the
+   gather will bound its search radius (step 3): the tracing is then
+   planned for that gather's cost as the probe measured it (gather3_s),
+   or, not probed, given half of the time (its cost unknown). */
 static double pds__map_tracing(const pds__map_probe *p, int pdm, double cap, size_t nv, double rate, double traced,
                                double traced_s, double left, double *cap_out)
 {
     double lo = fmin(8.0, cap), hi = cap, floor_share = 0.25;
-    if (pds__map_plan(p, pdm, hi, nv, rate, traced, left) < 0.25 * left) {
+    int bounded = 0;
+    if (pds__map_plan(p, pdm, hi, 0, nv, rate, traced, left) < 0.25 * left) {
         while (hi - lo > 1.0) {
             double mid = floor(0.5 * (lo + hi));
-            if (pds__map_plan(p, pdm, mid, nv, rate, traced, left) >= 0.25 * left) lo = mid;
+            if (pds__map_plan(p, pdm, mid, 0, nv, rate, traced, left) >= 0.25 * left) lo = mid;
             else hi = mid;
         }
         cap = lo;
-        /* not even the smallest cap fits: the gather will bound its
-           search radius (step 3), at a cost the model does not know; it
-           gets the other half */
-        if (pds__map_plan(p, pdm, cap, nv, rate, traced, left) < 0.25 * left) floor_share = 0.5;
+        if (pds__map_plan(p, pdm, cap, 0, nv, rate, traced, left) < 0.25 * left) {
+            if (p->gather3_s > 0.0) bounded = 1;
+            else floor_share = 0.5;
+        }
     }
     *cap_out = cap;
-    return fmax(floor_share * (left + traced_s) - traced_s, pds__map_plan(p, pdm, cap, nv, rate, traced, left));
+    return fmax(floor_share * (left + traced_s) - traced_s, pds__map_plan(p, pdm, cap, bounded, nv, rate, traced, left));
 }
 
 /* The cap a map method's gather is asked for: pm's and spm's k, pdm's
@@ -16810,7 +16845,7 @@ static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, cons
     }
     /* one map, gathered with the cap and (if it is above 8) with a cap of 8 */
     job->probe_k2 = pds__map_cap_requested(opt) > 8.0 ? 8 : 0;
-    job->probe_s[1] = job->probe_found[1] = 0.0;
+    job->probe_s[1] = job->probe_found[1] = job->probe_s[2] = job->probe_found[2] = 0.0;
     job->build_s = job->gather_s = job->gather_found = 0.0;
     job->map_photons = 0;
     if (ok)
@@ -16825,6 +16860,7 @@ static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, cons
         p->found = job->probe_found[0] / (double)nsub;
         p->gather2_s = job->probe_s[1];
         p->found2 = job->probe_found[1] / (double)nsub;
+        p->gather3_s = job->probe_s[2];
         p->map_photons = (double)job->map_photons;
     }
     if (kept) {

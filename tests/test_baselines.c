@@ -295,9 +295,10 @@ static void test_map_plan_leaves_time_for_the_build_and_gather(pds_test_ctx *t)
     p.planned = 100000.0;
     p.queried = 1024.0;
     p.gather2_s = p.found2 = 0.0; /* one probe: c0 = c1 */
+    p.gather3_s = 0.0;
     p.parallel = 1.0;
-    pm_half = pds__map_plan(&p, 0, 50.0, 100000, 1e6, 0.0, 0.5);
-    pm_two = pds__map_plan(&p, 0, 50.0, 100000, 1e6, 0.0, 2.0);
+    pm_half = pds__map_plan(&p, 0, 50.0, 0, 100000, 1e6, 0.0, 0.5);
+    pm_two = pds__map_plan(&p, 0, 50.0, 0, 100000, 1e6, 0.0, 2.0);
     /* pm, 2 s: the tracing plus the modelled build and gather fill the budget */
     n = pm_two * 1e6;
     m = 0.5 * n;
@@ -308,10 +309,10 @@ static void test_map_plan_leaves_time_for_the_build_and_gather(pds_test_ctx *t)
           pm_two);
     /* pdm: each query will meet min(500, 50 * 100000 / 4000) = 500 footprints */
     p.found = 50.0;
-    pdm_two = pds__map_plan(&p, 1, 500.0, 100000, 1e6, 0.0, 2.0);
+    pdm_two = pds__map_plan(&p, 1, 500.0, 0, 100000, 1e6, 0.0, 2.0);
     CHECK(t, pdm_two < pm_two, "pdm traces %g s, pm %g s", pdm_two, pm_two);
     /* a budget the gather alone exceeds leaves no tracing */
-    CHECK_NEAR(t, pds__map_plan(&p, 1, 500.0, 100000, 1e6, 0.0, 0.1), 0.0, 1e-9);
+    CHECK_NEAR(t, pds__map_plan(&p, 1, 500.0, 0, 100000, 1e6, 0.0, 0.1), 0.0, 1e-9);
 }
 
 static void pdm_cap_one(pds_options *o) { o->max_photons = 1; }

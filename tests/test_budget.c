@@ -216,6 +216,7 @@ static void budget_probe(pds__map_probe *p)
     p->planned = 100000.0;
     p->queried = 1024.0;
     p->parallel = 2.0;
+    p->gather3_s = 0.0;
 }
 
 static void test_map_cost_is_the_line_through_the_two_probes(pds_test_ctx *t)
@@ -225,12 +226,12 @@ static void test_map_cost_is_the_line_through_the_two_probes(pds_test_ctx *t)
     budget_probe(&p);
     /* a map the probe's size: the build as probed, the gather of 1e5
        vertices at cap 20 on P = 2 */
-    CHECK_NEAR(t, pds__map_cost(&p, 0, 20.0, 100000, m), 1e-4 + 1e5 * (c0 + c1 * 20.0) / 2.0, 1e-12);
+    CHECK_NEAR(t, pds__map_cost(&p, 0, 20.0, 0, 100000, m), 1e-4 + 1e5 * (c0 + c1 * 20.0) / 2.0, 1e-12);
     /* pm finds no more photons than the map holds */
-    CHECK_NEAR(t, pds__map_cost(&p, 0, 50.0, 100000, 30.0) > 0.0, 1.0, 0.0);
+    CHECK_NEAR(t, pds__map_cost(&p, 0, 50.0, 0, 100000, 30.0) > 0.0, 1.0, 0.0);
     /* with one probe (found2 = 0): c0 = c1 = the time a query / (1 + found) */
     p.found2 = p.gather2_s = 0.0;
-    CHECK_NEAR(t, pds__map_cost(&p, 0, 20.0, 100000, m),
+    CHECK_NEAR(t, pds__map_cost(&p, 0, 20.0, 0, 100000, m),
                1e-4 + 1e5 * (1e-3 / 1024.0 / 51.0) * 21.0 / 2.0, 1e-12);
 }
 
@@ -249,22 +250,36 @@ static void test_map_tracing_lowers_the_cap_only_when_it_must(pds_test_ctx *t)
        k = 8 0.3 s, so the cap falls to the largest that keeps a quarter */
     tr = pds__map_tracing(&p, 0, 50.0, 2000000, 1e6, 0.0, 0.0, 1.0, &cap);
     CHECK(t, cap > 8.0 && cap < 50.0, "cap %g", cap);
-    CHECK(t, pds__map_plan(&p, 0, cap, 2000000, 1e6, 0.0, 1.0) >= 0.25 &&
-                 pds__map_plan(&p, 0, cap + 1.0, 2000000, 1e6, 0.0, 1.0) < 0.25,
-          "cap %g: tracing %g, at cap + 1 %g", cap, pds__map_plan(&p, 0, cap, 2000000, 1e6, 0.0, 1.0),
-          pds__map_plan(&p, 0, cap + 1.0, 2000000, 1e6, 0.0, 1.0));
-    CHECK_NEAR(t, tr, pds__map_plan(&p, 0, cap, 2000000, 1e6, 0.0, 1.0), 1e-12);
+    CHECK(t, pds__map_plan(&p, 0, cap, 0, 2000000, 1e6, 0.0, 1.0) >= 0.25 &&
+                 pds__map_plan(&p, 0, cap + 1.0, 0, 2000000, 1e6, 0.0, 1.0) < 0.25,
+          "cap %g: tracing %g, at cap + 1 %g", cap, pds__map_plan(&p, 0, cap, 0, 2000000, 1e6, 0.0, 1.0),
+          pds__map_plan(&p, 0, cap + 1.0, 0, 2000000, 1e6, 0.0, 1.0));
+    CHECK_NEAR(t, tr, pds__map_plan(&p, 0, cap, 0, 2000000, 1e6, 0.0, 1.0), 1e-12);
     /* 1e7 vertices: even k = 8 leaves less than a quarter: 8, and half
        the budget traced (the gather will bound its radius, at a cost the
        model does not know) */
     tr = pds__map_tracing(&p, 0, 50.0, 10000000, 1e6, 0.0, 0.0, 1.0, &cap);
     CHECK(t, cap == 8.0 && fabs(tr - 0.5) < 1e-12, "cap %g tracing %g", cap, tr);
+    /* the same with the bounded gather probed: 0.1 ms for the probe's
+       1024 queries (0.1 us a query: 0.49 s for 1e7 at P = 2 on a map of
+       the probe's size, more on a larger one): the tracing fills what
+       that gather and the build leave, more than a quarter and less than
+       the half traced without the probe */
+    p.gather3_s = 1e-4;
+    CHECK_NEAR(t, pds__map_cost(&p, 0, 8.0, 1, 10000000, 2000.0), 1e-4 + 1e7 * 1e-4 / 1024.0 / 2.0, 1e-12);
+    tr = pds__map_tracing(&p, 0, 50.0, 10000000, 1e6, 0.0, 0.0, 1.0, &cap);
+    CHECK(t, cap == 8.0 && tr > 0.3 && tr < 0.45, "cap %g tracing %g", cap, tr);
+    CHECK_NEAR(t, tr + pds__map_cost(&p, 0, 8.0, 1, 10000000, tr * 1e6 * 0.5), 1.0, 1e-6);
+    /* 0.5 s, which that gather alone fills: a quarter traced */
+    tr = pds__map_tracing(&p, 0, 50.0, 10000000, 1e6, 0.0, 0.0, 0.5, &cap);
+    CHECK(t, cap == 8.0 && fabs(tr - 0.125) < 1e-12, "cap %g tracing %g", cap, tr);
+    p.gather3_s = 0.0;
     /* round 2: 2e6 photons traced in 0.5 s of 4.5 s left: less to trace
        than from scratch, and the plan's cost fills what is left */
     tr = pds__map_tracing(&p, 0, 50.0, 100000, 1e6, 0.0, 0.0, 4.5, &cap);
     tr_more = pds__map_tracing(&p, 0, 50.0, 100000, 1e6, 2e6, 0.5, 4.5, &cap);
     CHECK(t, tr_more < tr, "tracing %g after 2e6 photons, %g before", tr_more, tr);
-    CHECK_NEAR(t, tr_more + pds__map_cost(&p, 0, 50.0, 100000, (2e6 + tr_more * 1e6) * 0.5), 4.5, 1e-6);
+    CHECK_NEAR(t, tr_more + pds__map_cost(&p, 0, 50.0, 0, 100000, (2e6 + tr_more * 1e6) * 0.5), 4.5, 1e-6);
     /* a budget the map of what is traced already exceeds: the floor, a
        quarter of (left + traced_s) minus traced_s */
     tr = pds__map_tracing(&p, 0, 50.0, 10000000, 1e6, 2e6, 0.5, 0.01, &cap);
