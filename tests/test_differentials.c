@@ -752,6 +752,24 @@ static double dt_sphere_dn_error(const pds_scene *s, double scale_edges, long *n
     return n > 0 ? sum / n : HUGE_VAL;
 }
 
+/* Tilt every vertex normal of s's mesh at random, each component by up
+   to amp, and average the result again as the loader does
+   (pds__mesh_smooth_normals; its status). */
+static int dt_jitter_normals(pds_scene *s, double amp)
+{
+    size_t i;
+    for (i = 0; i < s->mesh.nverts; i++) {
+        pds__v3 nv = pds__mesh_nrm(&s->mesh, (long)i), jitter;
+        jitter = pds__v(amp * (2.0 * dt_rand(i, 31) - 1.0), amp * (2.0 * dt_rand(i, 32) - 1.0),
+                        amp * (2.0 * dt_rand(i, 33) - 1.0));
+        nv = pds__normalize(pds__add(nv, jitter));
+        s->mesh.nrm[3 * i] = (float)nv.x;
+        s->mesh.nrm[3 * i + 1] = (float)nv.y;
+        s->mesh.nrm[3 * i + 2] = (float)nv.z;
+    }
+    return pds__mesh_smooth_normals(&s->mesh, &s->materials);
+}
+
 static void test_diff_mesh_normal_differential_at_a_footprint_scale_averages_out_noise(pds_test_ctx *t)
 {
     static const double scales[] = {0.0, 1.5, 4.0, 8.0, 16.0};
@@ -761,20 +779,11 @@ static void test_diff_mesh_normal_differential_at_a_footprint_scale_averages_out
                                    &err);
     double e_exact[5], e_noise[5];
     long n = 0;
-    size_t i, k;
+    size_t k;
     REQUIRE(t, s != NULL, "%s", err.text);
     CHECK(t, s->mesh.smooth == NULL, "smooth normals need no averaged fields");
     for (k = 0; k < 5; k++) e_exact[k] = dt_sphere_dn_error(s, scales[k], &n);
-    for (i = 0; i < s->mesh.nverts; i++) {
-        pds__v3 nv = pds__mesh_nrm(&s->mesh, (long)i), jitter;
-        jitter = pds__v(0.1 * (2.0 * dt_rand(i, 31) - 1.0), 0.1 * (2.0 * dt_rand(i, 32) - 1.0),
-                        0.1 * (2.0 * dt_rand(i, 33) - 1.0));
-        nv = pds__normalize(pds__add(nv, jitter));
-        s->mesh.nrm[3 * i] = (float)nv.x;
-        s->mesh.nrm[3 * i + 1] = (float)nv.y;
-        s->mesh.nrm[3 * i + 2] = (float)nv.z;
-    }
-    REQUIRE(t, pds__mesh_smooth_normals(&s->mesh, &s->materials) == 0, "out of memory");
+    REQUIRE(t, dt_jitter_normals(s, 0.1) == 0, "out of memory");
     CHECK(t, s->mesh.smooth != NULL, "noisy normals get their averaged fields");
     for (k = 0; k < 5; k++) e_noise[k] = dt_sphere_dn_error(s, scales[k], &n);
     CHECK(t, n > 2000, "only %ld triangles", n);
@@ -841,19 +850,9 @@ static void test_diff_noisy_normals_make_no_streaks(pds_test_ctx *t)
     pds_options opt;
     pds_image ref = {0, 0, NULL}, img = {0, 0, NULL};
     double rb[64], light[2], l1[2];
-    size_t i;
     int k;
     REQUIRE(t, s != NULL, "%s", err.text);
-    for (i = 0; i < s->mesh.nverts; i++) {
-        pds__v3 nv = pds__mesh_nrm(&s->mesh, (long)i), jitter;
-        jitter = pds__v(0.2 * (2.0 * dt_rand(i, 31) - 1.0), 0.2 * (2.0 * dt_rand(i, 32) - 1.0),
-                        0.2 * (2.0 * dt_rand(i, 33) - 1.0));
-        nv = pds__normalize(pds__add(nv, jitter));
-        s->mesh.nrm[3 * i] = (float)nv.x;
-        s->mesh.nrm[3 * i + 1] = (float)nv.y;
-        s->mesh.nrm[3 * i + 2] = (float)nv.z;
-    }
-    REQUIRE(t, pds__mesh_smooth_normals(&s->mesh, &s->materials) == 0, "out of memory");
+    REQUIRE(t, dt_jitter_normals(s, 0.2) == 0, "out of memory");
     REQUIRE(t, s->mesh.smooth != NULL, "noisy normals get their averaged fields");
     pds_options_default(&opt);
     opt.threads = 2;
