@@ -7061,6 +7061,7 @@ static size_t pds__kdtree_knn(const pds__kdtree *kd, pds__v3 c, size_t k, double
     return pds__kdtree_knn_within(kd, c, k, rmax * rmax, idx, dist2);
 }
 
+#if !defined(PDS_NO_BASELINES) || defined(PDS_TEST)
 /* A bound on the k-th distance at c from a query made before at p that
    found k points (the k-th at squared distance pk2): those k points lie
    within sqrt(pk2) of p, so within sqrt(pk2) + |c - p| of c (the
@@ -7080,6 +7081,7 @@ static double pds__kdtree_knn_hint(pds__v3 c, pds__v3 p, double pk2, double rmax
     h = h * h * (1.0 + 1e-9);
     return h < r2 ? h : r2;
 }
+#endif
 #endif
 
 /* ===================================================================== */
