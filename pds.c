@@ -16892,6 +16892,19 @@ static double pds__map_cap_requested(const pds_options *opt)
     return (double)(opt->method == PDS_METHOD_PDM ? opt->max_photons : opt->k);
 }
 
+/* P of the model: the gather's threads over the probe's threads that had
+   work, a chunk of PDS__GATHER_CHUNK of its nsub vertices each (pdm's
+   probe of 384 vertices at a cap of 500 is one chunk, gathered by one
+   thread: its pace, taken as both threads', foretold twice the gather's
+   time on the Cornell box at 512 x 512, and pdm landed at 0.75 of T). */
+static double pds__probe_parallel(int threads, int probe_threads, size_t nsub)
+{
+    size_t chunks = (nsub + PDS__GATHER_CHUNK - 1) / PDS__GATHER_CHUNK;
+    int busy = probe_threads > 0 ? probe_threads : 1;
+    if (chunks < (size_t)busy) busy = chunks > 0 ? (int)chunks : 1;
+    return (double)threads / (double)busy;
+}
+
 /* The probes of steps 1 and 2: fill *p from one build of the photons
    stored so far (`emitted` emitted) and two gathers at about max_vertices
    of the eye vertices (runs of neighbours, pds__gather_sampled), with the
@@ -16954,7 +16967,7 @@ static int pds__map_probe_run(pds__photon_job *job, const pds_options *opt, cons
     p->emitted = emitted;
     p->planned = job->n_planned;
     p->queried = (double)nsub;
-    p->parallel = (double)threads / (double)(probe_threads > 0 ? probe_threads : 1);
+    p->parallel = pds__probe_parallel(threads, probe_threads, nsub);
     return ok;
 }
 

@@ -337,11 +337,27 @@ static void test_paper_pds_without_time_keeps_small_footprints(pds_test_ctx *t)
     pds_image_free(&img);
 }
 
+#ifndef PDS_NO_BASELINES
+/* P, the gather's speed-up over the probe's: the threads over the
+   probe's threads that had a chunk of vertices to gather (one thread's
+   probe: P = the threads; a probe on all threads: 1, unless it had
+   fewer chunks than threads, as pdm's 384 vertices are one chunk). */
+static void test_probe_parallel_counts_the_threads_that_had_work(pds_test_ctx *t)
+{
+    CHECK_NEAR(t, pds__probe_parallel(2, 1, 8192), 2.0, 0.0);
+    CHECK_NEAR(t, pds__probe_parallel(2, 2, 4096), 1.0, 0.0);
+    CHECK_NEAR(t, pds__probe_parallel(2, 2, 384), 2.0, 0.0);
+    CHECK_NEAR(t, pds__probe_parallel(8, 8, 3 * PDS__GATHER_CHUNK), 8.0 / 3.0, 1e-15);
+    CHECK_NEAR(t, pds__probe_parallel(2, 2, 0), 2.0, 0.0);
+}
+#endif
+
 static const pds_test_case tests_budget[] = {
     {"pds_plan_solves_the_cost_of_tracing_and_splats", test_pds_plan_solves_the_cost_of_tracing_and_splats},
     {"pds_plan_keeps_a_batch_within_an_eighth_of_the_time", test_pds_plan_keeps_a_batch_within_an_eighth_of_the_time},
 #ifndef PDS_NO_BASELINES
     {"gather_sample_is_counted_and_spread", test_gather_sample_is_counted_and_spread},
+    {"probe_parallel_counts_the_threads_that_had_work", test_probe_parallel_counts_the_threads_that_had_work},
     {"ppm_pass_photons_fit_the_time_left", test_ppm_pass_photons_fit_the_time_left},
     {"ppm_update_model_fits_the_passes_measured", test_ppm_update_model_fits_the_passes_measured},
     {"ppm_past_its_deadline_traces_one_batch", test_ppm_past_its_deadline_traces_one_batch},
