@@ -17533,6 +17533,7 @@ typedef struct pds__gi_map {
     int use_shadow;      /* shadow photons decide light samples */
     int record_only;     /* caustics only: the eye pass only records vertices */
     uint64_t seed;
+    long emitted;        /* photons (streams) emitted */
 } pds__gi_map;
 
 /* Pass 1's work, handed out in batches. */
@@ -17934,6 +17935,7 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
         b.n = opt->global_photons / (opt->stream_photons + 1L);
         g->nfa = opt->stream_photons;
     }
+    g->emitted = b.n;
     b.max_depth = opt->max_depth;
     b.eps = 1e-6 * pds__scene_scale(s);
     b.spectral = pds__render_is_spectral(s, opt);
@@ -18119,58 +18121,104 @@ static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v
    radiance at many points x2, each a k-nearest search and k BRDF
    evaluations; on Lambertian surfaces the radiance is the local albedo
    over pi times the irradiance E, which varies slowly, so E is estimated
-   once, at every PDS__GI_IRR_STRIDE-th stored photon, and a gather ray
-   that ends on a Lambertian surface takes the estimate of the nearest
-   such point whose normal is within acos(PDS__GI_IRR_COS) of its own (and
-   that lies within the radius of that point's own estimate): one
-   nearest-point search instead of k.
-       E(p) = sum_q dPhi_q w_q / ((1 - 2/3) pi r^2)
-   over p's k nearest photons q arriving on p's side, cone filter as in
-   pds__gi_radiance (Jensen 1996, eqs. 3-4), r the k-th distance; then
+   once at points where photons lie, and a gather ray that ends on a
+   Lambertian surface takes the estimate of the nearest such point whose
+   normal is within acos(PDS__GI_IRR_COS) of its own (and that lies
+   within the radius of that point's own estimate): one nearest-point
+   search instead of k. Then
        L(x2, wo) = albedo(x2) / pi E(p).
-   The estimate moves by the distance to p, inside the blur r of the
-   density estimate itself, but not evenly: the points follow the
-   photons, denser where it is brighter, so the nearest one lies more
-   often on the brighter side. Christensen takes every fourth photon;
-   measured in the Cornell box against the full estimate (4 seeds of 64
-   samples), that makes the image 1% brighter, every photon 0.4%
-   (README "Global illumination"), at 1.5 times the cost of every fourth
-   (and 0.43 times the cost of the full estimate), so every photon it
-   is. The points cost one full estimate each, so they are made only when
-   the gathers will ask for more estimates (pds__gi_irradiance_pays). E
-   is the map's own estimate (single photons or streams) for a white
-   Lambertian surface. Where no point qualifies (a thin part, an edge)
-   and on other surfaces the full
-   estimate answers; so it does in maps holding spectral photons, whose
-   contributions depend on the albedo at each photon's wavelength. Tested
-   in gi_precomputed_irradiance_matches_the_full_estimate. */
-#define PDS__GI_IRR_STRIDE 1
+
+   Which photons, and from which: the map's emitted photons are split in
+   two halves by number, the first n/2 and the rest (each half a run of
+   the Halton sequence their emission follows, so each is as evenly
+   spread over the lights as the whole; a split at random or by parity
+   is not), a photon's stores along its path staying together; the
+   points are the stores of the first half, and each point's E is
+   estimated from the second half alone,
+       E(p) = 2 sum_q dPhi_q w_q / ((1 - 2/3) pi r^2)
+   over p's ceil(k/2) nearest photons q of the second half arriving on
+   p's side, cone filter as in pds__gi_radiance (Jensen 1996, eqs. 3-4),
+   r the last one's distance (about the radius of the full estimate's k
+   nearest; the factor 2: the half carries half the map's flux). Two
+   biases of Christensen's points estimated from all the photons,
+   measured in the Cornell box against a long path-traced reference of
+   single blocks (README "Global illumination"), are why:
+   - an estimate at a photon counts that photon itself, at distance 0
+     with the cone filter's largest weight, and its k-th neighbour is
+     the (k-1)-th of the others: about (k + 1) / (k - 2) too bright (6%
+     at k = 50);
+   - the nearest point to x2 is more often a photon whose neighbours
+     lie far away (its Voronoi cell is larger), and the same neighbours
+     make its estimate: with the photon itself left out of its estimate
+     the lookups are about 4% too dark.
+   In the box the two nearly cancel (the image 0.45-0.6% brighter than
+   the full estimate's on the walls beside the mirror, where the map's
+   share is large). With the points and their estimates from disjoint
+   halves of the map, which photon is nearest says nothing about its
+   estimate. A point's estimate has the noise of k/2 photons, which the gather
+   averages over many points; there are half as many points, each a
+   half-size search. A map of streams keeps Christensen's points at
+   every photon with the streams' own estimate (its photons come in
+   streams of one path).
+   The points cost one estimate each, so they are made only when the
+   gathers will ask for more estimates (pds__gi_irradiance_pays). Where
+   no point qualifies (a thin part, an edge) and on other surfaces the
+   full estimate answers; so it does in maps holding spectral photons,
+   whose contributions depend on the albedo at each photon's wavelength.
+   Tested in gi_precomputed_irradiance_matches_the_full_estimate and
+   gi_precomputed_irradiance_is_as_bright_as_the_full_estimate. */
 #define PDS__GI_IRR_COS 0.9
 #define PDS__GI_IRR_K 4     /* nearest points looked at for one with a matching normal */
 
-/* Irradiance at p's position on its lit side (the record's ng): pi
-   times the radiance the map's own estimate (single photons or streams)
-   gives a white Lambertian surface there. */
-static void pds__gi_irradiance_at(const pds__gi_map *g, const pds_material *white, const pds__gi_photon *p,
-                                  pds__gi_irr *out)
+typedef struct pds__gi_irr_job {
+    pds__gi_map *g;
+    pds_material white;   /* Lambertian, albedo 1 */
+    const size_t *point;  /* the points' photons (nirr) */
+    pds__kdtree half;     /* single photons: the second half's positions */
+    const size_t *hidx;   /* ... and their photons */
+    pds__mutex lock;
+    size_t next; /* guarded by lock: the next batch's first point */
+} pds__gi_irr_job;
+
+/* Which half of the map photon p's stores belong to (0: points). */
+static int pds__gi_half(const pds__gi_map *g, const pds__gi_photon *p)
 {
-    double L[3], r2;
+    return (long)p->index >= g->emitted / 2;
+}
+
+/* Irradiance at p's position on its lit side (the record's ng): for a map
+   of single photons from the second half (above), for a map of streams
+   pi times the radiance the streams' estimate gives a white Lambertian
+   surface there. */
+static void pds__gi_irradiance_at(const pds__gi_irr_job *job, const pds__gi_photon *p, pds__gi_irr *out)
+{
+    const pds__gi_map *g = job->g;
+    double L[3] = {0.0, 0.0, 0.0}, r2 = 0.0;
     pds__v3 x = pds__f3_get(p->pos), ng = pds__f3_get(p->ng);
     int c;
     memset(out, 0, sizeof *out);
     memcpy(out->pos, p->pos, sizeof out->pos);
     memcpy(out->ng, p->ng, sizeof out->ng);
-    pds__gi_estimate(g, white, x, ng, ng, ng, 0.0, L, &r2);
-    for (c = 0; c < 3; c++) out->E[c] = (float)(PDS__PI * L[c]);
+    if (g->streams) {
+        pds__gi_estimate(g, &job->white, x, ng, ng, ng, 0.0, L, &r2);
+        for (c = 0; c < 3; c++) out->E[c] = (float)(PDS__PI * L[c]);
+    } else {
+        size_t idx[PDS__GI_MAX_K], n, j, kh = ((size_t)g->k + 1) / 2;
+        double d2[PDS__GI_MAX_K], area;
+        n = pds__kdtree_knn(&job->half, x, kh, DBL_MAX, idx, d2);
+        if (n < (kh < 4 ? kh : 4) || !(d2[n - 1] > 0.0)) return; /* as the full estimate's min(8, k) */
+        r2 = d2[n - 1];
+        for (j = 0; j < n; j++) {
+            const pds__gi_photon *q = &g->photons[job->hidx[idx[j]]];
+            double w = 1.0 - sqrt(d2[j] / r2);
+            if (pds__dot(pds__f3_get(q->ng), ng) <= 0.0) continue;
+            for (c = 0; c < 3; c++) L[c] += 2.0 * q->flux[c] * w;
+        }
+        area = (1.0 / 3.0) * PDS__PI * r2;
+        for (c = 0; c < 3; c++) out->E[c] = (float)(L[c] / area);
+    }
     out->r2 = (float)r2; /* 0 (no estimate): never chosen */
 }
-
-typedef struct pds__gi_irr_job {
-    pds__gi_map *g;
-    pds_material white; /* Lambertian, albedo 1 */
-    pds__mutex lock;
-    size_t next; /* guarded by lock: the next batch's first point */
-} pds__gi_irr_job;
 
 static void *pds__gi_irr_worker(void *arg)
 {
@@ -18184,31 +18232,68 @@ static void *pds__gi_irr_worker(void *arg)
         pds__mutex_unlock(&job->lock);
         if (first >= g->nirr) break;
         for (i = first; i < g->nirr && i < first + 1024; i++)
-            pds__gi_irradiance_at(g, &job->white, &g->photons[i * PDS__GI_IRR_STRIDE], &g->irr[i]);
+            pds__gi_irradiance_at(job, &g->photons[job->point[i]], &g->irr[i]);
     }
     return NULL;
 }
 
 /* The points and their kd-tree, for a map of RGB photons (each point a
-   pure function of the map: the same for any thread count). */
+   pure function of the map and the seed: the same for any thread
+   count). */
 static pds_status pds__gi_irradiance_build(pds__gi_map *g, int threads, pds_error *err)
 {
     pds__gi_irr_job job;
-    size_t i;
+    size_t i, np = 0, nh = 0, *point, *hidx = NULL;
+    float *hpos = NULL;
+    pds_status st = PDS_OK;
     if (g->n == 0) return PDS_OK;
     for (i = 0; i < g->n; i++)
         if (g->photons[i].lambda > 0.0f) return PDS_OK;
-    g->nirr = (g->n + PDS__GI_IRR_STRIDE - 1) / PDS__GI_IRR_STRIDE;
-    g->irr = (pds__gi_irr *)malloc(sizeof *g->irr * g->nirr);
-    if (!g->irr) return pds__nomem(err);
     memset(&job, 0, sizeof job);
     job.g = g;
     job.white.type = PDS_MAT_DIFFUSE;
     job.white.albedo[0] = job.white.albedo[1] = job.white.albedo[2] = 1.0;
-    pds__mutex_init(&job.lock);
-    pds__run_threads(threads, pds__gi_irr_worker, &job);
-    pds__mutex_destroy(&job.lock);
-    return pds__kdtree_build(&g->itree, &g->irr[0].pos[0], sizeof *g->irr / sizeof(float), g->nirr, err);
+    point = (size_t *)malloc(sizeof *point * g->n);
+    if (!g->streams) {
+        hidx = (size_t *)malloc(sizeof *hidx * g->n);
+        hpos = (float *)malloc(sizeof *hpos * 3 * g->n);
+    }
+    if (!point || (!g->streams && (!hidx || !hpos))) {
+        free(point);
+        free(hidx);
+        free(hpos);
+        return pds__nomem(err);
+    }
+    for (i = 0; i < g->n; i++) {
+        if (g->streams || pds__gi_half(g, &g->photons[i]) == 0) {
+            point[np++] = i;
+        } else {
+            memcpy(&hpos[3 * nh], g->photons[i].pos, sizeof g->photons[i].pos);
+            hidx[nh++] = i;
+        }
+    }
+    if (!g->streams) st = pds__kdtree_build(&job.half, nh ? hpos : NULL, 3, nh, err);
+    free(hpos);
+    if (!st && np > 0) {
+        g->nirr = np;
+        g->irr = (pds__gi_irr *)malloc(sizeof *g->irr * np);
+        if (!g->irr) {
+            g->nirr = 0;
+            st = pds__nomem(err);
+        }
+    }
+    if (!st && np > 0) {
+        job.point = point;
+        job.hidx = hidx;
+        pds__mutex_init(&job.lock);
+        pds__run_threads(threads, pds__gi_irr_worker, &job);
+        pds__mutex_destroy(&job.lock);
+        st = pds__kdtree_build(&g->itree, &g->irr[0].pos[0], sizeof *g->irr / sizeof(float), g->nirr, err);
+    }
+    pds__kdtree_free(&job.half);
+    free(point);
+    free(hidx);
+    return st;
 }
 
 /* L at x2 (Lambertian material m, geometric normal ngw facing wo) from

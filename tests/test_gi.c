@@ -97,9 +97,10 @@ static void test_gi_global_map_radiance_matches_point_light_irradiance(pds_test_
    plane under the mirror (gi_mirror_scene), the radiance a gather takes from the
    nearest precomputed point, albedo / pi E(p), against the analytic
    (albedo / pi) E of the test above (60,000 photons, k = 80: none off by
-   more than 8%, the mean within 1.5%; measured: 4.7% and 0.07%) and
-   against the full estimate at the point itself (within 8%; measured:
-   2.1%: the estimate moves by the distance to the nearest point, and
+   more than 12%, the mean within 1.5%; measured: 8.2% and -0.7%) and
+   against the full estimate at the point itself (within 12%; measured:
+   7.1%: the estimate moves by the distance to the nearest point, each
+   point's estimate has the noise of k/2 photons of half the map, and
    the two have their own noise). Seen
    from below the plane (no photons arrive there) no point qualifies. The
    points are the same for 2 and 3 threads, and a render of 16 x 16
@@ -124,8 +125,8 @@ static void test_gi_precomputed_irradiance_matches_the_full_estimate(pds_test_ct
     o.spp = 1000;
     CHECK(t, pds__gi_irradiance_pays(s, &o, g.n), "not precomputed for 2,048,000 gathers");
     REQUIRE(t, pds__gi_irradiance_build(&g, 2, &err) == PDS_OK, "precomputed: %s", err.text);
-    REQUIRE(t, g.irr != NULL && g.nirr == (g.n + PDS__GI_IRR_STRIDE - 1) / PDS__GI_IRR_STRIDE, "%lu points",
-            (unsigned long)g.nirr);
+    REQUIRE(t, g.irr != NULL && g.nirr > g.n / 3 && g.nirr < 2 * g.n / 3, "%lu points of %lu photons",
+            (unsigned long)g.nirr, (unsigned long)g.n);
     for (i = -5; i <= 5; i++) {
         for (j = -5; j <= 5; j++) {
             pds__v3 x = pds__v(0.12 * i + 0.013, 0.0, 0.12 * j - 0.007);
@@ -137,17 +138,17 @@ static void test_gi_precomputed_irradiance_matches_the_full_estimate(pds_test_ct
             pds__gi_radiance(&g, &s->materials.items[0], x, up, up, up, 0.0, full);
             rel = fabs(L[1] / exact - 1.0);
             if (rel > worst) worst = rel;
-            bad += rel > 0.08;
+            bad += rel > 0.12;
             worst_full = fmax(worst_full, fabs(L[1] / full[1] - 1.0));
             sum_est += L[1];
             sum_exact += exact;
         }
     }
     CHECK(t, found == n, "a point for %d of %d", found, n);
-    CHECK(t, bad == 0, "%d of %d lookups off by more than 8%%, worst %.4f", bad, n, worst);
+    CHECK(t, bad == 0, "%d of %d lookups off by more than 12%%, worst %.4f", bad, n, worst);
     CHECK(t, sum_exact > 0.0 && fabs(sum_est / sum_exact - 1.0) < 0.015, "mean lookup / exact = %.4f",
           sum_est / sum_exact);
-    CHECK(t, worst_full < 0.08, "lookup against the full estimate: %.4f", worst_full);
+    CHECK(t, worst_full < 0.12, "lookup against the full estimate: %.4f", worst_full);
     CHECK(t, !pds__gi_irradiance_lookup(&g, &s->materials.items[0], pds__v(0.1, 0.0, 0.1), pds__scale(up, -1.0), L),
           "a point found for the unlit side");
     {
@@ -163,6 +164,54 @@ static void test_gi_precomputed_irradiance_matches_the_full_estimate(pds_test_ct
               "the points depend on the thread count");
         free(copy);
     }
+    pds__gi_map_free(&g);
+    pds_scene_free(s);
+}
+
+/* A precomputed irradiance point's estimate does not count the photons
+   that place the points (>>gi, "precomputed irradiance"): which point
+   is nearest a gather's end must say nothing about its estimate. Made
+   again with every photon of the first half (the points' own) 100 times
+   as bright, every point's irradiance must be the same bits; Christensen's
+   points, estimated from all the photons, each count their own photon
+   with the cone filter's largest weight (about 6% too bright at k = 50,
+   and their neighbours' Voronoi cells bias the nearest point's choice:
+   0.45-0.6% of the Cornell box's image beside the mirror, README
+   "Global illumination"). */
+static void test_gi_precomputed_irradiance_leaves_out_its_own_photons(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text(gi_mirror_scene, &err);
+    pds__gi_map g;
+    pds_options o;
+    pds__gi_irr *before;
+    size_t i, changed = 0, first_half = 0, bytes;
+    REQUIRE(t, s, "scene: %s", err.text);
+    gi_options(&o, 2);
+    o.global_photons = 20000;
+    o.max_depth = 1;
+    REQUIRE(t, pds__gi_map_build(&g, s, &o, 2, &err) == PDS_OK, "map: %s", err.text);
+    REQUIRE(t, pds__gi_irradiance_build(&g, 2, &err) == PDS_OK && g.nirr > 0, "precomputed: %s", err.text);
+    bytes = g.nirr * sizeof *g.irr;
+    before = (pds__gi_irr *)malloc(bytes);
+    REQUIRE(t, before != NULL, "memory");
+    memcpy(before, g.irr, bytes);
+    free(g.irr);
+    g.irr = NULL;
+    pds__kdtree_free(&g.itree);
+    for (i = 0; i < g.n; i++)
+        if (pds__gi_half(&g, &g.photons[i]) == 0) {
+            int c;
+            for (c = 0; c < 3; c++) g.photons[i].flux[c] *= 100.0f;
+            first_half++;
+        }
+    CHECK(t, first_half == g.nirr, "%lu points, %lu photons in the first half", (unsigned long)g.nirr,
+          (unsigned long)first_half);
+    REQUIRE(t, pds__gi_irradiance_build(&g, 2, &err) == PDS_OK && g.nirr * sizeof *g.irr == bytes, "again: %s",
+            err.text);
+    for (i = 0; i < g.nirr; i++) changed += memcmp(&before[i], &g.irr[i], sizeof *g.irr) != 0;
+    CHECK(t, changed == 0, "%lu of %lu points changed", (unsigned long)changed, (unsigned long)g.nirr);
+    free(before);
     pds__gi_map_free(&g);
     pds_scene_free(s);
 }
@@ -906,6 +955,7 @@ static void test_gi_direct_light_at_a_glossy_x2_is_exact(pds_test_ctx *t)
 static const pds_test_case tests_gi[] = {
     {"gi_global_map_radiance_matches_point_light_irradiance", test_gi_global_map_radiance_matches_point_light_irradiance},
     {"gi_precomputed_irradiance_matches_the_full_estimate", test_gi_precomputed_irradiance_matches_the_full_estimate},
+    {"gi_precomputed_irradiance_leaves_out_its_own_photons", test_gi_precomputed_irradiance_leaves_out_its_own_photons},
     {"gi_shadow_photons_never_darken_a_lit_point", test_gi_shadow_photons_never_darken_a_lit_point},
     {"gi_gather_importance_sampling_is_unbiased", test_gi_gather_importance_sampling_is_unbiased},
     {"gi_agrees_with_path_tracing_in_a_small_box", test_gi_agrees_with_path_tracing_in_a_small_box},
