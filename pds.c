@@ -863,6 +863,7 @@ static double pds__xform_det(const pds__xform *x)
 #define PDS__NORMAL_LEVELS 3   /* averaged fields, over about 2, 4 and 8 edges */
 #define PDS__NORMAL_BEND 0.966 /* corners whose normals differ by more (15 degrees) are not averaged together */
 #define PDS__NORMAL_NOISE 2.0  /* pds__mesh_normal_diff: the noise ratio above which the averaged fields count */
+#define PDS__NORMAL_REACH 1.5  /* pds__mesh_normal_diff: the averaged field's reach over the footprint's width */
 
 typedef struct pds__mesh {
     float *pos, *nrm;
@@ -9277,13 +9278,18 @@ static pds__v3 pds__tri_normal_diff(const pds__mesh *m, const float *nrm, long t
 }
 
 /* The shading normal's differential *dn along dp at (u, v) of triangle
-   tri, for a footprint of half-width scale there. Within a triangle (a
-   footprint at most its size e = sqrt(2 area) across) and on smooth
-   normals: the derivative of the interpolated vertex normals, as ray
-   differentials take it (Igehy 1999). On noisy normals: the derivative of
-   the averaged fields at the footprint's scale (pds__mesh_smooth_normals;
-   field l at about 2^l edges, interpolated in log2(2 scale / e), the
-   footprint's width in triangles). Noise is told from shape by how far
+   tri, for a footprint of half-width scale there along dp. Within a
+   triangle (a footprint at most its size e = sqrt(2 area) across) and on
+   smooth normals: the derivative of the interpolated vertex normals, as
+   ray differentials take it (Igehy 1999). On noisy normals: the
+   derivative of the averaged fields at the footprint's scale
+   (pds__mesh_smooth_normals; field l at about 2^l edges, interpolated in
+   log2(PDS__NORMAL_REACH 2 scale / e), the footprint's width in
+   triangles, times 1.5: a field's one-ring averages reach about that
+   much less far than the width they are named by. Measured on a glass
+   sphere with noisy normals at 2M photons against light tracing: RMSE
+   0.0137 at 1, 0.0050 at 1.5, 0.0049 at 2; the cognac glass's needles,
+   whose coarse revolve counts as noisy, 0.0029, 0.0031, 0.0033.) Noise is told from shape by how far
    the one derivative lies from the other, rho = |DN - DN_avg| / |DN_avg|:
    on smooth normals averaging changes the derivative only where the
    curvature itself changes over the footprint (a few tens of percent on
@@ -9302,8 +9308,8 @@ static void pds__mesh_normal_diff(const pds__mesh *m, long tri, double u, double
     *dn = pds__tri_normal_diff(m, m->nrm, tri, u, v, dp);
     if (!m->smooth || !(scale > 0.0)) return;
     e = sqrt(pds__mesh_tri_area2(m, ix[0], ix[1], ix[2]));
-    if (!(2.0 * scale > e)) return;
-    lambda = log2(2.0 * scale / e);
+    if (!(PDS__NORMAL_REACH * 2.0 * scale > e)) return;
+    lambda = log2(PDS__NORMAL_REACH * 2.0 * scale / e);
     if (lambda > PDS__NORMAL_LEVELS) lambda = PDS__NORMAL_LEVELS;
     l0 = (int)lambda;
     f = lambda - l0;
@@ -15311,9 +15317,11 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
         {
             pds__v3 nsu = pds__normalize(hit.ns);
             double agree = pds__dot(n, nsu);
-            double scale = 0.5 * fmax(pds__length(r.dpdu), pds__length(r.dpdv));
-            pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdu, scale, &dndu);
-            pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdv, scale, &dndv);
+            /* each derivative at the footprint's half-width along its
+               own direction: a needle keeps the triangle's derivative
+               across itself */
+            pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdu, 0.5 * pds__length(r.dpdu), &dndu);
+            pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdv, 0.5 * pds__length(r.dpdv), &dndv);
             if (agree < -0.999999) {
                 dndu = pds__scale(dndu, -1.0);
                 dndv = pds__scale(dndv, -1.0);

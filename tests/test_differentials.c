@@ -724,7 +724,11 @@ static void test_diff_mesh_normal_differential_is_zero_on_flat_and_matches_spher
    every vertex normal tilted at random
    (each component by up to 0.1) the per-triangle derivative is mostly
    noise (mean error above 3) and a footprint 8 or 16 triangles across
-   takes the averaged fields' derivative, within 0.5. */
+   takes the averaged fields' derivative, within 0.5 (0.44). One 1.5
+   triangles across (the footprints of a few million photons) is within
+   1 (0.63; 4.1 when the field was chosen by the footprint's width alone,
+   PDS__NORMAL_REACH 1, which stalled that sphere's caustic from 200,000
+   to 2 million photons). */
 static double dt_sphere_dn_error(const pds_scene *s, double scale_edges, long *n_out)
 {
     const pds__mesh *m = &s->mesh;
@@ -748,29 +752,38 @@ static double dt_sphere_dn_error(const pds_scene *s, double scale_edges, long *n
     return n > 0 ? sum / n : HUGE_VAL;
 }
 
+/* Tilt every vertex normal of s's mesh at random, each component by up
+   to amp, and average the result again as the loader does
+   (pds__mesh_smooth_normals; its status). */
+static int dt_jitter_normals(pds_scene *s, double amp)
+{
+    size_t i;
+    for (i = 0; i < s->mesh.nverts; i++) {
+        pds__v3 nv = pds__mesh_nrm(&s->mesh, (long)i), jitter;
+        jitter = pds__v(amp * (2.0 * dt_rand(i, 31) - 1.0), amp * (2.0 * dt_rand(i, 32) - 1.0),
+                        amp * (2.0 * dt_rand(i, 33) - 1.0));
+        nv = pds__normalize(pds__add(nv, jitter));
+        s->mesh.nrm[3 * i] = (float)nv.x;
+        s->mesh.nrm[3 * i + 1] = (float)nv.y;
+        s->mesh.nrm[3 * i + 2] = (float)nv.z;
+    }
+    return pds__mesh_smooth_normals(&s->mesh, &s->materials);
+}
+
 static void test_diff_mesh_normal_differential_at_a_footprint_scale_averages_out_noise(pds_test_ctx *t)
 {
-    static const double scales[] = {0.0, 2.0, 4.0, 8.0, 16.0};
+    static const double scales[] = {0.0, 1.5, 4.0, 8.0, 16.0};
     pds_error err;
     pds_scene *s = scene_from_text("material glass dielectric { ior 1.5 }\n"
                                    "sphere { material glass radius 0.5 segments 240 rings 120 translate 0 1 0 }\n",
                                    &err);
     double e_exact[5], e_noise[5];
     long n = 0;
-    size_t i, k;
+    size_t k;
     REQUIRE(t, s != NULL, "%s", err.text);
     CHECK(t, s->mesh.smooth == NULL, "smooth normals need no averaged fields");
     for (k = 0; k < 5; k++) e_exact[k] = dt_sphere_dn_error(s, scales[k], &n);
-    for (i = 0; i < s->mesh.nverts; i++) {
-        pds__v3 nv = pds__mesh_nrm(&s->mesh, (long)i), jitter;
-        jitter = pds__v(0.1 * (2.0 * dt_rand(i, 31) - 1.0), 0.1 * (2.0 * dt_rand(i, 32) - 1.0),
-                        0.1 * (2.0 * dt_rand(i, 33) - 1.0));
-        nv = pds__normalize(pds__add(nv, jitter));
-        s->mesh.nrm[3 * i] = (float)nv.x;
-        s->mesh.nrm[3 * i + 1] = (float)nv.y;
-        s->mesh.nrm[3 * i + 2] = (float)nv.z;
-    }
-    REQUIRE(t, pds__mesh_smooth_normals(&s->mesh, &s->materials) == 0, "out of memory");
+    REQUIRE(t, dt_jitter_normals(s, 0.1) == 0, "out of memory");
     CHECK(t, s->mesh.smooth != NULL, "noisy normals get their averaged fields");
     for (k = 0; k < 5; k++) e_noise[k] = dt_sphere_dn_error(s, scales[k], &n);
     CHECK(t, n > 2000, "only %ld triangles", n);
@@ -779,6 +792,91 @@ static void test_diff_mesh_normal_differential_at_a_footprint_scale_averages_out
     CHECK(t, e_noise[0] > 3.0, "noisy normals, within a triangle: mean error %g (the noise's)", e_noise[0]);
     CHECK(t, e_noise[3] < 0.5 && e_noise[4] < 0.5, "noisy normals, 8 and 16 triangles across: mean errors %g, %g",
           e_noise[3], e_noise[4]);
+    CHECK(t, e_noise[1] < 1.0, "noisy normals, 1.5 triangles across: mean error %g", e_noise[1]);
+    pds_scene_free(s);
+}
+
+
+/* Noisy vertex normals must not explode footprints into streaks (the
+   glass bunny at 20,000 photons once had footprints covering its whole
+   floor). A glass sphere (120 x 60 segments) whose vertex normals are
+   tilted at random, each component by up to 0.2 (about 0.17 rad), lit
+   from the side by a small disk light so that its caustic lands on the
+   floor beside it, seen from above with the sphere out of view (48 x 48
+   pixels): PDS at 20,000 photons against light tracing (no kernel, 10^6
+   photons), both summed in 8 x 8 blocks of 6 x 6 pixels. With the
+   defaults the image keeps 0.98-1.00 of the reference's light and the
+   blocks' shares of it differ by 0.06-0.07 in sum (seeds 0-4). With
+   neither guard, no averaged normal fields (pds__mesh_smooth_normals)
+   and no bound on the normal's turn over a footprint (split_angle 10
+   rad), a fifth of the light is spread out of view and the shares
+   differ by 0.18-0.20; either guard alone keeps the light within 5%
+   (0.99 and 0.96, shares 0.076 and 0.090). */
+static void dt_blocks(const pds_image *img, double blk[64])
+{
+    int x, y, c;
+    memset(blk, 0, 64 * sizeof *blk);
+    for (y = 0; y < 48; y++)
+        for (x = 0; x < 48; x++)
+            for (c = 0; c < 3; c++) blk[(y / 6) * 8 + x / 6] += img->rgb[3 * (y * 48 + x) + c];
+}
+
+/* The image's light over the reference's, and the L1 distance between
+   their blocks' shares of it. */
+static void dt_block_shares(const double ref[64], const pds_image *img, double *light, double *l1)
+{
+    double b[64], tot = 0.0, rtot = 0.0;
+    int i;
+    dt_blocks(img, b);
+    for (i = 0; i < 64; i++) {
+        tot += b[i];
+        rtot += ref[i];
+    }
+    *light = tot / rtot;
+    *l1 = 0.0;
+    for (i = 0; i < 64; i++) *l1 += fabs(b[i] / tot - ref[i] / rtot);
+}
+
+static void test_diff_noisy_normals_make_no_streaks(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text("camera { position -1.6 2.5 0.000001 look_at -1.6 0 0 up 0 0 -1 fov 36 resolution 48 48 spp 4 }\n"
+                                   "material floor diffuse { albedo 0.8 }\n"
+                                   "material glass dielectric { ior 1.5 }\n"
+                                   "light disk { center 4 2 0 normal -0.94 -0.34 0 radius 0.1 power 100 }\n"
+                                   "quad { material floor size 6 6 }\n"
+                                   "sphere { material glass radius 0.5 segments 120 rings 60 translate 0 0.55 0 }\n",
+                                   &err);
+    pds_options opt;
+    pds_image ref = {0, 0, NULL}, img = {0, 0, NULL};
+    double rb[64], light[2], l1[2];
+    int k;
+    REQUIRE(t, s != NULL, "%s", err.text);
+    REQUIRE(t, dt_jitter_normals(s, 0.2) == 0, "out of memory");
+    REQUIRE(t, s->mesh.smooth != NULL, "noisy normals get their averaged fields");
+    pds_options_default(&opt);
+    opt.threads = 2;
+    opt.photons = 1000000;
+    REQUIRE(t, pds_render_light_traced(s, &opt, &ref, &err) == PDS_OK, "reference: %s", err.text);
+    dt_blocks(&ref, rb);
+    opt.photons = 20000;
+    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    for (k = 0; k < 2; k++) {
+        if (k == 1) {
+            /* neither guard */
+            free(s->mesh.smooth);
+            s->mesh.smooth = NULL;
+            opt.split_angle = 10.0;
+        }
+        REQUIRE(t, pds_render(s, &opt, &img, NULL, &err) == PDS_OK, "render: %s", err.text);
+        dt_block_shares(rb, &img, &light[k], &l1[k]);
+        pds_image_free(&img);
+    }
+    CHECK(t, fabs(light[0] - 1.0) < 0.05 && l1[0] < 0.1, "defaults: light %g of the reference's, shares apart by %g",
+          light[0], l1[0]);
+    CHECK(t, light[1] < 0.9 && l1[1] > 0.15, "without the guards the test should see streaks: light %g, shares %g",
+          light[1], l1[1]);
+    pds_image_free(&ref);
     pds_scene_free(s);
 }
 
@@ -944,6 +1042,7 @@ static const pds_test_case tests_differentials[] = {
     {"diff_transfer_lands_in_plane_and_refuses_grazing", test_diff_transfer_lands_in_plane_and_refuses_grazing},
     {"diff_mesh_normal_differential_at_a_footprint_scale_averages_out_noise",
      test_diff_mesh_normal_differential_at_a_footprint_scale_averages_out_noise},
+    {"diff_noisy_normals_make_no_streaks", test_diff_noisy_normals_make_no_streaks},
     {"diff_mesh_normal_differential_is_zero_on_flat_and_matches_sphere",
      test_diff_mesh_normal_differential_is_zero_on_flat_and_matches_sphere},
     {"diff_filter_matrix_eq12_equals_general_inverse", test_diff_filter_matrix_eq12_equals_general_inverse},
