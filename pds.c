@@ -69,9 +69,11 @@
                   seed paper 003's streams where they mean something),
                   shadow photons, importance-sampled final gather whose
                   end x2 takes its direct light from a light sample and
-                  the rest from the map, precomputed irradiance
-                  (Christensen 1999), caustics from any caustic method,
-                  spectral rays and photons (not in PDS_NO_GI)
+                  the rest from the map (a short gather: the map's
+                  caustic photons and one more bounce), precomputed
+                  irradiance (Christensen 1999) from halves of the map,
+                  caustics from any caustic method, spectral rays and
+                  photons (not in PDS_NO_GI)
      >>isc        image-space caustics (Wyman and Davis 2006): light-space
                   photon buffer, points, quads, eye- and light-space
                   gathers, temporal filter, animation frames, static
