@@ -143,6 +143,9 @@ int main(int argc, char **argv)
     means = (double *)malloc(sizeof *means * (size_t)nbx * (size_t)nby * (size_t)seeds);
     if (!r.sum || !means) {
         fprintf(stderr, "ref_region: out of memory\n");
+        free(r.sum);
+        free(means);
+        pds_scene_free(scene);
         return 1;
     }
     for (k = 0; k < seeds; k++) {
