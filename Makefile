@@ -137,6 +137,12 @@ tests/ref_ball: tests/ref_ball.c
 tests/ref_light: tests/ref_light.c pds.c pds.h
 	$(CC) $(WARN) $(CFLAGS) -I. -o $@ tests/ref_light.c pds.c $(LDLIBS)
 
+# A long path-traced reference of a window of pixels, seed by seed (README
+# "Global illumination: --method gi", the agreement test's blocks); it
+# includes pds.c, as the tests do, to render exactly pt's pixels.
+tests/ref_region: tests/ref_region.c pds.c pds.h
+	$(CC) $(WARN) $(CFLAGS) -I. -o $@ tests/ref_region.c $(LDLIBS)
+
 tests/ball_metrics: tests/ball_metrics.c pds.c pds.h
 	$(CC) $(WARN) $(CFLAGS) -I. -o $@ tests/ball_metrics.c pds.c $(LDLIBS)
 
@@ -256,7 +262,7 @@ fuzz-regress: $(FUZZ_TARGETS:%=$(FUZZ_OUT)/fuzz_%)
 
 clean:
 	rm -f pds pds-san pds-core pds.exe tests/test_pds tests/test_pds-san tests/test_core tests/test_pds.exe demo.png \
-	  tests/ref_ball tests/ball_metrics tests/ref_light
+	  tests/ref_ball tests/ball_metrics tests/ref_light tests/ref_region
 	rm -rf tests/out
 
 .PHONY: all test sanitize render bench bunny clean update-golden references gallery fuzz fuzz-regress core windows \

@@ -242,13 +242,14 @@ static pid_t cli_spawn(char **argv)
    file, exit status 130. Either way no temporary file is left, and the
    output is either absent or complete. The kill follows the
    temporary file's appearance by 0 to 20 ms, so it lands before, during and
-   after the write. */
+   after the write (the kill at 0 ms is tried again, a few times, until
+   one lands during the write). */
 static void test_cli_signal_during_write_leaves_no_temporary_file(pds_test_ctx *t)
 {
     static const int sigs[] = {SIGTERM, SIGINT};
     static const double delays_ms[] = {-1.0, 0.0, 1.0, 4.0, 20.0}; /* -1: 50 ms after the start */
     char dir[128], out[200], res[] = "1024x1024";
-    int si, di, killed_writing = 0;
+    int si, di, killed_writing = 0, retries = 0;
     snprintf(dir, sizeof dir, "/tmp/pds_cli_sig_%ld", (long)getpid());
     snprintf(out, sizeof out, "%s/big.pfm", dir);
     mkdir(dir, 0777);
@@ -312,8 +313,17 @@ static void test_cli_signal_during_write_leaves_no_temporary_file(pds_test_ctx *
                     }
                 if (d) closedir(d);
             }
+            /* on a loaded machine the write can end before the kill
+               lands: the last signal tries the kill at the temporary
+               file's appearance again, up to 8 more times, until one
+               lands while the file is being written */
+            if (delays_ms[di] == 0.0 && si == 1 && !killed_writing && retries < 8) {
+                retries++;
+                di--;
+            }
         }
-    CHECK(t, killed_writing >= 1, "no kill landed while the file was being written (the test tested nothing)");
+    CHECK(t, killed_writing >= 1, "no kill landed while the file was being written in %d tries (the test tested nothing)",
+          2 + retries);
     rmdir(dir);
 }
 

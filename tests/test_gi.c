@@ -97,9 +97,10 @@ static void test_gi_global_map_radiance_matches_point_light_irradiance(pds_test_
    plane under the mirror (gi_mirror_scene), the radiance a gather takes from the
    nearest precomputed point, albedo / pi E(p), against the analytic
    (albedo / pi) E of the test above (60,000 photons, k = 80: none off by
-   more than 8%, the mean within 1.5%; measured: 4.7% and 0.07%) and
-   against the full estimate at the point itself (within 8%; measured:
-   2.1%: the estimate moves by the distance to the nearest point, and
+   more than 12%, the mean within 1.5%; measured: 8.2% and -0.7%) and
+   against the full estimate at the point itself (within 12%; measured:
+   7.1%: the estimate moves by the distance to the nearest point, each
+   point's estimate has the noise of k/2 photons of half the map, and
    the two have their own noise). Seen
    from below the plane (no photons arrive there) no point qualifies. The
    points are the same for 2 and 3 threads, and a render of 16 x 16
@@ -124,31 +125,32 @@ static void test_gi_precomputed_irradiance_matches_the_full_estimate(pds_test_ct
     o.spp = 1000;
     CHECK(t, pds__gi_irradiance_pays(s, &o, g.n), "not precomputed for 2,048,000 gathers");
     REQUIRE(t, pds__gi_irradiance_build(&g, 2, &err) == PDS_OK, "precomputed: %s", err.text);
-    REQUIRE(t, g.irr != NULL && g.nirr == (g.n + PDS__GI_IRR_STRIDE - 1) / PDS__GI_IRR_STRIDE, "%lu points",
-            (unsigned long)g.nirr);
+    REQUIRE(t, g.irr != NULL && g.nirr > g.n / 3 && g.nirr < 2 * g.n / 3, "%lu points of %lu photons",
+            (unsigned long)g.nirr, (unsigned long)g.n);
     for (i = -5; i <= 5; i++) {
         for (j = -5; j <= 5; j++) {
             pds__v3 x = pds__v(0.12 * i + 0.013, 0.0, 0.12 * j - 0.007);
             double d2 = x.x * x.x + x.z * x.z + 9.0, E = 100.0 / (4.0 * PDS__PI) * 3.0 / (d2 * sqrt(d2));
             double exact = 0.5 / PDS__PI * E, full[3], rel;
             n++;
-            if (!pds__gi_irradiance_lookup(&g, &s->materials.items[0], x, up, L)) continue;
+            if (!pds__gi_irradiance_lookup(&g, &s->materials.items[0], x, up, L, NULL)) continue;
             found++;
             pds__gi_radiance(&g, &s->materials.items[0], x, up, up, up, 0.0, full);
             rel = fabs(L[1] / exact - 1.0);
             if (rel > worst) worst = rel;
-            bad += rel > 0.08;
+            bad += rel > 0.12;
             worst_full = fmax(worst_full, fabs(L[1] / full[1] - 1.0));
             sum_est += L[1];
             sum_exact += exact;
         }
     }
     CHECK(t, found == n, "a point for %d of %d", found, n);
-    CHECK(t, bad == 0, "%d of %d lookups off by more than 8%%, worst %.4f", bad, n, worst);
+    CHECK(t, bad == 0, "%d of %d lookups off by more than 12%%, worst %.4f", bad, n, worst);
     CHECK(t, sum_exact > 0.0 && fabs(sum_est / sum_exact - 1.0) < 0.015, "mean lookup / exact = %.4f",
           sum_est / sum_exact);
-    CHECK(t, worst_full < 0.08, "lookup against the full estimate: %.4f", worst_full);
-    CHECK(t, !pds__gi_irradiance_lookup(&g, &s->materials.items[0], pds__v(0.1, 0.0, 0.1), pds__scale(up, -1.0), L),
+    CHECK(t, worst_full < 0.12, "lookup against the full estimate: %.4f", worst_full);
+    CHECK(t, !pds__gi_irradiance_lookup(&g, &s->materials.items[0], pds__v(0.1, 0.0, 0.1), pds__scale(up, -1.0), L,
+                                        NULL),
           "a point found for the unlit side");
     {
         /* the points do not depend on the thread count: made again on 3 */
@@ -167,6 +169,54 @@ static void test_gi_precomputed_irradiance_matches_the_full_estimate(pds_test_ct
     pds_scene_free(s);
 }
 
+/* A precomputed irradiance point's estimate does not count the photons
+   that place the points (>>gi, "precomputed irradiance"): which point
+   is nearest a gather's end must say nothing about its estimate. Made
+   again with every photon of the first half (the points' own) 100 times
+   as bright, every point's irradiance must be the same bits; Christensen's
+   points, estimated from all the photons, each count their own photon
+   with the cone filter's largest weight (about 6% too bright at k = 50,
+   and their neighbours' Voronoi cells bias the nearest point's choice:
+   0.45-0.6% of the Cornell box's image beside the mirror, README
+   "Global illumination"). */
+static void test_gi_precomputed_irradiance_leaves_out_its_own_photons(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text(gi_mirror_scene, &err);
+    pds__gi_map g;
+    pds_options o;
+    pds__gi_irr *before;
+    size_t i, changed = 0, first_half = 0, bytes;
+    REQUIRE(t, s, "scene: %s", err.text);
+    gi_options(&o, 2);
+    o.global_photons = 20000;
+    o.max_depth = 1;
+    REQUIRE(t, pds__gi_map_build(&g, s, &o, 2, &err) == PDS_OK, "map: %s", err.text);
+    REQUIRE(t, pds__gi_irradiance_build(&g, 2, &err) == PDS_OK && g.nirr > 0, "precomputed: %s", err.text);
+    bytes = g.nirr * sizeof *g.irr;
+    before = (pds__gi_irr *)malloc(bytes);
+    REQUIRE(t, before != NULL, "memory");
+    memcpy(before, g.irr, bytes);
+    free(g.irr);
+    g.irr = NULL;
+    pds__kdtree_free(&g.itree);
+    for (i = 0; i < g.n; i++)
+        if (pds__gi_half(&g, &g.photons[i]) == 0) {
+            int c;
+            for (c = 0; c < 3; c++) g.photons[i].flux[c] *= 100.0f;
+            first_half++;
+        }
+    CHECK(t, first_half == g.nirr, "%lu points, %lu photons in the first half", (unsigned long)g.nirr,
+          (unsigned long)first_half);
+    REQUIRE(t, pds__gi_irradiance_build(&g, 2, &err) == PDS_OK && g.nirr * sizeof *g.irr == bytes, "again: %s",
+            err.text);
+    for (i = 0; i < g.nirr; i++) changed += memcmp(&before[i], &g.irr[i], sizeof *g.irr) != 0;
+    CHECK(t, changed == 0, "%lu of %lu points changed", (unsigned long)changed, (unsigned long)g.nirr);
+    free(before);
+    pds__gi_map_free(&g);
+    pds_scene_free(s);
+}
+
 /* The light leaving a gather's end x2 counts a caustic on x2 once
    (>>gi, pds__gi_leaving_x2): on the plane under the mirror ceiling
    (gi_mirror_scene) the light reaching x2 is the point light's direct
@@ -177,7 +227,12 @@ static void test_gi_precomputed_irradiance_matches_the_full_estimate(pds_test_ct
    radiance leaving x2 must be (albedo / pi) (E_d + E_c) within 5%, the
    mean within 1.5%; the caustic is 10-18% of it there, so leaving it out
    or counting the direct light twice (a map with the first hits) fails
-   by far. Measured: worst 0.44%, mean -0.06%. */
+   by far. Measured: worst 0.44%, mean -0.06%. The same again at the end
+   of a short gather ray (Jensen's rule, pds__gi_bounce_on), which takes
+   from the map only its caustic photons (here all of them) and bounces
+   on for the rest (here nothing: the bounce meets the mirror, whose
+   light is the photons', or nothing); a bounce that looked for the
+   caustic itself could never find the point light through the mirror. */
 static void test_gi_gather_end_counts_a_caustic_once(pds_test_ctx *t)
 {
     pds_error err;
@@ -189,7 +244,7 @@ static void test_gi_gather_end_counts_a_caustic_once(pds_test_ctx *t)
     long counts[4] = {0, 0, 0, 0};
     double worst = 0.0, sum = 0.0, sum_exact = 0.0, share = 1.0; /* the caustic's least share */
     pds__v3 wo = pds__normalize(pds__v(0.2, 1.0, -0.1));
-    int i, j, bad = 0, n = 0;
+    int i, j, bad = 0, n = 0, shortened;
     REQUIRE(t, s, "scene: %s", err.text);
     gi_options(&o, 2);
     o.global_photons = 100000;
@@ -204,6 +259,7 @@ static void test_gi_gather_end_counts_a_caustic_once(pds_test_ctx *t)
     tr.seed = 3;
     tr.eps = 1e-6 * pds__scene_scale(s);
     m = &s->materials.items[0];
+    for (shortened = 0; shortened < 2; shortened++)
     for (i = -2; i <= 2; i++) {
         for (j = -2; j <= 2; j++) {
             pds__v3 x = pds__v(0.3 * i + 0.01, 0.0, 0.3 * j - 0.02), top = pds__add(x, pds__scale(wo, 0.5));
@@ -216,6 +272,7 @@ static void test_gi_gather_end_counts_a_caustic_once(pds_test_ctx *t)
             pds__scene_fill_hit(s, &th, top, pds__scale(wo, -1.0), &hit);
             REQUIRE(t, hit.material == 0, "the ray from above met the mirror");
             pds__gi_ray_start(&ray, &tr, 0.0);
+            ray.stage = shortened; /* 1: the end of a gather ray of length 0 from x1: short */
             pds__gi_leaving_x2(&g, &tr, m, m, &hit, wo, &ray, (uint64_t)n, 3, L, counts);
             worst = fmax(worst, fabs(L[1] / exact - 1.0));
             bad += fabs(L[1] / exact - 1.0) > 0.05;
@@ -228,6 +285,7 @@ static void test_gi_gather_end_counts_a_caustic_once(pds_test_ctx *t)
     CHECK(t, bad == 0, "%d of %d off by more than 5%%, worst %.4f", bad, n, worst);
     CHECK(t, fabs(sum / sum_exact - 1.0) < 0.015, "mean / exact = %.4f", sum / sum_exact);
     CHECK(t, counts[0] == n, "%ld shadow rays for %d points", counts[0], n);
+    CHECK(t, counts[2] == n / 2, "%ld bounces from %d short gathers", counts[2], n / 2);
     CHECK(t, share > 0.09, "the caustic is only %.3f of the light", share);
     pds__gi_map_free(&g);
     pds_scene_free(s);
@@ -786,11 +844,14 @@ static void test_gi_spectral_matches_the_rgb_render_within_noise(pds_test_ctx *t
    map's disc (about 0.07 here), which there leaves the wall, so a
    density estimate of the wall's direct light there is too dark. gi takes
    that light from a light sample at x2 and only the rest (the light back
-   from the floor, a few per cent) from the map. Four gi seeds (20,000
-   global photons, 2048 samples a pixel, one gather) against pt (16,384
-   samples): their mean within 2.5% of pt's. Measured: -0.9% (the four
-   seeds spread by 1.0%: each has its own map); with the global map's
-   estimate at x2 for all of its light (the estimator before the
+   from the floor, a few per cent) from the map, and where the gather ray
+   is shorter than twice the estimate's radius not even that: it bounces
+   on from x2 (Jensen's short-gather rule, pds__gi_bounce_on). Four gi
+   seeds (20,000 global photons, 2048 samples a pixel, one gather)
+   against pt (16,384 samples): their mean within 0.6% of pt's.
+   Measured: -0.35% (the seeds spread by 0.4%); without the short-gather
+   rule -0.9% (spread 1.0%: each seed has its own map); with the global
+   map's estimate at x2 for all of its light (the estimator before the
    partition) -5.3%. */
 static void test_gi_gather_near_a_corner_agrees_with_path_tracing(pds_test_ctx *t)
 {
@@ -823,7 +884,7 @@ static void test_gi_gather_near_a_corner_agrees_with_path_tracing(pds_test_ctx *
     REQUIRE(t, render_text(text, &o, &img, NULL), "pt");
     pt = (image_mean(&img, 0) + image_mean(&img, 1) + image_mean(&img, 2)) / 3.0;
     pds_image_free(&img);
-    CHECK(t, pt > 0.0 && fabs(gi / pt - 1.0) < 0.025, "gi %.5f, pt %.5f: %+.2f%%", gi, pt, 100.0 * (gi / pt - 1.0));
+    CHECK(t, pt > 0.0 && fabs(gi / pt - 1.0) < 0.006, "gi %.5f, pt %.5f: %+.2f%%", gi, pt, 100.0 * (gi / pt - 1.0));
 }
 
 /* The direct light leaving a glossy x2 (>>gi, pds__gi_leaving_x2): one
@@ -906,6 +967,7 @@ static void test_gi_direct_light_at_a_glossy_x2_is_exact(pds_test_ctx *t)
 static const pds_test_case tests_gi[] = {
     {"gi_global_map_radiance_matches_point_light_irradiance", test_gi_global_map_radiance_matches_point_light_irradiance},
     {"gi_precomputed_irradiance_matches_the_full_estimate", test_gi_precomputed_irradiance_matches_the_full_estimate},
+    {"gi_precomputed_irradiance_leaves_out_its_own_photons", test_gi_precomputed_irradiance_leaves_out_its_own_photons},
     {"gi_shadow_photons_never_darken_a_lit_point", test_gi_shadow_photons_never_darken_a_lit_point},
     {"gi_gather_importance_sampling_is_unbiased", test_gi_gather_importance_sampling_is_unbiased},
     {"gi_agrees_with_path_tracing_in_a_small_box", test_gi_agrees_with_path_tracing_in_a_small_box},
