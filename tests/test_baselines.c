@@ -295,9 +295,10 @@ static void test_map_plan_leaves_time_for_the_build_and_gather(pds_test_ctx *t)
     p.planned = 100000.0;
     p.queried = 1024.0;
     p.gather2_s = p.found2 = 0.0; /* one probe: c0 = c1 */
+    p.gather3_s = 0.0;
     p.parallel = 1.0;
-    pm_half = pds__map_plan(&p, 0, 50.0, 100000, 1e6, 0.0, 0.5);
-    pm_two = pds__map_plan(&p, 0, 50.0, 100000, 1e6, 0.0, 2.0);
+    pm_half = pds__map_plan(&p, 0, 50.0, 0, 100000, 1e6, 0.0, 0.5);
+    pm_two = pds__map_plan(&p, 0, 50.0, 0, 100000, 1e6, 0.0, 2.0);
     /* pm, 2 s: the tracing plus the modelled build and gather fill the budget */
     n = pm_two * 1e6;
     m = 0.5 * n;
@@ -308,10 +309,10 @@ static void test_map_plan_leaves_time_for_the_build_and_gather(pds_test_ctx *t)
           pm_two);
     /* pdm: each query will meet min(500, 50 * 100000 / 4000) = 500 footprints */
     p.found = 50.0;
-    pdm_two = pds__map_plan(&p, 1, 500.0, 100000, 1e6, 0.0, 2.0);
+    pdm_two = pds__map_plan(&p, 1, 500.0, 0, 100000, 1e6, 0.0, 2.0);
     CHECK(t, pdm_two < pm_two, "pdm traces %g s, pm %g s", pdm_two, pm_two);
     /* a budget the gather alone exceeds leaves no tracing */
-    CHECK_NEAR(t, pds__map_plan(&p, 1, 500.0, 100000, 1e6, 0.0, 0.1), 0.0, 1e-9);
+    CHECK_NEAR(t, pds__map_plan(&p, 1, 500.0, 0, 100000, 1e6, 0.0, 0.1), 0.0, 1e-9);
 }
 
 static void pdm_cap_one(pds_options *o) { o->max_photons = 1; }
@@ -384,7 +385,67 @@ static void test_ppm_under_a_time_budget_counts_every_photon_of_its_passes(pds_t
     pds_image_free(&img);
 }
 
+/* ppm's update skips a run of 64 vertices only when no photon lies
+   within any of its vertices' radii (pds__ppm_run_empty), against brute
+   force: photons in a 2 x 2 patch of a 10 x 10 plane, vertices on the
+   plane in runs of neighbours (each run a small square, now and then a
+   run that jumps across the plane), radii of 0.01-0.3. Runs near the
+   patch are kept, runs far from it skipped, and no skipped run holds a
+   vertex a photon reaches. */
+static void test_ppm_skips_only_runs_no_photon_reaches(pds_test_ctx *t)
+{
+    size_t np = 2000, nv = 64 * 200, i, j, skipped = 0, kept = 0, wrong = 0;
+    float *pos = (float *)malloc(sizeof *pos * 3 * np);
+    pds__eye_vertex *v = (pds__eye_vertex *)calloc(nv, sizeof *v);
+    pds__ppm_state *state = (pds__ppm_state *)calloc(nv, sizeof *state);
+    pds__kdtree tree;
+    pds__ppm_job job;
+    REQUIRE(t, pos && v && state, "memory");
+    for (i = 0; i < np; i++) {
+        pos[3 * i] = (float)(4.0 + 2.0 * pds__rng_uniform(5, PDS__RNG_TEST, i, 0));
+        pos[3 * i + 1] = 0.0f;
+        pos[3 * i + 2] = (float)(4.0 + 2.0 * pds__rng_uniform(5, PDS__RNG_TEST, i, 1));
+    }
+    for (i = 0; i < nv; i++) {
+        size_t run = i / 64;
+        /* the run's corner; every 7th run's last vertex far across */
+        double cx = 10.0 * pds__rng_uniform(6, PDS__RNG_TEST, run, 0), cz = 10.0 * pds__rng_uniform(6, PDS__RNG_TEST, run, 1);
+        double x = cx + 0.2 * pds__rng_uniform(7, PDS__RNG_TEST, i, 0), z = cz + 0.2 * pds__rng_uniform(7, PDS__RNG_TEST, i, 1);
+        if (run % 7 == 0 && i % 64 == 63) {
+            x = 10.0 - cx;
+            z = 10.0 - cz;
+        }
+        v[i].pos[0] = (float)x;
+        v[i].pos[2] = (float)z;
+        state[i].r2 = pow(0.01 + 0.29 * pds__rng_uniform(8, PDS__RNG_TEST, i, 0), 2.0);
+    }
+    REQUIRE(t, pds__kdtree_build(&tree, pos, 3, np, NULL) == PDS_OK, "build");
+    memset(&job, 0, sizeof job);
+    job.v = v;
+    job.state = state;
+    job.nv = nv;
+    job.tree = &tree;
+    for (i = 0; i < nv; i += 64) {
+        int empty = pds__ppm_run_empty(&job, i, nv), reached = 0;
+        for (j = i; j < i + 64; j++) {
+            size_t p;
+            for (p = 0; p < np; p++)
+                if (pds__kd_dist2(pos + 3 * p, v[j].pos[0], v[j].pos[1], v[j].pos[2]) <= state[j].r2) reached = 1;
+        }
+        if (empty && reached) wrong++;
+        if (empty) skipped++;
+        else kept++;
+    }
+    CHECK(t, wrong == 0 && skipped > 50 && kept > 10, "%lu runs skipped, %lu kept, %lu skipped wrongly",
+          (unsigned long)skipped, (unsigned long)kept, (unsigned long)wrong);
+    pds__kdtree_free(&tree);
+    free(pos);
+    free(v);
+    free(state);
+}
+
 static const pds_test_case tests_baselines[] = {
+    {"ppm_skips_only_runs_no_photon_reaches", test_ppm_skips_only_runs_no_photon_reaches},
     {"pm_finds_the_analytic_irradiance_of_a_uniform_caustic", test_pm_finds_the_analytic_irradiance_of_a_uniform_caustic},
     {"pm_filter_normalisations_are_the_filters_integrals", test_pm_filter_normalisations_are_the_filters_integrals},
     {"pm_map_grows_with_the_photon_count", test_pm_map_grows_with_the_photon_count},

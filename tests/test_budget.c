@@ -86,24 +86,60 @@ static void budget_spent(pds_options *o)
 }
 
 #ifndef PDS_NO_BASELINES
-/* ppm's next pass: whole while it fits; else the tracing that fits beside
-   an update as long as the last one, in whole batches; else one batch if
-   its pass ends nearer T than stopping now; else none. */
+/* ppm's next pass: whole while it fits; else the pass whose tracing and
+   update fill the time left, in whole batches; else one batch if its
+   pass ends nearer T than stopping now; else none. First with an update
+   that is all fixed (1 s whatever the photons), then with one that grows
+   with them. */
 static void test_ppm_pass_photons_fit_the_time_left(pds_test_ctx *t)
 {
-    CHECK(t, pds__ppm_pass_photons(10.0, 2.0, 1.0, 100000) == 100000, "a whole pass fits");
-    CHECK(t, pds__ppm_pass_photons(3.0, 2.0, 1.0, 100000) == 100000, "exactly fits");
+    CHECK(t, pds__ppm_pass_photons(10.0, 2.0, 1.0, 0.0, 100000) == 100000, "a whole pass fits");
+    CHECK(t, pds__ppm_pass_photons(3.0, 2.0, 1.0, 0.0, 100000) == 100000, "exactly fits");
     /* 2 s left, 1 s for the update: half the tracing, 50,000 photons, in
        whole batches of 1024: 48 x 1024 */
-    CHECK(t, pds__ppm_pass_photons(2.0, 2.0, 1.0, 100000) == 48 * PDS__PHOTON_BATCH, "%ld",
-          pds__ppm_pass_photons(2.0, 2.0, 1.0, 100000));
+    CHECK(t, pds__ppm_pass_photons(2.0, 2.0, 1.0, 0.0, 100000) == 48 * PDS__PHOTON_BATCH, "%ld",
+          pds__ppm_pass_photons(2.0, 2.0, 1.0, 0.0, 100000));
     /* one batch traces in 2 x 1024 / 1e5 = 0.02 s: with 0.9 s left the
        pass overruns by 0.12 s, nearer T than 0.9 s early */
-    CHECK(t, pds__ppm_pass_photons(0.9, 2.0, 1.0, 100000) == PDS__PHOTON_BATCH, "the update alone does not fit");
-    CHECK(t, pds__ppm_pass_photons(1.01, 2.0, 1.0, 100000) == PDS__PHOTON_BATCH, "not one batch fits");
+    CHECK(t, pds__ppm_pass_photons(0.9, 2.0, 1.0, 0.0, 100000) == PDS__PHOTON_BATCH, "the update alone does not fit");
+    CHECK(t, pds__ppm_pass_photons(1.01, 2.0, 1.0, 0.0, 100000) == PDS__PHOTON_BATCH, "not one batch fits");
     /* 0.4 s left: 0.62 s over is farther from T than 0.4 s early */
-    CHECK(t, pds__ppm_pass_photons(0.4, 2.0, 1.0, 100000) == 0, "stopping is nearer T");
-    CHECK(t, pds__ppm_pass_photons(-1.0, 2.0, 1.0, 100000) == 0, "the budget is spent");
+    CHECK(t, pds__ppm_pass_photons(0.4, 2.0, 1.0, 0.0, 100000) == 0, "stopping is nearer T");
+    CHECK(t, pds__ppm_pass_photons(-1.0, 2.0, 1.0, 0.0, 100000) == 0, "the budget is spent");
+    /* the ring and octahedron's figures: 100,000 photons trace in 0.022 s,
+       an update costs 0.025 s + 4.75 us a photon: a whole pass takes
+       0.522 s, so with 0.5 s left the pass is the whole batches of
+       (0.5 - 0.025) / 4.97e-6 = 95,573 photons: 93 x 1024 (the update of
+       the fixed part alone had planned a whole pass: 0.022 s beside
+       0.025) */
+    CHECK(t, pds__ppm_pass_photons(0.6, 0.022, 0.025, 4.75e-6, 100000) == 100000, "a whole pass fits");
+    CHECK(t, pds__ppm_pass_photons(0.5, 0.022, 0.025, 4.75e-6, 100000) == 93 * PDS__PHOTON_BATCH, "%ld",
+          pds__ppm_pass_photons(0.5, 0.022, 0.025, 4.75e-6, 100000));
+}
+
+/* The update's model from the passes measured: an update of 0.025 s +
+   4.75 us a photon, seen at 1,024 photons (0.0299 s) and then 20,480
+   (0.1223 s): the line through the two gives both parts; with one pass
+   alone all of it is taken per photon; two passes of about one size
+   leave the fixed part as it was and refresh the rest; a line with a
+   negative part (the second pass cheaper a photon and dearer in all, as
+   radii shrink) is not taken. */
+static void test_ppm_update_model_fits_the_passes_measured(pds_test_ctx *t)
+{
+    double a = 0.025, b = 4.75e-6, fixed = 0.0, per = 0.0;
+    pds__ppm_update_model(1024.0, a + b * 1024.0, 0.0, 0.0, &fixed, &per);
+    CHECK(t, fixed == 0.0 && fabs(per - (a + b * 1024.0) / 1024.0) < 1e-15, "one pass: %g + %g n", fixed, per);
+    pds__ppm_update_model(20480.0, a + b * 20480.0, 1024.0, a + b * 1024.0, &fixed, &per);
+    CHECK(t, fabs(fixed - a) < 1e-12 && fabs(per - b) < 1e-15, "two passes: %g + %g n", fixed, per);
+    /* a third pass of about the last one's size, whose photons now cost
+       3 us each (smaller radii): the fixed part stays */
+    pds__ppm_update_model(30720.0, a + 3e-6 * 30720.0, 20480.0, a + b * 20480.0, &fixed, &per);
+    CHECK(t, fabs(fixed - a) < 1e-12 && fabs(per - 3e-6) < 1e-15, "three passes: %g + %g n", fixed, per);
+    /* then a pass 4 times smaller whose whole update (0.02 s) is below
+       the fixed part: the line's intercept is negative and not taken,
+       and the fixed part falls to the update itself */
+    pds__ppm_update_model(7680.0, 0.02, 30720.0, a + 3e-6 * 30720.0, &fixed, &per);
+    CHECK(t, fixed <= 0.02 && fabs(fixed + per * 7680.0 - 0.02) < 1e-12, "fixed %g per %g", fixed, per);
 }
 
 /* The gather's cap from two samples: a query taking c microseconds at cap
@@ -147,7 +183,7 @@ static void test_gather_cap_fit_follows_the_photons_found(pds_test_ctx *t)
     CHECK_NEAR(t, pds__gather_cap_fit(8.0, 8e-6, 50.0, 9e-6, 8.5e-6, found, 10), 50.0, 1e-9);
 }
 
-/* ppm under a budget already spent: the first pass (a quarter of the
+/* ppm under a budget already spent: the first pass (a 200th of the
    budget at most) still traces one batch, and no pass follows. */
 
 static void test_ppm_past_its_deadline_traces_one_batch(pds_test_ctx *t)
@@ -180,6 +216,7 @@ static void budget_probe(pds__map_probe *p)
     p->planned = 100000.0;
     p->queried = 1024.0;
     p->parallel = 2.0;
+    p->gather3_s = 0.0;
 }
 
 static void test_map_cost_is_the_line_through_the_two_probes(pds_test_ctx *t)
@@ -189,12 +226,12 @@ static void test_map_cost_is_the_line_through_the_two_probes(pds_test_ctx *t)
     budget_probe(&p);
     /* a map the probe's size: the build as probed, the gather of 1e5
        vertices at cap 20 on P = 2 */
-    CHECK_NEAR(t, pds__map_cost(&p, 0, 20.0, 100000, m), 1e-4 + 1e5 * (c0 + c1 * 20.0) / 2.0, 1e-12);
+    CHECK_NEAR(t, pds__map_cost(&p, 0, 20.0, 0, 100000, m), 1e-4 + 1e5 * (c0 + c1 * 20.0) / 2.0, 1e-12);
     /* pm finds no more photons than the map holds */
-    CHECK_NEAR(t, pds__map_cost(&p, 0, 50.0, 100000, 30.0) > 0.0, 1.0, 0.0);
+    CHECK_NEAR(t, pds__map_cost(&p, 0, 50.0, 0, 100000, 30.0) > 0.0, 1.0, 0.0);
     /* with one probe (found2 = 0): c0 = c1 = the time a query / (1 + found) */
     p.found2 = p.gather2_s = 0.0;
-    CHECK_NEAR(t, pds__map_cost(&p, 0, 20.0, 100000, m),
+    CHECK_NEAR(t, pds__map_cost(&p, 0, 20.0, 0, 100000, m),
                1e-4 + 1e5 * (1e-3 / 1024.0 / 51.0) * 21.0 / 2.0, 1e-12);
 }
 
@@ -213,22 +250,36 @@ static void test_map_tracing_lowers_the_cap_only_when_it_must(pds_test_ctx *t)
        k = 8 0.3 s, so the cap falls to the largest that keeps a quarter */
     tr = pds__map_tracing(&p, 0, 50.0, 2000000, 1e6, 0.0, 0.0, 1.0, &cap);
     CHECK(t, cap > 8.0 && cap < 50.0, "cap %g", cap);
-    CHECK(t, pds__map_plan(&p, 0, cap, 2000000, 1e6, 0.0, 1.0) >= 0.25 &&
-                 pds__map_plan(&p, 0, cap + 1.0, 2000000, 1e6, 0.0, 1.0) < 0.25,
-          "cap %g: tracing %g, at cap + 1 %g", cap, pds__map_plan(&p, 0, cap, 2000000, 1e6, 0.0, 1.0),
-          pds__map_plan(&p, 0, cap + 1.0, 2000000, 1e6, 0.0, 1.0));
-    CHECK_NEAR(t, tr, pds__map_plan(&p, 0, cap, 2000000, 1e6, 0.0, 1.0), 1e-12);
+    CHECK(t, pds__map_plan(&p, 0, cap, 0, 2000000, 1e6, 0.0, 1.0) >= 0.25 &&
+                 pds__map_plan(&p, 0, cap + 1.0, 0, 2000000, 1e6, 0.0, 1.0) < 0.25,
+          "cap %g: tracing %g, at cap + 1 %g", cap, pds__map_plan(&p, 0, cap, 0, 2000000, 1e6, 0.0, 1.0),
+          pds__map_plan(&p, 0, cap + 1.0, 0, 2000000, 1e6, 0.0, 1.0));
+    CHECK_NEAR(t, tr, pds__map_plan(&p, 0, cap, 0, 2000000, 1e6, 0.0, 1.0), 1e-12);
     /* 1e7 vertices: even k = 8 leaves less than a quarter: 8, and half
        the budget traced (the gather will bound its radius, at a cost the
        model does not know) */
     tr = pds__map_tracing(&p, 0, 50.0, 10000000, 1e6, 0.0, 0.0, 1.0, &cap);
     CHECK(t, cap == 8.0 && fabs(tr - 0.5) < 1e-12, "cap %g tracing %g", cap, tr);
+    /* the same with the bounded gather probed: 0.1 ms for the probe's
+       1024 queries (0.1 us a query: 0.49 s for 1e7 at P = 2 on a map of
+       the probe's size, more on a larger one): the tracing fills what
+       that gather and the build leave, more than a quarter and less than
+       the half traced without the probe */
+    p.gather3_s = 1e-4;
+    CHECK_NEAR(t, pds__map_cost(&p, 0, 8.0, 1, 10000000, 2000.0), 1e-4 + 1e7 * 1e-4 / 1024.0 / 2.0, 1e-12);
+    tr = pds__map_tracing(&p, 0, 50.0, 10000000, 1e6, 0.0, 0.0, 1.0, &cap);
+    CHECK(t, cap == 8.0 && tr > 0.3 && tr < 0.45, "cap %g tracing %g", cap, tr);
+    CHECK_NEAR(t, tr + pds__map_cost(&p, 0, 8.0, 1, 10000000, tr * 1e6 * 0.5), 1.0, 1e-6);
+    /* 0.5 s, which that gather alone fills: a quarter traced */
+    tr = pds__map_tracing(&p, 0, 50.0, 10000000, 1e6, 0.0, 0.0, 0.5, &cap);
+    CHECK(t, cap == 8.0 && fabs(tr - 0.125) < 1e-12, "cap %g tracing %g", cap, tr);
+    p.gather3_s = 0.0;
     /* round 2: 2e6 photons traced in 0.5 s of 4.5 s left: less to trace
        than from scratch, and the plan's cost fills what is left */
     tr = pds__map_tracing(&p, 0, 50.0, 100000, 1e6, 0.0, 0.0, 4.5, &cap);
     tr_more = pds__map_tracing(&p, 0, 50.0, 100000, 1e6, 2e6, 0.5, 4.5, &cap);
     CHECK(t, tr_more < tr, "tracing %g after 2e6 photons, %g before", tr_more, tr);
-    CHECK_NEAR(t, tr_more + pds__map_cost(&p, 0, 50.0, 100000, (2e6 + tr_more * 1e6) * 0.5), 4.5, 1e-6);
+    CHECK_NEAR(t, tr_more + pds__map_cost(&p, 0, 50.0, 0, 100000, (2e6 + tr_more * 1e6) * 0.5), 4.5, 1e-6);
     /* a budget the map of what is traced already exceeds: the floor, a
        quarter of (left + traced_s) minus traced_s */
     tr = pds__map_tracing(&p, 0, 50.0, 10000000, 1e6, 2e6, 0.5, 0.01, &cap);
@@ -286,12 +337,29 @@ static void test_paper_pds_without_time_keeps_small_footprints(pds_test_ctx *t)
     pds_image_free(&img);
 }
 
+#ifndef PDS_NO_BASELINES
+/* P, the gather's speed-up over the probe's: the threads over the
+   probe's threads that had a chunk of vertices to gather (one thread's
+   probe: P = the threads; a probe on all threads: 1, unless it had
+   fewer chunks than threads, as pdm's 384 vertices are one chunk). */
+static void test_probe_parallel_counts_the_threads_that_had_work(pds_test_ctx *t)
+{
+    CHECK_NEAR(t, pds__probe_parallel(2, 1, 8192), 2.0, 0.0);
+    CHECK_NEAR(t, pds__probe_parallel(2, 2, 4096), 1.0, 0.0);
+    CHECK_NEAR(t, pds__probe_parallel(2, 2, 384), 2.0, 0.0);
+    CHECK_NEAR(t, pds__probe_parallel(8, 8, 3 * PDS__GATHER_CHUNK), 8.0 / 3.0, 1e-15);
+    CHECK_NEAR(t, pds__probe_parallel(2, 2, 0), 2.0, 0.0);
+}
+#endif
+
 static const pds_test_case tests_budget[] = {
     {"pds_plan_solves_the_cost_of_tracing_and_splats", test_pds_plan_solves_the_cost_of_tracing_and_splats},
     {"pds_plan_keeps_a_batch_within_an_eighth_of_the_time", test_pds_plan_keeps_a_batch_within_an_eighth_of_the_time},
 #ifndef PDS_NO_BASELINES
     {"gather_sample_is_counted_and_spread", test_gather_sample_is_counted_and_spread},
+    {"probe_parallel_counts_the_threads_that_had_work", test_probe_parallel_counts_the_threads_that_had_work},
     {"ppm_pass_photons_fit_the_time_left", test_ppm_pass_photons_fit_the_time_left},
+    {"ppm_update_model_fits_the_passes_measured", test_ppm_update_model_fits_the_passes_measured},
     {"ppm_past_its_deadline_traces_one_batch", test_ppm_past_its_deadline_traces_one_batch},
     {"gather_cap_fit_interpolates_the_two_samples", test_gather_cap_fit_interpolates_the_two_samples},
     {"gather_cap_fit_follows_the_photons_found", test_gather_cap_fit_follows_the_photons_found},

@@ -393,6 +393,53 @@ static void test_kdtree_knn(pds_test_ctx *t)
     }
 }
 
+/* The gathers' k-nearest queries within the bound an earlier query gives
+   (pds__kdtree_knn_hint: its k-th distance plus the step between the two)
+   return exactly what the unbounded query returns, indices, distances
+   and ties alike: on every kind of point set (duplicates and a single
+   repeated point tie everywhere), for walks of small steps (a tight
+   bound) and of jumps across the set, with and without rmax. */
+static void test_kdtree_knn_hint_finds_the_same_neighbours(pds_test_ctx *t)
+{
+    static const double rmaxes[] = {DBL_MAX, 0.3};
+    static const size_t ks[] = {1, 8, 50};
+    int kind;
+    for (kind = 0; kind < TKD_KINDS; kind++) {
+        size_t n = 5000, q, ki, mi, bad = 0, hinted = 0;
+        pds__kdtree kd;
+        float *pos = tkd_points(kind, n, 3, 900 + (uint64_t)kind);
+        size_t ia[50], ib[50];
+        double da[50], db[50];
+        REQUIRE(t, pos != NULL, "out of memory");
+        REQUIRE(t, pds__kdtree_build(&kd, pos, 3, n, NULL) == PDS_OK, "build failed");
+        for (ki = 0; ki < 3; ki++)
+            for (mi = 0; mi < 2; mi++) {
+                pds__v3 prev = pds__v(0, 0, 0);
+                double prev_k2 = -1.0;
+                for (q = 0; q < 400; q++) {
+                    /* a walk: small steps, a jump every 50 */
+                    pds__v3 c = q % 50 == 0 ? tkd_query(pos, 3, n, 91, q)
+                                            : pds__add(prev, pds__v(tkd_rand(92, q, 0, -0.01, 0.01),
+                                                                    tkd_rand(92, q, 1, -0.01, 0.01),
+                                                                    tkd_rand(92, q, 2, -0.01, 0.01)));
+                    double bound = pds__kdtree_knn_hint(c, prev, prev_k2, rmaxes[mi]);
+                    size_t na = pds__kdtree_knn(&kd, c, ks[ki], rmaxes[mi], ia, da);
+                    size_t nb = pds__kdtree_knn_within(&kd, c, ks[ki], bound, ib, db), j;
+                    hinted += bound < rmaxes[mi] * rmaxes[mi];
+                    if (na != nb) bad++;
+                    for (j = 0; j < na && j < nb; j++)
+                        if (ia[j] != ib[j] || da[j] != db[j]) bad++;
+                    prev = c;
+                    prev_k2 = nb == ks[ki] ? db[nb - 1] : -1.0;
+                }
+            }
+        CHECK(t, bad == 0 && hinted > 1000, "%s: %lu differences, %lu queries bounded by the hint",
+              tkd_kind_name[kind], (unsigned long)bad, (unsigned long)hinted);
+        pds__kdtree_free(&kd);
+        free(pos);
+    }
+}
+
 /* Equal distances are ranked by smaller index: four points at the
    corners of a square around the query, plus one in the middle. */
 static void test_kdtree_knn_tie_order(pds_test_ctx *t)
@@ -601,6 +648,7 @@ static const pds_test_case tests_kdtree[] = {
     {"kdtree_range_matches_brute_force_on_duplicates_lines_and_planes", test_kdtree_range_degenerate},
     {"kdtree_knn_matches_a_full_sort_including_ties_and_rmax", test_kdtree_knn},
     {"kdtree_knn_breaks_distance_ties_by_smaller_index", test_kdtree_knn_tie_order},
+    {"kdtree_knn_within_the_hint_finds_the_same_neighbours", test_kdtree_knn_hint_finds_the_same_neighbours},
     {"kdtree_honours_point_stride", test_kdtree_stride},
     {"kdtree_build_is_deterministic", test_kdtree_deterministic},
     {"kdtree_is_a_balanced_permutation_with_valid_split_planes", test_kdtree_structure},
