@@ -18,6 +18,18 @@ static void gi_options(pds_options *o, int threads)
     o->shadow_photons = 1;
 }
 
+/* A tracer for calling gi's pieces directly: paths of at most 8 bounces,
+   Russian roulette from the third, the scene's own epsilon. */
+static void gi_tracer(pds__tracer *tr, const pds_scene *s, uint64_t seed)
+{
+    memset(tr, 0, sizeof *tr);
+    tr->scene = s;
+    tr->max_depth = 8;
+    tr->rr_depth = 3;
+    tr->seed = seed;
+    tr->eps = 1e-6 * pds__scene_scale(s);
+}
+
 /* A diffuse plane (albedo 0.5) 1 above which hangs a point light of 100 W. */
 static const char gi_plane_scene[] =
     "camera { position 0 3 0.000001 look_at 0 0 0 up 0 0 -1 fov 40 resolution 16 16 spp 1 }\n"
@@ -252,12 +264,7 @@ static void test_gi_gather_end_counts_a_caustic_once(pds_test_ctx *t)
     o.max_depth = 1;
     o.shadow_photons = 0;
     REQUIRE(t, pds__gi_map_build(&g, s, &o, 2, &err) == PDS_OK, "map: %s", err.text);
-    memset(&tr, 0, sizeof tr);
-    tr.scene = s;
-    tr.max_depth = 8;
-    tr.rr_depth = 3;
-    tr.seed = 3;
-    tr.eps = 1e-6 * pds__scene_scale(s);
+    gi_tracer(&tr, s, 3);
     m = &s->materials.items[0];
     for (shortened = 0; shortened < 2; shortened++)
     for (i = -2; i <= 2; i++) {
@@ -369,11 +376,7 @@ static void test_gi_gather_importance_sampling_is_unbiased(pds_test_ctx *t)
     gi_options(&o, 2);
     o.global_photons = 100000;
     REQUIRE(t, pds__gi_map_build(&g, s, &o, 2, &err) == PDS_OK, "map: %s", err.text);
-    memset(&tr, 0, sizeof tr);
-    tr.scene = s;
-    tr.max_depth = 8;
-    tr.rr_depth = 3;
-    tr.eps = 1e-6 * pds__scene_scale(s);
+    gi_tracer(&tr, s, 0); /* each pass sets its seed */
     for (pass = 0; pass < 2; pass++) {
         double sum = 0.0, sum2 = 0.0;
         tr.seed = 11 + (uint64_t)pass;
@@ -941,12 +944,7 @@ static void test_gi_direct_light_at_a_glossy_x2_is_exact(pds_test_ctx *t)
             exact += f[1] * 10.0 * cx * cl / d2 * (0.25 / ((double)q * q));
         }
     }
-    memset(&tr, 0, sizeof tr);
-    tr.scene = s;
-    tr.max_depth = 8;
-    tr.rr_depth = 3;
-    tr.seed = 5;
-    tr.eps = 1e-6 * pds__scene_scale(s);
+    gi_tracer(&tr, s, 5);
     for (i = 0; i < n; i++) {
         double L[3] = {0.0, 0.0, 0.0};
         pds__gi_ray ray;
