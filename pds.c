@@ -18377,7 +18377,7 @@ static void pds__gi_radiance(const pds__gi_map *g, const pds_material *m, pds__v
    full estimate answers; so it does in maps holding spectral photons,
    whose contributions depend on the albedo at each photon's wavelength.
    Tested in gi_precomputed_irradiance_matches_the_full_estimate and
-   gi_precomputed_irradiance_is_as_bright_as_the_full_estimate. */
+   gi_precomputed_irradiance_leaves_out_its_own_photons. */
 #define PDS__GI_IRR_COS 0.9
 #define PDS__GI_IRR_K 4     /* nearest points looked at for one with a matching normal */
 
