@@ -9333,8 +9333,9 @@ static pds__v3 pds__tri_normal_diff(const pds__mesh *m, const float *nrm, long t
    much less far than the width they are named by. Measured on a glass
    sphere with noisy normals at 2M photons against light tracing: RMSE
    0.0137 at 1, 0.0050 at 1.5, 0.0049 at 2; the cognac glass's needles,
-   whose coarse revolve counts as noisy, 0.0029, 0.0031, 0.0033.) Noise is told from shape by how far
-   the one derivative lies from the other, rho = |DN - DN_avg| / |DN_avg|:
+   whose coarse revolve counts as noisy, 0.0029, 0.0031, 0.0033.) Noise
+   is told from shape by how far the one derivative lies from the other,
+   rho = |DN - DN_avg| / |DN_avg|:
    on smooth normals averaging changes the derivative only where the
    curvature itself changes over the footprint (a few tens of percent on
    the cognac glass's coarse revolve), on noise by several times its
