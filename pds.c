@@ -17755,6 +17755,8 @@ typedef struct pds__gi_build {
     int spectral;        /* one wavelength per photon (>>spectral) */
     int spectral_all;    /* ... spectral from the light on, not only from
                             the first dispersive material */
+    int shadow;          /* trace the shadow photons (only shadow_photons
+                            asks them anything) */
     pds__gi_buf *bufs;
     pds__mutex lock;
     int next_buf;        /* guarded by lock */
@@ -17914,7 +17916,7 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
     dir = e.dir;
     org = pds__add(e.pos, pds__scale(e.normal, pds__dot(e.normal, dir) >= 0.0 ? b->eps : -b->eps));
     nside = pds__dot(e.normal, dir) >= 0.0 ? e.normal : pds__scale(e.normal, -1.0);
-    pds__gi_shadow_line(b, buf, i, k, org, dir);
+    if (b->shadow) pds__gi_shadow_line(b, buf, i, k, org, dir);
     for (depth = 0; depth <= b->max_depth; depth++) {
         pds__tri_hit th;
         pds_hit hit;
@@ -18148,6 +18150,10 @@ static pds_status pds__gi_map_build(pds__gi_map *g, const pds_scene *s, const pd
     b.eps = 1e-6 * pds__scene_scale(s);
     b.spectral = pds__render_is_spectral(s, opt);
     b.spectral_all = b.spectral && opt->spectral;
+    /* the shadow photons' lines cost as much as a third of pass 1 and
+       answer nothing unless shadow_photons asks them (their rays take no
+       random numbers: the global photons are the same either way) */
+    b.shadow = opt->shadow_photons;
     b.bufs = (pds__gi_buf *)calloc((size_t)threads, sizeof *b.bufs);
     if (!b.bufs) return pds__nomem(err);
     pds__mutex_init(&b.lock);
