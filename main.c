@@ -106,7 +106,8 @@ static const command_help help_table[] = {
      "                              global photon map, final gather, shadow photons, caustics from\n"
      "                              --caustics)\n"
      "                              isc: image-space caustics (see below)\n"
-     "      --photons N             photon methods: caustic photons (default 100000; ppm: per pass)\n"
+     "      --photons N             photon methods: caustic photons (default 100000; ppm: per pass;\n"
+     "                              gi: pixels x samples / 16, 4096..4M)\n"
      "      --smoothing S           pdm, and pds: the paper's fixed-s PDS with smoothing s (default 12;\n"
      "                              5..40); as --min-aspect and --min-width, it turns progressive PDS off\n"
      "      --plane-tolerance F     pds, pdm, splat: ignore eye vertices farther than F x the footprint's\n"
@@ -176,7 +177,8 @@ static const command_help help_table[] = {
      "      OUT.pdsp (exit status 130); a second one aborts.\n",
      "      --caustics NAME         gi: the caustic method, pds (default), pm, pdm, splat, ppm or spm,\n"
      "                              with its own options above\n"
-     "      --global-photons N      gi: photons emitted for the global photon map (default 100000)\n"
+     "      --global-photons N      gi: photons emitted for the global photon map (default pixels x\n"
+     "                              samples / 16, 4096..1M; spm's full image: 100000)\n"
      "      --global-k K            gi: nearest photons (streams: leaders) per global radiance estimate\n"
      "                              (default 50)\n"
      "      --gather N              gi: final-gather rays per eye sample (default 1)\n"
@@ -2076,6 +2078,7 @@ static int cmd_render(int argc, char **argv)
         return 1;
     }
     print_scene_warnings(scene, &c);
+    pds_options_resolve(scene, &c.opt); /* the photon counts the render line and metadata report */
     if (!c.quiet) warn_about_the_cost(scene, &c.opt);
     /* checkpoints stop the render where its state is kept: between eye
        rows (pt), photon batches or passes (pds, splat, and gi with their
@@ -3888,8 +3891,10 @@ static int cmd_sweep(int argc, char **argv)
         snprintf(title, sizeof title, "%s on %s: RMSE and SSIM against %s", method_name(method), stem, ps->key);
         {
             char ph[64] = "";
+            pds_options used = base.opt;
+            pds_options_resolve(scene, &used); /* the method's own photon count if not given */
             if (photon && strcmp(ps->key, "photons") && !option_given(&base, "--time"))
-                snprintf(ph, sizeof ph, "%ld photons; ", base.opt.photons);
+                snprintf(ph, sizeof ph, "%ld photons; ", used.photons);
             snprintf(subtitle, sizeof subtitle, "%s%dx%d; lowest RMSE %.4g at %s=%s; highest SSIM %.4g at %s=%s", ph,
                      ref.width, ref.height, best_r >= 0 ? rows[best_r].m.rmse : 0.0, ps->key,
                      best_r >= 0 ? rows[best_r].value : "-", best_s >= 0 ? rows[best_s].m.ssim : 0.0, ps->key,

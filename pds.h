@@ -511,6 +511,10 @@ typedef enum pds_phase {
    state, to be continued later). */
 typedef int (*pds_progress_fn)(void *user, pds_phase phase, double fraction, double elapsed_s);
 
+/* pds_options.photons and .global_photons: the method's own count, which
+   pds_options_resolve (below) tells. */
+#define PDS_PHOTONS_AUTO (-1L)
+
 typedef struct pds_options {
     pds_method method;  /* default PDS_METHOD_PDS (as the pds tool's) */
     pds_paths paths;    /* default PDS_PATHS_ALL */
@@ -537,9 +541,12 @@ typedef struct pds_options {
     pds_progress_fn progress; /* default NULL */
     void *progress_user;      /* default NULL */
     /* photon methods */
-    long photons;       /* caustic photons to emit (default 100000); with
-                           time_s > 0, the photon pass emits batches until the
-                           time is spent instead */
+    long photons;       /* caustic photons to emit; PDS_PHOTONS_AUTO (the
+                           default): the method's own, 100000, but for gi's
+                           caustic method pixels x samples / 16 within
+                           4096..4e6 (pds_options_resolve); with time_s > 0,
+                           the photon pass emits batches until the time is
+                           spent instead */
     double smoothing;   /* the paper's PDS (progressive 0) and pdm: smoothing
                            parameter s of eqs. 5-6 (default 12; the paper used
                            5 to 40) */
@@ -631,7 +638,10 @@ typedef struct pds_options {
     /* gi; spm's full image uses global_photons, global_k, gather,
        gather_mix, shadow_photons and stream_radius too (its global map is
        always of streams, its caustics spm's) */
-    long global_photons; /* gi: photons emitted for the global map (default 100000) */
+    long global_photons; /* gi: photons emitted for the global map;
+                           PDS_PHOTONS_AUTO (the default): pixels x samples
+                           / 16 within 4096..1e6; spm's full image: 100000
+                           (pds_options_resolve) */
     int global_k;       /* gi: nearest photons (streams: leaders) per global
                            radiance estimate, 1..1000 (default 50) */
     int gather;         /* gi: final-gather rays per eye sample, 0..4096
@@ -681,6 +691,17 @@ typedef struct pds_options {
 } pds_options;
 
 void pds_options_default(pds_options *opt);
+
+/* The options a render of scene with opt uses: each photon count left at
+   PDS_PHOTONS_AUTO replaced by the method's own. Caustic photons: 100000;
+   gi's, and gi's global photons: one per 16 pixel samples of the render
+   (width x height x spp, the camera's where opt leaves them 0), at least
+   4096, at most 4e6 caustic and 1e6 global photons, so that the photon
+   passes keep pace with the eye pass at few samples and many (README
+   "Global illumination"); spm's full image's global map: 100000. Counts
+   given stay as they are. pds_render and its kin resolve opt themselves;
+   call this to know (and print) what they use. */
+void pds_options_resolve(const pds_scene *scene, pds_options *opt);
 
 /* ------------------------------------------------------- teaching views */
 

@@ -962,6 +962,81 @@ static void test_gi_direct_light_at_a_glossy_x2_is_exact(pds_test_ctx *t)
     pds_scene_free(s);
 }
 
+/* gi's photon counts left to the method (PDS_PHOTONS_AUTO, the default)
+   follow the render's pixel samples: pixels x samples / 16, caustic
+   photons within 4096..4e6, global photons within 4096..1e6; counts
+   given stay; the other methods get 100000 (and spm's full image a
+   global map of 100000), as before the marker. A render resolves them
+   itself: gi with the defaults is bit for bit gi with the counts spelled
+   out, its stats say so, and a shard of it keeps the counts it used, so
+   continuing it with the defaults is allowed. */
+static void test_gi_photon_counts_follow_the_pixel_samples(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text(gi_plane_scene, &err); /* 16 x 16, 1 sample */
+    pds_options o, e;
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    pds_render_stats sa, sb;
+    pds_partial *part = NULL;
+    REQUIRE(t, s != NULL, "scene: %s", err.text);
+    pds_options_default(&o);
+    CHECK(t, o.photons == PDS_PHOTONS_AUTO && o.global_photons == PDS_PHOTONS_AUTO, "defaults %ld %ld", o.photons,
+          o.global_photons);
+    o.method = PDS_METHOD_GI;
+    e = o;
+    pds_options_resolve(s, &e);
+    CHECK(t, e.photons == 4096 && e.global_photons == 4096, "16 x 16 x 1: %ld %ld", e.photons, e.global_photons);
+    e = o;
+    e.width = 640;
+    e.height = 480;
+    e.spp = 16;
+    pds_options_resolve(s, &e);
+    CHECK(t, e.photons == 307200 && e.global_photons == 307200, "640 x 480 x 16: %ld %ld", e.photons,
+          e.global_photons);
+    e = o;
+    e.width = e.height = 2048;
+    e.spp = 64;
+    e.photons = 12345;
+    pds_options_resolve(s, &e);
+    CHECK(t, e.photons == 12345 && e.global_photons == 1000000, "2048^2 x 64, photons given: %ld %ld", e.photons,
+          e.global_photons);
+    e.photons = PDS_PHOTONS_AUTO;
+    e.global_photons = 0;
+    pds_options_resolve(s, &e);
+    CHECK(t, e.photons == 4000000 && e.global_photons == 0, "2048^2 x 64, no global map: %ld %ld", e.photons,
+          e.global_photons);
+    e = o;
+    e.method = PDS_METHOD_PM;
+    e.spp = 4096;
+    pds_options_resolve(s, &e);
+    CHECK(t, e.photons == 100000 && e.global_photons == 100000, "pm: %ld %ld", e.photons, e.global_photons);
+    e = o;
+    e.method = PDS_METHOD_SPM;
+    pds_options_resolve(s, &e);
+    CHECK(t, e.photons == 100000 && e.global_photons == 100000, "spm: %ld %ld", e.photons, e.global_photons);
+    /* a render resolves them itself */
+    o.threads = 2;
+    o.width = o.height = 40;
+    o.spp = 64; /* 102400 pixel samples: 6400 photons of each kind */
+    e = o;
+    e.photons = e.global_photons = 6400;
+    REQUIRE(t, render_text(gi_plane_scene, &o, &a, &sa), "gi, defaults");
+    REQUIRE(t, render_text(gi_plane_scene, &e, &b, &sb), "gi, 6400 photons");
+    CHECK(t, sa.photons == 6400 && sb.photons == 6400 && sa.global_stored == sb.global_stored &&
+                 memcmp(a.rgb, b.rgb, sizeof(float) * 3 * 40 * 40) == 0,
+          "caustic photons %ld and %ld, global stores %ld and %ld", sa.photons, sb.photons, sa.global_stored,
+          sb.global_stored);
+    o.shard_count = 2;
+    REQUIRE(t, pds_render_part(s, &o, &part, NULL, &err) == PDS_OK, "shard: %s", err.text);
+    pds_partial_options(part, &e);
+    CHECK(t, e.photons == 6400 && e.global_photons == 6400, "the shard keeps %ld, %ld", e.photons, e.global_photons);
+    CHECK(t, pds_render_part(s, &o, &part, NULL, &err) == PDS_OK, "continued with the defaults: %s", err.text);
+    pds_partial_free(part);
+    pds_image_free(&a);
+    pds_image_free(&b);
+    pds_scene_free(s);
+}
+
 static const pds_test_case tests_gi[] = {
     {"gi_global_map_radiance_matches_point_light_irradiance", test_gi_global_map_radiance_matches_point_light_irradiance},
     {"gi_precomputed_irradiance_matches_the_full_estimate", test_gi_precomputed_irradiance_matches_the_full_estimate},
@@ -979,4 +1054,5 @@ static const pds_test_case tests_gi[] = {
     {"gi_gather_near_a_corner_agrees_with_path_tracing", test_gi_gather_near_a_corner_agrees_with_path_tracing},
     {"gi_direct_light_at_a_glossy_x2_is_exact", test_gi_direct_light_at_a_glossy_x2_is_exact},
     {"gi_gather_end_counts_a_caustic_once", test_gi_gather_end_counts_a_caustic_once},
+    {"gi_photon_counts_follow_the_pixel_samples", test_gi_photon_counts_follow_the_pixel_samples},
 };

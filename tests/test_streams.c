@@ -191,14 +191,18 @@ static void test_spm_stream_count_and_its_limits(pds_test_ctx *t)
 {
     pds_options opt;
     pds_error err;
+    pds_scene *s = scene_from_text(gi_plane_scene, &err);
+    REQUIRE(t, s != NULL, "scene: %s", err.message);
     pds_options_default(&opt);
+    opt.method = PDS_METHOD_SPM;
+    pds_options_resolve(s, &opt); /* the photon count a render uses */
+    pds_scene_free(s);
     CHECK(t, opt.streams == 0 && opt.stream_photons == 10 && pds__spm_streams(&opt) == 100000 / 11, "default %ld",
           pds__spm_streams(&opt));
     opt.stream_photons = 0;
     CHECK(t, pds__spm_streams(&opt) == 100000, "nfa 0: %ld", pds__spm_streams(&opt));
     opt.streams = 7;
     CHECK(t, pds__spm_streams(&opt) == 7, "given: %ld", pds__spm_streams(&opt));
-    opt.method = PDS_METHOD_SPM;
     opt.stream_photons = 10001;
     CHECK(t, pds__options_check(&opt, 8, 8, &err) == PDS_ERR_INVALID_ARG &&
                  !strcmp(err.message, "associated photons per stream 10001 is outside 0..10000"),
