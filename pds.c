@@ -17930,7 +17930,15 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
         const pds_material *m;
         pds__bsdf_result bs;
         double uu[3], q;
-        if (!pds__bvh_intersect(&s->bvh, org, dir, 0.0, DBL_MAX, &th)) return;
+        double tl;
+        pds__v3 nl;
+        int found = pds__bvh_intersect(&s->bvh, org, dir, 0.0, DBL_MAX, &th);
+        /* a disk or quad light met from its front ends the photon, as it
+           ends an eye path (pds__hit_analytic_light): it absorbs what it
+           does not emit. Passing through, the photon would light the
+           surface behind it, which the eye sees only through the light,
+           and come back into the scene. */
+        if (pds__hit_analytic_light(s, org, dir, found ? th.t : DBL_MAX, &tl, &nl) >= 0 || !found) return;
         pds__scene_fill_hit(s, &th, org, dir, &hit);
         pds__beer(sigma, th.t, flux);
         m = &s->materials.items[hit.material];
