@@ -21602,7 +21602,10 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
         copt = *opt;
         copt.method = opt->caustics;
         popt = &copt;
-        if ((st = pds__gi_map_build(&gmap, scene, opt, threads, err))) return st;
+        /* the caustics alone: the eye pass only records its vertices, and
+           no gather asks the global map anything */
+        if (opt->paths != PDS_PATHS_CAUSTICS_ONLY && (st = pds__gi_map_build(&gmap, scene, opt, threads, err)))
+            return st;
         gi_map_s = pds_time_now() - tm;
         gmap.record_only = opt->paths == PDS_PATHS_CAUSTICS_ONLY;
         job.path = pds__gi_path;

@@ -484,28 +484,33 @@ static void test_gi_image_is_identical_for_any_thread_count(pds_test_ctx *t)
 }
 
 /* The box rendered whole, without caustics and with caustics only (o's
-   paths end at PDS_PATHS_CAUSTICS_ONLY); 1 on success. */
-static int gi_box_three_ways(pds_options *o, pds_image *all, pds_image *nc, pds_image *co)
+   paths end at PDS_PATHS_CAUSTICS_ONLY; its stats in *co_stats if not
+   NULL); 1 on success. */
+static int gi_box_three_ways(pds_options *o, pds_image *all, pds_image *nc, pds_image *co, pds_render_stats *co_stats)
 {
     o->paths = PDS_PATHS_ALL;
     if (!render_text(gi_box_scene, o, all, NULL)) return 0;
     o->paths = PDS_PATHS_NO_CAUSTICS;
     if (!render_text(gi_box_scene, o, nc, NULL)) return 0;
     o->paths = PDS_PATHS_CAUSTICS_ONLY;
-    return render_text(gi_box_scene, o, co, NULL);
+    return render_text(gi_box_scene, o, co, co_stats);
 }
 
 /* ALL = NO_CAUSTICS + CAUSTICS_ONLY: the eye pass and the caustic method
-   never count the same light twice (pm as the caustic method here). */
+   never count the same light twice (pm as the caustic method here). The
+   caustics alone build no global map, which nothing would ask. */
 static void test_gi_full_image_is_eye_pass_plus_caustics(pds_test_ctx *t)
 {
     pds_image all = {0, 0, NULL}, nc = {0, 0, NULL}, co = {0, 0, NULL};
+    pds_render_stats cs;
     pds_options o;
     size_t i, n;
     double worst = 0.0, caustic = 0.0;
     gi_options(&o, 2);
     o.caustics = PDS_METHOD_PM;
-    REQUIRE(t, gi_box_three_ways(&o, &all, &nc, &co), "render");
+    REQUIRE(t, gi_box_three_ways(&o, &all, &nc, &co, &cs), "render");
+    CHECK(t, cs.global_stored == 0 && cs.shadow_stored == 0, "caustics only: %ld global, %ld shadow photons stored",
+          cs.global_stored, cs.shadow_stored);
     n = (size_t)all.width * all.height * 3;
     for (i = 0; i < n; i++) {
         double rel = fabs((double)all.rgb[i] - nc.rgb[i] - co.rgb[i]) / (1e-6 + all.rgb[i]);

@@ -613,7 +613,7 @@ static void test_spm_full_image_holds_the_caustics_only_light(pds_test_ctx *t)
     double full = 0.0, rest = 0.0, caustic = 0.0;
     spm_full_options(&o, 2);
     o.photons = 60000; /* 10,000 caustic streams */
-    REQUIRE(t, gi_box_three_ways(&o, &all, &nc, &co), "render");
+    REQUIRE(t, gi_box_three_ways(&o, &all, &nc, &co, NULL), "render");
     n = (size_t)all.width * all.height * 3;
     for (i = 0; i < n; i++) {
         full += all.rgb[i];
