@@ -699,8 +699,9 @@ void pds_options_default(pds_options *opt);
    4096, at most 4e6 caustic and 1e6 global photons, so that the photon
    passes keep pace with the eye pass at few samples and many (README
    "Global illumination"); spm's full image's global map: 100000. Counts
-   given stay as they are. pds_render and its kin resolve opt themselves;
-   call this to know (and print) what they use. */
+   given stay as they are (and with scene NULL, everything). pds_render
+   and its kin resolve opt themselves; call this to know (and print) what
+   they use. */
 void pds_options_resolve(const pds_scene *scene, pds_options *opt);
 
 /* ------------------------------------------------------- teaching views */
