@@ -806,12 +806,16 @@ static void test_diff_mesh_normal_differential_at_a_footprint_scale_averages_out
    pixels): PDS at 20,000 photons against light tracing (no kernel, 10^6
    photons), both summed in 8 x 8 blocks of 6 x 6 pixels. With the
    defaults the image keeps 0.98-1.00 of the reference's light and the
-   blocks' shares of it differ by 0.06-0.07 in sum (seeds 0-4). With
+   blocks' shares of it differ by 0.047-0.066 in sum (seeds 0-4). With
    neither guard, no averaged normal fields (pds__mesh_smooth_normals)
    and no bound on the normal's turn over a footprint (split_angle 10
-   rad), a fifth of the light is spread out of view and the shares
-   differ by 0.18-0.20; either guard alone keeps the light within 5%
-   (0.99 and 0.96, shares 0.076 and 0.090). */
+   rad), 7-10% of the light is spread out of view and the shares differ
+   by 0.081-0.099, 1.25-2 times the defaults' at each seed; either guard
+   alone keeps the light within 3% (shares 0.047-0.067). (Before
+   defocused footprints were rounded at the geometric mean of their areas
+   (pds__defocus_round) the unguarded render lost a fifth of its light,
+   shares 0.18-0.20: the rounder, shorter faint footprints are a third
+   guard.) */
 static void dt_blocks(const pds_image *img, double blk[64])
 {
     int x, y, c;
@@ -872,10 +876,10 @@ static void test_diff_noisy_normals_make_no_streaks(pds_test_ctx *t)
         dt_block_shares(rb, &img, &light[k], &l1[k]);
         pds_image_free(&img);
     }
-    CHECK(t, fabs(light[0] - 1.0) < 0.05 && l1[0] < 0.1, "defaults: light %g of the reference's, shares apart by %g",
+    CHECK(t, fabs(light[0] - 1.0) < 0.05 && l1[0] < 0.075, "defaults: light %g of the reference's, shares apart by %g",
           light[0], l1[0]);
-    CHECK(t, light[1] < 0.9 && l1[1] > 0.15, "without the guards the test should see streaks: light %g, shares %g",
-          light[1], l1[1]);
+    CHECK(t, light[1] < 0.95 && l1[1] > 1.2 * l1[0],
+          "without the guards the test should see streaks: light %g, shares %g (defaults %g)", light[1], l1[1], l1[0]);
     pds_image_free(&ref);
     pds_scene_free(s);
 }

@@ -800,11 +800,13 @@ static void test_pds_eye_merge_sums_a_pixels_samples_at_their_centroid(pds_test_
 /* pds__defocus_widen: a photon from a point light (no positional
    differential, directional ones of length 0.01) that travelled 2 units
    has the unfocused cross-section 0.01^2 x 2^2 = 4e-4. Landing straight
-   down on a floor as a needle 0.4 x 0.01 (cross-section 4e-3, m = 10, past
-   the 1 / 0.15 that makes it round) it becomes round, its major axis
-   kept; as a needle 0.08 x 0.01 (8e-4, m = 2) its minor axis becomes
-   0.15 m = 0.3 of the major; as a focused needle 0.02 x 0.002 (4e-5,
-   m = 0.1) it keeps its shape. */
+   down on a floor as a needle of semi-axes a = 0.2, b = 0.005
+   (cross-section 4e-3, m = 10, past the 1 / 0.15 that makes it round) it
+   becomes round; as a needle a = 0.04, b = 0.005 (8e-4, m = 2) its aspect
+   becomes 0.15 m = 0.3; either way its area becomes the geometric mean of
+   the needle's (pi a b) and the needle's widened to that aspect at its
+   own length (pi q a^2), its major axis staying along the needle's. As a
+   focused needle a = 0.01, b = 0.001 (4e-5, m = 0.1) it keeps its shape. */
 static void test_pds_defocused_needles_widen_and_focused_ones_do_not(pds_test_ctx *t)
 {
     static const double cases[3][3] = {{0.4, 0.01, 1.0}, {0.08, 0.01, 0.3}, {0.02, 0.002, 0.1}};
@@ -819,7 +821,7 @@ static void test_pds_defocused_needles_widen_and_focused_ones_do_not(pds_test_ct
     start.dddu = pds__v(0.01, 0.0, 0.0);
     start.dddv = pds__v(0.0, 0.0, 0.01);
     for (k = 0; k < 3; k++) {
-        double major, aniso;
+        double a = 0.5 * cases[k][0], b = 0.5 * cases[k][1], q = cases[k][2], major, aniso, area, want;
         memset(&r, 0, sizeof r);
         r.d = pds__v(0.0, -1.0, 0.0);
         r.dpdu = pds__v(cases[k][0], 0.0, 0.0);
@@ -827,9 +829,12 @@ static void test_pds_defocused_needles_widen_and_focused_ones_do_not(pds_test_ct
         pds__defocus_widen(&job, &start, 2.0, ng, &r);
         major = pds__footprint_major_axis(r.dpdu, r.dpdv);
         aniso = pds__footprint_anisotropy(r.dpdu, r.dpdv);
-        CHECK(t, fabs(major - 0.5 * cases[k][0]) < 1e-12, "case %d: major semi-axis %g, was %g", k, major,
-              0.5 * cases[k][0]);
-        CHECK(t, fabs(aniso - cases[k][2]) < 1e-9, "case %d: minor / major %g, want %g", k, aniso, cases[k][2]);
+        area = 0.25 * pds__length(pds__cross(r.dpdu, r.dpdv)); /* semi-axes' product */
+        want = k < 2 ? sqrt(a * b * q * a * a) : a * b;
+        CHECK(t, fabs(aniso - q) < 1e-9, "case %d: minor / major %g, want %g", k, aniso, q);
+        CHECK(t, fabs(area - want) < 1e-12 * want + 1e-15, "case %d: area / pi %g, want %g", k, area, want);
+        CHECK(t, fabs(major - sqrt(want / q)) < 1e-12, "case %d: major semi-axis %g, want %g", k, major, sqrt(want / q));
+        CHECK(t, fabs(r.dpdu.y) + fabs(r.dpdu.z) < 1e-15 * fabs(r.dpdu.x), "case %d: the major axis turned", k);
     }
 }
 
