@@ -15307,15 +15307,16 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
    leaves the footprint as small as the needle, and on the cognac glass's
    needles the noise rose by 40%. Between the two, the area is their
    geometric mean, pi a sqrt(q a b): a' = a (b / (q a))^(1/4), b' = q a'.
-   Measured at two seeds each against light-traced references, floor seen
-   directly: the halo's two darkest blocks -12% and -10% (were -17% and
-   -16%), the glass bunny at 200,000 photons 0.0329 and 0.0300 (were
-   0.0339 and 0.0314), the cognac glass's table 0.00738 and 0.00736 (were
-   0.00755 and 0.00752) and its needles 0.00321 and 0.00292 (were 0.00310
-   and 0.00301). The exponent's neighbours each lost somewhere: 1/8 left
-   the halo 15% dark and the bunny at 0.0332 and 0.0307, 3/8 made the
-   needles 15% noisier. A footprint with no width
-   to speak of (b < 1e-9 a) is widened at its length as before. */
+   Measured at two seeds each against light-traced references, floor
+   seen directly (with min_aspect 0.15, its default then): the halo's two
+   darkest blocks -12% and -10% (were -17% and -16%), the glass bunny at
+   200,000 photons 0.0329 and 0.0300 (were 0.0339 and 0.0314), the cognac
+   glass's table 0.00738 and 0.00736 (were 0.00755 and 0.00752) and its
+   needles 0.00321 and 0.00292 (were 0.00310 and 0.00301). The exponent's
+   neighbours each lost somewhere: 1/8 left the halo 15% dark and the
+   bunny at 0.0332 and 0.0307, 3/8 made the needles 15% noisier. A
+   footprint with no width to speak of (b < 1e-9 a) is widened at its
+   length as before. */
 static void pds__defocus_round(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double q)
 {
     pds__v3 a = pds__scale(*dpdu, 0.5), b = pds__scale(*dpdv, 0.5), A, B;
@@ -20854,7 +20855,7 @@ void pds_options_default(pds_options *opt)
     opt->pass_photons = 16384;
     opt->pass_alpha = 2.0 / 3.0;
     opt->pass_smoothing = 2.0;
-    opt->pass_min_aspect = 0.15;
+    opt->pass_min_aspect = 0.1;
     opt->pass_min_width = 1.5;
     opt->min_width = 0.0;
     opt->plane_tolerance = 0.25;

@@ -283,7 +283,7 @@ static void test_harness_race_writes_every_image_its_index_shows(pds_test_ctx *t
     CHECK(t, HARNESS_STARTS(lines[0], "race method=pt label=pt photons=0 spp=1 rmse="), "%s", lines[0]);
     CHECK(t, HARNESS_STARTS(lines[1], "race method=pt label=pt-spp64 photons=0 spp=64 rmse="), "%s", lines[1]);
     /* without caustic paths the photon methods have nothing to emit */
-    CHECK(t, HARNESS_STARTS(lines[2], "race method=pds label=pds photons=0 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 split_depth=0 split_angle=0.2 rmse="), "%s", lines[2]);
+    CHECK(t, HARNESS_STARTS(lines[2], "race method=pds label=pds photons=0 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.1 pass_min_width=1.5 split_depth=0 split_angle=0.2 rmse="), "%s", lines[2]);
     /* 64 times the samples: an eighth of the error, a firefly or not */
     CHECK(t, harness_value(lines[1], "rmse") < harness_value(lines[0], "rmse"), "64 spp beat 1 spp: %s / %s",
           lines[1], lines[0]);
@@ -299,7 +299,7 @@ static void test_harness_race_writes_every_image_its_index_shows(pds_test_ctx *t
                                  "time_eye_s,time_photons_s,time_map_s,time_gather_s,map_bytes,diff_scale,budget_flag\n"),
           "header: %s", csv);
     CHECK(t, strstr(csv, "\npt,pt,1000,0,1,1,,,") && strstr(csv, "\npt,pt-spp64,1000,0,64,1,,,") &&
-                 strstr(csv, "\npds,pds,1000,0,1,0,progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 split_depth=0 split_angle=0.2,,"),
+                 strstr(csv, "\npds,pds,1000,0,1,0,progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.1 pass_min_width=1.5 split_depth=0 split_angle=0.2,,"),
           "rows: %s", csv);
     CHECK(t, harness_count(csv, ",ok\n") == 3, "a photon budget is met exactly: %s", csv);
     free(csv);
@@ -456,7 +456,7 @@ static void test_harness_race_region_of_interest_is_the_most_varied_window(pds_t
              "race tests/golden/glass.scene --ref %s --photons 200 --methods pds --res 128x96 --spp 1 --quiet -o %s",
              ref, dir);
     REQUIRE(t, cli_run(args, out, sizeof out) == 0, "race failed: %s", out);
-    CHECK(t, strstr(out, "race method=pds label=pds photons=200 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 split_depth=0 split_angle=0.2 rmse=") != NULL, "%s", out);
+    CHECK(t, strstr(out, "race method=pds label=pds photons=200 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.1 pass_min_width=1.5 split_depth=0 split_angle=0.2 rmse=") != NULL, "%s", out);
     last = cli_last_line(out);
     CHECK(t, strstr(last, " roi=40,0,64,64") != NULL, "final line: %s", last);
     snprintf(path, sizeof path, "%s/ref-crop.png", dir);
