@@ -117,7 +117,7 @@ static const command_help help_table[] = {
      "      --progressive           pds: progressive PDS (the default): passes whose footprints shrink so\n"
      "                              that the image converges as photons are added\n"
      "      --pass-smoothing S      progressive pds: the first pass's s (default 2)\n"
-     "      --pass-min-aspect A     progressive pds: as --min-aspect (default 0.15)\n"
+     "      --pass-min-aspect A     progressive pds: as --min-aspect (default 0.1)\n"
      "      --pass-min-width W      progressive pds: as --min-width (default 1.5)\n"
      "      --pass-photons N        progressive pds: photons per pass, at most (default 16384)\n"
      "      --eye-rounds R          progressive pds: passes splat into R eye passes of spp samples each\n"

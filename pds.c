@@ -9,7 +9,8 @@
      >>util       status strings, error reporting, growable arrays, the
                   system layer (threads, clock, files: POSIX or Win32),
                   bounded file reading, string map, exact order-free sums,
-                  time
+                  time; the clock a render reads (real, or a test's
+                  simulated one)
      >>math       3-vectors in double precision, orthonormal bases, transforms
      >>mesh       the triangle store every shape ends up in; material table;
                   glass and mirror normals averaged at footprint scales
@@ -717,6 +718,46 @@ double pds_time_now(void)
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 #endif
+}
+
+/* The clock a render reads: every deadline, probe, pass and phase time
+   of a render (>>render, >>pds, >>baselines, >>photonpass, >>isc and the
+   render entry points of >>api) is now(user), seconds on a monotonic
+   scale. It is part of the render's state, never global: the public
+   entry points give the real one (now NULL: pds_time_now). A simulated
+   clock (tests/test_budget.c) is also told the work handed out or done,
+   spent(user, what, units), so that its time can be a pure function of
+   the work, whatever the threads' order: the photons a tracing thread
+   takes (told under the lock its deadline check holds, so the k-th
+   check sees the first k - 1 batches whichever thread took them), the
+   photons a map is built of, the eye vertices a gather or a ppm update
+   queries and the photons a gather finds (told by the thread that
+   waits for the workers). PDS's splats are not told: a simulated clock
+   sees them as free. */
+typedef enum pds__work {
+    PDS__WORK_TRACED,  /* photons (spm: streams) handed to a tracing thread */
+    PDS__WORK_MAPPED,  /* photons a photon map was built of */
+    PDS__WORK_QUERIED, /* eye vertices a gather or ppm update queried */
+    PDS__WORK_FOUND    /* photons those queries found */
+} pds__work;
+
+typedef struct pds__clock {
+    double (*now)(void *user);                             /* NULL: pds_time_now */
+    void (*spent)(void *user, pds__work what, double units); /* NULL: not told */
+    void *user;
+    int one_round; /* tests only: the map methods trace their budget in
+                      one round, on step 1's plan (>>photonpass), without
+                      step 2's re-plan, to show what the re-plan is for */
+} pds__clock;
+
+static double pds__clock_now(const pds__clock *c)
+{
+    return c && c->now ? c->now(c->user) : pds_time_now();
+}
+
+static void pds__clock_spent(const pds__clock *c, pds__work what, double units)
+{
+    if (c && c->spent) c->spent(c->user, what, units);
 }
 
 int pds_cpu_count(void)
@@ -13760,6 +13801,7 @@ typedef struct pds__render_job {
     pds__thread_id caller;
     pds_progress_fn progress;
     void *progress_user;
+    pds__clock clock;      /* the render's (>>util) */
     double t0, progress_scale, progress_base;
     /* Eye-path vertices, when a photon method asked for them: one growable
        array per image row, filled by the thread that renders the row, so
@@ -13864,7 +13906,7 @@ static void *pds__render_worker(void *arg)
         pds__mutex_unlock(&job->lock);
         if (is_caller && job->progress &&
             job->progress(job->progress_user, PDS_PHASE_EYE, job->progress_base + job->progress_scale * done / job->nrows,
-                          pds_time_now() - job->t0) &&
+                          pds__clock_now(&job->clock) - job->t0) &&
             !job->stop_requested) {
             pds__mutex_lock(&job->lock);
             job->stop_requested = 1;
@@ -14793,7 +14835,8 @@ typedef struct pds__photon_job {
     double roulette_vertices;  /* pds: a splat over more eye samples plays roulette (0 = never) */
     double n_planned;          /* photon count for eqs. 5-6 */
     long n_total;              /* photons to emit (upper bound in time mode) */
-    double deadline;           /* pds_time_now() limit, 0 = none */
+    double deadline;           /* clock limit (below), 0 = none */
+    pds__clock clock;          /* the render's (>>util): every time below is its */
     pds__mutex lock;
     long next_batch, batches_done;   /* guarded by lock */
     int stop;                        /* guarded by lock */
@@ -14816,7 +14859,7 @@ typedef struct pds__photon_job {
     long own_batches;          /* batches this call will run, for the progress */
     int cancelled;             /* guarded by lock: the progress callback said stop */
     double build_s, gather_s;  /* pm, pdm: time of the last map build and gather */
-    double gather_deadline;    /* pm, pdm, spm: with a time budget, pds_time_now()
+    double gather_deadline;    /* pm, pdm, spm: with a time budget, the clock's time
                                   by which the gather should end (>>baselines:
                                   pds__gather_run), else 0 */
     size_t gather_k;           /* pm, pdm, spm: the cap the last gather used */
@@ -15271,15 +15314,16 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
    leaves the footprint as small as the needle, and on the cognac glass's
    needles the noise rose by 40%. Between the two, the area is their
    geometric mean, pi a sqrt(q a b): a' = a (b / (q a))^(1/4), b' = q a'.
-   Measured at two seeds each against light-traced references, floor seen
-   directly: the halo's two darkest blocks -12% and -10% (were -17% and
-   -16%), the glass bunny at 200,000 photons 0.0329 and 0.0300 (were
-   0.0339 and 0.0314), the cognac glass's table 0.00738 and 0.00736 (were
-   0.00755 and 0.00752) and its needles 0.00321 and 0.00292 (were 0.00310
-   and 0.00301). The exponent's neighbours each lost somewhere: 1/8 left
-   the halo 15% dark and the bunny at 0.0332 and 0.0307, 3/8 made the
-   needles 15% noisier. A footprint with no width
-   to speak of (b < 1e-9 a) is widened at its length as before. */
+   Measured at two seeds each against light-traced references, floor
+   seen directly (with min_aspect 0.15, its default then): the halo's two
+   darkest blocks -12% and -10% (were -17% and -16%), the glass bunny at
+   200,000 photons 0.0329 and 0.0300 (were 0.0339 and 0.0314), the cognac
+   glass's table 0.00738 and 0.00736 (were 0.00755 and 0.00752) and its
+   needles 0.00321 and 0.00292 (were 0.00310 and 0.00301). The exponent's
+   neighbours each lost somewhere: 1/8 left the halo 15% dark and the
+   bunny at 0.0332 and 0.0307, 3/8 made the needles 15% noisier. A
+   footprint with no width to speak of (b < 1e-9 a) is widened at its
+   length as before. */
 static void pds__defocus_round(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double q)
 {
     pds__v3 a = pds__scale(*dpdu, 0.5), b = pds__scale(*dpdv, 0.5), A, B;
@@ -15509,26 +15553,30 @@ static void *pds__photon_worker(void *arg)
     buf = &job->bufs[job->next_buf++];
     pds__mutex_unlock(&job->lock);
     for (;;) {
-        long b, i, first, last, done;
+        long b, i, first = 0, last = 0, done;
         pds__mutex_lock(&job->lock);
-        if (job->deadline > 0.0 && pds_time_now() >= job->deadline) job->stop = 1;
+        if (job->deadline > 0.0 && pds__clock_now(&job->clock) >= job->deadline) job->stop = 1;
         b = job->stop ? -1 : job->next_batch++;
         if (b >= 0) b = job->unit_first + (job->unit_start + b) * job->unit_stride;
         if (b >= 0 && b * (long)PDS__PHOTON_BATCH >= job->n_total) b = -1;
+        if (b >= 0) {
+            first = b * (long)PDS__PHOTON_BATCH;
+            last = first + PDS__PHOTON_BATCH < job->n_total ? first + PDS__PHOTON_BATCH : job->n_total;
+            pds__clock_spent(&job->clock, PDS__WORK_TRACED, (double)(last - first));
+        }
         pds__mutex_unlock(&job->lock);
         if (b < 0) break;
-        first = b * (long)PDS__PHOTON_BATCH;
-        last = first + PDS__PHOTON_BATCH < job->n_total ? first + PDS__PHOTON_BATCH : job->n_total;
         for (i = first; i < last; i++) pds__trace_photon(job, buf, job->index_offset + i);
         if (buf->npending) pds__splat_pending(job, buf);
         pds__mutex_lock(&job->lock);
         done = ++job->batches_done;
         pds__mutex_unlock(&job->lock);
         if (is_caller && job->progress) {
-            double frac = job->deadline > 0.0 ? (pds_time_now() - job->t0) / (job->deadline - job->t0)
+            double now = pds__clock_now(&job->clock);
+            double frac = job->deadline > 0.0 ? (now - job->t0) / (job->deadline - job->t0)
                           : job->own_batches > 0 ? (double)done / (double)job->own_batches
                                                  : (double)done * PDS__PHOTON_BATCH / (double)job->n_total;
-            if (job->progress(job->progress_user, PDS_PHASE_PHOTONS, frac > 1.0 ? 1.0 : frac, pds_time_now() - job->t0)) {
+            if (job->progress(job->progress_user, PDS_PHASE_PHOTONS, frac > 1.0 ? 1.0 : frac, now - job->t0)) {
                 /* stop: the batches handed out are finished, so the done
                    batches stay the first ones of the list */
                 pds__mutex_lock(&job->lock);
@@ -15655,7 +15703,7 @@ static long pds__pds_passes(pds__photon_job *job, pds__eye_map *map, const pds_o
     job->n_total = m;
     job->n_planned = (double)m;
     for (k = first + start * stride; k < k_max; k += stride) {
-        double t = pds_time_now();
+        double t = pds__clock_now(&job->clock);
         long r = -1; /* a new eye round before this pass */
         if (deadline > 0.0 && k > 0 && t + 0.5 * t_pass > deadline) break;
         if (job->retrace && deadline <= 0.0) {
@@ -15679,22 +15727,23 @@ static long pds__pds_passes(pds__photon_job *job, pds__eye_map *map, const pds_o
                 map->n = n;
                 if ((*st = pds__eye_map_build(map, err))) break;
                 job->eye_round = r;
-                job->eye_round_s = pds_time_now() - t;
+                job->eye_round_s = pds__clock_now(&job->clock) - t;
                 t_photons = 0.0;
-                t = pds_time_now();
+                t = pds__clock_now(&job->clock);
             }
         }
         job->smoothing = pds__pass_smoothing(opt->pass_smoothing, opt->pass_alpha, k + 1);
         /* the width floor shrinks as the footprints do (s_i / s_1) */
         job->min_width = opt->pass_min_width * pds__pass_smoothing(1.0, opt->pass_alpha, k + 1);
         pds__photon_run(job, threads, k * m);
-        t_pass = pds_time_now() - t;
+        t_pass = pds__clock_now(&job->clock) - t;
         t_photons += t_pass;
         run++;
         if (opt->progress) {
-            double frac = deadline > 0.0 ? (pds_time_now() - job->t0) / (deadline - job->t0)
+            double now = pds__clock_now(&job->clock);
+            double frac = deadline > 0.0 ? (now - job->t0) / (deadline - job->t0)
                                          : (double)(start + run) / (double)((k_max - first + stride - 1) / stride);
-            if (opt->progress(opt->progress_user, PDS_PHASE_PHOTONS, frac > 1.0 ? 1.0 : frac, pds_time_now() - job->t0) &&
+            if (opt->progress(opt->progress_user, PDS_PHASE_PHOTONS, frac > 1.0 ? 1.0 : frac, now - job->t0) &&
                 deadline <= 0.0) {
                 job->cancelled = 1;
                 break;
@@ -15937,14 +15986,20 @@ static void *pds__gather_worker(void *arg)
 }
 
 /* One run of the gather workers over the vertices g->sample and
-   g->sample_phase select. */
+   g->sample_phase select (the clock is told the queries and the photons
+   they found). */
 static void pds__gather_once(pds__gather *g, pds__photon_job *job, int threads)
 {
+    double found = g->found;
+    size_t queried = g->nv, sampled = g->sample ? pds__gather_sample_count(g->nv, g->sample) : g->nv;
+    if (g->sample) queried = g->sample_phase == 1 ? sampled : g->nv - sampled;
     g->next = 0;
     g->next_buf = 0;
     pds__mutex_init(&g->lock);
     pds__run_threads(threads < job->nbufs ? threads : job->nbufs, pds__gather_worker, g);
     pds__mutex_destroy(&g->lock);
+    pds__clock_spent(&job->clock, PDS__WORK_QUERIED, (double)queried);
+    pds__clock_spent(&job->clock, PDS__WORK_FOUND, g->found - found);
 }
 
 /* F(c): the photons a query finds on average with a cap of c, when the
@@ -16024,9 +16079,9 @@ static double pds__gather_timed(pds__gather *g, pds__photon_job *job, int thread
         double t;
         if (r > 0) pds__gather_clear(job, job->nsums);
         g->found = 0.0;
-        t = pds_time_now();
+        t = pds__clock_now(&job->clock);
         pds__gather_once(g, job, threads);
-        t = pds_time_now() - t;
+        t = pds__clock_now(&job->clock) - t;
         spent += t;
         if (t < best) best = t;
     }
@@ -16078,13 +16133,14 @@ static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int thre
         pds__gather_clear(job, job->nsums);
         g->found = 0.0;
         g->sample = 0;
-        if (!g->out_of_memory && t_k * (double)g->nv > job->gather_deadline - pds_time_now()) {
+        if (!g->out_of_memory && t_k * (double)g->nv > job->gather_deadline - pds__clock_now(&job->clock)) {
             g->kth = (double *)malloc(sizeof *g->kth * (size_t)ns); /* none: no radius bound */
             g->k = 8;
             g->sample = S;
             t_8 = pds__gather_timed(g, job, threads) / ns;
-            cap = pds__gather_cap_fit(8.0, t_8, k0, t_k, (job->gather_deadline - pds_time_now()) / (double)g->nv,
-                                      nfound, nfound ? n2 : 0);
+            cap = pds__gather_cap_fit(8.0, t_8, k0, t_k,
+                                      (job->gather_deadline - pds__clock_now(&job->clock)) / (double)g->nv, nfound,
+                                      nfound ? n2 : 0);
             if (cap > 8.0) {
                 /* the cap chosen, measured on the same sample: the fit
                    again between it and the nearer of the two (a query's
@@ -16096,7 +16152,7 @@ static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int thre
                 pds__gather_clear(job, job->nsums);
                 g->k = (size_t)cap;
                 t_c = pds__gather_timed(g, job, threads) / ns;
-                left_q = (job->gather_deadline - pds_time_now()) / ((double)g->nv - ns);
+                left_q = (job->gather_deadline - pds__clock_now(&job->clock)) / ((double)g->nv - ns);
                 c2 = t_c <= left_q ? pds__gather_cap_fit(cap, t_c, k0, t_k, left_q, nfound, nfound ? n2 : 0)
                                    : pds__gather_cap_fit(8.0, t_8, cap, t_c, left_q, nfound, nfound ? n2 : 0);
                 if (c2 != cap) {
@@ -16105,7 +16161,7 @@ static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int thre
                     g->sample = 0;
                     g->k = (size_t)c2;
                 }
-            } else if (g->kth && t_8 * ((double)g->nv - ns) > job->gather_deadline - pds_time_now()) {
+            } else if (g->kth && t_8 * ((double)g->nv - ns) > job->gather_deadline - pds__clock_now(&job->clock)) {
                 /* even k = 8 cannot end in time: the queries far from
                    every photon (whose k nearest lie far off, and whose
                    estimate is a faint blur) cost the most; bound the
@@ -16124,7 +16180,7 @@ static pds_status pds__gather_run(pds__gather *g, pds__photon_job *job, int thre
                     g->radius = r;
                     job->gather_radius = r;
                     if (pds__gather_timed(g, job, threads) / ns * ((double)g->nv - ns) <=
-                        job->gather_deadline - pds_time_now())
+                        job->gather_deadline - pds__clock_now(&job->clock))
                         break;
                 }
                 free(kth);
@@ -16235,7 +16291,7 @@ static pds_status pds__stored_gather(pds__photon_job *job, const pds_options *op
     pds__kdtree tree;
     size_t np;
     pds_status st;
-    double tb = pds_time_now(), tg;
+    double tb = pds__clock_now(&job->clock), tg;
     pds__stored_photon *photons = pds__merge_photons(job->bufs, job->nbufs, &np);
     if (!photons) return pds__nomem(err);
     st = pds__kdtree_build(&tree, np ? &photons[0].pos[0] : NULL, sizeof *photons / sizeof(float), np, err);
@@ -16243,7 +16299,8 @@ static pds_status pds__stored_gather(pds__photon_job *job, const pds_options *op
         free(photons);
         return st;
     }
-    tg = pds_time_now();
+    pds__clock_spent(&job->clock, PDS__WORK_MAPPED, (double)np);
+    tg = pds__clock_now(&job->clock);
     job->build_s = tg - tb;
     job->map_photons = np;
     if (stats) {
@@ -16261,7 +16318,7 @@ static pds_status pds__stored_gather(pds__photon_job *job, const pds_options *op
     g.kernel = opt->kernel;
     g.estimate = estimate;
     st = pds__gather_run(&g, job, threads, err);
-    job->gather_s = pds_time_now() - tg;
+    job->gather_s = pds__clock_now(&job->clock) - tg;
     job->gather_found = g.found;
     pds__kdtree_free(&tree);
     free(photons);
@@ -16355,7 +16412,7 @@ static pds_status pds__pdm_gather(pds__photon_job *job, const pds_options *opt, 
     size_t total = 0, at = 0, i;
     pds_status st;
     int t;
-    double tb = pds_time_now(), tg;
+    double tb = pds__clock_now(&job->clock), tg;
     for (t = 0; t < job->nbufs; t++) total += job->bufs[t].ndstored;
     all = (pds__diff_photon *)malloc(sizeof *all * (total ? total : 1));
     for (t = 0; t < job->nbufs; t++) {
@@ -16369,7 +16426,8 @@ static pds_status pds__pdm_gather(pds__photon_job *job, const pds_options *opt, 
         free(all);
         return st;
     }
-    tg = pds_time_now();
+    pds__clock_spent(&job->clock, PDS__WORK_MAPPED, (double)total);
+    tg = pds__clock_now(&job->clock);
     job->build_s = tg - tb;
     job->map_photons = total;
     if (stats) stats->map_bytes = total * sizeof *all + pds__kdtree_memory(&tree);
@@ -16385,7 +16443,7 @@ static pds_status pds__pdm_gather(pds__photon_job *job, const pds_options *opt, 
         if (all[i].major > g.radius) g.radius = all[i].major;
     g.estimate = pds__pdm_estimate;
     st = pds__gather_run(&g, job, threads, err);
-    job->gather_s = pds_time_now() - tg;
+    job->gather_s = pds__clock_now(&job->clock) - tg;
     job->gather_found = g.found;
     pds__kdtree_free(&tree);
     free(all);
@@ -16513,7 +16571,7 @@ static pds_status pds__ppm_update(pds__photon_job *job, const pds_options *opt, 
     pds__kdtree tree;
     size_t np;
     pds_status st;
-    double tb = pds_time_now(), tg;
+    double tb = pds__clock_now(&job->clock), tg;
     pds__stored_photon *photons = pds__merge_photons(job->bufs, job->nbufs, &np);
     if (!photons) return pds__nomem(err);
     st = pds__kdtree_build(&tree, np ? &photons[0].pos[0] : NULL, sizeof *photons / sizeof(float), np, err);
@@ -16521,7 +16579,8 @@ static pds_status pds__ppm_update(pds__photon_job *job, const pds_options *opt, 
         free(photons);
         return st;
     }
-    tg = pds_time_now();
+    pds__clock_spent(&job->clock, PDS__WORK_MAPPED, (double)np);
+    tg = pds__clock_now(&job->clock);
     if (stats) stats->time_map_s += tg - tb;
     if (stats && np * sizeof *photons + pds__kdtree_memory(&tree) > stats->map_bytes)
         stats->map_bytes = np * sizeof *photons + pds__kdtree_memory(&tree);
@@ -16537,7 +16596,8 @@ static pds_status pds__ppm_update(pds__photon_job *job, const pds_options *opt, 
     pds__mutex_init(&pj.lock);
     pds__run_threads(threads, pds__ppm_worker, &pj);
     pds__mutex_destroy(&pj.lock);
-    if (stats) stats->time_gather_s += pds_time_now() - tg;
+    pds__clock_spent(&job->clock, PDS__WORK_QUERIED, (double)nv);
+    if (stats) stats->time_gather_s += pds__clock_now(&job->clock) - tg;
     pds__kdtree_free(&tree);
     free(photons);
     return PDS_OK;
@@ -16623,7 +16683,7 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
     for (i = 0; i < nv; i++) state[i].r2 = r0 * r0;
     for (pass = 0; !st; pass++) {
         long this_pass, next;
-        double tt = pds_time_now(), tu;
+        double tt = pds__clock_now(&job->clock), tu, now;
         /* a time budget: the first pass traces a 200th of it at most,
            so that its update (which the next passes' sizes are planned
            from) comes in time too when one pass of --photons would not */
@@ -16644,7 +16704,7 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
         for (t = 0; t < job->nbufs; t++)
             if (job->bufs[t].out_of_memory) st = PDS_ERR_NOMEM;
         if (job->cancelled) break;
-        tu = pds_time_now();
+        tu = pds__clock_now(&job->clock);
         if (!st) st = pds__ppm_update(job, opt, v, state, nv, threads, stats, err);
         if (opt->time_s <= 0.0) {
             if (pass + 1 >= opt->passes) {
@@ -16654,11 +16714,13 @@ static pds_status pds__ppm_passes(pds__photon_job *job, const pds_options *opt, 
             continue;
         }
         /* a time budget: the next pass's size from this one's times */
-        pds__ppm_update_model((double)this_pass, pds_time_now() - tu, n_prev, u_prev, &fixed_s, &per_photon_s);
+        now = pds__clock_now(&job->clock);
+        pds__ppm_update_model((double)this_pass, now - tu, n_prev, u_prev, &fixed_s, &per_photon_s);
         n_prev = (double)this_pass;
-        u_prev = pds_time_now() - tu;
-        next = pds__ppm_pass_photons(opt->time_s - (pds_time_now() - job->t0), (tu - tt) * (double)opt->photons /
-                                     (double)(this_pass > 0 ? this_pass : 1), fixed_s, per_photon_s, opt->photons);
+        u_prev = now - tu;
+        next = pds__ppm_pass_photons(opt->time_s - (now - job->t0),
+                                     (tu - tt) * (double)opt->photons / (double)(this_pass > 0 ? this_pass : 1),
+                                     fixed_s, per_photon_s, opt->photons);
         if (next == 0) {
             pass++;
             break;
@@ -16855,7 +16917,12 @@ static pds_status pds__spm_gather(pds__photon_job *job, const pds_options *opt, 
    Whatever the model says, tracing gets a quarter of the budget at least
    (half when not even a cap of 8 fits and the bounded gather was not
    probed): a render without caustics is no answer (and misses show in
-   the time the render reports). */
+   the time the render reports).
+   Every time here is the render's clock (pds__clock, >>util). On a
+   simulated machine whose two threads go no faster than one (its time a
+   function of the work done: tests/test_budget.c), step 1 plans a map
+   twice the size the tracing makes and lands at 0.72 of T in one round;
+   with step 2, at 1.00. */
 /* What the probe measured (all times in seconds). */
 typedef struct pds__map_probe {
     double build_s, gather_s;  /* the probe map's build, its gather */
@@ -17072,11 +17139,12 @@ static double pds__pds_plan(double t1, double n1, double t2, double n2, double l
    (>>debug; a render in one go only). rounds, if not NULL, are the eye
    rounds progressive PDS may trace (pds__pds_passes; vertices are then
    round rounds->round's, owned by rounds->ctx, which frees them when a
-   round replaces them). */
+   round replaces them). clock is the render's (>>util; NULL: the real
+   one); the budget, opt->time_s, is of its time from here on. */
 static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, pds__eye_vertex *vertices,
                                    size_t nvertices, int width, int height, int threads, pds_partial *part,
-                                   pds_debug *debug, const pds__eye_rounds *rounds, pds_render_stats *stats,
-                                   pds_error *err)
+                                   pds_debug *debug, const pds__eye_rounds *rounds, const pds__clock *clock,
+                                   pds_render_stats *stats, pds_error *err)
 {
     pds__eye_map map;
     pds__photon_job job;
@@ -17085,7 +17153,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     int t, splats = opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_SPLAT;
     int progressive = opt->method == PDS_METHOD_PDS && opt->progressive;
     pds_status st = PDS_OK;
-    double t0 = pds_time_now();
+    double t0 = pds__clock_now(clock);
     pds__debug_buf *dbg = NULL;          /* one per thread, if debug views are on */
     pds__path_rec *paths = NULL;         /* one per thread, if the paths view is on */
     double rate1 = 0.0;                  /* a time budget: photons a second on one thread */
@@ -17098,6 +17166,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
 #endif
     memset(&map, 0, sizeof map);
     memset(&job, 0, sizeof job);
+    if (clock) job.clock = *clock;
     map.v = vertices;
     map.n = nvertices;
     if (splats) {
@@ -17110,7 +17179,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.retrace_ctx = rounds->ctx;
         job.eye_rounds = rounds->rounds;
         job.eye_round = rounds->round;
-        job.eye_round_s = rounds->eye_s + (pds_time_now() - t0);
+        job.eye_round_s = rounds->eye_s + (pds__clock_now(&job.clock) - t0);
     }
     job.scene = s;
     job.map = &map;
@@ -17204,7 +17273,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
            away) and plan for the rate it shows over the remaining time.
            For every method the image is normalised by the photons actually
            emitted before the deadline. */
-        double tc = pds_time_now(), remaining, rate, t_1 = 0.0, t_2, n_1 = 4.0 * (double)opt->photons, n_2 = 0.0, q;
+        double tc = pds__clock_now(&job.clock), remaining, rate, t_1 = 0.0, t_2, n_1 = 4.0 * (double)opt->photons;
+        double n_2 = 0.0, q;
         int paper = opt->method == PDS_METHOD_PDS; /* (not progressive: that branch is above) */
         int second = 1;                             /* run the second calibration batch */
         pds__mutex_init(&job.lock);
@@ -17218,7 +17288,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             job.n_total = PDS__PHOTON_BATCH;
             job.n_planned = n_1;
             pds__run_threads(1, pds__photon_worker, &job);
-            t_1 = pds_time_now() - tc;
+            t_1 = pds__clock_now(&job.clock) - tc;
             /* the second batch's footprints q times the first's (q <= 4),
                so that it too takes about a tenth of the budget at most
                (all splats: q times t_1); none below q = 1.5, too near
@@ -17235,13 +17305,13 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         if (second) pds__run_threads(1, pds__photon_worker, &job);
         job.progress = opt->progress;
         pds__mutex_destroy(&job.lock);
-        t_2 = pds_time_now() - tc - t_1;
+        t_2 = pds__clock_now(&job.clock) - tc - t_1;
         /* no second batch: as if a tenth of the first were tracing and the
            rest splats, at opt->photons four times as costly */
         if (!second) t_2 = t_1 * (0.1 + 0.9 * 4.0);
-        rate1 = (double)job.n_total / fmax(pds_time_now() - tc, 1e-6);
+        rate1 = (double)job.n_total / fmax(pds__clock_now(&job.clock) - tc, 1e-6);
         rate = rate1 * threads;
-        remaining = opt->time_s - (pds_time_now() - t0);
+        remaining = opt->time_s - (pds__clock_now(&job.clock) - t0);
 #ifndef PDS_NO_BASELINES
         if (map_method) {
             /* the plan's step 1 (see pds__map_probe) */
@@ -17252,7 +17322,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             map_planned = pds__map_probe_run(&job, opt, vertices, nvertices, threads, 1,
                                              (size_t)fmin(8192.0, fmax(512.0, 409600.0 / cap)), (double)job.n_total,
                                              &probe);
-            remaining = opt->time_s - (pds_time_now() - t0);
+            remaining = opt->time_s - (pds__clock_now(&job.clock) - t0);
             if (map_planned)
                 remaining = pds__map_tracing(&probe, opt->method == PDS_METHOD_PDM, cap, nvertices, rate, 0.0, 0.0,
                                              fmax(remaining, 0.0), &cap);
@@ -17272,7 +17342,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
                                                second ? n_2 : (double)opt->photons, fmax(remaining, 0.0), threads),
                                  (double)PDS__PHOTON_BATCH);
         job.n_total = LONG_MAX - PDS__PHOTON_BATCH;
-        job.deadline = pds_time_now() + fmax(remaining, 0.0);
+        job.deadline = pds__clock_now(&job.clock) + fmax(remaining, 0.0);
         if (remaining <= 0.0 || job.n_planned <= (double)PDS__PHOTON_BATCH) {
             /* no time left (the calibration or pdm's gather alone can fill
                a small budget): one batch, so the image still has caustics,
@@ -17296,14 +17366,14 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         pds__mutex_init(&job.lock);
         job.next_buf = 0;
 #ifndef PDS_NO_BASELINES
-        if (map_planned && job.deadline > 0.0) {
+        if (map_planned && job.deadline > 0.0 && !job.clock.one_round) {
             /* the plan's step 2: half the tracing, then plan again from
                the threads' measured rate (not for the one batch of no
                time left) */
-            double tr = pds_time_now(), tracing = job.deadline - tr, round_s, traced, rate_all, left;
+            double tr = pds__clock_now(&job.clock), tracing = job.deadline - tr, round_s, traced, rate_all, left;
             job.deadline = tr + 0.5 * tracing;
             pds__run_threads(threads, pds__photon_worker, &job);
-            round_s = pds_time_now() - tr;
+            round_s = pds__clock_now(&job.clock) - tr;
             traced = (double)job.batches_done * PDS__PHOTON_BATCH;
             rate_all = traced / fmax(round_s, 1e-6);
             /* the model again, from the map of the photons traced so far
@@ -17319,10 +17389,10 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
                                    (size_t)fmax(256.0, 204800.0 / pds__map_cap_requested(opt)), traced, &probe2))
                 probe = probe2;
             pds__gather_clear(&job, job.nsums);
-            left = opt->time_s - (pds_time_now() - t0);
+            left = opt->time_s - (pds__clock_now(&job.clock) - t0);
             tracing = pds__map_tracing(&probe, opt->method == PDS_METHOD_PDM, pds__map_cap_requested(opt),
                                        nvertices, rate_all, traced, round_s, fmax(left, 0.0), &cap);
-            job.deadline = pds_time_now() + fmax(tracing, 0.0);
+            job.deadline = pds__clock_now(&job.clock) + fmax(tracing, 0.0);
             job.stop = 0;
             job.next_buf = 0;
         }
@@ -17350,7 +17420,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     }
     if (!splats && job.cancelled) emitted = 0; /* pm, pdm, ppm, spm: all photons or none */
     if (opt->progress && !splats && !job.cancelled)
-        (void)opt->progress(opt->progress_user, PDS_PHASE_GATHER, 0.0, pds_time_now() - t0); /* one unit: not stopped */
+        (void)opt->progress(opt->progress_user, PDS_PHASE_GATHER, 0.0,
+                            pds__clock_now(&job.clock) - t0); /* one unit: not stopped */
 #ifndef PDS_NO_BASELINES
     /* the plan's step 3: the gather measures its cap on the final map */
     if (map_method && opt->time_s > 0.0) job.gather_deadline = t0 + opt->time_s;
@@ -17445,7 +17516,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
                 stats->saturated += job.bufs[t].saturated;
                 stats->dropped_invalid += job.bufs[t].invalid;
             }
-            stats->time_photons_s = pds_time_now() - t0;
+            stats->time_photons_s = pds__clock_now(&job.clock) - t0;
             stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + pds__kdtree_memory(&map.merged) + stats->map_bytes +
                                    (size_t)job.nbufs * npix * (3 + (dbg && dbg[0].aniso ? 2 : 0) + (job.spectral ? 3 : 0)) *
                                        sizeof(pds__sum128);
@@ -17548,7 +17619,7 @@ static pds_status pds__light_trace_image(const pds_scene *s, const pds_options *
     job.unit_stride = 1;
     job.nsums = npix * 3;
     job.caller = pds__thread_self();
-    job.t0 = pds_time_now();
+    job.t0 = pds__clock_now(&job.clock);
     job.nbufs = threads;
     job.bufs = (pds__splat_buf *)calloc((size_t)threads, sizeof *job.bufs);
     if (!job.bufs) return pds__nomem(err);
@@ -19703,6 +19774,7 @@ typedef struct pds__isc {
     long photons, landed, fragments;
     int out_of_memory;
     double time_eye, time_photons, time_gather;
+    pds__clock clock; /* the render's (>>util) */
     pds__mutex lock;
 } pds__isc;
 
@@ -20452,7 +20524,7 @@ static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
     int grid = ctx->fixed_grid ? 0 : frame, fresh;
     double jx = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)grid, 0);
     double jy = pds__rng_uniform(ctx->opt->seed, PDS__RNG_ISC, (uint64_t)grid, 1);
-    double t0 = pds_time_now(), t1;
+    double t0 = pds__clock_now(&ctx->clock), t1;
     ctx->light = &ctx->lights[k];
     ctx->lk = k;
     ctx->ph = ctx->reuse ? ctx->ph_all + k * n : ctx->ph_all;
@@ -20475,7 +20547,7 @@ static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
         if (ctx->state[k] & PDS__ISC_NO_VIEW) return;
         ctx->view = ctx->views[k];
     }
-    t1 = pds_time_now();
+    t1 = pds__clock_now(&ctx->clock);
     ctx->time_photons += t1 - t0;
     switch (ctx->gather) {
     case PDS_ISC_POINTS:
@@ -20515,7 +20587,7 @@ static void pds__isc_light_photons(pds__isc *ctx, size_t k, int frame)
         pds__isc_quads_add(ctx);
         break;
     }
-    ctx->time_gather += pds_time_now() - t1;
+    ctx->time_gather += pds__clock_now(&ctx->clock) - t1;
 }
 
 /* Render frame `frame` into out (allocated by the caller, w x h): the
@@ -20529,7 +20601,7 @@ static void pds__isc_frame(pds__isc *ctx, int frame, int accumulate, pds_image *
     const pds_options *opt = ctx->opt;
     size_t npix = (size_t)ctx->w * ctx->h, i, k;
     /* a still's frames (time budget) do not turn */
-    double angle = accumulate ? 0.0 : frame * opt->orbit_deg * (PDS__PI / 180.0), t0 = pds_time_now();
+    double angle = accumulate ? 0.0 : frame * opt->orbit_deg * (PDS__PI / 180.0), t0 = pds__clock_now(&ctx->clock);
     pds_camera cam = s->camera;
     pds__isc_est *slot;
     int c, n_hist, h, threshold = ctx->gather == PDS_ISC_EYE || ctx->gather == PDS_ISC_LIGHT;
@@ -20551,7 +20623,7 @@ static void pds__isc_frame(pds__isc *ctx, int frame, int accumulate, pds_image *
     }
     if (ctx->frames_done == 0 || (opt->orbit != PDS_ORBIT_NONE && angle != 0.0))
         pds__isc_parallel(ctx, ctx->h, 4, pds__isc_direct_rows);
-    ctx->time_eye += pds_time_now() - t0;
+    ctx->time_eye += pds__clock_now(&ctx->clock) - t0;
     memset(ctx->est, 0, sizeof *ctx->est * npix);
     if (opt->paths != PDS_PATHS_NO_CAUSTICS && ctx->target.any)
         for (k = 0; k < ctx->nlights; k++) pds__isc_light_photons(ctx, k, frame);
@@ -20748,16 +20820,17 @@ static pds_status pds__isc_init(pds__isc *ctx, const pds_scene *s, const pds_opt
 /* Render `frames` frames (fn gets each; fn NULL: only the last into
    *last), or with a time budget one still from as many frames as fit. */
 static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, int w, int h, int threads, int frames,
-                                  pds_frame_fn fn, void *user, pds_image *last, pds_render_stats *stats,
-                                  pds_error *err)
+                                  pds_frame_fn fn, void *user, pds_image *last, const pds__clock *clock,
+                                  pds_render_stats *stats, pds_error *err)
 {
     pds__isc ctx;
     pds_image img;
     pds_error spare; /* the callback always gets somewhere to say why */
     pds_status st;
-    double t0 = pds_time_now();
+    double t0 = pds__clock_now(clock);
     int f, accumulate = opt->time_s > 0.0 && !fn;
     if ((st = pds__isc_init(&ctx, s, opt, w, h, threads, err))) return st;
+    if (clock) ctx.clock = *clock;
     if ((st = pds_image_alloc(&img, w, h)) != PDS_OK) {
         pds__isc_free(&ctx);
         return pds__nomem(err);
@@ -20768,10 +20841,12 @@ static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, in
             st = pds__nomem(err);
             break;
         }
-        if (opt->progress && !accumulate) (void)opt->progress(opt->progress_user, PDS_PHASE_PHOTONS, (double)(f + 1) / frames, pds_time_now() - t0);
+        if (opt->progress && !accumulate)
+            (void)opt->progress(opt->progress_user, PDS_PHASE_PHOTONS, (double)(f + 1) / frames,
+                                pds__clock_now(clock) - t0);
         if (fn && (st = fn(user, f, &img, err ? err : &spare)) != PDS_OK) break;
         if (accumulate) {
-            double el = pds_time_now() - t0;
+            double el = pds__clock_now(clock) - t0;
             if (opt->progress) (void)opt->progress(opt->progress_user, PDS_PHASE_PHOTONS, el / opt->time_s < 1.0 ? el / opt->time_s : 1.0, el);
             if (el >= opt->time_s) {
                 f++;
@@ -20808,10 +20883,11 @@ static double pds__isc_memory(const pds_scene *s, const pds_options *opt, double
     return 0.0;
 }
 static pds_status pds__isc_render(const pds_scene *s, const pds_options *opt, int w, int h, int threads, int frames,
-                                  pds_frame_fn fn, void *user, pds_image *last, pds_render_stats *stats,
-                                  pds_error *err)
+                                  pds_frame_fn fn, void *user, pds_image *last, const pds__clock *clock,
+                                  pds_render_stats *stats, pds_error *err)
 {
-    (void)s, (void)opt, (void)w, (void)h, (void)threads, (void)frames, (void)fn, (void)user, (void)last, (void)stats;
+    (void)s, (void)opt, (void)w, (void)h, (void)threads, (void)frames, (void)fn, (void)user, (void)last, (void)clock;
+    (void)stats;
     return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "this build leaves isc out (PDS_NO_ISC)");
 }
 #endif /* PDS_NO_ISC */
@@ -20842,7 +20918,7 @@ void pds_options_default(pds_options *opt)
     opt->pass_photons = 16384;
     opt->pass_alpha = 2.0 / 3.0;
     opt->pass_smoothing = 2.0;
-    opt->pass_min_aspect = 0.15;
+    opt->pass_min_aspect = 0.1;
     opt->pass_min_width = 1.5;
     opt->min_width = 0.0;
     opt->plane_tolerance = 0.25;
@@ -21541,7 +21617,7 @@ static pds_status pds__eye_retrace(void *vctx, long round, pds__eye_vertex **v, 
    spm's full image is rendered as the gi render it is (pds__spm_as_gi);
    the part keeps the options as given. */
 static pds_status pds__render_into(const pds_scene *scene, const pds_options *given, pds_partial *part,
-                                   pds_render_stats *stats, pds_error *err)
+                                   const pds__clock *clock, pds_render_stats *stats, pds_error *err)
 {
     pds_options spm_gi;
     const pds_options *opt = pds__spm_as_gi(given, &spm_gi);
@@ -21561,7 +21637,8 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
     double gi_map_s = 0.0;        /* gi: pass 1's time */
     pds_status st = PDS_OK;
     memset(&job, 0, sizeof job);
-    job.t0 = pds_time_now();
+    if (clock) job.clock = *clock;
+    job.t0 = pds__clock_now(&job.clock);
     job.scene = scene;
     job.frame = pds__camera_setup(cam, w, h);
     job.method = opt->method;
@@ -21597,7 +21674,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
         /* Pass 1 builds the global and shadow maps; gi's eye path computes
            all but the caustics at its first non-specular vertex, which the
            caustic method then adds there, as for the photon methods. */
-        double tm = pds_time_now();
+        double tm = pds__clock_now(&job.clock);
         gi = 1;
         copt = *opt;
         copt.method = opt->caustics;
@@ -21606,7 +21683,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
            no gather asks the global map anything */
         if (opt->paths != PDS_PATHS_CAUSTICS_ONLY && (st = pds__gi_map_build(&gmap, scene, opt, threads, err)))
             return st;
-        gi_map_s = pds_time_now() - tm;
+        gi_map_s = pds__clock_now(&job.clock) - tm;
         gmap.record_only = opt->paths == PDS_PATHS_CAUSTICS_ONLY;
         job.path = pds__gi_path;
         job.path_ctx = &gmap;
@@ -21711,7 +21788,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
             job.progress_scale = 1.0 / (max_passes - pass0);
         } else if (max_passes > 1) {
             /* progress in time: this pass covers the time fraction so far */
-            elapsed = pds_time_now() - job.t0;
+            elapsed = pds__clock_now(&job.clock) - job.t0;
             job.progress_base = elapsed / opt->time_s < 1.0 ? elapsed / opt->time_s : 1.0;
             job.progress_scale = 0.0;
         } else {
@@ -21719,7 +21796,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
             job.progress_scale = 1.0;
         }
         if (job.nrows > 0) threads = pds__run_threads(threads, pds__render_worker, &job);
-        elapsed = pds_time_now() - job.t0;
+        elapsed = pds__clock_now(&job.clock) - job.t0;
         if (job.pass + 1 >= max_passes || (opt->time_s > 0.0 && elapsed >= opt->time_s) || job.stop_requested) {
             job.pass++;
             break;
@@ -21730,7 +21807,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
     rc.verts = NULL;
     rc.traced = job.pass - pass0;
     pds__mutex_destroy(&job.lock);
-    stats->time_eye_s = pds_time_now() - job.t0 - gi_map_s;
+    stats->time_eye_s = pds__clock_now(&job.clock) - job.t0 - gi_map_s;
     stats->memory_bytes = npix * 3 * sizeof(double) * 2 + (part->photon ? npix * 6 * sizeof(pds__sum128) : 0);
     /* the rows handed out before a stop are all finished: a prefix (a stop
        in one of several passes of values keeps nothing) */
@@ -21774,7 +21851,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
         if (!verts) st = pds__nomem(err);
         else if (completed == job.nrows)
             st = pds__photon_pass(scene, popt, verts, nv, w, h, threads, part, opt->debug,
-                                  rounds.rounds > 1 ? &rounds : NULL, stats, err);
+                                  rounds.rounds > 1 ? &rounds : NULL, &job.clock, stats, err);
         if (!st && completed == job.nrows && rounds.rounds > 1 && opt->time_s > 0.0) {
             /* a time budget's rounds: the values are the mean of all
                (one part, every row its own) */
@@ -21832,8 +21909,10 @@ static pds_status pds__render_memory_check(const pds_scene *scene, const pds_opt
     return PDS_OK;
 }
 
-pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_partial **part,
-                           pds_render_stats *stats, pds_error *err)
+/* pds_render_part on a clock (>>util; NULL: the real one, as the public
+   entry points give; the tests give simulated ones). */
+static pds_status pds__render_part_at(const pds_scene *scene, const pds_options *opt, pds_partial **part,
+                                      const pds__clock *clock, pds_render_stats *stats, pds_error *err)
 {
     pds_render_stats local;
     pds_partial_info info;
@@ -21841,7 +21920,7 @@ pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_p
     const pds_camera *cam;
     int w, h;
     pds_status st;
-    double t0 = pds_time_now();
+    double t0 = pds__clock_now(clock);
     if (!scene || !opt || !part) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render_part: NULL argument");
     resolved = *opt;
     pds_options_resolve(scene, &resolved);
@@ -21889,7 +21968,7 @@ pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_p
         long j;
         int threads = opt->threads > 0 ? opt->threads : pds_cpu_count();
         if (p->rows_done < p->rows_own) {
-            st = pds__isc_render(scene, opt, w, h, threads, 1, NULL, NULL, &img, stats, err);
+            st = pds__isc_render(scene, opt, w, h, threads, 1, NULL, NULL, &img, clock, stats, err);
             if (st) return st;
             for (j = 0; j < p->rows_own; j++) {
                 size_t y = (size_t)p->shard_index + (size_t)j * (size_t)p->shard_count;
@@ -21898,16 +21977,16 @@ pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_p
             pds_image_free(&img);
             p->rows_done = p->rows_own;
         }
-        if (opt->progress) (void)opt->progress(opt->progress_user, PDS_PHASE_PHOTONS, 1.0, pds_time_now() - t0);
+        if (opt->progress) (void)opt->progress(opt->progress_user, PDS_PHASE_PHOTONS, 1.0, pds__clock_now(clock) - t0);
         stats->threads = threads;
         stats->width = w;
         stats->height = h;
         stats->partial = 0;
         stats->done_fraction = 1.0;
-        stats->time_total_s = pds_time_now() - t0;
+        stats->time_total_s = pds__clock_now(clock) - t0;
         return PDS_OK;
     }
-    st = pds__render_into(scene, opt, *part, stats, err);
+    st = pds__render_into(scene, opt, *part, clock, stats, err);
     if (st) return st;
     pds_partial_get_info(*part, &info);
     stats->partial = !info.complete;
@@ -21917,9 +21996,15 @@ pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_p
                             (*part)->split == PDS__SPLIT_ROWS      ? PDS_PHASE_EYE
                             : (*part)->split == PDS__SPLIT_PHOTONS ? PDS_PHASE_PHOTONS
                                                                    : PDS_PHASE_GATHER,
-                            1.0, pds_time_now() - t0);
-    stats->time_total_s = pds_time_now() - t0;
+                            1.0, pds__clock_now(clock) - t0);
+    stats->time_total_s = pds__clock_now(clock) - t0;
     return PDS_OK;
+}
+
+pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_partial **part,
+                           pds_render_stats *stats, pds_error *err)
+{
+    return pds__render_part_at(scene, opt, part, NULL, stats, err);
 }
 
 pds_status pds_render_light_traced(const pds_scene *scene, const pds_options *opt, pds_image *out, pds_error *err)
@@ -21938,17 +22023,18 @@ pds_status pds_render_light_traced(const pds_scene *scene, const pds_options *op
     return pds__light_trace_image(scene, opt, w, h, out, err);
 }
 
-pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image *out,
-                      pds_render_stats *stats, pds_error *err)
+/* pds_render on a clock (pds__render_part_at). */
+static pds_status pds__render_at(const pds_scene *scene, const pds_options *opt, const pds__clock *clock,
+                                 pds_image *out, pds_render_stats *stats, pds_error *err)
 {
     pds_render_stats local;
     pds_partial *part = NULL;
     const pds_partial *parts[1];
     pds_status st;
-    double t0 = pds_time_now();
+    double t0 = pds__clock_now(clock);
     if (!scene || !opt || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render: NULL argument");
     if (!stats) stats = &local;
-    st = pds_render_part(scene, opt, &part, stats, err);
+    st = pds__render_part_at(scene, opt, &part, clock, stats, err);
     if (st) {
         pds_partial_free(part);
         if (opt->debug) pds_debug_free(opt->debug);
@@ -21959,8 +22045,14 @@ pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image 
     st = pds__partial_merge(parts, NULL, 1, 1, out, NULL, &stats->nonfinite, err);
     pds_partial_free(part);
     stats->partial = stats->partial || opt->shard_count > 1;
-    stats->time_total_s = pds_time_now() - t0;
+    stats->time_total_s = pds__clock_now(clock) - t0;
     return st;
+}
+
+pds_status pds_render(const pds_scene *scene, const pds_options *opt, pds_image *out,
+                      pds_render_stats *stats, pds_error *err)
+{
+    return pds__render_at(scene, opt, NULL, out, stats, err);
 }
 
 pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int frames, pds_frame_fn fn,
@@ -22003,7 +22095,7 @@ pds_status pds_render_frames(const pds_scene *scene, const pds_options *opt, int
     if (!stats) stats = &local;
     memset(stats, 0, sizeof *stats);
     threads = o.threads > 0 ? o.threads : pds_cpu_count();
-    st = pds__isc_render(scene, &o, w, h, threads, frames, fn, user, NULL, stats, err);
+    st = pds__isc_render(scene, &o, w, h, threads, frames, fn, user, NULL, NULL, stats, err);
     stats->time_total_s = pds_time_now() - t0;
     stats->threads = threads;
     stats->width = w;

@@ -583,7 +583,7 @@ typedef struct pds_options {
     double pass_alpha;  /* progressive pds: pass i's footprint areas shrink as
                            i^(pass_alpha - 1), in (0, 1] (default 2/3) */
     double pass_smoothing; /* progressive pds: s_1 of the first pass (default 2) */
-    double pass_min_aspect; /* progressive pds: as min_aspect (default 0.15) */
+    double pass_min_aspect; /* progressive pds: as min_aspect (default 0.1) */
     double pass_min_width;  /* progressive pds: as min_width (default 1.5) */
     double min_width;   /* pds: widen every footprint to semi-axes of at least
                            this many times the spacing of the eye samples where

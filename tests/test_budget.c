@@ -1,8 +1,10 @@
 /* tests/test_budget.c - time budgets (--time): the planners' decisions on
-   fixed figures with known answers (no clock involved), and the gather's
+   fixed figures with known answers (no clock involved), the gather's
    measured cap through the production path with a deadline that has
-   certainly passed. Nothing here asserts a wall time. Uses the slab scene
-   and helpers of test_pds.c and test_baselines.c. */
+   certainly passed, and whole renders on a simulated machine given as
+   the render's clock (pds__clock), whose time is a function of the work
+   done. Nothing here asserts a wall time. Uses the slab scene and helpers
+   of test_pds.c and test_baselines.c. */
 
 /* The paper's PDS: with a photon costing a + b/N (a = 1e-5 s, b = 2 s),
    the calibration batches at N1 = 1e5 and N2 = 5e4 took 3e-5 and 5e-5 s a
@@ -352,6 +354,133 @@ static void test_probe_parallel_counts_the_threads_that_had_work(pds_test_ctx *t
 }
 #endif
 
+#ifndef PDS_NO_BASELINES
+/* A simulated machine for the time planner, given to the render as its
+   clock (pds__clock): its time is a pure function of the work the
+   render tells it of (photons traced, photons built into a map, eye
+   vertices queried, photons found), each at a fixed cost in seconds
+   whichever thread does it, so that a render on it is the same whatever
+   the threads' order, and cheap: its seconds are not spent. Guarded by
+   a lock (tracing threads tell it their batches and read it). */
+typedef struct budget_machine {
+    pds__mutex lock;
+    double traced, queried, found, build_s;  /* the work told so far */
+    double trace_s, query_s, found_s, map_s; /* what each costs; a map of m photons: map_s m log2 m */
+} budget_machine;
+
+static double budget_machine_now(void *user)
+{
+    budget_machine *m = (budget_machine *)user;
+    double t;
+    pds__mutex_lock(&m->lock);
+    t = m->traced * m->trace_s + m->queried * m->query_s + m->found * m->found_s + m->build_s;
+    pds__mutex_unlock(&m->lock);
+    return t;
+}
+
+static void budget_machine_spent(void *user, pds__work what, double units)
+{
+    budget_machine *m = (budget_machine *)user;
+    pds__mutex_lock(&m->lock);
+    if (what == PDS__WORK_TRACED) m->traced += units;
+    if (what == PDS__WORK_MAPPED) m->build_s += m->map_s * units * log2(fmax(2.0, units));
+    if (what == PDS__WORK_QUERIED) m->queried += units;
+    if (what == PDS__WORK_FOUND) m->found += units;
+    pds__mutex_unlock(&m->lock);
+}
+
+/* method (tweak: options beside it) on the slab, caustics only, 2
+   threads, under a budget of T simulated seconds on a machine where a
+   photon costs 10 us, a map of m photons 1 us m log2 m, a query 2 us and
+   0.05 us a photon found, through the production path (pds__render_at),
+   with or without the map plan's step 2 (one_round). *landed: the photon
+   pass's simulated seconds over T. 0 if the render failed. */
+static int budget_machine_render(pds_method method, double T, int one_round, void (*tweak)(pds_options *),
+                                 double *landed, pds_render_stats *st)
+{
+    budget_machine m;
+    pds__clock clock;
+    pds_options opt;
+    pds_image img = {0, 0, NULL};
+    pds_error err;
+    pds_scene *s = scene_from_text(slab_scene, &err);
+    int ok;
+    if (!s) return 0;
+    memset(&m, 0, sizeof m);
+    pds__mutex_init(&m.lock);
+    m.trace_s = 10e-6;
+    m.map_s = 1e-6;
+    m.query_s = 2e-6;
+    m.found_s = 0.05e-6;
+    memset(&clock, 0, sizeof clock);
+    clock.now = budget_machine_now;
+    clock.spent = budget_machine_spent;
+    clock.user = &m;
+    clock.one_round = one_round;
+    pds_options_default(&opt);
+    opt.method = method;
+    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    opt.threads = 2;
+    opt.time_s = T;
+    if (tweak) tweak(&opt);
+    ok = pds__render_at(s, &opt, &clock, &img, st, &err) == PDS_OK;
+    if (!ok) printf("  render: %s\n", err.text);
+    *landed = st->time_photons_s / T;
+    pds__mutex_destroy(&m.lock);
+    pds_image_free(&img);
+    pds_scene_free(s);
+    return ok;
+}
+
+/* The map plan's step 2 through the production path, on the simulated
+   machine above: two threads there are no quicker than one (a machine
+   whose other core is busy), so the photons are traced at half the rate
+   the one-thread calibration foretold for two threads, and step 1, which
+   planned from it, expects a map twice the size it will be and its
+   build (most of the pass after the tracing: 0.3-0.5 s of 1 s) twice as
+   long. In one round the pass ends at 0.72 T; with step 2's re-plan from
+   the rate the threads measured, at 1.00 T (1.00-1.02 for T from 0.5 to
+   4 s and map costs from half to twice these). */
+static void test_map_budget_replans_on_a_machine_slower_than_probed(pds_test_ctx *t)
+{
+    pds_render_stats a, b;
+    double landed, landed1;
+    REQUIRE(t, budget_machine_render(PDS_METHOD_PM, 1.0, 0, NULL, &landed, &a), "pm on the simulated machine");
+    REQUIRE(t, budget_machine_render(PDS_METHOD_PM, 1.0, 1, NULL, &landed1, &b), "pm on it in one round");
+    CHECK(t, fabs(landed - 1.0) <= 0.15, "landed at %.3f of T (%ld photons)", landed, a.photons);
+    CHECK(t, fabs(landed1 - 1.0) > 0.15, "in one round, landed at %.3f of T: the re-plan was not needed",
+          landed1);
+    CHECK(t, a.photons > b.photons, "%ld photons with the re-plan, %ld without", a.photons, b.photons);
+}
+
+static void paper_pds(pds_options *o) { o->progressive = 0; }
+static void short_passes(pds_options *o) { o->pass_photons = 4096; }
+
+/* The other planners through the production path on the same simulated
+   machine: ppm's passes sized from the updates it measured (an update
+   there is the map's build and a query at every vertex), the paper's PDS
+   (its N from two calibration batches) and progressive PDS (whole passes
+   while the next one's end is nearer T: passes of 4096 photons, 41 ms
+   there); each lands within 15% of T, which it could not if any of its
+   deadline checks read another clock than the render's. */
+static void test_budgets_hold_on_a_simulated_machine(pds_test_ctx *t)
+{
+    static const struct {
+        pds_method method;
+        void (*tweak)(pds_options *);
+        double T;
+    } cases[3] = {{PDS_METHOD_PPM, NULL, 1.0}, {PDS_METHOD_PDS, paper_pds, 0.25}, {PDS_METHOD_PDS, short_passes, 0.25}};
+    int i;
+    for (i = 0; i < 3; i++) {
+        pds_render_stats st;
+        double landed;
+        REQUIRE(t, budget_machine_render(cases[i].method, cases[i].T, 0, cases[i].tweak, &landed, &st), "render");
+        CHECK(t, fabs(landed - 1.0) <= 0.15, "case %d (%s): landed at %.3f of T (%ld photons, %d passes)", i,
+              pds_method_name(cases[i].method), landed, st.photons, st.passes);
+    }
+}
+#endif
+
 static const pds_test_case tests_budget[] = {
     {"pds_plan_solves_the_cost_of_tracing_and_splats", test_pds_plan_solves_the_cost_of_tracing_and_splats},
     {"pds_plan_keeps_a_batch_within_an_eighth_of_the_time", test_pds_plan_keeps_a_batch_within_an_eighth_of_the_time},
@@ -366,6 +495,8 @@ static const pds_test_case tests_budget[] = {
     {"map_cost_is_the_line_through_the_two_probes", test_map_cost_is_the_line_through_the_two_probes},
     {"map_tracing_lowers_the_cap_only_when_it_must", test_map_tracing_lowers_the_cap_only_when_it_must},
     {"gather_past_its_deadline_uses_a_cap_of_8", test_gather_past_its_deadline_uses_a_cap_of_8},
+    {"map_budget_replans_on_a_machine_slower_than_probed", test_map_budget_replans_on_a_machine_slower_than_probed},
+    {"budgets_hold_on_a_simulated_machine", test_budgets_hold_on_a_simulated_machine},
 #endif
     {"paper_pds_without_time_keeps_small_footprints", test_paper_pds_without_time_keeps_small_footprints},
 };

@@ -283,7 +283,7 @@ static void test_harness_race_writes_every_image_its_index_shows(pds_test_ctx *t
     CHECK(t, HARNESS_STARTS(lines[0], "race method=pt label=pt photons=0 spp=1 rmse="), "%s", lines[0]);
     CHECK(t, HARNESS_STARTS(lines[1], "race method=pt label=pt-spp64 photons=0 spp=64 rmse="), "%s", lines[1]);
     /* without caustic paths the photon methods have nothing to emit */
-    CHECK(t, HARNESS_STARTS(lines[2], "race method=pds label=pds photons=0 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 split_depth=0 split_angle=0.2 rmse="), "%s", lines[2]);
+    CHECK(t, HARNESS_STARTS(lines[2], "race method=pds label=pds photons=0 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.1 pass_min_width=1.5 split_depth=0 split_angle=0.2 rmse="), "%s", lines[2]);
     /* 64 times the samples: an eighth of the error, a firefly or not */
     CHECK(t, harness_value(lines[1], "rmse") < harness_value(lines[0], "rmse"), "64 spp beat 1 spp: %s / %s",
           lines[1], lines[0]);
@@ -299,7 +299,7 @@ static void test_harness_race_writes_every_image_its_index_shows(pds_test_ctx *t
                                  "time_eye_s,time_photons_s,time_map_s,time_gather_s,map_bytes,diff_scale,budget_flag\n"),
           "header: %s", csv);
     CHECK(t, strstr(csv, "\npt,pt,1000,0,1,1,,,") && strstr(csv, "\npt,pt-spp64,1000,0,64,1,,,") &&
-                 strstr(csv, "\npds,pds,1000,0,1,0,progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 split_depth=0 split_angle=0.2,,"),
+                 strstr(csv, "\npds,pds,1000,0,1,0,progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.1 pass_min_width=1.5 split_depth=0 split_angle=0.2,,"),
           "rows: %s", csv);
     CHECK(t, harness_count(csv, ",ok\n") == 3, "a photon budget is met exactly: %s", csv);
     free(csv);
@@ -456,7 +456,7 @@ static void test_harness_race_region_of_interest_is_the_most_varied_window(pds_t
              "race tests/golden/glass.scene --ref %s --photons 200 --methods pds --res 128x96 --spp 1 --quiet -o %s",
              ref, dir);
     REQUIRE(t, cli_run(args, out, sizeof out) == 0, "race failed: %s", out);
-    CHECK(t, strstr(out, "race method=pds label=pds photons=200 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.15 pass_min_width=1.5 split_depth=0 split_angle=0.2 rmse=") != NULL, "%s", out);
+    CHECK(t, strstr(out, "race method=pds label=pds photons=200 spp=1 progressive=1 pass_smoothing=2 pass_photons=16384 pass_alpha=0.666667 pass_min_aspect=0.1 pass_min_width=1.5 split_depth=0 split_angle=0.2 rmse=") != NULL, "%s", out);
     last = cli_last_line(out);
     CHECK(t, strstr(last, " roi=40,0,64,64") != NULL, "final line: %s", last);
     snprintf(path, sizeof path, "%s/ref-crop.png", dir);
@@ -895,6 +895,103 @@ static void test_harness_race_page_says_how_it_was_made(pds_test_ctx *t)
     remove(ref);
 }
 
+/* The 99th percentile of |Y(a) - Y(b)| of two PFMs (Y = 0.299 R + 0.587
+   G + 0.114 B of the linear values), as the page's difference images are
+   scaled; -1 if one cannot be read. */
+static double harness_diff_p99(const char *a_path, const char *b_path)
+{
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    double *e = NULL, p = -1.0;
+    size_t i, n;
+    if (pds_image_read_pfm(a_path, &a, NULL) == PDS_OK && pds_image_read_pfm(b_path, &b, NULL) == PDS_OK &&
+        a.width == b.width && a.height == b.height) {
+        n = (size_t)a.width * a.height;
+        e = (double *)malloc(sizeof *e * (n ? n : 1));
+        for (i = 0; e && i < n; i++)
+            e[i] = fabs(0.299 * ((double)a.rgb[3 * i] - b.rgb[3 * i]) +
+                        0.587 * ((double)a.rgb[3 * i + 1] - b.rgb[3 * i + 1]) +
+                        0.114 * ((double)a.rgb[3 * i + 2] - b.rgb[3 * i + 2]));
+        if (e && n) {
+            qsort(e, n, sizeof *e, pds__cmp_double);
+            p = e[(size_t)(0.99 * (double)(n - 1))];
+        }
+    }
+    free(e);
+    pds_image_free(&a);
+    pds_image_free(&b);
+    return p;
+}
+
+/* The page's difference scale: shared by default (the largest of the
+   images' 99th percentiles of |error|), each its own with --diff-scale
+   each, a given number with --diff-scale 0.05; and the crops' exposure
+   shows the reference's peak in the region of interest as white. */
+static void test_harness_race_difference_scale_is_shared_each_or_given(pds_test_ctx *t)
+{
+    static const char *const modes[3] = {"shared", "each", "0.05"};
+    char out[16384], args[1024], ref[256], dir[256], path[512], img[512], a[64], b[64];
+    double p_pds = -1.0, p_pm = -1.0;
+    int m;
+    REQUIRE(t, harness_caustics_reference(t, ref, sizeof ref), "no reference");
+    harness_path(dir, sizeof dir, "race_diff_scale");
+    for (m = 0; m < 3; m++) {
+        char *csv, *html, *at;
+        const char *last;
+        int x, y, w, h;
+        harness_rmtree(dir);
+        snprintf(args, sizeof args,
+                 "race tests/golden/glass.scene --ref %s --photons 1000 --methods pds,pm --res 32x24 --spp 2 "
+                 "--caustics-only --diff-scale %s --quiet -o %s",
+                 ref, modes[m], dir);
+        REQUIRE(t, cli_run_split(args, out, sizeof out, NULL, 0) == 0, "race failed: %s", out);
+        snprintf(path, sizeof path, "%s/race.csv", dir);
+        csv = harness_slurp(path, NULL);
+        REQUIRE(t, csv != NULL, "no race.csv");
+        harness_csv_field(csv, "pds,pds,", 16, a, sizeof a);
+        harness_csv_field(csv, "pm,pm,", 16, b, sizeof b);
+        free(csv);
+        if (m == 0) {
+            snprintf(img, sizeof img, "%s/pds.pfm", dir);
+            p_pds = harness_diff_p99(img, ref);
+            snprintf(img, sizeof img, "%s/pm.pfm", dir);
+            p_pm = harness_diff_p99(img, ref);
+            CHECK(t, p_pds > 0.0 && p_pm > 0.0 && fabs(p_pds - p_pm) > 1e-3 * fmax(p_pds, p_pm),
+                  "the two images' own scales differ: %g %g", p_pds, p_pm);
+            CHECK(t, fabs(atof(a) / fmax(p_pds, p_pm) - 1.0) < 1e-4 && !strcmp(a, b), "shared: %s %s, max(%g, %g)",
+                  a, b, p_pds, p_pm);
+            /* the crops' exposure: -log2 of the reference's peak in the region */
+            last = cli_last_line(out);
+            at = strstr(last, " roi=");
+            REQUIRE(t, at && sscanf(at, " roi=%d,%d,%d,%d", &x, &y, &w, &h) == 4, "roi: %s", last);
+            snprintf(path, sizeof path, "%s/index.html", dir);
+            html = harness_slurp(path, NULL);
+            REQUIRE(t, html != NULL, "no index.html");
+            at = strstr(html, "Crops at exposure ");
+            {
+                pds_image r = {0, 0, NULL};
+                double peak = 0.0, stops = 0.0;
+                int i, j, k;
+                REQUIRE(t, pds_image_read_pfm(ref, &r, NULL) == PDS_OK, "reference");
+                for (j = y; j < y + h; j++)
+                    for (i = x; i < x + w; i++)
+                        for (k = 0; k < 3; k++) peak = fmax(peak, r.rgb[3 * ((size_t)j * r.width + i) + k]);
+                pds_image_free(&r);
+                CHECK(t, at && sscanf(at, "Crops at exposure %lf", &stops) == 1 && peak > 0.0 &&
+                             fabs(stops + log2(peak)) < 0.006,
+                      "crop exposure %g stops, the reference's peak in the region %g", stops, peak);
+            }
+            free(html);
+        } else if (m == 1) {
+            CHECK(t, fabs(atof(a) / p_pds - 1.0) < 1e-4 && fabs(atof(b) / p_pm - 1.0) < 1e-4,
+                  "each: %s %s, expected %g %g", a, b, p_pds, p_pm);
+        } else {
+            CHECK(t, !strcmp(a, "0.05") && !strcmp(b, "0.05"), "given: %s %s", a, b);
+        }
+    }
+    harness_rmtree(dir);
+    remove(ref);
+}
+
 static void test_harness_sweep_flags_an_optimum_at_the_edge_and_draws_photons_log_log(pds_test_ctx *t)
 {
     char out[16384], err[8192], args[1024], ref[256], dir[256], path[512];
@@ -1000,4 +1097,6 @@ static const pds_test_case tests_harness[] = {
     {"harness_race_page_says_how_it_was_made", test_harness_race_page_says_how_it_was_made},
     {"harness_sweep_flags_an_optimum_at_the_edge_and_draws_photons_log_log",
      test_harness_sweep_flags_an_optimum_at_the_edge_and_draws_photons_log_log},
+    {"harness_race_difference_scale_is_shared_each_or_given",
+     test_harness_race_difference_scale_is_shared_each_or_given},
 };
