@@ -15408,8 +15408,14 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
         pds__bsdf_result bs;
         pds__v3 n, ngw, dndu, dndv;
         double uu[3];
-        int side;
-        if (!pds__bvh_intersect(&s->bvh, r.p, r.d, 0.0, DBL_MAX, &th)) return;
+        int side, found;
+        double tl;
+        pds__v3 nl;
+        found = pds__bvh_intersect(&s->bvh, r.p, r.d, 0.0, DBL_MAX, &th);
+        /* a disk or quad light met from its front ends the photon, as it
+           ends an eye path and a global photon (pds__hit_analytic_light):
+           passing through, it would light the surface behind the lamp */
+        if (pds__hit_analytic_light(s, r.p, r.d, found ? th.t : DBL_MAX, &tl, &nl) >= 0 || !found) return;
         pds__scene_fill_hit(s, &th, r.p, r.d, &hit);
         if (job->differentials && !pds__diff_transfer(&r, th.t, hit.ng)) return;
         r.p = hit.position;
