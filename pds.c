@@ -9583,14 +9583,24 @@ static double pds__footprint_major_axis(pds__v3 dpdu, pds__v3 dpdv)
    the same ellipse, only wider. Returns 1 when it changed them. */
 /* The same with a floor on both semi-axes: at least min_width (scene
    units) each, besides the minor one's min_aspect times the major. */
+/* The footprint's orthogonal semi-axes A and B (its ellipse's principal
+   axes, A first in the parametrisation's turn, not necessarily the longer)
+   from its differentials: a = Du/2, b = Dv/2 turned by t with
+   tan 2t = 2 a.b / (a.a - b.b), which makes A.B = 0. */
+static void pds__footprint_axes(pds__v3 dpdu, pds__v3 dpdv, pds__v3 *A, pds__v3 *B)
+{
+    pds__v3 a = pds__scale(dpdu, 0.5), b = pds__scale(dpdv, 0.5);
+    double aa = pds__dot(a, a), bb = pds__dot(b, b), ab = pds__dot(a, b), t = 0.5 * atan2(2.0 * ab, aa - bb);
+    *A = pds__add(pds__scale(a, cos(t)), pds__scale(b, sin(t)));
+    *B = pds__add(pds__scale(a, -sin(t)), pds__scale(b, cos(t)));
+}
+
 static int pds__footprint_widen_to(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double min_aspect, double min_width)
 {
-    pds__v3 a = pds__scale(*dpdu, 0.5), b = pds__scale(*dpdv, 0.5), A, B, dir;
-    double aa = pds__dot(a, a), bb = pds__dot(b, b), ab = pds__dot(a, b), t = 0.5 * atan2(2.0 * ab, aa - bb);
+    pds__v3 A, B, dir;
     double la, lb, want_a, want_b;
     if (!(min_aspect > 0.0) && !(min_width > 0.0)) return 0;
-    A = pds__add(pds__scale(a, cos(t)), pds__scale(b, sin(t)));
-    B = pds__add(pds__scale(a, -sin(t)), pds__scale(b, cos(t)));
+    pds__footprint_axes(*dpdu, *dpdv, &A, &B);
     la = pds__length(A);
     lb = pds__length(B);
     if (!(la > 0.0) || !isfinite(la) || !isfinite(lb)) return 0;
@@ -13364,6 +13374,21 @@ static int pds__hit_analytic_light(const pds_scene *s, pds__v3 org, pds__v3 dir,
     return found;
 }
 
+/* The surface a photon meets next along (org, dir), into *th: 0 if there
+   is none, or if a disk or quad light met from its front comes first. A
+   lamp absorbs what it does not emit and ends the photon, as it ends an
+   eye path (pds__hit_analytic_light); passing through, the photon would
+   light the surface behind the lamp, which the eye sees only through it,
+   and come back into the scene. Caustic photons (>>pds) and gi's global
+   photons (>>gi) both go by it. */
+static int pds__photon_next_hit(const pds_scene *s, pds__v3 org, pds__v3 dir, pds__tri_hit *th)
+{
+    double tl;
+    pds__v3 nl;
+    int found = pds__bvh_intersect(&s->bvh, org, dir, 0.0, DBL_MAX, th);
+    return pds__hit_analytic_light(s, org, dir, found ? th->t : DBL_MAX, &tl, &nl) < 0 && found;
+}
+
 #ifndef PDS_NO_ENV
 /* Next-event estimation of the environment light k (picked with
    probability pmf) at a non-specular vertex: one direction from each part
@@ -15326,12 +15351,9 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
    length as before. */
 static void pds__defocus_round(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double q)
 {
-    pds__v3 a = pds__scale(*dpdu, 0.5), b = pds__scale(*dpdv, 0.5), A, B;
-    double aa = pds__dot(a, a), bb = pds__dot(b, b), ab = pds__dot(a, b), t = 0.5 * atan2(2.0 * ab, aa - bb);
+    pds__v3 A, B;
     double la, lb, major;
-    /* the principal semi-axes A (the longer) and B */
-    A = pds__add(pds__scale(a, cos(t)), pds__scale(b, sin(t)));
-    B = pds__add(pds__scale(a, -sin(t)), pds__scale(b, cos(t)));
+    pds__footprint_axes(*dpdu, *dpdv, &A, &B); /* A made the longer below */
     la = pds__length(A);
     lb = pds__length(B);
     if (lb > la) {
@@ -15408,14 +15430,8 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
         pds__bsdf_result bs;
         pds__v3 n, ngw, dndu, dndv;
         double uu[3];
-        int side, found;
-        double tl;
-        pds__v3 nl;
-        found = pds__bvh_intersect(&s->bvh, r.p, r.d, 0.0, DBL_MAX, &th);
-        /* a disk or quad light met from its front ends the photon, as it
-           ends an eye path and a global photon (pds__hit_analytic_light):
-           passing through, it would light the surface behind the lamp */
-        if (pds__hit_analytic_light(s, r.p, r.d, found ? th.t : DBL_MAX, &tl, &nl) >= 0 || !found) return;
+        int side;
+        if (!pds__photon_next_hit(s, r.p, r.d, &th)) return;
         pds__scene_fill_hit(s, &th, r.p, r.d, &hit);
         if (job->differentials && !pds__diff_transfer(&r, th.t, hit.ng)) return;
         r.p = hit.position;
@@ -18052,15 +18068,7 @@ static void pds__gi_trace_photon(const pds__gi_build *b, pds__gi_buf *buf, long 
         const pds_material *m;
         pds__bsdf_result bs;
         double uu[3], q;
-        double tl;
-        pds__v3 nl;
-        int found = pds__bvh_intersect(&s->bvh, org, dir, 0.0, DBL_MAX, &th);
-        /* a disk or quad light met from its front ends the photon, as it
-           ends an eye path (pds__hit_analytic_light): it absorbs what it
-           does not emit. Passing through, the photon would light the
-           surface behind it, which the eye sees only through the light,
-           and come back into the scene. */
-        if (pds__hit_analytic_light(s, org, dir, found ? th.t : DBL_MAX, &tl, &nl) >= 0 || !found) return;
+        if (!pds__photon_next_hit(s, org, dir, &th)) return;
         pds__scene_fill_hit(s, &th, org, dir, &hit);
         pds__beer(sigma, th.t, flux);
         m = &s->materials.items[hit.material];
