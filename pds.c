@@ -13238,8 +13238,14 @@ static int pds__eye_mergeable(const pds__eye_vertex *a, const pds__eye_vertex *b
 }
 
 /* Merge the n vertices one pixel recorded (in place); returns how many are
-   left. f: the camera (a pinhole, box filter). */
-static size_t pds__eye_merge(pds__eye_vertex *v, size_t n, const pds__camera_frame *f)
+   left. f: the camera (a pinhole, box filter); spp: the pixel's camera
+   samples. Samples seen directly merge only if every one of the pixel's
+   samples is in the group: the vertex stands for the whole pixel (its
+   half-axes), and a pixel that also sees something else (a silhouette's
+   edge) would average the kernel over floor its samples did not see.
+   (On the demo's gold ring, where a thin caustic runs along the front
+   rim, the partial pixels lost 17% of that line's light.) */
+static size_t pds__eye_merge(pds__eye_vertex *v, size_t n, const pds__camera_frame *f, int spp)
 {
     size_t i, j, out = 0;
     for (i = 0; i < n; i++) {
@@ -13256,6 +13262,17 @@ static size_t pds__eye_merge(pds__eye_vertex *v, size_t n, const pds__camera_fra
            glass or a mirror: within one width of the pixel seen directly
            at that distance (a magnified view is left as it is) */
         h = direct ? PDS__EYE_MERGE_PIXELS * 2.0 * fmax(pds__length(ex), pds__length(ey)) : wpix;
+        if (direct) {
+            /* the whole pixel or nothing (each camera sample has at most
+               one vertex seen directly) */
+            int count = 1;
+            for (j = i + 1; j < n; j++)
+                if (pds__eye_direct(&v[j], f) && pds__eye_mergeable(&m, &v[j], h)) count++;
+            if (count < spp) {
+                v[out++] = m;
+                continue;
+            }
+        }
         pds__onb(nm, &t1, &t2);
         sum = pds__scale(x, w0);
         for (j = i + 1; j < n; j++) {
@@ -13910,7 +13927,7 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
         for (c = 0; c < 3; c++) out[c] += acc[c];
     }
     if (record && job->merge_eye && job->row_count[y] > first + 1)
-        job->row_count[y] = first + pds__eye_merge(job->row_vertices[y] + first, job->row_count[y] - first, &job->frame);
+        job->row_count[y] = first + pds__eye_merge(job->row_vertices[y] + first, job->row_count[y] - first, &job->frame, job->spp);
 }
 
 static void *pds__render_worker(void *arg)
