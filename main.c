@@ -127,6 +127,7 @@ static const command_help help_table[] = {
      "                              makes non-linear into 4 sub-photons, at most N times (default 0: never)\n"
      "      --split-angle A         progressive pds: split above a normal turn of A radians over the\n"
      "                              footprint (default 0.2)\n"
+     "      --no-walls              progressive pds: footprints reach under walls (default: folded there)\n"
      "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"
      "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
      "      --debug NAME            write a view OUT.NAME.png: footprint, landings, ellipses[=N], splats,\n"
@@ -1261,6 +1262,8 @@ static const opt_spec option_table[] = {
      M_PDS | M_GI, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--eye-rounds", NULL, "eye_rounds", set_int, OPTF(eye_rounds), 0, PDS_MAX_SPP, "a whole number from 0 to 65536",
      M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
+    {"--walls", NULL, "walls", set_flag, OPTF(walls), 1, 1, "", M_PDS | M_GI, C_ALL, F_PER_METHOD},
+    {"--no-walls", NULL, "walls", set_flag, OPTF(walls), 0, 0, "", M_PDS | M_GI, C_ALL, F_PER_METHOD},
     {"--split-depth", NULL, "split_depth", set_int, OPTF(split_depth), 0, 8, "a whole number from 0 to 8", M_PDS | M_GI,
      C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--split-angle", NULL, "split_angle", set_double, OPTF(split_angle), 0, 10, "an angle above 0 and at most 10 radians",
@@ -1549,6 +1552,7 @@ static void format_params(const pds_options *o, char *buf, size_t n)
             snprintf(buf, n, " progressive=1 pass_smoothing=%g pass_photons=%ld pass_alpha=%g pass_min_aspect=%g"
                      " pass_min_width=%g split_depth=%d split_angle=%g", o->pass_smoothing, o->pass_photons,
                      o->pass_alpha, o->pass_min_aspect, o->pass_min_width, o->split_depth, o->split_angle);
+        if (o->progressive && !o->walls) snprintf(buf + strlen(buf), n - strlen(buf), " walls=0");
         if (o->progressive && o->eye_rounds)
             snprintf(buf + strlen(buf), n - strlen(buf), " eye_rounds=%d", o->eye_rounds);
         if (!o->progressive)

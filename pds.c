@@ -12089,9 +12089,10 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
    count says which. */
 
 #define PDS__PARTIAL_MAGIC "PDSPART\n"
-#define PDS__PARTIAL_VERSION 6u
+#define PDS__PARTIAL_VERSION 7u
 #define PDS__PARTIAL_MAX_SHARDS 1000000
-#define PDS__PARTIAL_NOPT 48    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT 49    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT_V6 48 /* format version 6's, still read */
 #define PDS__PARTIAL_NOPT_V5 47 /* format version 5's, still read */
 #define PDS__PARTIAL_NOPT_V4 46 /* format version 4's, still read */
 #define PDS__PARTIAL_NOPT_V3 44 /* format version 3's, still read */
@@ -12280,6 +12281,8 @@ static void pds__partial_opt_encode(const pds_options *o, uint64_t v[PDS__PARTIA
     /* format version 5: the eye paths' diffuse bounces */
     v[46] = (uint64_t)(int64_t)o->diffuse_bounces;
     v[47] = (uint64_t)(int64_t)o->eye_rounds;
+    /* format version 7: footprints folded at walls */
+    v[48] = (uint64_t)(int64_t)o->walls;
 }
 
 /* nopt: how many the file holds (31 in format version 2, whose renders
@@ -12333,7 +12336,9 @@ static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nop
         memcpy(&o->stream_radius, &v[45], sizeof o->stream_radius);
     }
     if (nopt >= PDS__PARTIAL_NOPT_V5) o->diffuse_bounces = PDS__OPT_INT(v[46]);
-    if (nopt >= PDS__PARTIAL_NOPT) o->eye_rounds = PDS__OPT_INT(v[47]);
+    if (nopt >= PDS__PARTIAL_NOPT_V6) o->eye_rounds = PDS__OPT_INT(v[47]);
+    /* a render of an earlier version had no walls: it goes on without */
+    o->walls = nopt >= PDS__PARTIAL_NOPT ? PDS__OPT_INT(v[48]) : 0;
 #undef PDS__OPT_INT
     for (k = 0; k < 13; k++) memcpy(&d[k], &v[16 + k], sizeof d[k]);
     o->time_s = d[0];
@@ -12753,6 +12758,7 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
 static int pds__partial_nopt(uint32_t version)
 {
     return version == PDS__PARTIAL_VERSION ? PDS__PARTIAL_NOPT
+           : version == 6u                 ? PDS__PARTIAL_NOPT_V6
            : version == 5u                 ? PDS__PARTIAL_NOPT_V5
            : version == 4u                 ? PDS__PARTIAL_NOPT_V4
            : version == 3u                 ? PDS__PARTIAL_NOPT_V3
@@ -14858,6 +14864,7 @@ typedef struct pds__eye_rounds {
 typedef struct pds__photon_job {
     const pds_scene *scene;
     const pds__eye_map *map;
+    int walls;                 /* fold footprints at walls (pds__splat_wall) */
     pds__target target;
     uint64_t seed;
     double smoothing, plane_tolerance, eps;
@@ -14941,6 +14948,10 @@ typedef struct pds__splat_ctx {
        ellipse in M; M0 is the footprint's own */
     int spread;
     double M0[2][3];
+    /* a wall the footprint meets (pds__splat_wall): only vertices on the
+       photon's side of it, (x - clip_p) . clip_n >= 0 */
+    int clip;
+    pds__v3 clip_p, clip_n;
 } pds__splat_ctx;
 
 /* Add radiance v (W/(m^2 sr)) into sum i of the thread's image (a
@@ -15006,6 +15017,7 @@ static void pds__splat_visit(void *vctx, size_t index, double r2)
     /* topological bias: a surface seen from the other side (the back of a
        thin wall) */
     if (pds__dot(pds__f3_get(v->g), sc->np) <= 0.0) return;
+    if (sc->clip && pds__dot(pds__sub(pds__f3_get(v->pos), sc->clip_p), sc->clip_n) < 0.0) return;
     for (c = 0; c < 3; c++) e[c] = sc->ep[c];
     if (!pds__eye_response(sc->job->scene, v, sc->wi, sc->lambda, e, w)) return;
     if (sc->spread) {
@@ -15094,6 +15106,70 @@ static void pds__splat_grow_for_pixels(const pds__photon_job *job, pds__splat_ct
                                            pds__scale(t2, 2.0 * l22));
     }
 }
+
+/* Walls across a footprint (an extension). A photon that lands beside a
+   wall (the gold ring's foot, a glass block standing on the floor) has a
+   footprint reaching under the wall, where no eye vertex sees the floor:
+   the part of its kernel there is lost, and a photon landing on the far
+   side of a thin wall lights the floor behind it. Four probe rays in the
+   tangent plane, just above the surface (a hundredth of the minor
+   semi-axis), along the footprint's principal semi-axes both ways, find
+   the nearest wall within the footprint (a surface turned more than 60
+   degrees from the tangent plane). Its line on the surface bounds the
+   kernel: eye vertices beyond it get nothing, and the kernel's part
+   beyond it is folded back, a second kernel mirrored in that line
+   (the reflection method of kernel density estimation at a boundary),
+   so the surface on the photon's side receives the whole flux. Returns
+   1 and the line's point *wp and in-plane normal *wn (towards the
+   photon) if a wall was found. */
+static int pds__splat_wall(const pds__photon_job *job, const pds__ray_diff *r, pds__v3 np, pds__v3 *wp, pds__v3 *wn)
+{
+    pds__v3 A, B, dirs[2];
+    double len[2], lb, h, best = HUGE_VAL;
+    int k, found = 0;
+    pds__footprint_axes(r->dpdu, r->dpdv, &A, &B);
+    len[0] = pds__length(A);
+    len[1] = lb = pds__length(B);
+    if (!(len[0] > 0.0) || !(lb > 0.0) || !isfinite(len[0]) || !isfinite(lb)) return 0;
+    if (lb > len[0]) lb = len[0];
+    if (lb > 0.9 * fmax(len[0], len[1])) {
+        /* nearly round: the principal axes are ill-conditioned (a round
+           footprint has none, and a last-bit change in the differentials
+           would turn the probes by any angle), so probe along a frame of
+           the normal, as far as the longer semi-axis */
+        len[0] = len[1] = fmax(len[0], len[1]);
+        pds__onb(np, &dirs[0], &dirs[1]);
+    } else {
+        dirs[0] = pds__scale(A, 1.0 / len[0]);
+        dirs[1] = pds__scale(B, 1.0 / len[1]);
+    }
+    h = 0.01 * lb;
+    for (k = 0; k < 4; k++) {
+        pds__v3 d = pds__scale(dirs[k / 2], k % 2 ? -1.0 : 1.0), org = pds__add(r->p, pds__scale(np, h)), n;
+        pds__tri_hit th;
+        pds_hit hit;
+        double reach = len[k / 2], nn;
+        if (!pds__bvh_intersect(&job->scene->bvh, org, d, 0.0, fmin(reach, best), &th)) continue;
+        pds__scene_fill_hit(job->scene, &th, org, d, &hit);
+        n = hit.ng;
+        if (fabs(pds__dot(n, np)) > 0.5) continue; /* a bump or an overhang, not a wall */
+        /* the wall's line on the surface: its normal in the tangent plane,
+           turned towards the photon */
+        n = pds__sub(n, pds__scale(np, pds__dot(n, np)));
+        nn = pds__length(n);
+        if (!(nn > 0.0)) continue;
+        n = pds__scale(n, 1.0 / nn);
+        if (pds__dot(n, d) > 0.0) n = pds__scale(n, -1.0);
+        best = th.t;
+        *wp = pds__add(r->p, pds__scale(d, th.t));
+        *wn = n;
+        found = 1;
+    }
+    return found;
+}
+
+static void pds__splat_visit_all(const pds__photon_job *job, pds__splat_ctx *sc, pds__v3 xp, pds__v3 hu, pds__v3 hv,
+                                 double major);
 
 /* Splat the photon r (already transferred to its hit on a non-specular
    surface with geometric normal ng) carrying flux. */
@@ -15184,13 +15260,34 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
     /* the eye vertices within the major semi-axis that are inside the
        ellipse and near the tangent plane (topological bias): the single
        samples, then the merged vertices with the query grown by a pixel */
-    sc.base = 0;
-    pds__kdtree_range_ellipse(&job->map->tree, r->p, major, (const double(*)[3])sc.M, sc.np, sc.plane_max, pds__splat_visit, &sc);
+    sc.clip = job->fixed_radius <= 0.0 && job->walls && pds__splat_wall(job, r, sc.np, &sc.clip_p, &sc.clip_n);
+    pds__splat_visit_all(job, &sc, r->p, hu, hv, major);
+    if (sc.clip) {
+        /* the kernel mirrored in the wall's line: centre, axes and M */
+        pds__v3 n = sc.clip_n, xm = pds__sub(r->p, pds__scale(n, 2.0 * pds__dot(pds__sub(r->p, sc.clip_p), n)));
+        pds__v3 du = pds__sub(r->dpdu, pds__scale(n, 2.0 * pds__dot(r->dpdu, n)));
+        pds__v3 dv = pds__sub(r->dpdv, pds__scale(n, 2.0 * pds__dot(r->dpdv, n)));
+        if (pds__filter_matrix(du, dv, sc.np, sc.M)) {
+            sc.spread = 0;
+            sc.xp = xm;
+            pds__splat_visit_all(job, &sc, xm, pds__scale(du, 0.5), pds__scale(dv, 0.5), major);
+        }
+    }
+}
+
+/* The eye vertices a footprint (centre xp, semi-axis vectors hu, hv,
+   filter matrix sc->M, reach major) meets: the single samples, then the
+   merged vertices with the query grown by a pixel. */
+static void pds__splat_visit_all(const pds__photon_job *job, pds__splat_ctx *sc, pds__v3 xp, pds__v3 hu, pds__v3 hv,
+                                 double major)
+{
+    sc->base = 0;
+    pds__kdtree_range_ellipse(&job->map->tree, xp, major, (const double(*)[3])sc->M, sc->np, sc->plane_max, pds__splat_visit, sc);
     if (job->map->merged.n > 0) {
-        sc.base = job->map->n_single;
-        pds__splat_grow_for_pixels(job, &sc, hu, hv, &major);
-        pds__kdtree_range_ellipse(&job->map->merged, r->p, major, (const double(*)[3])sc.M, sc.np, sc.plane_max,
-                                  pds__splat_visit, &sc);
+        sc->base = job->map->n_single;
+        pds__splat_grow_for_pixels(job, sc, hu, hv, &major);
+        pds__kdtree_range_ellipse(&job->map->merged, xp, major, (const double(*)[3])sc->M, sc->np, sc->plane_max,
+                                  pds__splat_visit, sc);
     }
 }
 
@@ -17229,6 +17326,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.min_aspect = progressive ? opt->pass_min_aspect : opt->min_aspect;
     job.defocus_widen = progressive && job.min_aspect > 0.0;
     job.min_width = progressive ? opt->pass_min_width : opt->method == PDS_METHOD_PDS ? opt->min_width : 0.0;
+    job.walls = progressive && opt->walls;
     job.eye = pds__v(s->camera.position.x, s->camera.position.y, s->camera.position.z);
     job.frame = pds__camera_setup(&s->camera, width, height);
     job.sample_angle = 2.0 * tan(0.5 * s->camera.fov_deg * PDS__PI / 180.0) / height /
@@ -20956,6 +21054,7 @@ void pds_options_default(pds_options *opt)
     opt->photon_depth = 16;
     opt->split_depth = 0;
     opt->split_angle = 0.2;
+    opt->walls = 1;
     opt->debug = NULL;
     opt->k = 50;
     opt->kernel = PDS_KERNEL_CONE;
@@ -21265,6 +21364,8 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "photon count must not be negative, got %ld", opt->photons);
     if (!(opt->smoothing > 0.0) || opt->smoothing > 1e6)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "smoothing must be positive");
+    if (opt->walls != 0 && opt->walls != 1)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "walls %d is neither 0 nor 1", opt->walls);
     if (opt->eye_rounds < 0 || opt->eye_rounds > PDS_MAX_SPP)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "eye rounds %d is outside 0..%d", opt->eye_rounds,
                          PDS_MAX_SPP);

@@ -580,6 +580,13 @@ typedef struct pds_options {
                            as it did (at most R rounds, 0: no limit) in a
                            render of one shard without teaching views; 1:
                            one eye pass. Default 0. */
+    int walls;          /* progressive pds: a footprint that reaches a wall
+                           (a surface turned more than 60 degrees from the
+                           one the photon landed on, found by four probe
+                           rays along the footprint's axes) lights only its
+                           own side of it, and the part of its kernel beyond
+                           it is folded back (default 1; 0: footprints pass
+                           under walls as in the paper) */
     double pass_alpha;  /* progressive pds: pass i's footprint areas shrink as
                            i^(pass_alpha - 1), in (0, 1] (default 2/3) */
     double pass_smoothing; /* progressive pds: s_1 of the first pass (default 2) */

@@ -496,6 +496,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
         opt.stream_radius = d.stream_radius; /* format version 4 */
         opt.light_resolution = d.light_resolution;
     }
+    opt.walls = 0; /* format version 7: every render of an earlier version splatted without walls */
     opt.shard_index = 1;
     opt.shard_count = 2;
     REQUIRE(t, pds_render_part(s, &opt, &p, NULL, &err) == PDS_OK, "render: %s", err.text);
@@ -514,27 +515,28 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     pds_partial_free(back);
     back = NULL;
     bytes = shards_slurp(path, &n);
-    REQUIRE(t, bytes != NULL && n > 1056, "slurp");
-    /* 1056 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
-    CHECK(t, n == 1056 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
-    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 6 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
+    REQUIRE(t, bytes != NULL && n > 1064, "slurp");
+    /* 1064 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
+    CHECK(t, n == 1064 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
+    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 7 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
                  bytes[548] == 24 && bytes[552] == 16 && bytes[556] == 1 && bytes[560] == 2 && bytes[564] == 1 &&
                  bytes[568 + 8 * 41] == 4 && bytes[568 + 8 * 46] == 0xff && bytes[568 + 8 * 47] == 0 &&
-                 bytes[952 + 8] == 3,
-          "layout"); /* options 41 (history, default 4), 46 (diffuse bounces, default -1) and 47 (eye rounds,
-                        default 0) and units total (3 passes) at their offsets */
+                 bytes[568 + 8 * 48] == 0 && bytes[960 + 8] == 3,
+          "layout"); /* options 41 (history, default 4), 46 (diffuse bounces, default -1), 47 (eye rounds,
+                        default 0) and 48 (walls, 0 here) and units total (3 passes) at their offsets */
     copy = (unsigned char *)malloc(n);
     REQUIRE(t, copy != NULL, "malloc");
     {
-        /* format versions 2 to 5 are read: the same part without
-           options 31-47, 44-47, 46-47 and 47 (at their defaults, as every
-           render of those versions had them) */
-        static const struct { unsigned char version; size_t nopt; } old[4] = {{2, 31}, {3, 44}, {4, 46}, {5, 47}};
+        /* format versions 2 to 6 are read: the same part without
+           options 31-48, 44-48, 46-48, 47-48 and 48 (at their defaults,
+           as every render of those versions had them; walls off) */
+        static const struct { unsigned char version; size_t nopt; } old[5] = {{2, 31}, {3, 44}, {4, 46}, {5, 47},
+                                                                              {6, 48}};
         int v;
-        for (v = 0; v < 4; v++) {
-            size_t at = 568 + 8 * old[v].nopt, cut = 952 - at;
+        for (v = 0; v < 5; v++) {
+            size_t at = 568 + 8 * old[v].nopt, cut = 960 - at;
             memcpy(copy, bytes, at);
-            memcpy(copy + at, bytes + 952, n - 952);
+            memcpy(copy + at, bytes + 960, n - 960);
             copy[8] = old[v].version;
             pds__put_u64(copy + n - cut - 8, pds__fnv1a64(copy, n - cut - 8));
             shards_spit(bad, copy, n - cut);
@@ -556,7 +558,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     copy[8] = 1;
     shards_spit(bad, copy, n);
     CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE &&
-                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 6"),
+                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 7"),
           "format version: %s", err.text);
     memcpy(copy, bytes, n);
     memcpy(copy + 12, "9.9.9", 5);
@@ -625,7 +627,7 @@ static const shards_field shards_fields[] = {
     SHARDS_FIELD(history, 1),        SHARDS_FIELD(orbit, 1),           SHARDS_FIELD(orbit_deg, 1),
     SHARDS_FIELD(global_map, 1),     SHARDS_FIELD(stream_radius, 1),   SHARDS_FIELD(diffuse_bounces, 1),
     SHARDS_FIELD(memory_limit, 0),   SHARDS_FIELD(shard_index, 0),     SHARDS_FIELD(shard_count, 0),
-    SHARDS_FIELD(static_lighting, 0), SHARDS_FIELD(eye_rounds, 1),
+    SHARDS_FIELD(static_lighting, 0), SHARDS_FIELD(eye_rounds, 1), SHARDS_FIELD(walls, 1),
 };
 
 /* The names of pds_options's fields as pds.h declares them: comments
