@@ -181,7 +181,7 @@ static const command_help help_table[] = {
      "      --global-photons N      gi: photons emitted for the global photon map (default pixels x\n"
      "                              samples / 16, 4096..1M; spm's full image: 100000)\n"
      "      --global-k K            gi: nearest photons (streams: leaders) per global radiance estimate\n"
-     "                              (default 50)\n"
+     "                              (default 20; streams and spm: 50)\n"
      "      --gather N              gi: final-gather rays per eye sample (default 1)\n"
      "      --gather-mix F          gi: share of cosine-sampled gather directions, the rest following\n"
      "                              the global map's photons (default 1 = cosine sampling)\n"

@@ -514,6 +514,8 @@ typedef int (*pds_progress_fn)(void *user, pds_phase phase, double fraction, dou
 /* pds_options.photons and .global_photons: the method's own count, which
    pds_options_resolve (below) tells. */
 #define PDS_PHOTONS_AUTO (-1L)
+/* pds_options.global_k: the map's own (pds_options_resolve) */
+#define PDS_GLOBAL_K_AUTO (-1)
 
 typedef struct pds_options {
     pds_method method;  /* default PDS_METHOD_PDS (as the pds tool's) */
@@ -650,7 +652,10 @@ typedef struct pds_options {
                            / 16 within 4096..1e6; spm's full image: 100000
                            (pds_options_resolve) */
     int global_k;       /* gi: nearest photons (streams: leaders) per global
-                           radiance estimate, 1..1000 (default 50) */
+                           radiance estimate, 1..1000; PDS_GLOBAL_K_AUTO
+                           (the default): 20 for gi's map of single photons,
+                           50 for a map of streams (gi's streams, spm's full
+                           image) (pds_options_resolve) */
     int gather;         /* gi: final-gather rays per eye sample, 0..4096
                            (default 1) */
     double gather_mix;  /* gi: share of cosine sampling in the final gather's
