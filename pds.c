@@ -12615,30 +12615,31 @@ pds_status pds_partial_merge(const pds_partial *const *parts, const char *const 
 
      offset  bytes  field
      0       8      magic "PDSPART\n"
-     8       4      format version (5)
+     8       4      format version (7)
      12      16     library version string, NUL-padded ("0.1.0")
      28      8      scene content hash (pds_scene_hash)
      36      512    scene path as loaded, NUL-padded
      548     4 x 5  width, height, shard index (0-based), shard count, split
-     568     8 x 48 options (pds__partial_opt_encode's order)
-     952     8 x 13 rows done, units total, units own, units done, n_planned
+     568     8 x 49 options (pds__partial_opt_encode's order)
+     960     8 x 13 rows done, units total, units own, units done, n_planned
                     (binary64), emitted, unit (binary64), splatted,
                     degenerate, saturated, invalid, eye vertices, reserved 0
-     1056    ...    eye values of the rows done (rows I, I+N, ...: each
+     1064    ...    eye values of the rows done (rows I, I+N, ...: each
                     width x 3 binary64), then, unless split is 0, the photon
                     sums S+ and then S- (each width x height x 3 of: low 64
                     bits, high 64 bits)
      end-8   8      check: FNV-1a 64 of every byte before it
-   Format versions 2 to 5 are read too: the same with 31 options
+   Format versions 2 to 6 are read too: the same with 31 options
    (counts at 816, eye values at 920), with 44 (counts at 920, eye values
-   at 1024), with 46 (counts at 936, eye values at 1040) and with 47
-   (counts at 944, eye values at 1048); version 1 is refused. */
+   at 1024), with 46 (counts at 936, eye values at 1040), with 47
+   (counts at 944, eye values at 1048) and with 48 (counts at 952, eye
+   values at 1056); version 1 is refused. */
 
 /* Where the counts and the eye values begin, for a file of nopt options. */
 #define PDS__PARTIAL_COUNTS_AT(nopt) (568u + 8u * (unsigned)(nopt))
 #define PDS__PARTIAL_HEADER_AT(nopt) (PDS__PARTIAL_COUNTS_AT(nopt) + 8u * 13u)
-#define PDS__PARTIAL_COUNTS PDS__PARTIAL_COUNTS_AT(PDS__PARTIAL_NOPT) /* 952: the counts */
-#define PDS__PARTIAL_HEADER PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT) /* 1056 */
+#define PDS__PARTIAL_COUNTS PDS__PARTIAL_COUNTS_AT(PDS__PARTIAL_NOPT) /* 960: the counts */
+#define PDS__PARTIAL_HEADER PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT) /* 1064 */
 
 static void pds__put_u32(unsigned char *b, uint32_t v)
 {
