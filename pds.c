@@ -6552,6 +6552,9 @@ typedef struct pds__kdtree {
 } pds__kdtree;
 
 typedef void (*pds__kd_visit)(void *ctx, size_t index, double dist2);
+/* the splat's query reports a leaf's hits at once: n of them, the
+   caller's indices and their values */
+typedef void (*pds__kd_visit_many)(void *ctx, const size_t *index, const double *value, int n);
 
 /* Squared length in double, and the squared distance from float point p
    to (qx, qy, qz). Every point distance and every cell bound goes
@@ -6933,7 +6936,7 @@ static int pds__kd_slab_test(const pds__kdtree *kd, const pds__kd_slab *q, size_
 }
 
 static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r, const double M[2][3], pds__v3 n,
-                                      double tol, pds__kd_visit fn, void *ctx)
+                                      double tol, pds__kd_visit_many fn, void *ctx)
 {
     pds__kd_cell stk[PDS__KD_SLAB_STACK];
     pds__kd_slab q;
@@ -6969,14 +6972,16 @@ static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r
                 hit[nh] = i;
                 nh += pds__kd_slab_test(kd, &q, i, &he[nh]);
             }
-            for (j = 0; j < nh; j++) fn(ctx, kd->perm[hit[j]], he[j]);
+            for (j = 0; j < nh; j++) hit[j] = kd->perm[hit[j]];
+            if (nh > 0) fn(ctx, hit, he, nh);
             continue;
         }
         m = cell.lo + (cell.hi - cell.lo) / 2;
         a = kd->axis[m];
         {
             double e;
-            if (pds__kd_slab_test(kd, &q, m, &e)) fn(ctx, kd->perm[m], e);
+            size_t id = kd->perm[m];
+            if (pds__kd_slab_test(kd, &q, m, &e)) fn(ctx, &id, &e, 1);
         }
         /* children: [lo, m) below the split, [m + 1, hi) above it */
         stk[sp] = cell;
@@ -15032,16 +15037,19 @@ static double pds__kernel_over_pixel(const double u[2], const double m1[2], cons
     for (i = 0; i < n1; i++) {
         double a = pds__midpoints[n1 - 1][i], x0 = u[0] + a * m1[0], y0 = u[1] + a * m1[1];
         for (j = 0; j < n2; j++) {
+            /* pds__kernel_silverman without its branch (taken at random
+               near the footprint's edge): the same value, 0 outside */
             double b = pds__midpoints[n2 - 1][j], x = x0 + b * m2[0], y = y0 + b * m2[1];
-            sum += pds__kernel_silverman(x * x + y * y);
+            double w = 1.0 - (x * x + y * y);
+            w = w > 0.0 ? w : 0.0;
+            sum += (3.0 / PDS__PI) * w * w;
         }
     }
     return sum / (n1 * n2);
 }
 
-static void pds__splat_visit(void *vctx, size_t index, double r2)
+static void pds__splat_visit(pds__splat_ctx *sc, size_t index, double r2)
 {
-    pds__splat_ctx *sc = (pds__splat_ctx *)vctx;
     const pds__eye_vertex *v = &sc->job->map->v[sc->base + index];
     double k, w[3], e[3];
     int c;
@@ -15072,6 +15080,14 @@ static void pds__splat_visit(void *vctx, size_t index, double r2)
         if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
     }
     if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, v->pixel, k, sc->aniso);
+}
+
+/* A leaf's eye vertices in the footprint, one call for all of them. */
+static void pds__splat_visit_many(void *vctx, const size_t *index, const double *r2, int n)
+{
+    pds__splat_ctx *sc = (pds__splat_ctx *)vctx;
+    int j;
+    for (j = 0; j < n; j++) pds__splat_visit(sc, index[j], r2[j]);
 }
 
 /* Merged eye vertices take the kernel averaged over their pixel
@@ -15227,12 +15243,12 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
        ellipse and near the tangent plane (topological bias): the single
        samples, then the merged vertices with the query grown by a pixel */
     sc.base = 0;
-    pds__kdtree_range_ellipse(&job->map->tree, r->p, major, (const double(*)[3])sc.M, sc.np, sc.plane_max, pds__splat_visit, &sc);
+    pds__kdtree_range_ellipse(&job->map->tree, r->p, major, (const double(*)[3])sc.M, sc.np, sc.plane_max, pds__splat_visit_many, &sc);
     if (job->map->merged.n > 0) {
         sc.base = job->map->n_single;
         pds__splat_grow_for_pixels(job, &sc, hu, hv, &major);
         pds__kdtree_range_ellipse(&job->map->merged, r->p, major, (const double(*)[3])sc.M, sc.np, sc.plane_max,
-                                  pds__splat_visit, &sc);
+                                  pds__splat_visit_many, &sc);
     }
 }
 
