@@ -14778,12 +14778,36 @@ static int pds__emit_caustic_photon(const pds_scene *s, const pds__target *tg, i
    footprint itself and only the merged ones with the footprint grown by a
    pixel (pds__splat), so a scene whose merged vertices are few does not
    pay the wider query for all of them. */
+/* What a splat reads of most eye vertices it meets, apart from the
+   vertex: the normals its tests need, the Lambertian weight it adds and
+   the pixel, 40 bytes against the vertex's 112. A footprint meets
+   hundreds of vertices (the floor seen through the glass bunny: 230 on
+   average), one after another in tree order; from this copy they come
+   three times as densely packed in memory (the bunny's splats 10% quicker,
+   the image the same). pixel is -1 for a vertex that needs the full
+   answer of pds__eye_response (not Lambertian, or with a wavelength). */
+typedef struct pds__eye_hot {
+    float n[3], g[3];
+    float weight[3];
+    int pixel;
+} pds__eye_hot;
+
 typedef struct pds__eye_map {
     pds__eye_vertex *v;
     size_t n, n_single;
     pds__kdtree tree;          /* v[0, n_single) */
     pds__kdtree merged;        /* v[n_single, n), indices from n_single */
+    pds__eye_hot *hot;         /* n: v's splat fields, in v's order */
 } pds__eye_map;
+
+/* Free what pds__eye_map_build made (not v). */
+static void pds__eye_map_free_index(pds__eye_map *map)
+{
+    pds__kdtree_free(&map->tree);
+    pds__kdtree_free(&map->merged);
+    free(map->hot);
+    map->hot = NULL;
+}
 
 /* A merged vertex stands for a pixel: its half-axes are not zero. */
 static int pds__eye_vertex_merged(const pds__eye_vertex *v)
@@ -14822,6 +14846,18 @@ static pds_status pds__eye_map_build(pds__eye_map *map, pds_error *err)
         }
     }
     free(tmp);
+    map->hot = (pds__eye_hot *)malloc(sizeof *map->hot * (n ? n : 1));
+    if (!map->hot) {
+        pds__eye_map_free_index(map);
+        return pds__nomem(err);
+    }
+    for (i = 0; i < n; i++) {
+        const pds__eye_vertex *v = &map->v[i];
+        memcpy(map->hot[i].n, v->n, sizeof v->n);
+        memcpy(map->hot[i].g, v->g, sizeof v->g);
+        memcpy(map->hot[i].weight, v->weight, sizeof v->weight);
+        map->hot[i].pixel = v->lambert && !(v->lambda > 0.0f) ? v->pixel : -1;
+    }
     return PDS_OK;
 }
 
@@ -15048,17 +15084,38 @@ static double pds__kernel_over_pixel(const double u[2], const double m1[2], cons
     return sum / (n1 * n2);
 }
 
-static void pds__splat_visit(pds__splat_ctx *sc, size_t index, double r2)
+static void pds__splat_visit(pds__splat_ctx *sc, size_t index, double r2, int spread)
 {
-    const pds__eye_vertex *v = &sc->job->map->v[sc->base + index];
+    const pds__eye_hot *h = &sc->job->map->hot[sc->base + index];
+    const pds__eye_vertex *v;
+    pds__v3 g = pds__f3_get(h->g);
     double k, w[3], e[3];
-    int c;
+    int c, pixel = h->pixel;
     /* topological bias: a surface seen from the other side (the back of a
        thin wall) */
-    if (pds__dot(pds__f3_get(v->g), sc->np) <= 0.0) return;
+    if (pds__dot(g, sc->np) <= 0.0) return;
     for (c = 0; c < 3; c++) e[c] = sc->ep[c];
-    if (!pds__eye_response(sc->job->scene, v, sc->wi, sc->lambda, e, w)) return;
-    if (sc->spread) {
+    if (pixel >= 0 && !(sc->lambda > 0.0)) {
+        /* pds__eye_response's answer for a Lambertian vertex in an RGB
+           render (most of them), from the vertex's splat fields alone */
+        if (!(pds__dot(sc->wi, pds__f3_get(h->n)) > 0.0) || !(pds__dot(sc->wi, g) > 0.0)) return;
+        for (c = 0; c < 3; c++) w[c] = h->weight[c];
+        if (!spread) {
+            k = pds__kernel_silverman(r2);
+            for (c = 0; c < 3; c++) {
+                double val = PDS__PI * k * w[c] * e[c];
+                if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)pixel + (size_t)c, val);
+            }
+            if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, pixel, k, sc->aniso);
+            return;
+        }
+        v = &sc->job->map->v[sc->base + index];
+    } else {
+        v = &sc->job->map->v[sc->base + index];
+        pixel = v->pixel;
+        if (!pds__eye_response(sc->job->scene, v, sc->wi, sc->lambda, e, w)) return;
+    }
+    if (spread) {
         /* the query searched a wider ellipse: the footprint's own kernel,
            averaged over a merged vertex's pixel */
         pds__v3 d = pds__sub(pds__f3_get(v->pos), sc->xp), ex = pds__f3_get(v->px), ey = pds__f3_get(v->py);
@@ -15077,9 +15134,9 @@ static void pds__splat_visit(pds__splat_ctx *sc, size_t index, double r2)
     }
     for (c = 0; c < 3; c++) {
         double val = PDS__PI * k * w[c] * e[c];
-        if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)v->pixel + (size_t)c, val);
+        if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)pixel + (size_t)c, val);
     }
-    if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, v->pixel, k, sc->aniso);
+    if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, pixel, k, sc->aniso);
 }
 
 /* A leaf's eye vertices in the footprint, one call for all of them. */
@@ -15087,7 +15144,10 @@ static void pds__splat_visit_many(void *vctx, const size_t *index, const double 
 {
     pds__splat_ctx *sc = (pds__splat_ctx *)vctx;
     int j;
-    for (j = 0; j < n; j++) pds__splat_visit(sc, index[j], r2[j]);
+    if (sc->spread)
+        for (j = 0; j < n; j++) pds__splat_visit(sc, index[j], r2[j], 1);
+    else
+        for (j = 0; j < n; j++) pds__splat_visit(sc, index[j], r2[j], 0);
 }
 
 /* Merged eye vertices take the kernel averaged over their pixel
@@ -15817,8 +15877,7 @@ static long pds__pds_passes(pds__photon_job *job, pds__eye_map *map, const pds_o
             if (v == map->v) {
                 job->retrace = NULL; /* no sample indices left for another */
             } else {
-                pds__kdtree_free(&map->tree);
-                pds__kdtree_free(&map->merged);
+                pds__eye_map_free_index(map);
                 memset(map, 0, sizeof *map);
                 map->v = v;
                 map->n = n;
@@ -17320,8 +17379,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     job.nbufs = threads;
     job.bufs = (pds__splat_buf *)calloc((size_t)threads, sizeof *job.bufs);
     if (!job.bufs) {
-        pds__kdtree_free(&map.tree);
-        pds__kdtree_free(&map.merged);
+        pds__eye_map_free_index(&map);
         return pds__nomem(err);
     }
     if (debug && (debug->views & ~(1u << PDS_DEBUG_EYE) & ~(1u << PDS_DEBUG_PATHS))) {
@@ -17614,7 +17672,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
                 stats->dropped_invalid += job.bufs[t].invalid;
             }
             stats->time_photons_s = pds__clock_now(&job.clock) - t0;
-            stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + pds__kdtree_memory(&map.merged) + stats->map_bytes +
+            stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + pds__kdtree_memory(&map.merged) +
+                                   (map.hot ? map.n * sizeof *map.hot : 0) + stats->map_bytes +
                                    (size_t)job.nbufs * npix * (3 + (dbg && dbg[0].aniso ? 2 : 0) + (job.spectral ? 3 : 0)) *
                                        sizeof(pds__sum128);
         }
@@ -17631,8 +17690,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     free(job.bufs);
     free(dbg);
     free(paths);
-    pds__kdtree_free(&map.tree);
-    pds__kdtree_free(&map.merged);
+    pds__eye_map_free_index(&map);
     if (st == PDS_ERR_NOMEM) return pds__nomem(err);
     return st;
 }
