@@ -6892,6 +6892,7 @@ typedef struct pds__kd_cell {
 
 typedef struct pds__kd_slab {
     double c[3], r2, w[3][3], bound[3]; /* rows n, M0, M1 and their bounds tol, 1, 1 */
+    double aw[3][3];                    /* |w| */
 } pds__kd_slab;
 
 /* 1 if no point of the cell's box can pass the query. */
@@ -6910,7 +6911,7 @@ static int pds__kd_cell_outside(const pds__kd_slab *q, const pds__kd_cell *cell)
     for (j = 0; j < 3; j++) {
         const double *w = q->w[j];
         double centre = fabs(w[0] * b[0] + w[1] * b[1] + w[2] * b[2]);
-        double spread = fabs(w[0]) * h[0] + fabs(w[1]) * h[1] + fabs(w[2]) * h[2];
+        double spread = q->aw[j][0] * h[0] + q->aw[j][1] * h[1] + q->aw[j][2] * h[2];
         if (centre - spread > q->bound[j] * (1.0 + 1e-9) + 1e-9 * spread) return 1;
     }
     return 0;
@@ -6938,7 +6939,7 @@ static int pds__kd_slab_test(const pds__kdtree *kd, const pds__kd_slab *q, size_
 static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r, const double M[2][3], pds__v3 n,
                                       double tol, pds__kd_visit_many fn, void *ctx)
 {
-    pds__kd_cell stk[PDS__KD_SLAB_STACK];
+    pds__kd_cell stk[PDS__KD_SLAB_STACK], cell;
     pds__kd_slab q;
     int sp = 0, k;
     if (!kd || kd->n == 0 || !(r >= 0.0) || !(tol >= 0.0) || !pds__kd_query_ok(c)) return;
@@ -6950,19 +6951,23 @@ static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r
         q.w[0][k] = pds__v3_get(n, k);
         q.w[1][k] = M[0][k];
         q.w[2][k] = M[1][k];
+        q.aw[0][k] = fabs(q.w[0][k]);
+        q.aw[1][k] = fabs(q.w[1][k]);
+        q.aw[2][k] = fabs(q.w[2][k]);
     }
     q.bound[0] = tol;
     q.bound[1] = q.bound[2] = 1.0;
-    stk[0].lo = 0;
-    stk[0].hi = kd->n;
-    memcpy(stk[0].bl, kd->lo, sizeof stk[0].bl);
-    memcpy(stk[0].bh, kd->hi, sizeof stk[0].bh);
-    sp = 1;
-    while (sp > 0) {
-        pds__kd_cell cell = stk[--sp];
+    cell.lo = 0;
+    cell.hi = kd->n;
+    memcpy(cell.bl, kd->lo, sizeof cell.bl);
+    memcpy(cell.bh, kd->hi, sizeof cell.bh);
+    if (pds__kd_cell_outside(&q, &cell)) return;
+    /* cell: tested, within reach; the stack holds tested cells only (a
+       child out of reach is never pushed) */
+    for (;;) {
+        pds__kd_cell below, above;
         size_t i, m;
-        int a;
-        if (pds__kd_cell_outside(&q, &cell)) continue;
+        int a, out_below, out_above;
         if (cell.hi - cell.lo <= PDS__KD_SLAB_LEAF) {
             /* a leaf: collect its hits, then report them */
             size_t hit[PDS__KD_SLAB_LEAF];
@@ -6974,6 +6979,8 @@ static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r
             }
             for (j = 0; j < nh; j++) hit[j] = kd->perm[hit[j]];
             if (nh > 0) fn(ctx, hit, he, nh);
+            if (sp == 0) break;
+            cell = stk[--sp];
             continue;
         }
         m = cell.lo + (cell.hi - cell.lo) / 2;
@@ -6983,15 +6990,24 @@ static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r
             size_t id = kd->perm[m];
             if (pds__kd_slab_test(kd, &q, m, &e)) fn(ctx, &id, &e, 1);
         }
-        /* children: [lo, m) below the split, [m + 1, hi) above it */
-        stk[sp] = cell;
-        stk[sp].hi = m;
-        stk[sp].bh[a] = kd->pts[3 * m + a];
-        sp++;
-        stk[sp] = cell;
-        stk[sp].lo = m + 1;
-        stk[sp].bl[a] = kd->pts[3 * m + a];
-        sp++;
+        /* children: [lo, m) below the split, [m + 1, hi) above it; the one
+           above first */
+        below = above = cell;
+        below.hi = m;
+        below.bh[a] = kd->pts[3 * m + a];
+        above.lo = m + 1;
+        above.bl[a] = kd->pts[3 * m + a];
+        out_below = pds__kd_cell_outside(&q, &below);
+        out_above = pds__kd_cell_outside(&q, &above);
+        if (!out_above) {
+            if (!out_below) stk[sp++] = below;
+            cell = above;
+        } else if (!out_below) {
+            cell = below;
+        } else {
+            if (sp == 0) break;
+            cell = stk[--sp];
+        }
     }
 }
 
