@@ -15046,6 +15046,26 @@ static void pds__image_add(pds__splat_buf *b, size_t i, double v)
     if (r == PDS__SUM_INVALID) b->invalid++;
 }
 
+/* The three channels' radiance v[3] of one splat into pixel p: the common
+   case (each term below 2^63 units, each sum with room for the carry)
+   added in place, anything else (0, negative, huge, NaN) as
+   pds__image_add does it. */
+static void pds__image_add3(pds__splat_buf *b, size_t p, const double v[3])
+{
+    pds__sum128 *s = &b->sum[3 * p];
+    int c;
+    for (c = 0; c < 3; c++) {
+        double f = v[c] * b->unit;
+        if (v[c] > 0.0 && f < PDS__TWO63 && s[c].hi != UINT64_MAX) {
+            uint64_t t = (uint64_t)(f + 0.5);
+            s[c].lo += t;
+            s[c].hi += s[c].lo < t;
+        } else if (v[c] != 0.0) {
+            pds__image_add(b, 3 * p + (size_t)c, v[c]);
+        }
+    }
+}
+
 /* eq. 10 for one eye vertex x inside the footprint ellipse, r2 =
    |Mp (x - xp)|^2 < 1 (and near the photon's tangent plane: the query
    checked both): pi K(|Mp (x - xp)|) fr(x, wi, wo) Ep. */
@@ -15105,7 +15125,7 @@ static void pds__splat_visit(pds__splat_ctx *sc, size_t index, double r2, int sp
     const pds__eye_hot *h = &sc->job->map->hot[sc->base + index];
     const pds__eye_vertex *v;
     pds__v3 g = pds__f3_get(h->g);
-    double k, w[3], e[3];
+    double k, w[3], e[3], val[3];
     int c, pixel = h->pixel;
     /* topological bias: a surface seen from the other side (the back of a
        thin wall) */
@@ -15118,10 +15138,8 @@ static void pds__splat_visit(pds__splat_ctx *sc, size_t index, double r2, int sp
         for (c = 0; c < 3; c++) w[c] = h->weight[c];
         if (!spread) {
             k = pds__kernel_silverman(r2);
-            for (c = 0; c < 3; c++) {
-                double val = PDS__PI * k * w[c] * e[c];
-                if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)pixel + (size_t)c, val);
-            }
+            for (c = 0; c < 3; c++) val[c] = PDS__PI * k * w[c] * e[c];
+            pds__image_add3(sc->buf, (size_t)pixel, val);
             if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, pixel, k, sc->aniso);
             return;
         }
@@ -15148,10 +15166,8 @@ static void pds__splat_visit(pds__splat_ctx *sc, size_t index, double r2, int sp
     } else {
         k = pds__kernel_silverman(r2);
     }
-    for (c = 0; c < 3; c++) {
-        double val = PDS__PI * k * w[c] * e[c];
-        if (val != 0.0) pds__image_add(sc->buf, 3 * (size_t)pixel + (size_t)c, val);
-    }
+    for (c = 0; c < 3; c++) val[c] = PDS__PI * k * w[c] * e[c];
+    pds__image_add3(sc->buf, (size_t)pixel, val);
     if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, pixel, k, sc->aniso);
 }
 
