@@ -15082,7 +15082,11 @@ static void pds__image_add3(pds__splat_buf *b, size_t p, const double v[3])
    (a footprint a few pixels across or a needle) takes the midpoint rule
    on n1 x n2 points, ni = ceil(8 |mi|), at most 4 x 4: the kernel's
    second derivative is bounded, so the rule's error falls as 1 / ni^2
-   (tested against a fine quadrature). */
+   (tested against a fine quadrature). Every point either takes lies
+   within 3/4 (|m1| + |m2|) of u (the outermost midpoints are at +-3/4;
+   the moment-matched kernel reaches sqrt(1 + 8 (|m1|^2 + |m2|^2) / 3) <
+   1 + (|m1| + |m2|) / 6), so beyond 1 + 3/4 (|m1| + |m2|) the average is
+   0 without evaluating it. */
 #define PDS__PIXEL_POINTS 4
 /* the midpoints (2 i + 1) / n - 1 of n equal parts of [-1, 1], n = 1..4 */
 static const double pds__midpoints[PDS__PIXEL_POINTS][PDS__PIXEL_POINTS] = {
@@ -15093,7 +15097,7 @@ static const double pds__midpoints[PDS__PIXEL_POINTS][PDS__PIXEL_POINTS] = {
 static double pds__kernel_over_pixel(const double u[2], const double m1[2], const double m2[2])
 {
     double l1 = sqrt(m1[0] * m1[0] + m1[1] * m1[1]), l2 = sqrt(m2[0] * m2[0] + m2[1] * m2[1]);
-    double reach = 1.0 + l1 + l2, sum = 0.0;
+    double reach = 1.0 + 0.75 * (l1 + l2), sum = 0.0;
     int n1, n2, i, j;
     if (!(u[0] * u[0] + u[1] * u[1] < reach * reach)) return 0.0;
     n1 = l1 * 8.0 < PDS__PIXEL_POINTS ? (int)ceil(l1 * 8.0) : PDS__PIXEL_POINTS;
@@ -15184,19 +15188,26 @@ static void pds__splat_visit_many(void *vctx, const size_t *index, const double 
 
 /* Merged eye vertices take the kernel averaged over their pixel
    (pds__splat_visit), so the query of the merged ones must find every
-   vertex whose pixel meets the footprint: the footprint (semi-axes a >= b;
-   hu, hv its semi-axis vectors) grown by rho, 1.5 times the half-diagonal
-   of the pixel where the photon landed (the neighbours' distances and
-   slants are about the same). That set, the points within rho of the
+   vertex whose pixel's average can be lit: the footprint (semi-axes
+   a >= b; hu, hv its semi-axis vectors) grown by rho, 1.5 times the
+   reach of the pixel where the photon landed (the neighbours' distances
+   and slants are about the same). The reach is 3/4 of the half-axes'
+   lengths |ex| + |ey|: the average is taken at midpoints no farther out
+   (pds__kernel_over_pixel; its moment-matched branch reaches less far).
+   (Growing by 1.5 |ex| + |ey|, the whole pixel, half the vertices the
+   teaching scene's queries found had an average of 0; with 3/4 of it
+   every shipped scene renders the same image bit for bit, 4% quicker on
+   the teaching scene.) That set, the points within rho of the
    ellipse, lies in both the footprint scaled by 1 + rho / b and the
    ellipse of semi-axes sqrt(2 a^2 + 2 rho^2), sqrt(2 b^2 + 2 rho^2) (the
    same axes; for a needle, a >> rho >> b, the latter is the smallest
    ellipse around the 2a x 2rho rectangle the set nearly is, pi/2 times
    the set's area); the query takes the smaller of the two, by the
-   Cholesky factor of its matrix in a
-   tangent basis t1, t2 (S: the footprint's). A footprint more than 8 rho
-   across its minor axis needs none of this: the average over a pixel that
-   small is the value at its centre within 1.5%. Sets sc->M to the grown
+   Cholesky factor of its matrix in a tangent basis t1, t2 (S: the
+   footprint's). A footprint more than 12 (|ex| + |ey|) across its minor
+   semi-axis (8 times the whole pixel grown by 1.5) needs none of this:
+   the average over a pixel that small is the value at its centre within
+   1.5%. Sets sc->M to the grown
    query (the footprint's own kept in sc->M0), *major to its reach, and
    sc->spread. The guard against the topological bias (the slab around the
    tangent plane) keeps the footprint's own thickness: a merged vertex's
@@ -15220,6 +15231,7 @@ static void pds__splat_grow_for_pixels(const pds__photon_job *job, pds__splat_ct
     s22 = bu * bu + bv * bv;
     b2 = 0.5 * (s11 + s22) - sqrt(0.25 * (s11 - s22) * (s11 - s22) + s12 * s12);
     if (b2 > 64.0 * rho * rho) return;
+    rho *= 0.75; /* the midpoints' reach */
     g = b2 > 0.0 ? (1.0 + rho / sqrt(b2)) * (1.0 + rho / sqrt(b2)) : HUGE_VAL;
     q = 2.0 * rho * rho;
     /* det(g S) = g^2 det S against det(2 S + q I) */
