@@ -681,6 +681,17 @@ static void test_pds_kernel_averaged_over_a_pixel_matches_fine_quadrature(pds_te
     int i, j, n = 400;
     double u0[2] = {0.3, -0.4}, z[2] = {0.0, 0.0};
     CHECK(t, pds__kernel_over_pixel(u0, z, z) == pds__kernel_silverman(0.25), "a point pixel is the kernel");
+    {
+        /* the 4 x 4 rule's points reach 3/4 of the half-axes: a thin pixel
+           whose outermost point lies just inside the disc (u + 3/4 (m1 +
+           m2) = (0.99, 0.0075)) is lit, one whose points all lie outside
+           is not */
+        double mt1[2] = {0.4, 0.0}, mt2[2] = {0.4, 0.01}, in[2] = {1.59, 0.0}, out[2] = {1.61, 0.0};
+        CHECK(t, pds__kernel_over_pixel(in, mt1, mt2) > 0.0, "the pixel's outermost point inside: %g",
+              pds__kernel_over_pixel(in, mt1, mt2));
+        CHECK(t, pds__kernel_over_pixel(out, mt1, mt2) == 0.0, "every point outside: %g",
+              pds__kernel_over_pixel(out, mt1, mt2));
+    }
     for (c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         const double *q = cases[c];
         double u[2] = {q[0], q[1]}, m1[2] = {q[2], q[3]}, m2[2] = {q[4], q[5]}, fine = 0.0, got, tol;
@@ -947,7 +958,7 @@ static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(
     pds__v3 up = pds__v(0.0, 1.0, 0.0);
     pds_material m;
     double flux[3] = {1.0, 2.0, 3.0}, beta[3] = {0.5, 0.5, 0.5}, M0[2][3], ap, tol, worst = 0.0;
-    int i, c, lit = 0, lit_merged = 0;
+    int i, c, fp, lit = 0, lit_merged = 0;
     REQUIRE(t, v && orig && sum, "memory");
     memset(&m, 0, sizeof m);
     m.type = PDS_MAT_DIFFUSE;
@@ -960,8 +971,8 @@ static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(
         v[i].pixel = i;
         if (i % 3 == 0) {
             REQUIRE(t, pds__pixel_axes(&f, x, up, &ex, &ey), "pixel axes");
-            pds__f3_set(v[i].px, pds__scale(ex, 3.0));
-            pds__f3_set(v[i].py, pds__scale(ey, 3.0));
+            pds__f3_set(v[i].px, pds__scale(ex, 1.4));
+            pds__f3_set(v[i].py, pds__scale(ey, 1.4));
         }
         orig[i] = v[i];
     }
@@ -979,41 +990,47 @@ static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(
     memset(&buf, 0, sizeof buf);
     buf.sum = sum;
     buf.unit = 1099511627776.0; /* 2^40 */
-    memset(&r, 0, sizeof r);
-    r.p = pds__v(0.01, 0.0, 0.005);
-    r.d = pds__v(0.0, -1.0, 0.0);
-    r.dpdu = pds__v(0.19, 0.0, 0.06);
-    r.dpdv = pds__v(-0.004, 0.0, 0.0127);
-    pds__splat(&job, &buf, &r, up, flux, 0.0, 0);
-    REQUIRE(t, pds__filter_matrix(r.dpdu, r.dpdv, up, M0), "filter matrix");
-    ap = pds__footprint_area(r.dpdu, r.dpdv);
-    tol = 0.25 * pds__footprint_major_axis(r.dpdu, r.dpdv);
-    for (i = 0; i < NV; i++) {
-        const pds__eye_vertex *o = &orig[i];
-        pds__v3 d = pds__sub(pds__f3_get(o->pos), r.p);
-        double u[2], m1[2], m2[2], k = 0.0;
-        int j;
-        for (j = 0; j < 2; j++) {
-            pds__v3 row = pds__v(M0[j][0], M0[j][1], M0[j][2]);
-            u[j] = pds__dot(row, d);
-            m1[j] = pds__dot(row, pds__f3_get(o->px));
-            m2[j] = pds__dot(row, pds__f3_get(o->py));
+    for (fp = 0; fp < 2; fp++) {
+        memset(&r, 0, sizeof r);
+        r.p = pds__v(0.01, 0.0, 0.005);
+        r.d = pds__v(0.0, -1.0, 0.0);
+        /* a needle, then a round footprint 5 pixels across */
+        r.dpdu = fp == 0 ? pds__v(0.19, 0.0, 0.06) : pds__v(0.1, 0.0, 0.0);
+        r.dpdv = fp == 0 ? pds__v(-0.004, 0.0, 0.0127) : pds__v(0.0, 0.0, 0.1);
+        memset(sum, 0, 3 * NV * sizeof *sum);
+        lit = lit_merged = 0;
+        worst = 0.0;
+        pds__splat(&job, &buf, &r, up, flux, 0.0, 0);
+        REQUIRE(t, pds__filter_matrix(r.dpdu, r.dpdv, up, M0), "filter matrix");
+        ap = pds__footprint_area(r.dpdu, r.dpdv);
+        tol = 0.25 * pds__footprint_major_axis(r.dpdu, r.dpdv);
+        for (i = 0; i < NV; i++) {
+            const pds__eye_vertex *o = &orig[i];
+            pds__v3 d = pds__sub(pds__f3_get(o->pos), r.p);
+            double u[2], m1[2], m2[2], k = 0.0;
+            int j;
+            for (j = 0; j < 2; j++) {
+                pds__v3 row = pds__v(M0[j][0], M0[j][1], M0[j][2]);
+                u[j] = pds__dot(row, d);
+                m1[j] = pds__dot(row, pds__f3_get(o->px));
+                m2[j] = pds__dot(row, pds__f3_get(o->py));
+            }
+            if (fabs(pds__dot(d, up)) <= tol) k = pds__kernel_over_pixel(u, m1, m2);
+            if (k > 0.0) {
+                lit++;
+                lit_merged += i % 3 == 0;
+            }
+            for (c = 0; c < 3; c++) {
+                double want = PDS__PI * k * o->weight[c] * flux[c] / ap;
+                double got = pds__sum128_value(sum[3 * i + c]) / buf.unit;
+                worst = fmax(worst, fabs(got - want) / (1e-9 + fabs(want)));
+            }
         }
-        if (fabs(pds__dot(d, up)) <= tol) k = pds__kernel_over_pixel(u, m1, m2);
-        if (k > 0.0) {
-            lit++;
-            lit_merged += i % 3 == 0;
-        }
-        for (c = 0; c < 3; c++) {
-            double want = PDS__PI * k * o->weight[c] * flux[c] / ap, got = pds__sum128_value(sum[3 * i + c]) / buf.unit;
-            worst = fmax(worst, fabs(got - want) / (1e-9 + fabs(want)));
-        }
+        CHECK(t, worst < 1e-6, "footprint %d: a vertex's splat is %g off brute force (relative)", fp, worst);
+        CHECK(t, lit > 30 && lit_merged > 10, "footprint %d reaches %d vertices, %d merged: too few for a test", fp,
+              lit, lit_merged);
     }
-    CHECK(t, worst < 1e-6, "a vertex's splat is %g off brute force (relative)", worst);
-    CHECK(t, lit > 30 && lit_merged > 10, "the footprint reaches %d vertices, %d merged: too few for a test", lit,
-          lit_merged);
-    pds__kdtree_free(&map.tree);
-    pds__kdtree_free(&map.merged);
+    pds__eye_map_free_index(&map);
     free(v);
     free(orig);
     free(sum);
