@@ -1115,7 +1115,7 @@ static void test_pds_footprints_fold_at_a_wall(pds_test_ctx *t)
     int pass;
     for (pass = 0; pass < 2; pass++) {
         pds_image img = {0, 0, NULL};
-        double patch = 0.0, near = 0.0, far = 0.0;
+        double patch = 0.0, beside = 0.0, beyond = 0.0;
         int np = 0, nn = 0, nf = 0, x, y, c;
         REQUIRE(t, photon_render_text(text, PDS_METHOD_PDS, 8000, 12.0, PDS_PATHS_CAUSTICS_ONLY, 2, &img, NULL,
                                       pass == 0 ? walls_tweak : no_walls_tweak),
@@ -1126,20 +1126,20 @@ static void test_pds_footprints_fold_at_a_wall(pds_test_ctx *t)
                 for (c = 0; c < 3; c++) v += img.rgb[3 * (y * 64 + x) + c] / 3.0;
                 /* the wall hides the floor to 0.05 beyond it from this camera */
                 if (px > -0.85 && px < -0.43) patch += v, np++;
-                if (px > -0.15 && px < -0.02) near += v, nn++;
-                if (px > 0.07 && px < 0.21) far += v, nf++;
+                if (px > -0.15 && px < -0.02) beside += v, nn++;
+                if (px > 0.07 && px < 0.21) beyond += v, nf++;
             }
         REQUIRE(t, np > 0 && nn > 0 && nf > 0 && patch > 0.0, "the pixels: %d %d %d", np, nn, nf);
         patch /= np;
-        near /= nn;
-        far /= nf;
+        beside /= nn;
+        beyond /= nf;
         if (pass == 0)
-            CHECK(t, fabs(near / patch - 1.0) < 0.02 && far == 0.0,
-                  "walls: beside the wall %g of the patch, beyond it %g", near / patch, far / patch);
+            CHECK(t, fabs(beside / patch - 1.0) < 0.02 && beyond == 0.0,
+                  "walls: beside the wall %g of the patch, beyond it %g", beside / patch, beyond / patch);
         else
-            CHECK(t, near / patch < 0.95 && far > 0.01 * patch,
-                  "no walls: beside the wall %g of the patch, beyond it %g (the test should see both)", near / patch,
-                  far / patch);
+            CHECK(t, beside / patch < 0.95 && beyond > 0.01 * patch,
+                  "no walls: beside the wall %g of the patch, beyond it %g (the test should see both)", beside / patch,
+                  beyond / patch);
         pds_image_free(&img);
     }
 }
