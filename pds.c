@@ -165,6 +165,13 @@
    (format version 2). */
 #define PDS__PHOTONS_DEFAULT 100000L
 
+/* The global map's k where the options leave it to the map
+   (PDS_GLOBAL_K_AUTO) and it is one of streams (gi's streams, spm's full
+   image), and every render's k before the partial files stored it
+   (format version 2); gi's map of single photons takes PDS__GI_K_PHOTONS
+   (>>gi). */
+#define PDS__GLOBAL_K_DEFAULT 50
+
 /* A PFM the readers accept: the header, the largest raster allowed and a
    metadata trailer (>>image). */
 #define PDS__MAX_PFM_BYTES ((size_t)PDS_MAX_RESOLUTION * PDS_MAX_RESOLUTION * 12u + 65536u)
@@ -12389,7 +12396,7 @@ static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nop
         o->orbit = (pds_orbit)PDS__OPT_INT(v[42]);
         memcpy(&o->orbit_deg, &v[43], sizeof o->orbit_deg);
     }    else
-        o->global_k = 50; /* format version 2: every render had the default of then */
+        o->global_k = PDS__GLOBAL_K_DEFAULT; /* format version 2: every render had it */
 
     if (nopt >= PDS__PARTIAL_NOPT_V4) {
         o->global_map = (pds_global_map)PDS__OPT_INT(v[44]);
@@ -15333,9 +15340,9 @@ static int pds__splat_wall(const pds__photon_job *job, const pds__ray_diff *r, p
     double len[2], lb;
     pds__footprint_axes(r->dpdu, r->dpdv, &A, &B);
     len[0] = pds__length(A);
-    len[1] = lb = pds__length(B);
-    if (!(len[0] > 0.0) || !(lb > 0.0) || !isfinite(len[0]) || !isfinite(lb)) return 0;
-    if (lb > len[0]) lb = len[0];
+    len[1] = pds__length(B);
+    lb = fmin(len[0], len[1]);
+    if (!(lb > 0.0) || !isfinite(len[0]) || !isfinite(len[1])) return 0;
     if (lb > 0.9 * fmax(len[0], len[1])) {
         /* nearly round: the principal axes are ill-conditioned (a round
            footprint has none, and a last-bit change in the differentials
@@ -18097,6 +18104,7 @@ static pds_status pds__light_trace_image(const pds_scene *s, const pds_options *
 #define PDS__GI_MAX_STORES 8   /* global-map photons one emitted photon stores, at most */
 #define PDS__GI_MAX_SHADOW 4   /* shadow photons one emitted photon stores, at most */
 #define PDS__GI_MAX_K 1000     /* largest global_k */
+
 /* The default global_k (PDS_GLOBAL_K_AUTO). At a gather's end the map's
    estimate is averaged over a pixel's many gather rays: its noise
    averages out there, its bias (a density estimate's blur, which grows
@@ -18105,17 +18113,16 @@ static pds_status pds__light_trace_image(const pds_scene *s, const pds_options *
    path traced with 64 seeds of 1024 samples) the blue wall beside the
    mirror is +0.77% (z 3.3) too bright with k = 50, +0.58% (z 2.5) with
    20, +0.87% with 100, while the image's RMSE at 64 samples moves by
-   0.3%. A map of streams keeps 50 leaders (README: streams in gi's
-   global map). */
+   0.3%. A map of streams keeps PDS__GLOBAL_K_DEFAULT, 50 leaders
+   (README: streams in gi's global map). */
 #define PDS__GI_K_PHOTONS 20
-#define PDS__GI_K_STREAMS 50
 
 /* global_k with PDS_GLOBAL_K_AUTO resolved (gi's map of single photons or
    a map of streams; also for options pds_options_resolve has not seen). */
 static int pds__gi_global_k(const pds_options *opt)
 {
     if (opt->global_k != PDS_GLOBAL_K_AUTO) return opt->global_k;
-    return opt->method == PDS_METHOD_GI && opt->global_map != PDS_GLOBAL_STREAMS ? PDS__GI_K_PHOTONS : PDS__GI_K_STREAMS;
+    return opt->method == PDS_METHOD_GI && opt->global_map != PDS_GLOBAL_STREAMS ? PDS__GI_K_PHOTONS : PDS__GLOBAL_K_DEFAULT;
 }
 #define PDS__GI_GRID 8         /* gather directions: 8 x 8 cells of the cosine-mapped square */
 #define PDS__GI_GUIDE_K 64     /* photons that shape a gather's directions */
@@ -21347,7 +21354,7 @@ void pds_options_resolve(const pds_scene *scene, pds_options *opt)
 #ifndef PDS_NO_GI
     opt->global_k = pds__gi_global_k(opt);
 #else
-    if (opt->global_k == PDS_GLOBAL_K_AUTO) opt->global_k = 50;
+    if (opt->global_k == PDS_GLOBAL_K_AUTO) opt->global_k = PDS__GLOBAL_K_DEFAULT;
 #endif
 }
 
