@@ -15523,33 +15523,6 @@ static uint64_t pds__morton_key(const pds_scene *s, pds__v3 p)
     return key;
 }
 
-static void pds__defer_splat(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
-                             const double flux[3], double lambda, long photon)
-{
-    pds__landing *l;
-    if (pds__grow((void **)&buf->pending, &buf->cap_pending, buf->npending + 1, sizeof *buf->pending)) {
-        pds__splat(job, buf, r, ng, flux, lambda, photon); /* no room to defer: splat now */
-        return;
-    }
-    l = &buf->pending[buf->npending++];
-    l->r = *r;
-    l->ng = ng;
-    memcpy(l->flux, flux, sizeof l->flux);
-    l->lambda = lambda;
-    l->photon = photon;
-    l->key = pds__morton_key(job->scene, r->p);
-}
-
-/* Landings are held until there are this many (or the thread's photons
-   are done), not splatted after each batch: tracing and splatting each
-   fill the cache with their own data (the BVH; the eye vertices and the
-   image), and on the glass bunny, where one photon in six lands and a
-   footprint meets hundreds of eye vertices, splatting after every 1024
-   photons made the tracing 1.3x as slow as without splats. Held to 4096,
-   the bunny's photon pass is 0.90x as long (400k photons, one thread);
-   they take 0.9 MB per thread. */
-#define PDS__LANDINGS_HELD 4096
-
 static int pds__landing_cmp(const void *a, const void *b)
 {
     const pds__landing *x = (const pds__landing *)a, *y = (const pds__landing *)b;
@@ -15566,6 +15539,36 @@ static void pds__splat_pending(const pds__photon_job *job, pds__splat_buf *buf)
         pds__splat(job, buf, &l->r, l->ng, l->flux, l->lambda, l->photon);
     }
     buf->npending = 0;
+}
+
+/* A thread holds its landings until it has this many (then it splats
+   them, in Morton order, before it holds the next) and splats the rest
+   when its photons of the pass are done. Splatting after every batch of
+   1024 photons, as before, let tracing and splatting take turns at
+   filling the cache with their own data (the BVH; the eye vertices and
+   the image): on the glass bunny, where one photon in six lands and a
+   footprint meets hundreds of eye vertices, the tracing took 1.3x as long
+   as without splats. Held to 4096 the bunny's photon pass is 0.9x as long
+   (400k photons, one thread). They take 4096 x 216 bytes, 0.9 MB a
+   thread, however many sub-photons a photon splits into. */
+#define PDS__LANDINGS_HELD 4096
+
+static void pds__defer_splat(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
+                             const double flux[3], double lambda, long photon)
+{
+    pds__landing *l;
+    if (buf->npending >= PDS__LANDINGS_HELD) pds__splat_pending(job, buf);
+    if (pds__grow((void **)&buf->pending, &buf->cap_pending, buf->npending + 1, sizeof *buf->pending)) {
+        pds__splat(job, buf, r, ng, flux, lambda, photon); /* no room to defer: splat now */
+        return;
+    }
+    l = &buf->pending[buf->npending++];
+    l->r = *r;
+    l->ng = ng;
+    memcpy(l->flux, flux, sizeof l->flux);
+    l->lambda = lambda;
+    l->photon = photon;
+    l->key = pds__morton_key(job->scene, r->p);
 }
 
 /* --- adaptive splitting ----------------------------------------------------
@@ -15902,7 +15905,6 @@ static void *pds__photon_worker(void *arg)
         pds__mutex_unlock(&job->lock);
         if (b < 0) break;
         for (i = first; i < last; i++) pds__trace_photon(job, buf, job->index_offset + i);
-        if (buf->npending >= PDS__LANDINGS_HELD) pds__splat_pending(job, buf);
         pds__mutex_lock(&job->lock);
         done = ++job->batches_done;
         pds__mutex_unlock(&job->lock);
@@ -17855,7 +17857,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + pds__kdtree_memory(&map.merged) +
                                    (map.hot ? map.n * sizeof *map.hot : 0) + stats->map_bytes +
                                    (size_t)job.nbufs * npix * (3 + (dbg && dbg[0].aniso ? 2 : 0) + (job.spectral ? 3 : 0)) *
-                                       sizeof(pds__sum128);
+                                       sizeof(pds__sum128) +
+                                   (splats ? (size_t)job.nbufs * PDS__LANDINGS_HELD * sizeof(pds__landing) : 0);
         }
     }
     for (t = 0; t < job.nbufs; t++) {
@@ -21856,6 +21859,9 @@ static pds_status pds__render_estimate(const pds_scene *scene, const pds_options
                      (3 + (pds__debug_wants(opt->debug, PDS_DEBUG_FOOTPRINT) ? 2 : 0) +
                       (pds__render_is_spectral(scene, opt) ? 3 : 0)) *
                      sizeof(pds__sum128);
+        /* the landings each thread holds before it splats them */
+        if (opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_SPLAT)
+            bytes += (double)threads * PDS__LANDINGS_HELD * sizeof(pds__landing);
         photons = opt->time_s > 0.0 ? 0.0 : (double)opt->photons; /* a time budget: not known in advance */
         if (opt->method == PDS_METHOD_PM) est->stored_photons = photons;
         if (opt->method == PDS_METHOD_PDM) est->stored_photons = photons;
