@@ -237,6 +237,7 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
     pds_render_stats st;
     pds_image img = {0, 0, NULL};
     double pixels = 40.0 * 30.0;
+    int depth;
     REQUIRE(t, s != NULL, "load: %s", err.text);
     pds_options_default(&opt);
     opt.method = PDS_METHOD_PM;
@@ -259,6 +260,33 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
     CHECK(t, pds_render(s, &opt, &img, &st, &err) == PDS_ERR_LIMIT && img.rgb == NULL &&
               limits_contains(err.message, "but the memory limit is"),
           "over the limit: %s", err.text);
+    /* PDS: no map, but each thread holds up to 4096 landings (216 bytes
+       each) before it splats them, however its photons split: the
+       estimate is pm's without the photons plus those, and a render on
+       two threads holds one image and one thread's landings more than on
+       one */
+    opt.memory_limit = 0.0;
+    opt.method = PDS_METHOD_PDS;
+    for (depth = 0; depth <= 2; depth += 2) {
+        pds_render_estimate pest;
+        pds_render_stats one;
+        opt.split_depth = depth;
+        opt.threads = 2;
+        REQUIRE(t, pds_render_estimate_get(s, &opt, &pest, &err) == PDS_OK, "pds estimate: %s", err.text);
+        CHECK(t, pest.stored_photons == 0.0 &&
+                     pest.memory_bytes == est.memory_bytes - 5000.0 * (sizeof(long) == 8 ? 149 : 133) + 2 * 4096 * 216.0,
+              "pds estimate %.0f bytes, pm's %.0f", pest.memory_bytes, est.memory_bytes);
+        REQUIRE(t, pds_render(s, &opt, &img, &st, &err) == PDS_OK, "pds render: %s", err.text);
+        pds_image_free(&img);
+        CHECK(t, (double)st.memory_bytes <= pest.memory_bytes && st.map_bytes == 0,
+              "pds (split depth %d) held %lu bytes, over the estimate %.0f", depth, (unsigned long)st.memory_bytes,
+              pest.memory_bytes);
+        opt.threads = 1;
+        REQUIRE(t, pds_render(s, &opt, &img, &one, &err) == PDS_OK, "pds render, one thread: %s", err.text);
+        pds_image_free(&img);
+        CHECK(t, st.memory_bytes - one.memory_bytes == (size_t)(pixels * 3 * 16 + 4096 * 216),
+              "two threads %lu bytes, one %lu", (unsigned long)st.memory_bytes, (unsigned long)one.memory_bytes);
+    }
     pds_scene_free(s);
 }
 
