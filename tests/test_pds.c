@@ -191,7 +191,10 @@ static void test_pds_image_is_identical_for_any_thread_count(pds_test_ctx *t)
     REQUIRE(t, pds_render_text(sphere_caustic_scene, 20000, 12.0, PDS_PATHS_ALL, 1, &a, &sa), "1 thread");
     REQUIRE(t, pds_render_text(sphere_caustic_scene, 20000, 12.0, PDS_PATHS_ALL, 3, &b, &sb), "3 threads");
     CHECK(t, memcmp(a.rgb, b.rgb, sizeof(float) * 3 * (size_t)a.width * a.height) == 0, "bitwise equal");
-    CHECK(t, sa.photons == 20000 && sa.splatted == sb.splatted && sa.splatted > 1000, "photons %ld splatted %ld / %ld",
+    /* over 4096 splats: one thread holds more landings than it may
+       (PDS__LANDINGS_HELD) and splats them in two rounds, three threads
+       in one each */
+    CHECK(t, sa.photons == 20000 && sa.splatted == sb.splatted && sa.splatted > 4096, "photons %ld splatted %ld / %ld",
           sa.photons, sa.splatted, sb.splatted);
     CHECK(t, sa.eye_vertices > 0 && sa.eye_vertices == sb.eye_vertices, "eye vertices %ld", sa.eye_vertices);
     pds_image_free(&a);
