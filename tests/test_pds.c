@@ -742,11 +742,13 @@ static pds__camera_frame merge_test_camera(void)
 
 /* pds__eye_merge: four samples of one pixel on a floor seen straight from
    the camera become one vertex carrying their summed importance and
-   weight at their weighted centroid, with the pixel's half-axes on the
-   floor (the corner rays' hits lie at centre +- px +- py); two seen
-   through something (their wo does not point at the camera), one of
-   another material, stay apart. */
-static void test_pds_eye_merge_sums_a_pixels_samples_at_their_centroid(pds_test_ctx *t)
+   weight at the pixel's centre on the floor (not at their weighted
+   centroid, which the samples' jitter moves about: the box filter's
+   window is the pixel), with the pixel's half-axes on the floor (the
+   corner rays' hits lie at centre +- px +- py); two seen through
+   something (their wo does not point at the camera), one of another
+   material, stay apart. */
+static void test_pds_eye_merge_sums_a_pixels_samples_at_the_pixels_centre(pds_test_ctx *t)
 {
     pds__camera_frame f;
     pds__eye_vertex v[6];
@@ -757,8 +759,8 @@ static void test_pds_eye_merge_sums_a_pixels_samples_at_their_centroid(pds_test_
     f = merge_test_camera();
     memset(v, 0, sizeof v);
     for (k = 0; k < 6; k++) {
-        /* samples at the 2x2 strata's centres; the floor y = 0 */
-        double sx = px + 0.25 + 0.5 * (k % 2), sy = py + 0.25 + 0.5 * ((k / 2) % 2);
+        /* samples jittered in the 2x2 strata; the floor y = 0 */
+        double sx = px + 0.1 + 0.5 * (k % 2) + 0.07 * k, sy = py + 0.4 + 0.5 * ((k / 2) % 2) - 0.05 * k;
         pds__v3 d = pds__camera_dir(&f, sx, sy), x = pds__add(f.origin, pds__scale(d, -f.origin.y / d.y));
         double beta[3] = {0.25, 0.25 * (1 + k), 0.25};
         pds_material m;
@@ -785,9 +787,15 @@ static void test_pds_eye_merge_sums_a_pixels_samples_at_their_centroid(pds_test_
     CHECK(t, v[0].material == 0 && fabs(v[0].importance[1] - 0.25 * (1 + 2 + 3 + 4)) < 1e-6 &&
                  fabs(v[0].importance[0] - 1.0) < 1e-6 && fabs(v[0].weight[1] - 0.5 / PDS__PI * 2.5) < 1e-6,
           "merged importance %g %g, weight %g", v[0].importance[0], v[0].importance[1], v[0].weight[1]);
-    CHECK(t, fabs(v[0].pos[0] - cx / wsum) < 1e-6 && fabs(v[0].pos[2] - cz / wsum) < 1e-6 && fabs(v[0].pos[1]) < 1e-6,
-          "merged at %g %g %g, want the weighted centroid %g 0 %g", v[0].pos[0], v[0].pos[1], v[0].pos[2], cx / wsum,
-          cz / wsum);
+    {
+        pds__v3 d = pds__camera_dir(&f, px + 0.5, py + 0.5), want = pds__add(f.origin, pds__scale(d, -f.origin.y / d.y));
+        double off = hypot(cx / wsum - want.x, cz / wsum - want.z);
+        CHECK(t, off > 0.05 * pds__length(pds__sub(want, f.origin)) * f.tan_half_fov / f.height,
+              "the samples' centroid should lie off the pixel's centre (by %g)", off);
+        CHECK(t, fabs(v[0].pos[0] - want.x) < 1e-6 && fabs(v[0].pos[2] - want.z) < 1e-6 && fabs(v[0].pos[1]) < 1e-6,
+              "merged at %g %g %g, want the pixel's centre %g 0 %g (the centroid: %g 0 %g)", v[0].pos[0], v[0].pos[1],
+              v[0].pos[2], want.x, want.z, cx / wsum, cz / wsum);
+    }
     CHECK(t, v[1].px[0] == 0.0f && v[2].px[0] == 0.0f && v[1].py[2] == 0.0f && v[2].py[2] == 0.0f,
           "the unmerged vertices have no pixel axes");
     CHECK(t, (v[1].material == 1) != (v[2].material == 1), "the other material's sample is kept");
@@ -1157,7 +1165,7 @@ static const pds_test_case tests_pds[] = {
     {"pds_defocused_needles_widen_and_focused_ones_do_not", test_pds_defocused_needles_widen_and_focused_ones_do_not},
     {"pds_kernel_averaged_over_a_pixel_matches_fine_quadrature",
      test_pds_kernel_averaged_over_a_pixel_matches_fine_quadrature},
-    {"pds_eye_merge_sums_a_pixels_samples_at_their_centroid", test_pds_eye_merge_sums_a_pixels_samples_at_their_centroid},
+    {"pds_eye_merge_sums_a_pixels_samples_at_the_pixels_centre", test_pds_eye_merge_sums_a_pixels_samples_at_the_pixels_centre},
     {"pds_eye_merge_keeps_a_partly_covered_pixels_samples", test_pds_eye_merge_keeps_a_partly_covered_pixels_samples},
     {"pds_footprint_width_floor_raises_both_semi_axes", test_pds_footprint_width_floor_raises_both_semi_axes},
     {"progressive_pds_schedule_shrinks_footprint_areas_as_i_to_alpha_minus_1",
