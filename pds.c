@@ -15898,7 +15898,7 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
             pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdu, 0.5 * pds__length(r.dpdu), &dndu, &noise_u);
             pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdv, 0.5 * pds__length(r.dpdv), &dndv, &noise_v);
             if (job->noise_scale > 0.0 && fmax(noise_u, noise_v) > 0.0) {
-                double eta = side > 0 ? m->outside_ior / m->ior : m->ior / m->outside_ior;
+                double eta = !bs.transmitted ? 1.0 : side > 0 ? m->outside_ior / m->ior : m->ior / m->outside_ior;
                 spread = hypot(spread, pds__noise_gain(bs.transmitted, eta) * fmax(noise_u, noise_v));
             }
             if (agree < -0.999999) {
