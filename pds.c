@@ -9733,31 +9733,45 @@ static double pds__noise_gain(int transmitted, double eta)
     return transmitted ? fabs(1.0 - eta) : 2.0;
 }
 
-/* Convolve the footprint (differentials dpdu, dpdv, semi-axes their
-   halves, on the surface of normal np) with an isotropic Gaussian of
-   standard deviation sigma in the tangent plane: A A^T + B B^T + 8 sigma^2
-   I, by its Cholesky factor in a basis of the plane. Returns 1 when it
-   changed them. */
-static int pds__footprint_blur(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double sigma)
+/* A footprint's ellipse as a matrix in the basis t1, t2 of its plane: for
+   semi-axis vectors ha, hb (half the differentials, or any conjugate
+   pair), S = ha ha^T + hb hb^T, whose entries are s[0] = S11, s[1] = S12,
+   s[2] = S22. */
+static void pds__footprint_cov(pds__v3 ha, pds__v3 hb, pds__v3 t1, pds__v3 t2, double s[3])
 {
-    pds__v3 t1, t2, a = pds__scale(*dpdu, 0.5), b = pds__scale(*dpdv, 0.5);
-    double a1, a2, b1, b2, s11, s12, s22, l11, l21, l22;
-    if (!(sigma > 0.0) || !isfinite(sigma)) return 0;
-    pds__onb(np, &t1, &t2);
-    a1 = pds__dot(a, t1);
-    a2 = pds__dot(a, t2);
-    b1 = pds__dot(b, t1);
-    b2 = pds__dot(b, t2);
-    s11 = a1 * a1 + b1 * b1 + 8.0 * sigma * sigma;
-    s12 = a1 * a2 + b1 * b2;
-    s22 = a2 * a2 + b2 * b2 + 8.0 * sigma * sigma;
-    l11 = sqrt(s11);
-    l21 = s12 / l11;
-    l22 = sqrt(fmax(s22 - l21 * l21, 0.0));
+    double au = pds__dot(ha, t1), av = pds__dot(hb, t1), bu = pds__dot(ha, t2), bv = pds__dot(hb, t2);
+    s[0] = au * au + av * av;
+    s[1] = au * bu + av * bv;
+    s[2] = bu * bu + bv * bv;
+}
+
+/* The differentials of the ellipse whose matrix in the basis t1, t2 is s
+   (as pds__footprint_cov gives it), from its Cholesky factor L: Du = 2 L
+   e1, Dv = 2 L e2 in that basis. 0 if s is not positive definite (or not
+   finite). */
+static int pds__footprint_from_cov(pds__v3 t1, pds__v3 t2, const double s[3], pds__v3 *dpdu, pds__v3 *dpdv)
+{
+    double l11 = sqrt(s[0]), l21 = s[1] / l11, l22 = sqrt(fmax(s[2] - l21 * l21, 0.0));
     if (!isfinite(l11) || !isfinite(l21) || !(l22 > 0.0) || !isfinite(l22)) return 0;
     *dpdu = pds__add(pds__scale(t1, 2.0 * l11), pds__scale(t2, 2.0 * l21));
     *dpdv = pds__scale(t2, 2.0 * l22);
     return 1;
+}
+
+/* Convolve the footprint (differentials dpdu, dpdv, semi-axes their
+   halves, on the surface of normal np) with an isotropic Gaussian of
+   standard deviation sigma in the tangent plane: A A^T + B B^T + 8 sigma^2
+   I. Returns 1 when it changed them. */
+static int pds__footprint_blur(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double sigma)
+{
+    pds__v3 t1, t2;
+    double s[3];
+    if (!(sigma > 0.0) || !isfinite(sigma)) return 0;
+    pds__onb(np, &t1, &t2);
+    pds__footprint_cov(pds__scale(*dpdu, 0.5), pds__scale(*dpdv, 0.5), t1, t2, s);
+    s[0] += 8.0 * sigma * sigma;
+    s[2] += 8.0 * sigma * sigma;
+    return pds__footprint_from_cov(t1, t2, s, dpdu, dpdv);
 }
 
 /* Anisotropy metric m_a of appendix B: with Dmax / Dmin the longer /
@@ -15334,18 +15348,15 @@ static void pds__splat_visit_many(void *vctx, const size_t *index, const double 
 static void pds__splat_grow_for_pixels(const pds__photon_job *job, pds__splat_ctx *sc, pds__v3 hu, pds__v3 hv,
                                        double *major)
 {
-    pds__v3 t1, t2, ex, ey;
-    double rho, au, av, bu, bv, s11, s12, s22, b2, g, q, l11, l21, l22;
+    pds__v3 t1, t2, ex, ey, du, dv;
+    double rho, s[3], s11, s12, s22, b2, g, q;
     if (!pds__pixel_axes(&job->frame, sc->xp, sc->np, &ex, &ey)) return;
     rho = 1.5 * (pds__length(ex) + pds__length(ey));
     pds__onb(sc->np, &t1, &t2);
-    au = pds__dot(hu, t1);
-    av = pds__dot(hv, t1);
-    bu = pds__dot(hu, t2);
-    bv = pds__dot(hv, t2);
-    s11 = au * au + av * av;
-    s12 = au * bu + av * bv;
-    s22 = bu * bu + bv * bv;
+    pds__footprint_cov(hu, hv, t1, t2, s);
+    s11 = s[0];
+    s12 = s[1];
+    s22 = s[2];
     b2 = 0.5 * (s11 + s22) - sqrt(0.25 * (s11 - s22) * (s11 - s22) + s12 * s12);
     if (b2 > 64.0 * rho * rho) return;
     rho *= 0.75; /* the midpoints' reach */
@@ -15361,16 +15372,13 @@ static void pds__splat_grow_for_pixels(const pds__photon_job *job, pds__splat_ct
         s12 = 2.0 * s12;
         s22 = 2.0 * s22 + q;
     }
-    l11 = sqrt(s11);
-    l21 = s12 / l11;
-    l22 = sqrt(fmax(s22 - l21 * l21, 0.0));
+    s[0] = s11;
+    s[1] = s12;
+    s[2] = s22;
     memcpy(sc->M0, sc->M, sizeof sc->M);
-    if (isfinite(l11) && isfinite(l21) && l22 > 0.0 && isfinite(l22) &&
-        pds__filter_matrix(pds__add(pds__scale(t1, 2.0 * l11), pds__scale(t2, 2.0 * l21)), pds__scale(t2, 2.0 * l22),
-                           sc->np, sc->M)) {
+    if (pds__footprint_from_cov(t1, t2, s, &du, &dv) && pds__filter_matrix(du, dv, sc->np, sc->M)) {
         sc->spread = 1;
-        *major = pds__footprint_major_axis(pds__add(pds__scale(t1, 2.0 * l11), pds__scale(t2, 2.0 * l21)),
-                                           pds__scale(t2, 2.0 * l22));
+        *major = pds__footprint_major_axis(du, dv);
     }
 }
 
@@ -15838,7 +15846,7 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
         const pds_material *m;
         pds__bsdf_result bs;
         pds__v3 n, ngw, dndu, dndv;
-        double uu[3];
+        double uu[3], eta; /* eta: n_i / n_t of a refraction */
         int side;
         if (!pds__photon_next_hit(s, r.p, r.d, &th)) return;
         pds__scene_fill_hit(s, &th, r.p, r.d, &hit);
@@ -15886,6 +15894,7 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
             r.p = pds__add(hit.position, pds__scale(hit.ng, pds__dot(hit.ng, r.d) >= 0.0 ? job->eps : -job->eps));
             continue;
         }
+        eta = !bs.transmitted ? 1.0 : side > 0 ? m->outside_ior / m->ior : m->ior / m->outside_ior;
         /* the normal's differentials, oriented like the normal the BSDF
            used; where it fell back to the geometric normal, that one is
            flat (no differential) */
@@ -15897,10 +15906,8 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
                across itself */
             pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdu, 0.5 * pds__length(r.dpdu), &dndu, &noise_u);
             pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdv, 0.5 * pds__length(r.dpdv), &dndv, &noise_v);
-            if (job->noise_scale > 0.0 && fmax(noise_u, noise_v) > 0.0) {
-                double eta = !bs.transmitted ? 1.0 : side > 0 ? m->outside_ior / m->ior : m->ior / m->outside_ior;
+            if (job->noise_scale > 0.0 && fmax(noise_u, noise_v) > 0.0)
                 spread = hypot(spread, pds__noise_gain(bs.transmitted, eta) * fmax(noise_u, noise_v));
-            }
             if (agree < -0.999999) {
                 dndu = pds__scale(dndu, -1.0);
                 dndv = pds__scale(dndv, -1.0);
@@ -15920,8 +15927,7 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
             dndv = pds__scale(dndv, keep);
         }
         if (bs.transmitted) {
-            double eta_i = side > 0 ? m->outside_ior : m->ior, eta_t = side > 0 ? m->ior : m->outside_ior;
-            if (!pds__diff_refract(&r, n, dndu, dndv, eta_i / eta_t)) return;
+            if (!pds__diff_refract(&r, n, dndu, dndv, eta)) return;
         } else {
             pds__diff_reflect(&r, n, dndu, dndv);
         }
