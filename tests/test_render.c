@@ -389,9 +389,107 @@ static void test_eye_split_at_glass_keeps_the_mean_and_cuts_the_variance(pds_tes
     pds_scene_free(s);
 }
 
+/* The eye path's Russian roulette (pds__eye_roulette) weighs its
+   throughput as it will be outside the glass (pds__eta2_undone, the
+   inverse of a refraction's radiance factor) and, on the camera's
+   specular chain, lets a survivor carry 0.1 rather than 1. Camera rays
+   through the rim of a glass sphere, where paths reflect inside it, with
+   the roulette from the first bounce on: the mean is that of the same
+   paths without any roulette, and no vertex's importance exceeds 1 (the
+   roulette on beta alone let a path that survived inside the glass come
+   out at 2.25), none is below 0.1, and many are below 1/2 (a survivor
+   at weight 1 made every vertex 1). */
+static void test_eye_roulette_in_glass_keeps_the_mean_and_bounds_the_weights(pds_test_ctx *t)
+{
+    const char *text = "camera { position 0 1 3 look_at 0 0.4 0 resolution 8 8 spp 1 }\n"
+                       "material floor diffuse { albedo 0.7 }\n"
+                       "material glass dielectric { ior 1.5 }\n"
+                       "quad { material floor size 8 8 }\n"
+                       "sphere { material glass radius 0.4 segments 48 rings 24 translate 0 0.401 0 }\n"
+                       "light point { position 2 2.5 1 power 50 }\n";
+    pds_error err;
+    pds_scene *s = scene_from_text(text, &err);
+    pds__tracer tr;
+    double mean[2], var[2], most = 0.0, least = HUGE_VAL;
+    long vertices = 0, faint = 0;
+    int pass, i, n = 40000;
+    pds__v3 org = pds__v(0.0, 1.0, 3.0);
+    REQUIRE(t, s, "scene: %s", err.text);
+    memset(&tr, 0, sizeof tr);
+    tr.scene = s;
+    tr.paths = PDS_PATHS_NO_CAUSTICS;
+    tr.max_depth = 12;
+    tr.eps = 1e-6 * pds__scene_scale(s);
+    tr.seed = 5;
+    tr.eye_splits = 2;
+    for (pass = 0; pass < 2; pass++) {
+        double sum = 0.0, sum2 = 0.0;
+        tr.rr_depth = pass ? 1 : 100; /* pass 0: no roulette */
+        for (i = 0; i < n; i++) {
+            double acc[3] = {0.0, 0.0, 0.0}, v, a = 2.0 * PDS__PI * (i % 97) / 97.0;
+            pds__eye_vertex rec[PDS__EYE_LEAVES];
+            /* around the sphere's rim as the camera sees it */
+            pds__v3 dir = pds__normalize(pds__sub(pds__v(0.385 * cos(a), 0.401 + 0.385 * sin(a), 0.0), org));
+            int k, c, got = pds__trace_path(&tr, org, dir, (uint64_t)i, 0.0, acc, rec);
+            v = acc[0] + acc[1] + acc[2];
+            for (k = 0; k < got; k++) {
+                double imp = fmax(rec[k].importance[0], fmax(rec[k].importance[1], rec[k].importance[2]));
+                for (c = 0; c < 3; c++) v += rec[k].weight[c];
+                if (!pass) continue;
+                most = fmax(most, imp);
+                least = fmin(least, imp);
+                vertices++;
+                faint += imp < 0.5;
+            }
+            sum += v;
+            sum2 += v * v;
+        }
+        mean[pass] = sum / n;
+        var[pass] = sum2 / n - mean[pass] * mean[pass];
+    }
+    CHECK(t, mean[0] > 0.0 && fabs(mean[0] - mean[1]) < 4.0 * sqrt((var[0] + var[1]) / n),
+          "mean without roulette %.5f, with it %.5f (standard errors %.5f, %.5f)", mean[0], mean[1],
+          sqrt(var[0] / n), sqrt(var[1] / n));
+    CHECK(t, most > 0.0 && most <= 1.0 + 1e-6, "a vertex's importance reached %.4f", most);
+    CHECK(t, least >= 0.1 - 1e-6 && faint > vertices / 10, "importances from %.4f, %ld of %ld below 1/2", least, faint,
+          vertices);
+    pds_scene_free(s);
+}
+
+/* pds__eta2_undone is the inverse of the radiance factor the production
+   BSDF sampler puts on a refraction, into the glass and out of it, and 1
+   for a reflection. */
+static void test_eta2_undone_inverts_the_refractions_radiance_factor(pds_test_ctx *t)
+{
+    pds_material m;
+    pds__v3 n = pds__v(0.0, 0.0, 1.0);
+    int side;
+    memset(&m, 0, sizeof m);
+    m.type = PDS_MAT_DIELECTRIC;
+    m.ior = 1.5;
+    m.outside_ior = 1.2;
+    for (side = 0; side < 2; side++) {
+        /* from above (outside) or from below (inside), 30 degrees off the normal */
+        pds__v3 wo = pds__v(0.5, 0.0, side ? -0.8660254 : 0.8660254);
+        static const double ut[3] = {1.0, 0.0, 0.0}, ur[3] = {0.0, 0.0, 0.0};
+        pds__bsdf_result bt, br;
+        REQUIRE(t, pds__bsdf_sample(&m, pds__v(0.0, 0.0, 0.0), wo, n, n, ut, PDS__RADIANCE, &bt) && bt.transmitted,
+                "no refraction");
+        CHECK(t, fabs(pds__eta2_undone(&m, &bt) * bt.weight[0] - 1.0) < 1e-12, "side %d: factor %.6f, weight %.6f",
+              side, pds__eta2_undone(&m, &bt), bt.weight[0]);
+        CHECK(t, fabs(pds__eta2_undone(&m, &bt) - (side ? 1.2 * 1.2 / (1.5 * 1.5) : 1.5 * 1.5 / (1.2 * 1.2))) < 1e-12,
+              "side %d: factor %.6f", side, pds__eta2_undone(&m, &bt));
+        REQUIRE(t, pds__bsdf_sample(&m, pds__v(0.0, 0.0, 0.0), wo, n, n, ur, PDS__RADIANCE, &br) && !br.transmitted,
+                "no reflection");
+        CHECK(t, pds__eta2_undone(&m, &br) == 1.0, "reflection: %.6f", pds__eta2_undone(&m, &br));
+    }
+}
+
 static const pds_test_case tests_render[] = {
     {"pixel_samples_are_stratified", test_pixel_samples_are_stratified},
     {"eye_split_at_glass_keeps_the_mean_and_cuts_the_variance", test_eye_split_at_glass_keeps_the_mean_and_cuts_the_variance},
+    {"eye_roulette_in_glass_keeps_the_mean_and_bounds_the_weights", test_eye_roulette_in_glass_keeps_the_mean_and_bounds_the_weights},
+    {"eta2_undone_inverts_the_refractions_radiance_factor", test_eta2_undone_inverts_the_refractions_radiance_factor},
     {"pt_full_image_is_no_caustics_plus_caustics_only", test_pt_full_image_is_no_caustics_plus_caustics_only},
     {"pt_image_is_identical_for_any_thread_count", test_pt_image_is_identical_for_any_thread_count},
     {"pt_furnace_converges_to_the_analytic_radiance", test_pt_furnace_converges_to_the_analytic_radiance},
