@@ -108,6 +108,22 @@ photon_method pm-direct --method pm --diffuse-bounces 0
 photon_method pds-rounds4 --diffuse-bounces 0 --eye-rounds 4
 photon_method pds-rounds --diffuse-bounces 0 --eye-rounds 16
 
+#    ... and PDS under a time budget, its defaults otherwise (eye rounds
+#    as the time goes): --time fitted to the CPU budget from two runs, as
+#    the photon counts are; the image's own photon count is in its log
+for b in $BUDGETS; do
+    label=pds-time
+    [ -f "$OUT/rows/$label.$b" ] && continue
+    if [ -z "${tc1:-}" ]; then
+        tc1=$(cpu "$label.cal1" ./pds render $SCENE --time 1 --diffuse-bounces 0 -o "$OUT/$label.cal1.pfm")
+        tc2=$(cpu "$label.cal2" ./pds render $SCENE --time 4 --diffuse-bounces 0 -o "$OUT/$label.cal2.pfm")
+    fi
+    tt=$(awk -v c1="$tc1" -v c2="$tc2" -v b="$b" 'BEGIN { t = 1 + (b - c1) * 3 / (c2 - c1); if (t < 0.1) t = 0.1; printf "%.2f\n", t }')
+    t=$(cpu "$label.$b" ./pds render $SCENE --time "$tt" --diffuse-bounces 0 -o "$OUT/$label.$b.pfm")
+    n=$(sed -n 's/.* photons=\([0-9]*\) .*/\1/p' "$OUT/$label.$b.log" | tail -n 1)
+    echo "$label $b $t time=$tt,photons=$n |$(metrics "$OUT/$label.$b.pfm" "$OUT/ref.pfm") | - - - - - -" > "$OUT/rows/$label.$b"
+done
+
 # 3. POV-Ray, if installed: 3 x 3 and 4 x 4 regular samples a pixel
 #    (antialiasing method 1, threshold 0, no jitter, linear averaging),
 #    photons (count) fitted to each budget.
