@@ -1047,6 +1047,101 @@ static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(
     free(sum);
 }
 
+/* The splat's cost roulette (pds__splat, PDS__SPLAT_ROULETTE): a round
+   footprint over a floor of eye vertices, splatted as photons 0..P-1 of a
+   pass whose bound it exceeds about fourfold, keeps a share of them, and
+   the image summed over all P and divided by P is the footprint's own
+   splat without the roulette, within 4 standard errors of the binomial
+   count. The bound follows the footprints' areas (pds__pass_begin): the
+   same footprint scaled to pass 8 (areas i^(alpha - 1) = 1/2 of pass 1's
+   at alpha 2/3) and to pass 27 of passes a quarter the size (1/3 times
+   4) keeps the same photons; with a fixed bound pass 8 would keep twice
+   as many. */
+static void test_pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_area(pds_test_ctx *t)
+{
+    enum { NV = 600, P = 2000 };
+    static const long pass_k[3] = {0, 7, 26}, pass_m[3] = {16384, 16384, 4096};
+    pds__camera_frame f = merge_test_camera();
+    pds__eye_vertex *v = (pds__eye_vertex *)calloc(NV, sizeof *v);
+    pds__sum128 *sum = (pds__sum128 *)calloc(3 * NV, sizeof *sum);
+    pds__photon_job job;
+    pds__splat_buf buf;
+    pds__eye_map map;
+    pds__ray_diff r;
+    pds__v3 up = pds__v(0.0, 1.0, 0.0);
+    pds_material m;
+    pds_options opt;
+    double flux[3] = {1.0, 2.0, 3.0}, beta[3] = {0.5, 0.5, 0.5}, once = 0.0, all = 0.0, keep, se;
+    long kept[3];
+    int i, c, p, pass;
+    REQUIRE(t, v && sum, "memory");
+    memset(&m, 0, sizeof m);
+    m.type = PDS_MAT_DIFFUSE;
+    m.albedo[0] = m.albedo[1] = m.albedo[2] = 0.6;
+    for (i = 0; i < NV; i++) {
+        double a = pds__rng_uniform(9, 1, (uint64_t)i, 0), b = pds__rng_uniform(9, 1, (uint64_t)i, 1);
+        pds__v3 x = pds__v(-0.3 + 0.6 * a, 0.0, -0.3 + 0.6 * b);
+        REQUIRE(t, pds__eye_vertex_set(&v[i], &m, x, up, up, pds__normalize(pds__sub(f.origin, x)), beta, 0),
+                "vertex %d", i);
+        v[i].pixel = i;
+    }
+    memset(&map, 0, sizeof map);
+    map.v = v;
+    map.n = NV;
+    REQUIRE(t, pds__eye_map_build(&map, NULL) == PDS_OK, "eye map");
+    memset(&job, 0, sizeof job);
+    job.map = &map;
+    job.frame = f;
+    job.eye = f.origin;
+    job.plane_tolerance = 0.25;
+    job.sample_angle = 0.00045;
+    memset(&buf, 0, sizeof buf);
+    buf.sum = sum;
+    buf.unit = 1099511627776.0; /* 2^40 */
+    pds_options_default(&opt);
+    opt.pass_alpha = 2.0 / 3.0;
+    opt.pass_min_width = 0.0;
+    memset(&r, 0, sizeof r);
+    r.p = pds__v(0.01, 0.0, 0.005);
+    r.d = pds__v(0.0, -1.0, 0.0);
+    /* without the roulette: the footprint's own splat */
+    r.dpdu = pds__v(0.3, 0.0, 0.0);
+    r.dpdv = pds__v(0.0, 0.0, 0.3);
+    pds__splat(&job, &buf, &r, up, flux, 0.0, 0);
+    for (i = 0; i < 3 * NV; i++) once += pds__sum128_value(sum[i]) / buf.unit;
+    REQUIRE(t, once > 0.0 && buf.roulette == 0, "the footprint lights nothing (%g)", once);
+    for (pass = 0; pass < 3; pass++) {
+        /* the footprint of pass k of m photons: its size s_i / sqrt(m) */
+        double scale = pds__pass_smoothing(1.0, opt.pass_alpha, pass_k[pass] + 1) * sqrt(16384.0 / pass_m[pass]);
+        r.dpdu = pds__v(0.3 * scale, 0.0, 0.0);
+        r.dpdv = pds__v(0.0, 0.0, 0.3 * scale);
+        job.roulette_vertices = 1.0; /* played: pds__pass_begin sets the bound */
+        pds__pass_begin(&job, &opt, pass_k[pass], pass_m[pass]);
+        memset(sum, 0, 3 * NV * sizeof *sum);
+        buf.splatted = buf.roulette = 0;
+        for (p = 0; p < P; p++) pds__splat(&job, &buf, &r, up, flux, 0.0, p);
+        kept[pass] = buf.splatted;
+        CHECK(t, buf.splatted + buf.roulette == P, "pass %ld: %ld splatted and %ld skipped of %d", pass_k[pass] + 1,
+              buf.splatted, buf.roulette, P);
+        if (pass == 0) {
+            for (i = 0, all = 0.0; i < NV; i++)
+                for (c = 0; c < 3; c++) all += pds__sum128_value(sum[3 * i + c]) / buf.unit;
+            keep = (double)kept[0] / P;
+            CHECK(t, keep > 0.15 && keep < 0.4, "%ld of %d photons kept: the roulette should keep about a quarter",
+                  kept[0], P);
+            se = once * sqrt((1.0 - keep) / (keep * P));
+            CHECK(t, fabs(all / P - once) < 4.0 * se, "mean splat %g, without the roulette %g (standard error %g)",
+                  all / P, once, se);
+        }
+    }
+    CHECK(t, kept[1] == kept[0] && kept[2] == kept[0],
+          "kept %ld, %ld and %ld photons in passes 1, 8 and 27 (a quarter the size): the bound should follow the "
+          "footprints' area", kept[0], kept[1], kept[2]);
+    pds__eye_map_free_index(&map);
+    free(v);
+    free(sum);
+}
+
 /* A lamp met from its front ends a caustic photon, as it ends an eye path
    and a global photon: a point light under a ceiling lights it by way of a
    mirror floor, and a dim quad light halfway, facing down, shadows the
@@ -1160,6 +1255,8 @@ static const pds_test_case tests_pds[] = {
     {"pds_footprints_fold_at_a_wall", test_pds_footprints_fold_at_a_wall},
     {"pds_splat_finds_single_and_merged_vertices_as_brute_force_does",
      test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does},
+    {"pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_area",
+     test_pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_area},
     {"pds_eye_merge_takes_the_spread_of_samples_seen_through_glass",
      test_pds_eye_merge_takes_the_spread_of_samples_seen_through_glass},
     {"pds_defocused_needles_widen_and_focused_ones_do_not", test_pds_defocused_needles_widen_and_focused_ones_do_not},
