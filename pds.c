@@ -15087,6 +15087,9 @@ typedef struct pds__splat_buf {
     long splatted, degenerate;
     long split;            /* photons (and sub-photons) split into four */
     long roulette;         /* splats skipped by the cost roulette */
+    double e_single, e_merged; /* pds: the radiance splatted into single
+                                  and merged eye vertices (their three
+                                  channels' sum; pds__eye_round_ratio) */
     long saturated;        /* terms that saturated a pixel's sum */
     long invalid;          /* negative, infinite or NaN terms, dropped */
     pds__stored_photon *stored;   /* photon-map methods: landed photons */
@@ -15216,6 +15219,7 @@ typedef struct pds__splat_ctx {
        photon's side of it, (x - clip_p) . clip_n >= 0 */
     int clip;
     pds__v3 clip_p, clip_n;
+    double e;                  /* the radiance splatted by this query */
 } pds__splat_ctx;
 
 /* Add radiance v (W/(m^2 sr)) into sum i of the thread's image (a
@@ -15358,6 +15362,7 @@ static void pds__splat_visit(pds__splat_ctx *sc, size_t index, double r2, int sp
         k = pds__kernel_silverman(r2);
     }
     for (c = 0; c < 3; c++) val[c] = PDS__PI * k * w[c] * e[c];
+    sc->e += val[0] + val[1] + val[2];
     pds__image_add3(sc->buf, (size_t)pixel, val);
     if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, pixel, k, sc->aniso);
 }
@@ -15388,6 +15393,7 @@ static void pds__splat_visit_many(void *vctx, const size_t *index, const double 
         if (!pds__splat_reaches(sc, h, index[j]) || !pds__splat_lambert_lit(sc, h)) continue;
         k = pds__kernel_silverman(r2[j]);
         for (c = 0; c < 3; c++) val[c] = PDS__PI * k * h->weight[c] * sc->ep[c];
+        sc->e += val[0] + val[1] + val[2];
         pds__image_add3(sc->buf, (size_t)h->pixel, val);
         if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, h->pixel, k, sc->aniso);
     }
@@ -15646,12 +15652,16 @@ static void pds__splat_visit_all(const pds__photon_job *job, pds__splat_ctx *sc,
                                  double major)
 {
     sc->base = 0;
+    sc->e = 0.0;
     pds__kdtree_range_ellipse(&job->map->tree, xp, major, (const double(*)[3])sc->M, sc->np, sc->plane_max, pds__splat_visit_many, sc);
+    sc->buf->e_single += sc->e;
     if (job->map->merged.n > 0) {
         sc->base = job->map->n_single;
+        sc->e = 0.0;
         pds__splat_grow_for_pixels(job, sc, hu, hv, &major);
         pds__kdtree_range_ellipse(&job->map->merged, xp, major, (const double(*)[3])sc->M, sc->np, sc->plane_max,
                                   pds__splat_visit_many, sc);
+        sc->buf->e_merged += sc->e;
     }
 }
 
@@ -16189,12 +16199,35 @@ static void pds__pds_pass_plan(const pds_options *opt, long *k_total, long *m)
    passes into R runs of consecutive passes, round r = floor(k R / K) for
    pass k, so the rounds a pass meets depend on its number alone (the
    same image for any split into shards). A time budget traces a new eye
-   pass once the passes since the last one took PDS__EYE_ROUND_RATIO
-   t_eye, about half of the time going to eye samples. (At 3 s on the
-   shipped scenes, against ratios 2, 3 and 8, 1 had the lowest RMSE on
-   the glass bunny, the cognac glass and the refraction case, and lost 3%
-   on the reflection case.) */
-#define PDS__EYE_ROUND_RATIO 1.0
+   pass once the passes since the last one took `ratio` times t_eye
+   (pds__eye_round_ratio). */
+
+/* The time the photon passes get between two eye rounds under a time
+   budget, in eye passes' times. The error the eye samples leave is where
+   the camera sees the caustic through a specular surface: a merged
+   vertex (seen directly) takes each footprint averaged over its pixel,
+   so a new eye pass changes its value little, while a single sample's
+   value is the caustic at the one point it reaches. As that error grows
+   with the square of the light the single samples take (share f of the
+   splatted radiance, e_single / (e_single + e_merged)), and the best split
+   of the time between two independent estimates gives each a time in
+   proportion to the square root of its variance, the ratio is c / f
+   (c = PDS__EYE_ROUND_SHARE), between 1 and 8. Measured at 3 s (256^2,
+   caustics only, 2 threads, seeds 1-3; the shares of the splatted light
+   in single samples in brackets): the glass bunny best at 0.5-1 (0.52),
+   the cognac glass at 3 (0.13), Newton's prism, refraction and
+   reflection at 5 and more (0.08, 0, 0.01), the ring and octahedron and
+   the cardioid level from 1 to 5 (0.02). A full image keeps 1: its direct
+   light is the eye samples' alone (the ball's floor seen directly, direct
+   light and caustic: RMSE 0.0016 at 1, 0.0019 at 5). */
+#define PDS__EYE_ROUND_SHARE 0.4
+static double pds__eye_round_ratio(double e_single, double e_merged, int caustics_only)
+{
+    double f = e_single / (e_single + e_merged);
+    if (!caustics_only) return 1.0;
+    if (!(f > PDS__EYE_ROUND_SHARE / 8.0)) return 8.0; /* also no light yet (0 / 0) */
+    return f < PDS__EYE_ROUND_SHARE ? PDS__EYE_ROUND_SHARE / f : 1.0;
+}
 
 /* The round pass k of k_total splats into, with `rounds` rounds. */
 static long pds__eye_round_of(long k, long k_total, long rounds)
@@ -16206,10 +16239,23 @@ static long pds__eye_round_of(long k, long k_total, long rounds)
 /* Under a time budget: is an eye round due before the next pass? The
    passes since the last eye pass took t_photons, that eye pass (with its
    map) t_eye, the last pass t_pass; a round is traced only if a pass can
-   still follow it (the passes' landing rule, pds__pds_passes). */
-static int pds__eye_round_due(double t_photons, double t_eye, double t_pass, double now, double deadline)
+   still follow it (the passes' landing rule, pds__pds_passes); ratio:
+   pds__eye_round_ratio. */
+static int pds__eye_round_due(double t_photons, double t_eye, double t_pass, double now, double deadline, double ratio)
 {
-    return t_photons >= PDS__EYE_ROUND_RATIO * t_eye && now + t_eye + 0.5 * t_pass <= deadline;
+    return t_photons >= ratio * t_eye && now + t_eye + 0.5 * t_pass <= deadline;
+}
+
+/* pds__eye_round_ratio of the light the job's passes have splatted. */
+static double pds__pass_round_ratio(const pds__photon_job *job, const pds_options *opt)
+{
+    double single = 0.0, merged = 0.0;
+    int t;
+    for (t = 0; t < job->nbufs; t++) {
+        single += job->bufs[t].e_single;
+        merged += job->bufs[t].e_merged;
+    }
+    return pds__eye_round_ratio(single, merged, opt->paths == PDS_PATHS_CAUSTICS_ONLY);
 }
 
 /* Run progressive PDS passes into the job's sums: the passes first,
@@ -16243,7 +16289,8 @@ static long pds__pds_passes(pds__photon_job *job, pds__eye_map *map, const pds_o
             r = pds__eye_round_of(k, k_max, job->eye_rounds);
             if (r == job->eye_round) r = -1;
         } else if (job->retrace && run > 0 && (job->eye_rounds <= 0 || job->eye_round + 1 < job->eye_rounds) &&
-                   pds__eye_round_due(t_photons, job->eye_round_s, t_pass, t, deadline)) {
+                   pds__eye_round_due(t_photons, job->eye_round_s, t_pass, t, deadline,
+                                      pds__pass_round_ratio(job, opt))) {
             r = job->eye_round + 1;
         }
         if (r >= 0) {

@@ -462,9 +462,11 @@ static void test_eye_rounds_are_runs_of_consecutive_passes(pds_test_ctx *t)
     CHECK(t, pds__eye_round_of(999999999L, 1000000000L, 65536) == 65535 &&
                  pds__eye_round_of(15258L, 1000000000L, 65536) == 0 && pds__eye_round_of(15259L, 1000000000L, 65536) == 1,
           "large counts: %ld", pds__eye_round_of(999999999L, 1000000000L, 65536));
-    CHECK(t, !pds__eye_round_due(0.09, 0.1, 0.03, 0.0, 10.0) && pds__eye_round_due(0.1, 0.1, 0.03, 0.0, 10.0),
-          "a round is due once the passes took as long as the eye pass");
-    CHECK(t, pds__eye_round_due(0.2, 0.1, 0.04, 9.88, 10.0) && !pds__eye_round_due(0.2, 0.1, 0.04, 9.89, 10.0),
+    CHECK(t, !pds__eye_round_due(0.09, 0.1, 0.03, 0.0, 10.0, 1.0) && pds__eye_round_due(0.1, 0.1, 0.03, 0.0, 10.0, 1.0),
+          "a round is due once the passes took as long as the eye pass (ratio 1)");
+    CHECK(t, !pds__eye_round_due(0.39, 0.1, 0.03, 0.0, 10.0, 4.0) && pds__eye_round_due(0.4, 0.1, 0.03, 0.0, 10.0, 4.0),
+          "at ratio 4 a round is due once the passes took four times the eye pass");
+    CHECK(t, pds__eye_round_due(0.2, 0.1, 0.04, 9.88, 10.0, 1.0) && !pds__eye_round_due(0.2, 0.1, 0.04, 9.89, 10.0, 1.0),
           "a round only if half a pass still fits after it (9.88 + 0.1 + 0.02 = 10)");
 }
 
@@ -969,6 +971,7 @@ static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(
     pds__v3 up = pds__v(0.0, 1.0, 0.0);
     pds_material m;
     double flux[3] = {1.0, 2.0, 3.0}, beta[3] = {0.5, 0.5, 0.5}, M0[2][3], ap, tol, worst = 0.0;
+    double got_single, got_merged;
     int i, c, fp, lit = 0, lit_merged = 0;
     REQUIRE(t, v && orig && sum, "memory");
     memset(&m, 0, sizeof m);
@@ -1011,6 +1014,8 @@ static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(
         memset(sum, 0, 3 * NV * sizeof *sum);
         lit = lit_merged = 0;
         worst = 0.0;
+        buf.e_single = buf.e_merged = 0.0;
+        got_single = got_merged = 0.0;
         pds__splat(&job, &buf, &r, up, flux, 0.0, 0);
         REQUIRE(t, pds__filter_matrix(r.dpdu, r.dpdv, up, M0), "filter matrix");
         ap = pds__footprint_area(r.dpdu, r.dpdv);
@@ -1035,9 +1040,18 @@ static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(
                 double want = PDS__PI * k * o->weight[c] * flux[c] / ap;
                 double got = pds__sum128_value(sum[3 * i + c]) / buf.unit;
                 worst = fmax(worst, fabs(got - want) / (1e-9 + fabs(want)));
+                if (i % 3 == 0)
+                    got_merged += got;
+                else
+                    got_single += got;
             }
         }
         CHECK(t, worst < 1e-6, "footprint %d: a vertex's splat is %g off brute force (relative)", fp, worst);
+        /* the light counted as splatted into single and merged vertices
+           (pds__eye_round_ratio's shares) is what their pixels got */
+        CHECK(t, fabs(buf.e_single - got_single) <= 1e-6 * got_single && fabs(buf.e_merged - got_merged) <= 1e-6 * got_merged,
+              "footprint %d: counted %g single and %g merged, the pixels got %g and %g", fp, buf.e_single,
+              buf.e_merged, got_single, got_merged);
         CHECK(t, lit > 30 && lit_merged > 10, "footprint %d reaches %d vertices, %d merged: too few for a test", fp,
               lit, lit_merged);
     }
@@ -1140,6 +1154,32 @@ static void test_pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_ar
     pds__eye_map_free_index(&map);
     free(v);
     free(sum);
+}
+
+/* Under a time budget the photon passes get `ratio` eye passes' time
+   between eye rounds (pds__eye_round_ratio): c / f for a caustics-only
+   image whose single samples took the share f of the splatted light, the
+   ratio falling as f grows and held between 1 (f >= c) and 8 (f <= c / 8,
+   and no light yet); a full image keeps 1, its direct light being the
+   eye samples' alone. */
+static void test_eye_round_ratio_gives_photons_the_time_single_samples_do_not_need(pds_test_ctx *t)
+{
+    static const double f[] = {0.0, 0.01, 0.05, 0.1, 0.13, 0.2, 0.4, 0.52, 0.9, 1.0};
+    double last = HUGE_VAL;
+    size_t i;
+    for (i = 0; i < sizeof f / sizeof f[0]; i++) {
+        double r = pds__eye_round_ratio(f[i], 1.0 - f[i], 1), want = f[i] <= 0.05 ? 8.0 : f[i] >= 0.4 ? 1.0 : 0.4 / f[i];
+        CHECK(t, fabs(r - want) < 1e-12 * want, "share %g: ratio %g, want %g", f[i], r, want);
+        CHECK(t, r <= last, "share %g: ratio %g above the smaller share's %g", f[i], r, last);
+        CHECK(t, pds__eye_round_ratio(f[i], 1.0 - f[i], 0) == 1.0, "full image, share %g: ratio %g, want 1", f[i],
+              pds__eye_round_ratio(f[i], 1.0 - f[i], 0));
+        last = r;
+    }
+    /* the same shares of any amount of light, and none yet */
+    CHECK(t, fabs(pds__eye_round_ratio(13.0, 87.0, 1) - 0.4 / 0.13) < 1e-12, "share 13 of 100: ratio %g",
+          pds__eye_round_ratio(13.0, 87.0, 1));
+    CHECK(t, pds__eye_round_ratio(0.0, 0.0, 1) == 8.0, "no light splatted yet: ratio %g, want 8",
+          pds__eye_round_ratio(0.0, 0.0, 1));
 }
 
 /* A lamp met from its front ends a caustic photon, as it ends an eye path
@@ -1255,6 +1295,8 @@ static const pds_test_case tests_pds[] = {
     {"pds_footprints_fold_at_a_wall", test_pds_footprints_fold_at_a_wall},
     {"pds_splat_finds_single_and_merged_vertices_as_brute_force_does",
      test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does},
+    {"eye_round_ratio_gives_photons_the_time_single_samples_do_not_need",
+     test_eye_round_ratio_gives_photons_the_time_single_samples_do_not_need},
     {"pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_area",
      test_pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_area},
     {"pds_eye_merge_takes_the_spread_of_samples_seen_through_glass",
