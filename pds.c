@@ -16207,12 +16207,14 @@ static void pds__pds_pass_plan(const pds_options *opt, long *k_total, long *m)
    the camera sees the caustic through a specular surface: a merged
    vertex (seen directly) takes each footprint averaged over its pixel,
    so a new eye pass changes its value little, while a single sample's
-   value is the caustic at the one point it reaches. As that error grows
-   with the square of the light the single samples take (share f of the
-   splatted radiance, e_single / (e_single + e_merged)), and the best split
-   of the time between two independent estimates gives each a time in
-   proportion to the square root of its variance, the ratio is c / f
-   (c = PDS__EYE_ROUND_SHARE), between 1 and 8. Measured at 3 s (256^2,
+   value is the caustic at the one point it reaches. Take that error to
+   grow with the square of the light the single samples take, the share f
+   = e_single / (e_single + e_merged) of the splatted radiance (an
+   assumption the measurements below bear out). The best split of a time
+   between two independent estimates gives each a time in proportion to
+   the square root of its variance times its cost, so the photons get
+   c / f of the eye samples' time (c = PDS__EYE_ROUND_SHARE, the costs
+   folded into it), held between 1 and 8. Measured at 3 s (256^2,
    caustics only, 2 threads, seeds 1-3; the shares of the splatted light
    in single samples in brackets): the glass bunny best at 0.5-1 (0.52),
    the cognac glass at 3 (0.13), Newton's prism, refraction and
@@ -16223,9 +16225,11 @@ static void pds__pds_pass_plan(const pds_options *opt, long *k_total, long *m)
 #define PDS__EYE_ROUND_SHARE 0.4
 static double pds__eye_round_ratio(double e_single, double e_merged, int caustics_only)
 {
-    double f = e_single / (e_single + e_merged);
+    double f;
     if (!caustics_only) return 1.0;
-    if (!(f > PDS__EYE_ROUND_SHARE / 8.0)) return 8.0; /* also no light yet (0 / 0) */
+    if (!(e_single + e_merged > 0.0)) return 8.0; /* no light yet */
+    f = e_single / (e_single + e_merged);
+    if (!(f > PDS__EYE_ROUND_SHARE / 8.0)) return 8.0;
     return f < PDS__EYE_ROUND_SHARE ? PDS__EYE_ROUND_SHARE / f : 1.0;
 }
 

@@ -947,6 +947,31 @@ static void test_pds_eye_merge_takes_the_spread_of_samples_seen_through_glass(pd
     CHECK(t, fabs(ax > ay ? v[0].px[0] : v[0].py[0]) > 0.999 * fmax(ax, ay), "the longer axis runs along x");
 }
 
+/* The splat tests' job and thread buffer: the eye map `map` seen by the
+   camera f, pixel sums `sum` at 2^40 units, nothing else switched on. */
+static void splat_test_job(pds__photon_job *job, pds__splat_buf *buf, const pds__eye_map *map, pds__camera_frame f,
+                           pds__sum128 *sum)
+{
+    memset(job, 0, sizeof *job);
+    job->map = map;
+    job->frame = f;
+    job->eye = f.origin;
+    job->plane_tolerance = 0.25;
+    memset(buf, 0, sizeof *buf);
+    buf->sum = sum;
+    buf->unit = 1099511627776.0; /* 2^40 */
+}
+
+/* A diffuse white of albedo 0.6. */
+static pds_material splat_test_floor(void)
+{
+    pds_material m;
+    memset(&m, 0, sizeof m);
+    m.type = PDS_MAT_DIFFUSE;
+    m.albedo[0] = m.albedo[1] = m.albedo[2] = 0.6;
+    return m;
+}
+
 /* pds__splat through the two trees of the eye-path map (pds__eye_map_build)
    against brute force over every vertex: 300 Lambertian vertices scattered
    on the floor y = 0 around a needle footprint and 60 on a shelf 0.035
@@ -974,9 +999,7 @@ static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(
     double got_single, got_merged;
     int i, c, fp, lit = 0, lit_merged = 0;
     REQUIRE(t, v && orig && sum, "memory");
-    memset(&m, 0, sizeof m);
-    m.type = PDS_MAT_DIFFUSE;
-    m.albedo[0] = m.albedo[1] = m.albedo[2] = 0.6;
+    m = splat_test_floor();
     for (i = 0; i < NV; i++) {
         double a = pds__rng_uniform(7, 1, (uint64_t)i, 0), b = pds__rng_uniform(7, 1, (uint64_t)i, 1);
         pds__v3 x = pds__v(-0.16 + 0.32 * a, i < 300 ? 0.0 : 0.035, -0.06 + 0.12 * b), ex, ey;
@@ -996,14 +1019,7 @@ static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(
     REQUIRE(t, pds__eye_map_build(&map, NULL) == PDS_OK, "eye map");
     CHECK(t, map.n_single == 240 && map.merged.n == 120, "%zu single and %zu merged vertices, want 240 and 120",
           map.n_single, map.merged.n);
-    memset(&job, 0, sizeof job);
-    job.map = &map;
-    job.frame = f;
-    job.eye = f.origin;
-    job.plane_tolerance = 0.25;
-    memset(&buf, 0, sizeof buf);
-    buf.sum = sum;
-    buf.unit = 1099511627776.0; /* 2^40 */
+    splat_test_job(&job, &buf, &map, f, sum);
     for (fp = 0; fp < 2; fp++) {
         memset(&r, 0, sizeof r);
         r.p = pds__v(0.01, 0.0, 0.005);
@@ -1089,9 +1105,7 @@ static void test_pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_ar
     long kept[3];
     int i, c, p, pass;
     REQUIRE(t, v && sum, "memory");
-    memset(&m, 0, sizeof m);
-    m.type = PDS_MAT_DIFFUSE;
-    m.albedo[0] = m.albedo[1] = m.albedo[2] = 0.6;
+    m = splat_test_floor();
     for (i = 0; i < NV; i++) {
         double a = pds__rng_uniform(9, 1, (uint64_t)i, 0), b = pds__rng_uniform(9, 1, (uint64_t)i, 1);
         pds__v3 x = pds__v(-0.3 + 0.6 * a, 0.0, -0.3 + 0.6 * b);
@@ -1103,15 +1117,8 @@ static void test_pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_ar
     map.v = v;
     map.n = NV;
     REQUIRE(t, pds__eye_map_build(&map, NULL) == PDS_OK, "eye map");
-    memset(&job, 0, sizeof job);
-    job.map = &map;
-    job.frame = f;
-    job.eye = f.origin;
-    job.plane_tolerance = 0.25;
+    splat_test_job(&job, &buf, &map, f, sum);
     job.sample_angle = 0.00045;
-    memset(&buf, 0, sizeof buf);
-    buf.sum = sum;
-    buf.unit = 1099511627776.0; /* 2^40 */
     pds_options_default(&opt);
     opt.pass_alpha = 2.0 / 3.0;
     opt.pass_min_width = 0.0;
