@@ -128,6 +128,8 @@ static const command_help help_table[] = {
      "      --split-angle A         progressive pds: split above a normal turn of A radians over the\n"
      "                              footprint (default 0.2)\n"
      "      --no-walls              progressive pds: footprints reach under walls (default: folded there)\n"
+     "      --pass-select           progressive pds: each pixel chooses between the passes' scale and half\n"
+     "                              of it, by the odd and even passes (sharp caustics; default: off)\n"
      "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"
      "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
      "      --debug NAME            write a view OUT.NAME.png: footprint, landings, ellipses[=N], splats,\n"
@@ -136,10 +138,10 @@ static const command_help help_table[] = {
      "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
      "      --max-radius R          pm, spm: largest gather radius in scene units (default: no limit)\n"
      "      --streams N             spm: streams nfs (default photons / (stream-photons + 1)); below\n"
-     "      --stream-photons N      spm, gi: associated photons per stream nfa (default 10)\n"
+     "      --stream-photons N      spm, gi: associated photons per stream nfa (default 10)\n",
      "      --max-photons N         pdm: most photons gathered per estimate (default 500)\n"
      "      --radius R              splat: splat radius; ppm: initial radius (default: from the scene)\n"
-     "      --alpha A               ppm: radius reduction, 0 < A <= 1 (default 0.7)\n",
+     "      --alpha A               ppm: radius reduction, 0 < A <= 1 (default 0.7)\n"
      "      --passes N              ppm: photon passes (default 10; with --time, until the time is spent)\n"
      "                              memory: pm and pdm store every photon, spm every stream, so their\n"
      "                              memory grows with --photons (the final line reports map_bytes); ppm\n"
@@ -1264,6 +1266,9 @@ static const opt_spec option_table[] = {
      M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--walls", NULL, "walls", set_flag, OPTF(walls), 1, 1, "", M_PDS | M_GI, C_ALL, F_PER_METHOD},
     {"--no-walls", NULL, "walls", set_flag, OPTF(walls), 0, 0, "", M_PDS | M_GI, C_ALL, F_PER_METHOD},
+    {"--pass-select", NULL, "pass_select", set_flag, OPTF(pass_select), 1, 1, "", M_PDS | M_GI, C_ALL, F_PER_METHOD},
+    {"--no-pass-select", NULL, "pass_select", set_flag, OPTF(pass_select), 0, 0, "", M_PDS | M_GI, C_ALL,
+     F_PER_METHOD},
     {"--split-depth", NULL, "split_depth", set_int, OPTF(split_depth), 0, 8, "a whole number from 0 to 8", M_PDS | M_GI,
      C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--split-angle", NULL, "split_angle", set_double, OPTF(split_angle), 0, 10, "an angle above 0 and at most 10 radians",
@@ -1553,6 +1558,7 @@ static void format_params(const pds_options *o, char *buf, size_t n)
                      " pass_min_width=%g split_depth=%d split_angle=%g", o->pass_smoothing, o->pass_photons,
                      o->pass_alpha, o->pass_min_aspect, o->pass_min_width, o->split_depth, o->split_angle);
         if (o->progressive && !o->walls) snprintf(buf + strlen(buf), n - strlen(buf), " walls=0");
+        if (o->progressive && o->pass_select) snprintf(buf + strlen(buf), n - strlen(buf), " pass_select=1");
         if (o->progressive && o->eye_rounds)
             snprintf(buf + strlen(buf), n - strlen(buf), " eye_rounds=%d", o->eye_rounds);
         if (!o->progressive)

@@ -12241,9 +12241,10 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
    count says which. */
 
 #define PDS__PARTIAL_MAGIC "PDSPART\n"
-#define PDS__PARTIAL_VERSION 7u
+#define PDS__PARTIAL_VERSION 8u
 #define PDS__PARTIAL_MAX_SHARDS 1000000
-#define PDS__PARTIAL_NOPT 49    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT 50    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT_V7 49 /* format version 7's, still read */
 #define PDS__PARTIAL_NOPT_V6 48 /* format version 6's, still read */
 #define PDS__PARTIAL_NOPT_V5 47 /* format version 5's, still read */
 #define PDS__PARTIAL_NOPT_V4 46 /* format version 4's, still read */
@@ -12271,7 +12272,22 @@ struct pds_partial {
     pds__sum128 *photon;       /* width * height * 3: S+; NULL for split 0 */
     pds__sum128 *neg;          /* width * height * 3: S-, spectral renders'
                                   negative sums (else 0); NULL for split 0 */
+    int stride;                /* sums a pixel in photon and neg: 3, or 8 when
+                                  its pixels choose between two scales
+                                  (pds__photon_stride) */
 };
+
+/* The photon sums a pixel holds: 3 (R, G, B), or 7 when progressive PDS's
+   pixels choose between two scales (pds_options.pass_select;
+   pds__scale_choice): R, G, B at the pass's scale, R, G, B of the half
+   scale's difference from it (signed: S+ and S- both), and the odd
+   passes' sum of that difference's three. */
+#define PDS__STRIDE_SELECT 7
+static int pds__photon_stride(const pds_options *opt)
+{
+    pds_method cm = opt->method == PDS_METHOD_GI ? opt->caustics : opt->method;
+    return cm == PDS_METHOD_PDS && opt->progressive && opt->pass_select ? PDS__STRIDE_SELECT : 3;
+}
 
 /* Content hash of a loaded scene: its triangles, materials, lights and
    camera (not the file names), so that parts of one render are recognised
@@ -12435,6 +12451,8 @@ static void pds__partial_opt_encode(const pds_options *o, uint64_t v[PDS__PARTIA
     v[47] = (uint64_t)(int64_t)o->eye_rounds;
     /* format version 7: footprints folded at walls */
     v[48] = (uint64_t)(int64_t)o->walls;
+    /* format version 8: the pixels' choice of two scales */
+    v[49] = (uint64_t)(int64_t)o->pass_select;
 }
 
 /* nopt: how many the file holds (31 in format version 2, whose renders
@@ -12492,7 +12510,9 @@ static void pds__partial_opt_decode(const uint64_t v[PDS__PARTIAL_NOPT], int nop
     if (nopt >= PDS__PARTIAL_NOPT_V5) o->diffuse_bounces = PDS__OPT_INT(v[46]);
     if (nopt >= PDS__PARTIAL_NOPT_V6) o->eye_rounds = PDS__OPT_INT(v[47]);
     /* a render of an earlier version had no walls: it goes on without */
-    o->walls = nopt >= PDS__PARTIAL_NOPT ? PDS__OPT_INT(v[48]) : 0;
+    o->walls = nopt >= PDS__PARTIAL_NOPT_V7 ? PDS__OPT_INT(v[48]) : 0;
+    /* ... nor the pixels' choice of scales */
+    o->pass_select = nopt >= PDS__PARTIAL_NOPT ? PDS__OPT_INT(v[49]) : 0;
 #undef PDS__OPT_INT
     for (k = 0; k < 13; k++) memcpy(&d[k], &v[16 + k], sizeof d[k]);
     o->time_s = d[0];
@@ -12580,23 +12600,142 @@ void pds_partial_options(const pds_partial *p, pds_options *opt)
     opt->shard_count = p->shard_count;
 }
 
-/* The image of the state (eq. at the top of this section): for every
-   pixel channel, E + (S+ - S-) / unit * (n_planned / emitted). Used by
-   pds_render and by merges alike. */
-static long pds__partial_image(const double *eye, const pds__sum128 *photon, const pds__sum128 *neg, double unit,
-                               double n_planned, long emitted, size_t n, float *out)
+/* Box mean of x (w x h) over the (2r+1)^2 pixels about each, the image's
+   edge pixels repeated beyond it: two passes of running sums. */
+static void pds__box_mean(double *x, double *tmp, int w, int h, int r)
 {
+    int px, py, k;
+    double inv = 1.0 / ((2.0 * r + 1.0) * (2.0 * r + 1.0));
+    for (py = 0; py < h; py++) {
+        const double *row = x + (size_t)py * (size_t)w;
+        double sum = 0.0;
+        for (k = -r; k <= r; k++) sum += row[k < 0 ? 0 : k >= w ? w - 1 : k];
+        for (px = 0; px < w; px++) {
+            int out = px - r, in = px + r + 1;
+            tmp[(size_t)py * (size_t)w + (size_t)px] = sum;
+            sum += row[in >= w ? w - 1 : in] - row[out < 0 ? 0 : out];
+        }
+    }
+    for (px = 0; px < w; px++) {
+        double sum = 0.0;
+        for (k = -r; k <= r; k++) sum += tmp[(size_t)(k < 0 ? 0 : k >= h ? h - 1 : k) * (size_t)w + (size_t)px];
+        for (py = 0; py < h; py++) {
+            int out = py - r, in = py + r + 1;
+            x[(size_t)py * (size_t)w + (size_t)px] = sum * inv;
+            sum += tmp[(size_t)(in >= h ? h - 1 : in) * (size_t)w + (size_t)px] -
+                   tmp[(size_t)(out < 0 ? 0 : out) * (size_t)w + (size_t)px];
+        }
+    }
+}
+
+/* The pixels' choice between two scales (an extension; pds_options.
+   pass_select, off by default). A kernel estimate's bias grows with its
+   bandwidth and its variance falls, and no one bandwidth suits every
+   part of an image: where the caustic is sharp (the reflection case's
+   cusp) a smaller one is better, where it is smooth or the photons few a
+   larger. With pass_select every pass splats each photon at its
+   smoothing s_i and, for the merged eye vertices (seen directly), at
+   s_i / 2 as well (pds__splat), and a pixel holds besides its sums the
+   half scale's difference from them, D, and the odd passes' D apart
+   (PDS__STRIDE_SELECT). The odd and the even passes are two estimates of
+   the same image, so with da, db the two halves' mean D per pass:
+     da db                        estimates (beta_half - beta)^2, the
+                                  squared bias the half scale removes,
+     (da - db)^2 Ko Ke / K^2      the variance it adds to the image's mean
+                                  of K passes (var(S) - var(L) = var(D) +
+                                  2 cov(L, D), and cov(L, D) ~ 0 for a
+                                  kernel nested in the other)
+   (Ko odd passes, Ke even ones: E[(da - db)^2] = sigma_D^2 K / (Ko Ke)
+   for a pass variance sigma_D^2; the image's is sigma_D^2 / K). The half
+   scale's own bias taken as 0, it lowers the pixel's squared error when
+   the first exceeds the second. Both are noisy at one pixel, so each is
+   the mean over the 7 x 7 pixels about it (the bias and the variance
+   change slowly across the image; radius 3 was the best of 0 to 3 in a
+   simulation with two whole renders for halves, 1, 6 and 10 no better
+   in the renders). Consecutive passes are stratified together (the
+   Halton points), so the halves' difference overstates the variance
+   and their product understates the bias: both lean to the pass's own
+   scale. A single sample (seen through a specular surface) keeps one
+   scale: its value is its one point's, and that point's noise is the
+   eye pass's, the same in the odd and the even passes of a round, which
+   the product would take for bias. The cost is a second kernel and four
+   more sums at every merged vertex a footprint meets. Measured in the
+   README ("The pixels' choice of two scales").
+   small[i] gets 1 where pixel i takes the half scale. passes: the passes
+   summed (K); with fewer than two every pixel keeps the pass's. */
+#define PDS__SELECT_RADIUS 3
+static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, int w, int h, long passes,
+                             unsigned char *small)
+{
+    size_t n = (size_t)w * (size_t)h, i;
+    double *bias = (double *)malloc(sizeof *bias * (n ? n : 1)), *var = (double *)malloc(sizeof *var * (n ? n : 1));
+    double *tmp = (double *)malloc(sizeof *tmp * (n ? n : 1));
+    double ko = (double)(passes / 2), ke = (double)(passes - passes / 2), kk = (double)passes;
+    if (!bias || !var || !tmp) {
+        free(bias);
+        free(var);
+        free(tmp);
+        return 0;
+    }
+    for (i = 0; i < n; i++) {
+        const pds__sum128 *ps = photon + PDS__STRIDE_SELECT * i, *ns = neg + PDS__STRIDE_SELECT * i;
+        double d = 0.0, dodd, da, db;
+        int c;
+        if (passes < 2) {
+            bias[i] = var[i] = 0.0;
+            continue;
+        }
+        for (c = 0; c < 3; c++) d += pds__sum128_value(ps[3 + c]) - pds__sum128_value(ns[3 + c]);
+        dodd = pds__sum128_value(ps[6]) - pds__sum128_value(ns[6]);
+        da = dodd / ko;
+        db = (d - dodd) / ke;
+        bias[i] = da * db;
+        var[i] = (da - db) * (da - db) * ko * ke / (kk * kk);
+    }
+    pds__box_mean(bias, tmp, w, h, PDS__SELECT_RADIUS);
+    pds__box_mean(var, tmp, w, h, PDS__SELECT_RADIUS);
+    for (i = 0; i < n; i++) small[i] = passes >= 2 && bias[i] > var[i];
+    free(bias);
+    free(var);
+    free(tmp);
+    return 1;
+}
+
+/* The image of the state (eq. at the top of this section): for every
+   pixel channel, E + (S+ - S-) / unit * (n_planned / emitted), S the
+   pixel's chosen scale's sums when it holds two (stride 8,
+   pds__scale_choice; the passes are emitted / n_planned). Used by
+   pds_render and by merges alike. Returns the values replaced
+   (pds__finite_floats), -1 when memory runs out. */
+static long pds__partial_image(const double *eye, const pds__sum128 *photon, const pds__sum128 *neg, int stride, int w,
+                               int h, double unit, double n_planned, long emitted, float *out)
+{
+    size_t n = (size_t)w * (size_t)h * 3, i;
     double *rgb = (double *)malloc(sizeof *rgb * (n ? n : 1));
-    size_t i;
+    unsigned char *small = NULL;
     long nonfinite;
     if (!rgb) return -1;
+    if (photon && emitted > 0 && stride == PDS__STRIDE_SELECT) {
+        long passes = n_planned > 0.0 ? (long)floor((double)emitted / n_planned + 0.5) : 0;
+        small = (unsigned char *)malloc((size_t)w * (size_t)h + 1);
+        if (!small || !pds__scale_choice(photon, neg, w, h, passes, small)) {
+            free(rgb);
+            free(small);
+            return -1;
+        }
+    }
     for (i = 0; i < n; i++) {
         rgb[i] = eye[i];
-        if (photon && emitted > 0)
-            rgb[i] += (pds__sum128_value(photon[i]) - pds__sum128_value(neg[i])) / unit * (n_planned / (double)emitted);
+        if (photon && emitted > 0) {
+            size_t at = stride == 3 ? i : (size_t)stride * (i / 3) + i % 3;
+            double v = pds__sum128_value(photon[at]) - pds__sum128_value(neg[at]);
+            if (small && small[i / 3]) v += pds__sum128_value(photon[at + 3]) - pds__sum128_value(neg[at + 3]);
+            rgb[i] += v / unit * (n_planned / (double)emitted);
+        }
     }
     nonfinite = pds__finite_floats(rgb, out, n);
     free(rgb);
+    free(small);
     return nonfinite;
 }
 
@@ -12651,7 +12790,7 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
 {
     const pds_partial *p0;
     int *owner = NULL, i, shards;
-    size_t npix, k;
+    size_t npix, k, nsums;
     double *eye = NULL;
     pds__sum128 *photon = NULL, *neg = NULL;
     long emitted = 0;
@@ -12703,8 +12842,8 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
         /* one part: its own arrays are the merge (rows it does not hold are 0) */
         if (pds_image_alloc(out, p0->width, p0->height) != PDS_OK) return pds__nomem(err);
         if (fraction) pds__partial_fraction(parts, n, fraction);
-        k = (size_t)pds__partial_image(p0->eye, p0->photon, p0->neg, p0->unit, p0->n_planned, p0->emitted, npix,
-                                       out->rgb);
+        k = (size_t)pds__partial_image(p0->eye, p0->photon, p0->neg, p0->stride, p0->width, p0->height, p0->unit,
+                                       p0->n_planned, p0->emitted, out->rgb);
         if (k == (size_t)-1) {
             pds_image_free(out);
             return pds__nomem(err);
@@ -12712,10 +12851,11 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
         if (nonfinite) *nonfinite = (long)k;
         return PDS_OK;
     }
+    nsums = npix / 3 * (size_t)p0->stride;
     eye = (double *)calloc(npix, sizeof *eye);
     if (p0->split != PDS__SPLIT_ROWS) {
-        photon = (pds__sum128 *)calloc(npix, sizeof *photon);
-        neg = (pds__sum128 *)calloc(npix, sizeof *neg);
+        photon = (pds__sum128 *)calloc(nsums, sizeof *photon);
+        neg = (pds__sum128 *)calloc(nsums, sizeof *neg);
     }
     if (!eye || (p0->split != PDS__SPLIT_ROWS && (!photon || !neg)) ||
         pds_image_alloc(out, p0->width, p0->height) != PDS_OK) {
@@ -12733,7 +12873,7 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
             memcpy(eye + y * row, p->eye + y * row, sizeof *eye * row);
         }
         if (photon) {
-            for (k = 0; k < npix; k++) {
+            for (k = 0; k < nsums; k++) {
                 pds__sum128_add_bits(&photon[k], p->photon[k].lo, p->photon[k].hi);
                 pds__sum128_add_bits(&neg[k], p->neg[k].lo, p->neg[k].hi);
             }
@@ -12742,7 +12882,8 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
         }
     }
     if (fraction) pds__partial_fraction(parts, n, fraction);
-    k = (size_t)pds__partial_image(eye, photon, neg, p0->unit, p0->n_planned, emitted, npix, out->rgb);
+    k = (size_t)pds__partial_image(eye, photon, neg, p0->stride, p0->width, p0->height, p0->unit, p0->n_planned, emitted,
+                                   out->rgb);
     if (k == (size_t)-1) {
         pds_image_free(out);
         st = pds__nomem(err);
@@ -12767,31 +12908,33 @@ pds_status pds_partial_merge(const pds_partial *const *parts, const char *const 
 
      offset  bytes  field
      0       8      magic "PDSPART\n"
-     8       4      format version (7)
+     8       4      format version (8)
      12      16     library version string, NUL-padded ("0.1.0")
      28      8      scene content hash (pds_scene_hash)
      36      512    scene path as loaded, NUL-padded
      548     4 x 5  width, height, shard index (0-based), shard count, split
-     568     8 x 49 options (pds__partial_opt_encode's order)
-     960     8 x 13 rows done, units total, units own, units done, n_planned
+     568     8 x 50 options (pds__partial_opt_encode's order)
+     968     8 x 13 rows done, units total, units own, units done, n_planned
                     (binary64), emitted, unit (binary64), splatted,
                     degenerate, saturated, invalid, eye vertices, reserved 0
-     1064    ...    eye values of the rows done (rows I, I+N, ...: each
+     1072    ...    eye values of the rows done (rows I, I+N, ...: each
                     width x 3 binary64), then, unless split is 0, the photon
                     sums S+ and then S- (each width x height x 3 of: low 64
-                    bits, high 64 bits)
+                    bits, high 64 bits; x 7 instead of x 3 when the pixels
+                    choose between two scales, pds__photon_stride)
      end-8   8      check: FNV-1a 64 of every byte before it
-   Format versions 2 to 6 are read too: the same with 31 options
+   Format versions 2 to 7 are read too: the same with 31 options
    (counts at 816, eye values at 920), with 44 (counts at 920, eye values
    at 1024), with 46 (counts at 936, eye values at 1040), with 47
-   (counts at 944, eye values at 1048) and with 48 (counts at 952, eye
-   values at 1056); version 1 is refused. */
+   (counts at 944, eye values at 1048), with 48 (counts at 952, eye
+   values at 1056) and with 49 (counts at 960, eye values at 1064);
+   version 1 is refused. */
 
 /* Where the counts and the eye values begin, for a file of nopt options. */
 #define PDS__PARTIAL_COUNTS_AT(nopt) (568u + 8u * (unsigned)(nopt))
 #define PDS__PARTIAL_HEADER_AT(nopt) (PDS__PARTIAL_COUNTS_AT(nopt) + 8u * 13u)
-#define PDS__PARTIAL_COUNTS PDS__PARTIAL_COUNTS_AT(PDS__PARTIAL_NOPT) /* 960: the counts */
-#define PDS__PARTIAL_HEADER PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT) /* 1064 */
+#define PDS__PARTIAL_COUNTS PDS__PARTIAL_COUNTS_AT(PDS__PARTIAL_NOPT) /* 968: the counts */
+#define PDS__PARTIAL_HEADER PDS__PARTIAL_HEADER_AT(PDS__PARTIAL_NOPT) /* 1072 */
 
 static void pds__put_u32(unsigned char *b, uint32_t v)
 {
@@ -12843,10 +12986,10 @@ static uint64_t pds__fnv1a64(const unsigned char *b, size_t n)
 
 /* Bytes of the file of a part with these counts; 0 if it would not fit
    in a size_t. */
-static size_t pds__partial_file_size(int nopt, int width, int height, int split, long rows_done)
+static size_t pds__partial_file_size(int nopt, int width, int height, int split, long rows_done, int stride)
 {
     double bytes = PDS__PARTIAL_HEADER_AT(nopt) + 8.0 + (double)rows_done * width * 3.0 * 8.0 +
-                   (split != PDS__SPLIT_ROWS ? (double)width * height * 3.0 * 32.0 : 0.0);
+                   (split != PDS__SPLIT_ROWS ? (double)width * height * stride * 32.0 : 0.0);
     return bytes < (double)((size_t)-1) / 2 ? (size_t)bytes : 0;
 }
 
@@ -12859,7 +13002,7 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
     int i;
     pds_status st;
     if (!path || !p) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_partial_write: NULL argument");
-    size = pds__partial_file_size(PDS__PARTIAL_NOPT, p->width, p->height, p->split, p->rows_done);
+    size = pds__partial_file_size(PDS__PARTIAL_NOPT, p->width, p->height, p->split, p->rows_done, p->stride);
     b = size ? (unsigned char *)calloc(size, 1) : NULL;
     if (!b) return pds__nomem(err);
     memcpy(b, PDS__PARTIAL_MAGIC, 8);
@@ -12894,12 +13037,12 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
         for (k = 0; k < row; k++, at += 8) pds__put_f64(b + at, p->eye[y * row + k]);
     }
     if (p->split != PDS__SPLIT_ROWS)
-        for (k = 0; k < row * (size_t)p->height; k++, at += 16) {
+        for (k = 0; k < (size_t)p->width * (size_t)p->stride * (size_t)p->height; k++, at += 16) {
             pds__put_u64(b + at, p->photon[k].lo);
             pds__put_u64(b + at + 8, p->photon[k].hi);
         }
     if (p->split != PDS__SPLIT_ROWS)
-        for (k = 0; k < row * (size_t)p->height; k++, at += 16) {
+        for (k = 0; k < (size_t)p->width * (size_t)p->stride * (size_t)p->height; k++, at += 16) {
             pds__put_u64(b + at, p->neg[k].lo);
             pds__put_u64(b + at + 8, p->neg[k].hi);
         }
@@ -12913,6 +13056,7 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
 static int pds__partial_nopt(uint32_t version)
 {
     return version == PDS__PARTIAL_VERSION ? PDS__PARTIAL_NOPT
+           : version == 7u                 ? PDS__PARTIAL_NOPT_V7
            : version == 6u                 ? PDS__PARTIAL_NOPT_V6
            : version == 5u                 ? PDS__PARTIAL_NOPT_V5
            : version == 4u                 ? PDS__PARTIAL_NOPT_V4
@@ -12969,15 +13113,16 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
     pds_partial *p;
     pds_status st;
     long rows_done, rows_own, j;
-    int i, width, height, shard, shards, split, nopt;
+    int i, width, height, shard, shards, split, nopt, stride;
     size_t counts;
+    pds_options file_opt;
     if (!path || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_partial_read: NULL argument");
     *out = NULL;
     /* at most the largest file the limits allow; then the header says
        how long this one must be */
     st = pds__read_file(path,
                         pds__partial_file_size(PDS__PARTIAL_NOPT, PDS_MAX_RESOLUTION, PDS_MAX_RESOLUTION, 1,
-                                               PDS_MAX_RESOLUTION),
+                                               PDS_MAX_RESOLUTION, PDS__STRIDE_SELECT),
                         "partial file", &data, &size, err);
     if (st) return st;
     k = size < sizeof head ? size : sizeof head;
@@ -12996,7 +13141,12 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
     counts = PDS__PARTIAL_COUNTS_AT(nopt);
     rows_done = (long)pds__get_u64(head + counts);
     rows_own = pds__shard_count_of(height, shard, shards);
-    expect = pds__partial_file_size(nopt, width, height, split, rows_done);
+    memset(opt, 0, sizeof opt);
+    for (i = 0; i < nopt; i++) opt[i] = pds__get_u64(head + 568 + 8 * (size_t)i);
+    pds_options_default(&file_opt);
+    pds__partial_opt_decode(opt, nopt, &file_opt);
+    stride = pds__photon_stride(&file_opt);
+    expect = pds__partial_file_size(nopt, width, height, split, rows_done, stride);
     b = (const unsigned char *)data;
     if (size != expect) {
         free(data);
@@ -13020,8 +13170,7 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
     p->shard_index = shard;
     p->shard_count = shards;
     p->split = split;
-    memset(opt, 0, sizeof opt);
-    for (i = 0; i < nopt; i++) opt[i] = pds__get_u64(b + 568 + 8 * (size_t)i);
+    p->stride = stride;
     pds__partial_opt_decode(opt, nopt, &p->opt);
     p->rows_own = rows_own;
     p->rows_done = rows_done;
@@ -13049,8 +13198,8 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
     row = (size_t)width * 3;
     p->eye = (double *)calloc(row * (size_t)height, sizeof *p->eye);
     if (split != PDS__SPLIT_ROWS) {
-        p->photon = (pds__sum128 *)malloc(sizeof *p->photon * row * (size_t)height);
-        p->neg = (pds__sum128 *)malloc(sizeof *p->neg * row * (size_t)height);
+        p->photon = (pds__sum128 *)malloc(sizeof *p->photon * (size_t)width * (size_t)stride * (size_t)height);
+        p->neg = (pds__sum128 *)malloc(sizeof *p->neg * (size_t)width * (size_t)stride * (size_t)height);
     }
     if (!p->eye || (split != PDS__SPLIT_ROWS && (!p->photon || !p->neg))) {
         free(data);
@@ -13063,12 +13212,12 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
         for (k = 0; k < row; k++, at += 8) p->eye[y * row + k] = pds__get_f64(b + at);
     }
     if (p->photon)
-        for (k = 0; k < row * (size_t)height; k++, at += 16) {
+        for (k = 0; k < (size_t)width * (size_t)stride * (size_t)height; k++, at += 16) {
             p->photon[k].lo = pds__get_u64(b + at);
             p->photon[k].hi = pds__get_u64(b + at + 8);
         }
     if (p->neg)
-        for (k = 0; k < row * (size_t)height; k++, at += 16) {
+        for (k = 0; k < (size_t)width * (size_t)stride * (size_t)height; k++, at += 16) {
             p->neg[k].lo = pds__get_u64(b + at);
             p->neg[k].hi = pds__get_u64(b + at + 8);
         }
@@ -15084,6 +15233,10 @@ typedef struct pds__splat_buf {
                               terms' magnitudes (the film weight W(lambda)
                               has negative parts); NULL in RGB renders */
     double unit;           /* pds__sum_unit of the scene */
+    pds__sum128 *sel;      /* progressive pds choosing between two scales
+                              (pds__scale_choice): 4 a pixel, the half
+                              scale's difference R, G, B and in odd passes
+                              its sum, signed (pds__sel_add); else NULL */
     long splatted, degenerate;
     long split;            /* photons (and sub-photons) split into four */
     long roulette;         /* splats skipped by the cost roulette */
@@ -15196,6 +15349,9 @@ typedef struct pds__photon_job {
     void *retrace_ctx;
     long eye_rounds, eye_round;
     double eye_round_s;
+    /* progressive pds: the pixels choose between two scales
+       (pds__scale_choice); the pass is an odd one */
+    int select, pass_odd;
 } pds__photon_job;
 
 /* What a splat needs while it walks the eye vertices in range. */
@@ -15220,6 +15376,11 @@ typedef struct pds__splat_ctx {
     int clip;
     pds__v3 clip_p, clip_n;
     double e;                  /* the radiance splatted by this query */
+    /* the pixels' second scale (job->select; pds__scale_choice): the
+       footprint at half the smoothing, its filter matrix, its slab, and
+       its Ep over the footprint's (small: 0 if it has none) */
+    int small, merged;         /* ... and whether the query is of the merged vertices */
+    double Ms[2][3], plane_s, gain_s;
 } pds__splat_ctx;
 
 /* Add radiance v (W/(m^2 sr)) into sum i of the thread's image (a
@@ -15249,6 +15410,57 @@ static void pds__image_add3(pds__splat_buf *b, size_t p, const double v[3])
             pds__image_add(b, 3 * p + (size_t)c, v[c]);
         }
     }
+}
+
+/* The half scale's difference d (three channels) from the pass's in a
+   pixel that holds two scales (PDS__STRIDE_SELECT), and in an odd pass
+   its sum of the three apart. */
+/* v into signed sum i of the second scale's: two's complement modulo
+   2^128, exact and order-free as the image's (a term beyond 2^126 units,
+   or not finite, is dropped and counted). */
+static void pds__sel_add(pds__splat_buf *b, size_t i, double v)
+{
+    double f = fabs(v) * b->unit;
+    pds__sum128 *s = &b->sel[i];
+    uint64_t t, th = 0;
+    if (f < PDS__TWO63) {
+        t = (uint64_t)(f + 0.5);
+    } else if (f < PDS__TWO64 * PDS__TWO63) {
+        /* as pds__sum128_add_wide: f >= 2^63 is a multiple of 2^11 */
+        double h = floor(f / PDS__TWO64);
+        t = (uint64_t)(f - h * PDS__TWO64);
+        th = (uint64_t)h;
+    } else {
+        b->invalid++; /* infinite, NaN or beyond 2^126 units */
+        return;
+    }
+    if (v >= 0.0) {
+        s->lo += t;
+        s->hi += th + (s->lo < t);
+    } else {
+        s->hi -= th + (s->lo < t);
+        s->lo -= t;
+    }
+}
+
+/* A signed sum of pds__sel_add, as the two sums (S+, S-) the part holds. */
+static void pds__sel_split(pds__sum128 v, pds__sum128 *pos, pds__sum128 *neg)
+{
+    if (v.hi >> 63) {
+        /* negative: its magnitude is the two's complement */
+        uint64_t lo = ~v.lo + 1u, hi = ~v.hi + (lo == 0u);
+        (void)pds__sum128_add_bits(neg, lo, hi);
+    } else {
+        (void)pds__sum128_add_bits(pos, v.lo, v.hi);
+    }
+}
+
+static void pds__image_add_diff(pds__splat_buf *b, size_t p, const double d[3], int odd)
+{
+    int c;
+    for (c = 0; c < 3; c++)
+        if (d[c] != 0.0) pds__sel_add(b, 4 * p + (size_t)c, d[c]);
+    if (odd && d[0] + d[1] + d[2] != 0.0) pds__sel_add(b, 4 * p + 3, d[0] + d[1] + d[2]);
 }
 
 /* Silverman's kernel (eq. 11, in the footprint's unit-disc coordinates)
@@ -15325,6 +15537,29 @@ static inline int pds__splat_lambert_lit(const pds__splat_ctx *sc, const pds__ey
     return pds__dot(sc->wi, pds__f3_get(h->n)) > 0.0 && pds__dot(sc->wi, pds__f3_get(h->g)) > 0.0;
 }
 
+/* The kernel at the pixels' second scale (pds__scale_choice) for eye
+   vertex v, which the footprint's own kernel reached: the footprint at
+   half the smoothing, Ms (sc->small), in its slab; averaged over the
+   vertex's pixel if spread. Nested in the footprint (the same centre and
+   axes, each no longer), so no vertex outside the query can need it. */
+static double pds__splat_small_kernel(const pds__splat_ctx *sc, const pds__eye_vertex *v, int spread)
+{
+    pds__v3 d = pds__sub(pds__f3_get(v->pos), sc->xp);
+    double u[2], m1[2], m2[2];
+    int j;
+    if (!sc->small || fabs(pds__dot(d, sc->np)) > sc->plane_s) return 0.0;
+    for (j = 0; j < 2; j++) {
+        pds__v3 row = pds__v(sc->Ms[j][0], sc->Ms[j][1], sc->Ms[j][2]);
+        u[j] = pds__dot(row, d);
+        if (spread) {
+            m1[j] = pds__dot(row, pds__f3_get(v->px));
+            m2[j] = pds__dot(row, pds__f3_get(v->py));
+        }
+    }
+    if (spread) return pds__kernel_over_pixel(u, m1, m2);
+    return u[0] * u[0] + u[1] * u[1] < 1.0 ? pds__kernel_silverman(u[0] * u[0] + u[1] * u[1]) : 0.0;
+}
+
 /* eq. 10 for one eye vertex that pds__splat_visit_many's common case
    does not take: a wavelength's splat or a vertex of another material
    (pds__eye_response), or a merged vertex (spread: the kernel averaged
@@ -15364,6 +15599,16 @@ static void pds__splat_visit(pds__splat_ctx *sc, size_t index, double r2, int sp
     for (c = 0; c < 3; c++) val[c] = PDS__PI * k * w[c] * e[c];
     sc->e += val[0] + val[1] + val[2];
     pds__image_add3(sc->buf, (size_t)pixel, val);
+    if (sc->small && sc->merged) {
+        /* a merged vertex (seen directly) at the half scale too. A single
+           sample keeps one scale: its value is its one point's, whose
+           noise is the eye pass's, the same in the odd and the even
+           passes of a round, which the halves would take for the larger
+           scale's bias (pds__scale_choice) */
+        double ks = pds__splat_small_kernel(sc, v, spread), d[3];
+        for (c = 0; c < 3; c++) d[c] = PDS__PI * (ks * sc->gain_s - k) * w[c] * e[c];
+        pds__image_add_diff(sc->buf, (size_t)pixel, d, sc->job->pass_odd);
+    }
     if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, pixel, k, sc->aniso);
 }
 
@@ -15379,7 +15624,7 @@ static void pds__splat_visit_many(void *vctx, const size_t *index, const double 
     pds__splat_ctx *sc = (pds__splat_ctx *)vctx;
     const pds__eye_hot *hot = sc->job->map->hot + sc->base;
     int j, c;
-    if (sc->spread || sc->lambda > 0.0) {
+    if (sc->spread || sc->lambda > 0.0 || (sc->small && sc->merged)) {
         for (j = 0; j < n; j++) pds__splat_visit(sc, index[j], r2[j], sc->spread);
         return;
     }
@@ -15548,8 +15793,9 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
 {
     pds__splat_ctx sc;
     pds__ray_diff wide; /* a widened footprint; r may point here */
+    const pds__ray_diff *r0 = r; /* ... and the photon's own */
     pds__v3 hu, hv;     /* the footprint's semi-axis vectors (Du/2, Dv/2) */
-    double ap, major, spacing, keep = 1.0;
+    double ap, major, spacing = 0.0, keep = 1.0;
     int c;
     sc.lambda = lambda;
     sc.spread = 0;
@@ -15624,6 +15870,21 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
     sc.wi = pds__scale(r->d, -1.0);
     for (c = 0; c < 3; c++) sc.ep[c] = flux[c] / (ap * keep);
     sc.plane_max = job->plane_tolerance * major;
+    sc.small = 0;
+    if (buf->sel && job->fixed_radius <= 0.0) {
+        /* the second scale: the photon's differentials halved (eqs. 5-6
+           are linear in s, and so is every transfer after them, eqs.
+           7-9), widened as the pass's are */
+        pds__v3 du = pds__scale(r0->dpdu, 0.5), dv = pds__scale(r0->dpdv, 0.5);
+        double as;
+        if (job->min_aspect > 0.0 || job->min_width > 0.0)
+            (void)pds__footprint_widen_to(&du, &dv, sc.np, job->min_aspect, job->min_width * spacing);
+        as = pds__footprint_area(du, dv);
+        /* (none when the width floor makes it the footprint itself) */
+        sc.small = as > 0.0 && isfinite(as) && as < ap && pds__filter_matrix(du, dv, sc.np, sc.Ms);
+        sc.gain_s = sc.small ? ap / as : 0.0;
+        sc.plane_s = job->plane_tolerance * pds__footprint_major_axis(du, dv);
+    }
     sc.aniso = !buf->dbg ? 0.0 : job->fixed_radius > 0.0 ? 1.0 : pds__footprint_anisotropy(r->dpdu, r->dpdv);
     buf->splatted++;
     if (buf->dbg) pds__debug_landing(buf->dbg, &job->frame, photon, r->p, r->dpdu, r->dpdv);
@@ -15638,8 +15899,17 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
         pds__v3 du = pds__sub(r->dpdu, pds__scale(n, 2.0 * pds__dot(r->dpdu, n)));
         pds__v3 dv = pds__sub(r->dpdv, pds__scale(n, 2.0 * pds__dot(r->dpdv, n)));
         if (pds__filter_matrix(du, dv, sc.np, sc.M)) {
+            int j;
             sc.spread = 0;
             sc.xp = xm;
+            for (j = 0; sc.small && j < 2; j++) {
+                /* the second scale's matrix times the reflection I - 2 n n^T */
+                pds__v3 row = pds__v(sc.Ms[j][0], sc.Ms[j][1], sc.Ms[j][2]);
+                row = pds__sub(row, pds__scale(n, 2.0 * pds__dot(row, n)));
+                sc.Ms[j][0] = row.x;
+                sc.Ms[j][1] = row.y;
+                sc.Ms[j][2] = row.z;
+            }
             pds__splat_visit_all(job, &sc, xm, pds__scale(du, 0.5), pds__scale(dv, 0.5), major);
         }
     }
@@ -15652,11 +15922,13 @@ static void pds__splat_visit_all(const pds__photon_job *job, pds__splat_ctx *sc,
                                  double major)
 {
     sc->base = 0;
+    sc->merged = 0;
     sc->e = 0.0;
     pds__kdtree_range_ellipse(&job->map->tree, xp, major, (const double(*)[3])sc->M, sc->np, sc->plane_max, pds__splat_visit_many, sc);
     sc->buf->e_single += sc->e;
     if (job->map->merged.n > 0) {
         sc->base = job->map->n_single;
+        sc->merged = 1;
         sc->e = 0.0;
         pds__splat_grow_for_pixels(job, sc, hu, hv, &major);
         pds__kdtree_range_ellipse(&job->map->merged, xp, major, (const double(*)[3])sc->M, sc->np, sc->plane_max,
@@ -16171,6 +16443,7 @@ static void pds__pass_begin(pds__photon_job *job, const pds_options *opt, long k
     if (job->roulette_vertices > 0.0)
         job->roulette_vertices = PDS__SPLAT_ROULETTE * shrink * shrink * (PDS__SPLAT_ROULETTE_PASS / (double)m);
     job->noise_scale = 1.0 / (double)(k + 1);
+    job->pass_odd = (int)(k % 2);
 }
 
 /* The pass plan of progressive PDS for N photons: K = ceil(N / pass_photons)
@@ -17821,6 +18094,10 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.bufs[t].unit = pds__sum_unit(s);
         if (job.spectral) job.bufs[t].neg = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
         if (!job.bufs[t].sum || (job.spectral && !job.bufs[t].neg)) st = PDS_ERR_NOMEM;
+        if (part->stride == PDS__STRIDE_SELECT) {
+            job.bufs[t].sel = (pds__sum128 *)calloc(npix * 4, sizeof(pds__sum128));
+            if (!job.bufs[t].sel) st = PDS_ERR_NOMEM;
+        }
         if (dbg) {
             job.bufs[t].dbg = &dbg[t];
             if (!pds__debug_bufs_init(&dbg[t], s, debug, opt->method, opt->photons, npix)) st = PDS_ERR_NOMEM;
@@ -17832,6 +18109,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     }
     job.unit_stride = 1;
     job.nsums = npix * 3;
+    job.select = part->stride == PDS__STRIDE_SELECT;
 #ifndef PDS_NO_BASELINES
     if (!st && opt->method == PDS_METHOD_PPM) {
         st = pds__ppm_passes(&job, opt, vertices, nvertices, threads, &emitted, stats, err);
@@ -17910,8 +18188,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         }
 #endif
         for (t = 0; t < threads; t++) {
-            memset(job.bufs[t].sum, 0, npix * 3 * sizeof(pds__sum128));
-            if (job.bufs[t].neg) memset(job.bufs[t].neg, 0, npix * 3 * sizeof(pds__sum128));
+            memset(job.bufs[t].sum, 0, job.nsums * sizeof(pds__sum128));
+            if (job.bufs[t].neg) memset(job.bufs[t].neg, 0, job.nsums * sizeof(pds__sum128));
             if (dbg) pds__debug_bufs_clear(&dbg[t], npix);
             if (paths) paths[t].n = 0;
             job.bufs[t].splatted = job.bufs[t].degenerate = job.bufs[t].saturated = job.bufs[t].invalid = 0;
@@ -18029,12 +18307,20 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
            The photons were weighted for n_planned; the image divides by
            the count actually emitted (pds__partial_image). */
         long saturated = 0;
+        int ps = part->stride;
         if (!job.cancelled || splats)
             for (i = 0; i < npix * 3; i++)
                 for (t = 0; t < job.nbufs; t++) {
-                    saturated += pds__sum128_add_bits(&part->photon[i], job.bufs[t].sum[i].lo, job.bufs[t].sum[i].hi);
+                    size_t at = (size_t)ps * (i / 3) + i % 3; /* pixel i / 3's channel i % 3 */
+                    saturated += pds__sum128_add_bits(&part->photon[at], job.bufs[t].sum[i].lo, job.bufs[t].sum[i].hi);
                     if (job.spectral)
-                        saturated += pds__sum128_add_bits(&part->neg[i], job.bufs[t].neg[i].lo, job.bufs[t].neg[i].hi);
+                        saturated += pds__sum128_add_bits(&part->neg[at], job.bufs[t].neg[i].lo, job.bufs[t].neg[i].hi);
+                }
+        if ((!job.cancelled || splats) && ps == PDS__STRIDE_SELECT)
+            for (i = 0; i < npix * 4; i++)
+                for (t = 0; t < job.nbufs; t++) {
+                    size_t at = (size_t)ps * (i / 4) + 3 + i % 4; /* the pixel's sums after its R, G, B */
+                    pds__sel_split(job.bufs[t].sel[i], &part->photon[at], &part->neg[at]);
                 }
         /* the count the photons were weighted for, as the pass set it (the
            same in every shard: the options fix it) */
@@ -18047,8 +18333,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             float *img = (float *)malloc(sizeof *img * 3 * (npix ? npix : 1));
             double *rgb = (double *)malloc(sizeof *rgb * 3 * (npix ? npix : 1));
             if (!img || !rgb ||
-                pds__partial_image(part->eye, part->photon, part->neg, part->unit, part->n_planned, part->emitted,
-                                   npix * 3, img) < 0)
+                pds__partial_image(part->eye, part->photon, part->neg, part->stride, width, height, part->unit,
+                                   part->n_planned, part->emitted, img) < 0)
                 st = PDS_ERR_NOMEM;
             for (i = 0; !st && i < npix * 3; i++) rgb[i] = img[i];
             if (!st && pds__debug_finish(debug, dbg, job.nbufs, width, height, rgb, &job.frame)) st = PDS_ERR_NOMEM;
@@ -18100,7 +18386,9 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             stats->time_photons_s = pds__clock_now(&job.clock) - t0;
             stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + pds__kdtree_memory(&map.merged) +
                                    (map.hot ? map.n * sizeof *map.hot : 0) + stats->map_bytes +
-                                   (size_t)job.nbufs * npix * (3 + (dbg && dbg[0].aniso ? 2 : 0) + (job.spectral ? 3 : 0)) *
+                                   (size_t)job.nbufs * npix *
+                                       (3 + (job.select ? 4 : 0) + (dbg && dbg[0].aniso ? 2 : 0) +
+                                        (job.spectral ? 3 : 0)) *
                                        sizeof(pds__sum128) +
                                    (splats ? (size_t)job.nbufs * PDS__LANDINGS_HELD * sizeof(pds__landing) : 0);
         }
@@ -18108,6 +18396,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     for (t = 0; t < job.nbufs; t++) {
         free(job.bufs[t].sum);
         free(job.bufs[t].neg);
+        free(job.bufs[t].sel);
         if (dbg) pds__debug_bufs_free(&dbg[t]);
         if (paths) free(paths[t].ev);
         free(job.bufs[t].stored);
@@ -18209,7 +18498,7 @@ static pds_status pds__light_trace_image(const pds_scene *s, const pds_options *
         job.bufs[t].sum = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
         job.bufs[t].neg = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
         job.bufs[t].unit = pds__sum_unit(s);
-        if (!job.bufs[t].sum || !job.bufs[t].neg) st = PDS_ERR_NOMEM;
+            if (!job.bufs[t].sum || !job.bufs[t].neg) st = PDS_ERR_NOMEM;
     }
     if (!st) {
         pds__mutex_init(&job.lock);
@@ -18226,8 +18515,8 @@ static pds_status pds__light_trace_image(const pds_scene *s, const pds_options *
                 pds__sum128_add_bits(&job.bufs[0].sum[i], job.bufs[t].sum[i].lo, job.bufs[t].sum[i].hi);
                 pds__sum128_add_bits(&job.bufs[0].neg[i], job.bufs[t].neg[i].lo, job.bufs[t].neg[i].hi);
             }
-        if (!zero || pds__partial_image(zero, job.bufs[0].sum, job.bufs[0].neg, job.bufs[0].unit, (double)opt->photons,
-                                        opt->photons, npix * 3, out->rgb) < 0)
+        if (!zero || pds__partial_image(zero, job.bufs[0].sum, job.bufs[0].neg, 3, width, height, job.bufs[0].unit,
+                                        (double)opt->photons, opt->photons, out->rgb) < 0)
             st = PDS_ERR_NOMEM;
         free(zero);
         if (st) pds_image_free(out);
@@ -21563,6 +21852,7 @@ void pds_options_default(pds_options *opt)
     opt->split_depth = 0;
     opt->split_angle = 0.2;
     opt->walls = 1;
+    opt->pass_select = 0;
     opt->debug = NULL;
     opt->k = 50;
     opt->kernel = PDS_KERNEL_CONE;
@@ -21879,6 +22169,8 @@ static pds_status pds__options_check(const pds_options *opt, int w, int h, pds_e
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "smoothing must be positive");
     if (opt->walls != 0 && opt->walls != 1)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "walls %d is neither 0 nor 1", opt->walls);
+    if (opt->pass_select != 0 && opt->pass_select != 1)
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pass_select %d is neither 0 nor 1", opt->pass_select);
     if (opt->eye_rounds < 0 || opt->eye_rounds > PDS_MAX_SPP)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "eye rounds %d is outside 0..%d", opt->eye_rounds,
                          PDS_MAX_SPP);
@@ -22097,9 +22389,12 @@ static pds_status pds__render_estimate(const pds_scene *scene, const pds_options
         est->eye_vertices = est->samples * (double)(1 << pds__eye_splits(scene, opt));
         bytes += est->eye_vertices * vertex_bytes;
         /* the partial state's two sums (>>partial), and each thread's */
-        bytes += (double)npix * 6 * sizeof(pds__sum128) +
+        /* (the pixels' second scale: 7 sums a pixel instead of 3 there,
+           and 4 more a pixel in each thread) */
+        double stride = (double)pds__photon_stride(opt), second = stride == PDS__STRIDE_SELECT ? 4.0 : 0.0;
+        bytes += (double)npix * 2.0 * stride * sizeof(pds__sum128) +
                  (double)threads * npix *
-                     (3 + (pds__debug_wants(opt->debug, PDS_DEBUG_FOOTPRINT) ? 2 : 0) +
+                     (3 + second + (pds__debug_wants(opt->debug, PDS_DEBUG_FOOTPRINT) ? 2 : 0) +
                       (pds__render_is_spectral(scene, opt) ? 3 : 0)) *
                      sizeof(pds__sum128);
         /* the landings each thread holds before it splats them */
@@ -22200,10 +22495,11 @@ static pds_partial *pds__partial_new(const pds_scene *scene, const pds_options *
         if (cm == PDS_METHOD_PPM) p->n_planned = (double)opt->photons * opt->passes;
     }
     p->unit = pds__sum_unit(scene);
+    p->stride = pds__photon_stride(opt);
     p->eye = (double *)calloc(n, sizeof *p->eye);
     if (p->split != PDS__SPLIT_ROWS) {
-        p->photon = (pds__sum128 *)calloc(n, sizeof *p->photon);
-        p->neg = (pds__sum128 *)calloc(n, sizeof *p->neg);
+        p->photon = (pds__sum128 *)calloc(n / 3 * (size_t)p->stride, sizeof *p->photon);
+        p->neg = (pds__sum128 *)calloc(n / 3 * (size_t)p->stride, sizeof *p->neg);
     }
     if (!p->eye || (p->split != PDS__SPLIT_ROWS && (!p->photon || !p->neg))) {
         pds_partial_free(p);
@@ -22456,7 +22752,8 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
     rc.traced = job.pass - pass0;
     pds__mutex_destroy(&job.lock);
     stats->time_eye_s = pds__clock_now(&job.clock) - job.t0 - gi_map_s;
-    stats->memory_bytes = npix * 3 * sizeof(double) * 2 + (part->photon ? npix * 6 * sizeof(pds__sum128) : 0);
+    stats->memory_bytes =
+        npix * 3 * sizeof(double) * 2 + (part->photon ? npix * 2 * (size_t)part->stride * sizeof(pds__sum128) : 0);
     /* the rows handed out before a stop are all finished: a prefix (a stop
        in one of several passes of values keeps nothing) */
     completed = job.stop ? (job.next_row < job.nrows ? job.next_row : job.nrows) : job.nrows;

@@ -262,19 +262,24 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
           "over the limit: %s", err.text);
     /* PDS: no map, but each thread holds up to 4096 landings (216 bytes
        each) before it splats them, however its photons split: the
-       estimate is pm's without the photons plus those, and a render on
-       two threads holds one image and one thread's landings more than on
-       one */
+       estimate is pm's without the photons plus those, and with the
+       pixels' second scale (pass_select) 4 more sums a pixel in the
+       part's two images and 4 in each thread's; a render on two threads
+       holds one image (with its second scale's) and one thread's landings
+       more than on one */
     opt.memory_limit = 0.0;
     opt.method = PDS_METHOD_PDS;
     for (depth = 0; depth <= 2; depth += 2) {
         pds_render_estimate pest;
         pds_render_stats one;
+        int second = depth == 2; /* the second scale with the splits */
         opt.split_depth = depth;
+        opt.pass_select = second;
         opt.threads = 2;
         REQUIRE(t, pds_render_estimate_get(s, &opt, &pest, &err) == PDS_OK, "pds estimate: %s", err.text);
         CHECK(t, pest.stored_photons == 0.0 &&
-                     pest.memory_bytes == est.memory_bytes - 5000.0 * (sizeof(long) == 8 ? 149 : 133) + 2 * 4096 * 216.0,
+                     pest.memory_bytes == est.memory_bytes - 5000.0 * (sizeof(long) == 8 ? 149 : 133) + 2 * 4096 * 216.0 +
+                                              (second ? pixels * 16 * (2 * 4 + 2 * 4) : 0.0),
               "pds estimate %.0f bytes, pm's %.0f", pest.memory_bytes, est.memory_bytes);
         REQUIRE(t, pds_render(s, &opt, &img, &st, &err) == PDS_OK, "pds render: %s", err.text);
         pds_image_free(&img);
@@ -284,7 +289,7 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
         opt.threads = 1;
         REQUIRE(t, pds_render(s, &opt, &img, &one, &err) == PDS_OK, "pds render, one thread: %s", err.text);
         pds_image_free(&img);
-        CHECK(t, st.memory_bytes - one.memory_bytes == (size_t)(pixels * 3 * 16 + 4096 * 216),
+        CHECK(t, st.memory_bytes - one.memory_bytes == (size_t)(pixels * (3 + (second ? 4 : 0)) * 16 + 4096 * 216),
               "two threads %lu bytes, one %lu", (unsigned long)st.memory_bytes, (unsigned long)one.memory_bytes);
     }
     pds_scene_free(s);

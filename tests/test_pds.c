@@ -1189,6 +1189,128 @@ static void test_eye_round_ratio_gives_photons_the_time_single_samples_do_not_ne
           pds__eye_round_ratio(0.0, 0.0, 1));
 }
 
+/* The pixels' second scale (pds_options.pass_select) is the pass at half
+   its smoothing: on the plane mirror's floor (every pixel a merged
+   vertex), one pass of 16,384 photons with s_1 = 3 and no widening (so
+   the footprints scale with s) holds, besides its own sums, those of the
+   same photons at s_1 = 1.5, as a render at 1.5 without the second scale
+   makes them (to rounding: the two add their terms in other orders of
+   operations), and its own sums are that render's at 3, bit for bit. */
+static void select_one_pass(pds_options *o, double s1, int select)
+{
+    o->method = PDS_METHOD_PDS;
+    o->progressive = 1;
+    o->photons = o->pass_photons = 16384;
+    o->pass_smoothing = s1;
+    o->pass_min_aspect = o->pass_min_width = 0.0;
+    o->walls = 0; /* the probes' reach follows the footprint's size */
+    o->pass_select = select;
+    o->paths = PDS_PATHS_CAUSTICS_ONLY;
+    o->threads = 2;
+}
+
+static void test_pds_second_scale_is_the_pass_at_half_the_smoothing(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text(mirror_scene, &err);
+    pds_partial *sel = NULL, *half = NULL, *own = NULL;
+    pds_options opt;
+    size_t i, npix = 24 * 24;
+    double worst = 0.0, lit = 0.0;
+    int same = 1, c;
+    REQUIRE(t, s != NULL, "load: %s", err.text);
+    pds_options_default(&opt);
+    select_one_pass(&opt, 3.0, 1);
+    REQUIRE(t, pds_render_part(s, &opt, &sel, NULL, &err) == PDS_OK, "render with the second scale: %s", err.text);
+    select_one_pass(&opt, 1.5, 0);
+    REQUIRE(t, pds_render_part(s, &opt, &half, NULL, &err) == PDS_OK, "render at s 1.5: %s", err.text);
+    select_one_pass(&opt, 3.0, 0);
+    REQUIRE(t, pds_render_part(s, &opt, &own, NULL, &err) == PDS_OK, "render at s 3: %s", err.text);
+    REQUIRE(t, sel->stride == PDS__STRIDE_SELECT && half->stride == 3 && own->stride == 3, "strides %d %d %d",
+            sel->stride, half->stride, own->stride);
+    for (i = 0; i < npix; i++)
+        for (c = 0; c < 3; c++) {
+            const pds__sum128 *a = &sel->photon[PDS__STRIDE_SELECT * i + (size_t)c], *b = &own->photon[3 * i + (size_t)c];
+            double small = pds__sum128_value(a[0]) + pds__sum128_value(a[3]) -
+                           pds__sum128_value(sel->neg[PDS__STRIDE_SELECT * i + 3 + (size_t)c]);
+            double want = pds__sum128_value(half->photon[3 * i + (size_t)c]);
+            same &= a->lo == b->lo && a->hi == b->hi;
+            lit += want;
+            if (want > 0.0) worst = fmax(worst, fabs(small / want - 1.0));
+            else worst = fmax(worst, small == 0.0 ? 0.0 : 1.0);
+        }
+    CHECK(t, lit > 0.0, "the floor got no caustic");
+    CHECK(t, worst < 1e-9, "the second scale's sums are %g from the render at half the smoothing", worst);
+    CHECK(t, same, "the pass's own sums differ from a render without the second scale");
+    pds_partial_free(sel);
+    pds_partial_free(half);
+    pds_partial_free(own);
+    pds_scene_free(s);
+}
+
+/* The choice (pds__scale_choice, through the image it makes): a 16 x 16
+   image of 10 passes (unit 1, one photon planned a pass), every pixel at
+   the pass's scale L = 2. The left half's half scale differs from it by
+   D = 0.3 in every channel and both halves of the passes (+ in the top
+   rows, - below: the negative sums): that is the pass's bias, and the
+   pixel takes L + D. The right half's odd passes differ by +0.3 and its
+   even ones by -0.3 (the difference is noise about 0): it keeps L. Away
+   from the middle columns by the 7 x 7 mean's reach. With one pass there
+   are no halves, and every pixel keeps L. Also the box mean against a
+   direct sum over the clamped neighbourhood. */
+static void test_pds_scale_choice_takes_the_half_scale_where_its_bias_beats_its_noise(pds_test_ctx *t)
+{
+    enum { W = 16, H = 16, K = 10, KO = K / 2, KE = K - K / 2 };
+    pds__sum128 photon[W * H * PDS__STRIDE_SELECT], neg[W * H * PDS__STRIDE_SELECT];
+    float out[W * H * 3];
+    double eye[W * H * 3], x[9 * 7], tmp[9 * 7], want[9 * 7];
+    int px, py, c, k, bad = 0, bad1 = 0;
+    memset(photon, 0, sizeof photon);
+    memset(neg, 0, sizeof neg);
+    memset(eye, 0, sizeof eye);
+    for (py = 0; py < H; py++)
+        for (px = 0; px < W; px++) {
+            pds__sum128 *p = &photon[PDS__STRIDE_SELECT * (py * W + px)], *n = &neg[PDS__STRIDE_SELECT * (py * W + px)];
+            pds__sum128 *d = py < H / 2 ? p : n; /* the difference's sign */
+            for (c = 0; c < 3; c++) p[c].lo = 2 * K * 10; /* L = 2 in tenths */
+            if (px < W / 2) {
+                for (c = 0; c < 3; c++) d[3 + c].lo = 3 * K;
+                d[6].lo = 3 * 3 * KO;
+            } else {
+                /* odd passes +0.3 each, even ones -0.3 each: the sums
+                   cancel but for KO - KE of them */
+                for (c = 0; c < 3; c++) (KO >= KE ? p : n)[3 + c].lo = 3 * (KO >= KE ? KO - KE : KE - KO);
+                p[6].lo = 3 * 3 * KO;
+            }
+        }
+    REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 10.0, 1.0, K, out) == 0, "image");
+    for (py = 0; py < H; py++)
+        for (px = 0; px < W; px++) {
+            double v = out[3 * (py * W + px)], l = 2.0, d = py < H / 2 ? 0.3 : -0.3;
+            if (px < W / 2 - 3 && fabs(v - (l + d)) > 1e-6) bad++;
+            if (px >= W / 2 + 3 && fabs(v - l) > 1e-6) bad++;
+        }
+    CHECK(t, bad == 0, "%d pixels took the other scale", bad);
+    REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 10.0 * K, 1.0, 1, out) == 0, "image");
+    for (k = 0; k < W * H; k++) bad1 += fabs(out[3 * k] - 2.0) > 1e-6;
+    CHECK(t, bad1 == 0, "one pass: %d pixels took the half scale", bad1);
+    for (k = 0; k < 9 * 7; k++) x[k] = (double)((k * 37) % 11) - 3.0;
+    for (py = 0; py < 7; py++)
+        for (px = 0; px < 9; px++) {
+            double sum = 0.0;
+            int dx, dy;
+            for (dy = -2; dy <= 2; dy++)
+                for (dx = -2; dx <= 2; dx++) {
+                    int qx = px + dx < 0 ? 0 : px + dx > 8 ? 8 : px + dx, qy = py + dy < 0 ? 0 : py + dy > 6 ? 6 : py + dy;
+                    sum += x[qy * 9 + qx];
+                }
+            want[py * 9 + px] = sum / 25.0;
+        }
+    pds__box_mean(x, tmp, 9, 7, 2);
+    for (k = 0, bad = 0; k < 9 * 7; k++) bad += fabs(x[k] - want[k]) > 1e-12;
+    CHECK(t, bad == 0, "box mean: %d values differ from the direct sums", bad);
+}
+
 /* A lamp met from its front ends a caustic photon, as it ends an eye path
    and a global photon: a point light under a ceiling lights it by way of a
    mirror floor, and a dim quad light halfway, facing down, shadows the
@@ -1302,6 +1424,9 @@ static const pds_test_case tests_pds[] = {
     {"pds_footprints_fold_at_a_wall", test_pds_footprints_fold_at_a_wall},
     {"pds_splat_finds_single_and_merged_vertices_as_brute_force_does",
      test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does},
+    {"pds_second_scale_is_the_pass_at_half_the_smoothing", test_pds_second_scale_is_the_pass_at_half_the_smoothing},
+    {"pds_scale_choice_takes_the_half_scale_where_its_bias_beats_its_noise",
+     test_pds_scale_choice_takes_the_half_scale_where_its_bias_beats_its_noise},
     {"eye_round_ratio_gives_photons_the_time_single_samples_do_not_need",
      test_eye_round_ratio_gives_photons_the_time_single_samples_do_not_need},
     {"pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_area",

@@ -27,27 +27,31 @@ typedef struct shards_case {
     pds_method caustics; /* gi */
     pds_paths paths;     /* default PDS_PATHS_ALL */
     int eye_rounds;      /* progressive pds */
+    int select;          /* progressive pds: the pixels' second scale */
 } shards_case;
 
 static const shards_case shards_cases[] = {
-    {"pds (progressive)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
-    {"pds (paper)", PDS_METHOD_PDS, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
-    {"splat", PDS_METHOD_SPLAT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
-    {"pm", PDS_METHOD_PM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
-    {"pdm", PDS_METHOD_PDM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
-    {"ppm", PDS_METHOD_PPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
-    {"pt", PDS_METHOD_PT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
+    {"pds (progressive)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
+    {"pds (paper)", PDS_METHOD_PDS, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
+    {"splat", PDS_METHOD_SPLAT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
+    {"pm", PDS_METHOD_PM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
+    {"pdm", PDS_METHOD_PDM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
+    {"ppm", PDS_METHOD_PPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
+    {"pt", PDS_METHOD_PT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
     /* 7: gi with caustics split by photon passes (the gather of every
        row's eye vertex but the shard's own is skipped); 8: by gathers */
-    {"gi (pds caustics)", PDS_METHOD_GI, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
-    {"gi (pm caustics)", PDS_METHOD_GI, 0, PDS_METHOD_PM, PDS_PATHS_ALL, 0},
+    {"gi (pds caustics)", PDS_METHOD_GI, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
+    {"gi (pm caustics)", PDS_METHOD_GI, 0, PDS_METHOD_PM, PDS_PATHS_ALL, 0, 0},
     /* 9: spm's full image, gi's with streams and spm caustics */
-    {"spm", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
-    {"isc", PDS_METHOD_ISC, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0},
-    {"spm (caustics only)", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_CAUSTICS_ONLY, 0},
+    {"spm", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
+    {"isc", PDS_METHOD_ISC, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
+    {"spm (caustics only)", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_CAUSTICS_ONLY, 0, 0},
     /* 12: a photon budget's eye rounds, one a pass: every shard traces
        every round's direct light and the rounds of its passes */
-    {"pds (eye rounds)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 3},
+    {"pds (eye rounds)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 3, 0},
+    /* 13: the pixels' choice of two scales, from the odd and even passes
+       of every shard */
+    {"pds (two scales)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 1},
 };
 
 static void shards_options(const shards_case *c, pds_options *opt)
@@ -58,6 +62,7 @@ static void shards_options(const shards_case *c, pds_options *opt)
     opt->caustics = c->caustics;
     opt->paths = c->paths;
     opt->eye_rounds = c->eye_rounds;
+    opt->pass_select = c->select;
     opt->global_photons = 3000; /* gi, spm */
     opt->gather = 4;
     opt->stream_photons = 4; /* spm: 1200 caustic streams, 600 global ones */
@@ -496,7 +501,8 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
         opt.stream_radius = d.stream_radius; /* format version 4 */
         opt.light_resolution = d.light_resolution;
     }
-    opt.walls = 0; /* format version 7: every render of an earlier version splatted without walls */
+    opt.walls = 0;       /* format version 7: every render of an earlier version splatted without walls */
+    opt.pass_select = 0; /* format version 8: ... and with one scale */
     opt.shard_index = 1;
     opt.shard_count = 2;
     REQUIRE(t, pds_render_part(s, &opt, &p, NULL, &err) == PDS_OK, "render: %s", err.text);
@@ -515,28 +521,30 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     pds_partial_free(back);
     back = NULL;
     bytes = shards_slurp(path, &n);
-    REQUIRE(t, bytes != NULL && n > 1064, "slurp");
-    /* 1064 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
-    CHECK(t, n == 1064 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
-    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 7 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
+    REQUIRE(t, bytes != NULL && n > 1072, "slurp");
+    /* 1072 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
+    CHECK(t, n == 1072 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
+    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 8 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
                  bytes[548] == 24 && bytes[552] == 16 && bytes[556] == 1 && bytes[560] == 2 && bytes[564] == 1 &&
                  bytes[568 + 8 * 41] == 4 && bytes[568 + 8 * 46] == 0xff && bytes[568 + 8 * 47] == 0 &&
-                 bytes[568 + 8 * 48] == 0 && bytes[960 + 8] == 3,
+                 bytes[568 + 8 * 48] == 0 && bytes[568 + 8 * 49] == 0 && bytes[968 + 8] == 3,
           "layout"); /* options 41 (history, default 4), 46 (diffuse bounces, default -1), 47 (eye rounds,
-                        default 0) and 48 (walls, 0 here) and units total (3 passes) at their offsets */
+                        default 0), 48 (walls, 0 here) and 49 (pass_select, 0 here) and units total (3
+                        passes) at their offsets */
     copy = (unsigned char *)malloc(n);
     REQUIRE(t, copy != NULL, "malloc");
     {
-        /* format versions 2 to 6 are read: the same part without
-           options 31-48, 44-48, 46-48, 47-48 and 48 (at their defaults,
-           as every render of those versions had them; walls off) */
-        static const struct { unsigned char version; size_t nopt; } old[5] = {{2, 31}, {3, 44}, {4, 46}, {5, 47},
-                                                                              {6, 48}};
+        /* format versions 2 to 7 are read: the same part without
+           options 31-49, 44-49, 46-49, 47-49, 48-49 and 49 (at their
+           defaults, as every render of those versions had them; walls
+           off, one scale) */
+        static const struct { unsigned char version; size_t nopt; } old[6] = {{2, 31}, {3, 44}, {4, 46},
+                                                                              {5, 47}, {6, 48}, {7, 49}};
         int v;
-        for (v = 0; v < 5; v++) {
-            size_t at = 568 + 8 * old[v].nopt, cut = 960 - at;
+        for (v = 0; v < 6; v++) {
+            size_t at = 568 + 8 * old[v].nopt, cut = 968 - at;
             memcpy(copy, bytes, at);
-            memcpy(copy + at, bytes + 960, n - 960);
+            memcpy(copy + at, bytes + 968, n - 968);
             copy[8] = old[v].version;
             pds__put_u64(copy + n - cut - 8, pds__fnv1a64(copy, n - cut - 8));
             shards_spit(bad, copy, n - cut);
@@ -558,7 +566,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     copy[8] = 1;
     shards_spit(bad, copy, n);
     CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE &&
-                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 7"),
+                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 8"),
           "format version: %s", err.text);
     memcpy(copy, bytes, n);
     memcpy(copy + 12, "9.9.9", 5);
@@ -584,6 +592,28 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     CHECK(t, pds_render_part(s, &opt, &p, NULL, &err) == PDS_ERR_INVALID_ARG &&
                  strstr(err.text, "not the ones the part was rendered with"),
           "other options: %s", err.text);
+    {
+        /* with the pixels' second scale the part holds 7 sums a pixel in
+           each image, and reads back to the same image */
+        pds_partial *q = NULL, *qb = NULL;
+        unsigned char *qbytes;
+        size_t qn = 0;
+        opt.seed = 1;
+        opt.pass_select = 1;
+        REQUIRE(t, pds_render_part(s, &opt, &q, NULL, &err) == PDS_OK, "render, two scales: %s", err.text);
+        REQUIRE(t, pds_partial_write(path, q, &err) == PDS_OK, "write, two scales: %s", err.text);
+        qbytes = shards_slurp(path, &qn);
+        CHECK(t, qbytes && qn == 1072 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 7 * 16 + 8 && qbytes[568 + 8 * 49] == 1,
+              "two scales: %lu bytes", (unsigned long)qn);
+        free(qbytes);
+        pds_image_free(&ia);
+        pds_image_free(&ib);
+        CHECK(t, pds_partial_read(path, &qb, &err) == PDS_OK && shards_merge(&q, 1, 1, &ia, NULL, &err) == PDS_OK &&
+                     shards_merge(&qb, 1, 1, &ib, NULL, &err) == PDS_OK && shards_same(&ia, &ib),
+              "two scales: the image read back differs");
+        pds_partial_free(q);
+        pds_partial_free(qb);
+    }
     free(copy);
     free(bytes);
     remove(path);
@@ -628,6 +658,7 @@ static const shards_field shards_fields[] = {
     SHARDS_FIELD(global_map, 1),     SHARDS_FIELD(stream_radius, 1),   SHARDS_FIELD(diffuse_bounces, 1),
     SHARDS_FIELD(memory_limit, 0),   SHARDS_FIELD(shard_index, 0),     SHARDS_FIELD(shard_count, 0),
     SHARDS_FIELD(static_lighting, 0), SHARDS_FIELD(eye_rounds, 1), SHARDS_FIELD(walls, 1),
+    SHARDS_FIELD(pass_select, 1),
 };
 
 /* The names of pds_options's fields as pds.h declares them: comments
