@@ -597,8 +597,8 @@ typedef struct pds_options {
                            its larger variance, else the pass's own (1; default
                            0: the pass's scale everywhere). It pays where the
                            caustic is sharp and seen directly (the reflection
-                           case's cusp: RMSE -33% at 3 s) and costs 7-17% of
-                           the photon pass's time everywhere */
+                           case's cusp: RMSE -31% at 3 s) and costs 11-20%
+                           of the photons a time budget reaches */
     double pass_alpha;  /* progressive pds: pass i's footprint areas shrink as
                            i^(pass_alpha - 1), in (0, 1] (default 2/3) */
     double pass_smoothing; /* progressive pds: s_1 of the first pass (default 2) */
