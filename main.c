@@ -128,8 +128,9 @@ static const command_help help_table[] = {
      "      --split-angle A         progressive pds: split above a normal turn of A radians over the\n"
      "                              footprint (default 0.2)\n"
      "      --no-walls              progressive pds: footprints reach under walls (default: folded there)\n"
-     "      --pass-select           progressive pds: each pixel chooses between the passes' scale and half\n"
-     "                              of it, by the odd and even passes (sharp caustics; default: off)\n"
+     "      --no-pass-select        progressive pds: one scale for every pixel (default: each pixel seen\n"
+     "                              directly takes the passes' scale, half of it or a blur of the first,\n"
+     "                              whichever an independent light tracer's photons say is closest)\n"
      "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"
      "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
      "      --debug NAME            write a view OUT.NAME.png: footprint, landings, ellipses[=N], splats,\n"
@@ -1266,9 +1267,8 @@ static const opt_spec option_table[] = {
      M_PDS, C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--walls", NULL, "walls", set_flag, OPTF(walls), 1, 1, "", M_PDS | M_GI, C_ALL, F_PER_METHOD},
     {"--no-walls", NULL, "walls", set_flag, OPTF(walls), 0, 0, "", M_PDS | M_GI, C_ALL, F_PER_METHOD},
-    {"--pass-select", NULL, "pass_select", set_flag, OPTF(pass_select), 1, 1, "", M_PDS | M_GI, C_ALL, F_PER_METHOD},
-    {"--no-pass-select", NULL, "pass_select", set_flag, OPTF(pass_select), 0, 0, "", M_PDS | M_GI, C_ALL,
-     F_PER_METHOD},
+    {"--pass-select", NULL, "pass_select", set_flag, OPTF(pass_select), 1, 1, "", M_PDS, C_ALL, F_PER_METHOD},
+    {"--no-pass-select", NULL, "pass_select", set_flag, OPTF(pass_select), 0, 0, "", M_PDS, C_ALL, F_PER_METHOD},
     {"--split-depth", NULL, "split_depth", set_int, OPTF(split_depth), 0, 8, "a whole number from 0 to 8", M_PDS | M_GI,
      C_ALL, F_VALUE | F_SWEEP | F_PER_METHOD},
     {"--split-angle", NULL, "split_angle", set_double, OPTF(split_angle), 0, 10, "an angle above 0 and at most 10 radians",
@@ -1558,7 +1558,7 @@ static void format_params(const pds_options *o, char *buf, size_t n)
                      " pass_min_width=%g split_depth=%d split_angle=%g", o->pass_smoothing, o->pass_photons,
                      o->pass_alpha, o->pass_min_aspect, o->pass_min_width, o->split_depth, o->split_angle);
         if (o->progressive && !o->walls) snprintf(buf + strlen(buf), n - strlen(buf), " walls=0");
-        if (o->progressive && o->pass_select) snprintf(buf + strlen(buf), n - strlen(buf), " pass_select=1");
+        if (o->progressive && !o->pass_select) snprintf(buf + strlen(buf), n - strlen(buf), " pass_select=0");
         if (o->progressive && o->eye_rounds)
             snprintf(buf + strlen(buf), n - strlen(buf), " eye_rounds=%d", o->eye_rounds);
         if (!o->progressive)
@@ -2791,7 +2791,9 @@ static int bench_photons(int argc, char **argv)
 /* The photon pass of PDS (default settings) against photon mapping's
    (tracing, map build and k-nearest gather; k 50) at equal photons, one
    thread, caustics only, 256 pixels wide at the scene's aspect and spp:
-   the best of three runs of each, and their ratio. */
+   the best of three runs of each, and their ratio; and PDS with one scale
+   for every pixel (--no-pass-select: no second scale, no validation's
+   photons), the splats alone. */
 static int bench_pass(int argc, char **argv)
 {
     static const char *defaults[] = {"scenes/refraction.scene", "scenes/reflection.scene"};
@@ -2802,7 +2804,7 @@ static int bench_pass(int argc, char **argv)
     for (i = 0; i < n; i++) {
         pds_scene *scene = NULL;
         pds_error err;
-        double best[2] = {0.0, 0.0};
+        double best[3] = {0.0, 0.0, 0.0};
         long splatted = 0;
         int k, rep;
         if (load_any(paths[i], &scene, &err) != PDS_OK) {
@@ -2810,13 +2812,14 @@ static int bench_pass(int argc, char **argv)
             return 1;
         }
         for (rep = 0; rep < 3; rep++) {
-            for (k = 0; k < 2; k++) {
+            for (k = 0; k < 3; k++) {
                 pds_options opt;
                 pds_image img = {0, 0, NULL};
                 pds_render_stats st;
                 const pds_camera *cam = pds_scene_camera(scene);
                 pds_options_default(&opt);
-                opt.method = k == 0 ? PDS_METHOD_PDS : PDS_METHOD_PM;
+                opt.method = k == 1 ? PDS_METHOD_PM : PDS_METHOD_PDS;
+                if (k == 2) opt.pass_select = 0;
                 opt.paths = PDS_PATHS_CAUSTICS_ONLY;
                 opt.photons = photons;
                 opt.threads = 1;
@@ -2832,8 +2835,10 @@ static int bench_pass(int argc, char **argv)
                 if (k == 1) splatted = st.splatted;
             }
         }
-        printf("bench pass scene=%s landed=%ld pds_s=%.3f pm_s=%.3f pds_over_pm=%.2f\n", paths[i], splatted, best[0],
-               best[1], best[0] / (best[1] > 0.0 ? best[1] : 1e-9));
+        printf("bench pass scene=%s landed=%ld pds_s=%.3f pm_s=%.3f pds_over_pm=%.2f pds_one_scale_s=%.3f "
+               "one_scale_over_pm=%.2f\n",
+               paths[i], splatted, best[0], best[1], best[0] / (best[1] > 0.0 ? best[1] : 1e-9), best[2],
+               best[2] / (best[1] > 0.0 ? best[1] : 1e-9));
         pds_scene_free(scene);
     }
     return 0;

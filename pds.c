@@ -42,7 +42,8 @@
                   (PNG and OpenEXR not in PDS_NO_PNG)
      >>metrics    RMSE and SSIM
      >>partial    the exact state of a render or a shard of it: the image
-                  from it, merging shards, the partial file (not in
+                  from it (with the pixels' validated choice of scale),
+                  merging shards, the partial file (not in
                   PDS_NO_PARTIAL_FILE)
      >>render     camera (pinhole, thin lens), path tracer and eye pass (the
                   photon methods' eye chains split at glass; a pixel's
@@ -54,7 +55,8 @@
                   paths OBJ
      >>pds        photon differential splatting: aimed caustic photons,
                   tracing with differentials, splatting into the eye-path
-                  map; progressive passes and their eye rounds
+                  map; progressive passes and their eye rounds; the
+                  light tracer that validates the pixels' scales
      >>baselines  pm, pdm, splat, ppm (not in PDS_NO_BASELINES)
      >>streams    streamed photon mapping (spm): streams of a leading photon
                   and associated photons, concentrated at specular surfaces,
@@ -12241,9 +12243,10 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
    count says which. */
 
 #define PDS__PARTIAL_MAGIC "PDSPART\n"
-#define PDS__PARTIAL_VERSION 8u
+#define PDS__PARTIAL_VERSION 9u
 #define PDS__PARTIAL_MAX_SHARDS 1000000
 #define PDS__PARTIAL_NOPT 50    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT_V8 50 /* format version 8's, still read (not with pass_select) */
 #define PDS__PARTIAL_NOPT_V7 49 /* format version 7's, still read */
 #define PDS__PARTIAL_NOPT_V6 48 /* format version 6's, still read */
 #define PDS__PARTIAL_NOPT_V5 47 /* format version 5's, still read */
@@ -12273,20 +12276,25 @@ struct pds_partial {
     pds__sum128 *neg;          /* width * height * 3: S-, spectral renders'
                                   negative sums (else 0); NULL for split 0 */
     int stride;                /* sums a pixel in photon and neg: 3, or 8 when
-                                  its pixels choose between two scales
+                                  its pixels choose their scale
                                   (pds__photon_stride) */
 };
 
-/* The photon sums a pixel holds: 3 (R, G, B), or 7 when progressive PDS's
-   pixels choose between two scales (pds_options.pass_select;
-   pds__scale_choice): R, G, B at the pass's scale, R, G, B of the half
-   scale's difference from it (signed: S+ and S- both), and the odd
-   passes' sum of that difference's three. */
-#define PDS__STRIDE_SELECT 7
+/* The photon sums a pixel holds: 3 (R, G, B), or 8 when progressive PDS's
+   pixels choose their scale (pds_options.pass_select; pds__scale_choice):
+   R, G, B at the pass's scale; R, G, B at the second, smaller scale; the
+   validation light tracer's R + G + B; and the passes in which the pixel
+   was one merged vertex seen directly (a count, in the S+ sums only).
+   The second scale's and the validation's sums are signed (S+ and S-, as
+   a spectral render's). */
+#define PDS__STRIDE_SELECT 8
+#define PDS__SEL_HALF 3  /* the second scale's R, G, B */
+#define PDS__SEL_VALID 6 /* the validation's R + G + B */
+#define PDS__SEL_COUNT 7 /* the passes the pixel was seen directly in */
 static int pds__photon_stride(const pds_options *opt)
 {
-    pds_method cm = opt->method == PDS_METHOD_GI ? opt->caustics : opt->method;
-    return cm == PDS_METHOD_PDS && opt->progressive && opt->pass_select ? PDS__STRIDE_SELECT : 3;
+    /* (gi's caustics never merge their eye vertices, so none take part) */
+    return opt->method == PDS_METHOD_PDS && opt->progressive && opt->pass_select ? PDS__STRIDE_SELECT : 3;
 }
 
 /* Content hash of a loaded scene: its triangles, materials, lights and
@@ -12451,7 +12459,8 @@ static void pds__partial_opt_encode(const pds_options *o, uint64_t v[PDS__PARTIA
     v[47] = (uint64_t)(int64_t)o->eye_rounds;
     /* format version 7: footprints folded at walls */
     v[48] = (uint64_t)(int64_t)o->walls;
-    /* format version 8: the pixels' choice of two scales */
+    /* format version 8: the pixels' choice of scales (version 9: of
+       several, by validation) */
     v[49] = (uint64_t)(int64_t)o->pass_select;
 }
 
@@ -12628,82 +12637,183 @@ static void pds__box_mean(double *x, double *tmp, int w, int h, int r)
     }
 }
 
-/* The pixels' choice between two scales (an extension; pds_options.
-   pass_select, off by default). A kernel estimate's bias grows with its
-   bandwidth and its variance falls, and no one bandwidth suits every
-   part of an image: where the caustic is sharp (the reflection case's
-   cusp) a smaller one is better, where it is smooth or the photons few a
-   larger. With pass_select every pass splats each photon at its
-   smoothing s_i and, for the merged eye vertices (seen directly), at
-   s_i / 2 as well (pds__splat), and a pixel holds besides its sums the
-   half scale's difference from them, D, and the odd passes' D apart
-   (PDS__STRIDE_SELECT). The odd and the even passes are two estimates of
-   the same image, so with da, db the two halves' mean D per pass:
-     da db                        estimates (beta_half - beta)^2, the
-                                  squared bias the half scale removes,
-     (da - db)^2 Ko Ke / K^2      the variance it adds to the image's mean
-                                  of K passes (var(S) - var(L) = var(D) +
-                                  2 cov(L, D), and cov(L, D) ~ 0 for a
-                                  kernel nested in the other)
-   (Ko odd passes, Ke even ones: E[(da - db)^2] = sigma_D^2 K / (Ko Ke)
-   for a pass variance sigma_D^2; the image's is sigma_D^2 / K). The half
-   scale's own bias taken as 0, it lowers the pixel's squared error when
-   the first exceeds the second. Both are noisy at one pixel, so each is
-   the mean over the 7 x 7 pixels about it (the bias and the variance
-   change slowly across the image; radius 3 was the best of 0 to 3 in a
-   simulation with two whole renders for halves, 1, 6 and 10 no better
-   in the renders). Consecutive passes are stratified together (the
-   Halton points), so the halves' difference overstates the variance
-   and their product understates the bias: both lean to the pass's own
-   scale. A single sample (seen through a specular surface) keeps one
-   scale: its value is its one point's, and that point's noise is the
-   eye pass's, the same in the odd and the even passes of a round, which
-   the product would take for bias. The cost is a second kernel and four
-   more sums at every merged vertex a footprint meets. Measured in the
-   README ("The pixels' choice of two scales").
-   small[i] gets 1 where pixel i takes the half scale. passes: the passes
-   summed (K); with fewer than two every pixel keeps the pass's. */
-#define PDS__SELECT_RADIUS 3
-static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, int w, int h, long passes,
-                             unsigned char *small)
+/* The pixels' choice of scale (an extension; pds_options.pass_select).
+   A kernel estimate's bias grows with its bandwidth and its variance
+   falls, and no one bandwidth suits every scene or every part of an
+   image: the best first-pass smoothing s_1 differs fourfold between the
+   shipped scenes (the reflection case's sharp cusp about 0.5-0.75, the
+   refraction case 1.4-2, the cognac glass's and the gold ring's smooth
+   caustics 2.8 or more). So the render makes several estimates of the
+   pixels it sees directly and lets each pixel take the one that a second,
+   independent estimate without any kernel says is closest:
+   - candidates: the pass's own footprints (s_i, width floor W_i); the same
+     photons' footprints at half the smoothing and two thirds of the floor
+     (pds__splat, into their own sums); and the first blurred across the
+     image by boxes of radius 1 once, 1 three times and 2 three times
+     (standard deviations 0.82, 1.41 and 2.45 pixels), each box along a
+     row or a column stopping at the pixels' edges: where the neighbour
+     takes no part or sees another surface (pds__count_direct), so that
+     no light crosses a wall, a silhouette or a crease;
+   - the validation V: a light tracer's image (pds__validate_bin, the
+     references' estimator) from photons of their own, independent of the
+     passes' (another randomisation of the Halton points and the branch
+     choices), a quarter of a pass's count each pass. It has no kernel,
+     so E[V] is the pixel's true value (its box filter of the caustic),
+     and its noise is independent of every candidate's, so for candidate
+     j at pixel x
+       E[(L_j - V)^2] = E[(L_j - L)^2] + Var(V)
+     (L the true value): the squared error of L_j plus a term that does
+     not depend on j. Each candidate's (L_j - V)^2, summed over R + G + B
+     and averaged over the pixels about x (boxes of radius 7, three
+     times: a standard deviation of 7.5 pixels) estimates its local
+     squared error up to that constant, and the pixel takes the smallest.
+     This is hold-out validation (cross-validation of the bandwidth, as
+     kernel density estimators choose theirs), with an unbiased
+     estimator for the held-out data instead of a share of the samples;
+   - who takes part: a pixel that was, in every pass, one merged vertex
+     seen straight from a pinhole camera (pds__eye_merge): its value is
+     its box filter, which is what V estimates. Every other pixel (seen
+     through glass or in a mirror, a silhouette's, a spectral or
+     thin-lens render's) keeps the pass's scale.
+   Why not the passes' own spread: consecutive passes' photons are one
+   Halton sequence, so any split of the passes into halves gives
+   complementary point sets, and the halves' difference overstates the
+   noise of their mean, 1.4 times on the cognac glass, 6 times on the
+   refraction case and 20 times on the reflection case (measured against
+   independent seeds); a choice made from it leans to the larger scale.
+   Measured in the README ("Scales chosen by validation").
+   Fills rgb (3 a pixel) with every pixel's photon part: (S+ - S-) times
+   scale (the image's 1 / unit * n_planned / emitted) of the chosen
+   candidate. passes: the passes summed. Returns 0 when memory runs out. */
+#define PDS__SELECT_BLURS 3
+static const int pds__select_blur[PDS__SELECT_BLURS][2] = {{1, 1}, {1, 3}, {2, 3}}; /* box radius, times */
+#define PDS__SELECT_RADIUS 7 /* the errors' box, applied three times */
+
+/* The weighted mean of x (w x h) with weights m over box^times about each
+   pixel (pds__box_mean), given den = box^times of m: x is replaced. */
+static void pds__masked_box(double *x, const double *m, const double *den, double *tmp, int w, int h, int r, int times)
 {
     size_t n = (size_t)w * (size_t)h, i;
-    double *bias = (double *)malloc(sizeof *bias * (n ? n : 1)), *var = (double *)malloc(sizeof *var * (n ? n : 1));
-    double *tmp = (double *)malloc(sizeof *tmp * (n ? n : 1));
-    double ko = (double)(passes / 2), ke = (double)(passes - passes / 2), kk = (double)passes;
-    if (!bias || !var || !tmp) {
-        free(bias);
-        free(var);
-        free(tmp);
+    int k;
+    for (i = 0; i < n; i++) x[i] *= m[i];
+    for (k = 0; k < times; k++) pds__box_mean(x, tmp, w, h, r);
+    for (i = 0; i < n; i++) x[i] = den[i] > 0.0 ? x[i] / den[i] : 0.0;
+}
+
+/* Box means of x (w x h) within its segments, `times` times: along each
+   row, then each column, the mean over the pixels within r of a pixel on
+   its run of pixels that take part (m) without an edge between them
+   (edge[i] bit 0: between i and its right neighbour, bit 1: its lower
+   one). Pixels that take no part are left as they are. seg: w + h + 1
+   doubles of scratch. */
+static void pds__segmented_box(double *x, const double *m, const unsigned char *edge, int w, int h, int r, int times,
+                               double *seg)
+{
+    int pass, dir;
+    for (pass = 0; pass < times; pass++)
+        for (dir = 0; dir < 2; dir++) {
+            int lines = dir ? w : h, len = dir ? h : w, line;
+            size_t step = dir ? (size_t)w : 1, across = dir ? 1 : (size_t)w;
+            unsigned char bit = dir ? 2 : 1;
+            for (line = 0; line < lines; line++) {
+                int a = 0;
+                while (a < len) {
+                    size_t at = (size_t)line * across + (size_t)a * step;
+                    int b = a, k;
+                    if (!(m[at] > 0.0)) {
+                        a++;
+                        continue;
+                    }
+                    /* the run a .. b, prefix sums in seg[1 ..] */
+                    seg[0] = 0.0;
+                    seg[1] = x[at];
+                    while (b + 1 < len && !(edge[at + (size_t)(b - a) * step] & bit) &&
+                           m[at + (size_t)(b + 1 - a) * step] > 0.0) {
+                        b++;
+                        seg[b - a + 1] = seg[b - a] + x[at + (size_t)(b - a) * step];
+                    }
+                    for (k = a; k <= b; k++) {
+                        int lo = k - r < a ? a : k - r, hi = k + r > b ? b : k + r;
+                        x[at + (size_t)(k - a) * step] = (seg[hi - a + 1] - seg[lo - a]) / (double)(hi - lo + 1);
+                    }
+                    a = b + 1;
+                }
+            }
+        }
+}
+
+static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, int w, int h, long passes,
+                             double scale, double *rgb)
+{
+    size_t n = (size_t)w * (size_t)h, i;
+    /* one block: per pixel the weight m, V, the errors' box of m, the
+       error, the best error so far, a scratch row and a channel; then a
+       candidate's and the pick's R, G, B, and a run's prefix sums */
+    double *mem = (double *)malloc(sizeof(double) * (13 * n + (size_t)w + (size_t)h + 2));
+    double *m = mem, *v = m + n, *derr = v + n, *err = derr + n, *best = err + n;
+    double *tmp = best + n, *chan = tmp + n, *cand = chan + n, *pick = cand + 3 * n, *seg = pick + 3 * n;
+    unsigned char *edge = (unsigned char *)malloc(n + 1);
+    int j, c, k, any = 0;
+    if (!mem || !edge) {
+        free(mem);
+        free(edge);
         return 0;
     }
     for (i = 0; i < n; i++) {
         const pds__sum128 *ps = photon + PDS__STRIDE_SELECT * i, *ns = neg + PDS__STRIDE_SELECT * i;
-        double d = 0.0, dodd, da, db;
-        int c;
-        if (passes < 2) {
-            bias[i] = var[i] = 0.0;
-            continue;
-        }
-        for (c = 0; c < 3; c++) d += pds__sum128_value(ps[3 + c]) - pds__sum128_value(ns[3 + c]);
-        dodd = pds__sum128_value(ps[6]) - pds__sum128_value(ns[6]);
-        da = dodd / ko;
-        db = (d - dodd) / ke;
-        bias[i] = da * db;
-        var[i] = (da - db) * (da - db) * ko * ke / (kk * kk);
+        for (c = 0; c < 3; c++) rgb[3 * i + c] = (pds__sum128_value(ps[c]) - pds__sum128_value(ns[c])) * scale;
+        v[i] = (pds__sum128_value(ps[PDS__SEL_VALID]) - pds__sum128_value(ns[PDS__SEL_VALID])) * scale;
+        m[i] = passes > 0 && ps[PDS__SEL_COUNT].lo >= (uint64_t)passes ? 1.0 : 0.0;
+        edge[i] = (unsigned char)(((ps[PDS__SEL_COUNT].hi & 0xffffffffu) ? 1 : 0) | ((ps[PDS__SEL_COUNT].hi >> 32) ? 2 : 0));
+        any |= m[i] > 0.0;
     }
-    pds__box_mean(bias, tmp, w, h, PDS__SELECT_RADIUS);
-    pds__box_mean(var, tmp, w, h, PDS__SELECT_RADIUS);
-    for (i = 0; i < n; i++) small[i] = passes >= 2 && bias[i] > var[i];
-    free(bias);
-    free(var);
-    free(tmp);
+    if (!any) {
+        free(mem);
+        free(edge);
+        return 1;
+    }
+    memcpy(derr, m, sizeof(double) * n);
+    for (k = 0; k < 3; k++) pds__box_mean(derr, tmp, w, h, PDS__SELECT_RADIUS);
+    for (j = 0; j < 2 + PDS__SELECT_BLURS; j++) {
+        /* candidate j's R, G, B */
+        if (j == 0) {
+            memcpy(cand, rgb, sizeof(double) * 3 * n);
+        } else if (j == 1) {
+            for (i = 0; i < n; i++)
+                for (c = 0; c < 3; c++) {
+                    size_t at = PDS__STRIDE_SELECT * i + PDS__SEL_HALF + (size_t)c;
+                    cand[3 * i + c] = (pds__sum128_value(photon[at]) - pds__sum128_value(neg[at])) * scale;
+                }
+        } else {
+            for (c = 0; c < 3; c++) {
+                for (i = 0; i < n; i++) chan[i] = rgb[3 * i + c];
+                pds__segmented_box(chan, m, edge, w, h, pds__select_blur[j - 2][0], pds__select_blur[j - 2][1], seg);
+                for (i = 0; i < n; i++) cand[3 * i + c] = chan[i];
+            }
+        }
+        /* its local squared error against the validation, up to V's own */
+        for (i = 0; i < n; i++) {
+            double d = cand[3 * i] + cand[3 * i + 1] + cand[3 * i + 2] - v[i];
+            err[i] = d * d;
+        }
+        pds__masked_box(err, m, derr, tmp, w, h, PDS__SELECT_RADIUS, 3);
+        for (i = 0; i < n; i++)
+            if (m[i] > 0.0 && (j == 0 || err[i] < best[i])) {
+                best[i] = err[i];
+                for (c = 0; c < 3; c++) pick[3 * i + c] = cand[3 * i + c];
+            }
+    }
+    for (i = 0; i < n; i++)
+        if (m[i] > 0.0)
+            for (c = 0; c < 3; c++) rgb[3 * i + c] = pick[3 * i + c];
+    free(mem);
+    free(edge);
     return 1;
 }
 
 /* The image of the state (eq. at the top of this section): for every
    pixel channel, E + (S+ - S-) / unit * (n_planned / emitted), S the
-   pixel's chosen scale's sums when it holds two (stride 8,
+   pixel's chosen estimate's sums when it holds several (stride 8,
    pds__scale_choice; the passes are emitted / n_planned). Used by
    pds_render and by merges alike. Returns the values replaced
    (pds__finite_floats), -1 when memory runs out. */
@@ -12711,31 +12821,31 @@ static long pds__partial_image(const double *eye, const pds__sum128 *photon, con
                                int h, double unit, double n_planned, long emitted, float *out)
 {
     size_t n = (size_t)w * (size_t)h * 3, i;
-    double *rgb = (double *)malloc(sizeof *rgb * (n ? n : 1));
-    unsigned char *small = NULL;
+    double *rgb = (double *)malloc(sizeof *rgb * (n ? n : 1)), *sel = NULL;
+    double scale = emitted > 0 ? n_planned / (double)emitted / unit : 0.0;
     long nonfinite;
     if (!rgb) return -1;
     if (photon && emitted > 0 && stride == PDS__STRIDE_SELECT) {
         long passes = n_planned > 0.0 ? (long)floor((double)emitted / n_planned + 0.5) : 0;
-        small = (unsigned char *)malloc((size_t)w * (size_t)h + 1);
-        if (!small || !pds__scale_choice(photon, neg, w, h, passes, small)) {
+        sel = (double *)malloc(sizeof *sel * (n ? n : 1));
+        if (!sel || !pds__scale_choice(photon, neg, w, h, passes, scale, sel)) {
             free(rgb);
-            free(small);
+            free(sel);
             return -1;
         }
     }
     for (i = 0; i < n; i++) {
         rgb[i] = eye[i];
-        if (photon && emitted > 0) {
+        if (sel) {
+            rgb[i] += sel[i];
+        } else if (photon && emitted > 0) {
             size_t at = stride == 3 ? i : (size_t)stride * (i / 3) + i % 3;
-            double v = pds__sum128_value(photon[at]) - pds__sum128_value(neg[at]);
-            if (small && small[i / 3]) v += pds__sum128_value(photon[at + 3]) - pds__sum128_value(neg[at + 3]);
-            rgb[i] += v / unit * (n_planned / (double)emitted);
+            rgb[i] += (pds__sum128_value(photon[at]) - pds__sum128_value(neg[at])) / unit * (n_planned / (double)emitted);
         }
     }
     nonfinite = pds__finite_floats(rgb, out, n);
     free(rgb);
-    free(small);
+    free(sel);
     return nonfinite;
 }
 
@@ -12920,15 +13030,16 @@ pds_status pds_partial_merge(const pds_partial *const *parts, const char *const 
      1072    ...    eye values of the rows done (rows I, I+N, ...: each
                     width x 3 binary64), then, unless split is 0, the photon
                     sums S+ and then S- (each width x height x 3 of: low 64
-                    bits, high 64 bits; x 7 instead of x 3 when the pixels
-                    choose between two scales, pds__photon_stride)
+                    bits, high 64 bits; x 8 instead of x 3 when the pixels
+                    choose their scale, pds__photon_stride)
      end-8   8      check: FNV-1a 64 of every byte before it
-   Format versions 2 to 7 are read too: the same with 31 options
+   Format versions 2 to 8 are read too: the same with 31 options
    (counts at 816, eye values at 920), with 44 (counts at 920, eye values
    at 1024), with 46 (counts at 936, eye values at 1040), with 47
    (counts at 944, eye values at 1048), with 48 (counts at 952, eye
    values at 1056) and with 49 (counts at 960, eye values at 1064);
-   version 1 is refused. */
+   version 8 as 9 but without the pixels' choice of scale (its sums were
+   others); version 1 is refused. */
 
 /* Where the counts and the eye values begin, for a file of nopt options. */
 #define PDS__PARTIAL_COUNTS_AT(nopt) (568u + 8u * (unsigned)(nopt))
@@ -13056,6 +13167,7 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
 static int pds__partial_nopt(uint32_t version)
 {
     return version == PDS__PARTIAL_VERSION ? PDS__PARTIAL_NOPT
+           : version == 8u                 ? PDS__PARTIAL_NOPT_V8
            : version == 7u                 ? PDS__PARTIAL_NOPT_V7
            : version == 6u                 ? PDS__PARTIAL_NOPT_V6
            : version == 5u                 ? PDS__PARTIAL_NOPT_V5
@@ -13145,6 +13257,12 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
     for (i = 0; i < nopt; i++) opt[i] = pds__get_u64(head + 568 + 8 * (size_t)i);
     pds_options_default(&file_opt);
     pds__partial_opt_decode(opt, nopt, &file_opt);
+    if (pds__get_u32(head + 8) == 8u && file_opt.pass_select) {
+        free(data);
+        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0,
+                         "a render with --pass-select in format version 8, whose pixels held other sums; "
+                         "render it again");
+    }
     stride = pds__photon_stride(&file_opt);
     expect = pds__partial_file_size(nopt, width, height, split, rows_done, stride);
     b = (const unsigned char *)data;
@@ -13402,6 +13520,8 @@ typedef struct pds__eye_vertex {
     int material;
     int pixel;
     int lambert;
+    int whole;   /* a merged vertex that is its whole pixel, seen straight
+                    from a pinhole camera (pds__eye_merge) */
 } pds__eye_vertex;
 
 static void pds__f3_set(float f[3], pds__v3 v)
@@ -13450,6 +13570,7 @@ static int pds__eye_vertex_set(pds__eye_vertex *v, const pds_material *m, pds__v
     }
     v->material = material;
     v->px[0] = v->px[1] = v->px[2] = v->py[0] = v->py[1] = v->py[2] = 0.0f;
+    v->whole = 0;
     return 1;
 }
 
@@ -13629,6 +13750,7 @@ static size_t pds__eye_merge(pds__eye_vertex *v, size_t n, const pds__camera_fra
             if (pds__pixel_axes(f, pds__f3_get(m.pos), nm, &ex, &ey)) {
                 pds__f3_set(m.px, ex);
                 pds__f3_set(m.py, ey);
+                m.whole = 1;
             }
         } else if (merged && wsum > 0.0) {
             /* seen through something: the pixel's extent there is what its
@@ -14906,6 +15028,19 @@ static pds_status pds__debug_eye(pds_debug *d, const pds_scene *s, const pds__ca
 #define PDS__SPLAT_ROULETTE 4096.0
 #define PDS__SPLAT_ROULETTE_PASS 16384.0
 
+/* The pixels' second scale (pds_options.pass_select; pds__scale_choice):
+   half the pass's smoothing and this share of its width floor. Measured
+   on seven scenes against light-traced references (README "Scales chosen
+   by validation"): the sharp caustics (the reflection case's cusp, the
+   refraction case's focal lines) are best at a floor of about one eye
+   sample spacing, the smooth and the sparse ones at 1.5 (the default). */
+#define PDS__SELECT_FLOOR (2.0 / 3.0)
+
+/* The validation's photons are of the seed mixed with this ("validate"):
+   another randomisation of the Halton points (>>rng) and of every choice
+   along the paths, independent of the passes' photons. */
+#define PDS__VALIDATE_SEED 0x76616c6964617465ULL
+
 /* Units per W/(m^2 sr) of the photon images' exact sums (>>util): a power
    of two near 2^64 / L, L the radiance of a diffuse white surface that
    spreads the lights' mean power per channel over the square of the
@@ -15233,10 +15368,10 @@ typedef struct pds__splat_buf {
                               terms' magnitudes (the film weight W(lambda)
                               has negative parts); NULL in RGB renders */
     double unit;           /* pds__sum_unit of the scene */
-    pds__sum128 *sel;      /* progressive pds choosing between two scales
-                              (pds__scale_choice): 4 a pixel, the half
-                              scale's difference R, G, B and in odd passes
-                              its sum, signed (pds__sel_add); else NULL */
+    pds__sum128 *sel;      /* progressive pds choosing its pixels' scale
+                              (pds__scale_choice): 4 a pixel, the second
+                              scale's R, G, B and the validation's R + G + B,
+                              signed (pds__sel_add); else NULL */
     long splatted, degenerate;
     long split;            /* photons (and sub-photons) split into four */
     long roulette;         /* splats skipped by the cost roulette */
@@ -15349,9 +15484,18 @@ typedef struct pds__photon_job {
     void *retrace_ctx;
     long eye_rounds, eye_round;
     double eye_round_s;
-    /* progressive pds: the pixels choose between two scales
-       (pds__scale_choice); the pass is an odd one */
-    int select, pass_odd;
+    /* progressive pds: the pixels choose their scale (pds__scale_choice):
+       the validation's light tracer runs (validate; not for spectral or
+       thin-lens renders, whose pixels never take part) with its seed and
+       photons a pass, and each pixel's count of the passes in which it
+       was one merged vertex seen directly, with its edges */
+    int select, validate;
+    uint64_t validate_seed;
+    long validate_photons;
+    pds__sum128 *direct;       /* pds__count_direct */
+    long *whole_of;            /* pds__whole_pixels, of eye round whole_round */
+    pds__sum128 *whole_add;
+    long whole_round;
 } pds__photon_job;
 
 /* What a splat needs while it walks the eye vertices in range. */
@@ -15422,12 +15566,9 @@ static void pds__image_add3(pds__splat_buf *b, size_t p, const double v[3])
     }
 }
 
-/* The half scale's difference d (three channels) from the pass's in a
-   pixel that holds two scales (PDS__STRIDE_SELECT), and in an odd pass
-   its sum of the three apart. */
-/* v into signed sum i of the second scale's: two's complement modulo
-   2^128, exact and order-free as the image's (a term beyond 2^126 units,
-   or not finite, is dropped and counted). */
+/* v into signed sum i of the pixels' second scale or their validation:
+   two's complement modulo 2^128, exact and order-free as the image's (a
+   term beyond 2^126 units, or not finite, is dropped and counted). */
 static void pds__sel_add(pds__splat_buf *b, size_t i, double v)
 {
     double f = fabs(v) * b->unit;
@@ -15465,12 +15606,23 @@ static void pds__sel_split(pds__sum128 v, pds__sum128 *pos, pds__sum128 *neg)
     }
 }
 
-static void pds__image_add_diff(pds__splat_buf *b, size_t p, const double d[3], int odd)
+/* The second scale's radiance v[3] of one splat into pixel p: a positive
+   term below 2^63 units added in place (a two's complement sum takes it
+   as an unsigned one does), anything else by pds__sel_add. */
+static void pds__image_add_half(pds__splat_buf *b, size_t p, const double v[3])
 {
+    pds__sum128 *s = &b->sel[4 * p];
     int c;
-    for (c = 0; c < 3; c++)
-        if (d[c] != 0.0) pds__sel_add(b, 4 * p + (size_t)c, d[c]);
-    if (odd && d[0] + d[1] + d[2] != 0.0) pds__sel_add(b, 4 * p + 3, d[0] + d[1] + d[2]);
+    for (c = 0; c < 3; c++) {
+        double f = v[c] * b->unit;
+        if (v[c] > 0.0 && f < PDS__TWO63) {
+            uint64_t t = (uint64_t)(f + 0.5);
+            s[c].lo += t;
+            s[c].hi += s[c].lo < t;
+        } else if (v[c] != 0.0) {
+            pds__sel_add(b, 4 * p + (size_t)c, v[c]);
+        }
+    }
 }
 
 /* Silverman's kernel (eq. 11, in the footprint's unit-disc coordinates)
@@ -15609,15 +15761,19 @@ static void pds__splat_visit(pds__splat_ctx *sc, size_t index, double r2, int sp
     for (c = 0; c < 3; c++) val[c] = PDS__PI * k * w[c] * e[c];
     sc->e += val[0] + val[1] + val[2];
     pds__image_add3(sc->buf, (size_t)pixel, val);
-    if (sc->small && sc->merged) {
-        /* a merged vertex (seen directly) at the half scale too. A single
-           sample keeps one scale: its value is its one point's, whose
-           noise is the eye pass's, the same in the odd and the even
-           passes of a round, which the halves would take for the larger
-           scale's bias (pds__scale_choice) */
-        double ks = pds__splat_small_kernel(sc, v, spread), d[3];
-        for (c = 0; c < 3; c++) d[c] = PDS__PI * (ks * sc->gain_s - k) * w[c] * e[c];
-        pds__image_add_diff(sc->buf, (size_t)pixel, d, sc->job->pass_odd);
+    if (sc->merged && sc->job->select && v->whole) {
+        /* the pixels' second scale (pds__scale_choice), for a whole
+           pixel's vertex: the photon's footprint at half the smoothing,
+           or the pass's own where that is no smaller (at the width
+           floor). Any other vertex keeps one scale: its pixel never takes
+           part */
+        double ks = sc->small ? pds__splat_small_kernel(sc, v, spread) : -1.0, hv[3];
+        if (ks < 0.0) {
+            pds__image_add_half(sc->buf, (size_t)pixel, val);
+        } else if (ks > 0.0) {
+            for (c = 0; c < 3; c++) hv[c] = PDS__PI * ks * sc->gain_s * w[c] * e[c];
+            pds__image_add_half(sc->buf, (size_t)pixel, hv);
+        }
     }
     if (sc->buf->dbg) pds__debug_visit(sc->buf->dbg, pixel, k, sc->aniso);
 }
@@ -15634,7 +15790,7 @@ static void pds__splat_visit_many(void *vctx, const size_t *index, const double 
     pds__splat_ctx *sc = (pds__splat_ctx *)vctx;
     const pds__eye_hot *hot = sc->job->map->hot + sc->base;
     int j, c;
-    if (sc->spread || sc->lambda > 0.0 || (sc->small && sc->merged)) {
+    if (sc->spread || sc->lambda > 0.0 || (sc->merged && sc->job->select)) {
         for (j = 0; j < n; j++) pds__splat_visit(sc, index[j], r2[j], sc->spread);
         return;
     }
@@ -15884,11 +16040,13 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
     if (buf->sel && job->fixed_radius <= 0.0) {
         /* the second scale: the photon's differentials halved (eqs. 5-6
            are linear in s, and so is every transfer after them, eqs.
-           7-9), widened as the pass's are */
+           7-9), widened as the pass's are but to PDS__SELECT_FLOOR of
+           its width floor */
         pds__v3 du = pds__scale(r0->dpdu, 0.5), dv = pds__scale(r0->dpdv, 0.5);
         double as;
         if (job->min_aspect > 0.0 || job->min_width > 0.0)
-            (void)pds__footprint_widen_to(&du, &dv, sc.np, job->min_aspect, job->min_width * spacing);
+            (void)pds__footprint_widen_to(&du, &dv, sc.np, job->min_aspect,
+                                          PDS__SELECT_FLOOR * job->min_width * spacing);
         as = pds__footprint_area(du, dv);
         /* (none when the width floor makes it the footprint itself) */
         sc.small = as > 0.0 && isfinite(as) && as < ap && pds__filter_matrix(du, dv, sc.np, sc.Ms);
@@ -16453,7 +16611,6 @@ static void pds__pass_begin(pds__photon_job *job, const pds_options *opt, long k
     if (job->roulette_vertices > 0.0)
         job->roulette_vertices = PDS__SPLAT_ROULETTE * shrink * shrink * (PDS__SPLAT_ROULETTE_PASS / (double)m);
     job->noise_scale = 1.0 / (double)(k + 1);
-    job->pass_odd = (int)(k % 2);
 }
 
 /* The pass plan of progressive PDS for N photons: K = ceil(N / pass_photons)
@@ -16545,6 +16702,175 @@ static double pds__pass_round_ratio(const pds__photon_job *job, const pds_option
     return pds__eye_round_ratio(single, merged, opt->paths == PDS_PATHS_CAUSTICS_ONLY);
 }
 
+/* --- light tracing: the references' and the validation's estimator ------
+   A reference for caustics seen directly must not come from a density
+   estimate: every kernel, however small, blurs the focal lines, and a
+   progressive photon map from a radius of a pixel is still 0.02-0.05 off
+   (RMSE) on the refraction case's. Light tracing (the t = 1 strategy of
+   bidirectional path tracing, Veach 1997, sect. 10.2) has no kernel: each
+   caustic photon that lands where the pinhole camera sees it directly
+   goes into the pixel it projects to, so the pixel is the exact box
+   filter of the caustic, with noise only. A pixel's value is
+     (1 / A_pix) integral over the pixel of L du
+       = sum over photons p of f_r(wi, wo) Phi_p (du/dA)(x_p) / A_pix,
+   du/dA = |cos theta_o| / (d^2 cos^3 theta_c): a surface patch dA at
+   distance d, seen at theta_o from its normal, subtends the solid angle
+   dA |cos theta_o| / d^2, which covers dOmega / cos^3 theta_c of the
+   image plane at distance 1 at theta_c from the axis; A_pix is a pixel's
+   area on that plane, (2 tan(fov/2) aspect / W)(2 tan(fov/2) / H).
+   Caustics seen through glass or in a mirror get nothing (the view from
+   the camera must meet the landing point first). The shipped references
+   (pds__light_bin, >>photonpass) and the pixels' validation
+   (pds__validate_bin) use it. Returns 1 and the pixel *pixel and its
+   radiance val[3] (W / (m^2 sr)) of photon r (flux, wavelength lambda or
+   0) where the camera sees its landing point; 0 where it does not. */
+static int pds__light_radiance(const pds__photon_job *job, const pds__ray_diff *r, const double flux[3], double lambda,
+                               int material, pds__v3 ns, pds__v3 ng, double val[3])
+{
+    const pds__camera_frame *f = &job->frame;
+    pds__v3 d = pds__sub(r->p, f->origin), wo;
+    double dist = pds__length(d), depth = pds__dot(d, f->forward), cosc, jac, e[3], w[3], one[3] = {1.0, 1.0, 1.0};
+    double apix = 4.0 * f->tan_half_fov * f->tan_half_fov * f->aspect / ((double)f->width * f->height);
+    pds__eye_vertex v;
+    int c;
+    if (!(depth > 0.0) || !(dist > 0.0)) return 0;
+    wo = pds__scale(d, -1.0 / dist);
+    memset(&v, 0, sizeof v);
+    if (!pds__eye_vertex_set(&v, &job->scene->materials.items[material], r->p, ns, ng, wo, one, material)) return 0;
+    for (c = 0; c < 3; c++) e[c] = flux[c];
+    if (!pds__eye_response(job->scene, &v, pds__scale(r->d, -1.0), lambda, e, w)) return 0;
+    cosc = depth / dist;
+    jac = fabs(pds__dot(ng, wo)) / (dist * dist * cosc * cosc * cosc) / apix;
+    for (c = 0; c < 3; c++) val[c] = w[c] * e[c] * jac;
+    return 1;
+}
+
+/* pds__light_radiance where the camera's ray to the landing point meets
+   it first: its pixel in *pixel. */
+static int pds__light_value(const pds__photon_job *job, const pds__ray_diff *r, const double flux[3], double lambda,
+                            long *pixel, double val[3])
+{
+    const pds__camera_frame *f = &job->frame;
+    pds__v3 d = pds__sub(r->p, f->origin);
+    long px = pds__camera_pixel(f, r->p);
+    pds__tri_hit th;
+    pds_hit hit;
+    if (px < 0) return 0;
+    if (!pds__bvh_intersect(&job->scene->bvh, f->origin, d, 0.0, 1.0 + 1e-4, &th) || th.t < 1.0 - 1e-4) return 0;
+    pds__scene_fill_hit(job->scene, &th, f->origin, d, &hit);
+    *pixel = px;
+    return pds__light_radiance(job, r, flux, lambda, hit.material, hit.ns, hit.ng, val);
+}
+
+/* The pixels' validation (pds__scale_choice): a photon of the validation's
+   own stream into its pixel's R + G + B, where the pixel takes part (one
+   merged vertex seen directly, job->whole_of) and the photon landed on the
+   surface the pixel sees: within a twentieth of the pixel's width of that
+   vertex's plane, the normals within 2.6 degrees (as pds__eye_merge
+   merges). That pixel's camera samples all met that surface, so the
+   camera sees the landing point without a ray to it. */
+static void pds__validate_bin(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
+                              const double flux[3], double lambda, long photon)
+{
+    long px = pds__camera_pixel(&job->frame, r->p);
+    const pds__eye_vertex *v;
+    pds__v3 g;
+    double val[3], width;
+    (void)photon;
+    if (px < 0 || job->whole_of[px] < 0) return;
+    v = &job->map->v[job->whole_of[px]];
+    g = pds__f3_get(v->g);
+    width = 2.0 * fmax(pds__length(pds__f3_get(v->px)), pds__length(pds__f3_get(v->py)));
+    if (!(fabs(pds__dot(ng, g)) > 0.999) || fabs(pds__dot(pds__sub(r->p, pds__f3_get(v->pos)), g)) > 0.05 * width)
+        return;
+    if (pds__light_radiance(job, r, flux, lambda, v->material, pds__f3_get(v->n), g, val) &&
+        val[0] + val[1] + val[2] != 0.0)
+        pds__sel_add(buf, 4 * (size_t)px + 3, val[0] + val[1] + val[2]);
+}
+
+/* The validation's photons of pass k (pds__scale_choice): the job's
+   validate_photons photons of its own seed, numbered k validate_photons
+   on, traced bare (no differentials, no splitting) into the validation
+   sums, each weighted for validate_photons a pass. The job is left as it
+   was. */
+static void pds__validate_run(pds__photon_job *job, int threads, long k)
+{
+    pds__land_fn land = job->land;
+    int differentials = job->differentials, split_depth = job->split_depth;
+    uint64_t seed = job->seed;
+    long n_total = job->n_total;
+    double n_planned = job->n_planned;
+    job->land = pds__validate_bin;
+    job->differentials = 0;
+    job->split_depth = 0;
+    job->seed = job->validate_seed;
+    job->n_total = job->validate_photons;
+    job->n_planned = (double)job->validate_photons;
+    pds__photon_run(job, threads, k * job->validate_photons);
+    job->land = land;
+    job->differentials = differentials;
+    job->split_depth = split_depth;
+    job->seed = seed;
+    job->n_total = n_total;
+    job->n_planned = n_planned;
+}
+
+/* Do whole vertices a and b (of neighbouring pixels) see one surface? Their
+   geometric normals within 2.6 degrees and b within a twentieth of a's
+   pixel width of a's plane (as pds__eye_merge merges). */
+static int pds__whole_same_surface(const pds__eye_vertex *a, const pds__eye_vertex *b)
+{
+    pds__v3 g = pds__f3_get(a->g);
+    double width = 2.0 * fmax(pds__length(pds__f3_get(a->px)), pds__length(pds__f3_get(a->py)));
+    return pds__dot(g, pds__f3_get(b->g)) > 0.999 &&
+           fabs(pds__dot(pds__sub(pds__f3_get(b->pos), pds__f3_get(a->pos)), g)) <= 0.05 * width;
+}
+
+/* The pixels that take part under this map (an eye round's): whole_of[p],
+   the index in map->v of pixel p's whole vertex (a merged vertex seen
+   directly, pds__eye_merge) or -1, and what a pass adds to p's count
+   (pds__count_direct): 1 in the low word if p has one, and in the high
+   word 1 if its right neighbour has none or sees another surface, 2^32
+   if its lower one: the edges the pixels' blurs stop at
+   (pds__scale_choice). Once a map: it changes with the eye round only. */
+static void pds__whole_pixels(pds__photon_job *job, const pds__eye_map *map)
+{
+    int w = job->frame.width, h = job->frame.height, x, y;
+    size_t i, npix = (size_t)w * (size_t)h;
+    for (i = 0; i < npix; i++) {
+        job->whole_of[i] = -1;
+        job->whole_add[i].lo = job->whole_add[i].hi = 0;
+    }
+    for (i = map->n_single; i < map->n; i++)
+        if (map->v[i].pixel >= 0 && map->v[i].whole) job->whole_of[map->v[i].pixel] = (long)i;
+    for (y = 0; y < h; y++)
+        for (x = 0; x < w; x++) {
+            size_t p = (size_t)y * (size_t)w + (size_t)x;
+            long a = job->whole_of[p];
+            const pds__eye_vertex *v;
+            if (a < 0) continue;
+            v = &map->v[a];
+            job->whole_add[p].lo = 1;
+            if (x + 1 < w && (job->whole_of[p + 1] < 0 || !pds__whole_same_surface(v, &map->v[job->whole_of[p + 1]])))
+                job->whole_add[p].hi += 1u;
+            if (y + 1 < h &&
+                (job->whole_of[p + (size_t)w] < 0 || !pds__whole_same_surface(v, &map->v[job->whole_of[p + (size_t)w]])))
+                job->whole_add[p].hi += (uint64_t)1 << 32;
+        }
+    job->whole_round = job->eye_round;
+}
+
+/* Count a pass in job->direct (pds__whole_pixels). */
+static void pds__count_direct(pds__photon_job *job, const pds__eye_map *map)
+{
+    size_t i, npix = (size_t)job->frame.width * (size_t)job->frame.height;
+    if (job->whole_round != job->eye_round) pds__whole_pixels(job, map);
+    for (i = 0; i < npix; i++) {
+        job->direct[i].lo += job->whole_add[i].lo;
+        job->direct[i].hi += job->whole_add[i].hi;
+    }
+}
+
 /* Run progressive PDS passes into the job's sums: the passes first,
    first + stride, ... of the plan above, from the start-th of those on
    (a shard, or the rest of an interrupted render), or with a deadline,
@@ -16600,6 +16926,10 @@ static long pds__pds_passes(pds__photon_job *job, pds__eye_map *map, const pds_o
         }
         pds__pass_begin(job, opt, k, m);
         pds__photon_run(job, threads, k * m);
+        if (job->validate) {
+            pds__count_direct(job, map);
+            pds__validate_run(job, threads, k);
+        }
         t_pass = pds__clock_now(&job->clock) - t;
         t_photons += t_pass;
         run++;
@@ -18104,10 +18434,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.bufs[t].unit = pds__sum_unit(s);
         if (job.spectral) job.bufs[t].neg = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
         if (!job.bufs[t].sum || (job.spectral && !job.bufs[t].neg)) st = PDS_ERR_NOMEM;
-        if (part->stride == PDS__STRIDE_SELECT) {
-            job.bufs[t].sel = (pds__sum128 *)calloc(npix * 4, sizeof(pds__sum128));
-            if (!job.bufs[t].sel) st = PDS_ERR_NOMEM;
-        }
+
         if (dbg) {
             job.bufs[t].dbg = &dbg[t];
             if (!pds__debug_bufs_init(&dbg[t], s, debug, opt->method, opt->photons, npix)) st = PDS_ERR_NOMEM;
@@ -18119,7 +18446,28 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     }
     job.unit_stride = 1;
     job.nsums = npix * 3;
-    job.select = part->stride == PDS__STRIDE_SELECT;
+    /* the pixels' choice of scale (pds__scale_choice): only a pinhole
+       camera's RGB render whose eye vertices merge has pixels that take
+       part, so only it splats the second scale and runs the validation's
+       photons, a quarter of a pass's each pass; any other keeps the sums
+       a pixel of the options (the second scale's and the validation's at
+       0, no pixel taking part) */
+    job.validate = part->stride == PDS__STRIDE_SELECT && progressive && !job.spectral &&
+                   !(s->camera.aperture > 0.0) && pds__eye_merges(opt);
+    job.select = job.validate;
+    if (job.validate) {
+        job.direct = (pds__sum128 *)calloc(npix ? npix : 1, sizeof *job.direct);
+        job.whole_of = (long *)calloc(npix ? npix : 1, sizeof *job.whole_of);
+        job.whole_add = (pds__sum128 *)calloc(npix ? npix : 1, sizeof *job.whole_add);
+        if (!job.direct || !job.whole_of || !job.whole_add) st = PDS_ERR_NOMEM;
+        job.validate_seed = pds__mix64(opt->seed ^ PDS__VALIDATE_SEED);
+        job.validate_photons = (opt->pass_photons + 3) / 4;
+        job.whole_round = -1; /* no map seen yet */
+    }
+    for (t = 0; job.validate && t < threads; t++) {
+        job.bufs[t].sel = (pds__sum128 *)calloc(npix * 4, sizeof(pds__sum128));
+        if (!job.bufs[t].sel) st = PDS_ERR_NOMEM;
+    }
 #ifndef PDS_NO_BASELINES
     if (!st && opt->method == PDS_METHOD_PPM) {
         st = pds__ppm_passes(&job, opt, vertices, nvertices, threads, &emitted, stats, err);
@@ -18326,12 +18674,16 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
                     if (job.spectral)
                         saturated += pds__sum128_add_bits(&part->neg[at], job.bufs[t].neg[i].lo, job.bufs[t].neg[i].hi);
                 }
-        if ((!job.cancelled || splats) && ps == PDS__STRIDE_SELECT)
+        if ((!job.cancelled || splats) && job.validate) {
             for (i = 0; i < npix * 4; i++)
                 for (t = 0; t < job.nbufs; t++) {
                     size_t at = (size_t)ps * (i / 4) + 3 + i % 4; /* the pixel's sums after its R, G, B */
                     pds__sel_split(job.bufs[t].sel[i], &part->photon[at], &part->neg[at]);
                 }
+            for (i = 0; i < npix; i++)
+                saturated += pds__sum128_add_bits(&part->photon[(size_t)ps * i + PDS__SEL_COUNT], job.direct[i].lo,
+                                                  job.direct[i].hi);
+        }
         /* the count the photons were weighted for, as the pass set it (the
            same in every shard: the options fix it) */
         if (opt->time_s > 0.0 || (!splats && !job.cancelled)) part->n_planned = job.n_planned;
@@ -18397,12 +18749,16 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + pds__kdtree_memory(&map.merged) +
                                    (map.hot ? map.n * sizeof *map.hot : 0) + stats->map_bytes +
                                    (size_t)job.nbufs * npix *
-                                       (3 + (job.select ? 4 : 0) + (dbg && dbg[0].aniso ? 2 : 0) +
+                                       (3 + (job.validate ? 4 : 0) + (dbg && dbg[0].aniso ? 2 : 0) +
                                         (job.spectral ? 3 : 0)) *
                                        sizeof(pds__sum128) +
+                                   (job.validate ? npix * (2 * sizeof(pds__sum128) + sizeof(long)) : 0) +
                                    (splats ? (size_t)job.nbufs * PDS__LANDINGS_HELD * sizeof(pds__landing) : 0);
         }
     }
+    free(job.direct);
+    free(job.whole_of);
+    free(job.whole_add);
     for (t = 0; t < job.nbufs; t++) {
         free(job.bufs[t].sum);
         free(job.bufs[t].neg);
@@ -18421,56 +18777,21 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     return st;
 }
 
-/* --- light tracing: the references' estimator --------------------------
-   A reference for caustics seen directly must not come from a density
-   estimate: every kernel, however small, blurs the focal lines, and a
-   progressive photon map from a radius of a pixel is still 0.02-0.05 off
-   (RMSE) on the refraction case's. Light tracing (the t = 1 strategy of
-   bidirectional path tracing, Veach 1997, sect. 10.2) has no kernel: each
-   caustic photon that lands where the pinhole camera sees it directly
-   goes into the pixel it projects to, so the pixel is the exact box
-   filter of the caustic, with noise only. A pixel's value is
-     (1 / A_pix) integral over the pixel of L du
-       = sum over photons p of f_r(wi, wo) Phi_p (du/dA)(x_p) / A_pix,
-   du/dA = |cos theta_o| / (d^2 cos^3 theta_c): a surface patch dA at
-   distance d, seen at theta_o from its normal, subtends the solid angle
-   dA |cos theta_o| / d^2, which covers dOmega / cos^3 theta_c of the
-   image plane at distance 1 at theta_c from the axis; A_pix is a pixel's
-   area on that plane, (2 tan(fov/2) aspect / W)(2 tan(fov/2) / H).
-   Caustics seen through glass or in a mirror get nothing (the view from
-   the camera must meet the landing point first). Used by
-   tests/ref_light.c to make the shipped references. */
+/* The references' light tracer (pds__light_value, >>pds): each caustic
+   photon that lands where the pinhole camera sees it directly goes into
+   the pixel it projects to. Used by tests/ref_light.c to make the shipped
+   references. */
 static void pds__light_bin(const pds__photon_job *job, pds__splat_buf *buf, const pds__ray_diff *r, pds__v3 ng,
                            const double flux[3], double lambda, long photon)
 {
-    const pds__camera_frame *f = &job->frame;
-    pds__v3 d = pds__sub(r->p, f->origin), wo;
-    double dist = pds__length(d), depth = pds__dot(d, f->forward), cosc, jac, e[3], w[3], one[3] = {1.0, 1.0, 1.0};
-    double apix = 4.0 * f->tan_half_fov * f->tan_half_fov * f->aspect / ((double)f->width * f->height);
-    long px = pds__camera_pixel(f, r->p);
-    pds__tri_hit th;
-    pds_hit hit;
-    pds__eye_vertex v;
+    double val[3];
+    long px;
     int c;
     (void)ng;
     (void)photon;
-    if (px < 0 || !(depth > 0.0) || !(dist > 0.0)) return;
-    /* the camera's ray to the landing point meets it first */
-    if (!pds__bvh_intersect(&job->scene->bvh, f->origin, d, 0.0, 1.0 + 1e-4, &th) || th.t < 1.0 - 1e-4) return;
-    pds__scene_fill_hit(job->scene, &th, f->origin, d, &hit);
-    wo = pds__scale(d, -1.0 / dist);
-    memset(&v, 0, sizeof v);
-    if (!pds__eye_vertex_set(&v, &job->scene->materials.items[hit.material], r->p, hit.ns, hit.ng, wo, one,
-                             hit.material))
-        return;
-    for (c = 0; c < 3; c++) e[c] = flux[c];
-    if (!pds__eye_response(job->scene, &v, pds__scale(r->d, -1.0), lambda, e, w)) return;
-    cosc = depth / dist;
-    jac = fabs(pds__dot(hit.ng, wo)) / (dist * dist * cosc * cosc * cosc) / apix;
-    for (c = 0; c < 3; c++) {
-        double val = w[c] * e[c] * jac;
-        if (val != 0.0) pds__image_add(buf, 3 * (size_t)px + (size_t)c, val);
-    }
+    if (!pds__light_value(job, r, flux, lambda, &px, val)) return;
+    for (c = 0; c < 3; c++)
+        if (val[c] != 0.0) pds__image_add(buf, 3 * (size_t)px + (size_t)c, val[c]);
 }
 
 /* The caustics-only image of scene at width x height seen directly, by
@@ -21862,7 +22183,7 @@ void pds_options_default(pds_options *opt)
     opt->split_depth = 0;
     opt->split_angle = 0.2;
     opt->walls = 1;
-    opt->pass_select = 0;
+    opt->pass_select = 1;
     opt->debug = NULL;
     opt->k = 50;
     opt->kernel = PDS_KERNEL_CONE;
@@ -22399,14 +22720,16 @@ static pds_status pds__render_estimate(const pds_scene *scene, const pds_options
         est->eye_vertices = est->samples * (double)(1 << pds__eye_splits(scene, opt));
         bytes += est->eye_vertices * vertex_bytes;
         /* the partial state's two sums (>>partial), and each thread's */
-        /* (the pixels' second scale: 7 sums a pixel instead of 3 there,
-           and 4 more a pixel in each thread) */
+        /* (the pixels' choice of scale: 8 sums a pixel instead of 3
+           there, 4 more a pixel in each thread, and the pixels' counts,
+           what a pass adds to them and their whole vertices: 40 bytes) */
         double stride = (double)pds__photon_stride(opt), second = stride == PDS__STRIDE_SELECT ? 4.0 : 0.0;
         bytes += (double)npix * 2.0 * stride * sizeof(pds__sum128) +
                  (double)threads * npix *
                      (3 + second + (pds__debug_wants(opt->debug, PDS_DEBUG_FOOTPRINT) ? 2 : 0) +
                       (pds__render_is_spectral(scene, opt) ? 3 : 0)) *
-                     sizeof(pds__sum128);
+                     sizeof(pds__sum128) +
+                 (second > 0.0 ? npix * (2.0 * sizeof(pds__sum128) + sizeof(long)) : 0.0);
         /* the landings each thread holds before it splats them */
         if (opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_SPLAT)
             bytes += (double)threads * PDS__LANDINGS_HELD * sizeof(pds__landing);

@@ -249,7 +249,8 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
           "counts %g %g %g", est.eye_vertices, est.stored_photons, est.samples);
     /* 149 bytes per stored photon where long has 64 bits (pds.h); 16 fewer
        where it has 32 (Windows): the photon's number is a long */
-    CHECK(t, est.memory_bytes == pixels * 60 + pixels * 4 * 4 * 336 + pixels * 96 + 2 * pixels * 48 +
+    CHECK(t, est.memory_bytes == pixels * 60 + pixels * 4 * 4 * (3 * sizeof(pds__eye_vertex)) + pixels * 96 +
+                                     2 * pixels * 48 +
                                      5000.0 * (sizeof(long) == 8 ? 149 : 133),
           "bytes %.0f", est.memory_bytes);
     REQUIRE(t, pds_render(s, &opt, &img, &st, &err) == PDS_OK, "render: %s", err.text);
@@ -263,10 +264,10 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
     /* PDS: no map, but each thread holds up to 4096 landings (216 bytes
        each) before it splats them, however its photons split: the
        estimate is pm's without the photons plus those, and with the
-       pixels' second scale (pass_select) 4 more sums a pixel in the
-       part's two images and 4 in each thread's; a render on two threads
-       holds one image (with its second scale's) and one thread's landings
-       more than on one */
+       pixels' choice of scale (pass_select) 5 more sums a pixel in the
+       part's two images, 4 in each thread's and 40 bytes a pixel for the
+       pixels' counts; a render on two threads holds one image (with its
+       second scale's) and one thread's landings more than on one */
     opt.memory_limit = 0.0;
     opt.method = PDS_METHOD_PDS;
     for (depth = 0; depth <= 2; depth += 2) {
@@ -279,7 +280,7 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
         REQUIRE(t, pds_render_estimate_get(s, &opt, &pest, &err) == PDS_OK, "pds estimate: %s", err.text);
         CHECK(t, pest.stored_photons == 0.0 &&
                      pest.memory_bytes == est.memory_bytes - 5000.0 * (sizeof(long) == 8 ? 149 : 133) + 2 * 4096 * 216.0 +
-                                              (second ? pixels * 16 * (2 * 4 + 2 * 4) : 0.0),
+                                              (second ? pixels * 16 * (2 * 5 + 2 * 4) + pixels * 40.0 : 0.0),
               "pds estimate %.0f bytes, pm's %.0f", pest.memory_bytes, est.memory_bytes);
         REQUIRE(t, pds_render(s, &opt, &img, &st, &err) == PDS_OK, "pds render: %s", err.text);
         pds_image_free(&img);

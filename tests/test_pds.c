@@ -1231,8 +1231,8 @@ static void test_pds_second_scale_is_the_pass_at_half_the_smoothing(pds_test_ctx
     for (i = 0; i < npix; i++)
         for (c = 0; c < 3; c++) {
             const pds__sum128 *a = &sel->photon[PDS__STRIDE_SELECT * i + (size_t)c], *b = &own->photon[3 * i + (size_t)c];
-            double small = pds__sum128_value(a[0]) + pds__sum128_value(a[3]) -
-                           pds__sum128_value(sel->neg[PDS__STRIDE_SELECT * i + 3 + (size_t)c]);
+            double small = pds__sum128_value(a[PDS__SEL_HALF]) -
+                           pds__sum128_value(sel->neg[PDS__STRIDE_SELECT * i + PDS__SEL_HALF + (size_t)c]);
             double want = pds__sum128_value(half->photon[3 * i + (size_t)c]);
             same &= a->lo == b->lo && a->hi == b->hi;
             lit += want;
@@ -1248,67 +1248,156 @@ static void test_pds_second_scale_is_the_pass_at_half_the_smoothing(pds_test_ctx
     pds_scene_free(s);
 }
 
-/* The choice (pds__scale_choice, through the image it makes): a 16 x 16
-   image of 10 passes (unit 1, one photon planned a pass), every pixel at
-   the pass's scale L = 2. The left half's half scale differs from it by
-   D = 0.3 in every channel and both halves of the passes (+ in the top
-   rows, - below: the negative sums): that is the pass's bias, and the
-   pixel takes L + D. The right half's odd passes differ by +0.3 and its
-   even ones by -0.3 (the difference is noise about 0): it keeps L. Away
-   from the middle columns by the 7 x 7 mean's reach. With one pass there
-   are no halves, and every pixel keeps L. Also the box mean against a
-   direct sum over the clamped neighbourhood. */
-static void test_pds_scale_choice_takes_the_half_scale_where_its_bias_beats_its_noise(pds_test_ctx *t)
+/* The pixels' validation (pds_options.pass_select) is the light tracer's
+   image of photons of their own: on the plane mirror's floor, 3 passes
+   of 16,384 photons hold in each pixel's validation sum the R + G + B of
+   pds_render_light_traced with the validation's seed and 3 x 4,096
+   photons (the same photons, each weighted for 4,096 a pass rather than
+   12,288 in all: equal to rounding), and every pixel took part in the 3
+   passes; the floor's pixels see one surface, so no edges between them. */
+static void test_pds_validation_is_the_light_tracers_image_of_its_own_photons(pds_test_ctx *t)
 {
-    enum { W = 16, H = 16, K = 10, KO = K / 2, KE = K - K / 2 };
-    pds__sum128 photon[W * H * PDS__STRIDE_SELECT], neg[W * H * PDS__STRIDE_SELECT];
-    float out[W * H * 3];
-    double eye[W * H * 3], x[9 * 7], tmp[9 * 7], want[9 * 7];
-    int px, py, c, k, bad = 0, bad1 = 0;
-    memset(photon, 0, sizeof photon);
-    memset(neg, 0, sizeof neg);
+    pds_error err;
+    pds_scene *s = scene_from_text(mirror_scene, &err);
+    pds_partial *part = NULL;
+    pds_options opt;
+    pds_image lt = {0, 0, NULL};
+    size_t i, npix = 24 * 24;
+    double worst = 0.0, lit = 0.0, scale;
+    int took = 0, edges = 0;
+    REQUIRE(t, s != NULL, "load: %s", err.text);
+    pds_options_default(&opt);
+    opt.photons = 3 * 16384;
+    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    opt.threads = 2;
+    REQUIRE(t, opt.pass_select == 1 && opt.pass_photons == 16384, "defaults: pass_select %d, pass photons %ld",
+            opt.pass_select, opt.pass_photons);
+    REQUIRE(t, pds_render_part(s, &opt, &part, NULL, &err) == PDS_OK, "render: %s", err.text);
+    REQUIRE(t, part->stride == PDS__STRIDE_SELECT, "stride %d", part->stride);
+    opt.seed = pds__mix64(0 ^ PDS__VALIDATE_SEED);
+    opt.photons = 3 * 4096;
+    REQUIRE(t, pds_render_light_traced(s, &opt, &lt, &err) == PDS_OK, "light traced: %s", err.text);
+    scale = part->n_planned / (double)part->emitted / part->unit;
+    for (i = 0; i < npix; i++) {
+        const pds__sum128 *ps = &part->photon[PDS__STRIDE_SELECT * i], *ns = &part->neg[PDS__STRIDE_SELECT * i];
+        double v = (pds__sum128_value(ps[PDS__SEL_VALID]) - pds__sum128_value(ns[PDS__SEL_VALID])) * scale;
+        double want = (double)lt.rgb[3 * i] + lt.rgb[3 * i + 1] + lt.rgb[3 * i + 2];
+        took += ps[PDS__SEL_COUNT].lo == 3;
+        edges += ps[PDS__SEL_COUNT].hi != 0 && i % 24 != 23 && i / 24 != 23 ? 1 : 0;
+        lit += want;
+        worst = fmax(worst, fabs(v - want) / fmax(want, 1e-30) * (want > 0.0 || v != 0.0));
+    }
+    CHECK(t, lit > 0.0, "the light tracer saw no caustic");
+    CHECK(t, worst < 1e-5, "the validation is %g from the light tracer's image", worst);
+    CHECK(t, took == (int)npix, "%d of %d pixels took part in every pass", took, (int)npix);
+    CHECK(t, edges == 0, "%d pixels inside the floor have an edge", edges);
+    pds_image_free(&lt);
+    pds_partial_free(part);
+    pds_scene_free(s);
+}
+
+/* The choice (pds__scale_choice, through the image it makes). A part of
+   K passes (unit 1, one photon planned a pass, so a sum of K v holds v)
+   whose pixels all took part, 64 x 16: the pass's scale is L = 2
+   everywhere, the second scale 2.3 on the left half and 2.6 on the
+   right, and the validation (R + G + B) says the truth is 2.3 a channel
+   on the left and 2 on the right: the left takes the second scale, the
+   right keeps the pass's (beyond the reach of the errors' three boxes of
+   radius 7 from the middle). A pixel that took part in fewer than K
+   passes keeps the pass's scale. Then the blurs and the edges: the pass's
+   scale is the truth (1 on the left, 3 on the right) plus a checkerboard
+   of +-0.5, the second scale the same, the validation the truth: every
+   pixel takes a blur, which removes the checkerboard but for the columns
+   next to the middle; with an edge between the halves (the high word of
+   the count) no blur crosses it, and every pixel is within 0.2 of its
+   side's truth. Also the segmented box against a direct mean over a
+   run. */
+static void sel_set(pds__sum128 *photon, pds__sum128 *neg, int i, int slot, double v, long k)
+{
+    double f = v * (double)k * 1000.0; /* in thousandths */
+    pds__sum128 *d = f < 0.0 ? &neg[PDS__STRIDE_SELECT * i + slot] : &photon[PDS__STRIDE_SELECT * i + slot];
+    d->lo = (uint64_t)floor(fabs(f) + 0.5);
+    d->hi = 0;
+}
+
+static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_closest(pds_test_ctx *t)
+{
+    enum { W = 64, H = 16, K = 8, N = W * H };
+    static pds__sum128 photon[N * PDS__STRIDE_SELECT], neg[N * PDS__STRIDE_SELECT];
+    static float out[N * 3];
+    static double eye[N * 3];
+    double x[40], m[40], seg[64], want;
+    unsigned char edge[40];
+    int px, py, c, pass, bad = 0, skipped = 0, far = 0, crossed = 0;
     memset(eye, 0, sizeof eye);
-    for (py = 0; py < H; py++)
-        for (px = 0; px < W; px++) {
-            pds__sum128 *p = &photon[PDS__STRIDE_SELECT * (py * W + px)], *n = &neg[PDS__STRIDE_SELECT * (py * W + px)];
-            pds__sum128 *d = py < H / 2 ? p : n; /* the difference's sign */
-            for (c = 0; c < 3; c++) p[c].lo = 2 * K * 10; /* L = 2 in tenths */
-            if (px < W / 2) {
-                for (c = 0; c < 3; c++) d[3 + c].lo = 3 * K;
-                d[6].lo = 3 * 3 * KO;
-            } else {
-                /* odd passes +0.3 each, even ones -0.3 each: the sums
-                   cancel but for KO - KE of them */
-                for (c = 0; c < 3; c++) (KO >= KE ? p : n)[3 + c].lo = 3 * (KO >= KE ? KO - KE : KE - KO);
-                p[6].lo = 3 * 3 * KO;
-            }
-        }
-    REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 10.0, 1.0, K, out) == 0, "image");
-    for (py = 0; py < H; py++)
-        for (px = 0; px < W; px++) {
-            double v = out[3 * (py * W + px)], l = 2.0, d = py < H / 2 ? 0.3 : -0.3;
-            if (px < W / 2 - 3 && fabs(v - (l + d)) > 1e-6) bad++;
-            if (px >= W / 2 + 3 && fabs(v - l) > 1e-6) bad++;
-        }
-    CHECK(t, bad == 0, "%d pixels took the other scale", bad);
-    REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 10.0 * K, 1.0, 1, out) == 0, "image");
-    for (k = 0; k < W * H; k++) bad1 += fabs(out[3 * k] - 2.0) > 1e-6;
-    CHECK(t, bad1 == 0, "one pass: %d pixels took the half scale", bad1);
-    for (k = 0; k < 9 * 7; k++) x[k] = (double)((k * 37) % 11) - 3.0;
-    for (py = 0; py < 7; py++)
-        for (px = 0; px < 9; px++) {
-            double sum = 0.0;
-            int dx, dy;
-            for (dy = -2; dy <= 2; dy++)
-                for (dx = -2; dx <= 2; dx++) {
-                    int qx = px + dx < 0 ? 0 : px + dx > 8 ? 8 : px + dx, qy = py + dy < 0 ? 0 : py + dy > 6 ? 6 : py + dy;
-                    sum += x[qy * 9 + qx];
+    for (pass = 0; pass < 3; pass++) {
+        memset(photon, 0, sizeof photon);
+        memset(neg, 0, sizeof neg);
+        for (py = 0; py < H; py++)
+            for (px = 0; px < W; px++) {
+                int i = py * W + px, left = px < W / 2;
+                double chk = ((px + py) % 2 ? 0.5 : -0.5), base, half, truth;
+                if (pass == 0) {
+                    base = 2.0;
+                    half = left ? 2.3 : 2.6;
+                    truth = left ? 2.3 : 2.0;
+                } else {
+                    truth = left ? 1.0 : 3.0;
+                    base = half = truth + chk;
                 }
-            want[py * 9 + px] = sum / 25.0;
+                for (c = 0; c < 3; c++) {
+                    sel_set(photon, neg, i, c, base, K);
+                    sel_set(photon, neg, i, PDS__SEL_HALF + c, half, K);
+                }
+                sel_set(photon, neg, i, PDS__SEL_VALID, 3.0 * truth, K);
+                photon[PDS__STRIDE_SELECT * i + PDS__SEL_COUNT].lo = (pass == 0 && px == 3 && py == 3) ? K - 1 : K;
+                if (pass == 2 && px == W / 2 - 1) photon[PDS__STRIDE_SELECT * i + PDS__SEL_COUNT].hi = 1; /* edge right */
+            }
+        REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out) == 0, "image");
+        for (py = 0; py < H; py++)
+            for (px = 0; px < W; px++) {
+                int i = py * W + px, left = px < W / 2;
+                double v = out[3 * i];
+                if (pass == 0) {
+                    if (px == 3 && py == 3) skipped += fabs(v - 2.0) > 1e-6;
+                    else if (px < W / 2 - 22) bad += fabs(v - 2.3) > 1e-6;
+                    else if (px >= W / 2 + 22) bad += fabs(v - 2.0) > 1e-6;
+                } else if (pass == 1) {
+                    if (px < W / 2 - 4 || px >= W / 2 + 4) far += fabs(v - (left ? 1.0 : 3.0)) > 0.2;
+                } else {
+                    crossed += fabs(v - (left ? 1.0 : 3.0)) > 0.2;
+                }
+            }
+    }
+    CHECK(t, bad == 0, "%d pixels took the other scale", bad);
+    CHECK(t, skipped == 0, "a pixel that did not take part in every pass left the pass's scale");
+    CHECK(t, far == 0, "%d pixels away from the middle kept the checkerboard", far);
+    CHECK(t, crossed == 0, "%d pixels were blurred across the edge", crossed);
+    /* the segmented box: a run of 40 broken by a pixel that takes no part
+       (17) and an edge after 29: runs 0-16, 18-29, 30-39 */
+    for (px = 0; px < 40; px++) {
+        x[px] = (double)((px * 37) % 11);
+        m[px] = px == 17 ? 0.0 : 1.0;
+        edge[px] = px == 29 ? 1 : 0;
+    }
+    {
+        double y[40];
+        memcpy(y, x, sizeof y);
+        pds__segmented_box(y, m, edge, 40, 1, 2, 1, seg);
+        for (px = 0, bad = 0; px < 40; px++) {
+            int a0 = px <= 16 ? 0 : px <= 29 ? 18 : 30, b0 = px <= 16 ? 16 : px <= 29 ? 29 : 39, lo, hi, k, cnt = 0;
+            if (px == 17) {
+                bad += y[px] != x[px];
+                continue;
+            }
+            lo = px - 2 < a0 ? a0 : px - 2;
+            hi = px + 2 > b0 ? b0 : px + 2;
+            want = 0.0;
+            for (k = lo; k <= hi; k++, cnt++) want += x[k];
+            bad += fabs(y[px] - want / cnt) > 1e-12;
         }
-    pds__box_mean(x, tmp, 9, 7, 2);
-    for (k = 0, bad = 0; k < 9 * 7; k++) bad += fabs(x[k] - want[k]) > 1e-12;
-    CHECK(t, bad == 0, "box mean: %d values differ from the direct sums", bad);
+        CHECK(t, bad == 0, "segmented box: %d values differ from the runs' direct means", bad);
+    }
 }
 
 /* A lamp met from its front ends a caustic photon, as it ends an eye path
@@ -1425,8 +1514,10 @@ static const pds_test_case tests_pds[] = {
     {"pds_splat_finds_single_and_merged_vertices_as_brute_force_does",
      test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does},
     {"pds_second_scale_is_the_pass_at_half_the_smoothing", test_pds_second_scale_is_the_pass_at_half_the_smoothing},
-    {"pds_scale_choice_takes_the_half_scale_where_its_bias_beats_its_noise",
-     test_pds_scale_choice_takes_the_half_scale_where_its_bias_beats_its_noise},
+    {"pds_validation_is_the_light_tracers_image_of_its_own_photons",
+     test_pds_validation_is_the_light_tracers_image_of_its_own_photons},
+    {"pds_scale_choice_takes_the_estimate_the_validation_says_is_closest",
+     test_pds_scale_choice_takes_the_estimate_the_validation_says_is_closest},
     {"eye_round_ratio_gives_photons_the_time_single_samples_do_not_need",
      test_eye_round_ratio_gives_photons_the_time_single_samples_do_not_need},
     {"pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_area",

@@ -502,7 +502,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
         opt.light_resolution = d.light_resolution;
     }
     opt.walls = 0;       /* format version 7: every render of an earlier version splatted without walls */
-    opt.pass_select = 0; /* format version 8: ... and with one scale */
+    opt.pass_select = 0; /* format version 9 (8): ... and with one scale */
     opt.shard_index = 1;
     opt.shard_count = 2;
     REQUIRE(t, pds_render_part(s, &opt, &p, NULL, &err) == PDS_OK, "render: %s", err.text);
@@ -524,7 +524,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     REQUIRE(t, bytes != NULL && n > 1072, "slurp");
     /* 1072 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
     CHECK(t, n == 1072 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
-    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 8 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
+    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 9 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
                  bytes[548] == 24 && bytes[552] == 16 && bytes[556] == 1 && bytes[560] == 2 && bytes[564] == 1 &&
                  bytes[568 + 8 * 41] == 4 && bytes[568 + 8 * 46] == 0xff && bytes[568 + 8 * 47] == 0 &&
                  bytes[568 + 8 * 48] == 0 && bytes[568 + 8 * 49] == 0 && bytes[968 + 8] == 3,
@@ -534,14 +534,14 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     copy = (unsigned char *)malloc(n);
     REQUIRE(t, copy != NULL, "malloc");
     {
-        /* format versions 2 to 7 are read: the same part without
+        /* format versions 2 to 8 are read: the same part without
            options 31-49, 44-49, 46-49, 47-49, 48-49 and 49 (at their
            defaults, as every render of those versions had them; walls
-           off, one scale) */
-        static const struct { unsigned char version; size_t nopt; } old[6] = {{2, 31}, {3, 44}, {4, 46},
-                                                                              {5, 47}, {6, 48}, {7, 49}};
+           off, one scale), and version 8's with all of them */
+        static const struct { unsigned char version; size_t nopt; } old[7] = {{2, 31}, {3, 44}, {4, 46}, {5, 47},
+                                                                              {6, 48}, {7, 49}, {8, 50}};
         int v;
-        for (v = 0; v < 6; v++) {
+        for (v = 0; v < 7; v++) {
             size_t at = 568 + 8 * old[v].nopt, cut = 968 - at;
             memcpy(copy, bytes, at);
             memcpy(copy + at, bytes + 968, n - 968);
@@ -566,7 +566,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     copy[8] = 1;
     shards_spit(bad, copy, n);
     CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE &&
-                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 8"),
+                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 9"),
           "format version: %s", err.text);
     memcpy(copy, bytes, n);
     memcpy(copy + 12, "9.9.9", 5);
@@ -593,8 +593,10 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
                  strstr(err.text, "not the ones the part was rendered with"),
           "other options: %s", err.text);
     {
-        /* with the pixels' second scale the part holds 7 sums a pixel in
-           each image, and reads back to the same image */
+        /* with the pixels' choice of scale the part holds 8 sums a pixel
+           in each image, and reads back to the same image; format version
+           8 held other sums with it (the odd and even passes'), and such a
+           file is refused */
         pds_partial *q = NULL, *qb = NULL;
         unsigned char *qbytes;
         size_t qn = 0;
@@ -603,8 +605,18 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
         REQUIRE(t, pds_render_part(s, &opt, &q, NULL, &err) == PDS_OK, "render, two scales: %s", err.text);
         REQUIRE(t, pds_partial_write(path, q, &err) == PDS_OK, "write, two scales: %s", err.text);
         qbytes = shards_slurp(path, &qn);
-        CHECK(t, qbytes && qn == 1072 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 7 * 16 + 8 && qbytes[568 + 8 * 49] == 1,
+        CHECK(t, qbytes && qn == 1072 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 8 * 16 + 8 && qbytes[568 + 8 * 49] == 1,
               "two scales: %lu bytes", (unsigned long)qn);
+        if (qbytes && qn > 16) {
+            pds_partial *old8 = NULL;
+            qbytes[8] = 8;
+            pds__put_u64(qbytes + qn - 8, pds__fnv1a64(qbytes, qn - 8));
+            shards_spit(bad, qbytes, qn);
+            CHECK(t, pds_partial_read(bad, &old8, &err) == PDS_ERR_PARSE &&
+                         strstr(err.text, "a render with --pass-select in format version 8"),
+                  "version 8 with its scales: %s", err.text);
+            pds_partial_free(old8);
+        }
         free(qbytes);
         pds_image_free(&ia);
         pds_image_free(&ib);
