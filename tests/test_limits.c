@@ -265,8 +265,8 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
        each) before it splats them, however its photons split: the
        estimate is pm's without the photons plus those, and with the
        pixels' choice of scale (pass_select) 5 more sums a pixel in the
-       part's two images, 4 in each thread's and 40 bytes a pixel for the
-       pixels' counts; a render on two threads holds one image (with its
+       part's two images, 4 in each thread's and two sums and a long a
+       pixel for the pixels' counts and whole vertices; a render on two threads holds one image (with its
        second scale's) and one thread's landings more than on one */
     opt.memory_limit = 0.0;
     opt.method = PDS_METHOD_PDS;
@@ -280,7 +280,8 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
         REQUIRE(t, pds_render_estimate_get(s, &opt, &pest, &err) == PDS_OK, "pds estimate: %s", err.text);
         CHECK(t, pest.stored_photons == 0.0 &&
                      pest.memory_bytes == est.memory_bytes - 5000.0 * (sizeof(long) == 8 ? 149 : 133) + 2 * 4096 * 216.0 +
-                                              (second ? pixels * 16 * (2 * 5 + 2 * 4) + pixels * 40.0 : 0.0),
+                                              (second ? pixels * 16 * (2 * 5 + 2 * 4) + pixels * (32.0 + sizeof(long))
+                                                      : 0.0),
               "pds estimate %.0f bytes, pm's %.0f", pest.memory_bytes, est.memory_bytes);
         REQUIRE(t, pds_render(s, &opt, &img, &st, &err) == PDS_OK, "pds render: %s", err.text);
         pds_image_free(&img);

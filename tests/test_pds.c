@@ -1328,7 +1328,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
     static double eye[N * 3];
     double x[40], m[40], seg[64], want;
     unsigned char edge[40];
-    int px, py, c, pass, bad = 0, skipped = 0, far = 0, crossed = 0;
+    int px, py, c, pass, bad = 0, skipped = 0, away = 0, crossed = 0;
     memset(eye, 0, sizeof eye);
     for (pass = 0; pass < 3; pass++) {
         memset(photon, 0, sizeof photon);
@@ -1363,7 +1363,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                     else if (px < W / 2 - 22) bad += fabs(v - 2.3) > 1e-6;
                     else if (px >= W / 2 + 22) bad += fabs(v - 2.0) > 1e-6;
                 } else if (pass == 1) {
-                    if (px < W / 2 - 4 || px >= W / 2 + 4) far += fabs(v - (left ? 1.0 : 3.0)) > 0.2;
+                    if (px < W / 2 - 4 || px >= W / 2 + 4) away += fabs(v - (left ? 1.0 : 3.0)) > 0.2;
                 } else {
                     crossed += fabs(v - (left ? 1.0 : 3.0)) > 0.2;
                 }
@@ -1371,7 +1371,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
     }
     CHECK(t, bad == 0, "%d pixels took the other scale", bad);
     CHECK(t, skipped == 0, "a pixel that did not take part in every pass left the pass's scale");
-    CHECK(t, far == 0, "%d pixels away from the middle kept the checkerboard", far);
+    CHECK(t, away == 0, "%d pixels away from the middle kept the checkerboard", away);
     CHECK(t, crossed == 0, "%d pixels were blurred across the edge", crossed);
     /* the segmented box: a run of 40 broken by a pixel that takes no part
        (17) and an edge after 29: runs 0-16, 18-29, 30-39 */
