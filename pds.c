@@ -12280,17 +12280,20 @@ struct pds_partial {
                                   (pds__photon_stride) */
 };
 
-/* The photon sums a pixel holds: 3 (R, G, B), or 8 when progressive PDS's
+/* The photon sums a pixel holds: 3 (R, G, B), or 9 when progressive PDS's
    pixels choose their scale (pds_options.pass_select; pds__scale_choice):
    R, G, B at the pass's scale; R, G, B at the second, smaller scale; the
-   validation light tracer's R + G + B; and the passes in which the pixel
-   was one merged vertex seen directly (a count, in the S+ sums only).
-   The second scale's and the validation's sums are signed (S+ and S-, as
-   a spectral render's). */
-#define PDS__STRIDE_SELECT 8
-#define PDS__SEL_HALF 3  /* the second scale's R, G, B */
-#define PDS__SEL_VALID 6 /* the validation's R + G + B */
-#define PDS__SEL_COUNT 7 /* the passes the pixel was seen directly in */
+   validation light tracer's R + G + B and the sum of its terms' squares
+   (in units of unit^2 / 2^64); and the passes in which the pixel was one
+   merged vertex seen directly (a count, in the S+ sums only). The second
+   scale's and the validation's sums are signed (S+ and S-, as a spectral
+   render's). A thread keeps the 5 after R, G, B (PDS__SEL_THREAD). */
+#define PDS__STRIDE_SELECT 9
+#define PDS__SEL_HALF 3   /* the second scale's R, G, B */
+#define PDS__SEL_VALID 6  /* the validation's R + G + B */
+#define PDS__SEL_VALID2 7 /* ... and its terms' squares */
+#define PDS__SEL_COUNT 8  /* the passes the pixel was seen directly in */
+#define PDS__SEL_THREAD 5
 static int pds__photon_stride(const pds_options *opt)
 {
     /* (gi's caustics never merge their eye vertices, so none take part) */
@@ -12688,6 +12691,9 @@ static void pds__box_mean(double *x, double *tmp, int w, int h, int r)
 #define PDS__SELECT_BLURS 3
 static const int pds__select_blur[PDS__SELECT_BLURS][2] = {{1, 1}, {1, 3}, {2, 3}}; /* box radius, times */
 #define PDS__SELECT_RADIUS 7 /* the errors' box, applied three times */
+#ifndef PDS__SELECT_SURE
+#define PDS__SELECT_SURE 1.0 /* standard deviations of V's noise a choice must clear */
+#endif
 
 /* The weighted mean of x (w x h) with weights m over box^times about each
    pixel (pds__box_mean), given den = box^times of m: x is replaced. */
@@ -12742,16 +12748,37 @@ static void pds__segmented_box(double *x, const double *m, const unsigned char *
         }
 }
 
+/* The sum of the squares of the weights of a box of radius r applied
+   three times (in one dimension): how much a mean over it keeps of
+   independent noise (the square of it in two dimensions). */
+static double pds__box3_square_sum(int r)
+{
+    double k[6 * PDS__SELECT_RADIUS + 1], t[6 * PDS__SELECT_RADIUS + 1], sum = 0.0;
+    int n = 1, pass, i, d;
+    k[0] = 1.0;
+    for (pass = 0; pass < 3; pass++) {
+        for (i = 0; i < n + 2 * r; i++) t[i] = 0.0;
+        for (i = 0; i < n; i++)
+            for (d = 0; d <= 2 * r; d++) t[i + d] += k[i] / (2.0 * r + 1.0);
+        n += 2 * r;
+        memcpy(k, t, sizeof(double) * (size_t)n);
+    }
+    for (i = 0; i < n; i++) sum += k[i] * k[i];
+    return sum;
+}
+
 static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, int w, int h, long passes,
                              double scale, double *rgb)
 {
     size_t n = (size_t)w * (size_t)h, i;
-    /* one block: per pixel the weight m, V, the errors' box of m, the
-       error, the best error so far, a scratch row and a channel; then a
-       candidate's and the pick's R, G, B, and a run's prefix sums */
-    double *mem = (double *)malloc(sizeof(double) * (13 * n + (size_t)w + (size_t)h + 2));
-    double *m = mem, *v = m + n, *derr = v + n, *err = derr + n, *best = err + n;
-    double *tmp = best + n, *chan = tmp + n, *cand = chan + n, *pick = cand + 3 * n, *seg = pick + 3 * n;
+    /* one block: per pixel the weight m, V, V's variance, the errors'
+       box of m, the pass's error, a candidate's error and its noise, the
+       best error so far, a scratch row and a channel; then a candidate's
+       and the pick's R, G, B, and a run's prefix sums */
+    double *mem = (double *)malloc(sizeof(double) * (16 * n + (size_t)w + (size_t)h + 2));
+    double *m = mem, *v = m + n, *var = v + n, *derr = var + n, *e0 = derr + n, *err = e0 + n, *noise = err + n;
+    double *best = noise + n, *tmp = best + n, *chan = tmp + n, *cand = chan + n, *pick = cand + 3 * n;
+    double *seg = pick + 3 * n, kappa = pds__box3_square_sum(PDS__SELECT_RADIUS), vsum = 0.0, v2sum = 0.0, wbar;
     unsigned char *edge = (unsigned char *)malloc(n + 1);
     int j, c, k, any = 0;
     if (!mem || !edge) {
@@ -12759,18 +12786,36 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
         free(edge);
         return 0;
     }
+    kappa *= kappa; /* two dimensions */
     for (i = 0; i < n; i++) {
         const pds__sum128 *ps = photon + PDS__STRIDE_SELECT * i, *ns = neg + PDS__STRIDE_SELECT * i;
         for (c = 0; c < 3; c++) rgb[3 * i + c] = (pds__sum128_value(ps[c]) - pds__sum128_value(ns[c])) * scale;
         v[i] = (pds__sum128_value(ps[PDS__SEL_VALID]) - pds__sum128_value(ns[PDS__SEL_VALID])) * scale;
+        /* the terms' squares: (y unit)^2 / 2^64 a term, each term of V
+           being y unit scale */
+        var[i] = (pds__sum128_value(ps[PDS__SEL_VALID2]) - pds__sum128_value(ns[PDS__SEL_VALID2])) * PDS__TWO64 * scale *
+                 scale;
         m[i] = passes > 0 && ps[PDS__SEL_COUNT].lo >= (uint64_t)passes ? 1.0 : 0.0;
         edge[i] = (unsigned char)(((ps[PDS__SEL_COUNT].hi & 0xffffffffu) ? 1 : 0) | ((ps[PDS__SEL_COUNT].hi >> 32) ? 2 : 0));
         any |= m[i] > 0.0;
+        if (m[i] > 0.0) {
+            vsum += v[i];
+            v2sum += var[i];
+        }
     }
     if (!any) {
         free(mem);
         free(edge);
         return 1;
+    }
+    /* V's variance at a pixel: its terms' squares (independent photons;
+       the Halton points make it smaller), and at least what the pass's
+       value would have if it came in terms of the average size wbar (a
+       pixel no validation photon met is not thereby known exactly) */
+    wbar = vsum > 0.0 ? v2sum / vsum : 0.0;
+    for (i = 0; i < n; i++) {
+        double y = rgb[3 * i] + rgb[3 * i + 1] + rgb[3 * i + 2];
+        if (wbar * y > var[i]) var[i] = wbar * y;
     }
     memcpy(derr, m, sizeof(double) * n);
     for (k = 0; k < 3; k++) pds__box_mean(derr, tmp, w, h, PDS__SELECT_RADIUS);
@@ -12791,17 +12836,36 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
                 for (i = 0; i < n; i++) cand[3 * i + c] = chan[i];
             }
         }
-        /* its local squared error against the validation, up to V's own */
+        /* its local squared error against the validation, up to V's own,
+           and the noise V puts into its difference from the pass's: the
+           mean of (L_0 - L_j)(L_0 + L_j - 2 V) has V's part
+           -2 (L_0 - L_j) dV, whose variance over the boxes' weights g is
+           4 sum g^2 (L_0 - L_j)^2 Var V ~ 4 kappa mean((L_0 - L_j)^2 Var V)
+           / (their weight there) */
         for (i = 0; i < n; i++) {
-            double d = cand[3 * i] + cand[3 * i + 1] + cand[3 * i + 2] - v[i];
+            double y = cand[3 * i] + cand[3 * i + 1] + cand[3 * i + 2], d = y - v[i];
+            double dj = y - (rgb[3 * i] + rgb[3 * i + 1] + rgb[3 * i + 2]);
             err[i] = d * d;
+            noise[i] = dj * dj * var[i];
         }
         pds__masked_box(err, m, derr, tmp, w, h, PDS__SELECT_RADIUS, 3);
-        for (i = 0; i < n; i++)
-            if (m[i] > 0.0 && (j == 0 || err[i] < best[i])) {
+        if (j == 0) {
+            memcpy(e0, err, sizeof(double) * n);
+            memcpy(best, err, sizeof(double) * n);
+            memcpy(pick, cand, sizeof(double) * 3 * n);
+            continue;
+        }
+        pds__masked_box(noise, m, derr, tmp, w, h, PDS__SELECT_RADIUS, 3);
+        /* taken where it is smaller than the best so far and below the
+           pass's error by PDS__SELECT_SURE standard deviations of that
+           noise */
+        for (i = 0; i < n; i++) {
+            double sd = derr[i] > 0.0 ? 2.0 * sqrt(kappa * noise[i] / derr[i]) : 0.0;
+            if (m[i] > 0.0 && err[i] < best[i] && e0[i] - err[i] > PDS__SELECT_SURE * sd) {
                 best[i] = err[i];
                 for (c = 0; c < 3; c++) pick[3 * i + c] = cand[3 * i + c];
             }
+        }
     }
     for (i = 0; i < n; i++)
         if (m[i] > 0.0)
@@ -12813,7 +12877,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
 
 /* The image of the state (eq. at the top of this section): for every
    pixel channel, E + (S+ - S-) / unit * (n_planned / emitted), S the
-   pixel's chosen estimate's sums when it holds several (stride 8,
+   pixel's chosen estimate's sums when it holds several (stride 9,
    pds__scale_choice; the passes are emitted / n_planned). Used by
    pds_render and by merges alike. Returns the values replaced
    (pds__finite_floats), -1 when memory runs out. */
@@ -15611,7 +15675,7 @@ static void pds__sel_split(pds__sum128 v, pds__sum128 *pos, pds__sum128 *neg)
    as an unsigned one does), anything else by pds__sel_add. */
 static void pds__image_add_half(pds__splat_buf *b, size_t p, const double v[3])
 {
-    pds__sum128 *s = &b->sel[4 * p];
+    pds__sum128 *s = &b->sel[PDS__SEL_THREAD * p];
     int c;
     for (c = 0; c < 3; c++) {
         double f = v[c] * b->unit;
@@ -15620,7 +15684,7 @@ static void pds__image_add_half(pds__splat_buf *b, size_t p, const double v[3])
             s[c].lo += t;
             s[c].hi += s[c].lo < t;
         } else if (v[c] != 0.0) {
-            pds__sel_add(b, 4 * p + (size_t)c, v[c]);
+            pds__sel_add(b, PDS__SEL_THREAD * p + (size_t)c, v[c]);
         }
     }
 }
@@ -16763,7 +16827,8 @@ static int pds__light_value(const pds__photon_job *job, const pds__ray_diff *r, 
 }
 
 /* The pixels' validation (pds__scale_choice): a photon of the validation's
-   own stream into its pixel's R + G + B, where the pixel takes part (one
+   own stream into its pixel's R + G + B, and that term's square, where
+   the pixel takes part (one
    merged vertex seen directly, job->whole_of) and the photon landed on the
    surface the pixel sees: within a twentieth of the pixel's width of that
    vertex's plane, the normals within 2.6 degrees (as pds__eye_merge
@@ -16783,9 +16848,14 @@ static void pds__validate_bin(const pds__photon_job *job, pds__splat_buf *buf, c
     width = 2.0 * fmax(pds__length(pds__f3_get(v->px)), pds__length(pds__f3_get(v->py)));
     if (!(fabs(pds__dot(ng, g)) > 0.999) || fabs(pds__dot(pds__sub(r->p, pds__f3_get(v->pos)), g)) > 0.05 * width)
         return;
-    if (pds__light_radiance(job, r, flux, lambda, v->material, pds__f3_get(v->n), g, val) &&
-        val[0] + val[1] + val[2] != 0.0)
-        pds__sel_add(buf, 4 * (size_t)px + 3, val[0] + val[1] + val[2]);
+    if (pds__light_radiance(job, r, flux, lambda, v->material, pds__f3_get(v->n), g, val)) {
+        double y = val[0] + val[1] + val[2], f = y * buf->unit;
+        if (y == 0.0) return;
+        pds__sel_add(buf, PDS__SEL_THREAD * (size_t)px + 3, y);
+        /* the term's square, in units of unit^2 / 2^64 (a term of about
+           the unit's radiance gives about 2^64) */
+        pds__sel_add(buf, PDS__SEL_THREAD * (size_t)px + 4, f * (f / PDS__TWO64) / buf->unit);
+    }
 }
 
 /* The validation's photons of pass k (pds__scale_choice): the job's
@@ -18465,7 +18535,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.whole_round = -1; /* no map seen yet */
     }
     for (t = 0; job.validate && t < threads; t++) {
-        job.bufs[t].sel = (pds__sum128 *)calloc(npix * 4, sizeof(pds__sum128));
+        job.bufs[t].sel = (pds__sum128 *)calloc(npix * PDS__SEL_THREAD, sizeof(pds__sum128));
         if (!job.bufs[t].sel) st = PDS_ERR_NOMEM;
     }
 #ifndef PDS_NO_BASELINES
@@ -18675,9 +18745,10 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
                         saturated += pds__sum128_add_bits(&part->neg[at], job.bufs[t].neg[i].lo, job.bufs[t].neg[i].hi);
                 }
         if ((!job.cancelled || splats) && job.validate) {
-            for (i = 0; i < npix * 4; i++)
+            for (i = 0; i < npix * PDS__SEL_THREAD; i++)
                 for (t = 0; t < job.nbufs; t++) {
-                    size_t at = (size_t)ps * (i / 4) + 3 + i % 4; /* the pixel's sums after its R, G, B */
+                    /* the pixel's sums after its R, G, B */
+                    size_t at = (size_t)ps * (i / PDS__SEL_THREAD) + 3 + i % PDS__SEL_THREAD;
                     pds__sel_split(job.bufs[t].sel[i], &part->photon[at], &part->neg[at]);
                 }
             for (i = 0; i < npix; i++)
@@ -18749,7 +18820,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + pds__kdtree_memory(&map.merged) +
                                    (map.hot ? map.n * sizeof *map.hot : 0) + stats->map_bytes +
                                    (size_t)job.nbufs * npix *
-                                       (3 + (job.validate ? 4 : 0) + (dbg && dbg[0].aniso ? 2 : 0) +
+                                       (3 + (job.validate ? PDS__SEL_THREAD : 0) + (dbg && dbg[0].aniso ? 2 : 0) +
                                         (job.spectral ? 3 : 0)) *
                                        sizeof(pds__sum128) +
                                    (job.validate ? npix * (2 * sizeof(pds__sum128) + sizeof(long)) : 0) +
@@ -22720,10 +22791,10 @@ static pds_status pds__render_estimate(const pds_scene *scene, const pds_options
         est->eye_vertices = est->samples * (double)(1 << pds__eye_splits(scene, opt));
         bytes += est->eye_vertices * vertex_bytes;
         /* the partial state's two sums (>>partial), and each thread's */
-        /* (the pixels' choice of scale: 8 sums a pixel instead of 3
-           there, 4 more a pixel in each thread, and the pixels' counts,
-           what a pass adds to them and their whole vertices: 40 bytes) */
-        double stride = (double)pds__photon_stride(opt), second = stride == PDS__STRIDE_SELECT ? 4.0 : 0.0;
+        /* (the pixels' choice of scale: 9 sums a pixel instead of 3
+           there, 5 more a pixel in each thread, and the pixels' counts,
+           what a pass adds to them and their whole vertices) */
+        double stride = (double)pds__photon_stride(opt), second = stride == PDS__STRIDE_SELECT ? PDS__SEL_THREAD : 0.0;
         bytes += (double)npix * 2.0 * stride * sizeof(pds__sum128) +
                  (double)threads * npix *
                      (3 + second + (pds__debug_wants(opt->debug, PDS_DEBUG_FOOTPRINT) ? 2 : 0) +

@@ -593,7 +593,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
                  strstr(err.text, "not the ones the part was rendered with"),
           "other options: %s", err.text);
     {
-        /* with the pixels' choice of scale the part holds 8 sums a pixel
+        /* with the pixels' choice of scale the part holds 9 sums a pixel
            in each image, and reads back to the same image; format version
            8 held other sums with it (the odd and even passes'), and such a
            file is refused */
@@ -605,7 +605,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
         REQUIRE(t, pds_render_part(s, &opt, &q, NULL, &err) == PDS_OK, "render, two scales: %s", err.text);
         REQUIRE(t, pds_partial_write(path, q, &err) == PDS_OK, "write, two scales: %s", err.text);
         qbytes = shards_slurp(path, &qn);
-        CHECK(t, qbytes && qn == 1072 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 8 * 16 + 8 && qbytes[568 + 8 * 49] == 1,
+        CHECK(t, qbytes && qn == 1072 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 9 * 16 + 8 && qbytes[568 + 8 * 49] == 1,
               "two scales: %lu bytes", (unsigned long)qn);
         if (qbytes && qn > 16) {
             pds_partial *old8 = NULL;
