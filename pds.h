@@ -597,13 +597,16 @@ typedef struct pds_options {
                            closest: the pass's footprints, the same
                            photons' at half the smoothing and two thirds of
                            the width floor, or the first blurred over one
-                           to two and a half pixels within its surface
-                           (default 1; 0: the pass's scale everywhere). It
-                           costs a time budget 20-30% of its photons. At
-                           3 s on ten scenes against light-traced
-                           references, RMSE from -52% (the reflection
-                           case's cusp) to +16% (the demo scene); README
-                           "Scales chosen by validation" */
+                           to two and a half pixels within its surface,
+                           where the estimate's lead clears the
+                           validation's noise (default 1; 0: the pass's
+                           scale everywhere). It costs a time budget
+                           10-25% of its photons. At equal photons never
+                           worse on ten scenes against light-traced
+                           references; at 3 s from -51% RMSE (the
+                           reflection case's cusp) to +13% (the demo and
+                           teaching scenes); README "Scales chosen by
+                           validation" */
     double pass_alpha;  /* progressive pds: pass i's footprint areas shrink as
                            i^(pass_alpha - 1), in (0, 1] (default 2/3) */
     double pass_smoothing; /* progressive pds: s_1 of the first pass (default 2) */
