@@ -1514,6 +1514,26 @@ static void test_pds_footprints_fold_at_a_wall(pds_test_ctx *t)
     }
 }
 
+/* The noise a mean over a box of radius r applied three times keeps
+   (pds__scale_choice's significance rule): the sum of its weights'
+   squares is the chance that two sums of three independent uniform
+   steps in -r..r are equal, counted here over every pair of triples;
+   and 141/729 by hand for r = 1 (weights 1 3 6 7 6 3 1 over 27). */
+static void test_box3_square_sum_is_the_chance_two_triple_sums_agree(pds_test_ctx *t)
+{
+    int radii[3] = {1, 3, PDS__SELECT_RADIUS}, k;
+    CHECK_NEAR(t, pds__box3_square_sum(1), 141.0 / 729.0, 1e-15);
+    CHECK_NEAR(t, pds__box3_square_sum(0), 1.0, 0.0);
+    for (k = 0; k < 3; k++) {
+        int r = radii[k], n = 2 * r + 1, a, b;
+        double equal = 0.0, triples = (double)n * n * n;
+        for (a = 0; a < n * n * n; a++)
+            for (b = 0; b < n * n * n; b++)
+                equal += a % n + a / n % n + a / (n * n) == b % n + b / n % n + b / (n * n);
+        CHECK_NEAR(t, pds__box3_square_sum(r), equal / (triples * triples), 1e-14);
+    }
+}
+
 static const pds_test_case tests_pds[] = {
     {"pds_caustic_photons_end_at_a_light_they_meet", test_pds_caustic_photons_end_at_a_light_they_meet},
     {"pds_footprints_fold_at_a_wall", test_pds_footprints_fold_at_a_wall},
@@ -1524,6 +1544,7 @@ static const pds_test_case tests_pds[] = {
      test_pds_validation_is_the_light_tracers_image_of_its_own_photons},
     {"pds_scale_choice_takes_the_estimate_the_validation_says_is_closest",
      test_pds_scale_choice_takes_the_estimate_the_validation_says_is_closest},
+    {"box3_square_sum_is_the_chance_two_triple_sums_agree", test_box3_square_sum_is_the_chance_two_triple_sums_agree},
     {"eye_round_ratio_gives_photons_the_time_single_samples_do_not_need",
      test_eye_round_ratio_gives_photons_the_time_single_samples_do_not_need},
     {"pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_area",
