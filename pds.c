@@ -15433,9 +15433,10 @@ typedef struct pds__splat_buf {
                               has negative parts); NULL in RGB renders */
     double unit;           /* pds__sum_unit of the scene */
     pds__sum128 *sel;      /* progressive pds choosing its pixels' scale
-                              (pds__scale_choice): 4 a pixel, the second
-                              scale's R, G, B and the validation's R + G + B,
-                              signed (pds__sel_add); else NULL */
+                              (pds__scale_choice): PDS__SEL_THREAD a pixel,
+                              the second scale's R, G, B, the validation's
+                              R + G + B and its terms' squares, signed
+                              (pds__sel_add); else NULL */
     long splatted, degenerate;
     long split;            /* photons (and sub-photons) split into four */
     long roulette;         /* splats skipped by the cost roulette */
