@@ -654,6 +654,16 @@ static int pds__sum128_add_bits(pds__sum128 *a, uint64_t lo, uint64_t hi)
     return 0;
 }
 
+/* The two words of a term f of 2^63 up to 2^127 units: f >= 2^63 is a
+   multiple of 2^11, so floor(f / 2^64) and the remainder f - hi 2^64
+   (< 2^64, at most 53 bits) are exact. Returns the high word. */
+static inline uint64_t pds__wide_words(double f, uint64_t *lo)
+{
+    double h = floor(f / PDS__TWO64);
+    *lo = (uint64_t)(f - h * PDS__TWO64);
+    return (uint64_t)h;
+}
+
 /* a += round(f), f already in units. Returns PDS__SUM_ADDED, or
    PDS__SUM_SATURATED when the term passed 2^127 or the total 2^128 (the
    sum then stays at its largest value), or PDS__SUM_INVALID for a
@@ -664,11 +674,8 @@ static int pds__sum128_add_wide(pds__sum128 *a, double f)
     if (f < PDS__TWO63) /* f + 0.5 <= 2^63: fits */
         return pds__sum128_add_bits(a, (uint64_t)(f + 0.5), 0) ? PDS__SUM_SATURATED : PDS__SUM_ADDED;
     if (f < PDS__TWO64 * PDS__TWO63) {
-        /* f >= 2^63 is a multiple of 2^11: floor(f / 2^64) and the
-           remainder f - hi 2^64 (< 2^64, at most 53 bits) are exact */
-        double h = floor(f / PDS__TWO64);
-        return pds__sum128_add_bits(a, (uint64_t)(f - h * PDS__TWO64), (uint64_t)h) ? PDS__SUM_SATURATED
-                                                                                   : PDS__SUM_ADDED;
+        uint64_t lo, hi = pds__wide_words(f, &lo);
+        return pds__sum128_add_bits(a, lo, hi) ? PDS__SUM_SATURATED : PDS__SUM_ADDED;
     }
     a->lo = a->hi = UINT64_MAX;
     return PDS__SUM_SATURATED;
@@ -12275,7 +12282,7 @@ struct pds_partial {
     pds__sum128 *photon;       /* width * height * 3: S+; NULL for split 0 */
     pds__sum128 *neg;          /* width * height * 3: S-, spectral renders'
                                   negative sums (else 0); NULL for split 0 */
-    int stride;                /* sums a pixel in photon and neg: 3, or 8 when
+    int stride;                /* sums a pixel in photon and neg: 3, or 9 when
                                   its pixels choose their scale
                                   (pds__photon_stride) */
 };
@@ -13082,7 +13089,7 @@ pds_status pds_partial_merge(const pds_partial *const *parts, const char *const 
 
      offset  bytes  field
      0       8      magic "PDSPART\n"
-     8       4      format version (8)
+     8       4      format version (9)
      12      16     library version string, NUL-padded ("0.1.0")
      28      8      scene content hash (pds_scene_hash)
      36      512    scene path as loaded, NUL-padded
@@ -13094,7 +13101,7 @@ pds_status pds_partial_merge(const pds_partial *const *parts, const char *const 
      1072    ...    eye values of the rows done (rows I, I+N, ...: each
                     width x 3 binary64), then, unless split is 0, the photon
                     sums S+ and then S- (each width x height x 3 of: low 64
-                    bits, high 64 bits; x 8 instead of x 3 when the pixels
+                    bits, high 64 bits; x 9 instead of x 3 when the pixels
                     choose their scale, pds__photon_stride)
      end-8   8      check: FNV-1a 64 of every byte before it
    Format versions 2 to 8 are read too: the same with 31 options
@@ -15620,11 +15627,9 @@ static void pds__image_add3(pds__splat_buf *b, size_t p, const double v[3])
             s[c].lo += t;
             s[c].hi += s[c].lo < t;
         } else if (f >= PDS__TWO63 && f < PDS__TWO64 * PDS__TWO63 && s[c].hi < UINT64_MAX / 2u) {
-            /* f >= 2^63 is a multiple of 2^11: its two words are exact */
-            double h = floor(f / PDS__TWO64);
-            uint64_t lo = (uint64_t)(f - h * PDS__TWO64);
+            uint64_t lo, hi = pds__wide_words(f, &lo);
             s[c].lo += lo;
-            s[c].hi += (uint64_t)h + (s[c].lo < lo);
+            s[c].hi += hi + (s[c].lo < lo);
         } else if (v[c] != 0.0) {
             pds__image_add(b, 3 * p + (size_t)c, v[c]);
         }
@@ -15642,10 +15647,7 @@ static void pds__sel_add(pds__splat_buf *b, size_t i, double v)
     if (f < PDS__TWO63) {
         t = (uint64_t)(f + 0.5);
     } else if (f < PDS__TWO64 * PDS__TWO63) {
-        /* as pds__sum128_add_wide: f >= 2^63 is a multiple of 2^11 */
-        double h = floor(f / PDS__TWO64);
-        t = (uint64_t)(f - h * PDS__TWO64);
-        th = (uint64_t)h;
+        th = pds__wide_words(f, &t);
     } else {
         b->invalid++; /* infinite, NaN or beyond 2^126 units */
         return;
@@ -16827,6 +16829,14 @@ static int pds__light_value(const pds__photon_job *job, const pds__ray_diff *r, 
     return pds__light_radiance(job, r, flux, lambda, hit.material, hit.ns, hit.ng, val);
 }
 
+/* Is point p on whole vertex v's plane, within a twentieth of its pixel's
+   width (as pds__eye_merge merges)? */
+static int pds__whole_plane_holds(const pds__eye_vertex *v, pds__v3 p)
+{
+    double width = 2.0 * fmax(pds__length(pds__f3_get(v->px)), pds__length(pds__f3_get(v->py)));
+    return fabs(pds__dot(pds__sub(p, pds__f3_get(v->pos)), pds__f3_get(v->g))) <= 0.05 * width;
+}
+
 /* The pixels' validation (pds__scale_choice): a photon of the validation's
    own stream into its pixel's R + G + B, and that term's square, where
    the pixel takes part (one
@@ -16841,14 +16851,12 @@ static void pds__validate_bin(const pds__photon_job *job, pds__splat_buf *buf, c
     long px = pds__camera_pixel(&job->frame, r->p);
     const pds__eye_vertex *v;
     pds__v3 g;
-    double val[3], width;
+    double val[3];
     (void)photon;
     if (px < 0 || job->whole_of[px] < 0) return;
     v = &job->map->v[job->whole_of[px]];
     g = pds__f3_get(v->g);
-    width = 2.0 * fmax(pds__length(pds__f3_get(v->px)), pds__length(pds__f3_get(v->py)));
-    if (!(fabs(pds__dot(ng, g)) > 0.999) || fabs(pds__dot(pds__sub(r->p, pds__f3_get(v->pos)), g)) > 0.05 * width)
-        return;
+    if (!(fabs(pds__dot(ng, g)) > 0.999) || !pds__whole_plane_holds(v, r->p)) return;
     if (pds__light_radiance(job, r, flux, lambda, v->material, pds__f3_get(v->n), g, val)) {
         double y = val[0] + val[1] + val[2], f = y * buf->unit;
         if (y == 0.0) return;
@@ -16891,10 +16899,7 @@ static void pds__validate_run(pds__photon_job *job, int threads, long k)
    pixel width of a's plane (as pds__eye_merge merges). */
 static int pds__whole_same_surface(const pds__eye_vertex *a, const pds__eye_vertex *b)
 {
-    pds__v3 g = pds__f3_get(a->g);
-    double width = 2.0 * fmax(pds__length(pds__f3_get(a->px)), pds__length(pds__f3_get(a->py)));
-    return pds__dot(g, pds__f3_get(b->g)) > 0.999 &&
-           fabs(pds__dot(pds__sub(pds__f3_get(b->pos), pds__f3_get(a->pos)), g)) <= 0.05 * width;
+    return pds__dot(pds__f3_get(a->g), pds__f3_get(b->g)) > 0.999 && pds__whole_plane_holds(a, pds__f3_get(b->pos));
 }
 
 /* The pixels that take part under this map (an eye round's): whole_of[p],
@@ -18505,7 +18510,6 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.bufs[t].unit = pds__sum_unit(s);
         if (job.spectral) job.bufs[t].neg = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
         if (!job.bufs[t].sum || (job.spectral && !job.bufs[t].neg)) st = PDS_ERR_NOMEM;
-
         if (dbg) {
             job.bufs[t].dbg = &dbg[t];
             if (!pds__debug_bufs_init(&dbg[t], s, debug, opt->method, opt->photons, npix)) st = PDS_ERR_NOMEM;
@@ -18901,7 +18905,7 @@ static pds_status pds__light_trace_image(const pds_scene *s, const pds_options *
         job.bufs[t].sum = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
         job.bufs[t].neg = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
         job.bufs[t].unit = pds__sum_unit(s);
-            if (!job.bufs[t].sum || !job.bufs[t].neg) st = PDS_ERR_NOMEM;
+        if (!job.bufs[t].sum || !job.bufs[t].neg) st = PDS_ERR_NOMEM;
     }
     if (!st) {
         pds__mutex_init(&job.lock);
