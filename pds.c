@@ -941,8 +941,8 @@ static double pds__xform_det(const pds__xform *x)
 /* Normals at a footprint's scale (pds__mesh_smooth_normals) */
 #define PDS__NORMAL_LEVELS 3   /* averaged fields, over about 2, 4 and 8 edges */
 #define PDS__NORMAL_BEND 0.966 /* corners whose normals differ by more (15 degrees) are not averaged together */
-#define PDS__NORMAL_NOISE 2.0  /* pds__mesh_normal_diff: the noise ratio above which the averaged fields count */
-#define PDS__NORMAL_REACH 1.5  /* pds__mesh_normal_diff: the averaged field's reach over the footprint's width */
+#define PDS__NORMAL_NOISE 2.0  /* pds__mesh_normal_diff2: the noise ratio above which the averaged fields count */
+#define PDS__NORMAL_REACH 1.5  /* pds__mesh_normal_diff2: the averaged field's reach over the footprint's width */
 
 typedef struct pds__mesh {
     float *pos, *nrm;
@@ -1101,7 +1101,7 @@ static int pds__materials_add(pds__materials *ms, const pds_material *m)
    the floor around its caustic got 21% too much light at 2 million
    photons, blurred out of the focus (light-traced reference), where pm
    converged. The derivative a footprint needs is that of the normal field
-   at its own scale (pds__mesh_normal_diff). Field l (1 ..
+   at its own scale (pds__mesh_normal_diff2). Field l (1 ..
    PDS__NORMAL_LEVELS) holds the vertex normals averaged 4^l times over
    their one-ring (each vertex with the vertices it shares a triangle
    with, then normalised): a diffusion over about 2^l edges. On a smooth
@@ -9293,7 +9293,7 @@ int pds_scene_occluded(const pds_scene *s, const pds_ray *ray)
    - Transfer uses the plane the hit really lies in: for a triangle, its
      GEOMETRIC normal (either orientation). Reflection and refraction use
      the interpolated SHADING normal and its differential DN, which for a
-     smooth-shaded triangle comes from pds__mesh_normal_diff.
+     smooth-shaded triangle comes from pds__mesh_normal_diff2.
    - Whoever flips a normal flips its differentials too: DN is the
      derivative of the normal actually used. If the scattering code falls
      back to the geometric normal (pds__bsdf_frame does when wo lies below
@@ -9417,33 +9417,71 @@ static int pds__diff_transfer(pds__ray_diff *r, double t, pds__v3 ng)
    Flat triangles (equal vertex normals) and degenerate data give 0. The
    result is for the normal as stored (pds__scene_fill_hit's ns): negate it
    wherever that normal is negated. */
-/* The derivative along dp of the normalised interpolation of the normals
-   nrm[3 * i ...] at the corners of triangle tri, at (u, v). */
-static pds__v3 pds__tri_normal_diff(const pds__mesh *m, const float *nrm, long tri, double u, double v, pds__v3 dp)
+/* What the derivative of a triangle's interpolated normals needs of the
+   triangle, once a hit: the barycentric gradients' vectors a = e2 x g, b =
+   e1 x g and their scales ae = a.e1, be = b.e2 (Du = a.dp / ae, Dv = b.dp /
+   be); ok is 0 for a degenerate triangle. */
+typedef struct pds__tri_grad {
+    pds__v3 a, b;
+    double ae, be;
+    int ok;
+} pds__tri_grad;
+
+/* ... and of one normal field nrm at (u, v): the unnormalised n, n.n and
+   the edges' differences N1 - N0, N2 - N0. */
+typedef struct pds__tri_field {
+    pds__v3 n, d1, d2;
+    double nn;
+} pds__tri_field;
+
+static pds__tri_grad pds__tri_grad_of(const pds__mesh *m, long tri)
 {
     const int *ix = &m->idx[3 * tri];
     pds__v3 p0 = pds__mesh_pos(m, ix[0]), p1 = pds__mesh_pos(m, ix[1]), p2 = pds__mesh_pos(m, ix[2]);
+    pds__v3 e1 = pds__sub(p1, p0), e2 = pds__sub(p2, p0), g = pds__cross(e1, e2);
+    pds__tri_grad t;
+    t.a = pds__cross(e2, g);
+    t.b = pds__cross(e1, g);
+    t.ae = pds__dot(t.a, e1);
+    t.be = pds__dot(t.b, e2);
+    t.ok = t.ae != 0.0 && t.be != 0.0;
+    return t;
+}
+
+static pds__tri_field pds__tri_field_of(const pds__mesh *m, const float *nrm, long tri, double u, double v)
+{
+    const int *ix = &m->idx[3 * tri];
     pds__v3 n0 = pds__v(nrm[3 * ix[0]], nrm[3 * ix[0] + 1], nrm[3 * ix[0] + 2]);
     pds__v3 n1 = pds__v(nrm[3 * ix[1]], nrm[3 * ix[1] + 1], nrm[3 * ix[1] + 2]);
     pds__v3 n2 = pds__v(nrm[3 * ix[2]], nrm[3 * ix[2] + 1], nrm[3 * ix[2] + 2]);
-    pds__v3 e1 = pds__sub(p1, p0), e2 = pds__sub(p2, p0), g = pds__cross(e1, e2);
-    pds__v3 a = pds__cross(e2, g), b = pds__cross(e1, g), n, dnu, dn;
-    double ae = pds__dot(a, e1), be = pds__dot(b, e2), du, dv, nn, ndn, inv;
-    if (ae == 0.0 || be == 0.0) return pds__v(0.0, 0.0, 0.0);
-    du = pds__dot(a, dp) / ae;
-    dv = pds__dot(b, dp) / be;
-    n = pds__add(pds__add(pds__scale(n0, 1.0 - u - v), pds__scale(n1, u)), pds__scale(n2, v));
-    dnu = pds__add(pds__scale(pds__sub(n1, n0), du), pds__scale(pds__sub(n2, n0), dv));
-    nn = pds__dot(n, n);
-    if (!(nn > 0.0)) return pds__v(0.0, 0.0, 0.0); /* the hit then uses the geometric normal: constant */
-    ndn = pds__dot(n, dnu);
-    inv = 1.0 / (nn * sqrt(nn));
-    dn = pds__scale(pds__sub(pds__scale(dnu, nn), pds__scale(n, ndn)), inv);
+    pds__tri_field f;
+    f.n = pds__add(pds__add(pds__scale(n0, 1.0 - u - v), pds__scale(n1, u)), pds__scale(n2, v));
+    f.d1 = pds__sub(n1, n0);
+    f.d2 = pds__sub(n2, n0);
+    f.nn = pds__dot(f.n, f.n);
+    return f;
+}
+
+/* The derivative along dp of the normalised interpolation (the formula
+   above) of field f of a triangle with gradients t. */
+static pds__v3 pds__tri_normal_diff(const pds__tri_grad *t, const pds__tri_field *f, pds__v3 dp)
+{
+    double du, dv, ndn, inv;
+    pds__v3 dnu, dn;
+    if (!t->ok) return pds__v(0.0, 0.0, 0.0);
+    du = pds__dot(t->a, dp) / t->ae;
+    dv = pds__dot(t->b, dp) / t->be;
+    dnu = pds__add(pds__scale(f->d1, du), pds__scale(f->d2, dv));
+    if (!(f->nn > 0.0)) return pds__v(0.0, 0.0, 0.0); /* the hit then uses the geometric normal: constant */
+    ndn = pds__dot(f->n, dnu);
+    inv = 1.0 / (f->nn * sqrt(f->nn));
+    dn = pds__scale(pds__sub(pds__scale(dnu, f->nn), pds__scale(f->n, ndn)), inv);
     return pds__diff_finite(dn) ? dn : pds__v(0.0, 0.0, 0.0);
 }
 
-/* The shading normal's differential *dn along dp at (u, v) of triangle
-   tri, for a footprint of half-width scale there along dp. Within a
+/* The shading normal's differentials dn[k] along dp[k] (k = 0, 1: the
+   footprint's two axes) at (u, v) of triangle tri, for a footprint of
+   half-width scale[k] there along dp[k]. Within a
    triangle (a footprint at most its size e = sqrt(2 area) across) and on
    smooth normals: the derivative of the interpolated vertex normals, as
    ray differentials take it (Igehy 1999). On noisy normals: the
@@ -9464,45 +9502,72 @@ static pds__v3 pds__tri_normal_diff(const pds__mesh *m, const float *nrm, long t
    PDS__NORMAL_NOISE to 1 at 1.5 times that; the blend keeps only its part
    across the shading normal, so that it stays the derivative of a unit
    vector.
-     *noise (if not NULL) gets the noise the averaged derivative leaves
-   out, in radians: the normals of the footprint still scatter about the
-   averaged field, by about half the turn the triangle's normals make
-   beyond the field's over one triangle, |DN - DN_avg| e / |dp| / 2,
-   times the blend's weight (0 where the normals count as smooth). */
+     noise[k] (if noise is not NULL) gets the noise the averaged derivative
+   leaves out, in radians: the normals of the footprint still scatter
+   about the averaged field, by about half the turn the triangle's normals
+   make beyond the field's over one triangle, |DN - DN_avg| e / |dp| / 2,
+   times the blend's weight (0 where the normals count as smooth). The
+   triangle's gradients and each field it reads are worked out once for
+   both axes. */
+static void pds__mesh_normal_diff2(const pds__mesh *m, long tri, double u, double v, const pds__v3 dp[2],
+                                   const double scale[2], pds__v3 dn[2], double noise[2])
+{
+    const int *ix = &m->idx[3 * tri];
+    pds__tri_grad t = pds__tri_grad_of(m, tri);
+    pds__tri_field fields[1 + PDS__NORMAL_LEVELS];
+    int have[1 + PDS__NORMAL_LEVELS] = {0}, k;
+    double e = -1.0;
+    fields[0] = pds__tri_field_of(m, m->nrm, tri, u, v);
+    have[0] = 1;
+    for (k = 0; k < 2; k++) {
+        double lambda, f, rho, w;
+        int l0, l;
+        pds__v3 ds;
+        if (noise) noise[k] = 0.0;
+        dn[k] = pds__tri_normal_diff(&t, &fields[0], dp[k]);
+        if (!m->smooth || !(scale[k] > 0.0)) continue;
+        if (e < 0.0) e = sqrt(pds__mesh_tri_area2(m, ix[0], ix[1], ix[2]));
+        if (!(PDS__NORMAL_REACH * 2.0 * scale[k] > e)) continue;
+        lambda = log2(PDS__NORMAL_REACH * 2.0 * scale[k] / e);
+        if (lambda > PDS__NORMAL_LEVELS) lambda = PDS__NORMAL_LEVELS;
+        l0 = (int)lambda;
+        f = lambda - l0;
+        /* field l is m->nrm for l = 0, averaged field l (smooth[l - 1]) after */
+        for (l = l0; l <= l0 + (f > 0.0); l++)
+            if (!have[l]) {
+                fields[l] = pds__tri_field_of(m, m->smooth + 3 * m->nverts * (size_t)(l - 1), tri, u, v);
+                have[l] = 1;
+            }
+        ds = l0 > 0 ? pds__tri_normal_diff(&t, &fields[l0], dp[k]) : dn[k];
+        if (f > 0.0) ds = pds__add(pds__scale(ds, 1.0 - f), pds__scale(pds__tri_normal_diff(&t, &fields[l0 + 1], dp[k]), f));
+        rho = pds__length(pds__sub(dn[k], ds)) / (pds__length(ds) + 1e-300);
+        w = (rho - PDS__NORMAL_NOISE) / (0.5 * PDS__NORMAL_NOISE);
+        if (!(w > 0.0)) continue;
+        if (w > 1.0) w = 1.0;
+        if (noise) noise[k] = 0.5 * w * pds__length(pds__sub(dn[k], ds)) * e / pds__length(dp[k]);
+        dn[k] = pds__add(pds__scale(dn[k], 1.0 - w), pds__scale(ds, w));
+        if (fields[0].nn > 0.0) {
+            pds__v3 n = pds__normalize(fields[0].n);
+            dn[k] = pds__sub(dn[k], pds__scale(n, pds__dot(n, dn[k])));
+        }
+    }
+}
+
+#ifdef PDS_TEST
+/* pds__mesh_normal_diff2 along one direction dp (half-width scale): the
+   tests' form. */
 static void pds__mesh_normal_diff(const pds__mesh *m, long tri, double u, double v, pds__v3 dp, double scale,
                                   pds__v3 *dn, double *noise)
 {
-    const int *ix = &m->idx[3 * tri];
-    double e, lambda, f, rho, w;
-    int l0;
-    pds__v3 n, ds;
-    if (noise) *noise = 0.0;
-    *dn = pds__tri_normal_diff(m, m->nrm, tri, u, v, dp);
-    if (!m->smooth || !(scale > 0.0)) return;
-    e = sqrt(pds__mesh_tri_area2(m, ix[0], ix[1], ix[2]));
-    if (!(PDS__NORMAL_REACH * 2.0 * scale > e)) return;
-    lambda = log2(PDS__NORMAL_REACH * 2.0 * scale / e);
-    if (lambda > PDS__NORMAL_LEVELS) lambda = PDS__NORMAL_LEVELS;
-    l0 = (int)lambda;
-    f = lambda - l0;
-    ds = *dn;
-    if (l0 > 0) ds = pds__tri_normal_diff(m, m->smooth + 3 * m->nverts * (size_t)(l0 - 1), tri, u, v, dp);
-    if (f > 0.0)
-        ds = pds__add(pds__scale(ds, 1.0 - f),
-                      pds__scale(pds__tri_normal_diff(m, m->smooth + 3 * m->nverts * (size_t)l0, tri, u, v, dp), f));
-    rho = pds__length(pds__sub(*dn, ds)) / (pds__length(ds) + 1e-300);
-    w = (rho - PDS__NORMAL_NOISE) / (0.5 * PDS__NORMAL_NOISE);
-    if (!(w > 0.0)) return;
-    if (w > 1.0) w = 1.0;
-    if (noise) *noise = 0.5 * w * pds__length(pds__sub(*dn, ds)) * e / pds__length(dp);
-    *dn = pds__add(pds__scale(*dn, 1.0 - w), pds__scale(ds, w));
-    n = pds__add(pds__add(pds__scale(pds__mesh_nrm(m, ix[0]), 1.0 - u - v), pds__scale(pds__mesh_nrm(m, ix[1]), u)),
-                 pds__scale(pds__mesh_nrm(m, ix[2]), v));
-    if (pds__dot(n, n) > 0.0) {
-        n = pds__normalize(n);
-        *dn = pds__sub(*dn, pds__scale(n, pds__dot(n, *dn)));
-    }
+    pds__v3 dps[2], dns[2];
+    double scales[2], noises[2];
+    dps[0] = dps[1] = dp;
+    scales[0] = scales[1] = scale;
+    pds__mesh_normal_diff2(m, tri, u, v, dps, scales, dns, noises);
+    *dn = dns[0];
+    if (noise) *noise = noises[0];
 }
+#endif
 
 /* Igehy's reflected directional differential for incident unit d, unit
    normal n with differential dn, incident differential dd:
@@ -9705,7 +9770,7 @@ static int pds__footprint_widen(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double
 
 /* Unresolved normal noise (an extension). Where a footprint spans
    several triangles of a mesh with noisy normals, its normal's
-   differential is the averaged field's (pds__mesh_normal_diff), and the
+   differential is the averaged field's (pds__mesh_normal_diff2), and the
    normals across the footprint still scatter about that field by the
    noise, sigma_n radians, which the differentials cannot carry. A normal
    tilted by delta turns a reflected direction by 2 delta and a refracted
@@ -16497,8 +16562,17 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
             /* each derivative at the footprint's half-width along its
                own direction: a needle keeps the triangle's derivative
                across itself */
-            pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdu, 0.5 * pds__length(r.dpdu), &dndu, &noise_u);
-            pds__mesh_normal_diff(&s->mesh, th.tri, th.u, th.v, r.dpdv, 0.5 * pds__length(r.dpdv), &dndv, &noise_v);
+            pds__v3 dps[2], dns[2];
+            double scales[2], noises[2];
+            dps[0] = r.dpdu;
+            dps[1] = r.dpdv;
+            scales[0] = 0.5 * pds__length(r.dpdu);
+            scales[1] = 0.5 * pds__length(r.dpdv);
+            pds__mesh_normal_diff2(&s->mesh, th.tri, th.u, th.v, dps, scales, dns, noises);
+            dndu = dns[0];
+            dndv = dns[1];
+            noise_u = noises[0];
+            noise_v = noises[1];
             if (job->noise_scale > 0.0 && fmax(noise_u, noise_v) > 0.0)
                 spread = hypot(spread, pds__noise_gain(bs.transmitted, eta) * fmax(noise_u, noise_v));
             if (agree < -0.999999) {
