@@ -1016,7 +1016,7 @@ static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(
     memset(&map, 0, sizeof map);
     map.v = v;
     map.n = NV;
-    REQUIRE(t, pds__eye_map_build(&map, NULL) == PDS_OK, "eye map");
+    REQUIRE(t, pds__eye_map_build(&map, 0, 0, NULL) == PDS_OK, "eye map");
     CHECK(t, map.n_single == 240 && map.merged.n == 120, "%zu single and %zu merged vertices, want 240 and 120",
           map.n_single, map.merged.n);
     splat_test_job(&job, &buf, &map, f, sum);
@@ -1077,6 +1077,112 @@ static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(
     free(sum);
 }
 
+/* pds__grid_range_ellipse: the whole pixels' vertices (pds__eye_map_build's
+   third part) a splat's query finds through the image are exactly those
+   their tree finds (pds__kdtree_range_ellipse, itself tested against brute
+   force): each index once, with the same |M d|^2 bit for bit. The camera
+   sees a floor y = 0 and, for x > 0.2, a step 0.03 above it (vertices the
+   slab must leave out or take, depending on its thickness); every
+   seventh pixel's vertex is merged but not whole and must go to the
+   second part, not the grid; every fifth lies near a corner of its pixel
+   rather than on its centre ray. 400 footprints from round to needles 1000:1
+   at random angles, lying on the floor or tilted up to 0.4 rad (an
+   oblique slab), 0.005 to 0.4 across. A query whose box reaches behind
+   the camera is left to the tree (0, nothing reported). */
+static void test_pds_whole_pixels_are_found_through_the_image_as_through_their_tree(pds_test_ctx *t)
+{
+    enum { W = 64, H = 48 };
+    pds__camera_frame f = merge_test_camera();
+    pds__eye_vertex *v = (pds__eye_vertex *)calloc(W * H, sizeof *v);
+    pds__v3 up = pds__v(0.0, 1.0, 0.0);
+    pds_material m = splat_test_floor();
+    double beta[3] = {0.5, 0.5, 0.5};
+    pds__eye_map map;
+    tkd_hits hg, hk;
+    size_t n = 0, merged_other = 0, q, i, bad = 0, hits = 0, needles = 0;
+    int x, y, refused = 0;
+    REQUIRE(t, v && tkd_hits_alloc(&hg, W * H) && tkd_hits_alloc(&hk, W * H), "memory");
+    for (y = 0; y < H; y++)
+        for (x = 0; x < W; x++) {
+            /* at the centre ray, as pds__eye_merge puts it; a fifth near
+               a corner (its samples' mean, where the centre ray grazes) */
+            int corner = (x + y) % 5 == 0;
+            pds__v3 d = pds__camera_dir(&f, x + (corner ? 0.02 : 0.5), y + (corner ? 0.97 : 0.5)), p, ex, ey;
+            double tf = -f.origin.y / d.y, h;
+            if (!(tf > 0.0)) continue;
+            p = pds__add(f.origin, pds__scale(d, tf));
+            h = p.x > 0.2 ? 0.03 : 0.0;
+            p = pds__add(f.origin, pds__scale(d, (h - f.origin.y) / d.y));
+            if (!pds__pixel_axes(&f, p, up, &ex, &ey)) continue;
+            REQUIRE(t, pds__eye_vertex_set(&v[n], &m, p, up, up, pds__normalize(pds__sub(f.origin, p)), beta, 0),
+                    "vertex %d %d", x, y);
+            v[n].pixel = y * W + x;
+            pds__f3_set(v[n].px, ex);
+            pds__f3_set(v[n].py, ey);
+            v[n].whole = (y * W + x) % 7 != 0;
+            merged_other += !v[n].whole;
+            n++;
+        }
+    memset(&map, 0, sizeof map);
+    map.v = v;
+    map.n = n;
+    REQUIRE(t, pds__eye_map_build(&map, W, H, NULL) == PDS_OK, "eye map");
+    CHECK(t, map.n_single == 0 && map.merged.n == merged_other && map.whole.n == n - merged_other,
+          "parts %zu / %zu / %zu, want 0 / %zu / %zu", map.n_single, map.merged.n, map.whole.n, merged_other,
+          n - merged_other);
+    for (i = map.n_whole; i < n; i++)
+        if (!map.v[i].whole || map.grid[map.v[i].pixel] != (int)(i - map.n_whole)) bad++;
+    CHECK(t, bad == 0, "%zu whole vertices not in their pixel of the grid", bad);
+    bad = 0;
+    for (q = 0; q < 400; q++) {
+        uint64_t sd = 4242;
+        double tilt = q % 2 ? 0.4 * pds__rng_uniform(sd, PDS__RNG_TEST, q, 1) : 0.0;
+        double az = 2.0 * PDS__PI * pds__rng_uniform(sd, PDS__RNG_TEST, q, 2);
+        double aspect = pow(10.0, -3.0 * pds__rng_uniform(sd, PDS__RNG_TEST, q, 3));
+        double len = 0.005 + 0.395 * pds__rng_uniform(sd, PDS__RNG_TEST, q, 4);
+        double ang = PDS__PI * pds__rng_uniform(sd, PDS__RNG_TEST, q, 5), M[2][3], major, tol;
+        pds__v3 c = pds__v(-1.2 + 2.4 * pds__rng_uniform(sd, PDS__RNG_TEST, q, 6), q % 3 == 0 ? 0.03 : 0.0,
+                           -1.2 + 2.4 * pds__rng_uniform(sd, PDS__RNG_TEST, q, 7));
+        pds__v3 nrm = pds__v(sin(tilt) * cos(az), cos(tilt), sin(tilt) * sin(az)), t1, t2, a1, a2;
+        int ok;
+        pds__onb(nrm, &t1, &t2);
+        a1 = pds__scale(pds__add(pds__scale(t1, cos(ang)), pds__scale(t2, sin(ang))), len);
+        a2 = pds__scale(pds__add(pds__scale(t1, -sin(ang)), pds__scale(t2, cos(ang))), len * aspect);
+        REQUIRE(t, pds__filter_matrix(pds__scale(a1, 2.0), pds__scale(a2, 2.0), nrm, M), "filter matrix");
+        major = pds__footprint_major_axis(pds__scale(a1, 2.0), pds__scale(a2, 2.0));
+        tol = 0.25 * major;
+        needles += aspect < 0.01;
+        memset(hg.count, 0, W * H * sizeof *hg.count);
+        memset(hk.count, 0, W * H * sizeof *hk.count);
+        hg.n = hk.n = n - map.n_whole;
+        hg.total = hk.total = hg.out_of_range = hk.out_of_range = 0;
+        ok = pds__grid_range_ellipse(&map, &f, c, major, (const double(*)[3])M, nrm, tol, tkd_collect_many, &hg);
+        pds__kdtree_range_ellipse(&map.whole, c, major, (const double(*)[3])M, nrm, tol, tkd_collect_many, &hk);
+        if (!ok) {
+            refused++;
+            continue;
+        }
+        bad += hg.out_of_range + hk.out_of_range;
+        for (i = 0; i < hg.n; i++)
+            if (hg.count[i] != hk.count[i] || hg.count[i] > 1 || (hg.count[i] && hg.d2[i] != hk.d2[i])) bad++;
+        hits += hk.total;
+    }
+    CHECK(t, bad == 0 && refused == 0, "%zu differences from the tree, %d queries refused", bad, refused);
+    CHECK(t, hits > 1000 && needles > 50, "%zu vertices found, %zu needles: too few to tell", hits, needles);
+    {
+        /* a footprint around the camera itself: its box reaches behind it */
+        double M[2][3] = {{1.0, 0.0, 0.0}, {0.0, 0.0, 1.0}};
+        hg.total = 0;
+        CHECK(t, !pds__grid_range_ellipse(&map, &f, pds__add(f.origin, pds__scale(f.forward, 0.5)), 1.5,
+                                          (const double(*)[3])M, up, 0.4, tkd_collect_many, &hg) && hg.total == 0,
+              "a query reaching behind the camera was taken (%zu reported)", hg.total);
+    }
+    pds__eye_map_free_index(&map);
+    tkd_hits_free(&hg);
+    tkd_hits_free(&hk);
+    free(v);
+}
+
 /* The splat's cost roulette (pds__splat, PDS__SPLAT_ROULETTE): a round
    footprint over a floor of eye vertices, splatted as photons 0..P-1 of a
    pass whose bound it exceeds about fourfold, keeps a share of them, and
@@ -1116,7 +1222,7 @@ static void test_pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_ar
     memset(&map, 0, sizeof map);
     map.v = v;
     map.n = NV;
-    REQUIRE(t, pds__eye_map_build(&map, NULL) == PDS_OK, "eye map");
+    REQUIRE(t, pds__eye_map_build(&map, 0, 0, NULL) == PDS_OK, "eye map");
     splat_test_job(&job, &buf, &map, f, sum);
     job.sample_angle = 0.00045;
     pds_options_default(&opt);
@@ -1537,6 +1643,8 @@ static void test_box3_square_sum_is_the_chance_two_triple_sums_agree(pds_test_ct
 static const pds_test_case tests_pds[] = {
     {"pds_caustic_photons_end_at_a_light_they_meet", test_pds_caustic_photons_end_at_a_light_they_meet},
     {"pds_footprints_fold_at_a_wall", test_pds_footprints_fold_at_a_wall},
+    {"pds_whole_pixels_are_found_through_the_image_as_through_their_tree",
+     test_pds_whole_pixels_are_found_through_the_image_as_through_their_tree},
     {"pds_splat_finds_single_and_merged_vertices_as_brute_force_does",
      test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does},
     {"pds_second_scale_is_the_pass_at_half_the_smoothing", test_pds_second_scale_is_the_pass_at_half_the_smoothing},
