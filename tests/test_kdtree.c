@@ -188,6 +188,21 @@ static void test_kdtree_range_random(pds_test_ctx *t)
     }
 }
 
+/* A footprint in the plane with normal nrm: semi-axes len and len *
+   aspect, the first at angle ang from pds__onb's first axis; its eq. 12
+   filter matrix in M and major semi-axis in *major (0 if it has none). */
+static int tkd_footprint(pds__v3 nrm, double len, double aspect, double ang, double M[2][3], double *major)
+{
+    pds__v3 t1, t2, a1, a2;
+    pds__onb(nrm, &t1, &t2);
+    a1 = pds__scale(pds__add(pds__scale(t1, cos(ang)), pds__scale(t2, sin(ang))), len);
+    a2 = pds__scale(pds__add(pds__scale(t1, -sin(ang)), pds__scale(t2, cos(ang))), len * aspect);
+    /* conjugate diameters 2 a1, 2 a2: the footprint of eq. 4 */
+    if (!pds__filter_matrix(pds__scale(a1, 2.0), pds__scale(a2, 2.0), nrm, M)) return 0;
+    *major = pds__footprint_major_axis(pds__scale(a1, 2.0), pds__scale(a2, 2.0));
+    return 1;
+}
+
 /* The splat's query (an elliptic disc thickened to a slab, within the
    ball of its major axis) against brute force: random footprints of every
    shape, from round to needles 1000:1, at random orientations, over
@@ -206,17 +221,12 @@ static void test_kdtree_ellipse_query_matches_brute_force(pds_test_ctx *t)
         REQUIRE(t, pds__kdtree_build(&kd, pos, 3, n, NULL) == PDS_OK, "build failed");
         for (q = 0; q < 200; q++) {
             uint64_t sd = 900 + (uint64_t)ki;
-            pds__v3 c = tkd_query(pos, 3, n, sd, q), nrm, t1, t2, a1, a2;
+            pds__v3 c = tkd_query(pos, 3, n, sd, q), nrm;
             double M[2][3], major, tol, aspect = pow(10.0, -3.0 * pds__rng_uniform(sd, PDS__RNG_TEST, q, 20));
             double len = tkd_rand(sd, q, 21, 0.01, 0.8), ang = tkd_rand(sd, q, 22, 0.0, PDS__PI);
             nrm = pds__normalize(pds__v(tkd_rand(sd, q, 23, -1, 1), tkd_rand(sd, q, 24, -1, 1), tkd_rand(sd, q, 25, -1, 1)));
             if (ki == 2 && q % 2 == 0) nrm = pds__v(0, 0, 1); /* in the plane of the points */
-            pds__onb(nrm, &t1, &t2);
-            a1 = pds__scale(pds__add(pds__scale(t1, cos(ang)), pds__scale(t2, sin(ang))), len);
-            a2 = pds__scale(pds__add(pds__scale(t1, -sin(ang)), pds__scale(t2, cos(ang))), len * aspect);
-            /* conjugate diameters 2 a1, 2 a2: the footprint of eq. 4 */
-            REQUIRE(t, pds__filter_matrix(pds__scale(a1, 2.0), pds__scale(a2, 2.0), nrm, M), "filter matrix");
-            major = pds__footprint_major_axis(pds__scale(a1, 2.0), pds__scale(a2, 2.0));
+            REQUIRE(t, tkd_footprint(nrm, len, aspect, ang, M, &major), "filter matrix");
             tol = 0.25 * major;
             memset(h.count, 0, n * sizeof *h.count);
             h.n = n;

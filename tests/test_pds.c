@@ -1143,13 +1143,9 @@ static void test_pds_whole_pixels_are_found_through_the_image_as_through_their_t
         double ang = PDS__PI * pds__rng_uniform(sd, PDS__RNG_TEST, q, 5), M[2][3], major, tol;
         pds__v3 c = pds__v(-1.2 + 2.4 * pds__rng_uniform(sd, PDS__RNG_TEST, q, 6), q % 3 == 0 ? 0.03 : 0.0,
                            -1.2 + 2.4 * pds__rng_uniform(sd, PDS__RNG_TEST, q, 7));
-        pds__v3 nrm = pds__v(sin(tilt) * cos(az), cos(tilt), sin(tilt) * sin(az)), t1, t2, a1, a2;
+        pds__v3 nrm = pds__v(sin(tilt) * cos(az), cos(tilt), sin(tilt) * sin(az));
         int ok;
-        pds__onb(nrm, &t1, &t2);
-        a1 = pds__scale(pds__add(pds__scale(t1, cos(ang)), pds__scale(t2, sin(ang))), len);
-        a2 = pds__scale(pds__add(pds__scale(t1, -sin(ang)), pds__scale(t2, cos(ang))), len * aspect);
-        REQUIRE(t, pds__filter_matrix(pds__scale(a1, 2.0), pds__scale(a2, 2.0), nrm, M), "filter matrix");
-        major = pds__footprint_major_axis(pds__scale(a1, 2.0), pds__scale(a2, 2.0));
+        REQUIRE(t, tkd_footprint(nrm, len, aspect, ang, M, &major), "filter matrix");
         tol = 0.25 * major;
         needles += aspect < 0.01;
         memset(hg.count, 0, W * H * sizeof *hg.count);
