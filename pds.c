@@ -16315,6 +16315,13 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
    asks the tree. (Glass teaching scene, 100,000 photons: the whole
    pixels' queries walked the tree for 19% of the photon pass.) */
 #define PDS__GRID_BATCH 32
+/* floor(x) clamped to [0, n - 1] (x may be huge: a corner near the
+   camera's plane projects far out) */
+static int pds__grid_clamp(double x, int n)
+{
+    return !(x > 0.0) ? 0 : x >= n - 1 ? n - 1 : (int)floor(x);
+}
+
 static int pds__grid_range_ellipse(const pds__eye_map *map, const pds__camera_frame *f, pds__v3 c, double r,
                                    const double M[2][3], pds__v3 n, double tol, pds__kd_visit_many fn, void *ctx)
 {
@@ -16365,9 +16372,10 @@ static int pds__grid_range_ellipse(const pds__eye_map *map, const pds__camera_fr
         hull[nb++][1] = pt[i][1];
     }
     nb--; /* the last point is the first */
+    if (yhi + eps < 0.0 || ylo - eps >= map->grid_h) return 1; /* above or below the image */
     pds__kd_slab_init(&q, c, r, M, n, tol);
-    y0 = ylo - eps > 0.0 ? (int)floor(ylo - eps) : 0;
-    y1 = yhi + eps < map->grid_h - 1 ? (int)floor(yhi + eps) : map->grid_h - 1;
+    y0 = pds__grid_clamp(ylo - eps, map->grid_h);
+    y1 = pds__grid_clamp(yhi + eps, map->grid_h);
     for (y = y0; y <= y1; y++) {
         double lo = y - eps, top = y + 1 + eps, xl = HUGE_VAL, xr = -HUGE_VAL;
         int x, x0, x1;
@@ -16388,8 +16396,9 @@ static int pds__grid_range_ellipse(const pds__eye_map *map, const pds__camera_fr
             }
         }
         if (!(xl <= xr)) continue;
-        x0 = xl - eps > 0.0 ? (int)floor(xl - eps) : 0;
-        x1 = xr + eps < map->grid_w - 1 ? (int)floor(xr + eps) : map->grid_w - 1;
+        x0 = pds__grid_clamp(xl - eps, map->grid_w);
+        x1 = pds__grid_clamp(xr + eps, map->grid_w);
+        if (xr + eps < 0.0 || xl - eps >= map->grid_w) continue;
         for (x = x0; x <= x1; x++) {
             int at = map->grid[(size_t)y * (size_t)map->grid_w + (size_t)x];
             if (at < 0) continue;
