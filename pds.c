@@ -9552,7 +9552,8 @@ static void pds__mesh_normal_diff2(const pds__mesh *m, long tri, double u, doubl
                 have[l] = 1;
             }
         ds = l0 > 0 ? pds__tri_normal_diff(&t, &fields[l0], dp[k]) : dn[k];
-        if (f > 0.0) ds = pds__add(pds__scale(ds, 1.0 - f), pds__scale(pds__tri_normal_diff(&t, &fields[l0 + 1], dp[k]), f));
+        if (f > 0.0)
+            ds = pds__add(pds__scale(ds, 1.0 - f), pds__scale(pds__tri_normal_diff(&t, &fields[l0 + 1], dp[k]), f));
         rho = pds__length(pds__sub(dn[k], ds)) / (pds__length(ds) + 1e-300);
         w = (rho - PDS__NORMAL_NOISE) / (0.5 * PDS__NORMAL_NOISE);
         if (!(w > 0.0)) continue;
@@ -15512,7 +15513,8 @@ static pds_status pds__eye_map_build(pds__eye_map *map, int width, int height, p
             pds__eye_map_free_index(map);
             return pds__nomem(err);
         }
-        for (i = map->n_whole; i < n; i++) memcpy(&map->grid_pos[3 * (i - map->n_whole)], tmp[i].pos, sizeof tmp[i].pos);
+        for (i = map->n_whole; i < n; i++)
+            memcpy(&map->grid_pos[3 * (i - map->n_whole)], tmp[i].pos, sizeof tmp[i].pos);
     }
     for (part = 0; part < 3; part++) {
         size_t first = part == 0 ? 0 : part == 1 ? map->n_single : map->n_whole;
@@ -16338,9 +16340,9 @@ static int pds__grid_range_ellipse(const pds__eye_map *map, const pds__camera_fr
     k[1] = pds__scale(pds__cross(m1, n), 1.0 / det);
     k[2] = pds__scale(pds__cross(n, m0), 1.0 / det);
     for (i = 0; i < 8; i++) {
-        pds__v3 p = pds__add(c, pds__add(pds__scale(k[0], i & 1 ? 1.0 : -1.0),
-                                          pds__add(pds__scale(k[1], i & 2 ? 1.0 : -1.0), pds__scale(k[2], i & 4 ? 1.0 : -1.0))));
-        pds__v3 d = pds__sub(p, f->origin);
+        pds__v3 p = pds__add(pds__scale(k[1], i & 2 ? 1.0 : -1.0), pds__scale(k[2], i & 4 ? 1.0 : -1.0)), d;
+        p = pds__add(c, pds__add(pds__scale(k[0], i & 1 ? 1.0 : -1.0), p));
+        d = pds__sub(p, f->origin);
         if (!(pds__dot(d, f->forward) > 1e-9 * pds__length(d)) || !pds__camera_project(f, p, &pt[i][0], &pt[i][1]))
             return 0;
         ylo = fmin(ylo, pt[i][1]);
@@ -16432,7 +16434,8 @@ static void pds__splat_visit_all(const pds__photon_job *job, pds__splat_ctx *sc,
         pds__splat_grow_for_pixels(job, sc, hu, hv, &major);
         if (job->map->merged.n > 0) {
             sc->base = job->map->n_single;
-            pds__kdtree_range_ellipse(&job->map->merged, xp, major, M, sc->np, sc->plane_max, pds__splat_visit_many, sc);
+            pds__kdtree_range_ellipse(&job->map->merged, xp, major, M, sc->np, sc->plane_max, pds__splat_visit_many,
+                                      sc);
         }
         sc->base = job->map->n_whole;
         if (!pds__grid_range_ellipse(job->map, &job->frame, xp, major, M, sc->np, sc->plane_max, pds__splat_visit_many,
@@ -19103,7 +19106,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             stats->time_photons_s = pds__clock_now(&job.clock) - t0;
             stats->memory_bytes += nvertices * sizeof *vertices + pds__kdtree_memory(&map.tree) + pds__kdtree_memory(&map.merged) +
                                    pds__kdtree_memory(&map.whole) +
-                                   (map.grid ? npix * sizeof *map.grid + 3 * (map.n - map.n_whole) * sizeof(float) : 0) +
+                                   (map.grid ? npix * sizeof *map.grid + 3 * (map.n - map.n_whole) * sizeof(float)
+                                             : 0) +
                                    (map.hot ? map.n * sizeof *map.hot : 0) + stats->map_bytes +
                                    (size_t)job.nbufs * npix *
                                        (3 + (job.validate ? PDS__SEL_THREAD : 0) + (dbg && dbg[0].aniso ? 2 : 0) +
