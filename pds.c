@@ -55,8 +55,9 @@
                   paths OBJ
      >>pds        photon differential splatting: aimed caustic photons,
                   tracing with differentials, splatting into the eye-path
-                  map; progressive passes and their eye rounds; the
-                  light tracer that validates the pixels' scales
+                  map (its whole pixels found through the image);
+                  progressive passes and their eye rounds; the light
+                  tracer that validates the pixels' scales
      >>baselines  pm, pdm, splat, ppm (not in PDS_NO_BASELINES)
      >>streams    streamed photon mapping (spm): streams of a leading photon
                   and associated photons, concentrated at specular surfaces,
