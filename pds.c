@@ -16310,9 +16310,10 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
    into the convex hull of its corners' projections, and a whole vertex
    lies in its own pixel (pds__eye_merge: at its centre ray's point on the
    samples' plane), so the pixels whose square meets the hull hold every
-   vertex the test can pass; row by row, the hull's extent over the row
-   (its corners in the row and its edges' crossings of the row's two
-   lines) gives them. Returns 0, having reported nothing, where the
+   vertex the test can pass. Row by row, the hull's extent over the row
+   gives them: it is reached at a corner in the row or where an edge of
+   the hull crosses one of the row's two lines, and the hull's edges are
+   among the box's twelve projected (the others lie inside it). Returns 0, having reported nothing, where the
    projection cannot bound the query (a corner not in front of the
    camera, or no box: M's rows and n not independent): the caller then
    asks the tree. (Glass teaching scene, 100,000 photons: the whole
@@ -16330,10 +16331,10 @@ static int pds__grid_range_ellipse(const pds__eye_map *map, const pds__camera_fr
 {
     pds__kd_slab q;
     pds__v3 m0 = pds__v(M[0][0], M[0][1], M[0][2]), m1 = pds__v(M[1][0], M[1][1], M[1][2]), k[3];
-    double det, pt[8][2], hull[16][2], ylo = HUGE_VAL, yhi = -HUGE_VAL, he[PDS__GRID_BATCH];
+    double det, pt[8][2], edge[12][4], ylo = HUGE_VAL, yhi = -HUGE_VAL, he[PDS__GRID_BATCH];
     const double eps = 1e-3; /* pixels: rounding of the positions and of the corners */
     size_t hit[PDS__GRID_BATCH];
-    int i, j, nh = 0, nb = 0, y, y0, y1;
+    int i, ne = 0, nh = 0, y, y0, y1;
     if (!map->grid || map->n == map->n_whole || !(r >= 0.0) || !(tol >= 0.0) || !pds__kd_query_ok(c)) return 1;
     det = pds__dot(n, pds__cross(m0, m1));
     if (!(fabs(det) > 1e-12 * pds__length(n) * pds__length(m0) * pds__length(m1)) || !isfinite(det)) return 0;
@@ -16349,50 +16350,44 @@ static int pds__grid_range_ellipse(const pds__eye_map *map, const pds__camera_fr
         ylo = fmin(ylo, pt[i][1]);
         yhi = fmax(yhi, pt[i][1]);
     }
-    /* the hull (Andrew's monotone chain), counter-clockwise */
-    for (i = 1; i < 8; i++)
-        for (j = i; j > 0 && (pt[j][0] < pt[j - 1][0] || (pt[j][0] == pt[j - 1][0] && pt[j][1] < pt[j - 1][1])); j--) {
-            double t0 = pt[j][0], t1 = pt[j][1];
-            pt[j][0] = pt[j - 1][0];
-            pt[j][1] = pt[j - 1][1];
-            pt[j - 1][0] = t0;
-            pt[j - 1][1] = t1;
-        }
-    for (i = 0; i < 8; i++) {
-        while (nb >= 2 && (hull[nb - 1][0] - hull[nb - 2][0]) * (pt[i][1] - hull[nb - 2][1]) -
-                                  (hull[nb - 1][1] - hull[nb - 2][1]) * (pt[i][0] - hull[nb - 2][0]) <=
-                              0.0)
-            nb--;
-        hull[nb][0] = pt[i][0];
-        hull[nb++][1] = pt[i][1];
-    }
-    for (i = 6, j = nb + 1; i >= 0; i--) {
-        while (nb >= j && (hull[nb - 1][0] - hull[nb - 2][0]) * (pt[i][1] - hull[nb - 2][1]) -
-                                 (hull[nb - 1][1] - hull[nb - 2][1]) * (pt[i][0] - hull[nb - 2][0]) <=
-                             0.0)
-            nb--;
-        hull[nb][0] = pt[i][0];
-        hull[nb++][1] = pt[i][1];
-    }
-    nb--; /* the last point is the first */
     if (yhi + eps < 0.0 || ylo - eps >= map->grid_h) return 1; /* above or below the image */
+    /* the box's twelve edges, from corner i to corner i + bit, as their
+       lower and upper y, the x at the lower and dx / dy (horizontal ones
+       cross no row's line: their corners count) */
+    for (i = 0; i < 8; i++) {
+        int bit;
+        for (bit = 1; bit < 8; bit <<= 1) {
+            const double *pa = pt[i], *pb = pt[i | bit];
+            if ((i & bit) || pa[1] == pb[1]) continue;
+            if (pa[1] > pb[1]) {
+                const double *t = pa;
+                pa = pb;
+                pb = t;
+            }
+            edge[ne][0] = pa[1];
+            edge[ne][1] = pb[1];
+            edge[ne][2] = pa[0];
+            edge[ne][3] = (pb[0] - pa[0]) / (pb[1] - pa[1]);
+            ne++;
+        }
+    }
     pds__kd_slab_init(&q, c, r, M, n, tol);
     y0 = pds__grid_clamp(ylo - eps, map->grid_h);
     y1 = pds__grid_clamp(yhi + eps, map->grid_h);
     for (y = y0; y <= y1; y++) {
         double lo = y - eps, top = y + 1 + eps, xl = HUGE_VAL, xr = -HUGE_VAL;
         int x, x0, x1;
-        for (i = 0; i < nb; i++) {
-            const double *a = hull[i], *b = hull[(i + 1) % nb];
-            int side;
-            if (a[1] >= lo && a[1] <= top) {
-                xl = fmin(xl, a[0]);
-                xr = fmax(xr, a[0]);
+        for (i = 0; i < 8; i++)
+            if (pt[i][1] >= lo && pt[i][1] <= top) {
+                xl = fmin(xl, pt[i][0]);
+                xr = fmax(xr, pt[i][0]);
             }
+        for (i = 0; i < ne; i++) {
+            int side;
             for (side = 0; side < 2; side++) {
                 double yl = side ? top : lo;
-                if ((a[1] - yl) * (b[1] - yl) < 0.0) {
-                    double xc = a[0] + (yl - a[1]) * (b[0] - a[0]) / (b[1] - a[1]);
+                if (yl > edge[i][0] && yl < edge[i][1]) {
+                    double xc = edge[i][2] + (yl - edge[i][0]) * edge[i][3];
                     xl = fmin(xl, xc);
                     xr = fmax(xr, xc);
                 }
