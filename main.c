@@ -1645,6 +1645,12 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
             printf(" %s_used=%ld", m == PDS_METHOD_PDM ? "max_photons" : "k", st->gather_cap);
         if (st->gather_radius > 0.0) printf(" max_radius_used=%g", st->gather_radius);
         printf(" time_eye=%.3f time_photons=%.3f", st->time_eye_s, st->time_photons_s);
+        if (st->scale_pixels[0] + st->scale_pixels[1] + st->scale_pixels[2] + st->scale_pixels[3] +
+                st->scale_pixels[4] > 0)
+            /* the pixels' choice of scale: the passes' own, half the
+               smoothing, the three blurs */
+            printf(" scale_pixels=%ld/%ld/%ld/%ld/%ld", st->scale_pixels[0], st->scale_pixels[1],
+                   st->scale_pixels[2], st->scale_pixels[3], st->scale_pixels[4]);
         if (m == PDS_METHOD_SPM && c->opt.paths != PDS_PATHS_CAUSTICS_ONLY) {
             /* the full image: gi's global map of streams and final gather
                (map_bytes above holds both maps, time_map both builds) */
@@ -1824,12 +1830,21 @@ static void warn_about_the_cost(const pds_scene *scene, const pds_options *opt)
 }
 
 /* The image of one part, as the merge makes it (a part not finished gives
-   what it holds). */
-static pds_status part_image(const pds_partial *part, pds_image *img, pds_error *err)
+   what it holds); st (or NULL) gets what the image tells of the render:
+   its values replaced and the pixels' choice of scale. */
+static pds_status part_image(const pds_partial *part, pds_image *img, pds_render_stats *st, pds_error *err)
 {
     const pds_partial *parts[1];
+    pds_merge_report report;
+    pds_status s;
+    int k;
     parts[0] = part;
-    return pds_partial_merge(parts, NULL, 1, 1, img, NULL, err);
+    s = pds_partial_merge_report(parts, NULL, 1, 1, img, &report, err);
+    if (s == PDS_OK && st) {
+        st->nonfinite = report.nonfinite;
+        for (k = 0; k < 5; k++) st->scale_pixels[k] = report.scale_pixels[k];
+    }
+    return s;
 }
 
 /* Write the part's file and, unless image_path is NULL, its image; both
@@ -1842,7 +1857,7 @@ static int write_part(const pds_partial *part, const char *part_path, const char
     int rc = 0;
     if (temp_arm(0, part_path) || (image_path && temp_arm(1, image_path))) rc = 1;
     else if (pds_partial_write(part_path, part, &err) != PDS_OK ||
-             (image_path && (part_image(part, &img, &err) != PDS_OK ||
+             (image_path && (part_image(part, &img, NULL, &err) != PDS_OK ||
                              image_write(image_path, &img, exposure, &image_meta, &err) != PDS_OK)))
         rc = fail("%s", pds_error_string(&err));
     temp_disarm(0);
@@ -2170,7 +2185,7 @@ static int cmd_render(int argc, char **argv)
         /* from here until they are in place a signal removes the images'
            temporary files */
         if (temp_arm(0, output)) rc = 1;
-        else if (part_image(part, &img, &err) != PDS_OK ||
+        else if (part_image(part, &img, &stats, &err) != PDS_OK ||
                  image_write(output, &img, c.exposure, &image_meta, &err) != PDS_OK)
             rc = fail("%s", pds_error_string(&err));
         temp_disarm(0);

@@ -12774,8 +12774,14 @@ static void pds__box_mean(double *x, double *tmp, int w, int h, int r)
    Measured in the README ("Scales chosen by validation").
    Fills rgb (3 a pixel) with every pixel's photon part: (S+ - S-) times
    scale (the image's 1 / unit * n_planned / emitted) of the chosen
-   candidate. passes: the passes summed. Returns 0 when memory runs out. */
+   candidate, and adds to chose[j] (if not NULL) the pixels that took
+   part and chose candidate j (0 the pass's scale, 1 the second, 2.. the
+   blurs). passes: the passes summed. Returns 0 when memory runs out. */
 #define PDS__SELECT_BLURS 3
+#define PDS__SELECT_ESTIMATES (2 + PDS__SELECT_BLURS) /* pds_render_stats.scale_pixels */
+typedef char pds__scale_pixels_fit[sizeof(((pds_render_stats *)0)->scale_pixels) == PDS__SELECT_ESTIMATES * sizeof(long)
+                                       ? 1
+                                       : -1];
 static const int pds__select_blur[PDS__SELECT_BLURS][2] = {{1, 1}, {1, 3}, {2, 3}}; /* box radius, times */
 #define PDS__SELECT_RADIUS 7 /* the errors' box, applied three times */
 #ifndef PDS__SELECT_SURE
@@ -12855,7 +12861,7 @@ static double pds__box3_square_sum(int r)
 }
 
 static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, int w, int h, long passes,
-                             double scale, double *rgb)
+                             double scale, double *rgb, long chose[PDS__SELECT_ESTIMATES])
 {
     size_t n = (size_t)w * (size_t)h, i;
     /* one block: per pixel the weight m, V, V's variance, the errors'
@@ -12866,7 +12872,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
     double *m = mem, *v = m + n, *var = v + n, *derr = var + n, *e0 = derr + n, *err = e0 + n, *noise = err + n;
     double *best = noise + n, *tmp = best + n, *chan = tmp + n, *cand = chan + n, *pick = cand + 3 * n;
     double *seg = pick + 3 * n, kappa = pds__box3_square_sum(PDS__SELECT_RADIUS), vsum = 0.0, v2sum = 0.0, wbar;
-    unsigned char *edge = (unsigned char *)malloc(n + 1);
+    unsigned char *edge = (unsigned char *)malloc(2 * n + 1), *which = edge + n; /* which: the pick's j */
     int j, c, k, any = 0;
     if (!mem || !edge) {
         free(mem);
@@ -12940,6 +12946,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
             memcpy(e0, err, sizeof(double) * n);
             memcpy(best, err, sizeof(double) * n);
             memcpy(pick, cand, sizeof(double) * 3 * n);
+            memset(which, 0, n);
             continue;
         }
         pds__masked_box(noise, m, derr, tmp, w, h, PDS__SELECT_RADIUS, 3);
@@ -12950,13 +12957,16 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
             double sd = derr[i] > 0.0 ? 2.0 * sqrt(kappa * noise[i] / derr[i]) : 0.0;
             if (m[i] > 0.0 && err[i] < best[i] && e0[i] - err[i] > PDS__SELECT_SURE * sd) {
                 best[i] = err[i];
+                which[i] = (unsigned char)j;
                 for (c = 0; c < 3; c++) pick[3 * i + c] = cand[3 * i + c];
             }
         }
     }
     for (i = 0; i < n; i++)
-        if (m[i] > 0.0)
+        if (m[i] > 0.0) {
             for (c = 0; c < 3; c++) rgb[3 * i + c] = pick[3 * i + c];
+            if (chose) chose[which[i]]++;
+        }
     free(mem);
     free(edge);
     return 1;
@@ -12965,11 +12975,13 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
 /* The image of the state (eq. at the top of this section): for every
    pixel channel, E + (S+ - S-) / unit * (n_planned / emitted), S the
    pixel's chosen estimate's sums when it holds several (stride 9,
-   pds__scale_choice; the passes are emitted / n_planned). Used by
-   pds_render and by merges alike. Returns the values replaced
-   (pds__finite_floats), -1 when memory runs out. */
+   pds__scale_choice, which counts its choices into chose if not NULL;
+   the passes are emitted / n_planned). Used by pds_render and by merges
+   alike. Returns the values replaced (pds__finite_floats), -1 when
+   memory runs out. */
 static long pds__partial_image(const double *eye, const pds__sum128 *photon, const pds__sum128 *neg, int stride, int w,
-                               int h, double unit, double n_planned, long emitted, float *out)
+                               int h, double unit, double n_planned, long emitted, float *out,
+                               long chose[PDS__SELECT_ESTIMATES])
 {
     size_t n = (size_t)w * (size_t)h * 3, i;
     double *rgb = (double *)malloc(sizeof *rgb * (n ? n : 1)), *sel = NULL;
@@ -12979,7 +12991,7 @@ static long pds__partial_image(const double *eye, const pds__sum128 *photon, con
     if (photon && emitted > 0 && stride == PDS__STRIDE_SELECT) {
         long passes = n_planned > 0.0 ? (long)floor((double)emitted / n_planned + 0.5) : 0;
         sel = (double *)malloc(sizeof *sel * (n ? n : 1));
-        if (!sel || !pds__scale_choice(photon, neg, w, h, passes, scale, sel)) {
+        if (!sel || !pds__scale_choice(photon, neg, w, h, passes, scale, sel, chose)) {
             free(rgb);
             free(sel);
             return -1;
@@ -13047,7 +13059,7 @@ static void pds__partial_fraction(const pds_partial *const *parts, int n, double
 /* The merge itself, with names for the messages (NULL: "part K"). */
 static pds_status pds__partial_merge(const pds_partial *const *parts, const char *const *names, int n,
                                      int allow_subset, pds_image *out, double *fraction, long *nonfinite,
-                                     pds_error *err)
+                                     long chose[PDS__SELECT_ESTIMATES], pds_error *err)
 {
     const pds_partial *p0;
     int *owner = NULL, i, shards;
@@ -13104,7 +13116,7 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
         if (pds_image_alloc(out, p0->width, p0->height) != PDS_OK) return pds__nomem(err);
         if (fraction) pds__partial_fraction(parts, n, fraction);
         k = (size_t)pds__partial_image(p0->eye, p0->photon, p0->neg, p0->stride, p0->width, p0->height, p0->unit,
-                                       p0->n_planned, p0->emitted, out->rgb);
+                                       p0->n_planned, p0->emitted, out->rgb, chose);
         if (k == (size_t)-1) {
             pds_image_free(out);
             return pds__nomem(err);
@@ -13144,7 +13156,7 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
     }
     if (fraction) pds__partial_fraction(parts, n, fraction);
     k = (size_t)pds__partial_image(eye, photon, neg, p0->stride, p0->width, p0->height, p0->unit, p0->n_planned, emitted,
-                                   out->rgb);
+                                   out->rgb, chose);
     if (k == (size_t)-1) {
         pds_image_free(out);
         st = pds__nomem(err);
@@ -13160,7 +13172,16 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
 pds_status pds_partial_merge(const pds_partial *const *parts, const char *const *names, int n, int allow_subset,
                              pds_image *out, double *fraction, pds_error *err)
 {
-    return pds__partial_merge(parts, names, n, allow_subset, out, fraction, NULL, err);
+    return pds__partial_merge(parts, names, n, allow_subset, out, fraction, NULL, NULL, err);
+}
+
+pds_status pds_partial_merge_report(const pds_partial *const *parts, const char *const *names, int n,
+                                    int allow_subset, pds_image *out, pds_merge_report *report, pds_error *err)
+{
+    if (!report) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_partial_merge_report: NULL report");
+    memset(report, 0, sizeof *report);
+    return pds__partial_merge(parts, names, n, allow_subset, out, &report->fraction, &report->nonfinite,
+                              report->scale_pixels, err);
 }
 
 #ifndef PDS_NO_PARTIAL_FILE
@@ -19050,7 +19071,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             double *rgb = (double *)malloc(sizeof *rgb * 3 * (npix ? npix : 1));
             if (!img || !rgb ||
                 pds__partial_image(part->eye, part->photon, part->neg, part->stride, width, height, part->unit,
-                                   part->n_planned, part->emitted, img) < 0)
+                                   part->n_planned, part->emitted, img, NULL) < 0)
                 st = PDS_ERR_NOMEM;
             for (i = 0; !st && i < npix * 3; i++) rgb[i] = img[i];
             if (!st && pds__debug_finish(debug, dbg, job.nbufs, width, height, rgb, &job.frame)) st = PDS_ERR_NOMEM;
@@ -19204,7 +19225,7 @@ static pds_status pds__light_trace_image(const pds_scene *s, const pds_options *
                 pds__sum128_add_bits(&job.bufs[0].neg[i], job.bufs[t].neg[i].lo, job.bufs[t].neg[i].hi);
             }
         if (!zero || pds__partial_image(zero, job.bufs[0].sum, job.bufs[0].neg, 3, width, height, job.bufs[0].unit,
-                                        (double)opt->photons, opt->photons, out->rgb) < 0)
+                                        (double)opt->photons, opt->photons, out->rgb, NULL) < 0)
             st = PDS_ERR_NOMEM;
         free(zero);
         if (st) pds_image_free(out);
@@ -23677,7 +23698,7 @@ static pds_status pds__render_at(const pds_scene *scene, const pds_options *opt,
     }
     /* the image of the state, as a merge of shards makes it */
     parts[0] = part;
-    st = pds__partial_merge(parts, NULL, 1, 1, out, NULL, &stats->nonfinite, err);
+    st = pds__partial_merge(parts, NULL, 1, 1, out, NULL, &stats->nonfinite, stats->scale_pixels, err);
     pds_partial_free(part);
     stats->partial = stats->partial || opt->shard_count > 1;
     stats->time_total_s = pds__clock_now(clock) - t0;

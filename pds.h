@@ -907,6 +907,15 @@ typedef struct pds_render_stats {
     double done_fraction;   /* of the whole render's work units (eye rows for
                                pt, photon batches or passes for pds and splat,
                                shards for pm, pdm and ppm) that are done */
+    long scale_pixels[5];   /* progressive pds choosing its pixels' scale
+                               (pds_options.pass_select): the pixels that
+                               took each estimate, [0] the passes' own
+                               footprints, [1] the same photons at half the
+                               smoothing, [2]-[4] the first blurred by a box
+                               of radius 1 once, 1 three times and 2 three
+                               times; a pixel that was not seen whole in
+                               every pass keeps [0] and is counted in none.
+                               All 0 in other renders */
 } pds_render_stats;
 
 /* What a render will need, from the scene and options alone, before any
@@ -1017,6 +1026,18 @@ pds_status pds_render_part(const pds_scene *scene, const pds_options *opt, pds_p
    hold. */
 pds_status pds_partial_merge(const pds_partial *const *parts, const char *const *names, int n, int allow_subset,
                              pds_image *out, double *fraction, pds_error *err);
+/* What the image of a merge holds besides its pixels. */
+typedef struct pds_merge_report {
+    double fraction;        /* of the render's work units the parts hold */
+    long nonfinite;         /* pds_render_stats.nonfinite: values that would
+                               have been NaN or beyond the float range */
+    long scale_pixels[5];   /* pds_render_stats.scale_pixels: the pixels'
+                               choice of scale (all 0 when the parts hold
+                               one scale) */
+} pds_merge_report;
+/* pds_partial_merge, filling *report (not NULL) as well. */
+pds_status pds_partial_merge_report(const pds_partial *const *parts, const char *const *names, int n,
+                                    int allow_subset, pds_image *out, pds_merge_report *report, pds_error *err);
 /* The partial file (README "Partial files"): versioned little-endian binary,
    written to a temporary name and renamed. */
 pds_status pds_partial_write(const char *path, const pds_partial *part, pds_error *err);

@@ -179,9 +179,29 @@ static void test_cli_pds_reports_photons_and_writes_the_footprint_image(pds_test
     }
     CHECK(t, strstr(last, " dropped_degenerate=") && strstr(last, " eye_vertices=1024 ") && strstr(last, " time_eye=") &&
                  strstr(last, " time_photons="), "final line: %s", last);
+    CHECK(t, !strstr(last, " scale_pixels="), "one sample a pixel: no pixel is seen whole, none chooses: %s", last);
     CHECK(t, cli_file_exists(path) && cli_file_exists(fp), "image and footprint image written");
     remove(path);
     remove(fp);
+    /* the pixels' choice of scale (4 samples a pixel: the floor's pixels
+       are seen whole): the pixels that took each estimate, at most all of
+       them; with one scale, none */
+    snprintf(args, sizeof args, "render scenes/refraction.scene --res 32x32 --photons 20000 --caustics-only -o %s", path);
+    CHECK(t, cli_run(args, out, sizeof out) == 0, "render failed: %s", out);
+    last = cli_last_line(out);
+    {
+        const char *sp = strstr(last, " scale_pixels=");
+        long a[5] = {0, 0, 0, 0, 0};
+        CHECK(t, sp && sscanf(sp, " scale_pixels=%ld/%ld/%ld/%ld/%ld", &a[0], &a[1], &a[2], &a[3], &a[4]) == 5 &&
+                     a[0] + a[1] + a[2] + a[3] + a[4] > 512 && a[0] + a[1] + a[2] + a[3] + a[4] <= 1024,
+              "final line: %s", last);
+    }
+    snprintf(args, sizeof args, "render scenes/refraction.scene --res 32x32 --photons 20000 --caustics-only "
+             "--no-pass-select -o %s", path);
+    CHECK(t, cli_run(args, out, sizeof out) == 0, "render failed: %s", out);
+    last = cli_last_line(out);
+    CHECK(t, !strstr(last, " scale_pixels="), "one scale: %s", last);
+    remove(path);
     /* a time budget: photons are counted, not given */
     snprintf(args, sizeof args, "render scenes/refraction.scene --res 16x16 --spp 1 --time 0.5 -o %s", path);
     CHECK(t, cli_run(args, out, sizeof out) == 0, "timed render failed: %s", out);

@@ -1393,6 +1393,34 @@ static void test_pds_validation_is_the_light_tracers_image_of_its_own_photons(pd
     CHECK(t, worst < 1e-5, "the validation is %g from the light tracer's image", worst);
     CHECK(t, took == (int)npix, "%d of %d pixels took part in every pass", took, (int)npix);
     CHECK(t, edges == 0, "%d pixels inside the floor have an edge", edges);
+    {
+        /* the render's count of the pixels' choices, and the merge's of
+           the same part: every pixel, once; none with one scale */
+        pds_render_stats st;
+        pds_merge_report rep;
+        pds_image img = {0, 0, NULL}, merged = {0, 0, NULL};
+        const pds_partial *parts[1];
+        long all = 0;
+        int k, same = 1;
+        opt.seed = 0;
+        opt.photons = 3 * 16384;
+        REQUIRE(t, pds_render(s, &opt, &img, &st, &err) == PDS_OK, "render: %s", err.text);
+        for (k = 0; k < 5; k++) all += st.scale_pixels[k];
+        CHECK(t, all == (long)npix, "the choices counted %ld pixels, want %d", all, (int)npix);
+        parts[0] = part;
+        REQUIRE(t, pds_partial_merge_report(parts, NULL, 1, 0, &merged, &rep, &err) == PDS_OK, "merge: %s", err.text);
+        for (k = 0; k < 5; k++) same &= rep.scale_pixels[k] == st.scale_pixels[k];
+        CHECK(t, same && rep.fraction == 1.0 && rep.nonfinite == 0, "the merge's report differs from the render's");
+        pds_image_free(&img);
+        pds_image_free(&merged);
+        opt.pass_select = 0;
+        REQUIRE(t, pds_render(s, &opt, &img, &st, &err) == PDS_OK, "render: %s", err.text);
+        for (k = 0, all = 0; k < 5; k++) all += st.scale_pixels[k];
+        CHECK(t, all == 0, "one scale counted %ld choices", all);
+        CHECK(t, pds_partial_merge_report(parts, NULL, 1, 0, &merged, NULL, &err) == PDS_ERR_INVALID_ARG,
+              "a NULL report taken");
+        pds_image_free(&img);
+    }
     pds_image_free(&lt);
     pds_partial_free(part);
     pds_scene_free(s);
@@ -1414,8 +1442,9 @@ static void test_pds_validation_is_the_light_tracers_image_of_its_own_photons(pd
    the count) no blur crosses it, and every pixel is within 0.2 of its
    side's truth. And the first case again with a validation whose terms'
    squares say it is far too noisy to tell the estimates apart: every
-   pixel keeps the pass's scale. Also the segmented box against a direct
-   mean over a run. */
+   pixel keeps the pass's scale. Each time the choices it counts are the
+   pixels that took each estimate: all that took part, one each. Also the
+   segmented box against a direct mean over a run. */
 static void sel_set(pds__sum128 *photon, pds__sum128 *neg, int i, int slot, double v, long k)
 {
     double f = v * (double)k * 1000.0; /* in thousandths */
@@ -1432,6 +1461,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
     static double eye[N * 3];
     double x[40], m[40], seg[64], want;
     unsigned char edge[40];
+    long chose[PDS__SELECT_ESTIMATES];
     int px, py, c, pass, bad = 0, skipped = 0, away = 0, crossed = 0, unsure = 0;
     memset(eye, 0, sizeof eye);
     for (pass = 0; pass < 4; pass++) {
@@ -1458,7 +1488,25 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                 if (pass == 3) photon[PDS__STRIDE_SELECT * i + PDS__SEL_VALID2].hi = 1; /* a very noisy validation */
                 if (pass == 2 && px == W / 2 - 1) photon[PDS__STRIDE_SELECT * i + PDS__SEL_COUNT].hi = 1; /* edge right */
             }
-        REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out) == 0, "image");
+        memset(chose, 0, sizeof chose);
+        REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out, chose) == 0,
+                "image");
+        {
+            /* the pixels counted: the half on the left beyond the errors'
+               boxes took the second scale, the right the pass's; the
+               checkerboards a blur where they are away from the middle;
+               the noisy validation the pass's scale everywhere */
+            long all = chose[0] + chose[1] + chose[2] + chose[3] + chose[4];
+            long blurred = chose[2] + chose[3] + chose[4];
+            CHECK(t, all == (pass == 0 ? N - 1 : N), "pass %d: %ld pixels counted, want %d", pass, all,
+                  pass == 0 ? N - 1 : N);
+            if (pass == 0)
+                CHECK(t, chose[1] >= (W / 2 - 22) * H - 1 && chose[0] >= (W / 2 - 22) * H && blurred == 0,
+                      "the two halves' choices: %ld %ld %ld", chose[0], chose[1], blurred);
+            if (pass == 1 || pass == 2)
+                CHECK(t, blurred >= (W - 8) * H, "pass %d: %ld pixels took a blur", pass, blurred);
+            if (pass == 3) CHECK(t, chose[0] == N, "the noisy validation: %ld of %d kept the pass's scale", chose[0], N);
+        }
         for (py = 0; py < H; py++)
             for (px = 0; px < W; px++) {
                 int i = py * W + px, left = px < W / 2;
