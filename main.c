@@ -1615,6 +1615,15 @@ static int gather_cap_lowered(const pds_options *o, const pds_render_stats *st)
            st->gather_cap > 0 && st->gather_cap < asked;
 }
 
+/* The pixels' choice of scale (pds_render_stats.scale_pixels: the
+   passes' own footprints, half the smoothing, the three blurs), when they
+   made one. */
+static void print_scale_pixels(const long p[5])
+{
+    if (p[0] + p[1] + p[2] + p[3] + p[4] > 0)
+        printf(" scale_pixels=%ld/%ld/%ld/%ld/%ld", p[0], p[1], p[2], p[3], p[4]);
+}
+
 /* The final line of render. */
 static void print_render_line(const run_cfg *c, const pds_render_stats *st, const char *output)
 {
@@ -1645,12 +1654,7 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
             printf(" %s_used=%ld", m == PDS_METHOD_PDM ? "max_photons" : "k", st->gather_cap);
         if (st->gather_radius > 0.0) printf(" max_radius_used=%g", st->gather_radius);
         printf(" time_eye=%.3f time_photons=%.3f", st->time_eye_s, st->time_photons_s);
-        if (st->scale_pixels[0] + st->scale_pixels[1] + st->scale_pixels[2] + st->scale_pixels[3] +
-                st->scale_pixels[4] > 0)
-            /* the pixels' choice of scale: the passes' own, half the
-               smoothing, the three blurs */
-            printf(" scale_pixels=%ld/%ld/%ld/%ld/%ld", st->scale_pixels[0], st->scale_pixels[1],
-                   st->scale_pixels[2], st->scale_pixels[3], st->scale_pixels[4]);
+        print_scale_pixels(st->scale_pixels);
         if (m == PDS_METHOD_SPM && c->opt.paths != PDS_PATHS_CAUSTICS_ONLY) {
             /* the full image: gi's global map of streams and final gather
                (map_bytes above holds both maps, time_map both builds) */
@@ -1836,6 +1840,7 @@ static pds_status part_image(const pds_partial *part, pds_image *img, pds_render
 {
     const pds_partial *parts[1];
     pds_merge_report report;
+    memset(&report, 0, sizeof report);
     pds_status s;
     int k;
     parts[0] = part;
@@ -2266,6 +2271,7 @@ static int cmd_merge(int argc, char **argv)
     pds_image img = {0, 0, NULL};
     pds_error err;
     double exposure = 0.0, fraction = 0.0, t0 = pds_time_now();
+    pds_merge_report report;
     int i, n = 0, subset = 0, rc = 0, r;
     names = (const char **)malloc(sizeof *names * (size_t)(argc > 0 ? argc : 1));
     parts = (pds_partial **)calloc((size_t)(argc > 0 ? argc : 1), sizeof *parts);
@@ -2307,8 +2313,11 @@ static int cmd_merge(int argc, char **argv)
     if (!rc && check_out_file(output)) rc = 1;
     for (i = 0; i < n && !rc; i++)
         if (pds_partial_read(names[i], &parts[i], &err) != PDS_OK) rc = fail("%s", pds_error_string(&err));
-    if (!rc && pds_partial_merge((const pds_partial *const *)parts, names, n, subset, &img, &fraction, &err) != PDS_OK)
+    memset(&report, 0, sizeof report);
+    if (!rc && pds_partial_merge_report((const pds_partial *const *)parts, names, n, subset, &img, &report, &err) !=
+                   PDS_OK)
         rc = fail("%s", pds_error_string(&err));
+    fraction = report.fraction;
     if (!rc) {
         /* the parts agree on these (pds_partial_merge checks) */
         pds_partial_info pi;
@@ -2332,8 +2341,10 @@ static int cmd_merge(int argc, char **argv)
         if (fraction < 1.0)
             fprintf(stderr, "pds merge: note: %d part%s holding %.1f%% of the render's work (--partial)\n", n,
                     n == 1 ? "" : "s", 100.0 * fraction);
-        printf("merge parts=%d shards=%d fraction=%.6f width=%d height=%d time_total=%.3f output=%s\n", n,
-               info.shard_count, fraction, img.width, img.height, pds_time_now() - t0, output);
+        printf("merge parts=%d shards=%d fraction=%.6f width=%d height=%d", n, info.shard_count, fraction, img.width,
+               img.height);
+        print_scale_pixels(report.scale_pixels);
+        printf(" time_total=%.3f nonfinite=%ld output=%s\n", pds_time_now() - t0, report.nonfinite, output);
     }
     for (i = 0; i < n; i++) pds_partial_free(parts[i]);
     free(parts);

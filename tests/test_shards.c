@@ -899,7 +899,9 @@ static void test_shards_cli_sigint_then_resume_equals_the_whole_render(pds_test_
 
 /* `pds render --shard I/N` and `pds merge`: the merged image is the whole
    render's; a shard given twice or missing is refused, --partial merges a
-   subset and says what fraction it holds. */
+   subset and says what fraction it holds. With four samples a pixel (the
+   floor's pixels seen whole, choosing their scale) the merge's final line
+   counts the pixels' choices as the whole render's does. */
 static void test_shards_cli_shards_and_merge(pds_test_ctx *t)
 {
     char dir[128], args[900], text[4096], p1[200], p2[200], out[200];
@@ -922,6 +924,24 @@ static void test_shards_cli_shards_and_merge(pds_test_ctx *t)
     REQUIRE(t, shards_render_file("scenes/refraction.scene", PDS_METHOD_PDS, 32, 24, 1, 20000, &whole), "render");
     CHECK(t, pds_image_read_pfm(out, &got, &err) == PDS_OK && shards_same(&got, &whole),
           "the merged image differs from the whole render");
+    {
+        char whole_line[4096];
+        const char *a, *b;
+        for (i = 1; i <= 2; i++) {
+            snprintf(args, sizeof args, "render scenes/refraction.scene --res 32x24 --caustics-only --photons 20000 "
+                     "--quiet --shard %d/2 -o %s", i, i == 1 ? p1 : p2);
+            CHECK(t, cli_run(args, text, sizeof text) == 0, "shard %d (4 samples a pixel): %s", i, text);
+        }
+        snprintf(args, sizeof args, "render scenes/refraction.scene --res 32x24 --caustics-only --photons 20000 -o %s",
+                 out);
+        CHECK(t, cli_run(args, whole_line, sizeof whole_line) == 0, "whole: %s", whole_line);
+        snprintf(args, sizeof args, "merge -o %s %s %s", out, p1, p2);
+        CHECK(t, cli_run(args, text, sizeof text) == 0, "merge: %s", text);
+        a = strstr(cli_last_line(whole_line), " scale_pixels=");
+        b = strstr(cli_last_line(text), " scale_pixels=");
+        CHECK(t, a && b && strncmp(a, b, strcspn(a + 1, " ") + 1) == 0, "the choices: %s against %s", a ? a : "none",
+              b ? b : "none");
+    }
     snprintf(args, sizeof args, "merge -o %s %s %s", out, p1, p1);
     CHECK(t, cli_run(args, text, sizeof text) == 1 && strstr(text, "1.pdsp: shard 1/2 again: "), "twice: %s", text);
     snprintf(args, sizeof args, "merge -o %s %s", out, p2);
