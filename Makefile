@@ -176,6 +176,7 @@ tests/test_core: tests/test_core.c $(TEST_SRC) pds.c pds.h
 MINGW_CC ?= x86_64-w64-mingw32-gcc
 WINE ?= $(shell command -v wine64 2>/dev/null || ls /usr/lib/wine/wine64 2>/dev/null)
 WINE_ENV = WINEPREFIX=$(CURDIR)/tests/out/wine WINEDEBUG=-all
+WINESERVER ?= $(shell command -v wineserver 2>/dev/null || ls /usr/lib/wine/wineserver64 2>/dev/null)
 windows: pds.exe tests/test_pds.exe
 
 pds.exe: main.c pds.c pds.h
@@ -184,11 +185,19 @@ pds.exe: main.c pds.c pds.h
 tests/test_pds.exe: $(TEST_SRC) pds.c pds.h
 	$(MINGW_CC) $(WARN) $(CFLAGS) -I. -o $@ tests/test_main.c
 
+# One wine server for the step's two programs, kept until the step ends
+# (-p): a server that is shutting down after the first program's end can
+# drop the second's connection ("wine client error: recvmsg: Connection
+# reset by peer", seen once in CI on 6 December 2026).
 windows-test: windows pds
 	@test -n "$(WINE)" || { echo "windows-test needs wine (Debian: apt-get install wine64)"; exit 1; }
+	@test -n "$(WINESERVER)" || { echo "windows-test needs wineserver (Debian: apt-get install wine64)"; exit 1; }
 	mkdir -p tests/out/wine
-	$(WINE_ENV) $(WINE) tests/test_pds.exe
-	$(WINE_ENV) $(WINE) ./pds.exe render scenes/teaching_mirror.scene --caustics-only --quiet -o tests/out/wine-mirror.pfm
+	$(WINE_ENV) $(WINESERVER) -p
+	$(WINE_ENV) $(WINE) tests/test_pds.exe || { $(WINE_ENV) $(WINESERVER) -k; exit 1; }
+	$(WINE_ENV) $(WINE) ./pds.exe render scenes/teaching_mirror.scene --caustics-only --quiet -o tests/out/wine-mirror.pfm || \
+	  { $(WINE_ENV) $(WINESERVER) -k; exit 1; }
+	$(WINE_ENV) $(WINESERVER) -k
 	./pds render scenes/teaching_mirror.scene --caustics-only --quiet -o tests/out/linux-mirror.pfm
 	tests/pfm_pixels.sh tests/out/wine-mirror.pfm > tests/out/wine-mirror.px
 	tests/pfm_pixels.sh tests/out/linux-mirror.pfm > tests/out/linux-mirror.px
