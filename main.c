@@ -1840,7 +1840,6 @@ static pds_status part_image(const pds_partial *part, pds_image *img, pds_render
 {
     const pds_partial *parts[1];
     pds_merge_report report;
-    memset(&report, 0, sizeof report);
     pds_status s;
     int k;
     parts[0] = part;
@@ -2270,9 +2269,10 @@ static int cmd_merge(int argc, char **argv)
     pds_partial **parts;
     pds_image img = {0, 0, NULL};
     pds_error err;
-    double exposure = 0.0, fraction = 0.0, t0 = pds_time_now();
-    pds_merge_report report;
+    double exposure = 0.0, t0 = pds_time_now();
+    pds_merge_report report; /* the merge's fraction, values replaced and choices of scale */
     int i, n = 0, subset = 0, rc = 0, r;
+    memset(&report, 0, sizeof report);
     names = (const char **)malloc(sizeof *names * (size_t)(argc > 0 ? argc : 1));
     parts = (pds_partial **)calloc((size_t)(argc > 0 ? argc : 1), sizeof *parts);
     if (!names || !parts) {
@@ -2313,11 +2313,9 @@ static int cmd_merge(int argc, char **argv)
     if (!rc && check_out_file(output)) rc = 1;
     for (i = 0; i < n && !rc; i++)
         if (pds_partial_read(names[i], &parts[i], &err) != PDS_OK) rc = fail("%s", pds_error_string(&err));
-    memset(&report, 0, sizeof report);
     if (!rc && pds_partial_merge_report((const pds_partial *const *)parts, names, n, subset, &img, &report, &err) !=
                    PDS_OK)
         rc = fail("%s", pds_error_string(&err));
-    fraction = report.fraction;
     if (!rc) {
         /* the parts agree on these (pds_partial_merge checks) */
         pds_partial_info pi;
@@ -2329,7 +2327,7 @@ static int cmd_merge(int argc, char **argv)
         if (pi.scene_path) meta_put("pds:scene", "%s", pi.scene_path);
         meta_put("pds:seed", "%llu", pi.seed);
         meta_put("pds:photons", "%ld", pi.photons);
-        meta_put("pds:merged", "parts=%d shards=%d fraction=%.6f", n, pi.shard_count, fraction);
+        meta_put("pds:merged", "parts=%d shards=%d fraction=%.6f", n, pi.shard_count, report.fraction);
         if (temp_arm(0, output)) rc = 1;
         else if (image_write(output, &img, exposure, &image_meta, &err) != PDS_OK)
             rc = fail("%s", pds_error_string(&err));
@@ -2338,10 +2336,10 @@ static int cmd_merge(int argc, char **argv)
     if (!rc) {
         pds_partial_info info;
         pds_partial_get_info(parts[0], &info);
-        if (fraction < 1.0)
+        if (report.fraction < 1.0)
             fprintf(stderr, "pds merge: note: %d part%s holding %.1f%% of the render's work (--partial)\n", n,
-                    n == 1 ? "" : "s", 100.0 * fraction);
-        printf("merge parts=%d shards=%d fraction=%.6f width=%d height=%d", n, info.shard_count, fraction, img.width,
+                    n == 1 ? "" : "s", 100.0 * report.fraction);
+        printf("merge parts=%d shards=%d fraction=%.6f width=%d height=%d", n, info.shard_count, report.fraction, img.width,
                img.height);
         print_scale_pixels(report.scale_pixels);
         printf(" time_total=%.3f nonfinite=%ld output=%s\n", pds_time_now() - t0, report.nonfinite, output);
