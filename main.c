@@ -2339,8 +2339,8 @@ static int cmd_merge(int argc, char **argv)
         if (report.fraction < 1.0)
             fprintf(stderr, "pds merge: note: %d part%s holding %.1f%% of the render's work (--partial)\n", n,
                     n == 1 ? "" : "s", 100.0 * report.fraction);
-        printf("merge parts=%d shards=%d fraction=%.6f width=%d height=%d", n, info.shard_count, report.fraction, img.width,
-               img.height);
+        printf("merge parts=%d shards=%d fraction=%.6f width=%d height=%d", n, info.shard_count, report.fraction,
+               img.width, img.height);
         print_scale_pixels(report.scale_pixels);
         printf(" time_total=%.3f nonfinite=%ld output=%s\n", pds_time_now() - t0, report.nonfinite, output);
     }

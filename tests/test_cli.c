@@ -186,7 +186,8 @@ static void test_cli_pds_reports_photons_and_writes_the_footprint_image(pds_test
     /* the pixels' choice of scale (4 samples a pixel: the floor's pixels
        are seen whole): the pixels that took each estimate, at most all of
        them; with one scale, none */
-    snprintf(args, sizeof args, "render scenes/refraction.scene --res 32x32 --photons 20000 --caustics-only -o %s", path);
+    snprintf(args, sizeof args, "render scenes/refraction.scene --res 32x32 --photons 20000 --caustics-only -o %s",
+             path);
     CHECK(t, cli_run(args, out, sizeof out) == 0, "render failed: %s", out);
     last = cli_last_line(out);
     {

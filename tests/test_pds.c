@@ -1505,7 +1505,8 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                       "the two halves' choices: %ld %ld %ld", chose[0], chose[1], blurred);
             if (pass == 1 || pass == 2)
                 CHECK(t, blurred >= (W - 8) * H, "pass %d: %ld pixels took a blur", pass, blurred);
-            if (pass == 3) CHECK(t, chose[0] == N, "the noisy validation: %ld of %d kept the pass's scale", chose[0], N);
+            if (pass == 3)
+                CHECK(t, chose[0] == N, "the noisy validation: %ld of %d kept the pass's scale", chose[0], N);
         }
         for (py = 0; py < H; py++)
             for (px = 0; px < W; px++) {
