@@ -16022,8 +16022,11 @@ static double pds__pixel_kernel_at(const pds__pixel_kernel *pk, const double d[3
         m1[j] = depth * (pk->mr[j] - u[j] * pk->cr);
         m2[j] = depth * (pk->mu[j] - u[j] * pk->cu);
     }
-    reach = 1.0 + 0.75 * (sqrt(m1[0] * m1[0] + m1[1] * m1[1]) + sqrt(m2[0] * m2[0] + m2[1] * m2[1]));
-    if (!(r2 < reach * reach)) return 0.0;
+    if (!(r2 < 1.0)) {
+        /* beyond the footprint: within the pixel's reach? */
+        reach = 1.0 + 0.75 * (sqrt(m1[0] * m1[0] + m1[1] * m1[1]) + sqrt(m2[0] * m2[0] + m2[1] * m2[1]));
+        if (!(r2 < reach * reach)) return 0.0;
+    }
     if (pk->kind == 1) {
         double a = 1.0 + 8.0 / 3.0 * (m1[0] * m1[0] + m2[0] * m2[0]);
         double b = 8.0 / 3.0 * (m1[0] * m1[1] + m2[0] * m2[1]);
