@@ -15760,7 +15760,8 @@ typedef struct pds__pixel_kernel {
     double cr, cu;           /* (a_1 . n) / ((xp - eye) . n) */
     double fwd[3], depth0;   /* the camera's axis; xp's depth */
     double reach2;           /* |u|^2 beyond which no pixel's average is lit */
-    int kind, n1, n2;        /* 0: K(|u|^2), 1: moment-matched, 2: n1 x n2 midpoints */
+    int kind, n1, n2;        /* 0: K(|u|^2); 1: averaged by the rule of n1 x n2 midpoints
+                                  (both at most 1: moment-matched) */
 } pds__pixel_kernel;
 
 /* What a splat needs while it walks the eye vertices in range. */
@@ -15911,14 +15912,20 @@ static const double pds__midpoints[PDS__PIXEL_POINTS][PDS__PIXEL_POINTS] = {
     {-0.5, 0.5, 0.0, 0.0},
     {1.0 / 3.0 - 1.0, 0.0, 5.0 / 3.0 - 1.0, 0.0},
     {-0.75, -0.25, 0.25, 0.75}};
-static double pds__kernel_over_pixel(const double u[2], const double m1[2], const double m2[2])
+/* The midpoints along a pixel half-axis of length l (in the footprint's
+   unit-disc coordinates): ceil(8 l), at most PDS__PIXEL_POINTS. */
+static int pds__pixel_points(double l)
 {
-    double l1 = sqrt(m1[0] * m1[0] + m1[1] * m1[1]), l2 = sqrt(m2[0] * m2[0] + m2[1] * m2[1]);
-    double reach = 1.0 + 0.75 * (l1 + l2), sum = 0.0;
-    int n1, n2, i, j;
-    if (!(u[0] * u[0] + u[1] * u[1] < reach * reach)) return 0.0;
-    n1 = l1 * 8.0 < PDS__PIXEL_POINTS ? (int)ceil(l1 * 8.0) : PDS__PIXEL_POINTS;
-    n2 = l2 * 8.0 < PDS__PIXEL_POINTS ? (int)ceil(l2 * 8.0) : PDS__PIXEL_POINTS;
+    return l * 8.0 < PDS__PIXEL_POINTS ? (int)ceil(l * 8.0) : PDS__PIXEL_POINTS;
+}
+
+/* The kernel averaged over the pixel u + a m1 + b m2 by the rule of n1 x
+   n2 midpoints, or, both at most 1, by the moment-matched kernel (the
+   comment above). */
+static double pds__kernel_pixel_rule(const double u[2], const double m1[2], const double m2[2], int n1, int n2)
+{
+    double sum = 0.0;
+    int i, j;
     if (n1 <= 1 && n2 <= 1) {
         double a = 1.0 + 8.0 / 3.0 * (m1[0] * m1[0] + m2[0] * m2[0]);
         double b = 8.0 / 3.0 * (m1[0] * m1[1] + m2[0] * m2[1]);
@@ -15939,6 +15946,14 @@ static double pds__kernel_over_pixel(const double u[2], const double m1[2], cons
         }
     }
     return sum / (n1 * n2);
+}
+
+static double pds__kernel_over_pixel(const double u[2], const double m1[2], const double m2[2])
+{
+    double l1 = sqrt(m1[0] * m1[0] + m1[1] * m1[1]), l2 = sqrt(m2[0] * m2[0] + m2[1] * m2[1]);
+    double reach = 1.0 + 0.75 * (l1 + l2);
+    if (!(u[0] * u[0] + u[1] * u[1] < reach * reach)) return 0.0;
+    return pds__kernel_pixel_rule(u, m1, m2, pds__pixel_points(l1), pds__pixel_points(l2));
 }
 
 /* pds__kernel_over_pixel for the pixels seen whole, with each pixel's
@@ -15998,23 +16013,17 @@ static void pds__pixel_kernel_init(pds__pixel_kernel *pk, const double M[2][3], 
     /* the reach of pixels up to 1.5 times as large as the photon's (the
        margin the query was grown by, pds__splat_grow_for_pixels) */
     pk->reach2 = (1.0 + 1.125 * (l1 + l2)) * (1.0 + 1.125 * (l1 + l2));
-    pk->n1 = l1 * 8.0 < PDS__PIXEL_POINTS ? (int)ceil(l1 * 8.0) : PDS__PIXEL_POINTS;
-    pk->n2 = l2 * 8.0 < PDS__PIXEL_POINTS ? (int)ceil(l2 * 8.0) : PDS__PIXEL_POINTS;
-    if (!(pk->n1 > 1 || pk->n2 > 1)) {
-        pk->kind = 1;
-        return;
-    }
-    pk->kind = 2;
-    if (pk->n1 < 1) pk->n1 = 1;
-    if (pk->n2 < 1) pk->n2 = 1;
+    pk->n1 = pds__pixel_points(l1);
+    pk->n2 = pds__pixel_points(l2);
+    pk->kind = 1;
 }
 
 /* The kernel of pk averaged over the pixel of the whole vertex at offset
    d[3] from the photon (u = M d). */
 static double pds__pixel_kernel_at(const pds__pixel_kernel *pk, const double d[3], const double u[2])
 {
-    double r2 = u[0] * u[0] + u[1] * u[1], depth, m1[2], m2[2], reach, sum = 0.0;
-    int i, j;
+    double r2 = u[0] * u[0] + u[1] * u[1], depth, m1[2], m2[2], reach;
+    int j;
     if (pk->kind == 0) return pds__kernel_silverman(r2);
     if (!(r2 < pk->reach2)) return 0.0;
     depth = pk->depth0 + pk->fwd[0] * d[0] + pk->fwd[1] * d[1] + pk->fwd[2] * d[2];
@@ -16027,22 +16036,7 @@ static double pds__pixel_kernel_at(const pds__pixel_kernel *pk, const double d[3
         reach = 1.0 + 0.75 * (sqrt(m1[0] * m1[0] + m1[1] * m1[1]) + sqrt(m2[0] * m2[0] + m2[1] * m2[1]));
         if (!(r2 < reach * reach)) return 0.0;
     }
-    if (pk->kind == 1) {
-        double a = 1.0 + 8.0 / 3.0 * (m1[0] * m1[0] + m2[0] * m2[0]);
-        double b = 8.0 / 3.0 * (m1[0] * m1[1] + m2[0] * m2[1]);
-        double c = 1.0 + 8.0 / 3.0 * (m1[1] * m1[1] + m2[1] * m2[1]), det = a * c - b * b;
-        return pds__kernel_silverman((c * u[0] * u[0] - 2.0 * b * u[0] * u[1] + a * u[1] * u[1]) / det) / sqrt(det);
-    }
-    for (i = 0; i < pk->n1; i++) {
-        double a = pds__midpoints[pk->n1 - 1][i], x0 = u[0] + a * m1[0], y0 = u[1] + a * m1[1];
-        for (j = 0; j < pk->n2; j++) {
-            double b = pds__midpoints[pk->n2 - 1][j], x = x0 + b * m2[0], y = y0 + b * m2[1];
-            double w = 1.0 - (x * x + y * y);
-            w = w > 0.0 ? w : 0.0;
-            sum += w * w;
-        }
-    }
-    return (3.0 / PDS__PI) * sum / (pk->n1 * pk->n2);
+    return pds__kernel_pixel_rule(u, m1, m2, pk->n1, pk->n2);
 }
 
 /* Whether eye vertex `index` (its splat fields h) can take the photon's

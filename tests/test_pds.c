@@ -1139,10 +1139,10 @@ static void test_pds_whole_pixel_kernel_is_each_pixels_own_average(pds_test_ctx 
                 got = pds__pixel_kernel_at(&pk, d, u);
                 l1 = sqrt(m1[0] * m1[0] + m1[1] * m1[1]);
                 l2 = sqrt(m2[0] * m2[0] + m2[1] * m2[1]);
-                n1 = l1 * 8.0 < PDS__PIXEL_POINTS ? (int)ceil(l1 * 8.0) : PDS__PIXEL_POINTS;
-                n2 = l2 * 8.0 < PDS__PIXEL_POINTS ? (int)ceil(l2 * 8.0) : PDS__PIXEL_POINTS;
+                n1 = pds__pixel_points(l1);
+                n2 = pds__pixel_points(l2);
                 rule = n1 <= 1 && n2 <= 1 ? 0 : (n1 < 1 ? 1 : n1) * 8 + (n2 < 1 ? 1 : n2);
-                rule0 = pk.kind == 1 ? 0 : pk.n1 * 8 + pk.n2;
+                rule0 = pk.n1 <= 1 && pk.n2 <= 1 ? 0 : (pk.n1 < 1 ? 1 : pk.n1) * 8 + (pk.n2 < 1 ? 1 : pk.n2);
                 if (want == 0.0 && got == 0.0) continue;
                 if (want > 0.0) lit++;
                 if (want > 0.0 && got == 0.0) {
