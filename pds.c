@@ -7003,22 +7003,9 @@ static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r
             size_t hit[PDS__KD_SLAB_LEAF];
             double he[PDS__KD_SLAB_LEAF];
             int nh = 0, j;
-            /* pds__kd_slab_point written out, the query in locals (the
-               same sums; on the glass bunny, whose floor seen through
-               the glass is found here, 0.6% fewer instructions and 0.99
-               times the time, 400,000 photons, one thread) */
-            const double cx = q.c[0], cy = q.c[1], cz = q.c[2], r2 = q.r2, tol = q.bound[0];
-            const double n0 = q.w[0][0], n1 = q.w[0][1], n2 = q.w[0][2];
-            const double a0 = q.w[1][0], a1 = q.w[1][1], a2 = q.w[1][2];
-            const double b0 = q.w[2][0], b1 = q.w[2][1], b2 = q.w[2][2];
             for (i = cell.lo; i < cell.hi; i++) {
-                const float *p = kd->pts + 3 * i;
-                double dx = (double)p[0] - cx, dy = (double)p[1] - cy, dz = (double)p[2] - cz;
-                double d2 = pds__kd_len2(dx, dy, dz), sl = n0 * dx + n1 * dy + n2 * dz;
-                double y0 = a0 * dx + a1 * dy + a2 * dz, y1 = b0 * dx + b1 * dy + b2 * dz, e = y0 * y0 + y1 * y1;
                 hit[nh] = i;
-                he[nh] = e;
-                nh += (d2 <= r2) & !(fabs(sl) > tol) & (e < 1.0);
+                nh += pds__kd_slab_test(kd, &q, i, &he[nh]);
             }
             for (j = 0; j < nh; j++) hit[j] = kd->perm[hit[j]];
             if (nh > 0) fn(ctx, hit, he, nh);
