@@ -16628,6 +16628,7 @@ static void pds__splat_visit_all(const pds__photon_job *job, pds__splat_ctx *sc,
     sc->buf->e_single += sc->e;
     if (job->map->n > job->map->n_single) {
         const double(*M)[3] = (const double(*)[3])sc->M;
+        int rgb = !(sc->lambda > 0.0);
         sc->merged = 1;
         sc->e = 0.0;
         pds__splat_grow_for_pixels(job, sc, hu, hv, &major);
@@ -16636,23 +16637,19 @@ static void pds__splat_visit_all(const pds__photon_job *job, pds__splat_ctx *sc,
             pds__kdtree_range_ellipse(&job->map->merged, xp, major, M, sc->np, sc->plane_max, pds__splat_visit_many,
                                       sc);
         }
+        /* the whole pixels: an RGB splat's kernels averaged over them set
+           up once (pds__splat_whole_many); a wavelength's splat takes
+           each vertex's response (pds__splat_visit) */
         sc->base = job->map->n_whole;
-        if (sc->lambda > 0.0) {
-            if (!pds__grid_range_ellipse(job->map, &job->frame, xp, major, M, sc->np, sc->plane_max,
-                                         pds__splat_visit_many, sc, 1))
-                pds__kdtree_range_ellipse(&job->map->whole, xp, major, M, sc->np, sc->plane_max, pds__splat_visit_many,
-                                          sc);
-        } else {
-            /* the kernels averaged over the whole pixels, set up once */
+        if (rgb) {
             pds__pixel_kernel_init(&sc->pk, sc->spread ? (const double(*)[3])sc->M0 : M, &job->frame, xp, sc->np,
                                    sc->spread);
             if (sc->small && sc->job->select)
                 pds__pixel_kernel_init(&sc->pks, (const double(*)[3])sc->Ms, &job->frame, xp, sc->np, sc->spread);
-            if (!pds__grid_range_ellipse(job->map, &job->frame, xp, major, M, sc->np, sc->plane_max,
-                                         pds__splat_whole_many, sc, 0))
-                pds__kdtree_range_ellipse(&job->map->whole, xp, major, M, sc->np, sc->plane_max, pds__splat_visit_many,
-                                          sc);
         }
+        if (!pds__grid_range_ellipse(job->map, &job->frame, xp, major, M, sc->np, sc->plane_max,
+                                     rgb ? pds__splat_whole_many : pds__splat_visit_many, sc, !rgb))
+            pds__kdtree_range_ellipse(&job->map->whole, xp, major, M, sc->np, sc->plane_max, pds__splat_visit_many, sc);
         sc->buf->e_merged += sc->e;
     }
 }
