@@ -15778,6 +15778,8 @@ typedef struct pds__splat_ctx {
        its Ep over the footprint's (small: 0 if it has none) */
     int small, merged;         /* ... and whether the query is of the merged vertices */
     double Ms[2][3], plane_s, gain_s;
+    pds__v3 ex, ey;            /* the half-axes of the pixel where the photon
+                                  landed, on its plane (pds__splat_grow_for_pixels) */
     pds__pixel_kernel pk, pks; /* the whole pixels' kernels (pds__splat_whole_many) */
 } pds__splat_ctx;
 
@@ -15967,33 +15969,33 @@ static double pds__kernel_over_pixel(const double u[2], const double m1[2], cons
    Before any of that, pixels beyond the reach of one 1.5 times as large
    as the photon's are 0 (the margin the query was grown by,
    pds__splat_grow_for_pixels). spread 0: the kernel at the pixel's
-   centre. f: the camera; np: the plane's normal. */
+   centre. f: the camera; ex, ey: the half-axes of the photon's own
+   pixel on its plane (pds__pixel_axes, which
+   pds__splat_grow_for_pixels computed), from which the terms above
+   follow. */
 static void pds__pixel_kernel_init(pds__pixel_kernel *pk, const double M[2][3], const pds__camera_frame *f,
-                                   pds__v3 xp, pds__v3 np, int spread)
+                                   pds__v3 xp, pds__v3 ex, pds__v3 ey, int spread)
 {
-    pds__v3 r = pds__sub(xp, f->origin), ar, au;
-    double kx = f->tan_half_fov * f->aspect / f->width, ky = f->tan_half_fov / f->height, m1[2], m2[2], l1, l2, rn;
+    double m1[2], m2[2], l1, l2;
     int j;
     memcpy(pk->M, M, sizeof pk->M);
     pk->kind = 0;
-    rn = pds__dot(r, np);
-    if (!spread || !(fabs(rn) > 0.0)) return;
-    ar = pds__scale(f->right, kx);
-    au = pds__scale(f->up, ky);
-    pk->cr = pds__dot(ar, np) / rn;
-    pk->cu = pds__dot(au, np) / rn;
-    pk->depth0 = pds__dot(r, f->forward);
+    pk->depth0 = pds__dot(pds__sub(xp, f->origin), f->forward);
+    if (!spread || !(pk->depth0 > 0.0)) return;
+    /* ex = depth0 (a_1 - (xp - eye) c) (c = (a_1 . n) / ((xp - eye) . n))
+       and a_1 . forward = 0, so c = -(ex . forward) / depth0^2 */
+    pk->cr = -pds__dot(ex, f->forward) / (pk->depth0 * pk->depth0);
+    pk->cu = -pds__dot(ey, f->forward) / (pk->depth0 * pk->depth0);
     pk->fwd[0] = f->forward.x;
     pk->fwd[1] = f->forward.y;
     pk->fwd[2] = f->forward.z;
     for (j = 0; j < 2; j++) {
         pds__v3 row = pds__v(M[j][0], M[j][1], M[j][2]);
-        double mo = pds__dot(row, r);
-        pk->mr[j] = pds__dot(row, ar) - mo * pk->cr;
-        pk->mu[j] = pds__dot(row, au) - mo * pk->cu;
         /* the rule of the photon's own pixel */
-        m1[j] = pk->depth0 * pk->mr[j];
-        m2[j] = pk->depth0 * pk->mu[j];
+        m1[j] = pds__dot(row, ex);
+        m2[j] = pds__dot(row, ey);
+        pk->mr[j] = m1[j] / pk->depth0;
+        pk->mu[j] = m2[j] / pk->depth0;
     }
     l1 = sqrt(m1[0] * m1[0] + m1[1] * m1[1]);
     l2 = sqrt(m2[0] * m2[0] + m2[1] * m2[1]);
@@ -16242,6 +16244,8 @@ static void pds__splat_grow_for_pixels(const pds__photon_job *job, pds__splat_ct
     pds__v3 t1, t2, ex, ey, du, dv;
     double rho, s[3], s11, s12, s22, b2, g, q;
     if (!pds__pixel_axes(&job->frame, sc->xp, sc->np, &ex, &ey)) return;
+    sc->ex = ex;
+    sc->ey = ey;
     rho = 1.5 * (pds__length(ex) + pds__length(ey));
     pds__onb(sc->np, &t1, &t2);
     pds__footprint_cov(hu, hv, t1, t2, s);
@@ -16363,6 +16367,7 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
     int c;
     sc.lambda = lambda;
     sc.spread = 0;
+    sc.ex = sc.ey = pds__v(0.0, 0.0, 0.0); /* set where they are used (spread) */
     sc.np = pds__dot(ng, r->d) < 0.0 ? ng : pds__scale(ng, -1.0);
     if (job->fixed_radius > 0.0) {
         /* fixed-bandwidth splatting: a disc of radius R in the tangent
@@ -16642,10 +16647,11 @@ static void pds__splat_visit_all(const pds__photon_job *job, pds__splat_ctx *sc,
            each vertex's response (pds__splat_visit) */
         sc->base = job->map->n_whole;
         if (rgb) {
-            pds__pixel_kernel_init(&sc->pk, sc->spread ? (const double(*)[3])sc->M0 : M, &job->frame, xp, sc->np,
-                                   sc->spread);
+            pds__pixel_kernel_init(&sc->pk, sc->spread ? (const double(*)[3])sc->M0 : M, &job->frame, xp, sc->ex,
+                                   sc->ey, sc->spread);
             if (sc->small && sc->job->select)
-                pds__pixel_kernel_init(&sc->pks, (const double(*)[3])sc->Ms, &job->frame, xp, sc->np, sc->spread);
+                pds__pixel_kernel_init(&sc->pks, (const double(*)[3])sc->Ms, &job->frame, xp, sc->ex, sc->ey,
+                                       sc->spread);
         }
         if (!pds__grid_range_ellipse(job->map, &job->frame, xp, major, M, sc->np, sc->plane_max,
                                      rgb ? pds__splat_whole_many : pds__splat_visit_many, sc, !rgb))

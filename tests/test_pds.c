@@ -1109,7 +1109,7 @@ static void test_pds_whole_pixel_kernel_is_each_pixels_own_average(pds_test_ctx 
         c = pds__add(f.origin, pds__scale(dir, -f.origin.y / dir.y));
         REQUIRE(t, pds__pixel_axes(&f, c, up, &ex, &ey), "footprint %zu off the floor", q);
         REQUIRE(t, tkd_footprint(up, across * pds__length(ex), aspect, ang, M, &major), "filter matrix");
-        pds__pixel_kernel_init(&pk, (const double(*)[3])M, &f, c, up, 1);
+        pds__pixel_kernel_init(&pk, (const double(*)[3])M, &f, c, ex, ey, 1);
         REQUIRE(t, pk.kind != 0, "footprint %zu: no pixel average", q);
         {
             double m1[2], m2[2];
