@@ -1016,7 +1016,7 @@ static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(
     memset(&map, 0, sizeof map);
     map.v = v;
     map.n = NV;
-    REQUIRE(t, pds__eye_map_build(&map, 0, 0, NULL) == PDS_OK, "eye map");
+    REQUIRE(t, pds__eye_map_build(&map, 0, 0, NULL, NULL) == PDS_OK, "eye map");
     CHECK(t, map.n_single == 240 && map.merged.n == 120, "%zu single and %zu merged vertices, want 240 and 120",
           map.n_single, map.merged.n);
     splat_test_job(&job, &buf, &map, f, sum);
@@ -1178,11 +1178,13 @@ static void test_pds_whole_pixel_kernel_is_each_pixels_own_average(pds_test_ctx 
    slab must leave out or take, depending on its thickness); every
    seventh pixel's vertex is merged but not whole and must go to the
    second part, not the grid; every fifth lies near a corner of its pixel
-   rather than on its centre ray. 400 footprints from round to needles 1000:1
+   rather than on its centre ray (then again with every vertex on its
+   centre ray, where each row's band is thin: pds__eye_map_build's
+   grid_slack). 400 footprints from round to needles 1000:1
    at random angles, lying on the floor or tilted up to 0.4 rad (an
    oblique slab), 0.005 to 0.4 across. A query whose box reaches behind
    the camera is left to the tree (0, nothing reported). */
-static void test_pds_whole_pixels_are_found_through_the_image_as_through_their_tree(pds_test_ctx *t)
+static void whole_pixels_grid_against_tree(pds_test_ctx *t, int corners)
 {
     enum { W = 64, H = 48 };
     pds__camera_frame f = merge_test_camera();
@@ -1199,7 +1201,7 @@ static void test_pds_whole_pixels_are_found_through_the_image_as_through_their_t
         for (x = 0; x < W; x++) {
             /* at the centre ray, as pds__eye_merge puts it; a fifth near
                a corner (its samples' mean, where the centre ray grazes) */
-            int corner = (x + y) % 5 == 0;
+            int corner = corners && (x + y) % 5 == 0;
             pds__v3 d = pds__camera_dir(&f, x + (corner ? 0.02 : 0.5), y + (corner ? 0.97 : 0.5)), p, ex, ey;
             double tf = -f.origin.y / d.y, h;
             if (!(tf > 0.0)) continue;
@@ -1219,13 +1221,17 @@ static void test_pds_whole_pixels_are_found_through_the_image_as_through_their_t
     memset(&map, 0, sizeof map);
     map.v = v;
     map.n = n;
-    REQUIRE(t, pds__eye_map_build(&map, W, H, NULL) == PDS_OK, "eye map");
+    REQUIRE(t, pds__eye_map_build(&map, W, H, &f, NULL) == PDS_OK, "eye map");
     CHECK(t, map.n_single == 0 && map.merged.n == merged_other && map.whole.n == n - merged_other,
           "parts %zu / %zu / %zu, want 0 / %zu / %zu", map.n_single, map.merged.n, map.whole.n, merged_other,
           n - merged_other);
     for (i = map.n_whole; i < n; i++)
         if (!map.v[i].whole || map.grid[map.v[i].pixel] != (int)(i - map.n_whole)) bad++;
     CHECK(t, bad == 0, "%zu whole vertices not in their pixel of the grid", bad);
+    /* the rows' bands: a pixel wide with vertices near its corners, none
+       where every vertex is on its centre ray */
+    CHECK(t, corners ? map.grid_slack > 0.45 && map.grid_slack <= 0.5 : map.grid_slack < 1e-4,
+          "grid slack %.3g pixels", map.grid_slack);
     bad = 0;
     for (q = 0; q < 400; q++) {
         uint64_t sd = 4242;
@@ -1273,6 +1279,12 @@ static void test_pds_whole_pixels_are_found_through_the_image_as_through_their_t
     free(v);
 }
 
+static void test_pds_whole_pixels_are_found_through_the_image_as_through_their_tree(pds_test_ctx *t)
+{
+    whole_pixels_grid_against_tree(t, 1);
+    whole_pixels_grid_against_tree(t, 0);
+}
+
 /* The splat's cost roulette (pds__splat, PDS__SPLAT_ROULETTE): a round
    footprint over a floor of eye vertices, splatted as photons 0..P-1 of a
    pass whose bound it exceeds about fourfold, keeps a share of them, and
@@ -1312,7 +1324,7 @@ static void test_pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_ar
     memset(&map, 0, sizeof map);
     map.v = v;
     map.n = NV;
-    REQUIRE(t, pds__eye_map_build(&map, 0, 0, NULL) == PDS_OK, "eye map");
+    REQUIRE(t, pds__eye_map_build(&map, 0, 0, NULL, NULL) == PDS_OK, "eye map");
     splat_test_job(&job, &buf, &map, f, sum);
     job.sample_angle = 0.00045;
     pds_options_default(&opt);
