@@ -15834,7 +15834,25 @@ static void pds__image_add(pds__splat_buf *b, size_t i, double v)
 static void pds__image_add3(pds__splat_buf *b, size_t p, const double v[3])
 {
     pds__sum128 *s = &b->sum[3 * p];
+    double f0 = v[0] * b->unit, f1 = v[1] * b->unit, f2 = v[2] * b->unit;
     int c;
+    /* the commonest case, all three terms positive (not NaN) and below
+       2^63 units into sums below 2^127, with room for their carries, in
+       three tests; f + 0.5 < 2^63
+       then (f <= 2^63 - 2^10, and f + 0.5 rounds to f there), so it
+       converts as a signed integer, one instruction where an unsigned
+       conversion is a branch and two */
+    if ((v[0] > 0.0) & (v[1] > 0.0) & (v[2] > 0.0) && pds__max2(pds__max2(f0, f1), f2) < PDS__TWO63 &&
+        (s[0].hi | s[1].hi | s[2].hi) < UINT64_MAX / 2u) {
+        uint64_t t0 = (uint64_t)(int64_t)(f0 + 0.5), t1 = (uint64_t)(int64_t)(f1 + 0.5), t2 = (uint64_t)(int64_t)(f2 + 0.5);
+        s[0].lo += t0;
+        s[0].hi += s[0].lo < t0;
+        s[1].lo += t1;
+        s[1].hi += s[1].lo < t1;
+        s[2].lo += t2;
+        s[2].hi += s[2].lo < t2;
+        return;
+    }
     for (c = 0; c < 3; c++) {
         double f = v[c] * b->unit;
         if (v[c] > 0.0 && f < PDS__TWO63 && s[c].hi != UINT64_MAX) {
@@ -15898,7 +15916,7 @@ static void pds__image_add_half(pds__splat_buf *b, size_t p, const double v[3])
     for (c = 0; c < 3; c++) {
         double f = v[c] * b->unit;
         if (v[c] > 0.0 && f < PDS__TWO63) {
-            uint64_t t = (uint64_t)(f + 0.5);
+            uint64_t t = (uint64_t)(int64_t)(f + 0.5); /* (pds__image_add3) */
             s[c].lo += t;
             s[c].hi += s[c].lo < t;
         } else if (v[c] != 0.0) {

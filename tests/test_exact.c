@@ -159,10 +159,62 @@ static void test_output_images_hold_no_nan_or_infinity(pds_test_ctx *t)
           "replacements %g %g %g %g %g", out[1], out[2], out[3], out[4], out[5]);
 }
 
+/* pds__image_add3, the splats' three channels in one call with its own
+   fast paths, is pds__image_add three times, bit for bit and in the
+   counts of saturated and dropped terms: over terms from 0 and denormals
+   to past 2^127 units, negative (into the negative sums, or dropped in
+   an RGB image), NaN and infinite, mixed within one call, into sums at
+   0, about to carry into their high word, with the high word past 2^63
+   and one below its largest value, and saturated. */
+static void test_image_add3_is_image_add_three_times(pds_test_ctx *t)
+{
+    static const double unit = 1048576.0;
+    const double terms[] = {1.0,      0.3,  0.0,    5e-320, 1e-7,   ldexp(1.0, 40), ldexp(1.0, 43) - 1.0,
+                            ldexp(1.0, 43), ldexp(1.0, 43) + 2048.0, ldexp(1.0, 80), ldexp(1.0, 106),
+                            ldexp(1.0, 107), -2.5, NAN, HUGE_VAL, -HUGE_VAL};
+    const pds__sum128 starts[] = {{0, 0},
+                                  {UINT64_MAX - 3u, 0},
+                                  {UINT64_MAX - 3u, UINT64_MAX / 2u},
+                                  {5, (UINT64_MAX / 2u) + 1u},
+                                  {UINT64_MAX, UINT64_MAX - 1u},
+                                  {UINT64_MAX, UINT64_MAX}};
+    size_t nt = sizeof terms / sizeof terms[0], ns = sizeof starts / sizeof starts[0], a, b, c, k, bad = 0, cases = 0;
+    int spectral;
+    for (spectral = 0; spectral < 2; spectral++)
+        for (a = 0; a < nt; a++)
+            for (b = 0; b < nt; b++)
+                for (k = 0; k < ns * ns; k++) {
+                    pds__sum128 s3[6], s1[6];
+                    pds__splat_buf b3, b1;
+                    double v[3];
+                    v[0] = terms[a];
+                    v[1] = terms[b];
+                    v[2] = terms[(a + b) % nt];
+                    /* each pair of starts on the first two channels */
+                    for (c = 0; c < 6; c++)
+                        s3[c] = s1[c] = starts[c % 3 == 0 ? k % ns : c % 3 == 1 ? k / ns : k % 2];
+                    memset(&b3, 0, sizeof b3);
+                    b3.sum = s3;
+                    b3.neg = spectral ? s3 + 3 : NULL;
+                    b3.unit = unit;
+                    b1 = b3;
+                    b1.sum = s1;
+                    b1.neg = spectral ? s1 + 3 : NULL;
+                    pds__image_add3(&b3, 0, v);
+                    for (c = 0; c < 3; c++) pds__image_add(&b1, c, v[c]);
+                    for (c = 0; c < 6; c++)
+                        if (s3[c].lo != s1[c].lo || s3[c].hi != s1[c].hi) bad++;
+                    if (b3.saturated != b1.saturated || b3.invalid != b1.invalid) bad++;
+                    cases++;
+                }
+    CHECK(t, bad == 0 && cases == 2 * nt * nt * ns * ns, "%zu of %zu calls differ from three single adds", bad, cases);
+}
+
 static const pds_test_case tests_exact[] = {
     {"sum128_adds_exactly_and_carries_into_the_high_word", test_sum128_adds_exactly_and_carries_into_the_high_word},
     {"sum128_is_the_same_in_any_order", test_sum128_is_the_same_in_any_order},
     {"sum128_saturates_and_refuses_what_is_not_a_number", test_sum128_saturates_and_refuses_what_is_not_a_number},
+    {"image_add3_is_image_add_three_times", test_image_add3_is_image_add_three_times},
     {"images_scale_with_the_light_for_every_method", test_images_scale_with_the_light_for_every_method},
     {"output_images_hold_no_nan_or_infinity", test_output_images_hold_no_nan_or_infinity},
 };
