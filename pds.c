@@ -15855,10 +15855,9 @@ static void pds__image_add3(pds__splat_buf *b, size_t p, const double v[3])
     int c;
     /* the commonest case, all three terms positive (not NaN) and below
        2^63 units into sums below 2^127, with room for their carries, in
-       three tests; f + 0.5 < 2^63
-       then (f <= 2^63 - 2^10, and f + 0.5 rounds to f there), so it
-       converts as a signed integer, one instruction where an unsigned
-       conversion is a branch and two */
+       three tests. Then f + 0.5 < 2^63 (f <= 2^63 - 2^10, and f + 0.5
+       rounds to f there), so each converts as a signed integer: one
+       instruction, where an unsigned conversion is a branch and two */
     if ((v[0] > 0.0) & (v[1] > 0.0) & (v[2] > 0.0) && pds__max2(pds__max2(f0, f1), f2) < PDS__TWO63 &&
         (s[0].hi | s[1].hi | s[2].hi) < UINT64_MAX / 2u) {
         uint64_t t0 = (uint64_t)(int64_t)(f0 + 0.5), t1 = (uint64_t)(int64_t)(f1 + 0.5), t2 = (uint64_t)(int64_t)(f2 + 0.5);
