@@ -283,6 +283,59 @@ static void test_render_rejects_bad_options(pds_test_ctx *t)
     pds_scene_free(s);
 }
 
+/* The photons' Halton points (pds__halton): the radical inverse of
+   index + 1 in the dim-th prime base, rotated by the seed's offset. The
+   radical inverse is checked against its digits as an exact fraction
+   N / b^L (integers; base 2 to the bit, as its fast path is exact, the
+   others within a few ulps, as their loop rounds), and the rotations a
+   thread keeps (pds__halton_rotation, what emission uses) against
+   pds__halton to the bit, also when one value serves a second seed and
+   then the first again. */
+static void test_halton_points_are_rotated_radical_inverses(pds_test_ctx *t)
+{
+    static const unsigned base[PDS__HALTON_DIMS] = {2, 3, 5, 7, 11, 13, 17, 19};
+    static const uint64_t seeds[3] = {0, 7, 0x76616c6964617465ULL};
+    pds__halton_rot rot;
+    int dim, k, bad = 0, far = 0, rotbad = 0;
+    for (dim = 0; dim < PDS__HALTON_DIMS; dim++)
+        for (k = 0; k < 4000; k++) {
+            /* small indices, then random ones up to 2^53 - 1 (base 2) or
+               below b^L < 2^63 (the others), then the edges */
+            uint64_t i = k < 1000 ? (uint64_t)k
+                                  : pds__rng_bits(3, PDS__RNG_TEST, (uint64_t)k, (uint64_t)dim) >> (dim == 0 ? 11 : 12);
+            uint64_t num = 0, den = 1, j;
+            double exact, got;
+            if (k == 3998) i = dim == 0 ? ((uint64_t)1 << 53) - 1 : ((uint64_t)1 << 40) - 1;
+            if (k == 3999) i = (uint64_t)1 << 52;
+            for (j = i; j > 0; j /= base[dim]) {
+                num = num * base[dim] + j % base[dim];
+                den *= base[dim];
+            }
+            exact = (double)num / (double)den; /* both below 2^63: num < den */
+            got = pds__radical_inverse(i, dim);
+            if (dim == 0 && got != exact) bad++;
+            if (!(fabs(got - exact) <= 8.0 * DBL_EPSILON * exact)) far++;
+        }
+    CHECK(t, bad == 0, "%d base-2 radical inverses differ from the exact fraction", bad);
+    CHECK(t, far == 0, "%d radical inverses are more than 8 ulps from the exact fraction", far);
+    CHECK(t, pds__radical_inverse(6, 0) == 0.375 && fabs(pds__radical_inverse(5, 1) - 7.0 / 9.0) < 1e-15,
+          "radical inverses of 6 (base 2) and 5 (base 3): %.17g, %.17g", pds__radical_inverse(6, 0),
+          pds__radical_inverse(5, 1));
+    memset(&rot, 0, sizeof rot);
+    for (k = 0; k < 4; k++) {
+        uint64_t seed = seeds[k % 3 == 2 ? 0 : k % 3];
+        const double *shift = pds__halton_rotation(&rot, seed);
+        uint64_t i;
+        for (dim = 0; dim < PDS__HALTON_DIMS; dim++)
+            for (i = 0; i < 300; i += 7) {
+                double a = pds__halton_rotated(shift[dim], i * 977, dim), b = pds__halton(seed, i * 977, dim);
+                double u = pds__radical_inverse(i * 977 + 1, dim) + pds__rng_uniform(seed, 5, 0, (uint64_t)dim);
+                if (memcmp(&a, &b, sizeof a) || !(a >= 0.0 && a < 1.0) || a != (u >= 1.0 ? u - 1.0 : u)) rotbad++;
+            }
+    }
+    CHECK(t, rotbad == 0, "%d rotated points differ from pds__halton's", rotbad);
+}
+
 /* Correlated multi-jittered samples (pds__cmj): for n = m x q points the
    n points fill one of n equal strips in x and one in y each, and one
    cell of the m x q grid each (Kensler's stratification), for any
@@ -486,6 +539,7 @@ static void test_eta2_undone_inverts_the_refractions_radiance_factor(pds_test_ct
 }
 
 static const pds_test_case tests_render[] = {
+    {"halton_points_are_rotated_radical_inverses", test_halton_points_are_rotated_radical_inverses},
     {"pixel_samples_are_stratified", test_pixel_samples_are_stratified},
     {"eye_split_at_glass_keeps_the_mean_and_cuts_the_variance", test_eye_split_at_glass_keeps_the_mean_and_cuts_the_variance},
     {"eye_roulette_in_glass_keeps_the_mean_and_bounds_the_weights", test_eye_roulette_in_glass_keeps_the_mean_and_bounds_the_weights},
