@@ -1258,12 +1258,25 @@ static uint64_t pds__mix64(uint64_t z)
     return z ^ (z >> 31);
 }
 
-static uint64_t pds__rng_bits(uint64_t seed, uint64_t purpose, uint64_t index, uint64_t dim)
+/* The keys mixed up to the index: a value's stream, whose dimensions
+   then cost one mix each (pds__rng_uniform_in). */
+static uint64_t pds__rng_stream(uint64_t seed, uint64_t purpose, uint64_t index)
 {
     uint64_t h = pds__mix64(seed);
     h = pds__mix64(h ^ purpose);
-    h = pds__mix64(h ^ index);
-    return pds__mix64(h ^ dim);
+    return pds__mix64(h ^ index);
+}
+
+static uint64_t pds__rng_bits(uint64_t seed, uint64_t purpose, uint64_t index, uint64_t dim)
+{
+    return pds__mix64(pds__rng_stream(seed, purpose, index) ^ dim);
+}
+
+/* pds__rng_uniform(seed, purpose, index, dim) of stream =
+   pds__rng_stream(seed, purpose, index): the same value. */
+static double pds__rng_uniform_in(uint64_t stream, uint64_t dim)
+{
+    return (double)(pds__mix64(stream ^ dim) >> 11) * (1.0 / 9007199254740992.0);
 }
 
 /* Uniform double in [0, 1): the top 53 bits. */
@@ -17029,6 +17042,7 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
     double travel = 0.0; /* the path's length so far */
     double blur = 0.0, spread = 0.0; /* unresolved normal noise: position and
                                         direction spreads (pds__footprint_blur) */
+    uint64_t stream = pds__rng_stream(job->seed, PDS__RNG_PHOTON, (uint64_t)i); /* the bounces' choices */
     for (c = 0; c < 3; c++) flux[c] = flux0[c];
     for (depth = 0; depth <= job->max_depth; depth++) {
         pds__tri_hit th;
@@ -17064,8 +17078,7 @@ static void pds__trace_from(const pds__photon_job *job, pds__splat_buf *buf, con
             m = &m_lambda;
         }
         if (depth == job->max_depth) return;
-        for (c = 0; c < 3; c++)
-            uu[c] = pds__rng_uniform(job->seed, PDS__RNG_PHOTON, (uint64_t)i, 8 + 4 * (uint64_t)depth + (uint64_t)c);
+        for (c = 0; c < 3; c++) uu[c] = pds__rng_uniform_in(stream, 8 + 4 * (uint64_t)depth + (uint64_t)c);
         if (!pds__bsdf_sample(m, hit.position, pds__scale(r.d, -1.0), hit.ns, hit.ng, uu, PDS__IMPORTANCE, &bs)) return;
         pds__spectral_uplift(lam, bs.weight);
         if (!pds__bsdf_frame(pds__scale(r.d, -1.0), hit.ns, hit.ng, &n, &ngw, &side)) return;

@@ -336,6 +336,23 @@ static void test_halton_points_are_rotated_radical_inverses(pds_test_ctx *t)
     CHECK(t, rotbad == 0, "%d rotated points differ from pds__halton's", rotbad);
 }
 
+/* A stream's values (pds__rng_stream, pds__rng_uniform_in: the photons'
+   bounce choices) are pds__rng_uniform's, to the bit, and its bits'. */
+static void test_rng_streams_give_the_same_values(pds_test_ctx *t)
+{
+    int bad = 0;
+    uint64_t k;
+    for (k = 0; k < 2000; k++) {
+        uint64_t seed = k % 7, purpose = 1 + k % 20, index = pds__rng_bits(1, PDS__RNG_TEST, k, 0) >> (k % 64);
+        uint64_t dim = k % 40, stream = pds__rng_stream(seed, purpose, index);
+        double a = pds__rng_uniform_in(stream, dim), b = pds__rng_uniform(seed, purpose, index, dim);
+        if (memcmp(&a, &b, sizeof a) || pds__mix64(stream ^ dim) != pds__rng_bits(seed, purpose, index, dim)) bad++;
+    }
+    CHECK(t, bad == 0, "%d stream values differ from pds__rng_uniform's", bad);
+    CHECK(t, pds__rng_stream(1, 2, 3) != pds__rng_stream(1, 2, 4) && pds__rng_stream(1, 2, 3) != pds__rng_stream(1, 3, 3),
+          "streams of another index or purpose coincide");
+}
+
 /* Correlated multi-jittered samples (pds__cmj): for n = m x q points the
    n points fill one of n equal strips in x and one in y each, and one
    cell of the m x q grid each (Kensler's stratification), for any
@@ -540,6 +557,7 @@ static void test_eta2_undone_inverts_the_refractions_radiance_factor(pds_test_ct
 
 static const pds_test_case tests_render[] = {
     {"halton_points_are_rotated_radical_inverses", test_halton_points_are_rotated_radical_inverses},
+    {"rng_streams_give_the_same_values", test_rng_streams_give_the_same_values},
     {"pixel_samples_are_stratified", test_pixel_samples_are_stratified},
     {"eye_split_at_glass_keeps_the_mean_and_cuts_the_variance", test_eye_split_at_glass_keeps_the_mean_and_cuts_the_variance},
     {"eye_roulette_in_glass_keeps_the_mean_and_bounds_the_weights", test_eye_roulette_in_glass_keeps_the_mean_and_bounds_the_weights},
