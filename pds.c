@@ -1347,10 +1347,13 @@ static double pds__halton_rotated(double shift, uint64_t index, int dim)
     return u >= 1.0 ? u - 1.0 : u;
 }
 
+#if !defined(PDS_NO_SPECTRAL) || defined(PDS_TEST)
+/* (a photon's wavelength, >>spectral; emission keeps its rotations, below) */
 static double pds__halton(uint64_t seed, uint64_t index, int dim)
 {
     return pds__halton_rotated(pds__rng_uniform(seed, 5, 0, (uint64_t)dim), index, dim);
 }
+#endif
 
 /* A seed's rotations, made once for the many points a thread takes of it
    (four mixes a dimension are a quarter of a point's cost): shift[dim]
