@@ -1616,12 +1616,15 @@ static int gather_cap_lowered(const pds_options *o, const pds_render_stats *st)
 }
 
 /* The pixels' choice of scale (pds_render_stats.scale_pixels: the
-   passes' own footprints, half the smoothing, the three blurs), when they
+   passes' own footprints, half the smoothing, the five blurs), when they
    made one. */
-static void print_scale_pixels(const long p[5])
+static void print_scale_pixels(const long p[PDS_SCALE_ESTIMATES])
 {
-    if (p[0] + p[1] + p[2] + p[3] + p[4] > 0)
-        printf(" scale_pixels=%ld/%ld/%ld/%ld/%ld", p[0], p[1], p[2], p[3], p[4]);
+    long all = 0;
+    int k;
+    for (k = 0; k < PDS_SCALE_ESTIMATES; k++) all += p[k];
+    if (all <= 0) return;
+    for (k = 0; k < PDS_SCALE_ESTIMATES; k++) printf("%s%ld", k ? "/" : " scale_pixels=", p[k]);
 }
 
 /* The final line of render. */
@@ -1846,7 +1849,7 @@ static pds_status part_image(const pds_partial *part, pds_image *img, pds_render
     s = pds_partial_merge_report(parts, NULL, 1, 1, img, &report, err);
     if (s == PDS_OK && st) {
         st->nonfinite = report.nonfinite;
-        for (k = 0; k < 5; k++) st->scale_pixels[k] = report.scale_pixels[k];
+        for (k = 0; k < PDS_SCALE_ESTIMATES; k++) st->scale_pixels[k] = report.scale_pixels[k];
     }
     return s;
 }

@@ -12816,10 +12816,14 @@ static void pds__box_mean(double *x, double *tmp, int w, int h, int r)
      photons' footprints at half the smoothing and two thirds of the floor
      (pds__splat, into their own sums); and the first blurred across the
      image by boxes of radius 1 once, 1 three times and 2 three times
-     (standard deviations 0.82, 1.41 and 2.45 pixels), each box along a
-     row or a column stopping at the pixels' edges: where the neighbour
-     takes no part or sees another surface (pds__count_direct), so that
-     no light crosses a wall, a silhouette or a crease;
+     (standard deviations 0.82, 1.41 and 2.45 pixels), and by a box of
+     radius 1 along the rows alone and along the columns alone (a needle
+     at the width floor widened across itself in the image, where its
+     minor axis runs about along a row or a column: the cognac glass's
+     focused spot), each box along a row or a column stopping at the
+     pixels' edges: where the neighbour takes no part or sees another
+     surface (pds__count_direct), so that no light crosses a wall, a
+     silhouette or a crease;
    - the validation V: a light tracer's image (pds__validate_bin, the
      references' estimator) from photons of their own, independent of the
      passes' (another randomisation of the Halton points and the branch
@@ -12853,12 +12857,13 @@ static void pds__box_mean(double *x, double *tmp, int w, int h, int r)
    candidate, and adds to chose[j] (if not NULL) the pixels that took
    part and chose candidate j (0 the pass's scale, 1 the second, 2.. the
    blurs). passes: the passes summed. Returns 0 when memory runs out. */
-#define PDS__SELECT_BLURS 3
+#define PDS__SELECT_BLURS 5
 #define PDS__SELECT_ESTIMATES (2 + PDS__SELECT_BLURS) /* pds_render_stats.scale_pixels */
 typedef char pds__scale_pixels_fit[sizeof(((pds_render_stats *)0)->scale_pixels) == PDS__SELECT_ESTIMATES * sizeof(long)
                                        ? 1
                                        : -1];
-static const int pds__select_blur[PDS__SELECT_BLURS][2] = {{1, 1}, {1, 3}, {2, 3}}; /* box radius, times */
+/* box radius, times, along rows (1), columns (2) or both (3) */
+static const int pds__select_blur[PDS__SELECT_BLURS][3] = {{1, 1, 3}, {1, 3, 3}, {2, 3, 3}, {1, 1, 1}, {1, 1, 2}};
 #define PDS__SELECT_RADIUS 7 /* the errors' box, applied three times */
 #ifndef PDS__SELECT_SURE
 #define PDS__SELECT_SURE 1.0 /* standard deviations of V's noise a choice must clear */
@@ -12876,17 +12881,19 @@ static void pds__masked_box(double *x, const double *m, const double *den, doubl
 }
 
 /* Box means of x (w x h) within its segments, `times` times: along each
-   row, then each column, the mean over the pixels within r of a pixel on
+   row (if dirs has bit 0), then each column (bit 1), the mean over the
+   pixels within r of a pixel on
    its run of pixels that take part (m) without an edge between them
    (edge[i] bit 0: between i and its right neighbour, bit 1: its lower
    one). Pixels that take no part are left as they are. seg: w + h + 1
    doubles of scratch. */
 static void pds__segmented_box(double *x, const double *m, const unsigned char *edge, int w, int h, int r, int times,
-                               double *seg)
+                               int dirs, double *seg)
 {
     int pass, dir;
     for (pass = 0; pass < times; pass++)
         for (dir = 0; dir < 2; dir++) {
+            if (!(dirs >> dir & 1)) continue;
             int lines = dir ? w : h, len = dir ? h : w, line;
             size_t step = dir ? (size_t)w : 1, across = dir ? 1 : (size_t)w;
             unsigned char bit = dir ? 2 : 1;
@@ -13001,7 +13008,8 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
         } else {
             for (c = 0; c < 3; c++) {
                 for (i = 0; i < n; i++) chan[i] = rgb[3 * i + c];
-                pds__segmented_box(chan, m, edge, w, h, pds__select_blur[j - 2][0], pds__select_blur[j - 2][1], seg);
+                pds__segmented_box(chan, m, edge, w, h, pds__select_blur[j - 2][0], pds__select_blur[j - 2][1],
+                                   pds__select_blur[j - 2][2], seg);
                 for (i = 0; i < n; i++) cand[3 * i + c] = chan[i];
             }
         }

@@ -837,6 +837,10 @@ pds_status pds_trace_photon(const pds_scene *scene, const pds_options *opt, long
 void pds_trace_free(pds_trace *t);
 const char *pds_method_name(pds_method method);
 
+/* The estimates a pixel seen whole chooses among (pds_render_stats.
+   scale_pixels). */
+#define PDS_SCALE_ESTIMATES 7
+
 typedef struct pds_render_stats {
     double time_total_s;
     int threads;        /* threads actually used */
@@ -907,15 +911,17 @@ typedef struct pds_render_stats {
     double done_fraction;   /* of the whole render's work units (eye rows for
                                pt, photon batches or passes for pds and splat,
                                shards for pm, pdm and ppm) that are done */
-    long scale_pixels[5];   /* progressive pds choosing its pixels' scale
-                               (pds_options.pass_select): the pixels that
-                               took each estimate, [0] the passes' own
-                               footprints, [1] the same photons at half the
-                               smoothing, [2]-[4] the first blurred by a box
-                               of radius 1 once, 1 three times and 2 three
-                               times; a pixel that was not seen whole in
-                               every pass keeps [0] and is counted in none.
-                               All 0 in other renders */
+    long scale_pixels[PDS_SCALE_ESTIMATES]; /* progressive pds choosing its
+                               pixels' scale (pds_options.pass_select): the
+                               pixels that took each estimate, [0] the
+                               passes' own footprints, [1] the same photons
+                               at half the smoothing, [2]-[4] the first
+                               blurred by a box of radius 1 once, 1 three
+                               times and 2 three times, [5] and [6] by one
+                               of radius 1 along the rows alone and along
+                               the columns alone; a pixel that was not
+                               seen whole in every pass keeps [0] and is
+                               counted in none. All 0 in other renders */
 } pds_render_stats;
 
 /* What a render will need, from the scene and options alone, before any
@@ -1031,7 +1037,7 @@ typedef struct pds_merge_report {
     double fraction;        /* of the render's work units the parts hold */
     long nonfinite;         /* pds_render_stats.nonfinite: values that would
                                have been NaN or beyond the float range */
-    long scale_pixels[5];   /* pds_render_stats.scale_pixels: the pixels'
+    long scale_pixels[PDS_SCALE_ESTIMATES]; /* pds_render_stats.scale_pixels: the pixels'
                                choice of scale (all 0 when the parts hold
                                one scale) */
 } pds_merge_report;

@@ -1511,17 +1511,17 @@ static void test_pds_validation_is_the_light_tracers_image_of_its_own_photons(pd
         opt.seed = 0;
         opt.photons = 3 * 16384;
         REQUIRE(t, pds_render(s, &opt, &img, &st, &err) == PDS_OK, "render: %s", err.text);
-        for (k = 0; k < 5; k++) all += st.scale_pixels[k];
+        for (k = 0; k < PDS_SCALE_ESTIMATES; k++) all += st.scale_pixels[k];
         CHECK(t, all == (long)npix, "the choices counted %ld pixels, want %d", all, (int)npix);
         parts[0] = part;
         REQUIRE(t, pds_partial_merge_report(parts, NULL, 1, 0, &merged, &rep, &err) == PDS_OK, "merge: %s", err.text);
-        for (k = 0; k < 5; k++) same &= rep.scale_pixels[k] == st.scale_pixels[k];
+        for (k = 0; k < PDS_SCALE_ESTIMATES; k++) same &= rep.scale_pixels[k] == st.scale_pixels[k];
         CHECK(t, same && rep.fraction == 1.0 && rep.nonfinite == 0, "the merge's report differs from the render's");
         pds_image_free(&img);
         pds_image_free(&merged);
         opt.pass_select = 0;
         REQUIRE(t, pds_render(s, &opt, &img, &st, &err) == PDS_OK, "render: %s", err.text);
-        for (k = 0, all = 0; k < 5; k++) all += st.scale_pixels[k];
+        for (k = 0, all = 0; k < PDS_SCALE_ESTIMATES; k++) all += st.scale_pixels[k];
         CHECK(t, all == 0, "one scale counted %ld choices", all);
         CHECK(t, pds_partial_merge_report(parts, NULL, 1, 0, &merged, NULL, &err) == PDS_ERR_INVALID_ARG,
               "a NULL report taken");
@@ -1548,7 +1548,11 @@ static void test_pds_validation_is_the_light_tracers_image_of_its_own_photons(pd
    the count) no blur crosses it, and every pixel is within 0.2 of its
    side's truth. And the first case again with a validation whose terms'
    squares say it is far too noisy to tell the estimates apart: every
-   pixel keeps the pass's scale. Each time the choices it counts are the
+   pixel keeps the pass's scale. Then stripes, the truth 1 and 3 on
+   alternate rows, the pass's scale that plus +-0.5 alternating along the
+   row: only the blur along the rows alone removes the noise without
+   mixing the rows, and every pixel takes it, within 0.2 of the truth;
+   and the same turned a quarter (columns). Each time the choices it counts are the
    pixels that took each estimate: all that took part, one each. Also the
    segmented box against a direct mean over a run. */
 static void sel_set(pds__sum128 *photon, pds__sum128 *neg, int i, int slot, double v, long k)
@@ -1568,9 +1572,9 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
     double x[40], m[40], seg[64], want;
     unsigned char edge[40];
     long chose[PDS__SELECT_ESTIMATES];
-    int px, py, c, pass, bad = 0, skipped = 0, away = 0, crossed = 0, unsure = 0;
+    int px, py, c, pass, bad = 0, skipped = 0, away = 0, crossed = 0, unsure = 0, striped = 0;
     memset(eye, 0, sizeof eye);
-    for (pass = 0; pass < 4; pass++) {
+    for (pass = 0; pass < 6; pass++) {
         memset(photon, 0, sizeof photon);
         memset(neg, 0, sizeof neg);
         for (py = 0; py < H; py++)
@@ -1581,6 +1585,12 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                     base = 2.0;
                     half = left ? 2.3 : 2.6;
                     truth = left ? 2.3 : 2.0;
+                } else if (pass >= 4) {
+                    /* stripes along the rows (4) or the columns (5), the
+                       noise across them */
+                    int along = pass == 4 ? py : px, across = pass == 4 ? px : py;
+                    truth = along % 2 ? 3.0 : 1.0;
+                    base = half = truth + (across % 2 ? 0.5 : -0.5);
                 } else {
                     truth = left ? 1.0 : 3.0;
                     base = half = truth + chk;
@@ -1602,8 +1612,8 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                boxes took the second scale, the right the pass's; the
                checkerboards a blur where they are away from the middle;
                the noisy validation the pass's scale everywhere */
-            long all = chose[0] + chose[1] + chose[2] + chose[3] + chose[4];
-            long blurred = chose[2] + chose[3] + chose[4];
+            long all = chose[0] + chose[1] + chose[2] + chose[3] + chose[4] + chose[5] + chose[6];
+            long blurred = chose[2] + chose[3] + chose[4] + chose[5] + chose[6];
             CHECK(t, all == (pass == 0 ? N - 1 : N), "pass %d: %ld pixels counted, want %d", pass, all,
                   pass == 0 ? N - 1 : N);
             if (pass == 0)
@@ -1613,6 +1623,9 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                 CHECK(t, blurred >= (W - 8) * H, "pass %d: %ld pixels took a blur", pass, blurred);
             if (pass == 3)
                 CHECK(t, chose[0] == N, "the noisy validation: %ld of %d kept the pass's scale", chose[0], N);
+            if (pass >= 4)
+                CHECK(t, chose[pass == 4 ? 5 : 6] == N, "stripes along the %s: %ld of %d took the blur along them",
+                      pass == 4 ? "rows" : "columns", chose[pass == 4 ? 5 : 6], N);
         }
         for (py = 0; py < H; py++)
             for (px = 0; px < W; px++) {
@@ -1626,6 +1639,8 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                     if (px < W / 2 - 4 || px >= W / 2 + 4) away += fabs(v - (left ? 1.0 : 3.0)) > 0.2;
                 } else if (pass == 2) {
                     crossed += fabs(v - (left ? 1.0 : 3.0)) > 0.2;
+                } else if (pass >= 4) {
+                    striped += fabs(v - ((pass == 4 ? py : px) % 2 ? 3.0 : 1.0)) > 0.2;
                 } else {
                     unsure += fabs(v - 2.0) > 1e-6;
                 }
@@ -1636,6 +1651,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
     CHECK(t, away == 0, "%d pixels away from the middle kept the checkerboard", away);
     CHECK(t, crossed == 0, "%d pixels were blurred across the edge", crossed);
     CHECK(t, unsure == 0, "%d pixels left the pass's scale on a validation too noisy to tell", unsure);
+    CHECK(t, striped == 0, "%d striped pixels are more than 0.2 from the truth", striped);
     /* the segmented box: a run of 40 broken by a pixel that takes no part
        (17) and an edge after 29: runs 0-16, 18-29, 30-39 */
     for (px = 0; px < 40; px++) {
@@ -1646,7 +1662,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
     {
         double y[40];
         memcpy(y, x, sizeof y);
-        pds__segmented_box(y, m, edge, 40, 1, 2, 1, seg);
+        pds__segmented_box(y, m, edge, 40, 1, 2, 1, 3, seg);
         for (px = 0, bad = 0; px < 40; px++) {
             int a0 = px <= 16 ? 0 : px <= 29 ? 18 : 30, b0 = px <= 16 ? 16 : px <= 29 ? 29 : 39, lo, hi, k, cnt = 0;
             if (px == 17) {
