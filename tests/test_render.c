@@ -296,7 +296,7 @@ static void test_halton_points_are_rotated_radical_inverses(pds_test_ctx *t)
     static const unsigned base[PDS__HALTON_DIMS] = {2, 3, 5, 7, 11, 13, 17, 19};
     static const uint64_t seeds[3] = {0, 7, 0x76616c6964617465ULL};
     pds__halton_rot rot;
-    int dim, k, bad = 0, far = 0, rotbad = 0;
+    int dim, k, bad = 0, wide = 0, rotbad = 0;
     for (dim = 0; dim < PDS__HALTON_DIMS; dim++)
         for (k = 0; k < 4000; k++) {
             /* small indices, then random ones up to 2^53 - 1 (base 2) or
@@ -314,10 +314,10 @@ static void test_halton_points_are_rotated_radical_inverses(pds_test_ctx *t)
             exact = (double)num / (double)den; /* both below 2^63: num < den */
             got = pds__radical_inverse(i, dim);
             if (dim == 0 && got != exact) bad++;
-            if (!(fabs(got - exact) <= 8.0 * DBL_EPSILON * exact)) far++;
+            if (!(fabs(got - exact) <= 8.0 * DBL_EPSILON * exact)) wide++;
         }
     CHECK(t, bad == 0, "%d base-2 radical inverses differ from the exact fraction", bad);
-    CHECK(t, far == 0, "%d radical inverses are more than 8 ulps from the exact fraction", far);
+    CHECK(t, wide == 0, "%d radical inverses are more than 8 ulps from the exact fraction", wide);
     CHECK(t, pds__radical_inverse(6, 0) == 0.375 && fabs(pds__radical_inverse(5, 1) - 7.0 / 9.0) < 1e-15,
           "radical inverses of 6 (base 2) and 5 (base 3): %.17g, %.17g", pds__radical_inverse(6, 0),
           pds__radical_inverse(5, 1));
