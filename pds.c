@@ -1272,17 +1272,17 @@ static uint64_t pds__rng_bits(uint64_t seed, uint64_t purpose, uint64_t index, u
     return pds__mix64(pds__rng_stream(seed, purpose, index) ^ dim);
 }
 
-/* pds__rng_uniform(seed, purpose, index, dim) of stream =
-   pds__rng_stream(seed, purpose, index): the same value. */
+/* Uniform double in [0, 1) of dimension dim of a stream: the top 53
+   bits. */
 static double pds__rng_uniform_in(uint64_t stream, uint64_t dim)
 {
     return (double)(pds__mix64(stream ^ dim) >> 11) * (1.0 / 9007199254740992.0);
 }
 
-/* Uniform double in [0, 1): the top 53 bits. */
+/* The same of (seed, purpose, index, dim). */
 static double pds__rng_uniform(uint64_t seed, uint64_t purpose, uint64_t index, uint64_t dim)
 {
-    return (double)(pds__rng_bits(seed, purpose, index, dim) >> 11) * (1.0 / 9007199254740992.0);
+    return pds__rng_uniform_in(pds__rng_stream(seed, purpose, index), dim);
 }
 
 /* Low-discrepancy numbers for photon emission: the Halton sequence (radical
@@ -12858,10 +12858,8 @@ static void pds__box_mean(double *x, double *tmp, int w, int h, int r)
    part and chose candidate j (0 the pass's scale, 1 the second, 2.. the
    blurs). passes: the passes summed. Returns 0 when memory runs out. */
 #define PDS__SELECT_BLURS 5
-#define PDS__SELECT_ESTIMATES (2 + PDS__SELECT_BLURS) /* pds_render_stats.scale_pixels */
-typedef char pds__scale_pixels_fit[sizeof(((pds_render_stats *)0)->scale_pixels) == PDS__SELECT_ESTIMATES * sizeof(long)
-                                       ? 1
-                                       : -1];
+#define PDS__SELECT_ESTIMATES PDS_SCALE_ESTIMATES /* pds_render_stats.scale_pixels */
+typedef char pds__select_estimates_fit[2 + PDS__SELECT_BLURS == PDS__SELECT_ESTIMATES ? 1 : -1];
 /* box radius, times, along rows (1), columns (2) or both (3) */
 static const int pds__select_blur[PDS__SELECT_BLURS][3] = {{1, 1, 3}, {1, 3, 3}, {2, 3, 3}, {1, 1, 1}, {1, 1, 2}};
 #define PDS__SELECT_RADIUS 7 /* the errors' box, applied three times */
