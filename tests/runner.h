@@ -16,7 +16,17 @@
    Progress: with PDS_TEST_VERBOSE=1 in the environment (or in a build
    with AddressSanitizer, whose tests take minutes), each test's name goes
    to stderr as it starts, "[ 12/172] bvh_matches_...", so a long run shows
-   where it is; PDS_TEST_VERBOSE=0 turns that off. stdout stays as it is. */
+   where it is; PDS_TEST_VERBOSE=0 turns that off. stdout stays as it is.
+
+   Workers: on a POSIX system the tests run in PDS_TEST_JOBS processes
+   (default: one per processor online, at most 8; 1 runs them in this
+   process, in order). Each worker takes the next test's number from a
+   pipe the runner fills, so a long test holds up only its own worker,
+   runs the test whole and sends its outcome back on a second pipe. A
+   test is one process's from start to end, and the files tests write
+   carry their process's number (getpid) or their own name, so tests in
+   different workers do not meet. A worker that dies in a test (a crash,
+   an abort) fails that test by name instead of ending the run. */
 #ifndef PDS_TEST_RUNNER_H
 #define PDS_TEST_RUNNER_H
 
@@ -25,6 +35,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#ifndef _WIN32
+#include <sys/wait.h>
+#include <unistd.h>
+#define PDS_TEST_WORKERS 1
+#endif
 
 typedef struct pds_test_ctx {
     const char *name;
@@ -105,32 +120,147 @@ static int pds_test_selected(const char *name, int argc, char **argv)
     return 0;
 }
 
-/* Runs every selected test; a test with no check at all counts as failed,
+/* Runs test c; 1 if it failed. A test with no check at all fails,
    because a test that cannot fail is a defect. */
+static int pds_test_one(const pds_test_case *c, int number, int total, int verbose)
+{
+    pds_test_ctx t;
+    if (verbose) {
+        fprintf(stderr, "[%3d/%d] %s\n", number, total, c->name);
+        fflush(stderr);
+    }
+    t.name = c->name;
+    t.failures = 0;
+    t.checks = 0;
+    c->fn(&t);
+    if (t.checks == 0) pds_test_fail(&t, __FILE__, __LINE__, "test made no check");
+    fflush(stdout);
+    return t.failures != 0;
+}
+
+/* How many worker processes (PDS_TEST_JOBS, or the processors online). */
+static int pds_test_jobs(void)
+{
+    const char *v = getenv("PDS_TEST_JOBS");
+    long n = 1;
+    if (v && *v) {
+        n = strtol(v, NULL, 10);
+    } else {
+#ifdef PDS_TEST_WORKERS
+        n = sysconf(_SC_NPROCESSORS_ONLN);
+#endif
+    }
+    return n < 1 ? 1 : n > 8 ? 8 : (int)n;
+}
+
+#ifdef PDS_TEST_WORKERS
+/* The selected tests (list[0..total)) in `jobs` worker processes; their
+   outcomes counted into *passed and *failed. 0 if the workers could not
+   be started (nothing has run then). */
+static int pds_test_workers(const pds_test_case *const *list, int total, int jobs, int verbose, int *passed,
+                            int *failed)
+{
+    int work[2], done[2], k, j, started = 0;
+    pid_t pid[8];
+    char *reported = (char *)calloc((size_t)total, 1);
+    if (!reported || pipe(work) != 0) {
+        free(reported);
+        return 0;
+    }
+    if (pipe(done) != 0) {
+        close(work[0]);
+        close(work[1]);
+        free(reported);
+        return 0;
+    }
+    fflush(stdout);
+    fflush(stderr);
+    for (j = 0; j < jobs; j++) {
+        pid[j] = fork();
+        if (pid[j] < 0) break;
+        if (pid[j] == 0) {
+            /* a worker: the next number, its test, its outcome; until the
+               runner has no more */
+            int number, out[2];
+            close(work[1]);
+            close(done[0]);
+            while (read(work[0], &number, sizeof number) == (ssize_t)sizeof number) {
+                out[0] = number;
+                out[1] = pds_test_one(list[number], number + 1, total, verbose);
+                if (write(done[1], out, sizeof out) != (ssize_t)sizeof out) break;
+            }
+            exit(0); /* exit, not _exit: LeakSanitizer checks at exit */
+        }
+        started++;
+    }
+    close(work[0]);
+    close(done[1]);
+    if (started == 0) {
+        close(work[1]);
+        close(done[0]);
+        free(reported);
+        return 0;
+    }
+    /* each number written whole (a few bytes, so no worker reads half of
+       one); a worker that died leaves its numbers to the others */
+    for (k = 0; k < total; k++)
+        if (write(work[1], &k, sizeof k) != (ssize_t)sizeof k) break;
+    close(work[1]);
+    {
+        int out[2];
+        while (read(done[0], out, sizeof out) == (ssize_t)sizeof out)
+            if (out[0] >= 0 && out[0] < total && !reported[out[0]]) {
+                reported[out[0]] = 1;
+                if (out[1]) (*failed)++;
+                else (*passed)++;
+            }
+    }
+    close(done[0]);
+    for (j = 0; j < started; j++) {
+        int status = 0;
+        if (waitpid(pid[j], &status, 0) == pid[j] && WIFSIGNALED(status))
+            printf("FAIL a worker process died (signal %d)\n", WTERMSIG(status));
+    }
+    for (k = 0; k < total; k++)
+        if (!reported[k]) {
+            printf("FAIL %s: its worker process ended without its outcome\n", list[k]->name);
+            (*failed)++;
+        }
+    free(reported);
+    return 1;
+}
+#endif
+
+/* Runs every selected test, in worker processes (pds_test_jobs) where
+   the system has them; the last line is "N passed, N failed". */
 static int pds_test_run(const pds_test_suite *suites, size_t nsuites, int argc, char **argv)
 {
     size_t s, i;
-    int passed = 0, failed = 0, verbose = pds_test_verbose(), total = 0;
+    int passed = 0, failed = 0, verbose = pds_test_verbose(), total = 0, jobs = pds_test_jobs(), k;
+    const pds_test_case **list;
     for (s = 0; s < nsuites; s++)
         for (i = 0; i < suites[s].count; i++) total += pds_test_selected(suites[s].cases[i].name, argc, argv);
-    for (s = 0; s < nsuites; s++) {
-        for (i = 0; i < suites[s].count; i++) {
-            pds_test_ctx t;
-            const pds_test_case *c = &suites[s].cases[i];
-            if (!pds_test_selected(c->name, argc, argv)) continue;
-            if (verbose) {
-                fprintf(stderr, "[%3d/%d] %s\n", passed + failed + 1, total, c->name);
-                fflush(stderr);
-            }
-            t.name = c->name;
-            t.failures = 0;
-            t.checks = 0;
-            c->fn(&t);
-            if (t.checks == 0) pds_test_fail(&t, __FILE__, __LINE__, "test made no check");
-            if (t.failures) failed++;
-            else passed++;
-        }
+    list = (const pds_test_case **)malloc(sizeof *list * (size_t)(total > 0 ? total : 1));
+    if (!list) {
+        printf("FAIL the test runner: out of memory\n");
+        return 1;
     }
+    for (s = 0, k = 0; s < nsuites; s++)
+        for (i = 0; i < suites[s].count; i++)
+            if (pds_test_selected(suites[s].cases[i].name, argc, argv)) list[k++] = &suites[s].cases[i];
+#ifdef PDS_TEST_WORKERS
+    if (jobs > 1 && total > 1 && pds_test_workers(list, total, jobs < total ? jobs : total, verbose, &passed, &failed)) {
+        free(list);
+        printf("%d passed, %d failed\n", passed, failed);
+        return failed ? 1 : 0;
+    }
+#endif
+    (void)jobs;
+    for (k = 0; k < total; k++) {
+        if (pds_test_one(list[k], k + 1, total, verbose)) failed++;
+        else passed++;
+    }
+    free(list);
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
 }
