@@ -4,23 +4,97 @@
    uses it for the case studies, whose floors the camera sees directly.
 
      tests/ref_light SCENE --photons N [--res WxH] [--seed S] [--threads T] -o OUT.pfm
+     tests/ref_light SCENE [--res WxH] --complete MASK.pfm
 
-   Prints the photons and the seconds taken. */
+   Prints the photons and the seconds taken.
+
+   Light tracing bins a photon only where the camera sees its landing
+   point directly, so a pixel that sees glass, a mirror or metal (even in
+   part, at a silhouette) gets none of the caustic it shows there: its
+   reference is incomplete, and an estimate that renders it (through the
+   glass) is wrong against it. --complete writes the pixels where the
+   reference is whole: 1 where every one of 8 x 8 rays through the
+   pixel's sub-cells (the pinhole camera of pds_render) first meets a
+   surface that is not specular, or nothing; 0 elsewhere. Compare over
+   those pixels. */
 #include "pds.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 static int usage(void)
 {
-    fprintf(stderr, "usage: ref_light SCENE --photons N [--res WxH] [--seed S] [--threads T] -o OUT.pfm\n");
+    fprintf(stderr, "usage: ref_light SCENE --photons N [--res WxH] [--seed S] [--threads T] -o OUT.pfm\n"
+                    "       ref_light SCENE [--res WxH] --complete MASK.pfm\n");
     return 2;
+}
+
+static pds_vec3 v3(double x, double y, double z)
+{
+    pds_vec3 r;
+    r.x = x;
+    r.y = y;
+    r.z = z;
+    return r;
+}
+
+static pds_vec3 v3_unit(pds_vec3 a)
+{
+    double l = sqrt(a.x * a.x + a.y * a.y + a.z * a.z);
+    return v3(a.x / l, a.y / l, a.z / l);
+}
+
+static pds_vec3 v3_cross(pds_vec3 a, pds_vec3 b)
+{
+    return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+
+/* The mask of --complete (the comment above), width x height pixels. */
+static int complete_mask(const pds_scene *scene, int width, int height, pds_image *mask, pds_error *err)
+{
+    const pds_camera *cam = pds_scene_camera(scene);
+    pds_vec3 fwd, right, up;
+    double t = tan(0.5 * cam->fov_deg * 3.14159265358979323846 / 180.0), aspect = (double)width / height;
+    int x, y, i, j;
+    enum { S = 8 };
+    fwd = v3_unit(v3(cam->look_at.x - cam->position.x, cam->look_at.y - cam->position.y,
+                     cam->look_at.z - cam->position.z));
+    right = v3_unit(v3_cross(fwd, cam->up));
+    up = v3_cross(right, fwd);
+    if (pds_image_alloc(mask, width, height) != PDS_OK) {
+        snprintf(err->text, sizeof err->text, "out of memory");
+        return 0;
+    }
+    for (y = 0; y < height; y++)
+        for (x = 0; x < width; x++) {
+            int whole = 1;
+            for (j = 0; j < S && whole; j++)
+                for (i = 0; i < S && whole; i++) {
+                    /* as pds__camera_dir: image point (px, py), (0, 0) the top left */
+                    double px = x + (i + 0.5) / S, py = y + (j + 0.5) / S;
+                    double sx = (2.0 * px / width - 1.0) * t * aspect, sy = (1.0 - 2.0 * py / height) * t;
+                    pds_ray ray;
+                    pds_hit hit;
+                    ray.origin = cam->position;
+                    ray.dir = v3(fwd.x + sx * right.x + sy * up.x, fwd.y + sx * right.y + sy * up.y,
+                                 fwd.z + sx * right.z + sy * up.z);
+                    ray.tmin = 0.0;
+                    ray.tmax = 1e300;
+                    if (pds_scene_intersect(scene, &ray, &hit)) {
+                        pds_material_type type = pds_scene_material(scene, hit.material)->type;
+                        whole = type != PDS_MAT_MIRROR && type != PDS_MAT_CONDUCTOR && type != PDS_MAT_DIELECTRIC;
+                    }
+                }
+            for (i = 0; i < 3; i++) mask->rgb[3 * ((size_t)y * width + x) + i] = whole ? 1.0f : 0.0f;
+        }
+    return 1;
 }
 
 int main(int argc, char **argv)
 {
-    const char *scene_path = NULL, *out = NULL;
+    const char *scene_path = NULL, *out = NULL, *complete = NULL;
     pds_options opt;
     pds_image_write_options wo;
     static pds_image_meta meta; /* 25 kB: not on the stack */
@@ -46,6 +120,9 @@ int main(int argc, char **argv)
         } else if (!strcmp(a, "--seed") && v) {
             opt.seed = strtoull(v, NULL, 10);
             i++;
+        } else if (!strcmp(a, "--complete") && v) {
+            complete = v;
+            i++;
         } else if (!strcmp(a, "--threads") && v) {
             opt.threads = atoi(v);
             i++;
@@ -55,10 +132,30 @@ int main(int argc, char **argv)
             return usage();
         }
     }
-    if (!scene_path || !out || opt.photons < 1) return usage();
+    if (!scene_path || (!out && !complete) || (out && opt.photons < 1)) return usage();
     if (pds_scene_load(scene_path, &scene, &err) != PDS_OK) {
         fprintf(stderr, "%s\n", err.text);
         return 1;
+    }
+    if (complete) {
+        const pds_camera *cam = pds_scene_camera(scene);
+        pds_image mask = {0, 0, NULL};
+        long n = 0, k;
+        if (!complete_mask(scene, opt.width > 0 ? opt.width : cam->width, opt.height > 0 ? opt.height : cam->height,
+                           &mask, &err) ||
+            pds_image_write(complete, &mask, 0.0, &err) != PDS_OK) {
+            fprintf(stderr, "%s\n", err.text);
+            pds_image_free(&mask);
+            pds_scene_free(scene);
+            return 1;
+        }
+        for (k = 0; k < (long)mask.width * mask.height; k++) n += mask.rgb[3 * k] > 0.5f;
+        printf("ref_light complete=%ld of %ld pixels output=%s\n", n, (long)mask.width * mask.height, complete);
+        pds_image_free(&mask);
+        if (!out) {
+            pds_scene_free(scene);
+            return 0;
+        }
     }
     t0 = pds_time_now();
     /* what the image is, as pds render writes it: a reference of the
