@@ -217,9 +217,17 @@ static int pds_test_workers(const pds_test_case *const *list, int total, int job
     }
     close(done[0]);
     for (j = 0; j < started; j++) {
+        /* a worker that ends other than with status 0 fails the run: a
+           signal (its test, which sent no outcome, is counted below), or
+           a status such as LeakSanitizer's after its leak report */
         int status = 0;
-        if (waitpid(pid[j], &status, 0) == pid[j] && WIFSIGNALED(status))
+        if (waitpid(pid[j], &status, 0) != pid[j]) continue;
+        if (WIFSIGNALED(status)) {
             printf("FAIL a worker process died (signal %d)\n", WTERMSIG(status));
+        } else if (WIFEXITED(status) && WEXITSTATUS(status) != 0) {
+            printf("FAIL a worker process exited with status %d\n", WEXITSTATUS(status));
+            (*failed)++;
+        }
     }
     for (k = 0; k < total; k++)
         if (!reported[k]) {
