@@ -26,7 +26,9 @@
    test is one process's from start to end, and the files tests write
    carry their process's number (getpid) or their own name, so tests in
    different workers do not meet. A worker that dies in a test (a crash,
-   an abort) fails that test by name instead of ending the run. */
+   an abort) fails that test by name instead of ending the run; one that
+   exits with a status other than 0 (LeakSanitizer's, after a leak
+   report) fails the run. */
 #ifndef PDS_TEST_RUNNER_H
 #define PDS_TEST_RUNNER_H
 
