@@ -135,7 +135,7 @@ tests/ref_ball: tests/ref_ball.c
 	$(CC) $(WARN) $(CFLAGS) -o $@ tests/ref_ball.c $(LDLIBS)
 
 tests/ref_light: tests/ref_light.c pds.c pds.h
-	$(CC) $(WARN) $(CFLAGS) -I. -o $@ tests/ref_light.c pds.c $(LDLIBS)
+	$(CC) $(WARN) $(CFLAGS) -I. -o $@ tests/ref_light.c $(LDLIBS)
 
 # A long path-traced reference of a window of pixels, seed by seed (README
 # "Global illumination: --method gi", the agreement test's blocks); it

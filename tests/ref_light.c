@@ -17,9 +17,11 @@
    pixel's sub-cells (the pinhole camera of pds_render) first meets a
    surface that is not specular, or nothing; 0 elsewhere. Compare over
    those pixels. */
-#include "pds.h"
+/* pds.c itself, as tests/ref_region.c does: the mask takes the render's
+   own camera (pds__camera_setup, pds__camera_dir) and its own test of
+   which surfaces an eye path passes (pds__material_is_specular). */
+#include "pds.c"
 
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -31,38 +33,12 @@ static int usage(void)
     return 2;
 }
 
-static pds_vec3 v3(double x, double y, double z)
-{
-    pds_vec3 r;
-    r.x = x;
-    r.y = y;
-    r.z = z;
-    return r;
-}
-
-static pds_vec3 v3_unit(pds_vec3 a)
-{
-    double l = sqrt(a.x * a.x + a.y * a.y + a.z * a.z);
-    return v3(a.x / l, a.y / l, a.z / l);
-}
-
-static pds_vec3 v3_cross(pds_vec3 a, pds_vec3 b)
-{
-    return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
-}
-
 /* The mask of --complete (the comment above), width x height pixels. */
 static int complete_mask(const pds_scene *scene, int width, int height, pds_image *mask, pds_error *err)
 {
-    const pds_camera *cam = pds_scene_camera(scene);
-    pds_vec3 fwd, right, up;
-    double t = tan(0.5 * cam->fov_deg * 3.14159265358979323846 / 180.0), aspect = (double)width / height;
+    pds__camera_frame f = pds__camera_setup(pds_scene_camera(scene), width, height);
     int x, y, i, j;
     enum { S = 8 };
-    fwd = v3_unit(v3(cam->look_at.x - cam->position.x, cam->look_at.y - cam->position.y,
-                     cam->look_at.z - cam->position.z));
-    right = v3_unit(v3_cross(fwd, cam->up));
-    up = v3_cross(right, fwd);
     if (pds_image_alloc(mask, width, height) != PDS_OK) {
         snprintf(err->text, sizeof err->text, "out of memory");
         return 0;
@@ -72,20 +48,14 @@ static int complete_mask(const pds_scene *scene, int width, int height, pds_imag
             int whole = 1;
             for (j = 0; j < S && whole; j++)
                 for (i = 0; i < S && whole; i++) {
-                    /* as pds__camera_dir: image point (px, py), (0, 0) the top left */
-                    double px = x + (i + 0.5) / S, py = y + (j + 0.5) / S;
-                    double sx = (2.0 * px / width - 1.0) * t * aspect, sy = (1.0 - 2.0 * py / height) * t;
                     pds_ray ray;
                     pds_hit hit;
-                    ray.origin = cam->position;
-                    ray.dir = v3(fwd.x + sx * right.x + sy * up.x, fwd.y + sx * right.y + sy * up.y,
-                                 fwd.z + sx * right.z + sy * up.z);
+                    ray.origin = f.origin;
+                    ray.dir = pds__camera_dir(&f, x + (i + 0.5) / S, y + (j + 0.5) / S);
                     ray.tmin = 0.0;
-                    ray.tmax = 1e300;
-                    if (pds_scene_intersect(scene, &ray, &hit)) {
-                        pds_material_type type = pds_scene_material(scene, hit.material)->type;
-                        whole = type != PDS_MAT_MIRROR && type != PDS_MAT_CONDUCTOR && type != PDS_MAT_DIELECTRIC;
-                    }
+                    ray.tmax = DBL_MAX;
+                    if (pds_scene_intersect(scene, &ray, &hit))
+                        whole = !pds__material_is_specular(pds_scene_material(scene, hit.material));
                 }
             for (i = 0; i < 3; i++) mask->rgb[3 * ((size_t)y * width + x) + i] = whole ? 1.0f : 0.0f;
         }
