@@ -42,6 +42,7 @@
 #include <unistd.h>
 #define PDS_TEST_WORKERS 1
 #endif
+#define PDS_TEST_MAX_JOBS 8 /* worker processes at most */
 
 typedef struct pds_test_ctx {
     const char *name;
@@ -152,7 +153,7 @@ static int pds_test_jobs(void)
         n = sysconf(_SC_NPROCESSORS_ONLN);
 #endif
     }
-    return n < 1 ? 1 : n > 8 ? 8 : (int)n;
+    return n < 1 ? 1 : n > PDS_TEST_MAX_JOBS ? PDS_TEST_MAX_JOBS : (int)n;
 }
 
 #ifdef PDS_TEST_WORKERS
@@ -163,7 +164,7 @@ static int pds_test_workers(const pds_test_case *const *list, int total, int job
                             int *failed)
 {
     int work[2], done[2], k, j, started = 0;
-    pid_t pid[8];
+    pid_t pid[PDS_TEST_MAX_JOBS];
     char *reported = (char *)calloc((size_t)total, 1);
     if (!reported || pipe(work) != 0) {
         free(reported);
@@ -245,19 +246,18 @@ static int pds_test_workers(const pds_test_case *const *list, int total, int job
    the system has them; the last line is "N passed, N failed". */
 static int pds_test_run(const pds_test_suite *suites, size_t nsuites, int argc, char **argv)
 {
-    size_t s, i;
+    size_t s, i, cases = 0;
     int passed = 0, failed = 0, verbose = pds_test_verbose(), total = 0, jobs = pds_test_jobs(), k;
     const pds_test_case **list;
-    for (s = 0; s < nsuites; s++)
-        for (i = 0; i < suites[s].count; i++) total += pds_test_selected(suites[s].cases[i].name, argc, argv);
-    list = (const pds_test_case **)malloc(sizeof *list * (size_t)(total > 0 ? total : 1));
+    for (s = 0; s < nsuites; s++) cases += suites[s].count;
+    list = (const pds_test_case **)malloc(sizeof *list * (cases > 0 ? cases : 1));
     if (!list) {
         printf("FAIL the test runner: out of memory\n");
         return 1;
     }
-    for (s = 0, k = 0; s < nsuites; s++)
+    for (s = 0; s < nsuites; s++)
         for (i = 0; i < suites[s].count; i++)
-            if (pds_test_selected(suites[s].cases[i].name, argc, argv)) list[k++] = &suites[s].cases[i];
+            if (pds_test_selected(suites[s].cases[i].name, argc, argv)) list[total++] = &suites[s].cases[i];
 #ifdef PDS_TEST_WORKERS
     if (jobs > 1 && total > 1 && pds_test_workers(list, total, jobs < total ? jobs : total, verbose, &passed, &failed)) {
         free(list);
