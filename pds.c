@@ -12840,6 +12840,15 @@ static void pds__box_mean(double *x, double *tmp, int w, int h, int r)
      This is hold-out validation (cross-validation of the bandwidth, as
      kernel density estimators choose theirs), with an unbiased
      estimator for the held-out data instead of a share of the samples;
+   - a blend: the pixel may take lambda L_0 + (1 - lambda) L_j instead
+     of L_j alone. Its error against V, averaged over the same boxes, is
+       E_j + 2 lambda X_j + lambda^2 D_j,
+     E_j the box mean of (L_j - V)^2, X_j of (L_j - V)(L_0 - L_j), D_j of
+     (L_0 - L_j)^2 (free of V), least at lambda = -X_j / D_j, held in
+     [0, 1]: the mixture is at least as close as either end (lambda 0
+     and 1 are among the choices), and closer where the two estimates'
+     errors are partly independent or of opposite signs (a kernel
+     between the two bandwidths);
    - who takes part: a pixel that was, in every pass, one merged vertex
      seen straight from a pinhole camera (pds__eye_merge): its value is
      its box filter, which is what V estimates. Every other pixel (seen
@@ -12855,8 +12864,8 @@ static void pds__box_mean(double *x, double *tmp, int w, int h, int r)
    Fills rgb (3 a pixel) with every pixel's photon part: (S+ - S-) times
    scale (the image's 1 / unit * n_planned / emitted) of the chosen
    candidate, and adds to chose[j] (if not NULL) the pixels that took
-   part and chose candidate j (0 the pass's scale, 1 the second, 2.. the
-   blurs). passes: the passes summed. Returns 0 when memory runs out. */
+   part and chose candidate j, alone or blended with the pass's (0 the
+   pass's scale, 1 the second, 2.. the blurs). passes: the passes summed. Returns 0 when memory runs out. */
 #define PDS__SELECT_BLURS 5
 #define PDS__SELECT_ESTIMATES PDS_SCALE_ESTIMATES /* pds_render_stats.scale_pixels */
 typedef char pds__select_estimates_fit[2 + PDS__SELECT_BLURS == PDS__SELECT_ESTIMATES ? 1 : -1];
@@ -12948,11 +12957,12 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
     /* one block: per pixel the weight m, V, V's variance, the errors'
        box of m, the pass's error, a candidate's error and its noise, the
        best error so far, a scratch row and a channel; then a candidate's
-       and the pick's R, G, B, and a run's prefix sums */
-    double *mem = (double *)malloc(sizeof(double) * (16 * n + (size_t)w + (size_t)h + 2));
+       and the pick's R, G, B, the blend's D_j and X_j, and a run's prefix
+       sums */
+    double *mem = (double *)malloc(sizeof(double) * (18 * n + (size_t)w + (size_t)h + 2));
     double *m = mem, *v = m + n, *var = v + n, *derr = var + n, *e0 = derr + n, *err = e0 + n, *noise = err + n;
     double *best = noise + n, *tmp = best + n, *chan = tmp + n, *cand = chan + n, *pick = cand + 3 * n;
-    double *seg = pick + 3 * n, kappa = pds__box3_square_sum(PDS__SELECT_RADIUS), vsum = 0.0, v2sum = 0.0, wbar;
+    double *dd = pick + 3 * n, *xx = dd + n, *seg = xx + n, kappa = pds__box3_square_sum(PDS__SELECT_RADIUS), vsum = 0.0, v2sum = 0.0, wbar;
     unsigned char *edge = (unsigned char *)malloc(2 * n + 1), *which = edge + n; /* which: the pick's j */
     int j, c, k, any = 0;
     if (!mem || !edge) {
@@ -13022,6 +13032,8 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
             double dj = y - (rgb[3 * i] + rgb[3 * i + 1] + rgb[3 * i + 2]);
             err[i] = d * d;
             noise[i] = dj * dj * var[i];
+            dd[i] = dj * dj;
+            xx[i] = -d * dj; /* (L_j - V)(L_0 - L_j) */
         }
         pds__masked_box(err, m, derr, tmp, w, h, PDS__SELECT_RADIUS, 3);
         if (j == 0) {
@@ -13032,15 +13044,25 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
             continue;
         }
         pds__masked_box(noise, m, derr, tmp, w, h, PDS__SELECT_RADIUS, 3);
-        /* taken where it is smaller than the best so far and below the
-           pass's error by PDS__SELECT_SURE standard deviations of that
-           noise */
+        pds__masked_box(dd, m, derr, tmp, w, h, PDS__SELECT_RADIUS, 3);
+        pds__masked_box(xx, m, derr, tmp, w, h, PDS__SELECT_RADIUS, 3);
+        /* the blend of the pass's scale and this candidate with the least
+           error, lambda L_0 + (1 - lambda) L_j, taken where its error is
+           smaller than the best so far and below the pass's by
+           PDS__SELECT_SURE standard deviations of that noise times
+           sqrt(1 - lambda). (For a lambda fixed beforehand the noise is
+           (1 - lambda) sd, since L_lambda - L_0 = (1 - lambda)(L_j - L_0);
+           lambda is fitted to the same V, so that would be too lenient,
+           and sd itself too strict: README "The choice blends") */
         for (i = 0; i < n; i++) {
             double sd = derr[i] > 0.0 ? 2.0 * sqrt(kappa * noise[i] / derr[i]) : 0.0;
-            if (m[i] > 0.0 && err[i] < best[i] && e0[i] - err[i] > PDS__SELECT_SURE * sd) {
-                best[i] = err[i];
+            double lam = dd[i] > 0.0 ? -xx[i] / dd[i] : 0.0, eb;
+            lam = lam > 1.0 ? 1.0 : lam > 0.0 ? lam : 0.0;
+            eb = err[i] + 2.0 * lam * xx[i] + lam * lam * dd[i];
+            if (m[i] > 0.0 && eb < best[i] && e0[i] - eb > PDS__SELECT_SURE * sqrt(1.0 - lam) * sd) {
+                best[i] = eb;
                 which[i] = (unsigned char)j;
-                for (c = 0; c < 3; c++) pick[3 * i + c] = cand[3 * i + c];
+                for (c = 0; c < 3; c++) pick[3 * i + c] = lam * rgb[3 * i + c] + (1.0 - lam) * cand[3 * i + c];
             }
         }
     }

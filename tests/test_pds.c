@@ -1552,7 +1552,10 @@ static void test_pds_validation_is_the_light_tracers_image_of_its_own_photons(pd
    alternate rows, the pass's scale that plus +-0.5 alternating along the
    row: only the blur along the rows alone removes the noise without
    mixing the rows, and every pixel takes it, within 0.2 of the truth;
-   and the same turned a quarter (columns). Each time the choices it counts are the
+   and the same turned a quarter (columns). Then the blend: the pass's
+   scale 2, the second scale 3 and the truth 2.4 everywhere, which
+   neither estimate is but 0.6 and 0.4 of them are: every pixel takes
+   that blend, counted as the second scale's. Each time the choices it counts are the
    pixels that took each estimate: all that took part, one each. Also the
    segmented box against a direct mean over a run. */
 static void sel_set(pds__sum128 *photon, pds__sum128 *neg, int i, int slot, double v, long k)
@@ -1572,9 +1575,9 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
     double x[40], m[40], seg[64], want;
     unsigned char edge[40];
     long chose[PDS__SELECT_ESTIMATES];
-    int px, py, c, pass, bad = 0, skipped = 0, away = 0, crossed = 0, unsure = 0, striped = 0;
+    int px, py, c, pass, bad = 0, skipped = 0, away = 0, crossed = 0, unsure = 0, striped = 0, blended = 0;
     memset(eye, 0, sizeof eye);
-    for (pass = 0; pass < 6; pass++) {
+    for (pass = 0; pass < 7; pass++) {
         memset(photon, 0, sizeof photon);
         memset(neg, 0, sizeof neg);
         for (py = 0; py < H; py++)
@@ -1585,6 +1588,10 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                     base = 2.0;
                     half = left ? 2.3 : 2.6;
                     truth = left ? 2.3 : 2.0;
+                } else if (pass == 6) {
+                    base = 2.0;
+                    half = 3.0;
+                    truth = 2.4;
                 } else if (pass >= 4) {
                     /* stripes along the rows (4) or the columns (5), the
                        noise across them */
@@ -1623,7 +1630,8 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                 CHECK(t, blurred >= (W - 8) * H, "pass %d: %ld pixels took a blur", pass, blurred);
             if (pass == 3)
                 CHECK(t, chose[0] == N, "the noisy validation: %ld of %d kept the pass's scale", chose[0], N);
-            if (pass >= 4)
+            if (pass == 6) CHECK(t, chose[1] == N, "the blend: %ld of %d took the second scale's", chose[1], N);
+            if (pass == 4 || pass == 5)
                 CHECK(t, chose[pass == 4 ? 5 : 6] == N, "stripes along the %s: %ld of %d took the blur along them",
                       pass == 4 ? "rows" : "columns", chose[pass == 4 ? 5 : 6], N);
         }
@@ -1639,6 +1647,8 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                     if (px < W / 2 - 4 || px >= W / 2 + 4) away += fabs(v - (left ? 1.0 : 3.0)) > 0.2;
                 } else if (pass == 2) {
                     crossed += fabs(v - (left ? 1.0 : 3.0)) > 0.2;
+                } else if (pass == 6) {
+                    blended += fabs(v - 2.4) > 1e-6;
                 } else if (pass >= 4) {
                     striped += fabs(v - ((pass == 4 ? py : px) % 2 ? 3.0 : 1.0)) > 0.2;
                 } else {
@@ -1652,6 +1662,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
     CHECK(t, crossed == 0, "%d pixels were blurred across the edge", crossed);
     CHECK(t, unsure == 0, "%d pixels left the pass's scale on a validation too noisy to tell", unsure);
     CHECK(t, striped == 0, "%d striped pixels are more than 0.2 from the truth", striped);
+    CHECK(t, blended == 0, "%d pixels are not the blend 0.6 x 2 + 0.4 x 3", blended);
     /* the segmented box: a run of 40 broken by a pixel that takes no part
        (17) and an edge after 29: runs 0-16, 18-29, 30-39 */
     for (px = 0; px < 40; px++) {
