@@ -598,7 +598,8 @@ typedef struct pds_options {
                            photons' at half the smoothing and two thirds of
                            the width floor, or the first blurred over one
                            to two and a half pixels within its surface,
-                           where the estimate's lead clears the
+                           or the blend of the pass's and one of those
+                           with the least error, where the lead clears the
                            validation's noise (default 1; 0: the pass's
                            scale everywhere). It costs a time budget
                            10-25% of its photons. At equal photons never
@@ -919,7 +920,8 @@ typedef struct pds_render_stats {
                                blurred by a box of radius 1 once, 1 three
                                times and 2 three times, [5] and [6] by one
                                of radius 1 along the rows alone and along
-                               the columns alone; a pixel that was not
+                               the columns alone (alone or blended with
+                               [0]); a pixel that was not
                                seen whole in every pass keeps [0] and is
                                counted in none. All 0 in other renders */
 } pds_render_stats;
