@@ -12776,8 +12776,11 @@ void pds_partial_options(const pds_partial *p, pds_options *opt)
 }
 
 /* Box mean of x (w x h) over the (2r+1)^2 pixels about each, the image's
-   edge pixels repeated beyond it: two passes of running sums. */
-static void pds__box_mean(double *x, double *tmp, int w, int h, int r)
+   edge pixels repeated beyond it: two passes of running sums, the
+   columns' side by side as the rows come (in memory order; each column's
+   sum takes the same additions in the same order as one column at a
+   time would). tmp: w h doubles of scratch, cols: w. */
+static void pds__box_mean(double *x, double *tmp, double *cols, int w, int h, int r)
 {
     int px, py, k;
     double inv = 1.0 / ((2.0 * r + 1.0) * (2.0 * r + 1.0));
@@ -12791,14 +12794,19 @@ static void pds__box_mean(double *x, double *tmp, int w, int h, int r)
             sum += row[in >= w ? w - 1 : in] - row[out < 0 ? 0 : out];
         }
     }
-    for (px = 0; px < w; px++) {
-        double sum = 0.0;
-        for (k = -r; k <= r; k++) sum += tmp[(size_t)(k < 0 ? 0 : k >= h ? h - 1 : k) * (size_t)w + (size_t)px];
-        for (py = 0; py < h; py++) {
-            int out = py - r, in = py + r + 1;
-            x[(size_t)py * (size_t)w + (size_t)px] = sum * inv;
-            sum += tmp[(size_t)(in >= h ? h - 1 : in) * (size_t)w + (size_t)px] -
-                   tmp[(size_t)(out < 0 ? 0 : out) * (size_t)w + (size_t)px];
+    for (px = 0; px < w; px++) cols[px] = 0.0;
+    for (k = -r; k <= r; k++) {
+        const double *row = tmp + (size_t)(k < 0 ? 0 : k >= h ? h - 1 : k) * (size_t)w;
+        for (px = 0; px < w; px++) cols[px] += row[px];
+    }
+    for (py = 0; py < h; py++) {
+        int out = py - r, in = py + r + 1;
+        const double *add = tmp + (size_t)(in >= h ? h - 1 : in) * (size_t)w;
+        const double *sub = tmp + (size_t)(out < 0 ? 0 : out) * (size_t)w;
+        double *dst = x + (size_t)py * (size_t)w;
+        for (px = 0; px < w; px++) {
+            dst[px] = cols[px] * inv;
+            cols[px] += add[px] - sub[px];
         }
     }
 }
@@ -12877,13 +12885,15 @@ static const int pds__select_blur[PDS__SELECT_BLURS][3] = {{1, 1, 3}, {1, 3, 3},
 #endif
 
 /* The weighted mean of x (w x h) with weights m over box^times about each
-   pixel (pds__box_mean), given den = box^times of m: x is replaced. */
-static void pds__masked_box(double *x, const double *m, const double *den, double *tmp, int w, int h, int r, int times)
+   pixel (pds__box_mean, with its scratch tmp and cols), given den =
+   box^times of m: x is replaced. */
+static void pds__masked_box(double *x, const double *m, const double *den, double *tmp, double *cols, int w, int h,
+                            int r, int times)
 {
     size_t n = (size_t)w * (size_t)h, i;
     int k;
     for (i = 0; i < n; i++) x[i] *= m[i];
-    for (k = 0; k < times; k++) pds__box_mean(x, tmp, w, h, r);
+    for (k = 0; k < times; k++) pds__box_mean(x, tmp, cols, w, h, r);
     for (i = 0; i < n; i++) x[i] = den[i] > 0.0 ? x[i] / den[i] : 0.0;
 }
 
@@ -13002,7 +13012,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
         if (wbar * y > var[i]) var[i] = wbar * y;
     }
     memcpy(derr, m, sizeof(double) * n);
-    for (k = 0; k < 3; k++) pds__box_mean(derr, tmp, w, h, PDS__SELECT_RADIUS);
+    for (k = 0; k < 3; k++) pds__box_mean(derr, tmp, seg, w, h, PDS__SELECT_RADIUS);
     for (j = 0; j < 2 + PDS__SELECT_BLURS; j++) {
         /* candidate j's R, G, B */
         if (j == 0) {
@@ -13035,7 +13045,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
             dd[i] = dj * dj;
             xx[i] = -d * dj; /* (L_j - V)(L_0 - L_j) */
         }
-        pds__masked_box(err, m, derr, tmp, w, h, PDS__SELECT_RADIUS, 3);
+        pds__masked_box(err, m, derr, tmp, seg, w, h, PDS__SELECT_RADIUS, 3);
         if (j == 0) {
             memcpy(e0, err, sizeof(double) * n);
             memcpy(best, err, sizeof(double) * n);
@@ -13043,9 +13053,9 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
             memset(which, 0, n);
             continue;
         }
-        pds__masked_box(noise, m, derr, tmp, w, h, PDS__SELECT_RADIUS, 3);
-        pds__masked_box(dd, m, derr, tmp, w, h, PDS__SELECT_RADIUS, 3);
-        pds__masked_box(xx, m, derr, tmp, w, h, PDS__SELECT_RADIUS, 3);
+        pds__masked_box(noise, m, derr, tmp, seg, w, h, PDS__SELECT_RADIUS, 3);
+        pds__masked_box(dd, m, derr, tmp, seg, w, h, PDS__SELECT_RADIUS, 3);
+        pds__masked_box(xx, m, derr, tmp, seg, w, h, PDS__SELECT_RADIUS, 3);
         /* the blend of the pass's scale and this candidate with the least
            error, lambda L_0 + (1 - lambda) L_j, taken where its error is
            smaller than the best so far and below the pass's by
