@@ -12828,7 +12828,10 @@ static void pds__box_mean(double *x, double *tmp, double *cols, int w, int h, in
      radius 1 along the rows alone and along the columns alone (a needle
      at the width floor widened across itself in the image, where its
      minor axis runs about along a row or a column: the cognac glass's
-     focused spot), each box along a row or a column stopping at the
+     focused spot); and the second blurred by a box of radius 1 once
+     (the sharper kernel's noise smoothed in the image, not its
+     bias: on the glass bunny's floor and the cognac glass's table it
+     beat both; README "The choice blends"); each box along a row or a column stopping at the
      pixels' edges: where the neighbour takes no part or sees another
      surface (pds__count_direct), so that no light crosses a wall, a
      silhouette or a crease;
@@ -12874,11 +12877,13 @@ static void pds__box_mean(double *x, double *tmp, double *cols, int w, int h, in
    candidate, and adds to chose[j] (if not NULL) the pixels that took
    part and chose candidate j, alone or blended with the pass's (0 the
    pass's scale, 1 the second, 2.. the blurs). passes: the passes summed. Returns 0 when memory runs out. */
-#define PDS__SELECT_BLURS 5
+#define PDS__SELECT_BLURS 6
 #define PDS__SELECT_ESTIMATES PDS_SCALE_ESTIMATES /* pds_render_stats.scale_pixels */
 typedef char pds__select_estimates_fit[2 + PDS__SELECT_BLURS == PDS__SELECT_ESTIMATES ? 1 : -1];
-/* box radius, times, along rows (1), columns (2) or both (3) */
-static const int pds__select_blur[PDS__SELECT_BLURS][3] = {{1, 1, 3}, {1, 3, 3}, {2, 3, 3}, {1, 1, 1}, {1, 1, 2}};
+/* box radius, times, along rows (1), columns (2) or both (3); of the
+   pass's scale (0) or the second (1) */
+static const int pds__select_blur[PDS__SELECT_BLURS][4] = {{1, 1, 3, 0}, {1, 3, 3, 0}, {2, 3, 3, 0},
+                                                           {1, 1, 1, 0}, {1, 1, 2, 0}, {1, 1, 3, 1}};
 #define PDS__SELECT_RADIUS 7 /* the errors' box, applied three times */
 #ifndef PDS__SELECT_SURE
 #define PDS__SELECT_SURE 1.0 /* standard deviations of V's noise a choice must clear */
@@ -13025,7 +13030,14 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
                 }
         } else {
             for (c = 0; c < 3; c++) {
-                for (i = 0; i < n; i++) chan[i] = rgb[3 * i + c];
+                if (pds__select_blur[j - 2][3]) {
+                    for (i = 0; i < n; i++) {
+                        size_t at = PDS__STRIDE_SELECT * i + PDS__SEL_HALF + (size_t)c;
+                        chan[i] = (pds__sum128_value(photon[at]) - pds__sum128_value(neg[at])) * scale;
+                    }
+                } else {
+                    for (i = 0; i < n; i++) chan[i] = rgb[3 * i + c];
+                }
                 pds__segmented_box(chan, m, edge, w, h, pds__select_blur[j - 2][0], pds__select_blur[j - 2][1],
                                    pds__select_blur[j - 2][2], seg);
                 for (i = 0; i < n; i++) cand[3 * i + c] = chan[i];

@@ -840,7 +840,7 @@ const char *pds_method_name(pds_method method);
 
 /* The estimates a pixel seen whole chooses among (pds_render_stats.
    scale_pixels). */
-#define PDS_SCALE_ESTIMATES 7
+#define PDS_SCALE_ESTIMATES 8
 
 typedef struct pds_render_stats {
     double time_total_s;
@@ -920,8 +920,9 @@ typedef struct pds_render_stats {
                                blurred by a box of radius 1 once, 1 three
                                times and 2 three times, [5] and [6] by one
                                of radius 1 along the rows alone and along
-                               the columns alone (alone or blended with
-                               [0]); a pixel that was not
+                               the columns alone, [7] the second blurred
+                               by a box of radius 1 once (each alone
+                               or blended with [0]); a pixel that was not
                                seen whole in every pass keeps [0] and is
                                counted in none. All 0 in other renders */
 } pds_render_stats;

@@ -192,11 +192,11 @@ static void test_cli_pds_reports_photons_and_writes_the_footprint_image(pds_test
     last = cli_last_line(out);
     {
         const char *sp = strstr(last, " scale_pixels=");
-        long a[7] = {0, 0, 0, 0, 0, 0, 0}, all;
-        CHECK(t, sp && sscanf(sp, " scale_pixels=%ld/%ld/%ld/%ld/%ld/%ld/%ld", &a[0], &a[1], &a[2], &a[3], &a[4], &a[5],
-                              &a[6]) == 7,
+        long a[8] = {0, 0, 0, 0, 0, 0, 0, 0}, all;
+        CHECK(t, sp && sscanf(sp, " scale_pixels=%ld/%ld/%ld/%ld/%ld/%ld/%ld/%ld", &a[0], &a[1], &a[2], &a[3], &a[4],
+                              &a[5], &a[6], &a[7]) == 8,
               "final line: %s", last);
-        all = a[0] + a[1] + a[2] + a[3] + a[4] + a[5] + a[6];
+        all = a[0] + a[1] + a[2] + a[3] + a[4] + a[5] + a[6] + a[7];
         CHECK(t, all > 512 && all <= 1024, "%ld pixels chose: %s", all, last);
     }
     snprintf(args, sizeof args, "render scenes/refraction.scene --res 32x32 --photons 20000 --caustics-only "

@@ -1555,7 +1555,10 @@ static void test_pds_validation_is_the_light_tracers_image_of_its_own_photons(pd
    and the same turned a quarter (columns). Then the blend: the pass's
    scale 2, the second scale 3 and the truth 2.4 everywhere, which
    neither estimate is but 0.6 and 0.4 of them are: every pixel takes
-   that blend, counted as the second scale's. Each time the choices it counts are the
+   that blend, counted as the second scale's. Then the second scale
+   blurred: the pass's scale 0.5 too high everywhere, the second scale
+   right but for a checkerboard of +-0.5: every pixel takes the second
+   blurred by the box of radius 1, within 0.2 of the truth. Each time the choices it counts are the
    pixels that took each estimate: all that took part, one each. Also the
    segmented box against a direct mean over a run. */
 static void sel_set(pds__sum128 *photon, pds__sum128 *neg, int i, int slot, double v, long k)
@@ -1575,9 +1578,9 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
     double x[40], m[40], seg[64], want;
     unsigned char edge[40];
     long chose[PDS__SELECT_ESTIMATES];
-    int px, py, c, pass, bad = 0, skipped = 0, away = 0, crossed = 0, unsure = 0, striped = 0, blended = 0;
+    int px, py, c, pass, bad = 0, skipped = 0, away = 0, crossed = 0, unsure = 0, striped = 0, blended = 0, smoothed = 0;
     memset(eye, 0, sizeof eye);
-    for (pass = 0; pass < 7; pass++) {
+    for (pass = 0; pass < 8; pass++) {
         memset(photon, 0, sizeof photon);
         memset(neg, 0, sizeof neg);
         for (py = 0; py < H; py++)
@@ -1592,6 +1595,10 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                     base = 2.0;
                     half = 3.0;
                     truth = 2.4;
+                } else if (pass == 7) {
+                    truth = 2.0;
+                    base = 2.5;
+                    half = truth + chk;
                 } else if (pass >= 4) {
                     /* stripes along the rows (4) or the columns (5), the
                        noise across them */
@@ -1619,7 +1626,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                boxes took the second scale, the right the pass's; the
                checkerboards a blur where they are away from the middle;
                the noisy validation the pass's scale everywhere */
-            long all = chose[0] + chose[1] + chose[2] + chose[3] + chose[4] + chose[5] + chose[6];
+            long all = chose[0] + chose[1] + chose[2] + chose[3] + chose[4] + chose[5] + chose[6] + chose[7];
             long blurred = chose[2] + chose[3] + chose[4] + chose[5] + chose[6];
             CHECK(t, all == (pass == 0 ? N - 1 : N), "pass %d: %ld pixels counted, want %d", pass, all,
                   pass == 0 ? N - 1 : N);
@@ -1631,6 +1638,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
             if (pass == 3)
                 CHECK(t, chose[0] == N, "the noisy validation: %ld of %d kept the pass's scale", chose[0], N);
             if (pass == 6) CHECK(t, chose[1] == N, "the blend: %ld of %d took the second scale's", chose[1], N);
+            if (pass == 7) CHECK(t, chose[7] == N, "the second blurred: %ld of %d took it", chose[7], N);
             if (pass == 4 || pass == 5)
                 CHECK(t, chose[pass == 4 ? 5 : 6] == N, "stripes along the %s: %ld of %d took the blur along them",
                       pass == 4 ? "rows" : "columns", chose[pass == 4 ? 5 : 6], N);
@@ -1649,6 +1657,8 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                     crossed += fabs(v - (left ? 1.0 : 3.0)) > 0.2;
                 } else if (pass == 6) {
                     blended += fabs(v - 2.4) > 1e-6;
+                } else if (pass == 7) {
+                    smoothed += fabs(v - 2.0) > 0.2;
                 } else if (pass >= 4) {
                     striped += fabs(v - ((pass == 4 ? py : px) % 2 ? 3.0 : 1.0)) > 0.2;
                 } else {
@@ -1663,6 +1673,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
     CHECK(t, unsure == 0, "%d pixels left the pass's scale on a validation too noisy to tell", unsure);
     CHECK(t, striped == 0, "%d striped pixels are more than 0.2 from the truth", striped);
     CHECK(t, blended == 0, "%d pixels are not the blend 0.6 x 2 + 0.4 x 3", blended);
+    CHECK(t, smoothed == 0, "%d pixels are more than 0.2 from the second scale's smoothed truth", smoothed);
     /* the segmented box: a run of 40 broken by a pixel that takes no part
        (17) and an edge after 29: runs 0-16, 18-29, 30-39 */
     for (px = 0; px < 40; px++) {
