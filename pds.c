@@ -12829,10 +12829,10 @@ static void pds__box_mean(double *x, double *tmp, double *cols, int w, int h, in
      at the width floor widened across itself in the image, where its
      minor axis runs about along a row or a column: the cognac glass's
      focused spot); and the second blurred by a box of radius 1 once
-     (the sharper kernel's noise smoothed in the image, not its
-     bias: on the glass bunny's floor and the cognac glass's table it
-     beat both; README "The choice blends"); each box along a row or a column stopping at the
-     pixels' edges: where the neighbour takes no part or sees another
+     (the sharper kernel's noise smoothed in the image, not its bias:
+     on the glass bunny's floor and the cognac glass's table it beat
+     both; README "The second scale blurred"); each box along a row or
+     a column stopping at the pixels' edges: where the neighbour takes no part or sees another
      surface (pds__count_direct), so that no light crosses a wall, a
      silhouette or a crease;
    - the validation V: a light tracer's image (pds__validate_bin, the
@@ -12876,7 +12876,8 @@ static void pds__box_mean(double *x, double *tmp, double *cols, int w, int h, in
    scale (the image's 1 / unit * n_planned / emitted) of the chosen
    candidate, and adds to chose[j] (if not NULL) the pixels that took
    part and chose candidate j, alone or blended with the pass's (0 the
-   pass's scale, 1 the second, 2.. the blurs). passes: the passes summed. Returns 0 when memory runs out. */
+   pass's scale, 1 the second, 2.. the blurs). passes: the passes summed.
+   Returns 0 when memory runs out. */
 #define PDS__SELECT_BLURS 6
 #define PDS__SELECT_ESTIMATES PDS_SCALE_ESTIMATES /* pds_render_stats.scale_pixels */
 typedef char pds__select_estimates_fit[2 + PDS__SELECT_BLURS == PDS__SELECT_ESTIMATES ? 1 : -1];
@@ -12965,6 +12966,13 @@ static double pds__box3_square_sum(int r)
     return sum;
 }
 
+/* Pixel i's second scale in channel c (pds__scale_choice's units). */
+static double pds__select_half(const pds__sum128 *photon, const pds__sum128 *neg, size_t i, int c, double scale)
+{
+    size_t at = PDS__STRIDE_SELECT * i + PDS__SEL_HALF + (size_t)c;
+    return (pds__sum128_value(photon[at]) - pds__sum128_value(neg[at])) * scale;
+}
+
 static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, int w, int h, long passes,
                              double scale, double *rgb, long chose[PDS__SELECT_ESTIMATES])
 {
@@ -12977,7 +12985,8 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
     double *mem = (double *)malloc(sizeof(double) * (18 * n + (size_t)w + (size_t)h + 2));
     double *m = mem, *v = m + n, *var = v + n, *derr = var + n, *e0 = derr + n, *err = e0 + n, *noise = err + n;
     double *best = noise + n, *tmp = best + n, *chan = tmp + n, *cand = chan + n, *pick = cand + 3 * n;
-    double *dd = pick + 3 * n, *xx = dd + n, *seg = xx + n, kappa = pds__box3_square_sum(PDS__SELECT_RADIUS), vsum = 0.0, v2sum = 0.0, wbar;
+    double *dd = pick + 3 * n, *xx = dd + n, *seg = xx + n;
+    double kappa = pds__box3_square_sum(PDS__SELECT_RADIUS), vsum = 0.0, v2sum = 0.0, wbar;
     unsigned char *edge = (unsigned char *)malloc(2 * n + 1), *which = edge + n; /* which: the pick's j */
     int j, c, k, any = 0;
     if (!mem || !edge) {
@@ -13024,20 +13033,11 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
             memcpy(cand, rgb, sizeof(double) * 3 * n);
         } else if (j == 1) {
             for (i = 0; i < n; i++)
-                for (c = 0; c < 3; c++) {
-                    size_t at = PDS__STRIDE_SELECT * i + PDS__SEL_HALF + (size_t)c;
-                    cand[3 * i + c] = (pds__sum128_value(photon[at]) - pds__sum128_value(neg[at])) * scale;
-                }
+                for (c = 0; c < 3; c++) cand[3 * i + c] = pds__select_half(photon, neg, i, c, scale);
         } else {
             for (c = 0; c < 3; c++) {
-                if (pds__select_blur[j - 2][3]) {
-                    for (i = 0; i < n; i++) {
-                        size_t at = PDS__STRIDE_SELECT * i + PDS__SEL_HALF + (size_t)c;
-                        chan[i] = (pds__sum128_value(photon[at]) - pds__sum128_value(neg[at])) * scale;
-                    }
-                } else {
-                    for (i = 0; i < n; i++) chan[i] = rgb[3 * i + c];
-                }
+                for (i = 0; i < n; i++)
+                    chan[i] = pds__select_blur[j - 2][3] ? pds__select_half(photon, neg, i, c, scale) : rgb[3 * i + c];
                 pds__segmented_box(chan, m, edge, w, h, pds__select_blur[j - 2][0], pds__select_blur[j - 2][1],
                                    pds__select_blur[j - 2][2], seg);
                 for (i = 0; i < n; i++) cand[3 * i + c] = chan[i];
