@@ -364,6 +364,57 @@ static int pds__threads_run(int n, void *(*fn)(void *), void *arg)
     return started + 1;
 }
 
+/* A loop over items [0, n) shared by threads: fn(ctx, a, b, scratch) on
+   shares [a, b) of `share` items, taken in turn under a mutex by at most
+   `threads` threads, each with scratch_bytes of scratch of its own (NULL
+   if 0). Each item must be computed as it would be alone (its own
+   outputs, read-only inputs), so the result is the same for any thread
+   count; a loop of fewer than two shares runs on the caller's thread
+   alone. Returns 0 if memory for the scratch ran out before every share
+   was done. */
+typedef void (*pds__range_fn)(void *ctx, size_t a, size_t b, void *scratch);
+typedef struct pds__range_job {
+    pds__range_fn fn;
+    void *ctx;
+    size_t n, share, next, scratch_bytes;
+    pds__mutex lock;
+} pds__range_job;
+
+static void *pds__range_worker(void *arg)
+{
+    pds__range_job *job = (pds__range_job *)arg;
+    void *scratch = job->scratch_bytes ? malloc(job->scratch_bytes) : NULL;
+    if (job->scratch_bytes && !scratch) return NULL;
+    for (;;) {
+        size_t a;
+        pds__mutex_lock(&job->lock);
+        a = job->next;
+        if (a < job->n) job->next = job->n - a > job->share ? a + job->share : job->n;
+        pds__mutex_unlock(&job->lock);
+        if (a >= job->n) break;
+        job->fn(job->ctx, a, job->n - a > job->share ? a + job->share : job->n, scratch);
+    }
+    free(scratch);
+    return NULL;
+}
+
+static int pds__parallel_for(int threads, size_t n, size_t share, size_t scratch_bytes, pds__range_fn fn, void *ctx)
+{
+    pds__range_job job;
+    size_t shares = share > 0 ? (n + share - 1) / share : 1;
+    job.fn = fn;
+    job.ctx = ctx;
+    job.n = n;
+    job.share = share > 0 ? share : n;
+    job.next = 0;
+    job.scratch_bytes = scratch_bytes;
+    pds__mutex_init(&job.lock);
+    if (threads <= 1 || shares < 2) (void)pds__range_worker(&job);
+    else (void)pds__threads_run((size_t)threads < shares ? threads : (int)shares, pds__range_worker, &job);
+    pds__mutex_destroy(&job.lock);
+    return job.next >= n;
+}
+
 /* Read a whole file into a NUL-terminated buffer, refusing what cannot be
    read in bounded time and memory: anything that is not a regular file (a
    FIFO would block forever, /dev/zero never ends; opened non-blocking so
@@ -12776,39 +12827,83 @@ void pds_partial_options(const pds_partial *p, pds_options *opt)
 }
 
 /* Box mean of x (w x h) over the (2r+1)^2 pixels about each, the image's
-   edge pixels repeated beyond it: two passes of running sums, the
-   columns' side by side as the rows come (in memory order; each column's
-   sum takes the same additions in the same order as one column at a
-   time would). tmp: w h doubles of scratch, cols: w. */
-static void pds__box_mean(double *x, double *tmp, double *cols, int w, int h, int r)
+   edge pixels repeated beyond it: two passes of running sums, the rows'
+   into tmp (w h doubles of scratch), then the columns' side by side as
+   the rows come (in memory order; each column's sum, in cols[w], takes
+   the same additions in the same order as one column at a time would).
+   Rows, then columns, are shared by threads (pds__parallel_for) in
+   images of PDS__PARALLEL_PIXELS or more: each row's and each column's
+   sums are their own, so the means are the same bits for any count. */
+#define PDS__PARALLEL_PIXELS 131072
+typedef struct pds__box_job {
+    double *x, *tmp, *cols;
+    int w, h, r;
+} pds__box_job;
+
+static void pds__box_rows(void *ctx, size_t a, size_t b, void *scratch)
 {
-    int px, py, k;
-    double inv = 1.0 / ((2.0 * r + 1.0) * (2.0 * r + 1.0));
-    for (py = 0; py < h; py++) {
-        const double *row = x + (size_t)py * (size_t)w;
-        double sum = 0.0;
+    const pds__box_job *j = (const pds__box_job *)ctx;
+    int w = j->w, r = j->r, px, k;
+    size_t py;
+    (void)scratch;
+    for (py = a; py < b; py++) {
+        const double *row = j->x + py * (size_t)w;
+        double *out = j->tmp + py * (size_t)w, sum = 0.0;
         for (k = -r; k <= r; k++) sum += row[k < 0 ? 0 : k >= w ? w - 1 : k];
         for (px = 0; px < w; px++) {
-            int out = px - r, in = px + r + 1;
-            tmp[(size_t)py * (size_t)w + (size_t)px] = sum;
-            sum += row[in >= w ? w - 1 : in] - row[out < 0 ? 0 : out];
+            int drop = px - r, take = px + r + 1;
+            out[px] = sum;
+            sum += row[take >= w ? w - 1 : take] - row[drop < 0 ? 0 : drop];
         }
     }
-    for (px = 0; px < w; px++) cols[px] = 0.0;
+}
+
+static void pds__box_cols(void *ctx, size_t a, size_t b, void *scratch)
+{
+    const pds__box_job *j = (const pds__box_job *)ctx;
+    int h = j->h, r = j->r, py, k;
+    size_t w = (size_t)j->w, px;
+    double inv = 1.0 / ((2.0 * r + 1.0) * (2.0 * r + 1.0)), *cols = j->cols;
+    (void)scratch;
+    for (px = a; px < b; px++) cols[px] = 0.0;
     for (k = -r; k <= r; k++) {
-        const double *row = tmp + (size_t)(k < 0 ? 0 : k >= h ? h - 1 : k) * (size_t)w;
-        for (px = 0; px < w; px++) cols[px] += row[px];
+        const double *row = j->tmp + (size_t)(k < 0 ? 0 : k >= h ? h - 1 : k) * w;
+        for (px = a; px < b; px++) cols[px] += row[px];
     }
     for (py = 0; py < h; py++) {
-        int out = py - r, in = py + r + 1;
-        const double *add = tmp + (size_t)(in >= h ? h - 1 : in) * (size_t)w;
-        const double *sub = tmp + (size_t)(out < 0 ? 0 : out) * (size_t)w;
-        double *dst = x + (size_t)py * (size_t)w;
-        for (px = 0; px < w; px++) {
+        int drop = py - r, take = py + r + 1;
+        const double *add = j->tmp + (size_t)(take >= h ? h - 1 : take) * w;
+        const double *sub = j->tmp + (size_t)(drop < 0 ? 0 : drop) * w;
+        double *dst = j->x + (size_t)py * w;
+        for (px = a; px < b; px++) {
             dst[px] = cols[px] * inv;
             cols[px] += add[px] - sub[px];
         }
     }
+}
+
+/* The threads an image's per-pixel loops use: 1 below
+   PDS__PARALLEL_PIXELS (starting them would cost more than they save). */
+static int pds__image_threads(int threads, size_t npix)
+{
+    return npix >= PDS__PARALLEL_PIXELS && threads > 1 ? threads : 1;
+}
+
+static void pds__box_mean(double *x, double *tmp, double *cols, int w, int h, int r, int threads)
+{
+    pds__box_job job;
+    job.x = x;
+    job.tmp = tmp;
+    job.cols = cols;
+    job.w = w;
+    job.h = h;
+    job.r = r;
+    threads = pds__image_threads(threads, (size_t)w * (size_t)h);
+    /* a few shares a thread (a busy machine's threads finish unevenly);
+       columns in shares of at least 64 (whole cache lines) */
+    (void)pds__parallel_for(threads, (size_t)h, (size_t)h / (size_t)(4 * threads) + 1, 0, pds__box_rows, &job);
+    (void)pds__parallel_for(threads, (size_t)w, (size_t)fmax(64.0, (double)w / (4.0 * threads) + 1.0), 0,
+                            pds__box_cols, &job);
 }
 
 /* The pixels' choice of scale (an extension; pds_options.pass_select).
@@ -12892,59 +12987,172 @@ static const int pds__select_blur[PDS__SELECT_BLURS][4] = {{1, 1, 3, 0}, {1, 3, 
 
 /* The weighted mean of x (w x h) with weights m over box^times about each
    pixel (pds__box_mean, with its scratch tmp and cols), given den =
-   box^times of m: x is replaced. */
-static void pds__masked_box(double *x, const double *m, const double *den, double *tmp, double *cols, int w, int h,
-                            int r, int times)
+   box^times of m: x is replaced. The per-pixel steps are shared by
+   threads as the boxes are. */
+typedef struct pds__mask_job {
+    double *x;
+    const double *m, *den;
+} pds__mask_job;
+
+static void pds__mask_times(void *ctx, size_t a, size_t b, void *scratch)
 {
-    size_t n = (size_t)w * (size_t)h, i;
-    int k;
-    for (i = 0; i < n; i++) x[i] *= m[i];
-    for (k = 0; k < times; k++) pds__box_mean(x, tmp, cols, w, h, r);
-    for (i = 0; i < n; i++) x[i] = den[i] > 0.0 ? x[i] / den[i] : 0.0;
+    const pds__mask_job *j = (const pds__mask_job *)ctx;
+    size_t i;
+    (void)scratch;
+    for (i = a; i < b; i++) j->x[i] *= j->m[i];
 }
 
-/* Box means of x (w x h) within its segments, `times` times: along each
-   row (if dirs has bit 0), then each column (bit 1), the mean over the
-   pixels within r of a pixel on
-   its run of pixels that take part (m) without an edge between them
-   (edge[i] bit 0: between i and its right neighbour, bit 1: its lower
-   one). Pixels that take no part are left as they are. seg: w + h + 1
-   doubles of scratch. */
-static void pds__segmented_box(double *x, const double *m, const unsigned char *edge, int w, int h, int r, int times,
-                               int dirs, double *seg)
+static void pds__mask_divide(void *ctx, size_t a, size_t b, void *scratch)
 {
-    int pass, dir;
-    for (pass = 0; pass < times; pass++)
-        for (dir = 0; dir < 2; dir++) {
-            if (!(dirs >> dir & 1)) continue;
-            int lines = dir ? w : h, len = dir ? h : w, line;
-            size_t step = dir ? (size_t)w : 1, across = dir ? 1 : (size_t)w;
-            unsigned char bit = dir ? 2 : 1;
-            for (line = 0; line < lines; line++) {
-                int a = 0;
-                while (a < len) {
-                    size_t at = (size_t)line * across + (size_t)a * step;
-                    int b = a, k;
-                    if (!(m[at] > 0.0)) {
-                        a++;
-                        continue;
-                    }
-                    /* the run a .. b, prefix sums in seg[1 ..] */
-                    seg[0] = 0.0;
-                    seg[1] = x[at];
-                    while (b + 1 < len && !(edge[at + (size_t)(b - a) * step] & bit) &&
-                           m[at + (size_t)(b + 1 - a) * step] > 0.0) {
-                        b++;
-                        seg[b - a + 1] = seg[b - a] + x[at + (size_t)(b - a) * step];
-                    }
-                    for (k = a; k <= b; k++) {
-                        int lo = k - r < a ? a : k - r, hi = k + r > b ? b : k + r;
-                        x[at + (size_t)(k - a) * step] = (seg[hi - a + 1] - seg[lo - a]) / (double)(hi - lo + 1);
-                    }
-                    a = b + 1;
+    const pds__mask_job *j = (const pds__mask_job *)ctx;
+    size_t i;
+    (void)scratch;
+    for (i = a; i < b; i++) j->x[i] = j->den[i] > 0.0 ? j->x[i] / j->den[i] : 0.0;
+}
+
+static void pds__masked_box(double *x, const double *m, const double *den, double *tmp, double *cols, int w, int h,
+                            int r, int times, int threads)
+{
+    size_t n = (size_t)w * (size_t)h;
+    pds__mask_job job;
+    int k;
+    job.x = x;
+    job.m = m;
+    job.den = den;
+    threads = pds__image_threads(threads, n);
+    (void)pds__parallel_for(threads, n, n / (size_t)(4 * threads) + 1, 0, pds__mask_times, &job);
+    for (k = 0; k < times; k++) pds__box_mean(x, tmp, cols, w, h, r, threads);
+    (void)pds__parallel_for(threads, n, n / (size_t)(4 * threads) + 1, 0, pds__mask_divide, &job);
+}
+
+/* Box means within segments, along lines: line l's len values are
+   x[l stride + k step] (k = 0 .. len-1), its weights m[l len + k] and
+   its edges edge[l len + k] (bit 0: between k and k + 1); each value on
+   a run of values that take part (m > 0) with no edge between them
+   becomes the mean over the run's values within r of it. Values that
+   take no part are left as they are. scratch: len + 1 doubles a thread
+   (the run's prefix sums). */
+typedef struct pds__segment_job {
+    double *x;
+    size_t stride, step;
+    const double *m;
+    const unsigned char *edge;
+    int len, r;
+} pds__segment_job;
+
+static void pds__segment_lines(void *ctx, size_t l0, size_t l1, void *scratch)
+{
+    const pds__segment_job *j = (const pds__segment_job *)ctx;
+    double *seg = (double *)scratch;
+    size_t l;
+    for (l = l0; l < l1; l++) {
+        double *x = j->x + l * j->stride;
+        const double *m = j->m + l * (size_t)j->len;
+        const unsigned char *edge = j->edge + l * (size_t)j->len;
+        int a = 0, len = j->len, r = j->r;
+        while (a < len) {
+            int b = a, k;
+            if (!(m[a] > 0.0)) {
+                a++;
+                continue;
+            }
+            /* the run a .. b, prefix sums in seg[1 ..] */
+            seg[0] = 0.0;
+            seg[1] = x[(size_t)a * j->step];
+            while (b + 1 < len && !(edge[b] & 1) && m[b + 1] > 0.0) {
+                b++;
+                seg[b - a + 1] = seg[b - a] + x[(size_t)b * j->step];
+            }
+            for (k = a; k <= b; k++) {
+                int lo = k - r < a ? a : k - r, hi = k + r > b ? b : k + r;
+                x[(size_t)k * j->step] = (seg[hi - a + 1] - seg[lo - a]) / (double)(hi - lo + 1);
+            }
+            a = b + 1;
+        }
+    }
+}
+
+/* Channel c of an RGB image (w x h, 3 a pixel) to and from a column-major
+   copy t (t[x h + y]), in tiles of 32 x 32 (rows of tiles shared by
+   threads), so that its columns' means run along memory as its rows'
+   do. */
+typedef struct pds__transpose_job {
+    double *rgb, *t;
+    int w, h, c, back;
+} pds__transpose_job;
+
+static void pds__transpose_tiles(void *ctx, size_t a, size_t b, void *scratch)
+{
+    const pds__transpose_job *j = (const pds__transpose_job *)ctx;
+    size_t w = (size_t)j->w, h = (size_t)j->h, ty, x0, y, x;
+    (void)scratch;
+    for (ty = a; ty < b; ty++)
+        for (x0 = 0; x0 < w; x0 += 32) {
+            size_t y1 = 32 * ty + 32 < h ? 32 * ty + 32 : h, x1 = x0 + 32 < w ? x0 + 32 : w;
+            for (y = 32 * ty; y < y1; y++)
+                for (x = x0; x < x1; x++) {
+                    if (j->back) j->rgb[3 * (y * w + x) + (size_t)j->c] = j->t[x * h + y];
+                    else j->t[x * h + y] = j->rgb[3 * (y * w + x) + (size_t)j->c];
                 }
+        }
+}
+
+static void pds__transpose_channel(double *rgb, double *t, int w, int h, int c, int back, int threads)
+{
+    pds__transpose_job job;
+    size_t tiles = ((size_t)h + 31) / 32;
+    job.rgb = rgb;
+    job.t = t;
+    job.w = w;
+    job.h = h;
+    job.c = c;
+    job.back = back;
+    (void)pds__parallel_for(threads, tiles, tiles / (size_t)(4 * threads) + 1, 0, pds__transpose_tiles, &job);
+}
+
+/* Box means of an RGB image (w x h) within its segments, `times` times:
+   along each row (if dirs has bit 0), then each column (bit 1), the mean
+   over the pixels within r of a pixel on its run of pixels that take
+   part (m; mt, column-major) without an edge between them (edge[i] bit
+   0: between i and its right neighbour; edget, column-major, bit 0:
+   between i and its lower one). Pixels that take no part are left as
+   they are. t: w h doubles of scratch. Returns 0 when memory runs out. */
+static int pds__segmented_box(double *rgb, const double *m, const double *mt, const unsigned char *edge,
+                              const unsigned char *edget, double *t, int w, int h, int r, int times, int dirs,
+                              int threads)
+{
+    pds__segment_job row, col;
+    int pass, c;
+    threads = pds__image_threads(threads, (size_t)w * (size_t)h);
+    row.stride = 3 * (size_t)w;
+    row.step = 3;
+    row.m = m;
+    row.edge = edge;
+    row.len = w;
+    row.r = r;
+    col.x = t;
+    col.stride = (size_t)h;
+    col.step = 1;
+    col.m = mt;
+    col.edge = edget;
+    col.len = h;
+    col.r = r;
+    for (c = 0; c < 3; c++) {
+        row.x = rgb + c;
+        for (pass = 0; pass < times; pass++) {
+            if ((dirs & 1) && !pds__parallel_for(threads, (size_t)h, (size_t)h / (size_t)(4 * threads) + 1,
+                                                 sizeof(double) * ((size_t)w + 1), pds__segment_lines, &row))
+                return 0;
+            if (dirs & 2) {
+                pds__transpose_channel(rgb, t, w, h, c, 0, threads);
+                if (!pds__parallel_for(threads, (size_t)w, (size_t)w / (size_t)(4 * threads) + 1,
+                                       sizeof(double) * ((size_t)h + 1), pds__segment_lines, &col))
+                    return 0;
+                pds__transpose_channel(rgb, t, w, h, c, 1, threads);
             }
         }
+    }
+    return 1;
 }
 
 /* The sum of the squares of the weights of a box of radius r applied
@@ -12966,81 +13174,190 @@ static double pds__box3_square_sum(int r)
     return sum;
 }
 
-/* Pixel i's second scale in channel c (pds__scale_choice's units). */
-static double pds__select_half(const pds__sum128 *photon, const pds__sum128 *neg, size_t i, int c, double scale)
+/* The choice's arrays (pds__scale_choice), which its per-pixel steps
+   below share out to threads by pixels (pds__parallel_for): each pixel's
+   values are its own, so the image is the same for any thread count. */
+typedef struct pds__choice {
+    const pds__sum128 *photon, *neg;
+    int w, h, j;
+    long passes;
+    double scale, wbar, kappa;
+    double *rgb, *m, *mt, *v, *var, *derr, *e0, *err, *noise, *best, *cand, *pick, *half, *dd, *xx;
+    unsigned char *edge, *edget, *which;
+} pds__choice;
+
+/* Pixels a .. b-1 from the sums: the pass's scale into rgb, the second
+   scale, V, V's terms' squares, whether the pixel takes part (m) and its
+   edges; and the column-major copies of m and of the edges below. */
+static void pds__choice_read(void *ctx, size_t a, size_t b, void *scratch)
 {
-    size_t at = PDS__STRIDE_SELECT * i + PDS__SEL_HALF + (size_t)c;
-    return (pds__sum128_value(photon[at]) - pds__sum128_value(neg[at])) * scale;
+    const pds__choice *q = (const pds__choice *)ctx;
+    size_t i, w = (size_t)q->w, h = (size_t)q->h;
+    double scale = q->scale;
+    int c;
+    (void)scratch;
+    for (i = a; i < b; i++) {
+        const pds__sum128 *ps = q->photon + PDS__STRIDE_SELECT * i, *ns = q->neg + PDS__STRIDE_SELECT * i;
+        size_t at = (i % w) * h + i / w; /* in the column-major copies */
+        for (c = 0; c < 3; c++) {
+            q->rgb[3 * i + c] = (pds__sum128_value(ps[c]) - pds__sum128_value(ns[c])) * scale;
+            q->half[3 * i + c] =
+                (pds__sum128_value(ps[PDS__SEL_HALF + c]) - pds__sum128_value(ns[PDS__SEL_HALF + c])) * scale;
+        }
+        q->v[i] = (pds__sum128_value(ps[PDS__SEL_VALID]) - pds__sum128_value(ns[PDS__SEL_VALID])) * scale;
+        /* the terms' squares: (y unit)^2 / 2^64 a term, each term of V
+           being y unit scale */
+        q->var[i] = (pds__sum128_value(ps[PDS__SEL_VALID2]) - pds__sum128_value(ns[PDS__SEL_VALID2])) * PDS__TWO64 *
+                    scale * scale;
+        q->m[i] = q->passes > 0 && ps[PDS__SEL_COUNT].lo >= (uint64_t)q->passes ? 1.0 : 0.0;
+        q->edge[i] = (unsigned char)((ps[PDS__SEL_COUNT].hi & 0xffffffffu) ? 1 : 0);
+        q->mt[at] = q->m[i];
+        q->edget[at] = (unsigned char)((ps[PDS__SEL_COUNT].hi >> 32) ? 1 : 0);
+    }
+}
+
+/* V's variance at least the pass's value in terms of the average size. */
+static void pds__choice_floor(void *ctx, size_t a, size_t b, void *scratch)
+{
+    const pds__choice *q = (const pds__choice *)ctx;
+    size_t i;
+    (void)scratch;
+    for (i = a; i < b; i++) {
+        double y = q->rgb[3 * i] + q->rgb[3 * i + 1] + q->rgb[3 * i + 2];
+        if (q->wbar * y > q->var[i]) q->var[i] = q->wbar * y;
+    }
+}
+
+/* Candidate j's terms at each pixel (pds__scale_choice): its squared
+   difference from V, the noise V puts into its difference from the
+   pass's, and the blend's D_j and X_j terms. */
+static void pds__choice_terms(void *ctx, size_t a, size_t b, void *scratch)
+{
+    const pds__choice *q = (const pds__choice *)ctx;
+    size_t i;
+    (void)scratch;
+    for (i = a; i < b; i++) {
+        const double *cand = q->cand + 3 * i, *rgb = q->rgb + 3 * i;
+        double y = cand[0] + cand[1] + cand[2], d = y - q->v[i], dj = y - (rgb[0] + rgb[1] + rgb[2]);
+        q->err[i] = d * d;
+        q->noise[i] = dj * dj * q->var[i];
+        q->dd[i] = dj * dj;
+        q->xx[i] = -d * dj; /* (L_j - V)(L_0 - L_j) */
+    }
+}
+
+/* The blend of the pass's scale and candidate j with the least error,
+   lambda L_0 + (1 - lambda) L_j, taken where its error is smaller than
+   the best so far and below the pass's by PDS__SELECT_SURE standard
+   deviations of that noise times sqrt(1 - lambda). (For a lambda fixed
+   beforehand the noise is (1 - lambda) sd, since L_lambda - L_0 =
+   (1 - lambda)(L_j - L_0); lambda is fitted to the same V, so that would
+   be too lenient, and sd itself too strict: README "The choice
+   blends") */
+static void pds__choice_pick(void *ctx, size_t a, size_t b, void *scratch)
+{
+    const pds__choice *q = (const pds__choice *)ctx;
+    size_t i;
+    int c;
+    (void)scratch;
+    for (i = a; i < b; i++) {
+        double sd = q->derr[i] > 0.0 ? 2.0 * sqrt(q->kappa * q->noise[i] / q->derr[i]) : 0.0;
+        double lam = q->dd[i] > 0.0 ? -q->xx[i] / q->dd[i] : 0.0, eb;
+        lam = lam > 1.0 ? 1.0 : lam > 0.0 ? lam : 0.0;
+        eb = q->err[i] + 2.0 * lam * q->xx[i] + lam * lam * q->dd[i];
+        if (q->m[i] > 0.0 && eb < q->best[i] && q->e0[i] - eb > PDS__SELECT_SURE * sqrt(1.0 - lam) * sd) {
+            q->best[i] = eb;
+            q->which[i] = (unsigned char)q->j;
+            for (c = 0; c < 3; c++)
+                q->pick[3 * i + c] = lam * q->rgb[3 * i + c] + (1.0 - lam) * q->cand[3 * i + c];
+        }
+    }
 }
 
 static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, int w, int h, long passes,
-                             double scale, double *rgb, long chose[PDS__SELECT_ESTIMATES])
+                             double scale, double *rgb, long chose[PDS__SELECT_ESTIMATES], int threads)
 {
-    size_t n = (size_t)w * (size_t)h, i;
-    /* one block: per pixel the weight m, V, V's variance, the errors'
-       box of m, the pass's error, a candidate's error and its noise, the
-       best error so far, a scratch row and a channel; then a candidate's
-       and the pick's R, G, B, the blend's D_j and X_j, and a run's prefix
-       sums */
-    double *mem = (double *)malloc(sizeof(double) * (18 * n + (size_t)w + (size_t)h + 2));
-    double *m = mem, *v = m + n, *var = v + n, *derr = var + n, *e0 = derr + n, *err = e0 + n, *noise = err + n;
-    double *best = noise + n, *tmp = best + n, *chan = tmp + n, *cand = chan + n, *pick = cand + 3 * n;
-    double *dd = pick + 3 * n, *xx = dd + n, *seg = xx + n;
-    double kappa = pds__box3_square_sum(PDS__SELECT_RADIUS), vsum = 0.0, v2sum = 0.0, wbar;
-    unsigned char *edge = (unsigned char *)malloc(2 * n + 1), *which = edge + n; /* which: the pick's j */
-    int j, c, k, any = 0;
-    if (!mem || !edge) {
+    size_t n = (size_t)w * (size_t)h, i, share;
+    /* one block: per pixel the weight m and its column-major copy, V,
+       V's variance, the errors' box of m, the pass's error, a
+       candidate's error and its noise, the best error so far, a scratch
+       image; then a candidate's, the pick's and the second scale's R, G,
+       B, the blend's D_j and X_j, and a scratch row */
+    double *mem = (double *)malloc(sizeof(double) * (21 * n + (size_t)w + 1));
+    unsigned char *bytes = (unsigned char *)malloc(3 * n + 1);
+    double vsum = 0.0, v2sum = 0.0, *tmp, *cols;
+    pds__choice q;
+    int c, k, any = 0;
+    if (!mem || !bytes) {
         free(mem);
-        free(edge);
+        free(bytes);
         return 0;
     }
-    kappa *= kappa; /* two dimensions */
-    for (i = 0; i < n; i++) {
-        const pds__sum128 *ps = photon + PDS__STRIDE_SELECT * i, *ns = neg + PDS__STRIDE_SELECT * i;
-        for (c = 0; c < 3; c++) rgb[3 * i + c] = (pds__sum128_value(ps[c]) - pds__sum128_value(ns[c])) * scale;
-        v[i] = (pds__sum128_value(ps[PDS__SEL_VALID]) - pds__sum128_value(ns[PDS__SEL_VALID])) * scale;
-        /* the terms' squares: (y unit)^2 / 2^64 a term, each term of V
-           being y unit scale */
-        var[i] = (pds__sum128_value(ps[PDS__SEL_VALID2]) - pds__sum128_value(ns[PDS__SEL_VALID2])) * PDS__TWO64 * scale *
-                 scale;
-        m[i] = passes > 0 && ps[PDS__SEL_COUNT].lo >= (uint64_t)passes ? 1.0 : 0.0;
-        edge[i] = (unsigned char)(((ps[PDS__SEL_COUNT].hi & 0xffffffffu) ? 1 : 0) | ((ps[PDS__SEL_COUNT].hi >> 32) ? 2 : 0));
-        any |= m[i] > 0.0;
-        if (m[i] > 0.0) {
-            vsum += v[i];
-            v2sum += var[i];
+    memset(&q, 0, sizeof q);
+    q.photon = photon;
+    q.neg = neg;
+    q.w = w;
+    q.h = h;
+    q.passes = passes;
+    q.scale = scale;
+    q.rgb = rgb;
+    q.m = mem;
+    q.mt = q.m + n;
+    q.v = q.mt + n;
+    q.var = q.v + n;
+    q.derr = q.var + n;
+    q.e0 = q.derr + n;
+    q.err = q.e0 + n;
+    q.noise = q.err + n;
+    q.best = q.noise + n;
+    tmp = q.best + n;
+    q.cand = tmp + n;
+    q.pick = q.cand + 3 * n;
+    q.half = q.pick + 3 * n;
+    q.dd = q.half + 3 * n;
+    q.xx = q.dd + n;
+    cols = q.xx + n;
+    q.edge = bytes;
+    q.edget = bytes + n;
+    q.which = bytes + 2 * n; /* the pick's j */
+    q.kappa = pds__box3_square_sum(PDS__SELECT_RADIUS);
+    q.kappa *= q.kappa; /* two dimensions */
+    threads = pds__image_threads(threads, n);
+    share = n / (size_t)(4 * threads) + 1;
+    (void)pds__parallel_for(threads, n, share, 0, pds__choice_read, &q);
+    for (i = 0; i < n; i++)
+        if (q.m[i] > 0.0) {
+            any = 1;
+            vsum += q.v[i];
+            v2sum += q.var[i];
         }
-    }
     if (!any) {
         free(mem);
-        free(edge);
+        free(bytes);
         return 1;
     }
     /* V's variance at a pixel: its terms' squares (independent photons;
        the Halton points make it smaller), and at least what the pass's
        value would have if it came in terms of the average size wbar (a
        pixel no validation photon met is not thereby known exactly) */
-    wbar = vsum > 0.0 ? v2sum / vsum : 0.0;
-    for (i = 0; i < n; i++) {
-        double y = rgb[3 * i] + rgb[3 * i + 1] + rgb[3 * i + 2];
-        if (wbar * y > var[i]) var[i] = wbar * y;
-    }
-    memcpy(derr, m, sizeof(double) * n);
-    for (k = 0; k < 3; k++) pds__box_mean(derr, tmp, seg, w, h, PDS__SELECT_RADIUS);
-    for (j = 0; j < 2 + PDS__SELECT_BLURS; j++) {
+    q.wbar = vsum > 0.0 ? v2sum / vsum : 0.0;
+    (void)pds__parallel_for(threads, n, share, 0, pds__choice_floor, &q);
+    memcpy(q.derr, q.m, sizeof(double) * n);
+    for (k = 0; k < 3; k++) pds__box_mean(q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, threads);
+    for (q.j = 0; q.j < 2 + PDS__SELECT_BLURS; q.j++) {
         /* candidate j's R, G, B */
-        if (j == 0) {
-            memcpy(cand, rgb, sizeof(double) * 3 * n);
-        } else if (j == 1) {
-            for (i = 0; i < n; i++)
-                for (c = 0; c < 3; c++) cand[3 * i + c] = pds__select_half(photon, neg, i, c, scale);
+        if (q.j == 0) {
+            memcpy(q.cand, rgb, sizeof(double) * 3 * n);
+        } else if (q.j == 1) {
+            memcpy(q.cand, q.half, sizeof(double) * 3 * n);
         } else {
-            for (c = 0; c < 3; c++) {
-                for (i = 0; i < n; i++)
-                    chan[i] = pds__select_blur[j - 2][3] ? pds__select_half(photon, neg, i, c, scale) : rgb[3 * i + c];
-                pds__segmented_box(chan, m, edge, w, h, pds__select_blur[j - 2][0], pds__select_blur[j - 2][1],
-                                   pds__select_blur[j - 2][2], seg);
-                for (i = 0; i < n; i++) cand[3 * i + c] = chan[i];
+            const int *blur = pds__select_blur[q.j - 2];
+            memcpy(q.cand, blur[3] ? q.half : rgb, sizeof(double) * 3 * n);
+            if (!pds__segmented_box(q.cand, q.m, q.mt, q.edge, q.edget, tmp, w, h, blur[0], blur[1], blur[2],
+                                    threads)) {
+                free(mem);
+                free(bytes);
+                return 0;
             }
         }
         /* its local squared error against the validation, up to V's own,
@@ -13049,52 +13366,27 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
            -2 (L_0 - L_j) dV, whose variance over the boxes' weights g is
            4 sum g^2 (L_0 - L_j)^2 Var V ~ 4 kappa mean((L_0 - L_j)^2 Var V)
            / (their weight there) */
-        for (i = 0; i < n; i++) {
-            double y = cand[3 * i] + cand[3 * i + 1] + cand[3 * i + 2], d = y - v[i];
-            double dj = y - (rgb[3 * i] + rgb[3 * i + 1] + rgb[3 * i + 2]);
-            err[i] = d * d;
-            noise[i] = dj * dj * var[i];
-            dd[i] = dj * dj;
-            xx[i] = -d * dj; /* (L_j - V)(L_0 - L_j) */
-        }
-        pds__masked_box(err, m, derr, tmp, seg, w, h, PDS__SELECT_RADIUS, 3);
-        if (j == 0) {
-            memcpy(e0, err, sizeof(double) * n);
-            memcpy(best, err, sizeof(double) * n);
-            memcpy(pick, cand, sizeof(double) * 3 * n);
-            memset(which, 0, n);
+        (void)pds__parallel_for(threads, n, share, 0, pds__choice_terms, &q);
+        pds__masked_box(q.err, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
+        if (q.j == 0) {
+            memcpy(q.e0, q.err, sizeof(double) * n);
+            memcpy(q.best, q.err, sizeof(double) * n);
+            memcpy(q.pick, q.cand, sizeof(double) * 3 * n);
+            memset(q.which, 0, n);
             continue;
         }
-        pds__masked_box(noise, m, derr, tmp, seg, w, h, PDS__SELECT_RADIUS, 3);
-        pds__masked_box(dd, m, derr, tmp, seg, w, h, PDS__SELECT_RADIUS, 3);
-        pds__masked_box(xx, m, derr, tmp, seg, w, h, PDS__SELECT_RADIUS, 3);
-        /* the blend of the pass's scale and this candidate with the least
-           error, lambda L_0 + (1 - lambda) L_j, taken where its error is
-           smaller than the best so far and below the pass's by
-           PDS__SELECT_SURE standard deviations of that noise times
-           sqrt(1 - lambda). (For a lambda fixed beforehand the noise is
-           (1 - lambda) sd, since L_lambda - L_0 = (1 - lambda)(L_j - L_0);
-           lambda is fitted to the same V, so that would be too lenient,
-           and sd itself too strict: README "The choice blends") */
-        for (i = 0; i < n; i++) {
-            double sd = derr[i] > 0.0 ? 2.0 * sqrt(kappa * noise[i] / derr[i]) : 0.0;
-            double lam = dd[i] > 0.0 ? -xx[i] / dd[i] : 0.0, eb;
-            lam = lam > 1.0 ? 1.0 : lam > 0.0 ? lam : 0.0;
-            eb = err[i] + 2.0 * lam * xx[i] + lam * lam * dd[i];
-            if (m[i] > 0.0 && eb < best[i] && e0[i] - eb > PDS__SELECT_SURE * sqrt(1.0 - lam) * sd) {
-                best[i] = eb;
-                which[i] = (unsigned char)j;
-                for (c = 0; c < 3; c++) pick[3 * i + c] = lam * rgb[3 * i + c] + (1.0 - lam) * cand[3 * i + c];
-            }
-        }
+        pds__masked_box(q.noise, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
+        pds__masked_box(q.dd, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
+        pds__masked_box(q.xx, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
+        (void)pds__parallel_for(threads, n, share, 0, pds__choice_pick, &q);
     }
     for (i = 0; i < n; i++)
-        if (m[i] > 0.0) {
-            for (c = 0; c < 3; c++) rgb[3 * i + c] = pick[3 * i + c];
-            if (chose) chose[which[i]]++;
+        if (q.m[i] > 0.0) {
+            for (c = 0; c < 3; c++) rgb[3 * i + c] = q.pick[3 * i + c];
+            if (chose) chose[q.which[i]]++;
         }
     free(mem);
-    free(edge);
+    free(bytes);
     return 1;
 }
 
@@ -13107,7 +13399,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
    memory runs out. */
 static long pds__partial_image(const double *eye, const pds__sum128 *photon, const pds__sum128 *neg, int stride, int w,
                                int h, double unit, double n_planned, long emitted, float *out,
-                               long chose[PDS__SELECT_ESTIMATES])
+                               long chose[PDS__SELECT_ESTIMATES], int threads)
 {
     size_t n = (size_t)w * (size_t)h * 3, i;
     double *rgb = (double *)malloc(sizeof *rgb * (n ? n : 1)), *sel = NULL;
@@ -13117,7 +13409,7 @@ static long pds__partial_image(const double *eye, const pds__sum128 *photon, con
     if (photon && emitted > 0 && stride == PDS__STRIDE_SELECT) {
         long passes = n_planned > 0.0 ? (long)floor((double)emitted / n_planned + 0.5) : 0;
         sel = (double *)malloc(sizeof *sel * (n ? n : 1));
-        if (!sel || !pds__scale_choice(photon, neg, w, h, passes, scale, sel, chose)) {
+        if (!sel || !pds__scale_choice(photon, neg, w, h, passes, scale, sel, chose, threads)) {
             free(rgb);
             free(sel);
             return -1;
@@ -13188,7 +13480,7 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
                                      long chose[PDS__SELECT_ESTIMATES], pds_error *err)
 {
     const pds_partial *p0;
-    int *owner = NULL, i, shards;
+    int *owner = NULL, i, shards, threads;
     size_t npix, k, nsums;
     double *eye = NULL;
     pds__sum128 *photon = NULL, *neg = NULL;
@@ -13237,12 +13529,15 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
     free(owner);
     if (st) return st;
     npix = (size_t)p0->width * (size_t)p0->height * 3;
+    /* the image is made on the render's threads (its --threads, or every
+       processor): the same bits for any count */
+    threads = p0->opt.threads > 0 ? p0->opt.threads : pds_cpu_count();
     if (n == 1) {
         /* one part: its own arrays are the merge (rows it does not hold are 0) */
         if (pds_image_alloc(out, p0->width, p0->height) != PDS_OK) return pds__nomem(err);
         if (fraction) pds__partial_fraction(parts, n, fraction);
         k = (size_t)pds__partial_image(p0->eye, p0->photon, p0->neg, p0->stride, p0->width, p0->height, p0->unit,
-                                       p0->n_planned, p0->emitted, out->rgb, chose);
+                                       p0->n_planned, p0->emitted, out->rgb, chose, threads);
         if (k == (size_t)-1) {
             pds_image_free(out);
             return pds__nomem(err);
@@ -13282,7 +13577,7 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
     }
     if (fraction) pds__partial_fraction(parts, n, fraction);
     k = (size_t)pds__partial_image(eye, photon, neg, p0->stride, p0->width, p0->height, p0->unit, p0->n_planned, emitted,
-                                   out->rgb, chose);
+                                   out->rgb, chose, threads);
     if (k == (size_t)-1) {
         pds_image_free(out);
         st = pds__nomem(err);
@@ -19077,6 +19372,51 @@ static double pds__pds_plan(double t1, double n1, double t2, double n2, double l
 
 /* --- the photon pass --------------------------------------------------- */
 
+/* The threads' sums of pixels a .. b-1 added into the part's (the
+   pixels shared by threads, pds__parallel_for: a pixel's sums are its
+   own): R, G, B (and their negative terms in a spectral render), and
+   where the pixels choose their scale the second scale's and the
+   validation's signed sums and the count of passes that saw the pixel
+   whole. */
+typedef struct pds__sums_job {
+    const struct pds__photon_job *job;
+    pds_partial *part;
+    long saturated;
+    pds__mutex lock;
+} pds__sums_job;
+
+static void pds__sums_into_part(void *ctx, size_t a, size_t b, void *scratch)
+{
+    pds__sums_job *sj = (pds__sums_job *)ctx;
+    const struct pds__photon_job *job = sj->job;
+    pds_partial *part = sj->part;
+    size_t ps = (size_t)part->stride, p;
+    long saturated = 0;
+    int t, c;
+    (void)scratch;
+    for (p = a; p < b; p++) {
+        for (c = 0; c < 3; c++)
+            for (t = 0; t < job->nbufs; t++) {
+                const pds__splat_buf *buf = &job->bufs[t];
+                size_t i = 3 * p + (size_t)c;
+                saturated += pds__sum128_add_bits(&part->photon[ps * p + (size_t)c], buf->sum[i].lo, buf->sum[i].hi);
+                if (job->spectral)
+                    saturated += pds__sum128_add_bits(&part->neg[ps * p + (size_t)c], buf->neg[i].lo, buf->neg[i].hi);
+            }
+        if (!job->validate) continue;
+        for (c = 0; c < PDS__SEL_THREAD; c++)
+            for (t = 0; t < job->nbufs; t++) {
+                /* the pixel's sums after its R, G, B */
+                size_t at = ps * p + 3 + (size_t)c;
+                pds__sel_split(job->bufs[t].sel[PDS__SEL_THREAD * p + (size_t)c], &part->photon[at], &part->neg[at]);
+            }
+        saturated += pds__sum128_add_bits(&part->photon[ps * p + PDS__SEL_COUNT], job->direct[p].lo, job->direct[p].hi);
+    }
+    pds__mutex_lock(&sj->lock);
+    sj->saturated += saturated;
+    pds__mutex_unlock(&sj->lock);
+}
+
 /* After the eye pass: emit and trace the caustic photons for method m,
    the part's photon units that are not done yet (>>partial), and add the
    caustic light into the part's exact sums (importance already carries
@@ -19412,29 +19752,21 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         stats->time_gather_s = job.gather_s;
     }
     if (!st) {
-        /* The sums are exact and order-free: the part's are their sum.
-           The photons were weighted for n_planned; the image divides by
-           the count actually emitted (pds__partial_image). */
+        /* The sums are exact and order-free: the part's are their sum
+           (pds__sums_into_part). The photons were weighted for n_planned;
+           the image divides by the count actually emitted
+           (pds__partial_image). */
         long saturated = 0;
-        int ps = part->stride;
-        if (!job.cancelled || splats)
-            for (i = 0; i < npix * 3; i++)
-                for (t = 0; t < job.nbufs; t++) {
-                    size_t at = (size_t)ps * (i / 3) + i % 3; /* pixel i / 3's channel i % 3 */
-                    saturated += pds__sum128_add_bits(&part->photon[at], job.bufs[t].sum[i].lo, job.bufs[t].sum[i].hi);
-                    if (job.spectral)
-                        saturated += pds__sum128_add_bits(&part->neg[at], job.bufs[t].neg[i].lo, job.bufs[t].neg[i].hi);
-                }
-        if ((!job.cancelled || splats) && job.validate) {
-            for (i = 0; i < npix * PDS__SEL_THREAD; i++)
-                for (t = 0; t < job.nbufs; t++) {
-                    /* the pixel's sums after its R, G, B */
-                    size_t at = (size_t)ps * (i / PDS__SEL_THREAD) + 3 + i % PDS__SEL_THREAD;
-                    pds__sel_split(job.bufs[t].sel[i], &part->photon[at], &part->neg[at]);
-                }
-            for (i = 0; i < npix; i++)
-                saturated += pds__sum128_add_bits(&part->photon[(size_t)ps * i + PDS__SEL_COUNT], job.direct[i].lo,
-                                                  job.direct[i].hi);
+        pds__sums_job sj;
+        if (!job.cancelled || splats) {
+            sj.job = &job;
+            sj.part = part;
+            sj.saturated = 0;
+            pds__mutex_init(&sj.lock);
+            (void)pds__parallel_for(pds__image_threads(job.nbufs, npix), npix, npix / (size_t)(4 * job.nbufs) + 1, 0,
+                                    pds__sums_into_part, &sj);
+            pds__mutex_destroy(&sj.lock);
+            saturated = sj.saturated;
         }
         /* the count the photons were weighted for, as the pass set it (the
            same in every shard: the options fix it) */
@@ -19448,7 +19780,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             double *rgb = (double *)malloc(sizeof *rgb * 3 * (npix ? npix : 1));
             if (!img || !rgb ||
                 pds__partial_image(part->eye, part->photon, part->neg, part->stride, width, height, part->unit,
-                                   part->n_planned, part->emitted, img, NULL) < 0)
+                                   part->n_planned, part->emitted, img, NULL, job.nbufs) < 0)
                 st = PDS_ERR_NOMEM;
             for (i = 0; !st && i < npix * 3; i++) rgb[i] = img[i];
             if (!st && pds__debug_finish(debug, dbg, job.nbufs, width, height, rgb, &job.frame)) st = PDS_ERR_NOMEM;
@@ -19602,7 +19934,7 @@ static pds_status pds__light_trace_image(const pds_scene *s, const pds_options *
                 pds__sum128_add_bits(&job.bufs[0].neg[i], job.bufs[t].neg[i].lo, job.bufs[t].neg[i].hi);
             }
         if (!zero || pds__partial_image(zero, job.bufs[0].sum, job.bufs[0].neg, 3, width, height, job.bufs[0].unit,
-                                        (double)opt->photons, opt->photons, out->rgb, NULL) < 0)
+                                        (double)opt->photons, opt->photons, out->rgb, NULL, threads) < 0)
             st = PDS_ERR_NOMEM;
         free(zero);
         if (st) pds_image_free(out);

@@ -201,6 +201,37 @@ static void test_pds_image_is_identical_for_any_thread_count(pds_test_ctx *t)
     pds_image_free(&b);
 }
 
+/* The same at the defaults (progressive, the pixels choosing their
+   scale) and at a size whose image is made on threads
+   (PDS__PARALLEL_PIXELS): the threads' sums are added into the part, and
+   the choice made, by shares of pixels. */
+static void test_pds_large_default_image_is_identical_for_any_thread_count(pds_test_ctx *t)
+{
+    pds_image img[2] = {{0, 0, NULL}, {0, 0, NULL}};
+    pds_render_stats st[2];
+    pds_options opt;
+    long took = 0;
+    int k;
+    for (k = 0; k < 2; k++) {
+        pds_options_default(&opt);
+        opt.photons = 20000;
+        opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+        opt.width = 384;
+        opt.height = 352;
+        opt.spp = 4;
+        opt.threads = k ? 3 : 1;
+        REQUIRE(t, render_text(sphere_caustic_scene, &opt, &img[k], &st[k]), "%d threads", opt.threads);
+    }
+    REQUIRE(t, (size_t)img[0].width * img[0].height >= PDS__PARALLEL_PIXELS, "the image is shared out");
+    for (k = 1; k < PDS_SCALE_ESTIMATES; k++) took += st[0].scale_pixels[k];
+    CHECK(t, took > 0, "no pixel took another scale than the pass's");
+    CHECK(t, memcmp(img[0].rgb, img[1].rgb, sizeof(float) * 3 * (size_t)img[0].width * img[0].height) == 0,
+          "bitwise equal");
+    CHECK(t, memcmp(st[0].scale_pixels, st[1].scale_pixels, sizeof st[0].scale_pixels) == 0, "the same choices");
+    pds_image_free(&img[0]);
+    pds_image_free(&img[1]);
+}
+
 /* ALL = NO_CAUSTICS + CAUSTICS_ONLY for PDS too: the eye pass and the
    photon pass never count the same light twice. */
 static void test_pds_full_image_is_eye_pass_plus_splats(pds_test_ctx *t)
@@ -1575,8 +1606,8 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
     static pds__sum128 photon[N * PDS__STRIDE_SELECT], neg[N * PDS__STRIDE_SELECT];
     static float out[N * 3];
     static double eye[N * 3];
-    double x[40], m[40], seg[64], want;
-    unsigned char edge[40];
+    double x[40], m[40], want, rgb[120], scratch[40];
+    unsigned char edge[40], none[40];
     long chose[PDS__SELECT_ESTIMATES];
     int px, py, c, pass, bad = 0, skipped = 0, away = 0, crossed = 0, unsure = 0, striped = 0, blended = 0, smoothed = 0;
     memset(eye, 0, sizeof eye);
@@ -1619,7 +1650,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                 if (pass == 2 && px == W / 2 - 1) photon[PDS__STRIDE_SELECT * i + PDS__SEL_COUNT].hi = 1; /* edge right */
             }
         memset(chose, 0, sizeof chose);
-        REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out, chose) == 0,
+        REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out, chose, 1) == 0,
                 "image");
         {
             /* the pixels counted: the half on the left beyond the errors'
@@ -1681,24 +1712,92 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
         m[px] = px == 17 ? 0.0 : 1.0;
         edge[px] = px == 29 ? 1 : 0;
     }
-    {
-        double y[40];
-        memcpy(y, x, sizeof y);
-        pds__segmented_box(y, m, edge, 40, 1, 2, 1, 3, seg);
+    memset(none, 0, sizeof none);
+    for (pass = 0; pass < 2; pass++) {
+        /* the run as a row of 40 pixels (its edges to the right), then as
+           a column (its edges below; mt and edget are column-major), in
+           each of R, G, B */
+        int w = pass ? 1 : 40, h = pass ? 40 : 1;
+        for (px = 0; px < 120; px++) rgb[px] = x[px / 3] + (double)(px % 3);
+        REQUIRE(t, pds__segmented_box(rgb, m, m, pass ? none : edge, pass ? edge : none, scratch, w, h, 2, 1, 3, 1),
+                "segmented box");
         for (px = 0, bad = 0; px < 40; px++) {
             int a0 = px <= 16 ? 0 : px <= 29 ? 18 : 30, b0 = px <= 16 ? 16 : px <= 29 ? 29 : 39, lo, hi, k, cnt = 0;
             if (px == 17) {
-                bad += y[px] != x[px];
+                for (c = 0; c < 3; c++) bad += rgb[3 * px + c] != x[px] + c;
                 continue;
             }
             lo = px - 2 < a0 ? a0 : px - 2;
             hi = px + 2 > b0 ? b0 : px + 2;
             want = 0.0;
             for (k = lo; k <= hi; k++, cnt++) want += x[k];
-            bad += fabs(y[px] - want / cnt) > 1e-12;
+            for (c = 0; c < 3; c++) bad += fabs(rgb[3 * px + c] - (want / cnt + c)) > 1e-12;
         }
-        CHECK(t, bad == 0, "segmented box: %d values differ from the runs' direct means", bad);
+        CHECK(t, bad == 0, "segmented box along a %s: %d values differ from the runs' direct means",
+              pass ? "column" : "row", bad);
     }
+}
+
+/* The image made from the sums (the choice of scale: its box means, its
+   segments' blurs, its per-pixel steps) on threads is the same, bit for
+   bit, as on one, for an image large enough to be shared out
+   (PDS__PARALLEL_PIXELS): noisy sums whose pixels take part in broad
+   patches with edges between them, a smooth truth for V. */
+static void test_pds_image_making_is_identical_for_any_thread_count(pds_test_ctx *t)
+{
+    enum { W = 480, H = 300, N = W * H, K = 6 };
+    pds__sum128 *photon = (pds__sum128 *)calloc((size_t)N * PDS__STRIDE_SELECT, sizeof *photon);
+    pds__sum128 *neg = (pds__sum128 *)calloc((size_t)N * PDS__STRIDE_SELECT, sizeof *neg);
+    double *eye = (double *)calloc((size_t)N * 3, sizeof *eye);
+    float *out[3];
+    long chose[3][PDS__SELECT_ESTIMATES];
+    static const int threads[3] = {1, 2, 5};
+    uint64_t r = 12345;
+    int i, k, c, used = 0;
+    REQUIRE(t, N >= PDS__PARALLEL_PIXELS, "the image is shared out");
+    for (k = 0; k < 3; k++) out[k] = (float *)malloc(sizeof(float) * 3 * N);
+    REQUIRE(t, photon && neg && eye && out[0] && out[1] && out[2], "memory");
+    for (i = 0; i < N; i++) {
+        int px = i % W, py = i / W;
+        double truth = 2.0 + sin(0.05 * px) * cos(0.07 * py), u[3];
+        for (k = 0; k < 3; k++) {
+            r = r * 6364136223846793005ULL + 1442695040888963407ULL;
+            u[k] = (double)(r >> 11) * (1.0 / 9007199254740992.0) - 0.5;
+        }
+        /* four bands of columns: the pass's scale noisy (a blur wins),
+           biased with the second scale right (the second), biased with
+           the second noisy (the second blurred), alternating along the
+           rows (a blur along them) */
+        for (c = 0; c < 3; c++) {
+            double chk = (px + py) % 2 ? 0.5 : -0.5, alt = px % 2 ? 0.5 : -0.5;
+            double base = px < 120 ? truth + 0.6 * u[0] : px < 360 ? truth + 0.5 : truth + alt;
+            double half = px < 120 ? truth + 1.2 * u[1] : px < 240 ? truth + 0.02 * u[1] : truth + chk;
+            sel_set(photon, neg, i, c, base + 0.1 * c, K);
+            sel_set(photon, neg, i, PDS__SEL_HALF + c, half + 0.1 * c, K);
+        }
+        sel_set(photon, neg, i, PDS__SEL_VALID, 3.0 * truth + 0.3 + 2.0 * u[2], K);
+        /* patches that take part, edges along every 37th column and 23rd row */
+        photon[PDS__STRIDE_SELECT * i + PDS__SEL_COUNT].lo = ((px / 60 + py / 50) % 3) ? K : 0;
+        photon[PDS__STRIDE_SELECT * i + PDS__SEL_COUNT].hi =
+            (px % 37 == 36 ? 1u : 0u) | (py % 23 == 22 ? (uint64_t)1 << 32 : 0u);
+    }
+    for (k = 0; k < 3; k++) {
+        memset(chose[k], 0, sizeof chose[k]);
+        REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out[k], chose[k],
+                                      threads[k]) == 0,
+                "image on %d threads", threads[k]);
+    }
+    for (k = 0; k < PDS__SELECT_ESTIMATES; k++) used += chose[0][k] > 0;
+    CHECK(t, used >= 4, "the noisy sums took %d of the candidates: %ld %ld %ld %ld %ld %ld %ld %ld", used, chose[0][0],
+          chose[0][1], chose[0][2], chose[0][3], chose[0][4], chose[0][5], chose[0][6], chose[0][7]);
+    for (k = 1; k < 3; k++) {
+        CHECK(t, memcmp(out[0], out[k], sizeof(float) * 3 * N) == 0, "%d threads: the image differs", threads[k]);
+        CHECK(t, memcmp(chose[0], chose[k], sizeof chose[0]) == 0, "%d threads: the choices differ", threads[k]);
+    }
+    free(photon);
+    free(neg);
+    free(eye);
+    for (k = 0; k < 3; k++) free(out[k]);
 }
 
 /* A lamp met from its front ends a caustic photon, as it ends an eye path
@@ -1842,6 +1941,9 @@ static const pds_test_case tests_pds[] = {
      test_pds_validation_is_the_light_tracers_image_of_its_own_photons},
     {"pds_scale_choice_takes_the_estimate_the_validation_says_is_closest",
      test_pds_scale_choice_takes_the_estimate_the_validation_says_is_closest},
+    {"pds_image_making_is_identical_for_any_thread_count", test_pds_image_making_is_identical_for_any_thread_count},
+    {"pds_large_default_image_is_identical_for_any_thread_count",
+     test_pds_large_default_image_is_identical_for_any_thread_count},
     {"box3_square_sum_is_the_chance_two_triple_sums_agree", test_box3_square_sum_is_the_chance_two_triple_sums_agree},
     {"eye_round_ratio_gives_photons_the_time_single_samples_do_not_need",
      test_eye_round_ratio_gives_photons_the_time_single_samples_do_not_need},
