@@ -12457,9 +12457,10 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
    count says which. */
 
 #define PDS__PARTIAL_MAGIC "PDSPART\n"
-#define PDS__PARTIAL_VERSION 9u
+#define PDS__PARTIAL_VERSION 10u
 #define PDS__PARTIAL_MAX_SHARDS 1000000
 #define PDS__PARTIAL_NOPT 50    /* options stored, 8 bytes each */
+#define PDS__PARTIAL_NOPT_V9 50 /* format version 9's, still read (its values not in groups) */
 #define PDS__PARTIAL_NOPT_V8 50 /* format version 8's, still read (not with pass_select) */
 #define PDS__PARTIAL_NOPT_V7 49 /* format version 7's, still read */
 #define PDS__PARTIAL_NOPT_V6 48 /* format version 6's, still read */
@@ -13688,25 +13689,120 @@ static uint64_t pds__fnv1a64(const unsigned char *b, size_t n)
     return h;
 }
 
-/* Bytes of the file of a part with these counts; 0 if it would not fit
-   in a size_t. */
+/* The 64-bit words of a part's values: its done rows' eye values, then,
+   unless split by rows, the sums S+ and S- (low, high) of every pixel. */
+static double pds__partial_words(int width, int height, int split, long rows_done, int stride)
+{
+    return (double)rows_done * width * 3.0 + (split != PDS__SPLIT_ROWS ? (double)width * height * stride * 4.0 : 0.0);
+}
+
+/* Bytes of the file of a part with these counts, its values stored
+   whole (format versions 2 to 9), or at most that plus 16 in groups
+   (pds__partial_groups); 0 if it would not fit in a size_t. */
 static size_t pds__partial_file_size(int nopt, int width, int height, int split, long rows_done, int stride)
 {
-    double bytes = PDS__PARTIAL_HEADER_AT(nopt) + 8.0 + (double)rows_done * width * 3.0 * 8.0 +
-                   (split != PDS__SPLIT_ROWS ? (double)width * height * stride * 32.0 : 0.0);
+    double bytes = PDS__PARTIAL_HEADER_AT(nopt) + 8.0 + 8.0 * pds__partial_words(width, height, split, rows_done, stride);
     return bytes < (double)((size_t)-1) / 2 ? (size_t)bytes : 0;
+}
+
+/* Word k of a part's values (pds__partial_words' order), and setting it. */
+static uint64_t pds__partial_word(const pds_partial *p, size_t k)
+{
+    size_t row = (size_t)p->width * 3, eye = (size_t)p->rows_done * row, sums;
+    if (k < eye) {
+        size_t y = (size_t)p->shard_index + k / row * (size_t)p->shard_count;
+        uint64_t v;
+        memcpy(&v, &p->eye[y * row + k % row], sizeof v);
+        return v;
+    }
+    k -= eye;
+    sums = (size_t)p->width * (size_t)p->stride * (size_t)p->height;
+    if (k < 2 * sums) return k % 2 ? p->photon[k / 2].hi : p->photon[k / 2].lo;
+    k -= 2 * sums;
+    return k % 2 ? p->neg[k / 2].hi : p->neg[k / 2].lo;
+}
+
+static void pds__partial_set_word(pds_partial *p, size_t k, uint64_t v)
+{
+    size_t row = (size_t)p->width * 3, eye = (size_t)p->rows_done * row, sums;
+    if (k < eye) {
+        size_t y = (size_t)p->shard_index + k / row * (size_t)p->shard_count;
+        memcpy(&p->eye[y * row + k % row], &v, sizeof v);
+        return;
+    }
+    k -= eye;
+    sums = (size_t)p->width * (size_t)p->stride * (size_t)p->height;
+    if (k < 2 * sums) {
+        if (k % 2) p->photon[k / 2].hi = v;
+        else p->photon[k / 2].lo = v;
+        return;
+    }
+    k -= 2 * sums;
+    if (k % 2) p->neg[k / 2].hi = v;
+    else p->neg[k / 2].lo = v;
+}
+
+/* The values in groups (format version 10): most of a part's words are
+   0 (pixels no photon reached, the S- of an RGB render, a caustics-only
+   render's eye values), so they are stored as groups of a count of zero
+   words, a count of other words, and those words (int64, int64, n x 8
+   bytes). A group's words end where 3 or more zero words begin, so every
+   group after the first starts with 3 or more zeros and takes no more
+   bytes than its words would whole, and the first at most 16 more.
+   Writes at b (NULL: counts only) and returns the bytes. */
+static size_t pds__partial_groups(const pds_partial *p, size_t n, unsigned char *b)
+{
+    size_t k = 0, bytes = 0;
+    while (k < n) {
+        size_t zeros = 0, start, i;
+        while (k < n && pds__partial_word(p, k) == 0) {
+            zeros++;
+            k++;
+        }
+        start = k;
+        while (k < n) {
+            size_t run = 0;
+            while (k + run < n && run < 3 && pds__partial_word(p, k + run) == 0) run++;
+            if (run == 3 || (run > 0 && k + run == n)) break;
+            k += run > 0 ? run : 1;
+        }
+        if (b) {
+            pds__put_u64(b + bytes, (uint64_t)zeros);
+            pds__put_u64(b + bytes + 8, (uint64_t)(k - start));
+            for (i = start; i < k; i++) pds__put_u64(b + bytes + 16 + 8 * (i - start), pds__partial_word(p, i));
+        }
+        bytes += 16 + 8 * (k - start);
+    }
+    return bytes;
+}
+
+/* Whether the groups from b + at to the check sum (size bytes in all)
+   hold exactly n words, each group at least one. */
+static int pds__partial_groups_fill(const unsigned char *b, size_t size, size_t at, size_t n)
+{
+    size_t w = 0;
+    if (size < at + 8) return 0;
+    while (size - 8 - at >= 16) {
+        uint64_t zeros = pds__get_u64(b + at), words = pds__get_u64(b + at + 8);
+        at += 16;
+        if (zeros + words == 0 || zeros > n - w || words > n - w - zeros || words > (size - 8 - at) / 8) return 0;
+        w += (size_t)(zeros + words);
+        at += 8 * (size_t)words;
+    }
+    return w == n && at == size - 8;
 }
 
 pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *err)
 {
-    size_t size, at, row, k;
+    size_t size, at, n;
     unsigned char *b;
     uint64_t opt[PDS__PARTIAL_NOPT];
-    long j;
     int i;
     pds_status st;
     if (!path || !p) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_partial_write: NULL argument");
     size = pds__partial_file_size(PDS__PARTIAL_NOPT, p->width, p->height, p->split, p->rows_done, p->stride);
+    n = (size_t)pds__partial_words(p->width, p->height, p->split, p->rows_done, p->stride);
+    if (size) size = PDS__PARTIAL_HEADER + pds__partial_groups(p, n, NULL) + 8;
     b = size ? (unsigned char *)calloc(size, 1) : NULL;
     if (!b) return pds__nomem(err);
     memcpy(b, PDS__PARTIAL_MAGIC, 8);
@@ -13735,21 +13831,7 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
     pds__put_u64(b + at + 80, (uint64_t)p->invalid);
     pds__put_u64(b + at + 88, (uint64_t)p->eye_vertices);
     at = PDS__PARTIAL_HEADER;
-    row = (size_t)p->width * 3;
-    for (j = 0; j < p->rows_done; j++) {
-        size_t y = (size_t)p->shard_index + (size_t)j * (size_t)p->shard_count;
-        for (k = 0; k < row; k++, at += 8) pds__put_f64(b + at, p->eye[y * row + k]);
-    }
-    if (p->split != PDS__SPLIT_ROWS)
-        for (k = 0; k < (size_t)p->width * (size_t)p->stride * (size_t)p->height; k++, at += 16) {
-            pds__put_u64(b + at, p->photon[k].lo);
-            pds__put_u64(b + at + 8, p->photon[k].hi);
-        }
-    if (p->split != PDS__SPLIT_ROWS)
-        for (k = 0; k < (size_t)p->width * (size_t)p->stride * (size_t)p->height; k++, at += 16) {
-            pds__put_u64(b + at, p->neg[k].lo);
-            pds__put_u64(b + at + 8, p->neg[k].hi);
-        }
+    at += pds__partial_groups(p, n, b + at);
     pds__put_u64(b + at, pds__fnv1a64(b, at));
     st = pds__write_file_atomic(path, b, size, err);
     free(b);
@@ -13760,6 +13842,7 @@ pds_status pds_partial_write(const char *path, const pds_partial *p, pds_error *
 static int pds__partial_nopt(uint32_t version)
 {
     return version == PDS__PARTIAL_VERSION ? PDS__PARTIAL_NOPT
+           : version == 9u                 ? PDS__PARTIAL_NOPT_V9
            : version == 8u                 ? PDS__PARTIAL_NOPT_V8
            : version == 7u                 ? PDS__PARTIAL_NOPT_V7
            : version == 6u                 ? PDS__PARTIAL_NOPT_V6
@@ -13818,7 +13901,7 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
     pds_partial *p;
     pds_status st;
     long rows_done, rows_own, j;
-    int i, width, height, shard, shards, split, nopt, stride;
+    int i, width, height, shard, shards, split, nopt, stride, grouped;
     size_t counts;
     pds_options file_opt;
     if (!path || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_partial_read: NULL argument");
@@ -13827,7 +13910,8 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
        how long this one must be */
     st = pds__read_file(path,
                         pds__partial_file_size(PDS__PARTIAL_NOPT, PDS_MAX_RESOLUTION, PDS_MAX_RESOLUTION, 1,
-                                               PDS_MAX_RESOLUTION, PDS__STRIDE_SELECT),
+                                               PDS_MAX_RESOLUTION, PDS__STRIDE_SELECT) +
+                            16,
                         "partial file", &data, &size, err);
     if (st) return st;
     k = size < sizeof head ? size : sizeof head;
@@ -13858,8 +13942,17 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
     }
     stride = pds__photon_stride(&file_opt);
     expect = pds__partial_file_size(nopt, width, height, split, rows_done, stride);
+    grouped = pds__get_u32(head + 8) >= 10u;
     b = (const unsigned char *)data;
-    if (size != expect) {
+    if (grouped && !pds__partial_groups_fill(b, size, PDS__PARTIAL_HEADER_AT(nopt),
+                                             (size_t)pds__partial_words(width, height, split, rows_done, stride))) {
+        free(data);
+        return pds__fail(err, PDS_ERR_PARSE, path, 0, 0,
+                         "%lu bytes, whose groups of values do not hold the %dx%d part its header says: "
+                         "truncated or damaged",
+                         (unsigned long)size, width, height);
+    }
+    if (!grouped && size != expect) {
         free(data);
         return pds__fail(err, PDS_ERR_PARSE, path, 0, 0, "%lu bytes, its header says %lu: truncated or damaged",
                          (unsigned long)size, (unsigned long)expect);
@@ -13909,8 +14002,8 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
     row = (size_t)width * 3;
     p->eye = (double *)calloc(row * (size_t)height, sizeof *p->eye);
     if (split != PDS__SPLIT_ROWS) {
-        p->photon = (pds__sum128 *)malloc(sizeof *p->photon * (size_t)width * (size_t)stride * (size_t)height);
-        p->neg = (pds__sum128 *)malloc(sizeof *p->neg * (size_t)width * (size_t)stride * (size_t)height);
+        p->photon = (pds__sum128 *)calloc((size_t)width * (size_t)stride * (size_t)height, sizeof *p->photon);
+        p->neg = (pds__sum128 *)calloc((size_t)width * (size_t)stride * (size_t)height, sizeof *p->neg);
     }
     if (!p->eye || (split != PDS__SPLIT_ROWS && (!p->photon || !p->neg))) {
         free(data);
@@ -13918,6 +14011,20 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
         return pds__nomem(err);
     }
     at = PDS__PARTIAL_HEADER_AT(nopt);
+    if (grouped) {
+        /* the groups (pds__partial_groups, checked to fill the values
+           above); the arrays start at 0 */
+        size_t w = 0;
+        while (at < size - 8) {
+            size_t words = (size_t)pds__get_u64(b + at + 8);
+            w += (size_t)pds__get_u64(b + at);
+            at += 16;
+            for (k = 0; k < words; k++, at += 8) pds__partial_set_word(p, w++, pds__get_u64(b + at));
+        }
+        free(data);
+        *out = p;
+        return PDS_OK;
+    }
     for (j = 0; j < rows_done; j++) {
         size_t y = (size_t)shard + (size_t)j * (size_t)shards;
         for (k = 0; k < row; k++, at += 8) p->eye[y * row + k] = pds__get_f64(b + at);

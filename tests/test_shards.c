@@ -186,13 +186,10 @@ static void test_shards_spectral_merge_equals_the_single_run(pds_test_ctx *t)
             CHECK(t, pds_render_part(s, &opt, &p, NULL, &err) == PDS_OK, "%s: shard %d: %s", name, i, err.text);
             CHECK(t, p && pds_partial_write(path, p, &err) == PDS_OK, "%s: write: %s", name, err.text);
             CHECK(t, pds_partial_read(path, &parts[i], &err) == PDS_OK, "%s: read: %s", name, err.text);
-            if (m == 0 && i == 0) {
-                /* the file's S- sums: after the eye rows and S+, before the check */
-                size_t n = 0, k, sums = 24 * 16 * 3 * 16;
-                unsigned char *bytes = shards_slurp(path, &n);
-                if (bytes && n > sums + 8)
-                    for (k = n - 8 - sums; k < n - 8; k++) negative |= bytes[k] != 0;
-                free(bytes);
+            if (m == 0 && i == 0 && parts[0]) {
+                /* the S- sums read back from the file */
+                size_t k;
+                for (k = 0; k < 24 * 16 * 3; k++) negative |= parts[0]->neg[k].lo != 0 || parts[0]->neg[k].hi != 0;
                 CHECK(t, negative, "pds: the spectral shard holds no negative sums");
             }
             pds_partial_free(p);
@@ -471,6 +468,24 @@ static void shards_spit(const char *path, const unsigned char *b, size_t n)
     fclose(f);
 }
 
+/* Part p's file as format version 9 wrote it (its values whole, not in
+   groups) from its version-10 file's header (1072 bytes at `file`): the
+   header, every value word in order (pds__partial_word), the check sum.
+   *n gets its length. */
+static unsigned char *shards_whole_v9(const pds_partial *p, const unsigned char *file, size_t *n)
+{
+    size_t words = (size_t)pds__partial_words(p->width, p->height, p->split, p->rows_done, p->stride), k;
+    unsigned char *b;
+    *n = 1072 + 8 * words + 8;
+    b = (unsigned char *)malloc(*n);
+    if (!b) return NULL;
+    memcpy(b, file, 1072);
+    b[8] = 9;
+    for (k = 0; k < words; k++) pds__put_u64(b + 1072 + 8 * k, pds__partial_word(p, k));
+    pds__put_u64(b + *n - 8, pds__fnv1a64(b, *n - 8));
+    return b;
+}
+
 /* The partial file: what is written reads back the same (same info, same
    image), the layout is the README's (magic, little-endian fields at their
    offsets), and a file of another format version, another library
@@ -520,10 +535,44 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
           "the image read back differs");
     pds_partial_free(back);
     back = NULL;
-    bytes = shards_slurp(path, &n);
-    REQUIRE(t, bytes != NULL && n > 1072, "slurp");
-    /* 1072 header bytes, 8 rows of 24 x 3 doubles, 2 x 24 x 16 x 3 sums, check */
-    CHECK(t, n == 1072 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8, "%lu bytes", (unsigned long)n);
+    {
+        /* format version 10 holds the values in groups (most words are 0:
+           the S- of an RGB render, pixels no photon reached), fewer bytes
+           than their 8 rows of 24 x 3 doubles and 2 x 24 x 16 x 3 sums
+           whole; a file of version 9, the same header and the values
+           whole, reads back to the same part */
+        size_t n10 = 0, whole = 1072 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8;
+        unsigned char *v10 = shards_slurp(path, &n10);
+        REQUIRE(t, v10 != NULL && n10 > 1072 + 16, "slurp");
+        CHECK(t, v10[8] == 10 && n10 < whole, "version %d, %lu bytes (%lu whole)", v10[8], (unsigned long)n10,
+              (unsigned long)whole);
+        bytes = shards_whole_v9(p, v10, &n);
+        REQUIRE(t, bytes != NULL && n == whole, "version 9: %lu bytes", (unsigned long)n);
+        shards_spit(bad, bytes, n);
+        pds_image_free(&ib);
+        CHECK(t, pds_partial_read(bad, &back, &err) == PDS_OK && shards_merge(&back, 1, 1, &ib, NULL, &err) == PDS_OK &&
+                     shards_same(&ia, &ib),
+              "version 9: %s", err.text);
+        pds_partial_free(back);
+        back = NULL;
+        /* a group that claims a word more, or a file cut short, is refused
+           before its check sum is looked at */
+        free(bytes);
+        bytes = (unsigned char *)malloc(n10);
+        REQUIRE(t, bytes != NULL, "malloc");
+        memcpy(bytes, v10, n10);
+        pds__put_u64(bytes + 1072 + 8, pds__get_u64(v10 + 1072 + 8) + 1);
+        shards_spit(bad, bytes, n10);
+        CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE && strstr(err.text, "truncated or damaged"),
+              "a group one word longer: %s", err.text);
+        shards_spit(bad, v10, n10 - 24);
+        CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE && strstr(err.text, "truncated or damaged"),
+              "version 10 cut short: %s", err.text);
+        free(bytes);
+        bytes = shards_whole_v9(p, v10, &n);
+        free(v10);
+        REQUIRE(t, bytes != NULL, "version 9");
+    }
     CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 9 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
                  bytes[548] == 24 && bytes[552] == 16 && bytes[556] == 1 && bytes[560] == 2 && bytes[564] == 1 &&
                  bytes[568 + 8 * 41] == 4 && bytes[568 + 8 * 46] == 0xff && bytes[568 + 8 * 47] == 0 &&
@@ -566,7 +615,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     copy[8] = 1;
     shards_spit(bad, copy, n);
     CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE &&
-                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 9"),
+                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 10"),
           "format version: %s", err.text);
     memcpy(copy, bytes, n);
     memcpy(copy + 12, "9.9.9", 5);
@@ -605,6 +654,12 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
         REQUIRE(t, pds_render_part(s, &opt, &q, NULL, &err) == PDS_OK, "render, two scales: %s", err.text);
         REQUIRE(t, pds_partial_write(path, q, &err) == PDS_OK, "write, two scales: %s", err.text);
         qbytes = shards_slurp(path, &qn);
+        if (qbytes) {
+            /* the same part as version 9 wrote it, its values whole */
+            unsigned char *v10 = qbytes;
+            qbytes = shards_whole_v9(q, v10, &qn);
+            free(v10);
+        }
         CHECK(t, qbytes && qn == 1072 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 9 * 16 + 8 && qbytes[568 + 8 * 49] == 1,
               "two scales: %lu bytes", (unsigned long)qn);
         if (qbytes && qn > 16) {
