@@ -13408,7 +13408,10 @@ static long pds__partial_image(const double *eye, const pds__sum128 *photon, con
     long nonfinite;
     if (!rgb) return -1;
     if (photon && emitted > 0 && stride == PDS__STRIDE_SELECT) {
-        long passes = n_planned > 0.0 ? (long)floor((double)emitted / n_planned + 0.5) : 0;
+        /* (a damaged file's n_planned may be tiny: no more passes than a
+           long holds) */
+        double q = n_planned > 0.0 ? floor((double)emitted / n_planned + 0.5) : 0.0;
+        long passes = q < (double)(LONG_MAX / 2) ? (long)q : LONG_MAX / 2;
         sel = (double *)malloc(sizeof *sel * (n ? n : 1));
         if (!sel || !pds__scale_choice(photon, neg, w, h, passes, scale, sel, chose, threads)) {
             free(rgb);
