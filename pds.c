@@ -13708,41 +13708,24 @@ static size_t pds__partial_file_size(int nopt, int width, int height, int split,
     return bytes < (double)((size_t)-1) / 2 ? (size_t)bytes : 0;
 }
 
-/* Word k of a part's values (pds__partial_words' order), and setting it. */
-static uint64_t pds__partial_word(const pds_partial *p, size_t k)
+/* Where word k of a part's values (pds__partial_words' order) is: 8
+   bytes, read and written with memcpy (an eye value is a double). */
+static void *pds__partial_word_at(const pds_partial *p, size_t k)
 {
     size_t row = (size_t)p->width * 3, eye = (size_t)p->rows_done * row, sums;
-    if (k < eye) {
-        size_t y = (size_t)p->shard_index + k / row * (size_t)p->shard_count;
-        uint64_t v;
-        memcpy(&v, &p->eye[y * row + k % row], sizeof v);
-        return v;
-    }
+    pds__sum128 *s;
+    if (k < eye) return &p->eye[((size_t)p->shard_index + k / row * (size_t)p->shard_count) * row + k % row];
     k -= eye;
     sums = (size_t)p->width * (size_t)p->stride * (size_t)p->height;
-    if (k < 2 * sums) return k % 2 ? p->photon[k / 2].hi : p->photon[k / 2].lo;
-    k -= 2 * sums;
-    return k % 2 ? p->neg[k / 2].hi : p->neg[k / 2].lo;
+    s = k < 2 * sums ? &p->photon[k / 2] : &p->neg[(k - 2 * sums) / 2];
+    return k % 2 ? (void *)&s->hi : (void *)&s->lo;
 }
 
-static void pds__partial_set_word(pds_partial *p, size_t k, uint64_t v)
+static uint64_t pds__partial_word(const pds_partial *p, size_t k)
 {
-    size_t row = (size_t)p->width * 3, eye = (size_t)p->rows_done * row, sums;
-    if (k < eye) {
-        size_t y = (size_t)p->shard_index + k / row * (size_t)p->shard_count;
-        memcpy(&p->eye[y * row + k % row], &v, sizeof v);
-        return;
-    }
-    k -= eye;
-    sums = (size_t)p->width * (size_t)p->stride * (size_t)p->height;
-    if (k < 2 * sums) {
-        if (k % 2) p->photon[k / 2].hi = v;
-        else p->photon[k / 2].lo = v;
-        return;
-    }
-    k -= 2 * sums;
-    if (k % 2) p->neg[k / 2].hi = v;
-    else p->neg[k / 2].lo = v;
+    uint64_t v;
+    memcpy(&v, pds__partial_word_at(p, k), sizeof v);
+    return v;
 }
 
 /* The values in groups (format version 10): most of a part's words are
@@ -14022,7 +14005,10 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
             size_t words = (size_t)pds__get_u64(b + at + 8);
             w += (size_t)pds__get_u64(b + at);
             at += 16;
-            for (k = 0; k < words; k++, at += 8) pds__partial_set_word(p, w++, pds__get_u64(b + at));
+            for (k = 0; k < words; k++, at += 8) {
+                uint64_t v = pds__get_u64(b + at);
+                memcpy(pds__partial_word_at(p, w++), &v, sizeof v);
+            }
         }
         free(data);
         *out = p;
