@@ -24359,18 +24359,31 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
 static pds_status pds__render_memory_check(const pds_scene *scene, const pds_options *opt, int w, int h,
                                            pds_error *err)
 {
-    pds_render_estimate est;
+    pds_render_estimate est, one_est;
     double limit;
     pds_status st;
+    pds_options one = *opt;
+    char fewer[160] = "";
     if ((st = pds_render_estimate_get(scene, opt, &est, err))) return st;
     limit = opt->memory_limit > 0.0 ? opt->memory_limit : est.available_bytes;
-    if (limit > 0.0 && est.memory_bytes > limit)
-        return pds__fail(err, PDS_ERR_LIMIT, NULL, 0, 0,
-                         "this render needs up to %.1f GB (%dx%d pixels, %.3g eye vertices, %.3g stored photons) "
-                         "but %s %.1f GB: lower the resolution, spp or photon count",
-                         est.memory_bytes / 1e9, w, h, est.eye_vertices, est.stored_photons,
-                         opt->memory_limit > 0.0 ? "the memory limit is" : "this machine has", limit / 1e9);
-    return PDS_OK;
+    if (!(limit > 0.0 && est.memory_bytes > limit)) return PDS_OK;
+    /* every thread of a photon method has image sums of its own (>>pds,
+       pds__splat_buf): say how many threads would fit, if fewer would */
+    one.threads = 1;
+    if (pds_render_estimate_get(scene, &one, &one_est, err) == PDS_OK && one_est.memory_bytes <= limit) {
+        int threads = opt->threads > 0 ? opt->threads : pds_cpu_count();
+        double each = threads > 1 ? (est.memory_bytes - one_est.memory_bytes) / (threads - 1) : 0.0;
+        if (each > 0.0) {
+            double fit = 1.0 + floor((limit - one_est.memory_bytes) / each);
+            snprintf(fewer, sizeof fewer, ", or the threads (each holds %.2f GB of image sums; %d would fit)",
+                     each / 1e9, (int)fmin(fit, threads - 1));
+        }
+    }
+    return pds__fail(err, PDS_ERR_LIMIT, NULL, 0, 0,
+                     "this render needs up to %.1f GB (%dx%d pixels, %.3g eye vertices, %.3g stored photons) "
+                     "but %s %.1f GB: lower the resolution, spp or photon count%s",
+                     est.memory_bytes / 1e9, w, h, est.eye_vertices, est.stored_photons,
+                     opt->memory_limit > 0.0 ? "the memory limit is" : "this machine has", limit / 1e9, fewer);
 }
 
 /* pds_render_part on a clock (>>util; NULL: the real one, as the public

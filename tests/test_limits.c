@@ -294,6 +294,23 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
         CHECK(t, st.memory_bytes - one.memory_bytes == (size_t)(pixels * (3 + (second ? 5 : 0)) * 16 + 4096 * 216),
               "two threads %lu bytes, one %lu", (unsigned long)st.memory_bytes, (unsigned long)one.memory_bytes);
     }
+    {
+        /* over the limit on 4 threads and within it on 2: the refusal
+           says what a thread holds and that 2 would fit */
+        pds_render_estimate e4, e1;
+        opt.threads = 4;
+        REQUIRE(t, pds_render_estimate_get(s, &opt, &e4, &err) == PDS_OK, "4 threads: %s", err.text);
+        opt.threads = 1;
+        REQUIRE(t, pds_render_estimate_get(s, &opt, &e1, &err) == PDS_OK, "1 thread: %s", err.text);
+        opt.threads = 4;
+        opt.memory_limit = e1.memory_bytes + 1.5 * (e4.memory_bytes - e1.memory_bytes) / 3.0;
+        CHECK(t, pds_render(s, &opt, &img, &st, &err) == PDS_ERR_LIMIT && limits_contains(err.message, "2 would fit"),
+              "4 threads over the limit: %s", err.text);
+        opt.memory_limit = e1.memory_bytes - 1.0;
+        CHECK(t, pds_render(s, &opt, &img, &st, &err) == PDS_ERR_LIMIT && !limits_contains(err.message, "would fit"),
+              "1 thread over the limit: %s", err.text);
+        opt.memory_limit = 0.0;
+    }
     pds_scene_free(s);
 }
 
