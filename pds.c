@@ -16160,6 +16160,9 @@ typedef struct pds__splat_buf {
                               the second scale's R, G, B, the validation's
                               R + G + B and its terms' squares, signed
                               (pds__sel_add); else NULL */
+    pds__mutex *sums_lock; /* sums shared with other threads (too little
+                              memory for one image each, pds__photon_pass):
+                              held while adding to them; else NULL */
     long splatted, degenerate;
     long split;            /* photons (and sub-photons) split into four */
     long roulette;         /* splats skipped by the cost roulette */
@@ -16235,6 +16238,9 @@ typedef struct pds__photon_job {
     int stop;                        /* guarded by lock */
     pds__splat_buf *bufs;
     int nbufs, next_buf;             /* guarded by lock */
+    int nimages;                     /* distinct image sums: bufs[t] adds
+                                        into bufs[t % nimages]'s */
+    pds__mutex *image_locks;         /* nimages of them if shared, else NULL */
     pds__thread_id caller;
     pds_progress_fn progress;
     void *progress_user;
@@ -17280,10 +17286,12 @@ static void pds__splat_pending(const pds__photon_job *job, pds__splat_buf *buf)
 {
     size_t i;
     qsort(buf->pending, buf->npending, sizeof *buf->pending, pds__landing_cmp);
+    if (buf->sums_lock) pds__mutex_lock(buf->sums_lock);
     for (i = 0; i < buf->npending; i++) {
         const pds__landing *l = &buf->pending[i];
         pds__splat(job, buf, &l->r, l->ng, l->flux, l->lambda, l->photon);
     }
+    if (buf->sums_lock) pds__mutex_unlock(buf->sums_lock);
     buf->npending = 0;
 }
 
@@ -17305,7 +17313,10 @@ static void pds__defer_splat(const pds__photon_job *job, pds__splat_buf *buf, co
     pds__landing *l;
     if (buf->npending >= PDS__LANDINGS_HELD) pds__splat_pending(job, buf);
     if (pds__grow((void **)&buf->pending, &buf->cap_pending, buf->npending + 1, sizeof *buf->pending)) {
-        pds__splat(job, buf, r, ng, flux, lambda, photon); /* no room to defer: splat now */
+        /* no room to defer: splat now */
+        if (buf->sums_lock) pds__mutex_lock(buf->sums_lock);
+        pds__splat(job, buf, r, ng, flux, lambda, photon);
+        if (buf->sums_lock) pds__mutex_unlock(buf->sums_lock);
         return;
     }
     l = &buf->pending[buf->npending++];
@@ -17926,10 +17937,12 @@ static void pds__validate_bin(const pds__photon_job *job, pds__splat_buf *buf, c
     if (pds__light_radiance(job, r, flux, lambda, v->material, pds__f3_get(v->n), g, val)) {
         double y = val[0] + val[1] + val[2], f = y * buf->unit;
         if (y == 0.0) return;
+        if (buf->sums_lock) pds__mutex_lock(buf->sums_lock);
         pds__sel_add(buf, PDS__SEL_THREAD * (size_t)px + 3, y);
         /* the term's square, in units of unit^2 / 2^64 (a term of about
            the unit's radiance gives about 2^64) */
         pds__sel_add(buf, PDS__SEL_THREAD * (size_t)px + 4, f * (f / PDS__TWO64) / buf->unit);
+        if (buf->sums_lock) pds__mutex_unlock(buf->sums_lock);
     }
 }
 
@@ -19492,7 +19505,7 @@ static void pds__sums_into_part(void *ctx, size_t a, size_t b, void *scratch)
     (void)scratch;
     for (p = a; p < b; p++) {
         for (c = 0; c < 3; c++)
-            for (t = 0; t < job->nbufs; t++) {
+            for (t = 0; t < job->nimages; t++) {
                 const pds__splat_buf *buf = &job->bufs[t];
                 size_t i = 3 * p + (size_t)c;
                 saturated += pds__sum128_add_bits(&part->photon[ps * p + (size_t)c], buf->sum[i].lo, buf->sum[i].hi);
@@ -19501,7 +19514,7 @@ static void pds__sums_into_part(void *ctx, size_t a, size_t b, void *scratch)
             }
         if (!job->validate) continue;
         for (c = 0; c < PDS__SEL_THREAD; c++)
-            for (t = 0; t < job->nbufs; t++) {
+            for (t = 0; t < job->nimages; t++) {
                 /* the pixel's sums after its R, G, B */
                 size_t at = ps * p + 3 + (size_t)c;
                 pds__sel_split(job->bufs[t].sel[PDS__SEL_THREAD * p + (size_t)c], &part->photon[at], &part->neg[at]);
@@ -19511,6 +19524,26 @@ static void pds__sums_into_part(void *ctx, size_t a, size_t b, void *scratch)
     pds__mutex_lock(&sj->lock);
     sj->saturated += saturated;
     pds__mutex_unlock(&sj->lock);
+}
+
+/* The image sums a photon pass of splats gives its threads: one each if
+   the render's estimate (pds_render_estimate_get, on these threads) fits
+   the memory (opt->memory_limit, or the machine's), else as many as fit
+   beside the rest of the render, image_bytes each, at least one. Threads
+   then take turns at shared ones (pds__splat_buf.sums_lock): that costs
+   them time, not bits, since the sums are exact. */
+static int pds__images_that_fit(const pds_scene *s, const pds_options *opt, int threads, double image_bytes)
+{
+    pds_render_estimate est;
+    pds_options here = *opt;
+    double limit, fit;
+    here.threads = threads;
+    if (threads <= 1 || !(image_bytes > 0.0) || pds_render_estimate_get(s, &here, &est, NULL) != PDS_OK)
+        return threads;
+    limit = opt->memory_limit > 0.0 ? opt->memory_limit : est.available_bytes;
+    if (!(limit > 0.0) || est.memory_bytes <= limit) return threads;
+    fit = 1.0 + floor((limit - (est.memory_bytes - (threads - 1) * image_bytes)) / image_bytes);
+    return fit < 1.0 ? 1 : fit >= threads ? threads : (int)fit;
 }
 
 /* After the eye pass: emit and trace the caustic photons for method m,
@@ -19617,11 +19650,41 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         paths = (pds__path_rec *)calloc((size_t)threads, sizeof *paths);
         if (!paths) st = PDS_ERR_NOMEM;
     }
+    /* the pixels' choice of scale (pds__scale_choice): only a pinhole
+       camera's RGB render whose eye vertices merge has pixels that take
+       part, so only it splats the second scale and runs the validation's
+       photons, a quarter of a pass's each pass; any other keeps the sums
+       a pixel of the options (the second scale's and the validation's at
+       0, no pixel taking part) */
+    job.validate = part->stride == PDS__STRIDE_SELECT && progressive && !job.spectral &&
+                   !(s->camera.aperture > 0.0) && pds__eye_merges(opt);
+    job.select = job.validate;
+    /* each thread's image sums, or, where memory holds fewer, threads
+       taking turns at shared ones (pds__images_that_fit) */
+    job.nimages = splats ? pds__images_that_fit(s, opt, threads,
+                                                (double)npix * (3 + (job.validate ? PDS__SEL_THREAD : 0) +
+                                                                (job.spectral ? 3 : 0)) *
+                                                    sizeof(pds__sum128))
+                         : threads;
+    if (job.nimages < threads) {
+        job.image_locks = (pds__mutex *)calloc((size_t)job.nimages, sizeof *job.image_locks);
+        if (!job.image_locks) st = PDS_ERR_NOMEM;
+        for (t = 0; job.image_locks && t < job.nimages; t++) pds__mutex_init(&job.image_locks[t]);
+    }
     for (t = 0; t < threads; t++) {
-        job.bufs[t].sum = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
         job.bufs[t].unit = pds__sum_unit(s);
-        if (job.spectral) job.bufs[t].neg = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
-        if (!job.bufs[t].sum || (job.spectral && !job.bufs[t].neg)) st = PDS_ERR_NOMEM;
+        if (t < job.nimages) {
+            job.bufs[t].sum = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
+            if (job.spectral) job.bufs[t].neg = (pds__sum128 *)calloc(npix * 3, sizeof(pds__sum128));
+            if (job.validate) job.bufs[t].sel = (pds__sum128 *)calloc(npix * PDS__SEL_THREAD, sizeof(pds__sum128));
+            if (!job.bufs[t].sum || (job.spectral && !job.bufs[t].neg) || (job.validate && !job.bufs[t].sel))
+                st = PDS_ERR_NOMEM;
+        } else {
+            job.bufs[t].sum = job.bufs[t % job.nimages].sum;
+            job.bufs[t].neg = job.bufs[t % job.nimages].neg;
+            job.bufs[t].sel = job.bufs[t % job.nimages].sel;
+        }
+        if (job.image_locks) job.bufs[t].sums_lock = &job.image_locks[t % job.nimages];
         if (dbg) {
             job.bufs[t].dbg = &dbg[t];
             if (!pds__debug_bufs_init(&dbg[t], s, debug, opt->method, opt->photons, npix)) st = PDS_ERR_NOMEM;
@@ -19633,15 +19696,6 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     }
     job.unit_stride = 1;
     job.nsums = npix * 3;
-    /* the pixels' choice of scale (pds__scale_choice): only a pinhole
-       camera's RGB render whose eye vertices merge has pixels that take
-       part, so only it splats the second scale and runs the validation's
-       photons, a quarter of a pass's each pass; any other keeps the sums
-       a pixel of the options (the second scale's and the validation's at
-       0, no pixel taking part) */
-    job.validate = part->stride == PDS__STRIDE_SELECT && progressive && !job.spectral &&
-                   !(s->camera.aperture > 0.0) && pds__eye_merges(opt);
-    job.select = job.validate;
     if (job.validate) {
         job.direct = (pds__sum128 *)calloc(npix ? npix : 1, sizeof *job.direct);
         job.whole_of = (long *)calloc(npix ? npix : 1, sizeof *job.whole_of);
@@ -19650,10 +19704,6 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         job.validate_seed = pds__mix64(opt->seed ^ PDS__VALIDATE_SEED);
         job.validate_photons = (opt->pass_photons + 3) / 4;
         job.whole_round = -1; /* no map seen yet */
-    }
-    for (t = 0; job.validate && t < threads; t++) {
-        job.bufs[t].sel = (pds__sum128 *)calloc(npix * PDS__SEL_THREAD, sizeof(pds__sum128));
-        if (!job.bufs[t].sel) st = PDS_ERR_NOMEM;
     }
 #ifndef PDS_NO_BASELINES
     if (!st && opt->method == PDS_METHOD_PPM) {
@@ -19733,8 +19783,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         }
 #endif
         for (t = 0; t < threads; t++) {
-            memset(job.bufs[t].sum, 0, job.nsums * sizeof(pds__sum128));
-            if (job.bufs[t].neg) memset(job.bufs[t].neg, 0, job.nsums * sizeof(pds__sum128));
+            if (t < job.nimages) memset(job.bufs[t].sum, 0, job.nsums * sizeof(pds__sum128));
+            if (t < job.nimages && job.bufs[t].neg) memset(job.bufs[t].neg, 0, job.nsums * sizeof(pds__sum128));
             if (dbg) pds__debug_bufs_clear(&dbg[t], npix);
             if (paths) paths[t].n = 0;
             job.bufs[t].splatted = job.bufs[t].degenerate = job.bufs[t].saturated = job.bufs[t].invalid = 0;
@@ -19931,10 +19981,10 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
                                    (map.grid ? npix * sizeof *map.grid + 3 * (map.n - map.n_whole) * sizeof(float)
                                              : 0) +
                                    (map.hot ? map.n * sizeof *map.hot : 0) + stats->map_bytes +
-                                   (size_t)job.nbufs * npix *
-                                       (3 + (job.validate ? PDS__SEL_THREAD : 0) + (dbg && dbg[0].aniso ? 2 : 0) +
-                                        (job.spectral ? 3 : 0)) *
+                                   (size_t)job.nimages * npix *
+                                       (3 + (job.validate ? PDS__SEL_THREAD : 0) + (job.spectral ? 3 : 0)) *
                                        sizeof(pds__sum128) +
+                                   (dbg && dbg[0].aniso ? (size_t)job.nbufs * npix * 2 * sizeof(pds__sum128) : 0) +
                                    (job.validate ? npix * (2 * sizeof(pds__sum128) + sizeof(long)) : 0) +
                                    (splats ? (size_t)job.nbufs * PDS__LANDINGS_HELD * sizeof(pds__landing) : 0);
         }
@@ -19943,9 +19993,11 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     free(job.whole_of);
     free(job.whole_add);
     for (t = 0; t < job.nbufs; t++) {
-        free(job.bufs[t].sum);
-        free(job.bufs[t].neg);
-        free(job.bufs[t].sel);
+        if (t < job.nimages) {
+            free(job.bufs[t].sum);
+            free(job.bufs[t].neg);
+            free(job.bufs[t].sel);
+        }
         if (dbg) pds__debug_bufs_free(&dbg[t]);
         if (paths) free(paths[t].ev);
         free(job.bufs[t].stored);
@@ -19953,6 +20005,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         free(job.bufs[t].pending);
     }
     free(job.bufs);
+    for (t = 0; job.image_locks && t < job.nimages; t++) pds__mutex_destroy(&job.image_locks[t]);
+    free(job.image_locks);
     free(dbg);
     free(paths);
     pds__eye_map_free_index(&map);
@@ -24368,9 +24422,12 @@ static pds_status pds__render_memory_check(const pds_scene *scene, const pds_opt
     limit = opt->memory_limit > 0.0 ? opt->memory_limit : est.available_bytes;
     if (!(limit > 0.0 && est.memory_bytes > limit)) return PDS_OK;
     /* every thread of a photon method has image sums of its own (>>pds,
-       pds__splat_buf): say how many threads would fit, if fewer would */
+       pds__splat_buf): pds's and splat's threads share them where one
+       each does not fit (pds__images_that_fit); for the other methods,
+       say how many threads would fit, if fewer would */
     one.threads = 1;
     if (pds_render_estimate_get(scene, &one, &one_est, err) == PDS_OK && one_est.memory_bytes <= limit) {
+        if (opt->method == PDS_METHOD_PDS || opt->method == PDS_METHOD_SPLAT) return PDS_OK;
         int threads = opt->threads > 0 ? opt->threads : pds_cpu_count();
         double each = threads > 1 ? (est.memory_bytes - one_est.memory_bytes) / (threads - 1) : 0.0;
         if (each > 0.0) {

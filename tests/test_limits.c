@@ -295,20 +295,53 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
               "two threads %lu bytes, one %lu", (unsigned long)st.memory_bytes, (unsigned long)one.memory_bytes);
     }
     {
-        /* over the limit on 4 threads and within it on 2: the refusal
-           says what a thread holds and that 2 would fit */
+        /* over the limit on 4 threads and within it on 2: pm is refused
+           with what a thread holds and that 2 would fit, and not told so
+           where one alone is over; pds, where 2 of its 4 threads' images
+           (3 + 5 sums a pixel) fit, renders with its threads taking turns
+           at 2 shared ones: 2 images less memory than on its own 4, and
+           the same image bit for bit as on one thread */
         pds_render_estimate e4, e1;
-        opt.threads = 4;
-        REQUIRE(t, pds_render_estimate_get(s, &opt, &e4, &err) == PDS_OK, "4 threads: %s", err.text);
-        opt.threads = 1;
-        REQUIRE(t, pds_render_estimate_get(s, &opt, &e1, &err) == PDS_OK, "1 thread: %s", err.text);
-        opt.threads = 4;
-        opt.memory_limit = e1.memory_bytes + 1.5 * (e4.memory_bytes - e1.memory_bytes) / 3.0;
-        CHECK(t, pds_render(s, &opt, &img, &st, &err) == PDS_ERR_LIMIT && limits_contains(err.message, "2 would fit"),
-              "4 threads over the limit: %s", err.text);
-        opt.memory_limit = e1.memory_bytes - 1.0;
-        CHECK(t, pds_render(s, &opt, &img, &st, &err) == PDS_ERR_LIMIT && !limits_contains(err.message, "would fit"),
-              "1 thread over the limit: %s", err.text);
+        pds_render_stats s4, own;
+        double image = pixels * (3 + PDS__SEL_THREAD) * sizeof(pds__sum128);
+        pds_image one_img = {0, 0, NULL};
+        int m;
+        for (m = 0; m < 2; m++) {
+            opt.method = m ? PDS_METHOD_PDS : PDS_METHOD_PM;
+            opt.split_depth = 0;
+            opt.pass_select = 1;
+            opt.memory_limit = 0.0;
+            opt.threads = 4;
+            REQUIRE(t, pds_render_estimate_get(s, &opt, &e4, &err) == PDS_OK, "4 threads: %s", err.text);
+            opt.threads = 1;
+            REQUIRE(t, pds_render_estimate_get(s, &opt, &e1, &err) == PDS_OK, "1 thread: %s", err.text);
+            if (m) REQUIRE(t, pds_render(s, &opt, &one_img, NULL, &err) == PDS_OK, "pds, 1 thread: %s", err.text);
+            opt.threads = 4;
+            if (m) {
+                REQUIRE(t, pds_render(s, &opt, &img, &own, &err) == PDS_OK, "pds, 4 threads: %s", err.text);
+                pds_image_free(&img);
+            }
+            opt.memory_limit = m ? e4.memory_bytes - 1.5 * image
+                                 : e1.memory_bytes + 1.5 * (e4.memory_bytes - e1.memory_bytes) / 3.0;
+            if (!m) {
+                CHECK(t, pds_render(s, &opt, &img, &st, &err) == PDS_ERR_LIMIT &&
+                             limits_contains(err.message, "2 would fit"),
+                      "pm, 4 threads over the limit: %s", err.text);
+                opt.memory_limit = e1.memory_bytes - 1.0;
+                CHECK(t, pds_render(s, &opt, &img, &st, &err) == PDS_ERR_LIMIT &&
+                             !limits_contains(err.message, "would fit"),
+                      "pm, 1 thread over the limit: %s", err.text);
+                continue;
+            }
+            REQUIRE(t, pds_render(s, &opt, &img, &s4, &err) == PDS_OK, "pds, 4 threads, 2 images: %s", err.text);
+            CHECK(t, memcmp(img.rgb, one_img.rgb, sizeof(float) * 3 * (size_t)img.width * img.height) == 0,
+                  "pds on 4 threads sharing 2 images differs from 1 thread");
+            CHECK(t, (double)own.memory_bytes - (double)s4.memory_bytes == 2 * image,
+                  "pds held %lu bytes sharing, %lu on its own: not 2 images less", (unsigned long)s4.memory_bytes,
+                  (unsigned long)own.memory_bytes);
+            pds_image_free(&img);
+            pds_image_free(&one_img);
+        }
         opt.memory_limit = 0.0;
     }
     pds_scene_free(s);
