@@ -13192,13 +13192,15 @@ typedef struct pds__choice {
    edges; and the column-major copies of m and of the edges below. */
 static void pds__choice_read(void *ctx, size_t a, size_t b, void *scratch)
 {
+    static const pds__sum128 none[PDS__STRIDE_SELECT]; /* S- where there is none: 0 */
     const pds__choice *q = (const pds__choice *)ctx;
     size_t i, w = (size_t)q->w, h = (size_t)q->h;
     double scale = q->scale;
     int c;
     (void)scratch;
     for (i = a; i < b; i++) {
-        const pds__sum128 *ps = q->photon + PDS__STRIDE_SELECT * i, *ns = q->neg + PDS__STRIDE_SELECT * i;
+        const pds__sum128 *ps = q->photon + PDS__STRIDE_SELECT * i;
+        const pds__sum128 *ns = q->neg ? q->neg + PDS__STRIDE_SELECT * i : none;
         size_t at = (i % w) * h + i / w; /* in the column-major copies */
         for (c = 0; c < 3; c++) {
             q->rgb[3 * i + c] = (pds__sum128_value(ps[c]) - pds__sum128_value(ns[c])) * scale;
@@ -13425,7 +13427,8 @@ static long pds__partial_image(const double *eye, const pds__sum128 *photon, con
             rgb[i] += sel[i];
         } else if (photon && emitted > 0) {
             size_t at = stride == 3 ? i : (size_t)stride * (i / 3) + i % 3;
-            rgb[i] += (pds__sum128_value(photon[at]) - pds__sum128_value(neg[at])) / unit * (n_planned / (double)emitted);
+            rgb[i] += (pds__sum128_value(photon[at]) - (neg ? pds__sum128_value(neg[at]) : 0.0)) / unit *
+                      (n_planned / (double)emitted);
         }
     }
     nonfinite = pds__finite_floats(rgb, out, n);
@@ -13552,10 +13555,16 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
     nsums = npix / 3 * (size_t)p0->stride;
     eye = (double *)calloc(npix, sizeof *eye);
     if (p0->split != PDS__SPLIT_ROWS) {
+        int any_neg = 0;
         photon = (pds__sum128 *)calloc(nsums, sizeof *photon);
-        neg = (pds__sum128 *)calloc(nsums, sizeof *neg);
+        for (i = 0; i < n; i++) any_neg |= parts[i]->neg != NULL;
+        if (any_neg) neg = (pds__sum128 *)calloc(nsums, sizeof *neg);
+        if (any_neg && !neg) {
+            free(photon);
+            photon = NULL;
+        }
     }
-    if (!eye || (p0->split != PDS__SPLIT_ROWS && (!photon || !neg)) ||
+    if (!eye || (p0->split != PDS__SPLIT_ROWS && !photon) ||
         pds_image_alloc(out, p0->width, p0->height) != PDS_OK) {
         free(eye);
         free(photon);
@@ -13573,7 +13582,7 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
         if (photon) {
             for (k = 0; k < nsums; k++) {
                 pds__sum128_add_bits(&photon[k], p->photon[k].lo, p->photon[k].hi);
-                pds__sum128_add_bits(&neg[k], p->neg[k].lo, p->neg[k].hi);
+                if (p->neg) pds__sum128_add_bits(&neg[k], p->neg[k].lo, p->neg[k].hi);
             }
             if (p->split == PDS__SPLIT_PHOTONS) emitted += p->emitted;
             else if (p->emitted > emitted) emitted = p->emitted;
@@ -13709,7 +13718,8 @@ static size_t pds__partial_file_size(int nopt, int width, int height, int split,
 }
 
 /* Where word k of a part's values (pds__partial_words' order) is: 8
-   bytes, read and written with memcpy (an eye value is a double). */
+   bytes, read and written with memcpy (an eye value is a double); NULL
+   for a word of S- where the part has none (all 0). */
 static void *pds__partial_word_at(const pds_partial *p, size_t k)
 {
     size_t row = (size_t)p->width * 3, eye = (size_t)p->rows_done * row, sums;
@@ -13717,14 +13727,16 @@ static void *pds__partial_word_at(const pds_partial *p, size_t k)
     if (k < eye) return &p->eye[((size_t)p->shard_index + k / row * (size_t)p->shard_count) * row + k % row];
     k -= eye;
     sums = (size_t)p->width * (size_t)p->stride * (size_t)p->height;
+    if (k >= 2 * sums && !p->neg) return NULL;
     s = k < 2 * sums ? &p->photon[k / 2] : &p->neg[(k - 2 * sums) / 2];
     return k % 2 ? (void *)&s->hi : (void *)&s->lo;
 }
 
 static uint64_t pds__partial_word(const pds_partial *p, size_t k)
 {
-    uint64_t v;
-    memcpy(&v, pds__partial_word_at(p, k), sizeof v);
+    uint64_t v = 0;
+    const void *at = pds__partial_word_at(p, k);
+    if (at) memcpy(&v, at, sizeof v);
     return v;
 }
 
@@ -13988,10 +14000,11 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
     row = (size_t)width * 3;
     p->eye = (double *)calloc(row * (size_t)height, sizeof *p->eye);
     if (split != PDS__SPLIT_ROWS) {
+        /* S- in groups only where one of its words is not 0 (below) */
         p->photon = (pds__sum128 *)calloc((size_t)width * (size_t)stride * (size_t)height, sizeof *p->photon);
-        p->neg = (pds__sum128 *)calloc((size_t)width * (size_t)stride * (size_t)height, sizeof *p->neg);
+        if (!grouped) p->neg = (pds__sum128 *)calloc((size_t)width * (size_t)stride * (size_t)height, sizeof *p->neg);
     }
-    if (!p->eye || (split != PDS__SPLIT_ROWS && (!p->photon || !p->neg))) {
+    if (!p->eye || (split != PDS__SPLIT_ROWS && (!p->photon || (!grouped && !p->neg)))) {
         free(data);
         pds_partial_free(p);
         return pds__nomem(err);
@@ -14007,7 +14020,19 @@ pds_status pds_partial_read(const char *path, pds_partial **out, pds_error *err)
             at += 16;
             for (k = 0; k < words; k++, at += 8) {
                 uint64_t v = pds__get_u64(b + at);
-                memcpy(pds__partial_word_at(p, w++), &v, sizeof v);
+                void *to = pds__partial_word_at(p, w);
+                if (!to) {
+                    /* the first word of S- that is not 0 */
+                    p->neg = (pds__sum128 *)calloc((size_t)width * (size_t)stride * (size_t)height, sizeof *p->neg);
+                    if (!p->neg) {
+                        free(data);
+                        pds_partial_free(p);
+                        return pds__nomem(err);
+                    }
+                    to = pds__partial_word_at(p, w);
+                }
+                memcpy(to, &v, sizeof v);
+                w++;
             }
         }
         free(data);
@@ -16160,6 +16185,8 @@ typedef struct pds__splat_buf {
                               the second scale's R, G, B, the validation's
                               R + G + B and its terms' squares, signed
                               (pds__sel_add); else NULL */
+    int sel_negative;      /* a negative term went into sel (the part then
+                              needs its S-) */
     pds__mutex *sums_lock; /* sums shared with other threads (too little
                               memory for one image each, pds__photon_pass):
                               held while adding to them; else NULL */
@@ -16414,6 +16441,7 @@ static void pds__sel_add(pds__splat_buf *b, size_t i, double v)
     } else {
         s->hi -= th + (s->lo < t);
         s->lo -= t;
+        b->sel_negative = 1;
     }
 }
 
@@ -16421,9 +16449,10 @@ static void pds__sel_add(pds__splat_buf *b, size_t i, double v)
 static void pds__sel_split(pds__sum128 v, pds__sum128 *pos, pds__sum128 *neg)
 {
     if (v.hi >> 63) {
-        /* negative: its magnitude is the two's complement */
+        /* negative: its magnitude is the two's complement (neg is there:
+           the pass gave the part an S- when a term was negative) */
         uint64_t lo = ~v.lo + 1u, hi = ~v.hi + (lo == 0u);
-        (void)pds__sum128_add_bits(neg, lo, hi);
+        if (neg) (void)pds__sum128_add_bits(neg, lo, hi);
     } else {
         (void)pds__sum128_add_bits(pos, v.lo, v.hi);
     }
@@ -19517,7 +19546,8 @@ static void pds__sums_into_part(void *ctx, size_t a, size_t b, void *scratch)
             for (t = 0; t < job->nimages; t++) {
                 /* the pixel's sums after its R, G, B */
                 size_t at = ps * p + 3 + (size_t)c;
-                pds__sel_split(job->bufs[t].sel[PDS__SEL_THREAD * p + (size_t)c], &part->photon[at], &part->neg[at]);
+                pds__sel_split(job->bufs[t].sel[PDS__SEL_THREAD * p + (size_t)c], &part->photon[at],
+                               part->neg ? &part->neg[at] : NULL);
             }
         saturated += pds__sum128_add_bits(&part->photon[ps * p + PDS__SEL_COUNT], job->direct[p].lo, job->direct[p].hi);
     }
@@ -19903,8 +19933,16 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
            the image divides by the count actually emitted
            (pds__partial_image). */
         long saturated = 0;
+        int need_neg = 0;
         pds__sums_job sj;
-        if (!job.cancelled || splats) {
+        for (t = 0; t < job.nbufs; t++) need_neg |= job.bufs[t].sel_negative;
+        if (!part->neg && part->photon && (job.spectral || need_neg)) {
+            /* a negative term where the part has no S- (an RGB render's,
+               or one read from a file that had none) */
+            part->neg = (pds__sum128 *)calloc(npix * (size_t)part->stride, sizeof *part->neg);
+            if (!part->neg) st = PDS_ERR_NOMEM;
+        }
+        if (!st && (!job.cancelled || splats)) {
             sj.job = &job;
             sj.part = part;
             sj.saturated = 0;
@@ -24071,10 +24109,13 @@ static pds_partial *pds__partial_new(const pds_scene *scene, const pds_options *
     p->stride = pds__photon_stride(opt);
     p->eye = (double *)calloc(n, sizeof *p->eye);
     if (p->split != PDS__SPLIT_ROWS) {
+        /* S- only where a splat can be negative: a spectral render's (an
+           RGB render's stays 0, and NULL stands for it; the photon pass
+           adds it if a term turns out negative after all) */
         p->photon = (pds__sum128 *)calloc(n / 3 * (size_t)p->stride, sizeof *p->photon);
-        p->neg = (pds__sum128 *)calloc(n / 3 * (size_t)p->stride, sizeof *p->neg);
+        if (pds__render_is_spectral(scene, opt)) p->neg = (pds__sum128 *)calloc(n / 3 * (size_t)p->stride, sizeof *p->neg);
     }
-    if (!p->eye || (p->split != PDS__SPLIT_ROWS && (!p->photon || !p->neg))) {
+    if (!p->eye || (p->split != PDS__SPLIT_ROWS && (!p->photon || (pds__render_is_spectral(scene, opt) && !p->neg)))) {
         pds_partial_free(p);
         return NULL;
     }
