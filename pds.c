@@ -16448,6 +16448,7 @@ static void pds__sel_add(pds__splat_buf *b, size_t i, double v)
 /* A signed sum of pds__sel_add, as the two sums (S+, S-) the part holds. */
 static void pds__sel_split(pds__sum128 v, pds__sum128 *pos, pds__sum128 *neg)
 {
+    if (!(v.lo | v.hi)) return;
     if (v.hi >> 63) {
         /* negative: its magnitude is the two's complement (neg is there:
            the pass gave the part an S- when a term was negative) */
@@ -19525,6 +19526,8 @@ typedef struct pds__sums_job {
 
 static void pds__sums_into_part(void *ctx, size_t a, size_t b, void *scratch)
 {
+    /* (a sum of 0 is not added: the part's pages no photon reached are
+       never written, so they take no memory) */
     pds__sums_job *sj = (pds__sums_job *)ctx;
     const struct pds__photon_job *job = sj->job;
     pds_partial *part = sj->part;
@@ -19537,8 +19540,10 @@ static void pds__sums_into_part(void *ctx, size_t a, size_t b, void *scratch)
             for (t = 0; t < job->nimages; t++) {
                 const pds__splat_buf *buf = &job->bufs[t];
                 size_t i = 3 * p + (size_t)c;
-                saturated += pds__sum128_add_bits(&part->photon[ps * p + (size_t)c], buf->sum[i].lo, buf->sum[i].hi);
-                if (job->spectral)
+                if (buf->sum[i].lo | buf->sum[i].hi)
+                    saturated +=
+                        pds__sum128_add_bits(&part->photon[ps * p + (size_t)c], buf->sum[i].lo, buf->sum[i].hi);
+                if (job->spectral && (buf->neg[i].lo | buf->neg[i].hi))
                     saturated += pds__sum128_add_bits(&part->neg[ps * p + (size_t)c], buf->neg[i].lo, buf->neg[i].hi);
             }
         if (!job->validate) continue;
@@ -19549,7 +19554,9 @@ static void pds__sums_into_part(void *ctx, size_t a, size_t b, void *scratch)
                 pds__sel_split(job->bufs[t].sel[PDS__SEL_THREAD * p + (size_t)c], &part->photon[at],
                                part->neg ? &part->neg[at] : NULL);
             }
-        saturated += pds__sum128_add_bits(&part->photon[ps * p + PDS__SEL_COUNT], job->direct[p].lo, job->direct[p].hi);
+        if (job->direct[p].lo | job->direct[p].hi)
+            saturated +=
+                pds__sum128_add_bits(&part->photon[ps * p + PDS__SEL_COUNT], job->direct[p].lo, job->direct[p].hi);
     }
     pds__mutex_lock(&sj->lock);
     sj->saturated += saturated;
