@@ -13713,7 +13713,8 @@ static double pds__partial_words(int width, int height, int split, long rows_don
    (pds__partial_groups); 0 if it would not fit in a size_t. */
 static size_t pds__partial_file_size(int nopt, int width, int height, int split, long rows_done, int stride)
 {
-    double bytes = PDS__PARTIAL_HEADER_AT(nopt) + 8.0 + 8.0 * pds__partial_words(width, height, split, rows_done, stride);
+    double bytes =
+        PDS__PARTIAL_HEADER_AT(nopt) + 8.0 + 8.0 * pds__partial_words(width, height, split, rows_done, stride);
     return bytes < (double)((size_t)-1) / 2 ? (size_t)bytes : 0;
 }
 
@@ -24071,6 +24072,7 @@ static pds_partial *pds__partial_new(const pds_scene *scene, const pds_options *
     /* gi's caustics come from its caustic method, split as that method's */
     pds_method cm = opt->method == PDS_METHOD_GI ? opt->caustics : opt->method;
     int photons = pds__is_photon_method(cm) && opt->paths != PDS_PATHS_NO_CAUSTICS;
+    int spectral = pds__render_is_spectral(scene, opt);
     if (!p) return NULL;
     pds__strlcpy(p->version, PDS_VERSION_STRING, sizeof p->version);
     p->scene_hash = pds_scene_hash(scene);
@@ -24120,9 +24122,9 @@ static pds_partial *pds__partial_new(const pds_scene *scene, const pds_options *
            RGB render's stays 0, and NULL stands for it; the photon pass
            adds it if a term turns out negative after all) */
         p->photon = (pds__sum128 *)calloc(n / 3 * (size_t)p->stride, sizeof *p->photon);
-        if (pds__render_is_spectral(scene, opt)) p->neg = (pds__sum128 *)calloc(n / 3 * (size_t)p->stride, sizeof *p->neg);
+        if (spectral) p->neg = (pds__sum128 *)calloc(n / 3 * (size_t)p->stride, sizeof *p->neg);
     }
-    if (!p->eye || (p->split != PDS__SPLIT_ROWS && (!p->photon || (pds__render_is_spectral(scene, opt) && !p->neg)))) {
+    if (!p->eye || (p->split != PDS__SPLIT_ROWS && (!p->photon || (spectral && !p->neg)))) {
         pds_partial_free(p);
         return NULL;
     }
