@@ -365,9 +365,10 @@ static int pds__threads_run(int n, void *(*fn)(void *), void *arg)
 }
 
 /* A loop over items [0, n) shared by threads: fn(ctx, a, b, scratch) on
-   shares [a, b) of `share` items, taken in turn under a mutex by at most
-   `threads` threads, each with scratch_bytes of scratch of its own (NULL
-   if 0). Each item must be computed as it would be alone (its own
+   shares [a, b), a few a thread (a busy machine's threads finish
+   unevenly) and at least min_share items each, taken in turn under a
+   mutex by at most `threads` threads, each with scratch_bytes of scratch
+   of its own (NULL if 0). Each item must be computed as it would be alone (its own
    outputs, read-only inputs), so the result is the same for any thread
    count; a loop of fewer than two shares runs on the caller's thread
    alone. Returns 0 if memory for the scratch ran out before every share
@@ -398,14 +399,17 @@ static void *pds__range_worker(void *arg)
     return NULL;
 }
 
-static int pds__parallel_for(int threads, size_t n, size_t share, size_t scratch_bytes, pds__range_fn fn, void *ctx)
+static int pds__parallel_for(int threads, size_t n, size_t min_share, size_t scratch_bytes, pds__range_fn fn,
+                             void *ctx)
 {
     pds__range_job job;
-    size_t shares = share > 0 ? (n + share - 1) / share : 1;
+    size_t share = n / (size_t)(4 * (threads > 1 ? threads : 1)) + 1, shares;
+    if (share < min_share) share = min_share;
+    shares = (n + share - 1) / share;
     job.fn = fn;
     job.ctx = ctx;
     job.n = n;
-    job.share = share > 0 ? share : n;
+    job.share = share;
     job.next = 0;
     job.scratch_bytes = scratch_bytes;
     pds__mutex_init(&job.lock);
@@ -12832,9 +12836,10 @@ void pds_partial_options(const pds_partial *p, pds_options *opt)
    into tmp (w h doubles of scratch), then the columns' side by side as
    the rows come (in memory order; each column's sum, in cols[w], takes
    the same additions in the same order as one column at a time would).
-   Rows, then columns, are shared by threads (pds__parallel_for) in
-   images of PDS__PARALLEL_PIXELS or more: each row's and each column's
-   sums are their own, so the means are the same bits for any count. */
+   Rows, then columns, are shared by `threads` threads
+   (pds__parallel_for; the choice gives one below PDS__PARALLEL_PIXELS):
+   each row's and each column's sums are their own, so the means are the
+   same bits for any count. */
 #define PDS__PARALLEL_PIXELS 131072
 typedef struct pds__box_job {
     double *x, *tmp, *cols;
@@ -12899,12 +12904,9 @@ static void pds__box_mean(double *x, double *tmp, double *cols, int w, int h, in
     job.w = w;
     job.h = h;
     job.r = r;
-    threads = pds__image_threads(threads, (size_t)w * (size_t)h);
-    /* a few shares a thread (a busy machine's threads finish unevenly);
-       columns in shares of at least 64 (whole cache lines) */
-    (void)pds__parallel_for(threads, (size_t)h, (size_t)h / (size_t)(4 * threads) + 1, 0, pds__box_rows, &job);
-    (void)pds__parallel_for(threads, (size_t)w, (size_t)fmax(64.0, (double)w / (4.0 * threads) + 1.0), 0,
-                            pds__box_cols, &job);
+    /* columns in shares of at least 64 (whole cache lines) */
+    (void)pds__parallel_for(threads, (size_t)h, 1, 0, pds__box_rows, &job);
+    (void)pds__parallel_for(threads, (size_t)w, 64, 0, pds__box_cols, &job);
 }
 
 /* The pixels' choice of scale (an extension; pds_options.pass_select).
@@ -13020,10 +13022,9 @@ static void pds__masked_box(double *x, const double *m, const double *den, doubl
     job.x = x;
     job.m = m;
     job.den = den;
-    threads = pds__image_threads(threads, n);
-    (void)pds__parallel_for(threads, n, n / (size_t)(4 * threads) + 1, 0, pds__mask_times, &job);
+    (void)pds__parallel_for(threads, n, 1, 0, pds__mask_times, &job);
     for (k = 0; k < times; k++) pds__box_mean(x, tmp, cols, w, h, r, threads);
-    (void)pds__parallel_for(threads, n, n / (size_t)(4 * threads) + 1, 0, pds__mask_divide, &job);
+    (void)pds__parallel_for(threads, n, 1, 0, pds__mask_divide, &job);
 }
 
 /* Box means within segments, along lines: line l's len values are
@@ -13108,7 +13109,7 @@ static void pds__transpose_channel(double *rgb, double *t, int w, int h, int c, 
     job.h = h;
     job.c = c;
     job.back = back;
-    (void)pds__parallel_for(threads, tiles, tiles / (size_t)(4 * threads) + 1, 0, pds__transpose_tiles, &job);
+    (void)pds__parallel_for(threads, tiles, 1, 0, pds__transpose_tiles, &job);
 }
 
 /* Box means of an RGB image (w x h) within its segments, `times` times:
@@ -13124,7 +13125,6 @@ static int pds__segmented_box(double *rgb, const double *m, const double *mt, co
 {
     pds__segment_job row, col;
     int pass, c;
-    threads = pds__image_threads(threads, (size_t)w * (size_t)h);
     row.stride = 3 * (size_t)w;
     row.step = 3;
     row.m = m;
@@ -13141,13 +13141,13 @@ static int pds__segmented_box(double *rgb, const double *m, const double *mt, co
     for (c = 0; c < 3; c++) {
         row.x = rgb + c;
         for (pass = 0; pass < times; pass++) {
-            if ((dirs & 1) && !pds__parallel_for(threads, (size_t)h, (size_t)h / (size_t)(4 * threads) + 1,
-                                                 sizeof(double) * ((size_t)w + 1), pds__segment_lines, &row))
+            if ((dirs & 1) && !pds__parallel_for(threads, (size_t)h, 1, sizeof(double) * ((size_t)w + 1),
+                                                 pds__segment_lines, &row))
                 return 0;
             if (dirs & 2) {
                 pds__transpose_channel(rgb, t, w, h, c, 0, threads);
-                if (!pds__parallel_for(threads, (size_t)w, (size_t)w / (size_t)(4 * threads) + 1,
-                                       sizeof(double) * ((size_t)h + 1), pds__segment_lines, &col))
+                if (!pds__parallel_for(threads, (size_t)w, 1, sizeof(double) * ((size_t)h + 1), pds__segment_lines,
+                                       &col))
                     return 0;
                 pds__transpose_channel(rgb, t, w, h, c, 1, threads);
             }
@@ -13280,7 +13280,7 @@ static void pds__choice_pick(void *ctx, size_t a, size_t b, void *scratch)
 static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, int w, int h, long passes,
                              double scale, double *rgb, long chose[PDS__SELECT_ESTIMATES], int threads)
 {
-    size_t n = (size_t)w * (size_t)h, i, share;
+    size_t n = (size_t)w * (size_t)h, i;
     /* one block: per pixel the weight m and its column-major copy, V,
        V's variance, the errors' box of m, the pass's error, a
        candidate's error and its noise, the best error so far, a scratch
@@ -13326,8 +13326,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
     q.kappa = pds__box3_square_sum(PDS__SELECT_RADIUS);
     q.kappa *= q.kappa; /* two dimensions */
     threads = pds__image_threads(threads, n);
-    share = n / (size_t)(4 * threads) + 1;
-    (void)pds__parallel_for(threads, n, share, 0, pds__choice_read, &q);
+    (void)pds__parallel_for(threads, n, 1, 0, pds__choice_read, &q);
     for (i = 0; i < n; i++)
         if (q.m[i] > 0.0) {
             any = 1;
@@ -13344,7 +13343,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
        value would have if it came in terms of the average size wbar (a
        pixel no validation photon met is not thereby known exactly) */
     q.wbar = vsum > 0.0 ? v2sum / vsum : 0.0;
-    (void)pds__parallel_for(threads, n, share, 0, pds__choice_floor, &q);
+    (void)pds__parallel_for(threads, n, 1, 0, pds__choice_floor, &q);
     memcpy(q.derr, q.m, sizeof(double) * n);
     for (k = 0; k < 3; k++) pds__box_mean(q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, threads);
     for (q.j = 0; q.j < 2 + PDS__SELECT_BLURS; q.j++) {
@@ -13369,7 +13368,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
            -2 (L_0 - L_j) dV, whose variance over the boxes' weights g is
            4 sum g^2 (L_0 - L_j)^2 Var V ~ 4 kappa mean((L_0 - L_j)^2 Var V)
            / (their weight there) */
-        (void)pds__parallel_for(threads, n, share, 0, pds__choice_terms, &q);
+        (void)pds__parallel_for(threads, n, 1, 0, pds__choice_terms, &q);
         pds__masked_box(q.err, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
         if (q.j == 0) {
             memcpy(q.e0, q.err, sizeof(double) * n);
@@ -13381,7 +13380,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
         pds__masked_box(q.noise, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
         pds__masked_box(q.dd, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
         pds__masked_box(q.xx, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
-        (void)pds__parallel_for(threads, n, share, 0, pds__choice_pick, &q);
+        (void)pds__parallel_for(threads, n, 1, 0, pds__choice_pick, &q);
     }
     for (i = 0; i < n; i++)
         if (q.m[i] > 0.0) {
@@ -13487,7 +13486,7 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
                                      long chose[PDS__SELECT_ESTIMATES], pds_error *err)
 {
     const pds_partial *p0;
-    int *owner = NULL, i, shards, threads;
+    int *owner = NULL, i, shards, threads, any_neg = 0;
     size_t npix, k, nsums;
     double *eye = NULL;
     pds__sum128 *photon = NULL, *neg = NULL;
@@ -13554,17 +13553,12 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
     }
     nsums = npix / 3 * (size_t)p0->stride;
     eye = (double *)calloc(npix, sizeof *eye);
+    for (i = 0; i < n; i++) any_neg |= parts[i]->neg != NULL;
     if (p0->split != PDS__SPLIT_ROWS) {
-        int any_neg = 0;
         photon = (pds__sum128 *)calloc(nsums, sizeof *photon);
-        for (i = 0; i < n; i++) any_neg |= parts[i]->neg != NULL;
         if (any_neg) neg = (pds__sum128 *)calloc(nsums, sizeof *neg);
-        if (any_neg && !neg) {
-            free(photon);
-            photon = NULL;
-        }
     }
-    if (!eye || (p0->split != PDS__SPLIT_ROWS && !photon) ||
+    if (!eye || (p0->split != PDS__SPLIT_ROWS && (!photon || (any_neg && !neg))) ||
         pds_image_alloc(out, p0->width, p0->height) != PDS_OK) {
         free(eye);
         free(photon);
@@ -19955,8 +19949,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             sj.part = part;
             sj.saturated = 0;
             pds__mutex_init(&sj.lock);
-            (void)pds__parallel_for(pds__image_threads(job.nbufs, npix), npix, npix / (size_t)(4 * job.nbufs) + 1, 0,
-                                    pds__sums_into_part, &sj);
+            (void)pds__parallel_for(pds__image_threads(job.nbufs, npix), npix, 1, 0, pds__sums_into_part, &sj);
             pds__mutex_destroy(&sj.lock);
             saturated = sj.saturated;
         }
