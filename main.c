@@ -1977,10 +1977,10 @@ static int cmd_render(int argc, char **argv)
     pds_render_stats stats;
     pds_partial *part = NULL;
     pds_partial_info info;
-    pds_error err;
-    pds_status st;
+    pds_error err, image_err;
+    pds_status st, image_st = PDS_OK;
     double checkpoint_s = 0.0, t_start;
-    int i, r, k, rc = 0, shard_given = 0, part_only, checkpoints = 0, pfm;
+    int i, r, k, rc = 0, shard_given = 0, part_only, checkpoints = 0, pfm, interrupted;
     cfg_init(&c);
     for (i = 0; i < argc; i++) {
         const char *a = argv[i], *v;
@@ -2168,13 +2168,27 @@ static int cmd_render(int argc, char **argv)
     /* from here a signal ends the process, removing the temporary files */
     stop_gracefully = 0;
     stats.time_total_s = pds_time_now() - t_start; /* every call's, checkpoints included */
+    interrupted = stats.partial && stop_requested && c.opt.time_s <= 0.0 && !c.debug.views;
+    if (st == PDS_OK && !rc && !interrupted && !part_only) {
+        /* the image, before its metadata: where the pixels choose their
+           scale that is part of the photons' estimate, and its time is
+           the photon pass's (the budget left it room), as in pds_render */
+        double t_image = pds_time_now();
+        int chosen = 0;
+        image_st = part_image(part, &img, &stats, &image_err);
+        for (k = 0; k < PDS_SCALE_ESTIMATES; k++) chosen |= stats.scale_pixels[k] > 0;
+        if (image_st == PDS_OK && chosen) {
+            stats.time_photons_s += pds_time_now() - t_image;
+            stats.time_total_s += pds_time_now() - t_image;
+        }
+    }
     render_meta(&c, &stats, scene_path);
     if (c.progress) progress_end(st == PDS_OK && !stats.partial);
     if (rc) {
         /* the checkpoint's message is out */
     } else if (st != PDS_OK) {
         rc = fail("%s", pds_error_string(&err));
-    } else if (stats.partial && stop_requested && c.opt.time_s <= 0.0 && !c.debug.views) {
+    } else if (interrupted) {
         /* interrupted: the image of what is done, and the state to go on */
         pds_partial_get_info(part, &info);
         rc = write_part(part, part_path, part_only ? NULL : output, c.exposure);
@@ -2191,9 +2205,9 @@ static int cmd_render(int argc, char **argv)
     } else {
         /* from here until they are in place a signal removes the images'
            temporary files */
-        if (temp_arm(0, output)) rc = 1;
-        else if (part_image(part, &img, &stats, &err) != PDS_OK ||
-                 image_write(output, &img, c.exposure, &image_meta, &err) != PDS_OK)
+        if (image_st != PDS_OK) rc = fail("%s", pds_error_string(&image_err));
+        else if (temp_arm(0, output)) rc = 1;
+        else if (image_write(output, &img, c.exposure, &image_meta, &err) != PDS_OK)
             rc = fail("%s", pds_error_string(&err));
         temp_disarm(0);
         for (k = 0; k < PDS_DEBUG_VIEWS && rc == 0; k++) {

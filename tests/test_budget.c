@@ -358,14 +358,15 @@ static void test_probe_parallel_counts_the_threads_that_had_work(pds_test_ctx *t
 /* A simulated machine for the time planner, given to the render as its
    clock (pds__clock): its time is a pure function of the work the
    render tells it of (photons traced, photons built into a map, eye
-   vertices queried, photons found), each at a fixed cost in seconds
+   vertices queried, photons found, pixels whose scale progressive PDS
+   chooses), each at a fixed cost in seconds
    whichever thread does it, so that a render on it is the same whatever
    the threads' order, and cheap: its seconds are not spent. Guarded by
    a lock (tracing threads tell it their batches and read it). */
 typedef struct budget_machine {
     pds__mutex lock;
-    double traced, queried, found, build_s;  /* the work told so far */
-    double trace_s, query_s, found_s, map_s; /* what each costs; a map of m photons: map_s m log2 m */
+    double traced, queried, found, build_s, chosen;   /* the work told so far */
+    double trace_s, query_s, found_s, map_s, chosen_s; /* what each costs; a map of m photons: map_s m log2 m */
 } budget_machine;
 
 static double budget_machine_now(void *user)
@@ -373,7 +374,7 @@ static double budget_machine_now(void *user)
     budget_machine *m = (budget_machine *)user;
     double t;
     pds__mutex_lock(&m->lock);
-    t = m->traced * m->trace_s + m->queried * m->query_s + m->found * m->found_s + m->build_s;
+    t = m->traced * m->trace_s + m->queried * m->query_s + m->found * m->found_s + m->build_s + m->chosen * m->chosen_s;
     pds__mutex_unlock(&m->lock);
     return t;
 }
@@ -386,17 +387,19 @@ static void budget_machine_spent(void *user, pds__work what, double units)
     if (what == PDS__WORK_MAPPED) m->build_s += m->map_s * units * log2(fmax(2.0, units));
     if (what == PDS__WORK_QUERIED) m->queried += units;
     if (what == PDS__WORK_FOUND) m->found += units;
+    if (what == PDS__WORK_CHOSEN) m->chosen += units;
     pds__mutex_unlock(&m->lock);
 }
 
 /* method (tweak: options beside it) on the slab, caustics only, 2
    threads, under a budget of T simulated seconds on a machine where a
-   photon costs 10 us, a map of m photons 1 us m log2 m, a query 2 us and
-   0.05 us a photon found, through the production path (pds__render_at),
-   with or without the map plan's step 2 (one_round). *landed: the photon
-   pass's simulated seconds over T. 0 if the render failed. */
-static int budget_machine_render(pds_method method, double T, int one_round, void (*tweak)(pds_options *),
-                                 double *landed, pds_render_stats *st)
+   photon costs 10 us, a map of m photons 1 us m log2 m, a query 2 us,
+   0.05 us a photon found and chosen_s a pixel whose scale is chosen,
+   through the production path (pds__render_at), with or without the map
+   plan's step 2 (one_round). *landed: the photon pass's simulated
+   seconds over T. 0 if the render failed. */
+static int budget_machine_render_at(pds_method method, double T, int one_round, void (*tweak)(pds_options *),
+                                    double chosen_s, double *landed, pds_render_stats *st)
 {
     budget_machine m;
     pds__clock clock;
@@ -412,6 +415,7 @@ static int budget_machine_render(pds_method method, double T, int one_round, voi
     m.map_s = 1e-6;
     m.query_s = 2e-6;
     m.found_s = 0.05e-6;
+    m.chosen_s = chosen_s;
     memset(&clock, 0, sizeof clock);
     clock.now = budget_machine_now;
     clock.spent = budget_machine_spent;
@@ -430,6 +434,13 @@ static int budget_machine_render(pds_method method, double T, int one_round, voi
     pds_image_free(&img);
     pds_scene_free(s);
     return ok;
+}
+
+/* The same where choosing a pixel's scale costs nothing. */
+static int budget_machine_render(pds_method method, double T, int one_round, void (*tweak)(pds_options *),
+                                 double *landed, pds_render_stats *st)
+{
+    return budget_machine_render_at(method, T, one_round, tweak, 0.0, landed, st);
 }
 
 /* The map plan's step 2 through the production path, on the simulated
@@ -481,6 +492,35 @@ static void test_budgets_hold_on_a_simulated_machine(pds_test_ctx *t)
 }
 #endif
 
+#ifndef PDS_NO_BASELINES
+/* Progressive PDS's image, where its pixels choose their scale, is part
+   of the photon pass and within its budget (pds__choice_seconds): on the
+   simulated machine a pixel's choice costs 0.434 ms, so the slab's 576
+   pixels take a quarter of a 1 s budget, and so does the calibration
+   (the image is below 128 x 128: timed whole). The passes stop early by
+   that quarter and the pass, the image included, lands within 10% of T
+   (passes of 4096 + 1024 validation photons: 51 ms); without the room
+   it would land at 1.25 T, and with the image's time left out of the
+   pass at 0.75 T. The same render with the choice free spends its budget
+   on passes: more photons. */
+static void test_pds_budget_holds_the_choice_of_scale(pds_test_ctx *t)
+{
+    pds_render_stats st, free_st;
+    double landed, landed_free, image_s = 576 * 0.434e-3;
+    REQUIRE(t, budget_machine_render_at(PDS_METHOD_PDS, 1.0, 0, short_passes, 0.434e-3, &landed, &st), "render");
+    REQUIRE(t, budget_machine_render_at(PDS_METHOD_PDS, 1.0, 0, short_passes, 0.0, &landed_free, &free_st),
+            "render, the choice free");
+    REQUIRE(t, st.scale_pixels[0] + st.scale_pixels[1] > 0, "no pixel chose its scale");
+    CHECK(t, fabs(landed - 1.0) <= 0.1, "landed at %.3f of T (%ld photons, %d passes)", landed, st.photons,
+          st.passes);
+    CHECK(t, fabs(landed_free - 1.0) <= 0.1, "the choice free: landed at %.3f of T", landed_free);
+    CHECK(t, st.time_photons_s >= 2.0 * image_s, "the pass took %.3f s: the image's %.3f s and the calibration's "
+          "are not in it", st.time_photons_s, image_s);
+    CHECK(t, free_st.photons > st.photons, "%ld photons with the choice free, %ld with it", free_st.photons,
+          st.photons);
+}
+#endif
+
 static const pds_test_case tests_budget[] = {
     {"pds_plan_solves_the_cost_of_tracing_and_splats", test_pds_plan_solves_the_cost_of_tracing_and_splats},
     {"pds_plan_keeps_a_batch_within_an_eighth_of_the_time", test_pds_plan_keeps_a_batch_within_an_eighth_of_the_time},
@@ -497,6 +537,7 @@ static const pds_test_case tests_budget[] = {
     {"gather_past_its_deadline_uses_a_cap_of_8", test_gather_past_its_deadline_uses_a_cap_of_8},
     {"map_budget_replans_on_a_machine_slower_than_probed", test_map_budget_replans_on_a_machine_slower_than_probed},
     {"budgets_hold_on_a_simulated_machine", test_budgets_hold_on_a_simulated_machine},
+    {"pds_budget_holds_the_choice_of_scale", test_pds_budget_holds_the_choice_of_scale},
 #endif
     {"paper_pds_without_time_keeps_small_footprints", test_paper_pds_without_time_keeps_small_footprints},
 };

@@ -1652,7 +1652,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                 if (pass == 2 && px == W / 2 - 1) photon[PDS__STRIDE_SELECT * i + PDS__SEL_COUNT].hi = 1; /* edge right */
             }
         memset(chose, 0, sizeof chose);
-        REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out, chose, 1) == 0,
+        REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out, chose, 1, NULL) == 0,
                 "image");
         {
             /* the pixels counted: the half on the left beyond the errors'
@@ -1786,7 +1786,7 @@ static void test_pds_image_making_is_identical_for_any_thread_count(pds_test_ctx
     for (k = 0; k < 3; k++) {
         memset(chose[k], 0, sizeof chose[k]);
         REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out[k], chose[k],
-                                      threads[k]) == 0,
+                                      threads[k], NULL) == 0,
                 "image on %d threads", threads[k]);
     }
     for (k = 0; k < PDS__SELECT_ESTIMATES; k++) used += chose[0][k] > 0;
