@@ -869,7 +869,9 @@ typedef struct pds_render_stats {
     double time_eye_s, time_photons_s; /* the eye pass; the whole photon pass
                                (tracing, and for pds and splat the splats, which
                                go with it batch by batch; for pm, pdm and ppm
-                               also the two phases below) */
+                               also the two phases below; for progressive pds
+                               whose pixels chose their scale, making the
+                               image: pds_render, not pds_render_part) */
     double time_map_s;      /* pm, pdm, ppm, spm: building the photon maps; gi:
                                pass 1 (tracing and building the global and
                                shadow maps) plus its caustic method's */
