@@ -134,7 +134,7 @@ static const command_help help_table[] = {
      "      --min-width W           pds: widen footprints to semi-axes of at least W eye-sample spacings\n"
      "      --pass-alpha A          progressive pds: pass i's footprint areas shrink as i^(A-1) (default 2/3)\n"
      "      --debug NAME            write a view OUT.NAME.png: footprint, landings, ellipses[=N], splats,\n"
-     "                              eye, paths[=N] (.obj); several allowed (README: Teaching views)\n"
+     "                              eye, paths[=N] (.obj), scales; several allowed (README: Teaching views)\n"
      "      --k N                   pm: photons (spm: streams) per estimate (default 50)\n"
      "      --kernel NAME           pm: density kernel cone (default), gaussian or none (uniform disc)\n"
      "      --max-radius R          pm, spm: largest gather radius in scene units (default: no limit)\n"
@@ -1090,7 +1090,8 @@ static int set_debug(const opt_spec *s, run_cfg *c, const char *shown, const cha
         if (strlen(name) == len && !strncmp(v, name, len)) break;
     }
     if (k == PDS_DEBUG_VIEWS)
-        return usage_error("%s knows footprint, landings, ellipses[=N], splats, eye and paths[=N], got '%s'", shown, v);
+        return usage_error("%s knows footprint, landings, ellipses[=N], splats, eye, paths[=N] and scales, got '%s'",
+                           shown, v);
     if (eq) {
         long n;
         if (k != PDS_DEBUG_ELLIPSES && k != PDS_DEBUG_PATHS)
@@ -1923,7 +1924,8 @@ static unsigned debug_methods(pds_debug_view v)
 {
     switch (v) {
     case PDS_DEBUG_FOOTPRINT:
-    case PDS_DEBUG_ELLIPSES: return MBIT(PDS_METHOD_PDS);
+    case PDS_DEBUG_ELLIPSES:
+    case PDS_DEBUG_SCALES: return MBIT(PDS_METHOD_PDS);
     case PDS_DEBUG_LANDINGS:
     case PDS_DEBUG_SPLATS: return MBIT(PDS_METHOD_PDS) | MBIT(PDS_METHOD_SPLAT);
     default: return M_PHOTON;

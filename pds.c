@@ -12975,11 +12975,12 @@ static void pds__box_mean(double *x, double *tmp, double *cols, int w, int h, in
    Measured in the README ("Scales chosen by validation").
    Fills rgb (3 a pixel) with every pixel's photon part: (S+ - S-) times
    scale (the image's 1 / unit * n_planned / emitted) of the chosen
-   candidate, and adds to chose[j] (if not NULL) the pixels that took
-   part and chose candidate j, alone or blended with the pass's (0 the
-   pass's scale, 1 the second, 2.. the blurs). passes: the passes summed.
-   clock (or NULL): told the pixels weighed (PDS__WORK_CHOSEN). Returns 0
-   when memory runs out. */
+   candidate. passes: the passes summed. report (or NULL): what else it
+   tells (pds__choice_report): the pixels that took part and chose
+   candidate j, alone or blended with the pass's (0 the pass's scale, 1
+   the second, 2.. the blurs), counted into chose[j]; each pixel's j and
+   its weight in the blend, into the view. Returns 0 when memory runs
+   out. */
 #define PDS__SELECT_BLURS 6
 #define PDS__SELECT_ESTIMATES PDS_SCALE_ESTIMATES /* pds_render_stats.scale_pixels */
 typedef char pds__select_estimates_fit[2 + PDS__SELECT_BLURS == PDS__SELECT_ESTIMATES ? 1 : -1];
@@ -13187,9 +13188,19 @@ typedef struct pds__choice {
     int w, h, j;
     long passes;
     double scale, wbar, kappa;
-    double *rgb, *m, *mt, *v, *var, *derr, *e0, *err, *noise, *best, *cand, *pick, *half, *dd, *xx;
+    double *rgb, *m, *mt, *v, *var, *derr, *e0, *err, *noise, *best, *cand, *pick, *half, *dd, *xx, *share;
     unsigned char *edge, *edget, *which;
 } pds__choice;
+
+/* What the choice tells besides the image (each NULL if not wanted): the
+   pixels that took each estimate, the scales view (w x h x 3 floats,
+   PDS_DEBUG_SCALES) and the render's clock (told the pixels weighed,
+   PDS__WORK_CHOSEN). */
+typedef struct pds__choice_report {
+    long *chose; /* PDS__SELECT_ESTIMATES counts */
+    float *view;
+    const pds__clock *clock;
+} pds__choice_report;
 
 /* Pixels a .. b-1 from the sums: the pass's scale into rgb, the second
    scale, V, V's terms' squares, whether the pixel takes part (m) and its
@@ -13275,6 +13286,7 @@ static void pds__choice_pick(void *ctx, size_t a, size_t b, void *scratch)
         if (q->m[i] > 0.0 && eb < q->best[i] && q->e0[i] - eb > PDS__SELECT_SURE * sqrt(1.0 - lam) * sd) {
             q->best[i] = eb;
             q->which[i] = (unsigned char)q->j;
+            q->share[i] = 1.0 - lam;
             for (c = 0; c < 3; c++)
                 q->pick[3 * i + c] = lam * q->rgb[3 * i + c] + (1.0 - lam) * q->cand[3 * i + c];
         }
@@ -13282,16 +13294,16 @@ static void pds__choice_pick(void *ctx, size_t a, size_t b, void *scratch)
 }
 
 static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, int w, int h, long passes,
-                             double scale, double *rgb, long chose[PDS__SELECT_ESTIMATES], int threads,
-                             const pds__clock *clock)
+                             double scale, double *rgb, int threads, const pds__choice_report *report)
 {
     size_t n = (size_t)w * (size_t)h, i;
     /* one block: per pixel the weight m and its column-major copy, V,
        V's variance, the errors' box of m, the pass's error, a
        candidate's error and its noise, the best error so far, a scratch
        image; then a candidate's, the pick's and the second scale's R, G,
-       B, the blend's D_j and X_j, and a scratch row */
-    double *mem = (double *)malloc(sizeof(double) * (21 * n + (size_t)w + 1));
+       B, the blend's D_j and X_j, the pick's weight in its blend, and a
+       scratch row */
+    double *mem = (double *)malloc(sizeof(double) * (22 * n + (size_t)w + 1));
     unsigned char *bytes = (unsigned char *)malloc(3 * n + 1);
     double vsum = 0.0, v2sum = 0.0, *tmp, *cols;
     pds__choice q;
@@ -13324,7 +13336,8 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
     q.half = q.pick + 3 * n;
     q.dd = q.half + 3 * n;
     q.xx = q.dd + n;
-    cols = q.xx + n;
+    q.share = q.xx + n;
+    cols = q.share + n;
     q.edge = bytes;
     q.edget = bytes + n;
     q.which = bytes + 2 * n; /* the pick's j */
@@ -13341,9 +13354,11 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
     if (!any) {
         free(mem);
         free(bytes);
+        if (report && report->view)
+            for (i = 0; i < n; i++) report->view[3 * i] = -1.0f; /* no pixel took part */
         return 1;
     }
-    pds__clock_spent(clock, PDS__WORK_CHOSEN, (double)n);
+    if (report) pds__clock_spent(report->clock, PDS__WORK_CHOSEN, (double)n);
     /* V's variance at a pixel: its terms' squares (independent photons;
        the Halton points make it smaller), and at least what the pass's
        value would have if it came in terms of the average size wbar (a
@@ -13381,6 +13396,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
             memcpy(q.best, q.err, sizeof(double) * n);
             memcpy(q.pick, q.cand, sizeof(double) * 3 * n);
             memset(q.which, 0, n);
+            for (i = 0; i < n; i++) q.share[i] = 1.0;
             continue;
         }
         pds__masked_box(q.noise, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
@@ -13388,11 +13404,17 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
         pds__masked_box(q.xx, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
         (void)pds__parallel_for(threads, n, 1, 0, pds__choice_pick, &q);
     }
-    for (i = 0; i < n; i++)
+    for (i = 0; i < n; i++) {
         if (q.m[i] > 0.0) {
             for (c = 0; c < 3; c++) rgb[3 * i + c] = q.pick[3 * i + c];
-            if (chose) chose[q.which[i]]++;
+            if (report && report->chose) report->chose[q.which[i]]++;
         }
+        if (report && report->view) {
+            report->view[3 * i] = q.m[i] > 0.0 ? (float)q.which[i] : -1.0f;
+            report->view[3 * i + 1] = q.m[i] > 0.0 ? (float)q.share[i] : 0.0f;
+            report->view[3 * i + 2] = 0.0f;
+        }
+    }
     free(mem);
     free(bytes);
     return 1;
@@ -13401,13 +13423,13 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
 /* The image of the state (eq. at the top of this section): for every
    pixel channel, E + (S+ - S-) / unit * (n_planned / emitted), S the
    pixel's chosen estimate's sums when it holds several (stride 9,
-   pds__scale_choice, which counts its choices into chose if not NULL;
+   pds__scale_choice, which tells the report (or NULL) of its choices;
    the passes are emitted / n_planned). Used by pds_render and by merges
    alike. Returns the values replaced (pds__finite_floats), -1 when
    memory runs out. */
 static long pds__partial_image(const double *eye, const pds__sum128 *photon, const pds__sum128 *neg, int stride, int w,
-                               int h, double unit, double n_planned, long emitted, float *out,
-                               long chose[PDS__SELECT_ESTIMATES], int threads, const pds__clock *clock)
+                               int h, double unit, double n_planned, long emitted, float *out, int threads,
+                               const pds__choice_report *report)
 {
     size_t n = (size_t)w * (size_t)h * 3, i;
     double *rgb = (double *)malloc(sizeof *rgb * (n ? n : 1)), *sel = NULL;
@@ -13420,7 +13442,7 @@ static long pds__partial_image(const double *eye, const pds__sum128 *photon, con
         double q = n_planned > 0.0 ? floor((double)emitted / n_planned + 0.5) : 0.0;
         long passes = q < (double)(LONG_MAX / 2) ? (long)q : LONG_MAX / 2;
         sel = (double *)malloc(sizeof *sel * (n ? n : 1));
-        if (!sel || !pds__scale_choice(photon, neg, w, h, passes, scale, sel, chose, threads, clock)) {
+        if (!sel || !pds__scale_choice(photon, neg, w, h, passes, scale, sel, threads, report)) {
             free(rgb);
             free(sel);
             return -1;
@@ -13473,7 +13495,8 @@ static double pds__choice_seconds(const pds__clock *clock, int w, int h)
             p[PDS__SEL_COUNT].lo = 1; /* seen whole in the one pass */
         }
         t = pds__clock_now(clock);
-        if (pds__scale_choice(sums, NULL, cw, ch, 1, 1.0 / 1024.0, rgb, NULL, 1, clock))
+        pds__choice_report report = {NULL, NULL, clock};
+        if (pds__scale_choice(sums, NULL, cw, ch, 1, 1.0 / 1024.0, rgb, 1, &report))
             t = (pds__clock_now(clock) - t) * ((double)w * (double)h / (double)n);
         else
             t = 0.0;
@@ -13533,6 +13556,7 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
                                      int allow_subset, pds_image *out, double *fraction, long *nonfinite,
                                      long chose[PDS__SELECT_ESTIMATES], const pds__clock *clock, pds_error *err)
 {
+    pds__choice_report report = {chose, NULL, clock};
     const pds_partial *p0;
     int *owner = NULL, i, shards, threads, any_neg = 0;
     size_t npix, k, nsums;
@@ -13591,7 +13615,7 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
         if (pds_image_alloc(out, p0->width, p0->height) != PDS_OK) return pds__nomem(err);
         if (fraction) pds__partial_fraction(parts, n, fraction);
         k = (size_t)pds__partial_image(p0->eye, p0->photon, p0->neg, p0->stride, p0->width, p0->height, p0->unit,
-                                       p0->n_planned, p0->emitted, out->rgb, chose, threads, clock);
+                                       p0->n_planned, p0->emitted, out->rgb, threads, &report);
         if (k == (size_t)-1) {
             pds_image_free(out);
             return pds__nomem(err);
@@ -13632,7 +13656,7 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
     }
     if (fraction) pds__partial_fraction(parts, n, fraction);
     k = (size_t)pds__partial_image(eye, photon, neg, p0->stride, p0->width, p0->height, p0->unit, p0->n_planned, emitted,
-                                   out->rgb, chose, threads, clock);
+                                   out->rgb, threads, &report);
     if (k == (size_t)-1) {
         pds_image_free(out);
         st = pds__nomem(err);
@@ -15284,6 +15308,21 @@ static void pds__colour_aniso(double t, float rgb[3])
     rgb[2] = 0.0f;
 }
 
+/* The scales view's colours: estimate j of the pixels' choice of scale
+   (pds__scale_choice: 0 the passes' scale grey, 1 the second red, the
+   first's boxes of radius 1, 1 x 3, 2 x 3 green, blue, purple, along the
+   rows orange, along the columns cyan, the second's box pink), dimmer the
+   less of it a blend holds (share: its weight, 1 alone). */
+static void pds__colour_scale(int j, double share, float rgb[3])
+{
+    static const float palette[PDS__SELECT_ESTIMATES][3] = {
+        {0.45f, 0.45f, 0.45f}, {0.95f, 0.2f, 0.15f}, {0.2f, 0.75f, 0.2f}, {0.15f, 0.45f, 1.0f},
+        {0.65f, 0.3f, 0.95f},  {1.0f, 0.6f, 0.05f},  {0.1f, 0.9f, 0.9f},  {1.0f, 0.45f, 0.75f}};
+    double k = 0.35 + 0.65 * (share < 0.0 ? 0.0 : share > 1.0 ? 1.0 : share);
+    int c;
+    for (c = 0; c < 3; c++) rgb[c] = j >= 0 && j < PDS__SELECT_ESTIMATES ? (float)(k * palette[j][c]) : 0.0f;
+}
+
 /* Format v in at most 7 characters the font has ("0.25", "1.2e+04"). */
 static void pds__legend_number(double v, char *buf, size_t n)
 {
@@ -15677,6 +15716,27 @@ static pds_status pds__debug_finish(pds_debug *d, pds__debug_buf *b, int nb, int
                 pds__colour_aniso(wm / wk, &pic->rgb[3 * i]);
             }
         }
+    }
+    if (d->value[PDS_DEBUG_SCALES].rgb) {
+        /* the scales view (made with the image's choice): each pixel's
+           estimate in its colour; the legend, each estimate's number in
+           its colour under a swatch of it */
+        const pds_image *val = &d->value[PDS_DEBUG_SCALES];
+        pds_image *pic = &d->picture[PDS_DEBUG_SCALES];
+        int j, x, y;
+        if (pds_image_alloc(pic, w, h + PDS_DEBUG_LEGEND_ROWS) != PDS_OK) return PDS_ERR_NOMEM;
+        for (i = 0; i < n; i++) pds__colour_scale((int)val->rgb[3 * i], val->rgb[3 * i + 1], &pic->rgb[3 * i]);
+        for (j = 0; j < PDS__SELECT_ESTIMATES; j++) {
+            float rgb[3];
+            char label[4];
+            int x0 = j * w / PDS__SELECT_ESTIMATES;
+            pds__colour_scale(j, 1.0, rgb);
+            for (y = h + 2; y < h + 6; y++)
+                for (x = x0; x < x0 + 3 && x < w; x++) memcpy(&pic->rgb[3 * ((size_t)y * w + x)], rgb, sizeof rgb);
+            snprintf(label, sizeof label, "%d", j);
+            pds__draw_text(pic, x0, h + 8, label, rgb);
+        }
+        d->scale_max[PDS_DEBUG_SCALES] = PDS__SELECT_ESTIMATES - 1;
     }
     if (b[0].landings && pds__debug_count_view(d, PDS_DEBUG_LANDINGS, b, nb, w, h, 1)) return PDS_ERR_NOMEM;
     if (b[0].splats && pds__debug_count_view(d, PDS_DEBUG_SPLATS, b, nb, w, h, 0)) return PDS_ERR_NOMEM;
@@ -20016,12 +20076,21 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         else part->emitted = emitted;
         if (dbg) {
             /* the ellipses are drawn over the image so far (a render in
-               one go: the part is the whole render, its eye rows done) */
+               one go: the part is the whole render, its eye rows done),
+               and the scales view is its choice of scale */
             float *img = (float *)malloc(sizeof *img * 3 * (npix ? npix : 1));
             double *rgb = (double *)malloc(sizeof *rgb * 3 * (npix ? npix : 1));
-            if (!img || !rgb ||
-                pds__partial_image(part->eye, part->photon, part->neg, part->stride, width, height, part->unit,
-                                   part->n_planned, part->emitted, img, NULL, job.nbufs, NULL) < 0)
+            pds__choice_report report = {NULL, NULL, NULL};
+            if (pds__debug_wants(debug, PDS_DEBUG_SCALES)) {
+                /* -1 where no pixel chooses (one scale for all) */
+                pds_image *val = &debug->value[PDS_DEBUG_SCALES];
+                if (pds_image_alloc(val, width, height) != PDS_OK) st = PDS_ERR_NOMEM;
+                for (i = 0; !st && i < npix; i++) val->rgb[3 * i] = -1.0f;
+                if (part->stride == PDS__STRIDE_SELECT) report.view = val->rgb;
+            }
+            if (!st && (!img || !rgb ||
+                        pds__partial_image(part->eye, part->photon, part->neg, part->stride, width, height,
+                                           part->unit, part->n_planned, part->emitted, img, job.nbufs, &report) < 0))
                 st = PDS_ERR_NOMEM;
             for (i = 0; !st && i < npix * 3; i++) rgb[i] = img[i];
             if (!st && pds__debug_finish(debug, dbg, job.nbufs, width, height, rgb, &job.frame)) st = PDS_ERR_NOMEM;
@@ -20179,7 +20248,7 @@ static pds_status pds__light_trace_image(const pds_scene *s, const pds_options *
                 pds__sum128_add_bits(&job.bufs[0].neg[i], job.bufs[t].neg[i].lo, job.bufs[t].neg[i].hi);
             }
         if (!zero || pds__partial_image(zero, job.bufs[0].sum, job.bufs[0].neg, 3, width, height, job.bufs[0].unit,
-                                        (double)opt->photons, opt->photons, out->rgb, NULL, threads, NULL) < 0)
+                                        (double)opt->photons, opt->photons, out->rgb, threads, NULL) < 0)
             st = PDS_ERR_NOMEM;
         free(zero);
         if (st) pds_image_free(out);
@@ -23595,7 +23664,8 @@ void pds_debug_free(pds_debug *d)
 
 const char *pds_debug_view_name(pds_debug_view view)
 {
-    static const char *const names[PDS_DEBUG_VIEWS] = {"footprint", "landings", "ellipses", "splats", "eye", "paths"};
+    static const char *const names[PDS_DEBUG_VIEWS] = {"footprint", "landings", "ellipses", "splats",
+                                                        "eye",       "paths",    "scales"};
     return (int)view >= 0 && view < PDS_DEBUG_VIEWS ? names[view] : "unknown";
 }
 

@@ -766,6 +766,14 @@ typedef enum pds_debug_view {
                                 into the camera, vertices per pixel */
     PDS_DEBUG_PATHS,         /* photon methods: photons 0..path_photons-1 as
                                 OBJ polylines (paths_obj), emission to landing */
+    PDS_DEBUG_SCALES,        /* progressive pds: the estimate each pixel took
+                                when the pixels chose their scale, in
+                                pds_render_stats.scale_pixels' order (0 the
+                                passes' scale, 1 the second, 2.. the blurs),
+                                one colour each, dimmer where it was blended
+                                with the passes'; value: r the estimate, g its
+                                weight in the blend (1: alone), r = -1 where
+                                the pixel took no part (black) */
     PDS_DEBUG_VIEWS
 } pds_debug_view;
 

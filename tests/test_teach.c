@@ -80,7 +80,7 @@ static void test_debug_views_are_identical_for_any_thread_count(pds_test_ctx *t)
     pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
     pds_debug da, db;
     unsigned views = (1u << PDS_DEBUG_LANDINGS) | (1u << PDS_DEBUG_SPLATS) | (1u << PDS_DEBUG_ELLIPSES) |
-                     (1u << PDS_DEBUG_PATHS) | (1u << PDS_DEBUG_FOOTPRINT);
+                     (1u << PDS_DEBUG_PATHS) | (1u << PDS_DEBUG_FOOTPRINT) | (1u << PDS_DEBUG_SCALES);
     int v;
     REQUIRE(t, teach_render(views, 1, &a, NULL, &da), "1 thread");
     REQUIRE(t, teach_render(views, 3, &b, NULL, &db), "3 threads");
@@ -553,6 +553,70 @@ static void test_core_refuses_the_environment_light(pds_test_ctx *t)
 }
 #endif
 
+/* The scales view is the image's own choice of scale (progressive PDS,
+   the default): its numbers count, estimate by estimate, what the render
+   reports in scale_pixels; every pixel's colour is its estimate's, dimmed
+   by its weight in a blend, black where it took no part; the view is the
+   same on 1 and 3 threads. With one scale for every pixel (the paper's
+   PDS) no pixel takes part. */
+static void test_debug_scales_view_is_the_images_choice(pds_test_ctx *t)
+{
+    pds_options opt;
+    pds_image img = {0, 0, NULL};
+    pds_render_stats st[2];
+    pds_debug dbg[2], paper;
+    const pds_image *val = &dbg[0].value[PDS_DEBUG_SCALES], *pic = &dbg[0].picture[PDS_DEBUG_SCALES];
+    long count[PDS_SCALE_ESTIMATES] = {0};
+    int k, threads[2] = {1, 3}, used = 0, blended = 0, wrong = 0, parted = 0;
+    size_t i, n = 24 * 24;
+    for (k = 0; k < 2; k++) {
+        pds_options_default(&opt);
+        pds_debug_init(&dbg[k]);
+        dbg[k].views = 1u << PDS_DEBUG_SCALES;
+        opt.photons = 200000;
+        opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+        opt.threads = threads[k];
+        opt.debug = &dbg[k];
+        REQUIRE(t, render_text(mirror_scene, &opt, &img, &st[k]), "render on %d threads", threads[k]);
+        pds_image_free(&img);
+    }
+    REQUIRE(t, val->rgb && pic->rgb && val->width == 24 && pic->height == 24 + PDS_DEBUG_LEGEND_ROWS, "view made");
+    for (i = 0; i < n; i++) {
+        int j = (int)val->rgb[3 * i];
+        float c[3];
+        pds__colour_scale(j, val->rgb[3 * i + 1], c);
+        if (j >= 0) {
+            REQUIRE(t, j < PDS_SCALE_ESTIMATES && (float)j == val->rgb[3 * i], "pixel %lu: estimate %g", (unsigned long)i,
+                    val->rgb[3 * i]);
+            count[j]++;
+            parted++;
+            blended += val->rgb[3 * i + 1] < 1.0f;
+        } else if (c[0] != 0.0f || c[1] != 0.0f || c[2] != 0.0f || val->rgb[3 * i] != -1.0f) {
+            wrong++;
+        }
+        if (memcmp(c, &pic->rgb[3 * i], sizeof c) != 0) wrong++;
+    }
+    CHECK(t, wrong == 0, "%d pixels' colours or numbers are not their estimates'", wrong);
+    for (k = 0; k < PDS_SCALE_ESTIMATES; k++) {
+        CHECK(t, count[k] == st[0].scale_pixels[k], "estimate %d: %ld pixels in the view, %ld in the render", k,
+              count[k], st[0].scale_pixels[k]);
+        used += count[k] > 0;
+    }
+    CHECK(t, parted > (int)n / 2 && used >= 3 && blended > 0, "%d pixels took part, %d estimates, %d blends", parted,
+          used, blended);
+    CHECK(t, memcmp(val->rgb, dbg[1].value[PDS_DEBUG_SCALES].rgb, sizeof(float) * 3 * n) == 0 &&
+                 memcmp(pic->rgb, dbg[1].picture[PDS_DEBUG_SCALES].rgb,
+                        sizeof(float) * 3 * (size_t)pic->width * pic->height) == 0,
+          "the view differs on 3 threads");
+    REQUIRE(t, teach_render(1u << PDS_DEBUG_SCALES, 2, &img, NULL, &paper), "the paper's PDS");
+    for (i = 0, wrong = 0; i < n; i++) wrong += paper.value[PDS_DEBUG_SCALES].rgb[3 * i] != -1.0f;
+    CHECK(t, wrong == 0, "%d pixels of the paper's PDS took part in a choice", wrong);
+    pds_image_free(&img);
+    pds_debug_free(&dbg[0]);
+    pds_debug_free(&dbg[1]);
+    pds_debug_free(&paper);
+}
+
 static const pds_test_case tests_teach[] = {
 #ifndef PDS_NO_SPECTRAL
     {"debug_views_ride_along_a_spectral_render", test_debug_views_ride_along_a_spectral_render},
@@ -575,6 +639,7 @@ static const pds_test_case tests_teach[] = {
     {"debug_views_are_identical_for_any_thread_count", test_debug_views_are_identical_for_any_thread_count},
     {"debug_eye_view_puts_spp_vertices_in_each_pixel", test_debug_eye_view_puts_spp_vertices_in_each_pixel},
     {"debug_ellipses_are_drawn_where_counted", test_debug_ellipses_are_drawn_where_counted},
+    {"debug_scales_view_is_the_images_choice", test_debug_scales_view_is_the_images_choice},
     {"debug_camera_sees_through_glass_but_not_through_walls", test_debug_camera_sees_through_glass_but_not_through_walls},
     {"debug_landings_behind_an_occluder_are_not_drawn", test_debug_landings_behind_an_occluder_are_not_drawn},
     {"debug_eye_view_leaves_out_vertices_the_camera_cannot_see",
