@@ -453,7 +453,8 @@ static const char *suggest_text(const suggestion *s, char *buf, size_t n)
    a slot: the names and flags are volatile, a slot's name is complete
    before its flag says so, and a name is never changed while armed. */
 
-#define TEMP_SLOTS 13 /* render writes at most the image, two files per debug view and the paths */
+/* render writes at most the image and two files per debug view (the paths one) */
+#define TEMP_SLOTS (1 + 2 * PDS_DEBUG_VIEWS)
 
 static volatile char temp_name[TEMP_SLOTS][PATH_MAX_LEN + 32];
 static volatile sig_atomic_t temp_armed[TEMP_SLOTS];

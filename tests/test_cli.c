@@ -185,19 +185,43 @@ static void test_cli_pds_reports_photons_and_writes_the_footprint_image(pds_test
     remove(fp);
     /* the pixels' choice of scale (4 samples a pixel: the floor's pixels
        are seen whole): the pixels that took each estimate, at most all of
-       them; with one scale, none */
-    snprintf(args, sizeof args, "render scenes/refraction.scene --res 32x32 --photons 20000 --caustics-only -o %s",
+       them, and the same count in the scales view; every view at once,
+       as PFM too (the most files a render writes); with one scale, none */
+    snprintf(path, sizeof path, "/tmp/pds_cli_pds_%ld.pfm", (long)getpid());
+    snprintf(args, sizeof args,
+             "render scenes/refraction.scene --res 32x32 --photons 20000 --caustics-only --debug footprint "
+             "--debug landings --debug ellipses --debug splats --debug eye --debug paths --debug scales -o %s",
              path);
     CHECK(t, cli_run(args, out, sizeof out) == 0, "render failed: %s", out);
     last = cli_last_line(out);
     {
         const char *sp = strstr(last, " scale_pixels=");
-        long a[8] = {0, 0, 0, 0, 0, 0, 0, 0}, all;
+        long a[8] = {0, 0, 0, 0, 0, 0, 0, 0}, all = 0, in_view = 0;
+        int v;
+        pds_image view = {0, 0, NULL};
+        char file[300];
         CHECK(t, sp && sscanf(sp, " scale_pixels=%ld/%ld/%ld/%ld/%ld/%ld/%ld/%ld", &a[0], &a[1], &a[2], &a[3], &a[4],
                               &a[5], &a[6], &a[7]) == 8,
               "final line: %s", last);
         all = a[0] + a[1] + a[2] + a[3] + a[4] + a[5] + a[6] + a[7];
         CHECK(t, all > 512 && all <= 1024, "%ld pixels chose: %s", all, last);
+        for (v = 0; v < PDS_DEBUG_VIEWS; v++) {
+            const char *name = pds_debug_view_name((pds_debug_view)v);
+            snprintf(file, sizeof file, "/tmp/pds_cli_pds_%ld.%s.%s", (long)getpid(), name,
+                     v == PDS_DEBUG_PATHS ? "obj" : "png");
+            CHECK(t, cli_file_exists(file), "%s not written", file);
+            remove(file);
+            if (v == PDS_DEBUG_PATHS) continue;
+            snprintf(file, sizeof file, "/tmp/pds_cli_pds_%ld.%s.pfm", (long)getpid(), name);
+            CHECK(t, cli_file_exists(file), "%s not written", file);
+            if (v == PDS_DEBUG_SCALES && pds_image_read(file, &view, NULL, NULL) == PDS_OK) {
+                size_t i;
+                for (i = 0; i < (size_t)view.width * view.height; i++) in_view += view.rgb[3 * i] >= 0.0f;
+                pds_image_free(&view);
+            }
+            remove(file);
+        }
+        CHECK(t, in_view == all, "the scales view has %ld pixels that chose, the render %ld", in_view, all);
     }
     snprintf(args, sizeof args, "render scenes/refraction.scene --res 32x32 --photons 20000 --caustics-only "
              "--no-pass-select -o %s", path);
