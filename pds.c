@@ -13194,8 +13194,9 @@ typedef struct pds__choice {
 
 /* What the choice tells besides the image (each NULL if not wanted): the
    pixels that took each estimate, the scales view (w x h x 3 floats,
-   PDS_DEBUG_SCALES) and the render's clock (told the pixels weighed,
-   PDS__WORK_CHOSEN). */
+   PDS_DEBUG_SCALES; the caller's, with r = -1 everywhere: the choice
+   writes the pixels that take part) and the render's clock (told the
+   pixels weighed, PDS__WORK_CHOSEN). */
 typedef struct pds__choice_report {
     long *chose; /* PDS__SELECT_ESTIMATES counts */
     float *view;
@@ -13354,8 +13355,6 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
     if (!any) {
         free(mem);
         free(bytes);
-        if (report && report->view)
-            for (i = 0; i < n; i++) report->view[3 * i] = -1.0f; /* no pixel took part */
         return 1;
     }
     if (report) pds__clock_spent(report->clock, PDS__WORK_CHOSEN, (double)n);
@@ -13404,17 +13403,15 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
         pds__masked_box(q.xx, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
         (void)pds__parallel_for(threads, n, 1, 0, pds__choice_pick, &q);
     }
-    for (i = 0; i < n; i++) {
+    for (i = 0; i < n; i++)
         if (q.m[i] > 0.0) {
             for (c = 0; c < 3; c++) rgb[3 * i + c] = q.pick[3 * i + c];
             if (report && report->chose) report->chose[q.which[i]]++;
+            if (report && report->view) {
+                report->view[3 * i] = (float)q.which[i];
+                report->view[3 * i + 1] = (float)q.share[i];
+            }
         }
-        if (report && report->view) {
-            report->view[3 * i] = q.m[i] > 0.0 ? (float)q.which[i] : -1.0f;
-            report->view[3 * i + 1] = q.m[i] > 0.0 ? (float)q.share[i] : 0.0f;
-            report->view[3 * i + 2] = 0.0f;
-        }
-    }
     free(mem);
     free(bytes);
     return 1;
@@ -20082,7 +20079,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
             double *rgb = (double *)malloc(sizeof *rgb * 3 * (npix ? npix : 1));
             pds__choice_report report = {NULL, NULL, NULL};
             if (pds__debug_wants(debug, PDS_DEBUG_SCALES)) {
-                /* -1 where no pixel chooses (one scale for all) */
+                /* -1 where the pixel chooses nothing (the choice writes
+                   the others) */
                 pds_image *val = &debug->value[PDS_DEBUG_SCALES];
                 if (pds_image_alloc(val, width, height) != PDS_OK) st = PDS_ERR_NOMEM;
                 for (i = 0; !st && i < npix; i++) val->rgb[3 * i] = -1.0f;
