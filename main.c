@@ -1840,7 +1840,8 @@ static void warn_about_the_cost(const pds_scene *scene, const pds_options *opt)
 
 /* The image of one part, as the merge makes it (a part not finished gives
    what it holds); st (or NULL) gets what the image tells of the render:
-   its values replaced and the pixels' choice of scale. */
+   its values replaced and the pixels' choice of scale, whose time it adds
+   to the photon pass's. */
 static pds_status part_image(const pds_partial *part, pds_image *img, pds_render_stats *st, pds_error *err)
 {
     const pds_partial *parts[1];
@@ -1852,6 +1853,9 @@ static pds_status part_image(const pds_partial *part, pds_image *img, pds_render
     if (s == PDS_OK && st) {
         st->nonfinite = report.nonfinite;
         for (k = 0; k < PDS_SCALE_ESTIMATES; k++) st->scale_pixels[k] = report.scale_pixels[k];
+        /* the pixels' choice of scale is the photon pass's (as in pds_render) */
+        st->time_photons_s += report.choice_s;
+        st->time_total_s += report.choice_s;
     }
     return s;
 }
@@ -2172,19 +2176,8 @@ static int cmd_render(int argc, char **argv)
     stop_gracefully = 0;
     stats.time_total_s = pds_time_now() - t_start; /* every call's, checkpoints included */
     interrupted = stats.partial && stop_requested && c.opt.time_s <= 0.0 && !c.debug.views;
-    if (st == PDS_OK && !rc && !interrupted && !part_only) {
-        /* the image, before its metadata: where the pixels choose their
-           scale that is part of the photons' estimate, and its time is
-           the photon pass's (the budget left it room), as in pds_render */
-        double t_image = pds_time_now();
-        int chosen = 0;
-        image_st = part_image(part, &img, &stats, &image_err);
-        for (k = 0; k < PDS_SCALE_ESTIMATES; k++) chosen |= stats.scale_pixels[k] > 0;
-        if (image_st == PDS_OK && chosen) {
-            stats.time_photons_s += pds_time_now() - t_image;
-            stats.time_total_s += pds_time_now() - t_image;
-        }
-    }
+    if (st == PDS_OK && !rc && !interrupted && !part_only)
+        image_st = part_image(part, &img, &stats, &image_err); /* before its metadata: it adds its choice's time */
     render_meta(&c, &stats, scene_path);
     if (c.progress) progress_end(st == PDS_OK && !stats.partial);
     if (rc) {

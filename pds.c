@@ -13196,11 +13196,13 @@ typedef struct pds__choice {
    pixels that took each estimate, the scales view (w x h x 3 floats,
    PDS_DEBUG_SCALES; the caller's, with r = -1 everywhere: the choice
    writes the pixels that take part) and the render's clock (told the
-   pixels weighed, PDS__WORK_CHOSEN). */
+   pixels weighed, PDS__WORK_CHOSEN); and, in return, how long the choice
+   took on that clock. */
 typedef struct pds__choice_report {
     long *chose; /* PDS__SELECT_ESTIMATES counts */
     float *view;
     const pds__clock *clock;
+    double seconds; /* out: 0 where no choice was made */
 } pds__choice_report;
 
 /* Pixels a .. b-1 from the sums: the pass's scale into rgb, the second
@@ -13295,7 +13297,7 @@ static void pds__choice_pick(void *ctx, size_t a, size_t b, void *scratch)
 }
 
 static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, int w, int h, long passes,
-                             double scale, double *rgb, int threads, const pds__choice_report *report)
+                             double scale, double *rgb, int threads, pds__choice_report *report)
 {
     size_t n = (size_t)w * (size_t)h, i;
     /* one block: per pixel the weight m and its column-major copy, V,
@@ -13308,6 +13310,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
     unsigned char *bytes = (unsigned char *)malloc(3 * n + 1);
     double vsum = 0.0, v2sum = 0.0, *tmp, *cols;
     pds__choice q;
+    double t_start = pds__clock_now(report ? report->clock : NULL);
     int c, k, any = 0;
     if (!mem || !bytes) {
         free(mem);
@@ -13355,6 +13358,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
     if (!any) {
         free(mem);
         free(bytes);
+        if (report) report->seconds = pds__clock_now(report->clock) - t_start;
         return 1;
     }
     if (report) pds__clock_spent(report->clock, PDS__WORK_CHOSEN, (double)n);
@@ -13414,6 +13418,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
         }
     free(mem);
     free(bytes);
+    if (report) report->seconds = pds__clock_now(report->clock) - t_start;
     return 1;
 }
 
@@ -13426,7 +13431,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
    memory runs out. */
 static long pds__partial_image(const double *eye, const pds__sum128 *photon, const pds__sum128 *neg, int stride, int w,
                                int h, double unit, double n_planned, long emitted, float *out, int threads,
-                               const pds__choice_report *report)
+                               pds__choice_report *report)
 {
     size_t n = (size_t)w * (size_t)h * 3, i;
     double *rgb = (double *)malloc(sizeof *rgb * (n ? n : 1)), *sel = NULL;
@@ -13479,6 +13484,8 @@ static double pds__choice_seconds(const pds__clock *clock, int w, int h)
     size_t n = (size_t)cw * (size_t)ch, i;
     pds__sum128 *sums = (pds__sum128 *)calloc(n * PDS__STRIDE_SELECT + 1, sizeof *sums);
     double *rgb = (double *)malloc(sizeof *rgb * (3 * n + 1)), t = 0.0;
+    pds__choice_report report = {NULL, NULL, NULL, 0.0};
+    report.clock = clock;
     if (sums && rgb && n > 0) {
         for (i = 0; i < n; i++) {
             pds__sum128 *p = sums + PDS__STRIDE_SELECT * i;
@@ -13491,12 +13498,8 @@ static double pds__choice_seconds(const pds__clock *clock, int w, int h)
             p[PDS__SEL_VALID2].lo = 1;
             p[PDS__SEL_COUNT].lo = 1; /* seen whole in the one pass */
         }
-        t = pds__clock_now(clock);
-        pds__choice_report report = {NULL, NULL, clock};
         if (pds__scale_choice(sums, NULL, cw, ch, 1, 1.0 / 1024.0, rgb, 1, &report))
-            t = (pds__clock_now(clock) - t) * ((double)w * (double)h / (double)n);
-        else
-            t = 0.0;
+            t = report.seconds * ((double)w * (double)h / (double)n);
     }
     free(sums);
     free(rgb);
@@ -13547,13 +13550,13 @@ static void pds__partial_fraction(const pds_partial *const *parts, int n, double
                                             : 1.0;
 }
 
-/* The merge itself, with names for the messages (NULL: "part K"), on a
-   render's clock (NULL: none told, pds__scale_choice). */
+/* The merge itself, with names for the messages (NULL: "part K"),
+   telling report (or NULL) what the pixels' choice of scale did
+   (pds__scale_choice). */
 static pds_status pds__partial_merge(const pds_partial *const *parts, const char *const *names, int n,
                                      int allow_subset, pds_image *out, double *fraction, long *nonfinite,
-                                     long chose[PDS__SELECT_ESTIMATES], const pds__clock *clock, pds_error *err)
+                                     pds__choice_report *report, pds_error *err)
 {
-    pds__choice_report report = {chose, NULL, clock};
     const pds_partial *p0;
     int *owner = NULL, i, shards, threads, any_neg = 0;
     size_t npix, k, nsums;
@@ -13612,7 +13615,7 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
         if (pds_image_alloc(out, p0->width, p0->height) != PDS_OK) return pds__nomem(err);
         if (fraction) pds__partial_fraction(parts, n, fraction);
         k = (size_t)pds__partial_image(p0->eye, p0->photon, p0->neg, p0->stride, p0->width, p0->height, p0->unit,
-                                       p0->n_planned, p0->emitted, out->rgb, threads, &report);
+                                       p0->n_planned, p0->emitted, out->rgb, threads, report);
         if (k == (size_t)-1) {
             pds_image_free(out);
             return pds__nomem(err);
@@ -13653,7 +13656,7 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
     }
     if (fraction) pds__partial_fraction(parts, n, fraction);
     k = (size_t)pds__partial_image(eye, photon, neg, p0->stride, p0->width, p0->height, p0->unit, p0->n_planned, emitted,
-                                   out->rgb, threads, &report);
+                                   out->rgb, threads, report);
     if (k == (size_t)-1) {
         pds_image_free(out);
         st = pds__nomem(err);
@@ -13669,16 +13672,20 @@ static pds_status pds__partial_merge(const pds_partial *const *parts, const char
 pds_status pds_partial_merge(const pds_partial *const *parts, const char *const *names, int n, int allow_subset,
                              pds_image *out, double *fraction, pds_error *err)
 {
-    return pds__partial_merge(parts, names, n, allow_subset, out, fraction, NULL, NULL, NULL, err);
+    return pds__partial_merge(parts, names, n, allow_subset, out, fraction, NULL, NULL, err);
 }
 
 pds_status pds_partial_merge_report(const pds_partial *const *parts, const char *const *names, int n,
                                     int allow_subset, pds_image *out, pds_merge_report *report, pds_error *err)
 {
+    pds__choice_report choice = {NULL, NULL, NULL, 0.0};
+    pds_status st;
     if (!report) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_partial_merge_report: NULL report");
     memset(report, 0, sizeof *report);
-    return pds__partial_merge(parts, names, n, allow_subset, out, &report->fraction, &report->nonfinite,
-                              report->scale_pixels, NULL, err);
+    choice.chose = report->scale_pixels;
+    st = pds__partial_merge(parts, names, n, allow_subset, out, &report->fraction, &report->nonfinite, &choice, err);
+    report->choice_s = choice.seconds;
+    return st;
 }
 
 #ifndef PDS_NO_PARTIAL_FILE
@@ -20077,7 +20084,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
                and the scales view is its choice of scale */
             float *img = (float *)malloc(sizeof *img * 3 * (npix ? npix : 1));
             double *rgb = (double *)malloc(sizeof *rgb * 3 * (npix ? npix : 1));
-            pds__choice_report report = {NULL, NULL, NULL};
+            pds__choice_report report = {NULL, NULL, NULL, 0.0};
             if (pds__debug_wants(debug, PDS_DEBUG_SCALES)) {
                 /* -1 where the pixel chooses nothing (the choice writes
                    the others) */
@@ -24732,7 +24739,8 @@ static pds_status pds__render_at(const pds_scene *scene, const pds_options *opt,
     pds_partial *part = NULL;
     const pds_partial *parts[1];
     pds_status st;
-    double t0 = pds__clock_now(clock), t_image;
+    double t0 = pds__clock_now(clock);
+    pds__choice_report choice = {NULL, NULL, NULL, 0.0};
     if (!scene || !opt || !out) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_render: NULL argument");
     if (!stats) stats = &local;
     st = pds__render_part_at(scene, opt, &part, clock, stats, err);
@@ -24741,14 +24749,15 @@ static pds_status pds__render_at(const pds_scene *scene, const pds_options *opt,
         if (opt->debug) pds_debug_free(opt->debug);
         return st;
     }
-    /* the image of the state, as a merge of shards makes it; where the
-       pixels choose their scale that is part of the photons' estimate, so
-       its time is the photon pass's (as pm's gather is; a time budget's
-       passes left it room, pds__choice_seconds) */
+    /* the image of the state, as a merge of shards makes it; the pixels'
+       choice of scale is part of the photons' estimate, so its time is
+       the photon pass's (as pm's gather is; a time budget's passes left it
+       room, pds__choice_seconds) */
     parts[0] = part;
-    t_image = pds__clock_now(clock);
-    st = pds__partial_merge(parts, NULL, 1, 1, out, NULL, &stats->nonfinite, stats->scale_pixels, clock, err);
-    if (part->stride == PDS__STRIDE_SELECT) stats->time_photons_s += pds__clock_now(clock) - t_image;
+    choice.chose = stats->scale_pixels;
+    choice.clock = clock;
+    st = pds__partial_merge(parts, NULL, 1, 1, out, NULL, &stats->nonfinite, &choice, err);
+    stats->time_photons_s += choice.seconds;
     pds_partial_free(part);
     stats->partial = stats->partial || opt->shard_count > 1;
     stats->time_total_s = pds__clock_now(clock) - t0;

@@ -878,8 +878,9 @@ typedef struct pds_render_stats {
                                (tracing, and for pds and splat the splats, which
                                go with it batch by batch; for pm, pdm and ppm
                                also the two phases below; for progressive pds
-                               whose pixels chose their scale, making the
-                               image: pds_render, not pds_render_part) */
+                               the pixels' choice of scale as the image is
+                               made: pds_render, not pds_render_part, whose
+                               caller adds pds_merge_report.choice_s) */
     double time_map_s;      /* pm, pdm, ppm, spm: building the photon maps; gi:
                                pass 1 (tracing and building the global and
                                shadow maps) plus its caustic method's */
@@ -1053,6 +1054,10 @@ typedef struct pds_merge_report {
     long scale_pixels[PDS_SCALE_ESTIMATES]; /* pds_render_stats.scale_pixels: the pixels'
                                choice of scale (all 0 when the parts hold
                                one scale) */
+    double choice_s;        /* seconds that choice took (0 when the parts
+                               hold one scale): part of the photon pass's
+                               time, which pds_render counts in
+                               time_photons_s */
 } pds_merge_report;
 /* pds_partial_merge, filling *report (not NULL) as well. */
 pds_status pds_partial_merge_report(const pds_partial *const *parts, const char *const *names, int n,

@@ -1651,7 +1651,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                 if (pass == 3) photon[PDS__STRIDE_SELECT * i + PDS__SEL_VALID2].hi = 1; /* a very noisy validation */
                 if (pass == 2 && px == W / 2 - 1) photon[PDS__STRIDE_SELECT * i + PDS__SEL_COUNT].hi = 1; /* edge right */
             }
-        pds__choice_report report = {NULL, NULL, NULL};
+        pds__choice_report report = {NULL, NULL, NULL, 0.0};
         report.chose = chose;
         memset(chose, 0, sizeof chose);
         REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out, 1, &report) == 0,
@@ -1786,7 +1786,7 @@ static void test_pds_image_making_is_identical_for_any_thread_count(pds_test_ctx
             (px % 37 == 36 ? 1u : 0u) | (py % 23 == 22 ? (uint64_t)1 << 32 : 0u);
     }
     for (k = 0; k < 3; k++) {
-        pds__choice_report report = {NULL, NULL, NULL};
+        pds__choice_report report = {NULL, NULL, NULL, 0.0};
         report.chose = chose[k];
         memset(chose[k], 0, sizeof chose[k]);
         REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out[k], threads[k],
