@@ -12842,8 +12842,18 @@ void pds_partial_options(const pds_partial *p, pds_options *opt)
    Rows, then columns, are shared by `threads` threads
    (pds__parallel_for; the choice gives one below PDS__PARALLEL_PIXELS):
    each row's and each column's sums are their own, so the means are the
-   same bits for any count. */
+   same bits for any count.
+   A running sum keeps the rounding of every value that passed through
+   it: after a bright pixel (a validation photon's square) has left the
+   window, pixels of no light took box means of +-1e-16 of it, and the
+   choice of scale weighed candidates on that residue (test
+   pds_scale_choice_makes_no_choice_where_there_is_no_light). So a sum
+   is taken again from its window's values wherever the value leaving
+   was more than 2^20 times what is left (the residue is then below
+   2^-32 of the sum): a window of zeros sums to 0 exactly, and the rest
+   keeps 32 bits. */
 #define PDS__PARALLEL_PIXELS 131072
+#define PDS__BOX_RESUM 1048576.0 /* 2^20 */
 typedef struct pds__box_job {
     double *x, *tmp, *cols;
     int w, h, r;
@@ -12861,8 +12871,13 @@ static void pds__box_rows(void *ctx, size_t a, size_t b, void *scratch)
         for (k = -r; k <= r; k++) sum += row[k < 0 ? 0 : k >= w ? w - 1 : k];
         for (px = 0; px < w; px++) {
             int drop = px - r, take = px + r + 1;
+            double gone = row[drop < 0 ? 0 : drop];
             out[px] = sum;
-            sum += row[take >= w ? w - 1 : take] - row[drop < 0 ? 0 : drop];
+            sum += row[take >= w ? w - 1 : take] - gone;
+            if (fabs(gone) > PDS__BOX_RESUM * fabs(sum) && px + 1 < w) {
+                sum = 0.0;
+                for (k = px + 1 - r; k <= px + 1 + r; k++) sum += row[k < 0 ? 0 : k >= w ? w - 1 : k];
+            }
         }
     }
 }
@@ -12888,6 +12903,12 @@ static void pds__box_cols(void *ctx, size_t a, size_t b, void *scratch)
             dst[px] = cols[px] * inv;
             cols[px] += add[px] - sub[px];
         }
+        for (px = a; px < b && py + 1 < h; px++)
+            if (fabs(sub[px]) > PDS__BOX_RESUM * fabs(cols[px])) {
+                cols[px] = 0.0;
+                for (k = py + 1 - r; k <= py + 1 + r; k++)
+                    cols[px] += j->tmp[(size_t)(k < 0 ? 0 : k >= h ? h - 1 : k) * w + px];
+            }
     }
 }
 
@@ -12952,15 +12973,20 @@ static void pds__box_mean(double *x, double *tmp, double *cols, int w, int h, in
      This is hold-out validation (cross-validation of the bandwidth, as
      kernel density estimators choose theirs), with an unbiased
      estimator for the held-out data instead of a share of the samples;
-   - a blend: the pixel may take lambda L_0 + (1 - lambda) L_j instead
-     of L_j alone. Its error against V, averaged over the same boxes, is
-       E_j + 2 lambda X_j + lambda^2 D_j,
-     E_j the box mean of (L_j - V)^2, X_j of (L_j - V)(L_0 - L_j), D_j of
-     (L_0 - L_j)^2 (free of V), least at lambda = -X_j / D_j, held in
-     [0, 1]: the mixture is at least as close as either end (lambda 0
-     and 1 are among the choices), and closer where the two estimates'
-     errors are partly independent or of opposite signs (a kernel
-     between the two bandwidths);
+   - a blend: the pixel may take L_0 + mu (L_j - L_0) (mu = 1 - lambda,
+     the candidate's share) instead of L_j alone. With a = L_j - L_0 and
+     b = L_0 - V its squared difference from V is (b + mu a)^2, so its
+     box mean is below the pass's own, the box mean of b^2, by
+       G_j(mu) = -mu (mu D_j + 2 C_j),
+     D_j the box mean of a^2 (free of V) and C_j of a b: the gain,
+     greatest at mu = -C_j / D_j, held in [0, 1] (mu 0 is the pass's
+     scale, 1 the candidate alone): the mixture is at least as close as
+     either end, and closer where the two estimates' errors are partly
+     independent or of opposite signs (a kernel between the two
+     bandwidths). Only differences from the pass's error matter, so the
+     error of L_0 itself, which holds all of V's own variance, is never
+     formed: two box means a candidate (and V's noise in the gain,
+     below), where the error, X_j and D_j of each took four;
    - who takes part: a pixel that was, in every pass, one merged vertex
      seen straight from a pinhole camera (pds__eye_merge): its value is
      its box filter, which is what V estimates. Every other pixel (seen
@@ -12989,6 +13015,7 @@ typedef char pds__select_estimates_fit[2 + PDS__SELECT_BLURS == PDS__SELECT_ESTI
 static const int pds__select_blur[PDS__SELECT_BLURS][4] = {{1, 1, 3, 0}, {1, 3, 3, 0}, {2, 3, 3, 0},
                                                            {1, 1, 1, 0}, {1, 1, 2, 0}, {1, 1, 3, 1}};
 #define PDS__SELECT_RADIUS 7 /* the errors' box, applied three times */
+#define PDS__SELECT_TIE 1e-7 /* a gain this much greater is no greater: the box means keep 32 bits */
 #ifndef PDS__SELECT_SURE
 #define PDS__SELECT_SURE 1.0 /* standard deviations of V's noise a choice must clear */
 #endif
@@ -13188,7 +13215,7 @@ typedef struct pds__choice {
     int w, h, j;
     long passes;
     double scale, wbar, kappa;
-    double *rgb, *m, *mt, *v, *var, *derr, *e0, *err, *noise, *best, *cand, *pick, *half, *dd, *xx, *share;
+    double *rgb, *m, *mt, *v, *var, *derr, *noise, *best, *cand, *pick, *half, *dd, *cc, *share;
     unsigned char *edge, *edget, *which;
 } pds__choice;
 
@@ -13249,9 +13276,9 @@ static void pds__choice_floor(void *ctx, size_t a, size_t b, void *scratch)
     }
 }
 
-/* Candidate j's terms at each pixel (pds__scale_choice): its squared
-   difference from V, the noise V puts into its difference from the
-   pass's, and the blend's D_j and X_j terms. */
+/* Candidate j's terms at each pixel (pds__scale_choice), with a = its
+   R + G + B less the pass's and b = the pass's less V: a^2 (D_j), a b
+   (C_j) and the noise V puts into the gain, a^2 Var V. */
 static void pds__choice_terms(void *ctx, size_t a, size_t b, void *scratch)
 {
     const pds__choice *q = (const pds__choice *)ctx;
@@ -13259,22 +13286,22 @@ static void pds__choice_terms(void *ctx, size_t a, size_t b, void *scratch)
     (void)scratch;
     for (i = a; i < b; i++) {
         const double *cand = q->cand + 3 * i, *rgb = q->rgb + 3 * i;
-        double y = cand[0] + cand[1] + cand[2], d = y - q->v[i], dj = y - (rgb[0] + rgb[1] + rgb[2]);
-        q->err[i] = d * d;
-        q->noise[i] = dj * dj * q->var[i];
+        double y0 = rgb[0] + rgb[1] + rgb[2], dj = cand[0] + cand[1] + cand[2] - y0;
         q->dd[i] = dj * dj;
-        q->xx[i] = -d * dj; /* (L_j - V)(L_0 - L_j) */
+        q->cc[i] = dj * (y0 - q->v[i]);
+        q->noise[i] = dj * dj * q->var[i];
     }
 }
 
-/* The blend of the pass's scale and candidate j with the least error,
-   lambda L_0 + (1 - lambda) L_j, taken where its error is smaller than
-   the best so far and below the pass's by PDS__SELECT_SURE standard
-   deviations of that noise times sqrt(1 - lambda). (For a lambda fixed
-   beforehand the noise is (1 - lambda) sd, since L_lambda - L_0 =
-   (1 - lambda)(L_j - L_0); lambda is fitted to the same V, so that would
-   be too lenient, and sd itself too strict: README "The choice
-   blends") */
+/* The blend of the pass's scale and candidate j with the greatest gain,
+   L_0 + mu (L_j - L_0), taken where its gain is greater than the best so
+   far (by more than the box means' rounding: of two candidates the same
+   there, such as the second scale and its blur where it is flat, the
+   first stays) and than PDS__SELECT_SURE standard deviations of V's
+   noise in it times sqrt(mu). (For a mu fixed beforehand the noise is mu sd, the
+   blend's difference from L_0 being mu (L_j - L_0); mu is fitted to the
+   same V, so that would be too lenient, and sd itself too strict: README
+   "The choice blends") */
 static void pds__choice_pick(void *ctx, size_t a, size_t b, void *scratch)
 {
     const pds__choice *q = (const pds__choice *)ctx;
@@ -13283,15 +13310,16 @@ static void pds__choice_pick(void *ctx, size_t a, size_t b, void *scratch)
     (void)scratch;
     for (i = a; i < b; i++) {
         double sd = q->derr[i] > 0.0 ? 2.0 * sqrt(q->kappa * q->noise[i] / q->derr[i]) : 0.0;
-        double lam = q->dd[i] > 0.0 ? -q->xx[i] / q->dd[i] : 0.0, eb;
-        lam = lam > 1.0 ? 1.0 : lam > 0.0 ? lam : 0.0;
-        eb = q->err[i] + 2.0 * lam * q->xx[i] + lam * lam * q->dd[i];
-        if (q->m[i] > 0.0 && eb < q->best[i] && q->e0[i] - eb > PDS__SELECT_SURE * sqrt(1.0 - lam) * sd) {
-            q->best[i] = eb;
+        double mu = q->dd[i] > 0.0 ? -q->cc[i] / q->dd[i] : 1.0, gain;
+        mu = mu > 1.0 ? 1.0 : mu > 0.0 ? mu : 0.0;
+        gain = -mu * (mu * q->dd[i] + 2.0 * q->cc[i]);
+        if (q->m[i] > 0.0 && gain > q->best[i] * (1.0 + PDS__SELECT_TIE) &&
+            gain > PDS__SELECT_SURE * sqrt(mu) * sd) {
+            q->best[i] = gain;
             q->which[i] = (unsigned char)q->j;
-            q->share[i] = 1.0 - lam;
+            q->share[i] = mu;
             for (c = 0; c < 3; c++)
-                q->pick[3 * i + c] = lam * q->rgb[3 * i + c] + (1.0 - lam) * q->cand[3 * i + c];
+                q->pick[3 * i + c] = (1.0 - mu) * q->rgb[3 * i + c] + mu * q->cand[3 * i + c];
         }
     }
 }
@@ -13301,12 +13329,11 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
 {
     size_t n = (size_t)w * (size_t)h, i;
     /* one block: per pixel the weight m and its column-major copy, V,
-       V's variance, the errors' box of m, the pass's error, a
-       candidate's error and its noise, the best error so far, a scratch
-       image; then a candidate's, the pick's and the second scale's R, G,
-       B, the blend's D_j and X_j, the pick's weight in its blend, and a
-       scratch row */
-    double *mem = (double *)malloc(sizeof(double) * (22 * n + (size_t)w + 1));
+       V's variance, the errors' box of m, a candidate's noise, the best
+       gain so far, a scratch image; then a candidate's, the pick's and
+       the second scale's R, G, B, the blend's D_j and C_j, the pick's
+       share in its blend, and a scratch row */
+    double *mem = (double *)malloc(sizeof(double) * (20 * n + (size_t)w + 1));
     unsigned char *bytes = (unsigned char *)malloc(3 * n + 1);
     double vsum = 0.0, v2sum = 0.0, *tmp, *cols;
     pds__choice q;
@@ -13330,17 +13357,15 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
     q.v = q.mt + n;
     q.var = q.v + n;
     q.derr = q.var + n;
-    q.e0 = q.derr + n;
-    q.err = q.e0 + n;
-    q.noise = q.err + n;
+    q.noise = q.derr + n;
     q.best = q.noise + n;
     tmp = q.best + n;
     q.cand = tmp + n;
     q.pick = q.cand + 3 * n;
     q.half = q.pick + 3 * n;
     q.dd = q.half + 3 * n;
-    q.xx = q.dd + n;
-    q.share = q.xx + n;
+    q.cc = q.dd + n;
+    q.share = q.cc + n;
     cols = q.share + n;
     q.edge = bytes;
     q.edget = bytes + n;
@@ -13386,25 +13411,24 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
                 return 0;
             }
         }
-        /* its local squared error against the validation, up to V's own,
-           and the noise V puts into its difference from the pass's: the
-           mean of (L_0 - L_j)(L_0 + L_j - 2 V) has V's part
-           -2 (L_0 - L_j) dV, whose variance over the boxes' weights g is
-           4 sum g^2 (L_0 - L_j)^2 Var V ~ 4 kappa mean((L_0 - L_j)^2 Var V)
-           / (their weight there) */
-        (void)pds__parallel_for(threads, n, 1, 0, pds__choice_terms, &q);
-        pds__masked_box(q.err, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
         if (q.j == 0) {
-            memcpy(q.e0, q.err, sizeof(double) * n);
-            memcpy(q.best, q.err, sizeof(double) * n);
+            /* the pass's scale: no gain over itself */
+            memset(q.best, 0, sizeof(double) * n);
             memcpy(q.pick, q.cand, sizeof(double) * 3 * n);
             memset(q.which, 0, n);
             for (i = 0; i < n; i++) q.share[i] = 1.0;
             continue;
         }
+        /* its terms' box means, and the noise V puts into its gain: the
+           candidate alone (mu = 1) gains the mean of (L_0 - V)^2 -
+           (L_j - V)^2 = (L_0 - L_j)(L_0 + L_j - 2 V), whose part of V is
+           -2 (L_0 - L_j) dV, of variance over the boxes' weights g
+           4 sum g^2 (L_0 - L_j)^2 Var V ~ 4 kappa mean((L_0 - L_j)^2 Var V)
+           / (their weight there) */
+        (void)pds__parallel_for(threads, n, 1, 0, pds__choice_terms, &q);
         pds__masked_box(q.noise, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
         pds__masked_box(q.dd, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
-        pds__masked_box(q.xx, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
+        pds__masked_box(q.cc, q.m, q.derr, tmp, cols, w, h, PDS__SELECT_RADIUS, 3, threads);
         (void)pds__parallel_for(threads, n, 1, 0, pds__choice_pick, &q);
     }
     for (i = 0; i < n; i++)

@@ -1742,6 +1742,63 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
     }
 }
 
+/* The choice where there is no light (pds__scale_choice, through the
+   image it makes): a bright 3 x 3 patch at the left of a 64 x 16 part
+   whose other pixels all took part and hold nothing, every estimate 0
+   there and V too. Pixels beyond the reach of the blurs (3 boxes of
+   radius 2) and the errors' boxes (3 of radius 7) from the patch have
+   no evidence for any estimate and must keep the pass's scale. With
+   running sums that kept the patch's rounding (box means of +-1e-16 of
+   its light where there was none) they took candidates on that residue:
+   on this part 263 of the 512 pixels tested. */
+static void test_pds_scale_choice_makes_no_choice_where_there_is_no_light(pds_test_ctx *t)
+{
+    enum { W = 64, H = 16, K = 8, N = W * H };
+    static pds__sum128 photon[N * PDS__STRIDE_SELECT], neg[N * PDS__STRIDE_SELECT];
+    static float out[N * 3], view[N * 3];
+    static double eye[N * 3];
+    long chose[PDS__SELECT_ESTIMATES];
+    uint64_t r = 777;
+    int px, py, c, moved = 0, tested = 0;
+    pds__choice_report report = {NULL, NULL, NULL, 0.0};
+    memset(eye, 0, sizeof eye);
+    memset(photon, 0, sizeof photon);
+    memset(neg, 0, sizeof neg);
+    for (py = 0; py < H; py++)
+        for (px = 0; px < W; px++) {
+            int i = py * W + px;
+            if (px < 8) {
+                /* the light: noisy estimates of a bright patch */
+                double u[4], base;
+                for (c = 0; c < 4; c++) {
+                    r = r * 6364136223846793005u + 1442695040888963407u;
+                    u[c] = (double)(r >> 11) / 9007199254740992.0;
+                }
+                base = 100.0 + 9000.0 * u[0];
+                for (c = 0; c < 3; c++) {
+                    sel_set(photon, neg, i, c, base * (1.0 + 0.1 * c), K);
+                    sel_set(photon, neg, i, PDS__SEL_HALF + c, base * (0.7 + 0.6 * u[1]) * (1.0 + 0.1 * c), K);
+                }
+                sel_set(photon, neg, i, PDS__SEL_VALID, 3.3 * base * (0.5 + u[2]), K);
+            }
+            photon[PDS__STRIDE_SELECT * i + PDS__SEL_COUNT].lo = K;
+        }
+    for (px = 0; px < N * 3; px++) view[px] = -1.0f;
+    report.chose = chose;
+    report.view = view;
+    memset(chose, 0, sizeof chose);
+    REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out, 1, &report) == 0,
+            "image");
+    for (py = 0; py < H; py++)
+        for (px = 36; px < W; px++) {
+            tested++;
+            moved += view[3 * (py * W + px)] != 0.0f;
+        }
+    CHECK(t, moved == 0, "%d of %d pixels far from any light took another estimate than the pass's", moved, tested);
+    CHECK(t, chose[0] + chose[1] + chose[2] + chose[3] + chose[4] + chose[5] + chose[6] + chose[7] == N,
+          "every pixel counted");
+}
+
 /* The image made from the sums (the choice of scale: its box means, its
    segments' blurs, its per-pixel steps) on threads is the same, bit for
    bit, as on one, for an image large enough to be shared out
@@ -1947,6 +2004,8 @@ static const pds_test_case tests_pds[] = {
      test_pds_validation_is_the_light_tracers_image_of_its_own_photons},
     {"pds_scale_choice_takes_the_estimate_the_validation_says_is_closest",
      test_pds_scale_choice_takes_the_estimate_the_validation_says_is_closest},
+    {"pds_scale_choice_makes_no_choice_where_there_is_no_light",
+     test_pds_scale_choice_makes_no_choice_where_there_is_no_light},
     {"pds_image_making_is_identical_for_any_thread_count", test_pds_image_making_is_identical_for_any_thread_count},
     {"pds_large_default_image_is_identical_for_any_thread_count",
      test_pds_large_default_image_is_identical_for_any_thread_count},
