@@ -17978,6 +17978,26 @@ static double pds__eye_round_ratio(double e_single, double e_merged, int caustic
     return f < PDS__EYE_ROUND_SHARE ? PDS__EYE_ROUND_SHARE / f : 1.0;
 }
 
+/* The eye rounds of a photon budget left to the default (eye_rounds 0):
+   one round for every PDS__ROUND_PHOTONS photons per eye sample of a
+   round (w h spp), at least one, so that a round's photons cost about
+   what PDS__ROUND_PHOTONS eye passes cost and the eye passes take a
+   fixed share of the render, whatever the budget. It depends on the
+   options alone (the same for every shard and every resumed part, which
+   a share of the splatted light, as a time budget's ratio takes, would
+   not: only the passes' own photons could tell it). 4, from the glass
+   ball under a point light at equal CPU time (README "PDS against
+   POV-Ray"): 4 rounds at 17 photons an eye sample had the least error
+   there, 16 rounds at 4 photons an eye sample twice it; a render of
+   fewer photons keeps its one eye pass (the golden images, `pds bench
+   pass` at 400,000 photons, the default of 100,000). */
+#define PDS__ROUND_PHOTONS 4.0
+static long pds__budget_rounds(long photons, int w, int h, int spp)
+{
+    double r = floor((double)photons / (PDS__ROUND_PHOTONS * (double)w * (double)h * (double)spp));
+    return r >= 1.0 ? (r < (double)LONG_MAX / 2 ? (long)r : LONG_MAX / 2) : 1;
+}
+
 /* The round pass k of k_total splats into, with `rounds` rounds. */
 static long pds__eye_round_of(long k, long k_total, long rounds)
 {
@@ -24423,7 +24443,8 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
     if (max_passes < 1) max_passes = 1;
     job.total_spp_max = job.spp * max_passes;
     /* eye rounds (pds__pds_passes) of progressive PDS, without teaching
-       views: under a photon budget R = eye_rounds (at most one a pass),
+       views: under a photon budget R = eye_rounds, or by default one
+       every PDS__ROUND_PHOTONS photons an eye sample (at most one a pass),
        under a time budget as many as the time allows (at most
        eye_rounds if above 1), in a render of one part. Round r's samples
        are pass r's, after those of the rounds before it. */
@@ -24433,8 +24454,9 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
         long most = PDS_MAX_SPP / job.spp;
         if (opt->time_s > 0.0 && N == 1) {
             rounds.rounds = opt->eye_rounds > 1 && opt->eye_rounds < most ? opt->eye_rounds : most;
-        } else if (opt->time_s <= 0.0 && opt->eye_rounds > 1) {
-            rounds.rounds = opt->eye_rounds < part->units_total ? opt->eye_rounds : part->units_total;
+        } else if (opt->time_s <= 0.0) {
+            long want = opt->eye_rounds > 1 ? opt->eye_rounds : pds__budget_rounds(opt->photons, w, h, job.spp);
+            rounds.rounds = want < part->units_total ? want : part->units_total;
             if (rounds.rounds > most) rounds.rounds = most;
         }
     }

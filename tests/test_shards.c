@@ -28,30 +28,35 @@ typedef struct shards_case {
     pds_paths paths;     /* default PDS_PATHS_ALL */
     int eye_rounds;      /* progressive pds */
     int select;          /* progressive pds: the pixels' second scale */
+    long photons;        /* 0: 6000 */
 } shards_case;
 
 static const shards_case shards_cases[] = {
-    {"pds (progressive)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
-    {"pds (paper)", PDS_METHOD_PDS, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
-    {"splat", PDS_METHOD_SPLAT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
-    {"pm", PDS_METHOD_PM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
-    {"pdm", PDS_METHOD_PDM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
-    {"ppm", PDS_METHOD_PPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
-    {"pt", PDS_METHOD_PT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
+    {"pds (progressive)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0, 0},
+    {"pds (paper)", PDS_METHOD_PDS, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0, 0},
+    {"splat", PDS_METHOD_SPLAT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0, 0},
+    {"pm", PDS_METHOD_PM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0, 0},
+    {"pdm", PDS_METHOD_PDM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0, 0},
+    {"ppm", PDS_METHOD_PPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0, 0},
+    {"pt", PDS_METHOD_PT, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0, 0},
     /* 7: gi with caustics split by photon passes (the gather of every
        row's eye vertex but the shard's own is skipped); 8: by gathers */
-    {"gi (pds caustics)", PDS_METHOD_GI, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
-    {"gi (pm caustics)", PDS_METHOD_GI, 0, PDS_METHOD_PM, PDS_PATHS_ALL, 0, 0},
+    {"gi (pds caustics)", PDS_METHOD_GI, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0, 0},
+    {"gi (pm caustics)", PDS_METHOD_GI, 0, PDS_METHOD_PM, PDS_PATHS_ALL, 0, 0, 0},
     /* 9: spm's full image, gi's with streams and spm caustics */
-    {"spm", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
-    {"isc", PDS_METHOD_ISC, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0},
-    {"spm (caustics only)", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_CAUSTICS_ONLY, 0, 0},
+    {"spm", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0, 0},
+    {"isc", PDS_METHOD_ISC, 0, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0, 0},
+    {"spm (caustics only)", PDS_METHOD_SPM, 0, PDS_METHOD_PDS, PDS_PATHS_CAUSTICS_ONLY, 0, 0, 0},
     /* 12: a photon budget's eye rounds, one a pass: every shard traces
        every round's direct light and the rounds of its passes */
-    {"pds (eye rounds)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 3, 0},
+    {"pds (eye rounds)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 3, 0, 0},
     /* 13: the pixels' choice of two scales, from the odd and even passes
        of every shard */
-    {"pds (two scales)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 1},
+    {"pds (two scales)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 1, 0},
+    /* 14: a photon budget's default eye rounds, one every 4 photons an
+       eye sample (24 x 16 x 2 samples: 12288 photons, 4 rounds in 6
+       passes), which every shard works out alike */
+    {"pds (default eye rounds)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0, 12288},
 };
 
 static void shards_options(const shards_case *c, pds_options *opt)
@@ -68,7 +73,7 @@ static void shards_options(const shards_case *c, pds_options *opt)
     opt->stream_photons = 4; /* spm: 1200 caustic streams, 600 global ones */
     opt->stream_radius = 0.2;
     opt->light_resolution = 64; /* isc */
-    opt->photons = 6000;      /* pds: 6 batches; progressive: 3 passes of 2000 */
+    opt->photons = c->photons ? c->photons : 6000; /* pds: 6 batches; progressive: 3 passes of 2000 */
     opt->pass_photons = 2048;
     opt->passes = 2;          /* ppm */
     opt->k = 20;
