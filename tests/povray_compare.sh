@@ -101,7 +101,11 @@ photon_method pds-tuned --max-depth 2 --spp 16 --pass-min-width 3
 photon_method pm --method pm
 #    The same light transport as POV-Ray's and the reference's: direct light
 #    and caustics at the first non-specular vertex, no indirect light.
+#    (since 7 December 2026 a photon budget takes an eye round every 4
+#    photons an eye sample by default, so these rows have rounds at the
+#    larger budgets; pds-direct1 keeps the old default's one eye pass)
 photon_method pds-direct --diffuse-bounces 0
+photon_method pds-direct1 --diffuse-bounces 0 --eye-rounds 1
 photon_method pm-direct --method pm --diffuse-bounces 0
 #    ... and PDS's passes splatting into 4 or 16 eye passes (16 or 64
 #    samples a pixel)
