@@ -121,7 +121,7 @@ static const command_help help_table[] = {
      "      --pass-min-width W      progressive pds: as --min-width (default 1.5)\n"
      "      --pass-photons N        progressive pds: photons per pass, at most (default 16384)\n"
      "      --eye-rounds R          progressive pds: passes splat into R eye passes of spp samples each\n"
-     "                              (--photons: R runs of passes, 0 one per 4 photons an eye sample;\n"
+     "                              (--photons: R runs of passes, 0 one per 1.5 x w h spp photons;\n"
      "                              --time: 0 re-traces it as time goes, R > 1 at most R; 1: one pass)\n"
      "      --split-depth N         progressive pds: split a photon whose footprint the surface's curvature\n"
      "                              makes non-linear into 4 sub-photons, at most N times (default 0: never)\n"

@@ -576,9 +576,9 @@ typedef struct pds_options {
                            Under a photon budget, R > 1 splits the passes
                            into R runs of consecutive passes (at most one
                            per pass), each with its own eye pass; 0 one
-                           run every 4 photons an eye sample (photons /
-                           (4 width height spp), at least 1); 1: one eye
-                           pass. Under a time budget, 0 (default)
+                           run every 1.5 width height spp photons (at
+                           least 1); 1: one eye pass. Under a time
+                           budget, 0 (default)
                            or R > 1 trace a new eye pass whenever the
                            photon passes since the last one took as long
                            as it did (at most R rounds, 0: no limit) in a

@@ -44,9 +44,10 @@ static void test_pt_full_image_is_no_caustics_plus_caustics_only(pds_test_ctx *t
     double worst = 0.0, caustic_energy = 0.0;
     pds_options_default(&opt);
     opt.threads = 2;
-    /* one eye pass: with eye rounds (by default one every 4 photons an eye
-       sample, here 7) a full image's direct light is the mean of several
-       eye passes', which a render without caustics does not trace */
+    /* one eye pass: with eye rounds (by default one every 1.5 w h spp
+       photons, here 7, one a pass) a full image's direct light is the mean of
+       several eye passes', which a render without caustics does not
+       trace */
     opt.eye_rounds = 1;
     REQUIRE(t, render_text(glass_sphere_scene, &opt, &all, NULL), "render all");
     opt.paths = PDS_PATHS_NO_CAUSTICS;

@@ -53,9 +53,9 @@ static const shards_case shards_cases[] = {
     /* 13: the pixels' choice of two scales, from the odd and even passes
        of every shard */
     {"pds (two scales)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 1, 0},
-    /* 14: a photon budget's default eye rounds, one every 4 photons an
-       eye sample (24 x 16 x 2 samples: 12288 photons, 4 rounds in 6
-       passes), which every shard works out alike */
+    /* 14: a photon budget's default eye rounds, one every 1.5 w h spp
+       photons (24 x 16 x 2 samples: 12288 photons, 10 rounds, held to
+       one a pass: 6), which every shard works out alike */
     {"pds (default eye rounds)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0, 12288},
 };
 
