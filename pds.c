@@ -15915,8 +15915,9 @@ static double pds__sum_unit(const pds_scene *s)
    the ball fills, and two thirds of them met the floor first and were
    dropped (the teaching scene, the POV-Ray ball; the gold ring 2 times,
    the cognac glass 1.6, the glass bunny 1.4). Photons are weighted by the
-   cone's solid angle, so the image is the same in expectation; it is
-   less noisy for the same photons, and the photons cost less. */
+   cone's solid angle, so the image is the same in expectation; up to 3
+   times as many of the same photons land (so each costs more, in
+   splats or in the map, and is worth more). */
 typedef struct pds__target {
     int any;
     pds__v3 centre;
