@@ -12859,25 +12859,31 @@ typedef struct pds__box_job {
     int w, h, r;
 } pds__box_job;
 
+/* The sum of x[k step] over the window k = c - r .. c + r of a line of
+   len values, its ends repeated beyond them. */
+static double pds__window_sum(const double *x, size_t step, int len, int c, int r)
+{
+    double sum = 0.0;
+    int k;
+    for (k = c - r; k <= c + r; k++) sum += x[(size_t)(k < 0 ? 0 : k >= len ? len - 1 : k) * step];
+    return sum;
+}
+
 static void pds__box_rows(void *ctx, size_t a, size_t b, void *scratch)
 {
     const pds__box_job *j = (const pds__box_job *)ctx;
-    int w = j->w, r = j->r, px, k;
+    int w = j->w, r = j->r, px;
     size_t py;
     (void)scratch;
     for (py = a; py < b; py++) {
         const double *row = j->x + py * (size_t)w;
-        double *out = j->tmp + py * (size_t)w, sum = 0.0;
-        for (k = -r; k <= r; k++) sum += row[k < 0 ? 0 : k >= w ? w - 1 : k];
+        double *out = j->tmp + py * (size_t)w, sum = pds__window_sum(row, 1, w, 0, r);
         for (px = 0; px < w; px++) {
             int drop = px - r, take = px + r + 1;
             double gone = row[drop < 0 ? 0 : drop];
             out[px] = sum;
             sum += row[take >= w ? w - 1 : take] - gone;
-            if (fabs(gone) > PDS__BOX_RESUM * fabs(sum) && px + 1 < w) {
-                sum = 0.0;
-                for (k = px + 1 - r; k <= px + 1 + r; k++) sum += row[k < 0 ? 0 : k >= w ? w - 1 : k];
-            }
+            if (fabs(gone) > PDS__BOX_RESUM * fabs(sum) && px + 1 < w) sum = pds__window_sum(row, 1, w, px + 1, r);
         }
     }
 }
@@ -12904,11 +12910,8 @@ static void pds__box_cols(void *ctx, size_t a, size_t b, void *scratch)
             cols[px] += add[px] - sub[px];
         }
         for (px = a; px < b && py + 1 < h; px++)
-            if (fabs(sub[px]) > PDS__BOX_RESUM * fabs(cols[px])) {
-                cols[px] = 0.0;
-                for (k = py + 1 - r; k <= py + 1 + r; k++)
-                    cols[px] += j->tmp[(size_t)(k < 0 ? 0 : k >= h ? h - 1 : k) * w + px];
-            }
+            if (fabs(sub[px]) > PDS__BOX_RESUM * fabs(cols[px]))
+                cols[px] = pds__window_sum(j->tmp + px, w, h, py + 1, r);
     }
 }
 

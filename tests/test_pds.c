@@ -507,29 +507,17 @@ static double mirror_full_error(const pds_image *img)
     return mirror_error(img, 1.0);
 }
 
-static void eye_rounds_8(pds_options *o)
+/* progressive_small_passes with R eye rounds (0: the default rule), one
+   callback a count, as photon_render_text takes them */
+static void small_passes_rounds(pds_options *o, int rounds)
 {
     progressive_small_passes(o);
-    o->eye_rounds = 8;
+    o->eye_rounds = rounds;
 }
-
-static void eye_rounds_1(pds_options *o)
-{
-    progressive_small_passes(o);
-    o->eye_rounds = 1;
-}
-
-static void eye_rounds_default(pds_options *o)
-{
-    progressive_small_passes(o);
-    o->eye_rounds = 0;
-}
-
-static void eye_rounds_3(pds_options *o)
-{
-    progressive_small_passes(o);
-    o->eye_rounds = 3;
-}
+static void eye_rounds_default(pds_options *o) { small_passes_rounds(o, 0); }
+static void eye_rounds_1(pds_options *o) { small_passes_rounds(o, 1); }
+static void eye_rounds_3(pds_options *o) { small_passes_rounds(o, 3); }
+static void eye_rounds_8(pds_options *o) { small_passes_rounds(o, 8); }
 
 /* Eye rounds under a photon budget: 64 passes splatting into 8 eye passes
    of 16 samples a pixel (8 x 16 = 128 samples, reported as spp), the
