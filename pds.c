@@ -13722,7 +13722,7 @@ pds_status pds_partial_merge_report(const pds_partial *const *parts, const char 
      offset  bytes  field
      0       8      magic "PDSPART\n"
      8       4      format version (9)
-     12      16     library version string, NUL-padded ("0.1.0")
+     12      16     library version string, NUL-padded ("0.2.0")
      28      8      scene content hash (pds_scene_hash)
      36      512    scene path as loaded, NUL-padded
      548     4 x 5  width, height, shard index (0-based), shard count, split

@@ -1,4 +1,4 @@
-/* pds.h - PDS, a photon differential splatting renderer for caustics. v0.1.0
+/* pds.h - PDS, a photon differential splatting renderer for caustics. v0.2.0
 
    PDS renders caustics with photon differential splatting (Frisvad, Schjoth,
    Erleben, Sporring, "Photon Differential Splatting for Rendering Caustics",
@@ -63,7 +63,7 @@ extern "C" {
 #define PDS_VERSION_MAJOR 0
 #define PDS_VERSION_MINOR 1
 #define PDS_VERSION_PATCH 0
-#define PDS_VERSION_STRING "0.1.0"
+#define PDS_VERSION_STRING "0.2.0"
 
 /* ------------------------------------------------------------------ errors */
 

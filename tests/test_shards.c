@@ -581,7 +581,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
         free(v10);
         REQUIRE(t, bytes != NULL, "version 9");
     }
-    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 9 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.1.0") &&
+    CHECK(t, !memcmp(bytes, "PDSPART\n", 8) && bytes[8] == 9 && bytes[9] == 0 && !strcmp((char *)bytes + 12, "0.2.0") &&
                  bytes[548] == 24 && bytes[552] == 16 && bytes[556] == 1 && bytes[560] == 2 && bytes[564] == 1 &&
                  bytes[568 + 8 * 41] == 4 && bytes[568 + 8 * 46] == 0xff && bytes[568 + 8 * 47] == 0 &&
                  bytes[568 + 8 * 48] == 0 && bytes[568 + 8 * 49] == 0 && bytes[968 + 8] == 3,
@@ -629,7 +629,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     memcpy(copy + 12, "9.9.9", 5);
     shards_spit(bad, copy, n);
     CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_INVALID_ARG &&
-                 strstr(err.text, ": written by pds 9.9.9, this is pds 0.1.0: versions may render differently"),
+                 strstr(err.text, ": written by pds 9.9.9, this is pds 0.2.0: versions may render differently"),
           "library version: %s", err.text);
     memcpy(copy, bytes, n);
     copy[1000] ^= 1;
