@@ -827,7 +827,8 @@ typedef enum pds__work {
     PDS__WORK_MAPPED,  /* photons a photon map was built of */
     PDS__WORK_QUERIED, /* eye vertices a gather or ppm update queried */
     PDS__WORK_FOUND,   /* photons those queries found */
-    PDS__WORK_CHOSEN   /* pixels whose scale the choice weighed */
+    PDS__WORK_CHOSEN,  /* pixels whose scale the choice weighed */
+    PDS__WORK_EYE      /* eye samples of a row the eye pass traced */
 } pds__work;
 
 typedef struct pds__clock {
@@ -15247,6 +15248,7 @@ static void *pds__render_worker(void *arg)
         y = job->rows[k];
         for (x = 0; x < job->frame.width; x++)
             pds__render_pixel(job, x, y, &job->sum[3 * ((size_t)y * job->frame.width + x)]);
+        pds__clock_spent(&job->clock, PDS__WORK_EYE, (double)job->frame.width * job->spp);
         pds__mutex_lock(&job->lock);
         done = ++job->rows_done;
         pds__mutex_unlock(&job->lock);
@@ -24610,9 +24612,22 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
             for (y = 0; y < h; y++) free(job.row_vertices[y]);
         }
         if (!verts) st = pds__nomem(err);
-        else if (completed == job.nrows)
+        else if (completed == job.nrows) {
+            /* a time budget is the render's: the photon pass gets what the
+               eye pass (and gi's maps) left of it, so a method whose eye
+               pass is dear (ppm at many samples a pixel) pays for it, as
+               progressive PDS pays for its eye rounds; past it, the least
+               budget (each method's one batch or pass) */
+            pds_options bopt;
+            if (popt->time_s > 0.0) {
+                bopt = *popt;
+                bopt.time_s = pds__max2(popt->time_s - (pds__clock_now(&job.clock) - job.t0), 1e-9);
+                popt = &bopt;
+            }
             st = pds__photon_pass(scene, popt, verts, nv, w, h, threads, part, opt->debug,
                                   rounds.rounds > 1 ? &rounds : NULL, &job.clock, stats, err);
+            popt = gi ? &copt : opt;
+        }
         if (!st && completed == job.nrows && rounds.rounds > 1 && opt->time_s > 0.0) {
             /* a time budget's rounds: the values are the mean of all
                (one part, every row its own) */

@@ -365,8 +365,8 @@ static void test_probe_parallel_counts_the_threads_that_had_work(pds_test_ctx *t
    a lock (tracing threads tell it their batches and read it). */
 typedef struct budget_machine {
     pds__mutex lock;
-    double traced, queried, found, build_s, chosen;   /* the work told so far */
-    double trace_s, query_s, found_s, map_s, chosen_s; /* what each costs; a map of m photons: map_s m log2 m */
+    double traced, queried, found, build_s, chosen, eye;     /* the work told so far */
+    double trace_s, query_s, found_s, map_s, chosen_s, eye_s; /* what each costs; a map of m photons: map_s m log2 m */
 } budget_machine;
 
 static double budget_machine_now(void *user)
@@ -374,7 +374,8 @@ static double budget_machine_now(void *user)
     budget_machine *m = (budget_machine *)user;
     double t;
     pds__mutex_lock(&m->lock);
-    t = m->traced * m->trace_s + m->queried * m->query_s + m->found * m->found_s + m->build_s + m->chosen * m->chosen_s;
+    t = m->traced * m->trace_s + m->queried * m->query_s + m->found * m->found_s + m->build_s + m->chosen * m->chosen_s +
+        m->eye * m->eye_s;
     pds__mutex_unlock(&m->lock);
     return t;
 }
@@ -388,18 +389,19 @@ static void budget_machine_spent(void *user, pds__work what, double units)
     if (what == PDS__WORK_QUERIED) m->queried += units;
     if (what == PDS__WORK_FOUND) m->found += units;
     if (what == PDS__WORK_CHOSEN) m->chosen += units;
+    if (what == PDS__WORK_EYE) m->eye += units;
     pds__mutex_unlock(&m->lock);
 }
 
 /* method (tweak: options beside it) on the slab, caustics only, 2
    threads, under a budget of T simulated seconds on a machine where a
    photon costs 10 us, a map of m photons 1 us m log2 m, a query 2 us,
-   0.05 us a photon found and chosen_s a pixel whose scale is chosen,
-   through the production path (pds__render_at), with or without the map
-   plan's step 2 (one_round). *landed: the photon pass's simulated
-   seconds over T. 0 if the render failed. */
-static int budget_machine_render_at(pds_method method, double T, int one_round, void (*tweak)(pds_options *),
-                                    double chosen_s, double *landed, pds_render_stats *st)
+   0.05 us a photon found, chosen_s a pixel whose scale is chosen and
+   eye_s an eye sample, through the production path (pds__render_at),
+   with or without the map plan's step 2 (one_round). *landed: the
+   photon pass's simulated seconds over T. 0 if the render failed. */
+static int budget_machine_render_eye(pds_method method, double T, int one_round, void (*tweak)(pds_options *),
+                                     double chosen_s, double eye_s, double *landed, pds_render_stats *st)
 {
     budget_machine m;
     pds__clock clock;
@@ -416,6 +418,7 @@ static int budget_machine_render_at(pds_method method, double T, int one_round, 
     m.query_s = 2e-6;
     m.found_s = 0.05e-6;
     m.chosen_s = chosen_s;
+    m.eye_s = eye_s;
     memset(&clock, 0, sizeof clock);
     clock.now = budget_machine_now;
     clock.spent = budget_machine_spent;
@@ -436,7 +439,14 @@ static int budget_machine_render_at(pds_method method, double T, int one_round, 
     return ok;
 }
 
-/* The same where choosing a pixel's scale costs nothing. */
+/* The same where an eye sample costs nothing. */
+static int budget_machine_render_at(pds_method method, double T, int one_round, void (*tweak)(pds_options *),
+                                    double chosen_s, double *landed, pds_render_stats *st)
+{
+    return budget_machine_render_eye(method, T, one_round, tweak, chosen_s, 0.0, landed, st);
+}
+
+/* The same where choosing a pixel's scale costs nothing too. */
 static int budget_machine_render(pds_method method, double T, int one_round, void (*tweak)(pds_options *),
                                  double *landed, pds_render_stats *st)
 {
@@ -521,6 +531,41 @@ static void test_pds_budget_holds_the_choice_of_scale(pds_test_ctx *t)
 }
 #endif
 
+#ifndef PDS_NO_BASELINES
+/* --time is the render's, its eye pass included: on the simulated
+   machine with eye samples that make the eye pass 0.4 T, ppm, pm and
+   progressive PDS (passes of 4096 photons) end the whole render within
+   15% of T, their photon passes at 0.6 T, and trace fewer photons than
+   when the eye pass is free. (With the budget the photon pass's alone,
+   the renders ended at 1.4 T.) */
+static void test_budgets_count_the_eye_pass(pds_test_ctx *t)
+{
+    static const pds_method methods[3] = {PDS_METHOD_PPM, PDS_METHOD_PM, PDS_METHOD_PDS};
+    pds_error err;
+    pds_scene *s = scene_from_text(slab_scene, &err);
+    int i, spp;
+    REQUIRE(t, s != NULL, "slab: %s", err.text);
+    spp = pds_scene_camera(s)->spp > 0 ? pds_scene_camera(s)->spp : 1;
+    pds_scene_free(s);
+    for (i = 0; i < 3; i++) {
+        void (*tweak)(pds_options *) = methods[i] == PDS_METHOD_PDS ? short_passes : NULL;
+        pds_render_stats free_st, st;
+        double landed, eye_s, T = 1.0;
+        REQUIRE(t, budget_machine_render_eye(methods[i], T, 0, tweak, 0.0, 0.0, &landed, &free_st), "render");
+        /* (free_st.spp counts PDS's eye rounds too) */
+        eye_s = 0.4 * T / ((double)free_st.width * free_st.height * spp);
+        REQUIRE(t, budget_machine_render_eye(methods[i], T, 0, tweak, 0.0, eye_s, &landed, &st), "render");
+        CHECK(t, fabs(st.time_eye_s - 0.4 * T) < 1e-9, "%s: the eye pass took %.4g s", pds_method_name(methods[i]),
+              st.time_eye_s);
+        CHECK(t, fabs(st.time_total_s / T - 1.0) <= 0.15 && fabs(st.time_photons_s / T - 0.6) <= 0.15,
+              "%s: the render ended at %.3f T, its photon pass took %.3f T", pds_method_name(methods[i]),
+              st.time_total_s / T, st.time_photons_s / T);
+        CHECK(t, st.photons < free_st.photons, "%s: %ld photons, %ld with the eye pass free",
+              pds_method_name(methods[i]), st.photons, free_st.photons);
+    }
+}
+#endif
+
 static const pds_test_case tests_budget[] = {
     {"pds_plan_solves_the_cost_of_tracing_and_splats", test_pds_plan_solves_the_cost_of_tracing_and_splats},
     {"pds_plan_keeps_a_batch_within_an_eighth_of_the_time", test_pds_plan_keeps_a_batch_within_an_eighth_of_the_time},
@@ -538,6 +583,7 @@ static const pds_test_case tests_budget[] = {
     {"map_budget_replans_on_a_machine_slower_than_probed", test_map_budget_replans_on_a_machine_slower_than_probed},
     {"budgets_hold_on_a_simulated_machine", test_budgets_hold_on_a_simulated_machine},
     {"pds_budget_holds_the_choice_of_scale", test_pds_budget_holds_the_choice_of_scale},
+    {"budgets_count_the_eye_pass", test_budgets_count_the_eye_pass},
 #endif
     {"paper_pds_without_time_keeps_small_footprints", test_paper_pds_without_time_keeps_small_footprints},
 };

@@ -781,7 +781,7 @@ static void test_harness_render_warns_of_a_missed_time_budget(pds_test_ctx *t)
     snprintf(args, sizeof args,
              "render tests/golden/glass.scene --method pm --time 0.001 --res 32x24 --caustics-only --quiet -o %s", path);
     REQUIRE(t, cli_run_split(args, out, sizeof out, err, sizeof err) == 0, "render failed: %s %s", out, err);
-    CHECK(t, strstr(err, "pds render: warning: the photon pass took ") && strstr(err, "of its 0.001 s budget") &&
+    CHECK(t, strstr(err, "pds render: warning: the render took ") && strstr(err, "of its 0.001 s budget") &&
                  strstr(err, "the map's build and gather come after the last photon"),
           "the warning: %s", err);
     remove(path);
