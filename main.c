@@ -2935,7 +2935,7 @@ static int cmp_double(const void *a, const void *b);
    landed / T, landed being the time the budget governs: the whole render,
    eye pass included (the eye pass is printed beside it). "paper" is the paper's
    PDS (--smoothing 12, not progressive); gi is Jensen's two-pass method,
-   whose caustic pass (pds) the budget governs. The last line counts the
+   whose maps, eye pass and caustic pass (pds) the budget governs. The last line counts the
    cases whose median lands within 15% of T. */
 typedef struct bench_budget_method {
     const char *name;
@@ -5029,7 +5029,7 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
     }
     sb_printf(b, "</table>\n<p class=\"meta\">Phases: the eye pass (for pt, the whole render); photon tracing, "
                  "which for pds and splat includes the splats and for pm, pdm and ppm the map build and gather "
-                 "after it; the best RMSE and SSIM of each budget in bold.</p>\n");
+                 "after it; a time budget is the whole render's (total); the best RMSE and SSIM of each budget in bold.</p>\n");
     if (bud->n > 1)
         sb_printf(b, "<h2>Convergence</h2>\n<p class=\"meta\">RMSE and 1 &minus; SSIM against each render's "
                      "measured time, log-log (<a href=\"convergence.svg\">convergence.svg</a>).</p>\n"
