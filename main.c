@@ -4329,9 +4329,8 @@ static const tune_grid tune_grids[] = {
 /* The time a render's --time governs: the whole render, for every method
    (a photon method's eye pass is in its budget: ppm's at 16 samples a
    pixel costs it what PDS's eye rounds cost PDS). */
-static double budget_spent(const pds_options *o, const pds_render_stats *st)
+static double budget_spent(const pds_render_stats *st)
 {
-    (void)o;
     return st->time_total_s;
 }
 
@@ -4405,7 +4404,7 @@ static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_
             row->key = tg->key;
             snprintf(row->value, sizeof row->value, "%s", value);
             row->m = m;
-            row->time_s = budget_spent(&c.opt, &st);
+            row->time_s = budget_spent(&st);
             row->photons = st.photons;
             row->chosen = 0;
             /* the first of equal RMSEs wins; NaN never does; nor does a
@@ -4457,12 +4456,12 @@ static int race_check_budgets(race_entry *e, int n, const race_budgets *bud)
         long most = 0;
         t->flags = 0;
         if (!bud->by_time) continue; /* a photon budget is exact */
-        ratio = budget_spent(&t->cfg.opt, &t->st) / budget;
+        ratio = budget_spent(&t->st) / budget;
         if (ratio > 1.0 + RACE_TIME_TOLERANCE) t->flags |= RACE_OVER_TIME;
         else if (ratio < 1.0 - RACE_TIME_TOLERANCE) t->flags |= RACE_UNDER_TIME;
         if (t->flags)
             fprintf(stderr, "pds race: warning: %s took %.3g s of its %g s budget (%+.0f%%): more than %.0f%% off, "
-                    "not an equal-time result\n", t->label, budget_spent(&t->cfg.opt, &t->st), budget, 100.0 * (ratio - 1.0),
+                    "not an equal-time result\n", t->label, budget_spent(&t->st), budget, 100.0 * (ratio - 1.0),
                     100.0 * RACE_TIME_TOLERANCE);
         if (!is_photon_method(t->cfg.opt.method) || t->cfg.opt.paths == PDS_PATHS_NO_CAUSTICS) continue;
         for (j = 0; j < n; j++)
@@ -4981,8 +4980,8 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
         sb_printf(b, "<li>");
         sb_xml(b, t->label);
         if (t->flags & (RACE_OVER_TIME | RACE_UNDER_TIME))
-            sb_printf(b, ": took %.3g s of its %s s budget (%+.0f%%, more than %.0f%% off)", budget_spent(&t->cfg.opt, &t->st),
-                      bud->text[t->budget], 100.0 * (budget_spent(&t->cfg.opt, &t->st) / bud->value[t->budget] - 1.0),
+            sb_printf(b, ": took %.3g s of its %s s budget (%+.0f%%, more than %.0f%% off)", budget_spent(&t->st),
+                      bud->text[t->budget], 100.0 * (budget_spent(&t->st) / bud->value[t->budget] - 1.0),
                       100.0 * RACE_TIME_TOLERANCE);
         if (t->flags & RACE_FEW_PHOTONS)
             sb_printf(b, ": emitted only %ld photons (fewer than %d, or than 1%% of the most on its budget)",
