@@ -246,14 +246,18 @@ static const command_help help_table[] = {
      "      --diff-scale MODE       difference images: shared (one scale, default), each, or a number\n"
      "      --roi X,Y,W,H           region to crop (default: the 64x64 window of REF with the\n"
      "                              largest luminance variance)\n"
+     "      --mask MASK.pfm         RMSE and SSIM (and --tune's choices) over the pixels MASK holds\n"
+     "                              (first channel > 0), e.g. those a light-traced REF holds whole\n"
      "      -o DIR                  output folder (default race-SCENE): index.html, race.csv, images;\n"
      "                              each finished entry is kept at once in DIR/entries\n"
      "      --resume                load the entries kept in DIR/entries (an interrupted race) and\n"
      "                              render only the others\n"
      "      and any render option; it applies to every method it concerns\n",
      "", "", 1},
-    {"compare", "compare A.pfm REF.pfm",
-     "RMSE and SSIM of A against the reference REF (PFM or OpenEXR; a warning if their kinds differ)", "", "", "", 0},
+    {"compare", "compare A.pfm REF.pfm [--mask MASK.pfm]",
+     "RMSE and SSIM of A against the reference REF (PFM or OpenEXR; a warning if their kinds differ); with\n"
+     "  --mask, over the pixels MASK holds (first channel > 0), e.g. those a light-traced reference holds\n"
+     "  whole (tests/ref_light --complete)", "", "", "", 0},
     {"pixel", "pixel IMAGE.pfm X Y [R]", "mean value of the pixels within R (default 0) of pixel X,Y (PFM or OpenEXR)", "", "", "", 0},
     {"trace-photon", "trace-photon SCENE --photon I [options]",
      "one caustic photon's path with its differentials beside finite differences",
@@ -2369,22 +2373,38 @@ static int cmd_merge(int argc, char **argv)
 static int cmd_compare(int argc, char **argv)
 {
     static pds_image_meta ma, mb; /* 26 KB each */
-    pds_image a = {0, 0, NULL}, b = {0, 0, NULL};
+    pds_image a = {0, 0, NULL}, b = {0, 0, NULL}, mask = {0, 0, NULL};
+    const char *files[2], *mask_path = NULL;
     pds_metrics m;
     pds_error err;
-    int rc = 0;
-    if (argc != 2) return usage_error("%s", "compare needs two images: A.pfm REFERENCE.pfm (or .exr)");
-    if (pds_image_read(argv[0], &a, &ma, &err) != PDS_OK || pds_image_read(argv[1], &b, &mb, &err) != PDS_OK ||
-        pds_image_compare(&a, &b, &m, &err) != PDS_OK) {
-        fprintf(stderr, "%s\n", pds_error_string(&err));
+    int rc = 0, nfiles = 0, i;
+    for (i = 0; i < argc; i++) {
+        if (arg_is(argv[i], "--mask")) {
+            if (option_value(argc, argv, &i, &mask_path)) return EXIT_USAGE;
+        } else if (argv[i][0] == '-' && argv[i][1] != '\0') {
+            return usage_error("compare knows --mask, got '%s'", argv[i]);
+        } else if (nfiles < 2) {
+            files[nfiles++] = argv[i];
+        } else {
+            nfiles = 3;
+        }
+    }
+    if (nfiles != 2) return usage_error("%s", "compare needs two images: A.pfm REFERENCE.pfm (or .exr)");
+    if (pds_image_read(files[0], &a, &ma, &err) != PDS_OK || pds_image_read(files[1], &b, &mb, &err) != PDS_OK ||
+        (mask_path && pds_image_read(mask_path, &mask, NULL, &err) != PDS_OK) ||
+        pds_image_compare_masked(&a, &b, mask_path ? &mask : NULL, &m, &err) != PDS_OK) {
+        const char *msg = pds_error_string(&err);
+        int of_mask = mask_path && !strncmp(msg, "the mask", 8); /* (the library's words: no file of its own) */
+        fprintf(stderr, "%s%s%s\n", of_mask ? mask_path : "", of_mask ? ": " : "", msg);
         rc = 1;
     } else {
-        warn_kind_mismatch("compare", argv[0], pds_image_meta_get(&ma, PDS_META_KIND), argv[1],
+        warn_kind_mismatch("compare", files[0], pds_image_meta_get(&ma, PDS_META_KIND), files[1],
                            pds_image_meta_get(&mb, PDS_META_KIND));
         printf("compare rmse=%.6f ssim=%.6f\n", m.rmse, m.ssim);
     }
     pds_image_free(&a);
     pds_image_free(&b);
+    pds_image_free(&mask);
     return rc;
 }
 
@@ -3354,8 +3374,9 @@ static int keep_entry(const char *dir, const char *label, const char *key, const
 /* Load a kept entry if DIR/entries holds one with this key: 1 loaded
    (image, stats, extra fields and the metrics against ref), 0 not there
    (or another entry's), -1 after printing an error. */
-static int load_entry(const char *dir, const char *label, const char *key, const pds_image *ref, pds_image *img,
-                      pds_render_stats *s, pds_metrics *m, char *extra, size_t extra_n)
+static int load_entry(const char *dir, const char *label, const char *key, const pds_image *ref,
+                      const pds_image *mask, pds_image *img, pds_render_stats *s, pds_metrics *m, char *extra,
+                      size_t extra_n)
 {
     char path[PATH_MAX_LEN], text[2048], *tab, *rest;
     unsigned long map_bytes;
@@ -3381,7 +3402,7 @@ static int load_entry(const char *dir, const char *label, const char *key, const
     s->map_bytes = (size_t)map_bytes;
     snprintf(extra, extra_n, "%s", rest);
     snprintf(path, sizeof path, "%s/entries/%s.pfm", dir, label);
-    if (pds_image_read_pfm(path, img, &err) != PDS_OK || pds_image_compare(img, ref, m, &err) != PDS_OK) {
+    if (pds_image_read_pfm(path, img, &err) != PDS_OK || pds_image_compare_masked(img, ref, mask, m, &err) != PDS_OK) {
         pds_image_free(img);
         fail("%s (kept entry %s; remove it to render it again)", pds_error_string(&err), label);
         return -1;
@@ -3406,7 +3427,8 @@ static void entry_key(const pds_scene *scene, const pds_options *o, const char *
              pds_options_hash(o), pds_scene_hash(scene));
 }
 
-static int render_and_compare(const pds_scene *scene, const run_cfg *c, const pds_image *ref, pds_image *img,
+static int render_and_compare(const pds_scene *scene, const run_cfg *c, const pds_image *ref, const pds_image *mask,
+                              pds_image *img,
                               pds_render_stats *st, pds_metrics *m, const char *context)
 {
     pds_error err;
@@ -3414,7 +3436,7 @@ static int render_and_compare(const pds_scene *scene, const run_cfg *c, const pd
     if (c->progress) progress_begin(context, c->opt.time_s);
     s = pds_render(scene, &c->opt, img, st, &err);
     if (c->progress) progress_end(s == PDS_OK);
-    if (s == PDS_OK) s = pds_image_compare(img, ref, m, &err);
+    if (s == PDS_OK) s = pds_image_compare_masked(img, ref, mask, m, &err);
     if (s != PDS_OK) return fail("%s (%s)", pds_error_string(&err), context);
     return 0;
 }
@@ -3891,11 +3913,11 @@ static int cmd_sweep(int argc, char **argv)
         /* kept entries (see "keeping finished entries") */
         entry_key(scene, &c.opt, "", key, sizeof key);
         snprintf(label, sizeof label, "%s-%s", ps->key, rows[i].value);
-        if (resume && (loaded = load_entry(dir, label, key, &ref, &rows[i].img, &rows[i].st, &rows[i].m, extra,
+        if (resume && (loaded = load_entry(dir, label, key, &ref, NULL, &rows[i].img, &rows[i].st, &rows[i].m, extra,
                                            sizeof extra)) < 0)
             goto done;
         if (!loaded) {
-            if (render_and_compare(scene, &c, &ref, &rows[i].img, &rows[i].st, &rows[i].m, context)) goto done;
+            if (render_and_compare(scene, &c, &ref, NULL, &rows[i].img, &rows[i].st, &rows[i].m, context)) goto done;
             if (keep_entry(dir, label, key, &rows[i].img, &rows[i].st, "")) goto done;
         }
         printf("sweep method=%s %s=%s", method_name(method), ps->key, rows[i].value);
@@ -4364,7 +4386,8 @@ static double race_pixel_size(const pds_scene *scene, const pds_options *opt)
 
 /* Tune entry t (index: its place in the race) as the comment above says;
    every render goes to log. 0, or 1 after printing the error. */
-static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_m, double budget_s, race_entry *t,
+static int race_tune(const pds_scene *scene, const pds_image *ref, const pds_image *mask, double pixel_m,
+                     double budget_s, race_entry *t,
                      int index, tune_log *log)
 {
     size_t g;
@@ -4390,7 +4413,7 @@ static int race_tune(const pds_scene *scene, const pds_image *ref, double pixel_
             if (s->set(s, &c, name, value)) return 1;
             c.opt.seed = t->cfg.opt.seed + 1; /* not the reported render's sequence */
             snprintf(context, sizeof context, "race tune %s %s=%s", t->label, tg->key, value);
-            if (render_and_compare(scene, &c, ref, &img, &st, &m, context)) return 1;
+            if (render_and_compare(scene, &c, ref, mask, &img, &st, &m, context)) return 1;
             pds_image_free(&img);
             if (log->n == log->cap) {
                 int cap = log->cap ? 2 * log->cap : 64;
@@ -4724,7 +4747,7 @@ static void race_convergence_svg(sbuf *b, const char *title, const race_entry *e
 
 /* What race_html shows besides the entries. */
 typedef struct race_page {
-    const char *scene_path, *ref_path;
+    const char *scene_path, *ref_path, *mask_path; /* mask_path: --mask, or NULL */
     const run_cfg *base;
     const race_budgets *bud;
     const pds_image *ref;
@@ -4913,6 +4936,11 @@ static void race_html(sbuf *b, const race_page *pg, const race_entry *e, int n, 
     sb_printf(b, "</h1>\n<p class=\"meta\">Reference <code>");
     sb_xml(b, pg->ref_path);
     sb_printf(b, "</code>, %dx%d, light paths: %s. ", W, H, paths_name(pg->base->opt.paths));
+    if (pg->mask_path) {
+        sb_printf(b, "RMSE and SSIM over the pixels the mask <code>");
+        sb_xml(b, pg->mask_path);
+        sb_printf(b, "</code> holds. ");
+    }
     if (bud->by_time) sb_printf(b, "Budget%s: ", bud->n > 1 ? "s" : "");
     else sb_printf(b, "Photon budget%s: ", bud->n > 1 ? "s" : "");
     for (i = 0; i < bud->n; i++) sb_printf(b, "%s%s", i ? ", " : "", bud->text[i]);
@@ -5109,7 +5137,8 @@ static int parse_roi(const char *s, roi_box *r)
 }
 
 static const char *const race_own_options[] = {"--ref",        "--methods",    "--roi",    "--output", "--tune",
-                                               "--budgets",    "--budget-kind", "--diff-scale", "--resume", NULL};
+                                               "--budgets",    "--budget-kind", "--diff-scale", "--resume", "--mask",
+                                               NULL};
 
 /* race's entries (see "keeping finished entries"): the extra fields are
    the tuning's outcome and the parameters after it. */
@@ -5120,10 +5149,11 @@ static int race_keep_entry(const char *dir, const race_entry *t, const char *key
     return keep_entry(dir, t->label, key, &t->img, &t->st, extra);
 }
 
-static int race_load_entry(const char *dir, race_entry *t, const char *key, const pds_image *ref)
+static int race_load_entry(const char *dir, race_entry *t, const char *key, const pds_image *ref,
+                           const pds_image *mask)
 {
     char extra[512], *f[4];
-    int k, r = load_entry(dir, t->label, key, ref, &t->img, &t->st, &t->m, extra, sizeof extra);
+    int k, r = load_entry(dir, t->label, key, ref, mask, &t->img, &t->st, &t->m, extra, sizeof extra);
     if (r <= 0) return r;
     f[0] = extra;
     for (k = 1; k < 4; k++) {
@@ -5157,7 +5187,7 @@ static double roi_peak(const pds_image *img, roi_box roi)
 
 static int cmd_race(int argc, char **argv)
 {
-    const char *scene_path = NULL, *ref_path = NULL, *methods = NULL, *dir = NULL, *roi_text = NULL;
+    const char *scene_path = NULL, *ref_path = NULL, *methods = NULL, *dir = NULL, *roi_text = NULL, *mask_path = NULL;
     const char *budgets_text = NULL, *kind_text = NULL, *diff_mode = "shared";
     const char *names[MAX_RACE_METHODS];
     char dir_buf[1024], stem[256];
@@ -5167,7 +5197,7 @@ static int cmd_race(int argc, char **argv)
     race_page pg;
     tune_log tlog = {NULL, 0, 0};
     pds_scene *scene = NULL;
-    pds_image ref = {0, 0, NULL};
+    pds_image ref = {0, 0, NULL}, mask_img = {0, 0, NULL}; /* --mask: the pixels the metrics take */
     roi_box roi = {0, 0, 0, 0};
     int i, r, n = 0, n_methods = 0, rc = 1, by_photons, tune = 0, scale, flagged, resume = 0, resumed = 0;
     double diff_fixed = 0.0, pixel_m = 0.0, peak;
@@ -5193,10 +5223,11 @@ static int cmd_race(int argc, char **argv)
         }
         if (arg_is(a, "--ref") || arg_is(a, "--methods") || arg_is(a, "--roi") || arg_is(a, "-o") ||
             arg_is(a, "--output") || arg_is(a, "--budgets") || arg_is(a, "--budget-kind") ||
-            arg_is(a, "--diff-scale")) {
+            arg_is(a, "--diff-scale") || arg_is(a, "--mask")) {
             const char *v;
             if (option_value(argc, argv, &i, &v)) return EXIT_USAGE;
             if (arg_is(a, "--ref")) ref_path = v;
+            else if (arg_is(a, "--mask")) mask_path = v;
             else if (arg_is(a, "--methods")) methods = v;
             else if (arg_is(a, "--roi")) roi_text = v;
             else if (arg_is(a, "--budgets")) budgets_text = v;
@@ -5284,6 +5315,18 @@ static int cmd_race(int argc, char **argv)
     }
     if (check_out_dir(dir)) goto done;
     if (load_scene_and_ref("race", scene_path, ref_path, &base.opt, &scene, &ref)) goto done;
+    if (mask_path) {
+        /* read and checked against the reference before any render */
+        pds_metrics mm;
+        pds_error merr;
+        if (pds_image_read(mask_path, &mask_img, NULL, &merr) != PDS_OK ||
+            pds_image_compare_masked(&ref, &ref, &mask_img, &mm, &merr) != PDS_OK) {
+            const char *msg = pds_error_string(&merr);
+            fprintf(stderr, "%s%s%s\n", !strncmp(msg, "the mask", 8) ? mask_path : "",
+                    !strncmp(msg, "the mask", 8) ? ": " : "", msg);
+            goto done;
+        }
+    }
     print_scene_warnings(scene, &base);
     if (roi_text) {
         if (roi.x + roi.w > ref.width || roi.y + roi.h > ref.height) {
@@ -5303,13 +5346,13 @@ static int cmd_race(int argc, char **argv)
         char context[160], key[600];
         int loaded = 0;
         entry_key(scene, &t->cfg.opt, bud.text[t->budget], key, sizeof key);
-        if (resume && (loaded = race_load_entry(dir, t, key, &ref)) < 0) goto done;
+        if (resume && (loaded = race_load_entry(dir, t, key, &ref, mask_path ? &mask_img : NULL)) < 0) goto done;
         if (!loaded) {
-            if (tune && race_tune(scene, &ref, pixel_m, bud.by_time ? bud.value[t->budget] : 0.0, t, i, &tlog))
+            if (tune && race_tune(scene, &ref, mask_path ? &mask_img : NULL, pixel_m, bud.by_time ? bud.value[t->budget] : 0.0, t, i, &tlog))
                 goto done;
             format_params(&t->cfg.opt, t->params, sizeof t->params);
             snprintf(context, sizeof context, "race %s", t->label);
-            if (render_and_compare(scene, &t->cfg, &ref, &t->img, &t->st, &t->m, context)) goto done;
+            if (render_and_compare(scene, &t->cfg, &ref, mask_path ? &mask_img : NULL, &t->img, &t->st, &t->m, context)) goto done;
             /* kept at once: an interrupted race loses no finished entry */
             if (race_keep_entry(dir, t, key)) goto done;
         }
@@ -5390,6 +5433,7 @@ static int cmd_race(int argc, char **argv)
             }
             pg.scene_path = scene_path;
             pg.ref_path = ref_path;
+            pg.mask_path = mask_path;
             pg.base = &base;
             pg.bud = &bud;
             pg.ref = &ref;
@@ -5437,6 +5481,7 @@ done:
     free(e);
     free(proto);
     free(tlog.rows);
+    pds_image_free(&mask_img);
     pds_image_free(&ref);
     pds_scene_free(scene);
     return rc;

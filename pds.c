@@ -12319,11 +12319,14 @@ static void pds__ssim_hfilter(const pds_image *a, const pds_image *b, int y, con
 
 /* SSIM of a against ref into *out. Returns PDS_ERR_INVALID_ARG for empty
    or differently sized images, PDS_ERR_NOMEM if scratch memory fails. */
-static pds_status pds__ssim(const pds_image *a, const pds_image *ref, double *out)
+/* The mean SSIM over the valid window positions, or, with mask, over
+   those whose centre pixel the mask holds (its first channel > 0; 0 if
+   it holds none of them: *out is then -1). */
+static pds_status pds__ssim(const pds_image *a, const pds_image *ref, const pds_image *mask, double *out)
 {
     const double K1 = 0.01, K2 = 0.03, L = 1.0, sigma = 1.5;
     const double C1 = (K1 * L) * (K1 * L), C2 = (K2 * L) * (K2 * L);
-    double w[11], wsum = 0.0, total = 0.0;
+    double w[11], wsum = 0.0, total = 0.0, counted = 0.0;
     int n = 11, wv, hv, W, H, i, y, x, k;
     double *scratch;
     pds__ssim_row *ring;
@@ -12388,24 +12391,37 @@ static pds_status pds__ssim(const pds_image *a, const pds_image *ref, double *ou
             cxy = xy - mx * my;
             num = (2.0 * mx * my + C1) * (2.0 * cxy + C2);
             den = (mx * mx + my * my + C1) * (vx + vy + C2);
+            if (mask && !(mask->rgb[3 * ((size_t)(oy + n / 2) * (size_t)W + (size_t)(x + n / 2))] > 0.0f))
+                continue;
             row_sum += num / den;
+            counted += 1.0;
         }
         total += row_sum;
     }
     free(ring);
     free(scratch);
-    *out = total / ((double)wv * (double)hv);
+    if (!mask) {
+        *out = total / ((double)wv * (double)hv);
+    } else {
+        *out = counted > 0.0 ? total / counted : -1.0;
+    }
     return PDS_OK;
 }
 
 double pds_image_ssim(const pds_image *a, const pds_image *ref)
 {
     double s;
-    return pds__ssim(a, ref, &s) == PDS_OK ? s : -1.0;
+    return pds__ssim(a, ref, NULL, &s) == PDS_OK ? s : -1.0;
 }
 
 pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
                              pds_metrics *out, pds_error *err)
+{
+    return pds_image_compare_masked(a, ref, NULL, out, err);
+}
+
+pds_status pds_image_compare_masked(const pds_image *a, const pds_image *ref, const pds_image *mask,
+                                    pds_metrics *out, pds_error *err)
 {
     pds_status st;
     if (!a || !ref || !out)
@@ -12415,8 +12431,28 @@ pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
     if (a->width != ref->width || a->height != ref->height)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "image sizes differ: %dx%d vs %dx%d",
                          a->width, a->height, ref->width, ref->height);
-    out->rmse = pds_image_rmse(a, ref);
-    st = pds__ssim(a, ref, &out->ssim);
+    if (mask && (!mask->rgb || mask->width != ref->width || mask->height != ref->height))
+        return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the mask is %dx%d, the images %dx%d", mask->width,
+                         mask->height, ref->width, ref->height);
+    if (!mask) {
+        out->rmse = pds_image_rmse(a, ref);
+    } else {
+        /* over the pixels the mask holds, every channel */
+        size_t i, n = (size_t)a->width * (size_t)a->height, used = 0;
+        double sum = 0.0;
+        int c;
+        for (i = 0; i < n; i++) {
+            if (!(mask->rgb[3 * i] > 0.0f)) continue;
+            for (c = 0; c < 3; c++) {
+                double d = (double)a->rgb[3 * i + c] - (double)ref->rgb[3 * i + c];
+                sum += d * d;
+            }
+            used++;
+        }
+        if (!used) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the mask holds no pixel");
+        out->rmse = sqrt(sum / (3.0 * (double)used));
+    }
+    st = pds__ssim(a, ref, mask, &out->ssim);
     if (st == PDS_ERR_NOMEM) return pds__nomem(err);
     if (st != PDS_OK) return pds__fail(err, st, NULL, 0, 0, "cannot compute SSIM");
     return PDS_OK;

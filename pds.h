@@ -423,6 +423,13 @@ double pds_image_ssim(const pds_image *a, const pds_image *ref);
 typedef struct pds_metrics { double rmse, ssim; } pds_metrics;
 pds_status pds_image_compare(const pds_image *a, const pds_image *ref,
                              pds_metrics *out, pds_error *err);
+/* The same over the pixels a mask of the same size holds (its first
+   channel > 0; `tests/ref_light --complete` writes the pixels a light-
+   traced reference holds whole): RMSE over their channels, SSIM over the
+   windows centred on them (-1 if none is). NULL: every pixel. An error
+   if it holds no pixel. */
+pds_status pds_image_compare_masked(const pds_image *a, const pds_image *ref, const pds_image *mask,
+                                    pds_metrics *out, pds_error *err);
 
 /* --------------------------------------------------------------- rendering */
 

@@ -379,7 +379,7 @@ static void test_cli_signal_during_write_leaves_no_temporary_file(pds_test_ctx *
 static void test_cli_every_command_answers_help(pds_test_ctx *t)
 {
     static const char *const commands[] = {"render", "sweep", "race", "compare", "merge", "info", "bench", "help"};
-    static char out[16384], again[16384], err[4096], args[256], usage[64];
+    static char out[32768], again[32768], err[4096], args[256], usage[64];
     size_t i;
     for (i = 0; i < sizeof commands / sizeof commands[0]; i++) {
         snprintf(usage, sizeof usage, "usage: pds %s", commands[i]);

@@ -609,6 +609,83 @@ static void harness_csv_field(const char *csv, const char *prefix, int col, char
     }
 }
 
+/* race --mask and compare --mask: a mask holding the reference's left
+   half. race.csv's RMSE and SSIM of each entry are those of its kept
+   image over the mask (pds_image_compare_masked), not over the whole
+   image, and so is compare --mask's line; the page says which pixels it
+   measured. A mask of another size is refused before any render, naming
+   the mask, and leaves no folder. */
+static void test_harness_race_and_compare_take_a_mask(pds_test_ctx *t)
+{
+    static const char *const labels[2] = {"pds", "pm"};
+    char out[16384], err[4096], args[1200], ref[256], dir[256], path[512], maskp[256], bad[256], field[128], want[64];
+    char *csv, *html;
+    pds_image mask, small, img, refimg;
+    pds_metrics m, whole;
+    pds_error e;
+    int i, k;
+    REQUIRE(t, harness_caustics_reference(t, ref, sizeof ref), "no reference");
+    REQUIRE(t, pds_image_alloc(&mask, 32, 24) == PDS_OK && pds_image_alloc(&small, 16, 16) == PDS_OK, "alloc");
+    for (i = 0; i < 32 * 24; i++)
+        for (k = 0; k < 3; k++) mask.rgb[3 * i + k] = i % 32 < 16 ? 1.0f : 0.0f;
+    harness_path(maskp, sizeof maskp, "race_mask.pfm");
+    harness_path(bad, sizeof bad, "race_mask_small.pfm");
+    REQUIRE(t, pds_image_write_pfm(maskp, &mask, &e) == PDS_OK && pds_image_write_pfm(bad, &small, &e) == PDS_OK,
+            "write the masks: %s", e.text);
+    harness_path(dir, sizeof dir, "race_mask");
+    harness_rmtree(dir);
+    snprintf(args, sizeof args,
+             "race tests/golden/glass.scene --ref %s --mask %s --photons 4000 --methods pds,pm --res 32x24 --spp 4 "
+             "--caustics-only --quiet -o %s",
+             ref, maskp, dir);
+    REQUIRE(t, cli_run_split(args, out, sizeof out, err, sizeof err) == 0, "race failed: %s%s", out, err);
+    snprintf(path, sizeof path, "%s/race.csv", dir);
+    csv = harness_slurp(path, NULL);
+    REQUIRE(t, csv != NULL && pds_image_read_pfm(ref, &refimg, &e) == PDS_OK, "race.csv and the reference");
+    for (k = 0; k < 2; k++) {
+        char prefix[64];
+        snprintf(path, sizeof path, "%s/entries/%s.pfm", dir, labels[k]);
+        REQUIRE(t, pds_image_read_pfm(path, &img, &e) == PDS_OK, "%s: %s", path, e.text);
+        REQUIRE(t, pds_image_compare_masked(&img, &refimg, &mask, &m, &e) == PDS_OK &&
+                       pds_image_compare(&img, &refimg, &whole, &e) == PDS_OK,
+                "compare: %s", e.text);
+        CHECK(t, fabs(m.rmse - whole.rmse) > 1e-6 * whole.rmse, "%s: the mask changed nothing", labels[k]);
+        snprintf(prefix, sizeof prefix, "%s,%s,", k ? "pm" : "pds", labels[k]);
+        harness_csv_field(csv, prefix, 8, field, sizeof field);
+        snprintf(want, sizeof want, "%.6f", m.rmse);
+        CHECK(t, !strcmp(field, want), "%s: race.csv's rmse %s, over the mask %s", labels[k], field, want);
+        harness_csv_field(csv, prefix, 9, field, sizeof field);
+        snprintf(want, sizeof want, "%.6f", m.ssim);
+        CHECK(t, !strcmp(field, want), "%s: race.csv's ssim %s, over the mask %s", labels[k], field, want);
+        if (k == 0) {
+            char line[128];
+            snprintf(args, sizeof args, "compare %s %s --mask %s", path, ref, maskp);
+            REQUIRE(t, cli_run(args, out, sizeof out) == 0, "compare --mask: %s", out);
+            snprintf(line, sizeof line, "compare rmse=%.6f ssim=%.6f", m.rmse, m.ssim);
+            CHECK(t, strstr(out, line) != NULL, "compare --mask printed %s, want %s", out, line);
+        }
+        pds_image_free(&img);
+    }
+    free(csv);
+    snprintf(path, sizeof path, "%s/index.html", dir);
+    html = harness_slurp(path, NULL);
+    CHECK(t, html && strstr(html, "RMSE and SSIM over the pixels the mask <code>"), "the page does not say so");
+    free(html);
+    harness_rmtree(dir);
+    snprintf(args, sizeof args,
+             "race tests/golden/glass.scene --ref %s --mask %s --photons 4000 --methods pds --res 32x24 --quiet -o %s",
+             ref, bad, dir);
+    CHECK(t, cli_run_split(args, out, sizeof out, err, sizeof err) == 1 && strstr(err, bad) &&
+                 strstr(err, ": the mask is 16x16, the images 32x24") && !cli_file_exists(dir),
+          "a mask of another size: %s", err);
+    pds_image_free(&mask);
+    pds_image_free(&small);
+    pds_image_free(&refimg);
+    remove(maskp);
+    remove(bad);
+    remove(ref);
+}
+
 static void test_harness_race_flags_a_missed_time_budget(pds_test_ctx *t)
 {
     char out[16384], err[16384], args[1024], ref[256], dir[256], path[512], field[128];
@@ -1088,6 +1165,7 @@ static const pds_test_case tests_harness[] = {
     {"harness_bad_usage_exits_2_with_a_message", test_harness_bad_usage_exits_2_with_a_message},
     {"harness_render_takes_the_baseline_options", test_harness_render_takes_the_baseline_options},
     {"harness_race_flags_a_missed_time_budget", test_harness_race_flags_a_missed_time_budget},
+    {"harness_race_and_compare_take_a_mask", test_harness_race_and_compare_take_a_mask},
     {"harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_seed",
      test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_seed},
     {"harness_race_tune_keeps_the_quickest_when_every_value_overruns",

@@ -540,13 +540,14 @@ static void timg_pattern(pds_image *img, int which)
     }
 }
 
-/* SSIM straight from the definition: at every valid position, a 2-D
-   Gaussian window built and normalised in 2-D, the five weighted sums
-   taken directly, no separability, no ring buffer. */
-static double timg_ssim_direct(const pds_image *a, const pds_image *b)
+/* SSIM straight from the definition: at every valid position (with
+   mask, every one whose centre pixel the mask holds), a 2-D Gaussian
+   window built and normalised in 2-D, the five weighted sums taken
+   directly, no separability, no ring buffer. */
+static double timg_ssim_direct_masked(const pds_image *a, const pds_image *b, const pds_image *mask)
 {
     int W = a->width, H = a->height, n = 11, r, ox, oy, i, j;
-    double C1 = 0.0001, C2 = 0.0009, total = 0.0, wsum = 0.0;
+    double C1 = 0.0001, C2 = 0.0009, total = 0.0, wsum = 0.0, counted = 0.0;
     double win[11][11];
     double *ya = (double *)malloc(sizeof(double) * W * H);
     double *yb = (double *)malloc(sizeof(double) * W * H);
@@ -585,11 +586,18 @@ static double timg_ssim_direct(const pds_image *a, const pds_image *b)
             vx = sxx - mx * mx;
             vy = syy - my * my;
             cxy = sxy - mx * my;
+            if (mask && !(mask->rgb[3 * ((oy + r) * W + ox + r)] > 0.0f)) continue;
             total += (2 * mx * my + C1) * (2 * cxy + C2) / ((mx * mx + my * my + C1) * (vx + vy + C2));
+            counted += 1.0;
         }
     free(ya);
     free(yb);
-    return total / ((double)(W - n + 1) * (H - n + 1));
+    return counted > 0.0 ? total / counted : -1.0;
+}
+
+static double timg_ssim_direct(const pds_image *a, const pds_image *b)
+{
+    return timg_ssim_direct_masked(a, b, NULL);
 }
 
 /* ---------------------------------------------------------------- PFM */
@@ -1503,6 +1511,64 @@ static void test_compare_fills_metrics_and_rejects_size_mismatch(pds_test_ctx *t
     pds_image_free(&b);
 }
 
+/* pds_image_compare_masked: the RMSE over the channels of the pixels the
+   mask holds (first channel > 0; 0, a negative value and NaN hold none)
+   by hand, the SSIM over the windows centred on them against the direct
+   definition; a mask holding every pixel gives pds_image_compare's bits;
+   one holding only border pixels (no window centred there) an SSIM of -1
+   and its RMSE; an empty mask and one of another size are refused. */
+static void test_compare_masked_takes_the_pixels_the_mask_holds(pds_test_ctx *t)
+{
+    pds_image a, b, mask, small;
+    pds_metrics m, all;
+    pds_error err;
+    double sum = 0.0, direct;
+    int x, y, c, used = 0;
+    REQUIRE(t, pds_image_alloc(&a, 40, 30) == PDS_OK && pds_image_alloc(&b, 40, 30) == PDS_OK &&
+                   pds_image_alloc(&mask, 40, 30) == PDS_OK && pds_image_alloc(&small, 32, 32) == PDS_OK,
+            "alloc");
+    timg_pattern(&a, 0);
+    timg_pattern(&b, 1);
+    for (y = 0; y < 30; y++)
+        for (x = 0; x < 40; x++) {
+            int i = y * 40 + x;
+            float v = x < 17 || (x + 3 * y) % 7 == 0 ? 1.0f : (x + y) % 3 == 0 ? -1.0f : (x + y) % 3 == 1 ? NAN : 0.0f;
+            for (c = 0; c < 3; c++) mask.rgb[3 * i + c] = c == 0 ? v : 1.0f; /* only the first channel counts */
+            if (!(v > 0.0f)) continue;
+            used++;
+            for (c = 0; c < 3; c++) {
+                double d = (double)a.rgb[3 * i + c] - (double)b.rgb[3 * i + c];
+                sum += d * d;
+            }
+        }
+    REQUIRE(t, pds_image_compare_masked(&a, &b, &mask, &m, &err) == PDS_OK, "compare: %s", err.text);
+    CHECK(t, fabs(m.rmse - sqrt(sum / (3.0 * used))) <= 1e-15, "rmse %.17g, by hand %.17g over %d pixels", m.rmse,
+          sqrt(sum / (3.0 * used)), used);
+    direct = timg_ssim_direct_masked(&a, &b, &mask);
+    CHECK(t, direct > -1.0 && fabs(m.ssim - direct) <= 1e-12, "ssim %.17g, direct %.17g", m.ssim, direct);
+    CHECK(t, fabs(m.ssim - pds_image_ssim(&a, &b)) > 1e-6 && fabs(m.rmse - pds_image_rmse(&a, &b)) > 1e-6,
+          "the mask changed nothing: the test cannot tell");
+    for (x = 0; x < 40 * 30; x++) mask.rgb[3 * x] = 0.5f;
+    REQUIRE(t, pds_image_compare_masked(&a, &b, &mask, &m, &err) == PDS_OK && pds_image_compare(&a, &b, &all, &err) ==
+                   PDS_OK, "compare: %s", err.text);
+    CHECK(t, m.rmse == all.rmse && m.ssim == all.ssim, "every pixel held: %.17g %.17g against %.17g %.17g", m.rmse,
+          m.ssim, all.rmse, all.ssim);
+    for (x = 0; x < 40 * 30; x++) mask.rgb[3 * x] = x % 40 == 0 ? 1.0f : 0.0f; /* the left column: no centre */
+    REQUIRE(t, pds_image_compare_masked(&a, &b, &mask, &m, &err) == PDS_OK, "compare: %s", err.text);
+    CHECK(t, m.ssim == -1.0 && m.rmse > 0.0, "border only: ssim %g, rmse %g", m.ssim, m.rmse);
+    for (x = 0; x < 40 * 30; x++) mask.rgb[3 * x] = 0.0f;
+    CHECK(t, pds_image_compare_masked(&a, &b, &mask, &m, &err) == PDS_ERR_INVALID_ARG &&
+                 !strcmp(err.message, "the mask holds no pixel"),
+          "an empty mask: '%s'", err.message);
+    CHECK(t, pds_image_compare_masked(&a, &b, &small, &m, &err) == PDS_ERR_INVALID_ARG &&
+                 !strcmp(err.message, "the mask is 32x32, the images 40x30"),
+          "a mask of another size: '%s'", err.message);
+    pds_image_free(&a);
+    pds_image_free(&b);
+    pds_image_free(&mask);
+    pds_image_free(&small);
+}
+
 static void test_ssim_ring_buffer_matches_direct_on_larger_image(pds_test_ctx *t)
 {
     /* 131x97: the ring of filtered rows wraps many times and neither side
@@ -1538,6 +1604,7 @@ static const pds_test_case tests_image[] = {
     {"image_failed_write_leaves_no_file_behind", test_image_failed_write_leaves_no_file},
     {"image_alloc_and_writers_check_arguments", test_image_alloc_and_writers_check_arguments},
     {"rmse_matches_hand_computed_value_on_2x2", test_rmse_hand_computed},
+    {"compare_masked_takes_the_pixels_the_mask_holds", test_compare_masked_takes_the_pixels_the_mask_holds},
     {"ssim_of_identical_images_is_one", test_ssim_identical_is_one},
     {"ssim_matches_direct_formula_and_scikit_image", test_ssim_matches_direct_and_scikit_image},
     {"ssim_of_constant_images_matches_closed_form", test_ssim_constant_images_closed_form},
