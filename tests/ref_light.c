@@ -26,6 +26,23 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* A count: a number with an optional k, M or G (1e3, 1e6, 1e9), the
+   whole argument, from 1 to 1e13. 0 if it is not one. */
+static int parse_count(const char *v, double *out)
+{
+    char *end;
+    double x = strtod(v, &end), scale = 1.0;
+    if (end == v) return 0;
+    if (*end == 'k') scale = 1e3;
+    else if (*end == 'M') scale = 1e6;
+    else if (*end == 'G') scale = 1e9;
+    if (scale > 1.0) end++;
+    x *= scale;
+    if (*end != '\0' || !(x >= 1.0 && x <= 1e13)) return 0;
+    *out = x;
+    return 1;
+}
+
 static int usage(void)
 {
     fprintf(stderr, "usage: ref_light SCENE --photons N [--res WxH] [--seed S] [--threads T] -o OUT.pfm\n"
@@ -82,7 +99,13 @@ int main(int argc, char **argv)
             out = v;
             i++;
         } else if (!strcmp(a, "--photons") && v) {
-            opt.photons = (long)strtod(v, NULL);
+            double n;
+            if (!parse_count(v, &n)) {
+                fprintf(stderr, "ref_light: --photons needs a count from 1 to 1e13 (250000, 2.5e5, 250k, 200M), "
+                                "got '%s'\n", v);
+                return 2;
+            }
+            opt.photons = (long)n;
             i++;
         } else if (!strcmp(a, "--res") && v) {
             if (sscanf(v, "%dx%d", &opt.width, &opt.height) != 2) return usage();
@@ -94,7 +117,12 @@ int main(int argc, char **argv)
             complete = v;
             i++;
         } else if (!strcmp(a, "--threads") && v) {
-            opt.threads = atoi(v);
+            double n;
+            if (!parse_count(v, &n) || n > 4096.0 || n != floor(n)) {
+                fprintf(stderr, "ref_light: --threads needs a whole number from 1 to 4096, got '%s'\n", v);
+                return 2;
+            }
+            opt.threads = (int)n;
             i++;
         } else if (a[0] != '-' && !scene_path) {
             scene_path = a;
