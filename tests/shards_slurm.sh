@@ -46,8 +46,19 @@ host=$(hostname -s)
 cpus=$(nproc)
 pids=""
 cleanup() {
+    # (f, pid, n: plain variables, for any POSIX sh)
     for f in "$dir/slurmd.pid" "$dir/slurmctld.pid" "$dir/munge/munged.pid"; do
-        [ -s "$f" ] && kill "$(cat "$f")" 2>/dev/null || true
+        [ -s "$f" ] || continue
+        pid=$(cat "$f")
+        kill "$pid" 2>/dev/null || continue
+        # wait for it to go: slurmctld saves its state into $dir/state as
+        # it stops, and a caller's `make clean` removing tests/out at the
+        # same time failed ("Directory not empty"); at most 10 s
+        n=0
+        while kill -0 "$pid" 2>/dev/null && [ $n -lt 100 ]; do
+            sleep 0.1
+            n=$((n + 1))
+        done
     done
 }
 trap cleanup EXIT INT TERM
