@@ -226,6 +226,7 @@ static const command_help help_table[] = {
      "      --values A,B,...        the values, comma-separated\n"
      "      --ref REF.pfm           the reference (PFM or OpenEXR, the renders' resolution; a warning\n"
      "                              if its kind, full or caustics-only, is not the renders')\n"
+     "      --mask MASK.pfm         RMSE and SSIM over the pixels MASK holds (first channel > 0)\n"
      "      -o DIR                  output folder (default sweep-SCENE-METHOD): sweep.csv, sweep.svg\n"
      "                              (RMSE and SSIM against the parameter), one PNG per value;\n"
      "                              each finished render is kept at once in DIR/entries\n"
@@ -3427,6 +3428,22 @@ static void entry_key(const pds_scene *scene, const pds_options *o, const char *
              pds_options_hash(o), pds_scene_hash(scene));
 }
 
+/* --mask of sweep and race: read it and check it against the reference
+   (its size, a pixel held) before any render. 0, or 1 after saying why. */
+static int load_mask(const char *mask_path, const pds_image *ref, pds_image *mask)
+{
+    pds_metrics mm;
+    pds_error err;
+    if (pds_image_read(mask_path, mask, NULL, &err) != PDS_OK ||
+        pds_image_compare_masked(ref, ref, mask, &mm, &err) != PDS_OK) {
+        const char *msg = pds_error_string(&err);
+        int of_mask = !strncmp(msg, "the mask", 8); /* (the library's words name no file) */
+        fprintf(stderr, "%s%s%s\n", of_mask ? mask_path : "", of_mask ? ": " : "", msg);
+        return 1;
+    }
+    return 0;
+}
+
 static int render_and_compare(const pds_scene *scene, const run_cfg *c, const pds_image *ref, const pds_image *mask,
                               pds_image *img,
                               pds_render_stats *st, pds_metrics *m, const char *context)
@@ -3783,17 +3800,17 @@ static int sweep_at_edge(const sweep_row *rows, int n, int best)
     return hi > lo && (rows[best].x == lo || rows[best].x == hi);
 }
 
-static const char *const sweep_own_options[] = {"--param", "--values", "--ref", "--output", "--resume", NULL};
+static const char *const sweep_own_options[] = {"--param", "--values", "--ref", "--output", "--resume", "--mask", NULL};
 
 static int cmd_sweep(int argc, char **argv)
 {
-    const char *scene_path = NULL, *param = NULL, *values = NULL, *ref_path = NULL, *dir = NULL;
+    const char *scene_path = NULL, *param = NULL, *values = NULL, *ref_path = NULL, *dir = NULL, *mask_path = NULL;
     char dir_buf[1024], stem[256], where[64], name[64], list[512];
     run_cfg base;
     const opt_spec *ps;
     sweep_row *rows = NULL;
     pds_scene *scene = NULL;
-    pds_image ref = {0, 0, NULL};
+    pds_image ref = {0, 0, NULL}, mask_img = {0, 0, NULL}; /* --mask: the pixels the metrics take */
     char *vbuf = NULL, *p, edge_note[160] = "";
     int i, r, n = 0, rc = 1, best_r = -1, best_s = -1, idx, photon, rmse_edge = 0, ssim_edge = 0, resume = 0;
     pds_method method;
@@ -3811,10 +3828,11 @@ static int cmd_sweep(int argc, char **argv)
             continue;
         }
         if (arg_is(a, "--param") || arg_is(a, "--values") || arg_is(a, "--ref") || arg_is(a, "-o") ||
-            arg_is(a, "--output")) {
+            arg_is(a, "--output") || arg_is(a, "--mask")) {
             const char *v;
             if (option_value(argc, argv, &i, &v)) return EXIT_USAGE;
             if (arg_is(a, "--param")) param = v;
+            else if (arg_is(a, "--mask")) mask_path = v;
             else if (arg_is(a, "--values")) values = v;
             else if (arg_is(a, "--ref")) ref_path = v;
             else dir = v;
@@ -3901,6 +3919,7 @@ static int cmd_sweep(int argc, char **argv)
     }
     if (check_out_dir(dir)) goto done;
     if (load_scene_and_ref("sweep", scene_path, ref_path, &base.opt, &scene, &ref)) goto done;
+    if (mask_path && load_mask(mask_path, &ref, &mask_img)) goto done;
     print_scene_warnings(scene, &base);
     cfg_apply_progress(&base);
 
@@ -3913,11 +3932,11 @@ static int cmd_sweep(int argc, char **argv)
         /* kept entries (see "keeping finished entries") */
         entry_key(scene, &c.opt, "", key, sizeof key);
         snprintf(label, sizeof label, "%s-%s", ps->key, rows[i].value);
-        if (resume && (loaded = load_entry(dir, label, key, &ref, NULL, &rows[i].img, &rows[i].st, &rows[i].m, extra,
+        if (resume && (loaded = load_entry(dir, label, key, &ref, mask_path ? &mask_img : NULL, &rows[i].img, &rows[i].st, &rows[i].m, extra,
                                            sizeof extra)) < 0)
             goto done;
         if (!loaded) {
-            if (render_and_compare(scene, &c, &ref, NULL, &rows[i].img, &rows[i].st, &rows[i].m, context)) goto done;
+            if (render_and_compare(scene, &c, &ref, mask_path ? &mask_img : NULL, &rows[i].img, &rows[i].st, &rows[i].m, context)) goto done;
             if (keep_entry(dir, label, key, &rows[i].img, &rows[i].st, "")) goto done;
         }
         printf("sweep method=%s %s=%s", method_name(method), ps->key, rows[i].value);
@@ -3993,6 +4012,7 @@ done:
     for (i = 0; rows && i < n; i++) pds_image_free(&rows[i].img);
     free(rows);
     free(vbuf);
+    pds_image_free(&mask_img);
     pds_image_free(&ref);
     pds_scene_free(scene);
     return rc;
@@ -5315,18 +5335,7 @@ static int cmd_race(int argc, char **argv)
     }
     if (check_out_dir(dir)) goto done;
     if (load_scene_and_ref("race", scene_path, ref_path, &base.opt, &scene, &ref)) goto done;
-    if (mask_path) {
-        /* read and checked against the reference before any render */
-        pds_metrics mm;
-        pds_error merr;
-        if (pds_image_read(mask_path, &mask_img, NULL, &merr) != PDS_OK ||
-            pds_image_compare_masked(&ref, &ref, &mask_img, &mm, &merr) != PDS_OK) {
-            const char *msg = pds_error_string(&merr);
-            fprintf(stderr, "%s%s%s\n", !strncmp(msg, "the mask", 8) ? mask_path : "",
-                    !strncmp(msg, "the mask", 8) ? ": " : "", msg);
-            goto done;
-        }
-    }
+    if (mask_path && load_mask(mask_path, &ref, &mask_img)) goto done;
     print_scene_warnings(scene, &base);
     if (roi_text) {
         if (roi.x + roi.w > ref.width || roi.y + roi.h > ref.height) {

@@ -609,13 +609,14 @@ static void harness_csv_field(const char *csv, const char *prefix, int col, char
     }
 }
 
-/* race --mask and compare --mask: a mask holding the reference's left
-   half. race.csv's RMSE and SSIM of each entry are those of its kept
-   image over the mask (pds_image_compare_masked), not over the whole
-   image, and so is compare --mask's line; the page says which pixels it
-   measured. A mask of another size is refused before any render, naming
-   the mask, and leaves no folder. */
-static void test_harness_race_and_compare_take_a_mask(pds_test_ctx *t)
+/* race --mask, sweep --mask and compare --mask: a mask holding the
+   reference's left half. race.csv's RMSE and SSIM of each entry are
+   those of its kept image over the mask (pds_image_compare_masked), not
+   over the whole image, and so are compare --mask's line and sweep.csv's
+   RMSE; the race page says which pixels it measured. A mask of another
+   size is refused before any render, naming the mask, and leaves no
+   folder. */
+static void test_harness_race_sweep_and_compare_take_a_mask(pds_test_ctx *t)
 {
     static const char *const labels[2] = {"pds", "pm"};
     char out[16384], err[4096], args[1200], ref[256], dir[256], path[512], maskp[256], bad[256], field[128], want[64];
@@ -671,6 +672,24 @@ static void test_harness_race_and_compare_take_a_mask(pds_test_ctx *t)
     html = harness_slurp(path, NULL);
     CHECK(t, html && strstr(html, "RMSE and SSIM over the pixels the mask <code>"), "the page does not say so");
     free(html);
+    harness_rmtree(dir);
+    /* sweep --mask: its one value's figures over the mask too */
+    snprintf(args, sizeof args,
+             "sweep tests/golden/glass.scene --ref %s --mask %s --param photons --values 4000 --res 32x24 --spp 4 "
+             "--caustics-only --quiet -o %s",
+             ref, maskp, dir);
+    REQUIRE(t, cli_run_split(args, out, sizeof out, err, sizeof err) == 0, "sweep failed: %s%s", out, err);
+    snprintf(path, sizeof path, "%s/sweep.csv", dir);
+    csv = harness_slurp(path, NULL);
+    snprintf(path, sizeof path, "%s/entries/photons-4000.pfm", dir);
+    REQUIRE(t, csv != NULL && pds_image_read_pfm(path, &img, &e) == PDS_OK &&
+                   pds_image_compare_masked(&img, &refimg, &mask, &m, &e) == PDS_OK,
+            "sweep.csv and its entry: %s", e.text);
+    harness_csv_field(csv, "pds,photons,4000,", 7, field, sizeof field);
+    snprintf(want, sizeof want, "%.6f", m.rmse);
+    CHECK(t, !strcmp(field, want), "sweep.csv's rmse %s, over the mask %s", field, want);
+    pds_image_free(&img);
+    free(csv);
     harness_rmtree(dir);
     snprintf(args, sizeof args,
              "race tests/golden/glass.scene --ref %s --mask %s --photons 4000 --methods pds --res 32x24 --quiet -o %s",
@@ -1165,7 +1184,7 @@ static const pds_test_case tests_harness[] = {
     {"harness_bad_usage_exits_2_with_a_message", test_harness_bad_usage_exits_2_with_a_message},
     {"harness_render_takes_the_baseline_options", test_harness_render_takes_the_baseline_options},
     {"harness_race_flags_a_missed_time_budget", test_harness_race_flags_a_missed_time_budget},
-    {"harness_race_and_compare_take_a_mask", test_harness_race_and_compare_take_a_mask},
+    {"harness_race_sweep_and_compare_take_a_mask", test_harness_race_sweep_and_compare_take_a_mask},
     {"harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_seed",
      test_harness_race_tune_picks_the_lowest_rmse_of_its_grid_on_another_seed},
     {"harness_race_tune_keeps_the_quickest_when_every_value_overruns",
