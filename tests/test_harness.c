@@ -609,6 +609,18 @@ static void harness_csv_field(const char *csv, const char *prefix, int col, char
     }
 }
 
+/* Run pds with args (a race or sweep writing into dir) and return the
+   CSV file it wrote there (malloc'd), or NULL after a failed check. */
+static char *harness_run_csv(pds_test_ctx *t, const char *args, const char *dir, const char *file)
+{
+    char out[16384], err[4096], path[512];
+    int ok = cli_run_split(args, out, sizeof out, err, sizeof err) == 0;
+    CHECK(t, ok, "pds %.40s... failed: %s%s", args, out, err);
+    if (!ok) return NULL;
+    snprintf(path, sizeof path, "%s/%s", dir, file);
+    return harness_slurp(path, NULL);
+}
+
 /* race --mask, sweep --mask and compare --mask: a mask holding the
    reference's left half. race.csv's RMSE and SSIM of each entry are
    those of its kept image over the mask (pds_image_compare_masked), not
@@ -639,9 +651,7 @@ static void test_harness_race_sweep_and_compare_take_a_mask(pds_test_ctx *t)
              "race tests/golden/glass.scene --ref %s --mask %s --photons 4000 --methods pds,pm --res 32x24 --spp 4 "
              "--caustics-only --quiet -o %s",
              ref, maskp, dir);
-    REQUIRE(t, cli_run_split(args, out, sizeof out, err, sizeof err) == 0, "race failed: %s%s", out, err);
-    snprintf(path, sizeof path, "%s/race.csv", dir);
-    csv = harness_slurp(path, NULL);
+    csv = harness_run_csv(t, args, dir, "race.csv");
     REQUIRE(t, csv != NULL && pds_image_read_pfm(ref, &refimg, &e) == PDS_OK, "race.csv and the reference");
     for (k = 0; k < 2; k++) {
         char prefix[64];
@@ -678,9 +688,7 @@ static void test_harness_race_sweep_and_compare_take_a_mask(pds_test_ctx *t)
              "sweep tests/golden/glass.scene --ref %s --mask %s --param photons --values 4000 --res 32x24 --spp 4 "
              "--caustics-only --quiet -o %s",
              ref, maskp, dir);
-    REQUIRE(t, cli_run_split(args, out, sizeof out, err, sizeof err) == 0, "sweep failed: %s%s", out, err);
-    snprintf(path, sizeof path, "%s/sweep.csv", dir);
-    csv = harness_slurp(path, NULL);
+    csv = harness_run_csv(t, args, dir, "sweep.csv");
     snprintf(path, sizeof path, "%s/entries/photons-4000.pfm", dir);
     REQUIRE(t, csv != NULL && pds_image_read_pfm(path, &img, &e) == PDS_OK &&
                    pds_image_compare_masked(&img, &refimg, &mask, &m, &e) == PDS_OK,
