@@ -2371,6 +2371,22 @@ static int cmd_merge(int argc, char **argv)
     return rc;
 }
 
+/* --mask of compare, sweep and race: read it and check it against the reference
+   (its size, a pixel held) before any render. 0, or 1 after saying why. */
+static int load_mask(const char *mask_path, const pds_image *ref, pds_image *mask)
+{
+    pds_metrics mm;
+    pds_error err;
+    if (pds_image_read(mask_path, mask, NULL, &err) != PDS_OK ||
+        pds_image_compare_masked(ref, ref, mask, &mm, &err) != PDS_OK) {
+        const char *msg = pds_error_string(&err);
+        int of_mask = !strncmp(msg, "the mask", 8); /* (the library's words name no file) */
+        fprintf(stderr, "%s%s%s\n", of_mask ? mask_path : "", of_mask ? ": " : "", msg);
+        return 1;
+    }
+    return 0;
+}
+
 static int cmd_compare(int argc, char **argv)
 {
     static pds_image_meta ma, mb; /* 26 KB each */
@@ -2391,12 +2407,13 @@ static int cmd_compare(int argc, char **argv)
         }
     }
     if (nfiles != 2) return usage_error("%s", "compare needs two images: A.pfm REFERENCE.pfm (or .exr)");
-    if (pds_image_read(files[0], &a, &ma, &err) != PDS_OK || pds_image_read(files[1], &b, &mb, &err) != PDS_OK ||
-        (mask_path && pds_image_read(mask_path, &mask, NULL, &err) != PDS_OK) ||
-        pds_image_compare_masked(&a, &b, mask_path ? &mask : NULL, &m, &err) != PDS_OK) {
-        const char *msg = pds_error_string(&err);
-        int of_mask = mask_path && !strncmp(msg, "the mask", 8); /* (the library's words: no file of its own) */
-        fprintf(stderr, "%s%s%s\n", of_mask ? mask_path : "", of_mask ? ": " : "", msg);
+    if (pds_image_read(files[0], &a, &ma, &err) != PDS_OK || pds_image_read(files[1], &b, &mb, &err) != PDS_OK) {
+        fprintf(stderr, "%s\n", pds_error_string(&err));
+        rc = 1;
+    } else if (mask_path && load_mask(mask_path, &b, &mask)) {
+        rc = 1;
+    } else if (pds_image_compare_masked(&a, &b, mask_path ? &mask : NULL, &m, &err) != PDS_OK) {
+        fprintf(stderr, "%s\n", pds_error_string(&err));
         rc = 1;
     } else {
         warn_kind_mismatch("compare", files[0], pds_image_meta_get(&ma, PDS_META_KIND), files[1],
@@ -3426,22 +3443,6 @@ static void entry_key(const pds_scene *scene, const pds_options *o, const char *
              "time=%.17g%s options=%016llx scene=%016llx", method_name(o->method), budget, o->seed, o->width,
              o->height, o->spp, o->photons, o->passes, (int)o->paths, o->max_depth, o->photon_depth, o->time_s, params,
              pds_options_hash(o), pds_scene_hash(scene));
-}
-
-/* --mask of sweep and race: read it and check it against the reference
-   (its size, a pixel held) before any render. 0, or 1 after saying why. */
-static int load_mask(const char *mask_path, const pds_image *ref, pds_image *mask)
-{
-    pds_metrics mm;
-    pds_error err;
-    if (pds_image_read(mask_path, mask, NULL, &err) != PDS_OK ||
-        pds_image_compare_masked(ref, ref, mask, &mm, &err) != PDS_OK) {
-        const char *msg = pds_error_string(&err);
-        int of_mask = !strncmp(msg, "the mask", 8); /* (the library's words name no file) */
-        fprintf(stderr, "%s%s%s\n", of_mask ? mask_path : "", of_mask ? ": " : "", msg);
-        return 1;
-    }
-    return 0;
 }
 
 static int render_and_compare(const pds_scene *scene, const run_cfg *c, const pds_image *ref, const pds_image *mask,

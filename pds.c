@@ -12260,18 +12260,31 @@ pds_status pds_image_read(const char *path, pds_image *img, pds_image_meta *meta
 
 /* RMSE: sqrt of the mean over pixels and channels of (a - ref)^2, in
    double. -1 if the sizes differ or either image is empty. */
+/* RMSE over every channel of the pixels mask holds (first channel > 0;
+   NULL: every pixel); *used: how many. -1 if it holds none. */
+static double pds__rmse(const pds_image *a, const pds_image *ref, const pds_image *mask, size_t *used)
+{
+    size_t i, n = (size_t)a->width * (size_t)a->height;
+    double sum = 0.0;
+    int c;
+    *used = 0;
+    for (i = 0; i < n; i++) {
+        if (mask && !(mask->rgb[3 * i] > 0.0f)) continue;
+        for (c = 0; c < 3; c++) {
+            double d = (double)a->rgb[3 * i + c] - (double)ref->rgb[3 * i + c];
+            sum += d * d;
+        }
+        ++*used;
+    }
+    return *used ? sqrt(sum / (3.0 * (double)*used)) : -1.0;
+}
+
 double pds_image_rmse(const pds_image *a, const pds_image *ref)
 {
-    size_t i, n;
-    double sum = 0.0;
+    size_t used;
     if (!a || !ref || !a->rgb || !ref->rgb || a->width <= 0 || a->height <= 0) return -1.0;
     if (a->width != ref->width || a->height != ref->height) return -1.0;
-    n = (size_t)a->width * (size_t)a->height * 3;
-    for (i = 0; i < n; i++) {
-        double d = (double)a->rgb[i] - (double)ref->rgb[i];
-        sum += d * d;
-    }
-    return sqrt(sum / (double)n);
+    return pds__rmse(a, ref, NULL, &used);
 }
 
 /* Luminance of one sRGB-encoded pixel (BT.601 weights, as Wang's ports). */
@@ -12378,6 +12391,7 @@ static pds_status pds__ssim(const pds_image *a, const pds_image *ref, const pds_
         for (x = 0; x < wv; x++) {
             double mx = 0.0, my = 0.0, xx = 0.0, yy = 0.0, xy = 0.0;
             double vx, vy, cxy, num, den;
+            if (mask && !(mask->rgb[3 * ((size_t)(oy + n / 2) * (size_t)W + (size_t)(x + n / 2))] > 0.0f)) continue;
             for (k = 0; k < n; k++) {
                 const pds__ssim_row *r = &ring[(oy + k) % n];
                 mx += w[k] * r->mx[x];
@@ -12391,8 +12405,6 @@ static pds_status pds__ssim(const pds_image *a, const pds_image *ref, const pds_
             cxy = xy - mx * my;
             num = (2.0 * mx * my + C1) * (2.0 * cxy + C2);
             den = (mx * mx + my * my + C1) * (vx + vy + C2);
-            if (mask && !(mask->rgb[3 * ((size_t)(oy + n / 2) * (size_t)W + (size_t)(x + n / 2))] > 0.0f))
-                continue;
             row_sum += num / den;
             counted += 1.0;
         }
@@ -12424,6 +12436,7 @@ pds_status pds_image_compare_masked(const pds_image *a, const pds_image *ref, co
                                     pds_metrics *out, pds_error *err)
 {
     pds_status st;
+    size_t used;
     if (!a || !ref || !out)
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "compare needs two images and a result");
     if (!a->rgb || !ref->rgb || a->width <= 0 || a->height <= 0 || ref->width <= 0 || ref->height <= 0)
@@ -12434,24 +12447,8 @@ pds_status pds_image_compare_masked(const pds_image *a, const pds_image *ref, co
     if (mask && (!mask->rgb || mask->width != ref->width || mask->height != ref->height))
         return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the mask is %dx%d, the images %dx%d", mask->width,
                          mask->height, ref->width, ref->height);
-    if (!mask) {
-        out->rmse = pds_image_rmse(a, ref);
-    } else {
-        /* over the pixels the mask holds, every channel */
-        size_t i, n = (size_t)a->width * (size_t)a->height, used = 0;
-        double sum = 0.0;
-        int c;
-        for (i = 0; i < n; i++) {
-            if (!(mask->rgb[3 * i] > 0.0f)) continue;
-            for (c = 0; c < 3; c++) {
-                double d = (double)a->rgb[3 * i + c] - (double)ref->rgb[3 * i + c];
-                sum += d * d;
-            }
-            used++;
-        }
-        if (!used) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the mask holds no pixel");
-        out->rmse = sqrt(sum / (3.0 * (double)used));
-    }
+    out->rmse = pds__rmse(a, ref, mask, &used);
+    if (!used) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "the mask holds no pixel");
     st = pds__ssim(a, ref, mask, &out->ssim);
     if (st == PDS_ERR_NOMEM) return pds__nomem(err);
     if (st != PDS_OK) return pds__fail(err, st, NULL, 0, 0, "cannot compute SSIM");
@@ -24654,15 +24651,11 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
                pass is dear (ppm at many samples a pixel) pays for it, as
                progressive PDS pays for its eye rounds; past it, the least
                budget (each method's one batch or pass) */
-            pds_options bopt;
-            if (popt->time_s > 0.0) {
-                bopt = *popt;
+            pds_options bopt = *popt;
+            if (popt->time_s > 0.0)
                 bopt.time_s = pds__max2(popt->time_s - (pds__clock_now(&job.clock) - job.t0), 1e-9);
-                popt = &bopt;
-            }
-            st = pds__photon_pass(scene, popt, verts, nv, w, h, threads, part, opt->debug,
+            st = pds__photon_pass(scene, &bopt, verts, nv, w, h, threads, part, opt->debug,
                                   rounds.rounds > 1 ? &rounds : NULL, &job.clock, stats, err);
-            popt = gi ? &copt : opt;
         }
         if (!st && completed == job.nrows && rounds.rounds > 1 && opt->time_s > 0.0) {
             /* a time budget's rounds: the values are the mean of all
