@@ -93,7 +93,7 @@ references: pds tests/ref_light
 	  --radius 0.004 --res 240x160 --spp 64 --seed 1001 --quiet -o scenes/prism.caustics.ref.pfm
 	$(MAKE) $(BUNNY)
 	./pds render scenes/bunny.scene --method ppm --caustics-only --photons 1000000 --passes 24 \
-	  --radius 0.01 --res 256x256 --spp 64 --seed 1000 --quiet -o scenes/bunny.caustics.ref.pfm
+	  --radius 0.01 --res 256x256 --spp 128 --seed 1000 --quiet -o scenes/bunny.caustics.ref.pfm
 
 # The README's gallery: every shipped scene at full size with PDS and the
 # options its README line recommends, and PDS beside pm on equal photon-pass
