@@ -7186,7 +7186,7 @@ static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r
                it) hold no point it can pass, and the half it lies in needs
                no test of its own (the teaching scene, 400,000 photons:
                its splats' queries 3.9 -> 2.0 x 10^9 instructions, the
-               render 8.8% fewer, the same points found) */
+               whole render's 8.8% fewer, the same points found) */
             double v = (double)kd->pts[3 * m + a];
             if (qhi[a] < v) {
                 cell.hi = m;
