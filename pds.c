@@ -7113,31 +7113,42 @@ static void pds__kd_slab_init(pds__kd_slab *q, pds__v3 c, double r, const double
     q->bound[1] = q->bound[2] = 1.0;
 }
 
-/* The box around every point the query can pass: a point with |n . d|
-   <= tol and |M d| < 1 is d = s k0 + a k1 + b k2 with |s| <= 1 and a^2
-   + b^2 < 1 (k0 = tol (M_0 x M_1) / det, k1 = (M_1 x n) / det, k2 = (n x
-   M_0) / det, the columns of the inverse of the matrix with rows n, M_0,
-   M_1, as in pds__grid_range_ellipse), so |d_j| <= |k0_j| + sqrt(k1_j^2
-   + k2_j^2); and |d_j| <= r. A margin of 1e-6 of the extent (and 1e-12
-   of the coordinates) is far beyond the rounding of either. Where n and
-   M's rows are not independent, the ball's box. */
-static void pds__kd_slab_box(const pds__kd_slab *q, const double M[2][3], pds__v3 n, double tol, double lo[3],
-                             double hi[3])
+/* The slab query's set {d : |n . d| <= tol, |M d| < 1} is {s k0 + a k1 +
+   b k2 : |s| <= 1, a^2 + b^2 < 1}, k the columns of the inverse of the
+   matrix with rows n, M_0, M_1, the first times tol: k0 = tol (M_0 x
+   M_1) / det, k1 = (M_1 x n) / det, k2 = (n x M_0) / det. Returns 0 (k
+   not set) where n and M's rows are not independent. */
+static int pds__slab_columns(pds__v3 n, pds__v3 m0, pds__v3 m1, double tol, pds__v3 k[3])
 {
-    pds__v3 m0 = pds__v(M[0][0], M[0][1], M[0][2]), m1 = pds__v(M[1][0], M[1][1], M[1][2]);
-    pds__v3 x01 = pds__cross(m0, m1), x1n = pds__cross(m1, n), xn0 = pds__cross(n, m0);
-    double det = pds__dot(n, x01), r = sqrt(q->r2);
-    int ok = fabs(det) > 1e-12 * pds__length(n) * pds__length(m0) * pds__length(m1) && isfinite(det), k;
-    for (k = 0; k < 3; k++) {
+    double det = pds__dot(n, pds__cross(m0, m1));
+    if (!(fabs(det) > 1e-12 * pds__length(n) * pds__length(m0) * pds__length(m1)) || !isfinite(det)) return 0;
+    k[0] = pds__scale(pds__cross(m0, m1), tol / det);
+    k[1] = pds__scale(pds__cross(m1, n), 1.0 / det);
+    k[2] = pds__scale(pds__cross(n, m0), 1.0 / det);
+    return 1;
+}
+
+/* The box around every point query q can pass: |d_j| <= |k0_j| +
+   sqrt(k1_j^2 + k2_j^2) (pds__slab_columns) and |d_j| <= r. A margin of
+   1e-6 of the extent (and 1e-12 of the coordinates) is far beyond the
+   rounding of either. Where n and M's rows are not independent, the
+   ball's box. */
+static void pds__kd_slab_box(const pds__kd_slab *q, double lo[3], double hi[3])
+{
+    pds__v3 k[3];
+    double r = sqrt(q->r2);
+    int ok = pds__slab_columns(pds__v(q->w[0][0], q->w[0][1], q->w[0][2]), pds__v(q->w[1][0], q->w[1][1], q->w[1][2]),
+                               pds__v(q->w[2][0], q->w[2][1], q->w[2][2]), q->bound[0], k),
+        j;
+    for (j = 0; j < 3; j++) {
         double e = r;
         if (ok) {
-            double a = pds__v3_get(x01, k) * tol / det, b = pds__v3_get(x1n, k) / det, d = pds__v3_get(xn0, k) / det;
-            double f = fabs(a) + sqrt(b * b + d * d);
+            double b = pds__v3_get(k[1], j), d = pds__v3_get(k[2], j), f = fabs(pds__v3_get(k[0], j)) + sqrt(b * b + d * d);
             if (f < e) e = f;
         }
-        e = e * (1.0 + 1e-6) + 1e-12 * (fabs(q->c[k]) + 1.0);
-        lo[k] = q->c[k] - e;
-        hi[k] = q->c[k] + e;
+        e = e * (1.0 + 1e-6) + 1e-12 * (fabs(q->c[j]) + 1.0);
+        lo[j] = q->c[j] - e;
+        hi[j] = q->c[j] + e;
     }
 }
 
@@ -7150,7 +7161,7 @@ static void pds__kdtree_range_ellipse(const pds__kdtree *kd, pds__v3 c, double r
     int sp = 0;
     if (!kd || kd->n == 0 || !(r >= 0.0) || !(tol >= 0.0) || !pds__kd_query_ok(c)) return;
     pds__kd_slab_init(&q, c, r, M, n, tol);
-    pds__kd_slab_box(&q, M, n, tol, qlo, qhi);
+    pds__kd_slab_box(&q, qlo, qhi);
     cell.lo = 0;
     cell.hi = kd->n;
     memcpy(cell.bl, kd->lo, sizeof cell.bl);
@@ -17332,9 +17343,8 @@ static void pds__splat(const pds__photon_job *job, pds__splat_buf *buf, const pd
    would report, fn(ctx, index from n_whole, y0^2 + y1^2), in batches; but
    found through the image. Every point the test passes lies in the box
    |n . d| <= tol, |M_j . d| < 1 (d = x - c), whose eight corners are c
-   + (+-tol) k0 + (+-1) k1 + (+-1) k2, the columns k of the inverse of the
-   matrix with rows n, M_0, M_1 (k0 = (M_0 x M_1) / det, k1 = (M_1 x n) /
-   det, k2 = (n x M_0) / det). In front of a pinhole that box projects
+   +- k0 +- k1 +- k2, the columns of the inverse of the matrix with rows
+   n, M_0, M_1, the first times tol (pds__slab_columns). In front of a pinhole that box projects
    into the convex hull of its corners' projections, and a whole vertex
    lies on its pixel's centre ray (pds__eye_merge: at that ray's point on
    the samples' plane; in any case within its pixel), at most
@@ -17367,19 +17377,15 @@ static int pds__grid_range_ellipse(const pds__eye_map *map, const pds__camera_fr
                                    int test)
 {
     pds__kd_slab q;
-    pds__v3 m0 = pds__v(M[0][0], M[0][1], M[0][2]), m1 = pds__v(M[1][0], M[1][1], M[1][2]), k[3];
-    double det, pt[8][2], edge[12][4], ylo = HUGE_VAL, yhi = -HUGE_VAL, he[PDS__GRID_BATCH];
+    pds__v3 k[3];
+    double pt[8][2], edge[12][4], ylo = HUGE_VAL, yhi = -HUGE_VAL, he[PDS__GRID_BATCH];
     /* pixels: how far a vertex can lie from its pixel's centre, and the
        rounding of the positions and of the corners */
     const double slack = map->grid_slack + 1e-3;
     size_t hit[PDS__GRID_BATCH];
     int i, ne = 0, nh = 0, y, y0, y1;
     if (!map->grid || map->n == map->n_whole || !(r >= 0.0) || !(tol >= 0.0) || !pds__kd_query_ok(c)) return 1;
-    det = pds__dot(n, pds__cross(m0, m1));
-    if (!(fabs(det) > 1e-12 * pds__length(n) * pds__length(m0) * pds__length(m1)) || !isfinite(det)) return 0;
-    k[0] = pds__scale(pds__cross(m0, m1), tol / det);
-    k[1] = pds__scale(pds__cross(m1, n), 1.0 / det);
-    k[2] = pds__scale(pds__cross(n, m0), 1.0 / det);
+    if (!pds__slab_columns(n, pds__v(M[0][0], M[0][1], M[0][2]), pds__v(M[1][0], M[1][1], M[1][2]), tol, k)) return 0;
     for (i = 0; i < 8; i++) {
         pds__v3 p = pds__add(pds__scale(k[1], i & 2 ? 1.0 : -1.0), pds__scale(k[2], i & 4 ? 1.0 : -1.0)), d;
         p = pds__add(c, pds__add(pds__scale(k[0], i & 1 ? 1.0 : -1.0), p));
