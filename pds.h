@@ -949,7 +949,11 @@ typedef struct pds_render_stats {
 
 /* What a render will need, from the scene and options alone, before any
    work: an upper bound on the memory it holds at once beyond the scene
-   (per eye vertex 264 bytes, every pixel sample taken to record one; per
+   (per eye vertex 264 bytes; a pixel sample records at most 4 when the
+   scene has glass (both branches at two surfaces), 1 otherwise, and
+   where that many would take over 256 MiB a pilot of 4096 camera samples
+   measures their mean instead, counted with a margin of four standard
+   errors and a sixteenth of the most, so that bound is an estimate; per
    stored photon 149 bytes for pm and ppm, 176 for pdm; per pixel 60 bytes,
    and for the photon methods 96 more (the partial state's two exact
    sums) plus 48 per thread, 96 per thread in spectral renders; gi: its
@@ -962,7 +966,7 @@ typedef struct pds_render_stats {
    and counts as 0. */
 typedef struct pds_render_estimate {
     double memory_bytes;
-    double eye_vertices;    /* photon methods: at most */
+    double eye_vertices;    /* photon methods: at most, or the pilot's */
     double stored_photons;  /* pm, pdm: at most; ppm: per pass; spm: streams */
     double samples;         /* pixel samples of one eye pass */
     double available_bytes; /* physical memory, 0 if unknown */

@@ -396,6 +396,52 @@ static void test_scene_loads_from_a_string_with_a_virtual_file_name(pds_test_ctx
     pds_scene_free(s);
 }
 
+/* Where the bound of 4 eye vertices a sample would take over 256 MiB, a
+   pilot of the camera's samples estimates their mean: the estimate is
+   then below the bound, yet not below what the eye pass really recorded
+   (ppm, caustics only: a vertex a sample on the floor, two or more where
+   a sample meets the glass ball), within the pilot's margin of it. */
+static void test_render_memory_estimate_measures_the_eye_vertices_of_a_large_render(pds_test_ctx *t)
+{
+    pds_error err;
+    pds_scene *s = scene_from_text("camera { position 0 1 3 look_at 0 0 0 resolution 160 120 spp 16 }\n"
+                                   "material glass dielectric { ior 1.5 }\n"
+                                   "quad { size 4 4 }\nsphere { material glass radius 0.5 translate 0 0.6 0 }\n"
+                                   "light point { position 0 3 0 power 100 }\n", &err);
+    pds_options opt;
+    pds_render_estimate est;
+    pds_render_stats st;
+    pds_image img = {0, 0, NULL};
+    double samples = 160.0 * 120.0 * 16.0;
+    REQUIRE(t, s != NULL, "load: %s", err.text);
+    pds_options_default(&opt);
+    opt.method = PDS_METHOD_PPM;
+    opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    opt.photons = 2000;
+    opt.passes = 1;
+    opt.threads = 2;
+    REQUIRE(t, pds_render_estimate_get(s, &opt, &est, &err) == PDS_OK, "estimate: %s", err.text);
+    REQUIRE(t, pds_render(s, &opt, &img, &st, &err) == PDS_OK, "render: %s", err.text);
+    pds_image_free(&img);
+    /* the bound (4 a sample, 264 bytes each) is over 256 MiB here */
+    CHECK(t, samples * 4 * 3 * sizeof(pds__eye_vertex) > 268435456.0, "the bound is under the pilot's threshold");
+    CHECK(t, est.eye_vertices < 0.5 * samples * 4, "estimated %.0f vertices, the bound %.0f", est.eye_vertices,
+          samples * 4);
+    CHECK(t, est.eye_vertices >= (double)st.eye_vertices && est.eye_vertices <= st.eye_vertices + 0.3 * samples,
+          "estimated %.0f vertices, the render recorded %ld (%.3f a sample)", est.eye_vertices, st.eye_vertices,
+          st.eye_vertices / samples);
+    CHECK(t, (double)st.memory_bytes <= est.memory_bytes, "the render held %lu bytes, over the estimate %.0f",
+          (unsigned long)st.memory_bytes, est.memory_bytes);
+    {
+        /* the pilot itself, less its margin for what it may miss (a
+           sixteenth of 4), is the recorded mean within its standard
+           errors: its samples split at glass as the eye pass's do */
+        double m = pds__eye_vertices_per_sample(s, &opt, 160, 120, 2) - 0.25, real = st.eye_vertices / samples;
+        CHECK(t, m >= real && m <= real + 0.08, "pilot %.4f a sample (less the margin), the render %.4f", m, real);
+    }
+    pds_scene_free(s);
+}
+
 static const pds_test_case tests_limits[] = {
 #ifdef PDS_TEST_POSIX
     {"readers_refuse_fifos_devices_and_directories", test_readers_refuse_fifos_devices_and_directories},
@@ -412,4 +458,6 @@ static const pds_test_case tests_limits[] = {
     {"scene_loads_from_a_string_with_a_virtual_file_name", test_scene_loads_from_a_string_with_a_virtual_file_name},
     {"render_memory_estimate_bounds_the_render_and_refuses_too_much",
      test_render_memory_estimate_bounds_the_render_and_refuses_too_much},
+    {"render_memory_estimate_measures_the_eye_vertices_of_a_large_render",
+     test_render_memory_estimate_measures_the_eye_vertices_of_a_large_render},
 };
