@@ -222,16 +222,20 @@ static void test_scene_with_the_most_materials_loads_and_finds_each(pds_test_ctx
 }
 
 
+/* A glass ball on a floor under a point light: the memory tests' scene */
+#define LIMITS_GLASS_BALL                                                                                              \
+    "camera { position 0 1 3 look_at 0 0 0 resolution 40 30 spp 4 }\n"                                                 \
+    "material glass dielectric { ior 1.5 }\n"                                                                          \
+    "quad { size 4 4 }\nsphere { material glass radius 0.5 translate 0 0.6 0 }\n"                                      \
+    "light point { position 0 3 0 power 100 }\n"
+
 /* The estimate is an upper bound on what a render holds, follows the
    documented bytes per eye vertex, stored photon and pixel, and a render
    over the memory limit is refused before any work. */
 static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(pds_test_ctx *t)
 {
     pds_error err;
-    pds_scene *s = scene_from_text("camera { position 0 1 3 look_at 0 0 0 resolution 40 30 spp 4 }\n"
-                                   "material glass dielectric { ior 1.5 }\n"
-                                   "quad { size 4 4 }\nsphere { material glass radius 0.5 translate 0 0.6 0 }\n"
-                                   "light point { position 0 3 0 power 100 }\n", &err);
+    pds_scene *s = scene_from_text(LIMITS_GLASS_BALL, &err);
     pds_options opt;
     pds_render_estimate est;
     pds_render_stats st;
@@ -404,10 +408,7 @@ static void test_scene_loads_from_a_string_with_a_virtual_file_name(pds_test_ctx
 static void test_render_memory_estimate_measures_the_eye_vertices_of_a_large_render(pds_test_ctx *t)
 {
     pds_error err;
-    pds_scene *s = scene_from_text("camera { position 0 1 3 look_at 0 0 0 resolution 160 120 spp 16 }\n"
-                                   "material glass dielectric { ior 1.5 }\n"
-                                   "quad { size 4 4 }\nsphere { material glass radius 0.5 translate 0 0.6 0 }\n"
-                                   "light point { position 0 3 0 power 100 }\n", &err);
+    pds_scene *s = scene_from_text(LIMITS_GLASS_BALL, &err);
     pds_options opt;
     pds_render_estimate est;
     pds_render_stats st;
@@ -417,6 +418,9 @@ static void test_render_memory_estimate_measures_the_eye_vertices_of_a_large_ren
     pds_options_default(&opt);
     opt.method = PDS_METHOD_PPM;
     opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+    opt.width = 160;
+    opt.height = 120;
+    opt.spp = 16;
     opt.photons = 2000;
     opt.passes = 1;
     opt.threads = 2;
