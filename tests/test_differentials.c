@@ -1107,6 +1107,51 @@ static void test_diff_kernel_splat_integrates_to_photon_flux(pds_test_ctx *t)
     }
 }
 
+/* The principal semi-axes without trigonometry: against their definition
+   (a, b turned by t = atan2(2 a.b, a.a - b.b) / 2) in every quadrant of
+   (a.a - b.b, 2 a.b), including near its negative axis where cos t is
+   small; and what any pair of principal axes keeps: A.B = 0, |A| the
+   major semi-axis, |A|^2 + |B|^2 = |a|^2 + |b|^2 and |A x B| = |a x b|. */
+static void test_diff_footprint_axes_match_their_definition(pds_test_ctx *t)
+{
+    unsigned long i;
+    pds__v3 A, B;
+    for (i = 0; i < 2000; i++) {
+        pds__v3 du = pds__scale(dt_unit(i, 0), 0.1 + dt_rand(i, 4)), dv = pds__scale(dt_unit(i, 2), 0.1 + dt_rand(i, 5));
+        pds__v3 a, b, At, Bt;
+        double aa, bb, ab, th, scale;
+        if (i % 4 == 1) dv = pds__add(pds__scale(du, -1.0 + 1e-9 * dt_rand(i, 6)), pds__scale(dv, 1e-7)); /* b ~ -a */
+        if (i % 4 == 2) dv = pds__scale(dv, 1e-3); /* a needle */
+        if (i % 4 == 3) dv = pds__scale(pds__cross(du, dt_unit(i, 7)), 10.0); /* b long, across a: d < 0, e ~ 0 */
+        a = pds__scale(du, 0.5);
+        b = pds__scale(dv, 0.5);
+        aa = pds__dot(a, a);
+        bb = pds__dot(b, b);
+        ab = pds__dot(a, b);
+        th = 0.5 * atan2(2.0 * ab, aa - bb);
+        At = pds__add(pds__scale(a, cos(th)), pds__scale(b, sin(th)));
+        Bt = pds__add(pds__scale(a, -sin(th)), pds__scale(b, cos(th)));
+        pds__footprint_axes(du, dv, &A, &B);
+        scale = sqrt(aa + bb);
+        CHECK(t, pds__length(pds__sub(A, At)) <= 1e-12 * scale && pds__length(pds__sub(B, Bt)) <= 1e-12 * scale,
+              "case %lu: A (%g %g %g), atan2's (%g %g %g)", i, A.x, A.y, A.z, At.x, At.y, At.z);
+        CHECK(t, fabs(pds__dot(A, B)) <= 1e-12 * (aa + bb), "case %lu: A.B = %g", i, pds__dot(A, B));
+        CHECK(t, fabs(pds__length(A) - pds__footprint_major_axis(du, dv)) <= 1e-12 * scale &&
+                     pds__length(A) >= pds__length(B),
+              "case %lu: |A| %g, major semi-axis %g, |B| %g", i, pds__length(A), pds__footprint_major_axis(du, dv),
+              pds__length(B));
+        CHECK(t, fabs(pds__dot(A, A) + pds__dot(B, B) - (aa + bb)) <= 1e-12 * (aa + bb) &&
+                     fabs(pds__length(pds__cross(A, B)) - pds__length(pds__cross(a, b))) <= 1e-12 * (aa + bb),
+              "case %lu: the sum of squares or the area changed", i);
+    }
+    /* a circle keeps its own pair: A = a, B = b */
+    pds__footprint_axes(pds__v(2.0, 0.0, 0.0), pds__v(0.0, 2.0, 0.0), &A, &B);
+    CHECK(t, A.x == 1.0 && A.y == 0.0 && B.x == 0.0 && B.y == 1.0, "circle: A (%g %g), B (%g %g)", A.x, A.y, B.x, B.y);
+    /* b = -a exactly (d = 0, e < 0): t = -pi/4 */
+    pds__footprint_axes(pds__v(2.0, 0.0, 0.0), pds__v(-2.0, 0.0, 0.0), &A, &B);
+    CHECK(t, fabs(A.x - sqrt(2.0)) < 1e-15 && fabs(B.x) < 1e-15, "b = -a: A.x %g, B.x %g", A.x, B.x);
+}
+
 static void test_diff_footprint_area_axis_and_anisotropy_known_values(pds_test_ctx *t)
 {
     unsigned long i;
@@ -1187,5 +1232,6 @@ static const pds_test_case tests_differentials[] = {
      test_diff_mesh_normal_differential_is_zero_on_flat_and_matches_sphere},
     {"diff_filter_matrix_eq12_equals_general_inverse", test_diff_filter_matrix_eq12_equals_general_inverse},
     {"diff_kernel_splat_integrates_to_photon_flux", test_diff_kernel_splat_integrates_to_photon_flux},
+    {"diff_footprint_axes_match_their_definition", test_diff_footprint_axes_match_their_definition},
     {"diff_footprint_area_axis_and_anisotropy_known_values", test_diff_footprint_area_axis_and_anisotropy_known_values},
 };
