@@ -1305,6 +1305,7 @@ enum pds__rng_purpose {
     PDS__RNG_LENS = 12,   /* thin lens: index = camera sample (as PIXEL), dim 0, 1 = the lens point */
     PDS__RNG_ENV_NEE = 13, /* the environment's sky parts in next-event estimation:
                              index = camera sample, dim = 4 x the bounce's PIXEL dim + 0..3 */
+    PDS__RNG_PILOT = 14,  /* the memory estimate's pilot samples: index = the sample, dim 0, 1 */
     PDS__RNG_STREAM = 20  /* gi's streams: index = stream number, dim = PDS__GI_STREAM_DIMS
                              x the leader's bounce + 2 x associated photon + 0, 1 */
 };
@@ -15226,14 +15227,15 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
    (both branches at each of two glass surfaces), but few samples meet
    glass, so that bound was ten times too high on the glass bunny at 128
    samples a pixel (13 GB estimated, 1.3 GB used) and refused its
-   reference at 256. A pilot of PDS__EYE_PILOT samples, one at each point
-   of a regular grid over the image (jittered within its cell by the
-   seed's own numbers, purpose PDS__RNG_TEST), traced as the eye pass
-   traces them up to their first non-specular vertices, gives the mean m
-   and its standard error e; the estimate takes m + 4 e plus a sixteenth
+   reference at 256. A pilot of PDS__EYE_PILOT^2 samples, one in each
+   cell of a regular grid over the image (jittered within it), traced as
+   the eye pass traces them up to their first non-specular vertices,
+   gives the mean m and its standard error e; the estimate takes
+   m + 4 e plus a sixteenth
    of the most (a glass object smaller than the grid's cells, which the
-   pilot may miss), never more than the most. 4096 samples cost a few
-   milliseconds; a render whose bound is small anyway skips them. */
+   pilot may miss), never more than the most. The pilot took 0.1 s on the
+   glass bunny (70,000 triangles); a render whose bound is small anyway
+   skips it. */
 #define PDS__EYE_PILOT 64 /* a PDS__EYE_PILOT x PDS__EYE_PILOT grid */
 #define PDS__EYE_PILOT_FROM 268435456.0 /* bytes of the bound: 256 MiB */
 static double pds__eye_vertices_per_sample(const pds_scene *scene, const pds_options *opt, int w, int h, int splits)
@@ -15257,8 +15259,8 @@ static double pds__eye_vertices_per_sample(const pds_scene *scene, const pds_opt
     for (j = 0; j < PDS__EYE_PILOT; j++) {
         for (i = 0; i < PDS__EYE_PILOT; i++) {
             uint64_t idx = (uint64_t)j * PDS__EYE_PILOT + (uint64_t)i;
-            double px = (i + pds__rng_uniform(opt->seed, PDS__RNG_TEST, idx, 0)) * w / PDS__EYE_PILOT;
-            double py = (j + pds__rng_uniform(opt->seed, PDS__RNG_TEST, idx, 1)) * h / PDS__EYE_PILOT;
+            double px = (i + pds__rng_uniform(opt->seed, PDS__RNG_PILOT, idx, 0)) * w / PDS__EYE_PILOT;
+            double py = (j + pds__rng_uniform(opt->seed, PDS__RNG_PILOT, idx, 1)) * h / PDS__EYE_PILOT;
             double acc[3] = {0.0, 0.0, 0.0}, lambda = 0.0, k;
             pds__eye_vertex v[PDS__EYE_LEAVES];
             pds__v3 org, dir = pds__camera_ray(&f, px, py, 0.5, 0.5, &org);
