@@ -15233,9 +15233,9 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
    gives the mean m and its standard error e; the estimate takes
    m + 4 e plus a sixteenth
    of the most (a glass object smaller than the grid's cells, which the
-   pilot may miss), never more than the most. The pilot took 0.1 s on the
-   glass bunny (70,000 triangles); a render whose bound is small anyway
-   skips it. */
+   pilot may miss), never more than the most. The pilot takes 6-14 ms on
+   the glass bunny and the cognac glass; a render whose bound is small
+   anyway skips it. */
 #define PDS__EYE_PILOT 64 /* a PDS__EYE_PILOT x PDS__EYE_PILOT grid */
 #define PDS__EYE_PILOT_FROM 268435456.0 /* bytes of the bound: 256 MiB */
 static double pds__eye_vertices_per_sample(const pds_scene *scene, const pds_options *opt, int w, int h, int splits)
