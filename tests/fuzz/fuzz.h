@@ -1,8 +1,10 @@
 /* fuzz.h - what the libFuzzer harnesses in tests/fuzz/ share.
 
-   Each harness is one C file that defines LLVMFuzzerTestOneInput and
-   includes this header, which includes pds.c itself (as tests/test_main.c
-   does). The loaders read files by path, so a harness writes its input into
+   Each harness is one C file that defines LLVMFuzzerTestOneInput (named
+   PDS_FUZZ_ENTRY) and includes this header, which includes pds.c itself
+   (as tests/test_main.c does). `make fuzz` builds them all into one
+   program, fuzz_all.c (one build of pds.c with the sanitizers instead of
+   six), which runs as the harness its name says (a link fuzz_TARGET). The loaders read files by path, so a harness writes its input into
    a private temporary directory (mkdtemp under $TMPDIR or /tmp, made on the
    first input, removed with everything the harnesses wrote when the process
    exits) and calls the public loader on that file.
@@ -80,6 +82,16 @@ static void *pds_fuzz_realloc(void *p, size_t size);
 #undef realloc
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+/* The name each harness gives its entry point: libFuzzer's own, unless
+   fuzz_all.c, which holds every harness in one program, names them. */
+#ifndef PDS_FUZZ_ENTRY
+#define PDS_FUZZ_ENTRY LLVMFuzzerTestOneInput
+#endif
+
+/* Where the readers' harnesses store what they read (so that the reads
+   are not optimised away and ASan checks every value). */
+static volatile float pds_fuzz_sink;
 
 /* Is PDS_FUZZ_UNGUARDED=1 set (guards and skips off)? */
 static int pds_fuzz_unguarded(void)

@@ -9,10 +9,9 @@
    empty. */
 #include "fuzz.h"
 
-static volatile float pds_fuzz_sink; /* keeps the reads below */
 static pds_image_meta pds_fuzz_meta;  /* 26 KB: not on the stack */
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+int PDS_FUZZ_ENTRY(const uint8_t *data, size_t size)
 {
     char path[4096];
     pds_image img;

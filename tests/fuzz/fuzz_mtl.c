@@ -12,7 +12,7 @@ static const char pds_fuzz_obj[] =
     "usemtl a\nf 1 2 3\n"
     "usemtl b\nf 2 4 3\n";
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+int PDS_FUZZ_ENTRY(const uint8_t *data, size_t size)
 {
     static int ready;
     char obj_path[4096], path[4096];

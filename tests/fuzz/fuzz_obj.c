@@ -29,7 +29,7 @@ static size_t pds_fuzz_split(const uint8_t *data, size_t size, size_t *mtl)
     return size;
 }
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+int PDS_FUZZ_ENTRY(const uint8_t *data, size_t size)
 {
     char path[4096], mtl_path[4096];
     size_t mtl, cut = pds_fuzz_split(data, size, &mtl);

@@ -10,9 +10,8 @@
    one must leave *out NULL. */
 #include "fuzz.h"
 
-static volatile float pds_fuzz_sink; /* keeps the reads below */
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+int PDS_FUZZ_ENTRY(const uint8_t *data, size_t size)
 {
     char path[4096];
     pds_partial *part = (pds_partial *)1;

@@ -38,7 +38,7 @@ static const char pds_fuzz_tri_mtl[] =
     "newmtl red\nKd 1 0 0\n"
     "newmtl lamp\nKe 4 4 4\n";
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+int PDS_FUZZ_ENTRY(const uint8_t *data, size_t size)
 {
     static int ready;
     char path[4096];
