@@ -15222,6 +15222,23 @@ static int pds__trace_path(const pds__tracer *tr, pds__v3 org, pds__v3 dir, uint
     return es.nrec;
 }
 
+/* A render's tracer from its options: everything but what the method
+   sets after it (the paths a photon method leaves to its photons, the
+   eye pass's splitting and recording). */
+static void pds__tracer_init(pds__tracer *tr, const pds_scene *scene, const pds_options *opt)
+{
+    memset(tr, 0, sizeof *tr);
+    tr->scene = scene;
+    tr->paths = opt->paths;
+    tr->max_depth = opt->max_depth;
+    tr->rr_depth = opt->rr_depth;
+    tr->max_diffuse = opt->diffuse_bounces;
+    tr->seed = opt->seed;
+    tr->eps = 1e-6 * pds__scene_scale(scene);
+    tr->spectral = pds__render_is_spectral(scene, opt);
+    tr->spectral_all = tr->spectral && opt->spectral;
+}
+
 /* How many eye vertices a camera sample records, on average, for the
    memory estimate (pds_render_estimate_get): PDS__EYE_LEAVES is the most
    (both branches at each of two glass surfaces), but few samples meet
@@ -15244,16 +15261,9 @@ static double pds__eye_vertices_per_sample(const pds_scene *scene, const pds_opt
     pds__camera_frame f = pds__camera_setup(&scene->camera, w, h);
     double sum = 0.0, sum2 = 0.0, n = 0.0, mean, se, most = (double)(1 << splits);
     int i, j;
-    memset(&tr, 0, sizeof tr);
-    tr.scene = scene;
+    /* as the photon methods' eye pass traces (pds_render) */
+    pds__tracer_init(&tr, scene, opt);
     tr.paths = PDS_PATHS_NO_CAUSTICS;
-    tr.max_depth = opt->max_depth;
-    tr.rr_depth = opt->rr_depth;
-    tr.max_diffuse = opt->diffuse_bounces;
-    tr.seed = opt->seed;
-    tr.eps = 1e-6 * pds__scene_scale(scene);
-    tr.spectral = pds__render_is_spectral(scene, opt);
-    tr.spectral_all = tr.spectral && opt->spectral;
     tr.eye_splits = splits;
     tr.vertices_only = 1;
     for (j = 0; j < PDS__EYE_PILOT; j++) {
@@ -24570,15 +24580,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
     job.spp = opt->spp > 0 ? opt->spp : cam->spp;
     job.filter = cam->filter;
     job.seed = opt->seed;
-    job.tracer.scene = scene;
-    job.tracer.paths = opt->paths;
-    job.tracer.max_depth = opt->max_depth;
-    job.tracer.rr_depth = opt->rr_depth;
-    job.tracer.max_diffuse = opt->diffuse_bounces;
-    job.tracer.seed = opt->seed;
-    job.tracer.eps = 1e-6 * pds__scene_scale(scene);
-    job.tracer.spectral = pds__render_is_spectral(scene, opt);
-    job.tracer.spectral_all = job.tracer.spectral && opt->spectral;
+    pds__tracer_init(&job.tracer, scene, opt);
     stats->spectral = job.tracer.spectral;
     job.progress = opt->progress;
     job.progress_user = opt->progress_user;
