@@ -503,6 +503,8 @@ static void test_cli_near_miss_names_get_a_suggestion(pds_test_ctx *t)
         {"bench budget --runs 0", "pds bench: bench budget: --runs needs a whole number from 1 to 99, got '0'\n"},
         {"bench budget --methods pds,pmm", "bench budget: unknown method 'pmm' (pds, paper, pm, pdm, splat, ppm, spm, gi)"},
         {"bench budget --times 1,x", "bench budget: --times needs up to 8 seconds from 0.01 to 3600, got '1,x'"},
+        {"bench pass --photons 5", "pds bench: bench pass: --photons needs a count from 1000 to 1e8, got '5'\n"},
+        {"bench pass --photon 1M", "pds bench: bench pass: unknown option '--photon' (--photons)\n"},
     };
     char out[8192];
     size_t i;
