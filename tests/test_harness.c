@@ -1179,6 +1179,119 @@ static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
           "--help describes the harness and the baselines");
 }
 
+/* The next documented command of a teaching text (docs/): a line whose
+   text starts with "./pds ", joined with the lines its trailing
+   backslashes continue, into cmd; returns where to go on, NULL at the
+   end. */
+static const char *harness_doc_command(const char *text, char *cmd, size_t n)
+{
+    while (*text) {
+        const char *line = text, *end = strchr(text, '\n');
+        size_t len = 0;
+        text = end ? end + 1 : line + strlen(line);
+        while (*line == ' ') line++;
+        if (!HARNESS_STARTS(line, "./pds ")) continue;
+        for (;;) {
+            size_t k = (size_t)((end ? end : line + strlen(line)) - line);
+            int more = k > 0 && line[k - 1] == '\\';
+            if (more) k--;
+            if (len + k + 2 > n) return NULL;
+            memcpy(cmd + len, line, k);
+            len += k;
+            cmd[len++] = ' ';
+            if (!more || !end) break;
+            line = text;
+            end = strchr(text, '\n');
+            text = end ? end + 1 : line + strlen(line);
+            while (*line == ' ') line++;
+        }
+        cmd[len] = '\0';
+        return text;
+    }
+    return NULL;
+}
+
+/* Does help text h name option o (not as the start of a longer one)? */
+static int harness_help_names(const char *h, const char *o)
+{
+    size_t k = strlen(o);
+    const char *p;
+    for (p = strstr(h, o); p; p = strstr(p + 1, o))
+        if (!isalnum((unsigned char)p[k]) && p[k] != '-') return 1;
+    return 0;
+}
+
+/* The teaching texts' commands stay runnable (docs/tutorial.md and
+   docs/exercises.md, which courses hand out): each command exists, every
+   option they give is one its --help names, every shipped scene they name
+   is there, and the scene the tutorial has the reader type is
+   scenes/teaching.scene, as it says (less that file's comment lines). */
+static void test_harness_teaching_texts_commands_are_the_tools(pds_test_ctx *t)
+{
+    static const char *const docs[] = {"docs/tutorial.md", "docs/exercises.md"};
+    char cmd[2048], help[32768], sub[64];
+    int d, commands = 0;
+    for (d = 0; d < 2; d++) {
+        char *text = harness_slurp(docs[d], NULL);
+        const char *at = text;
+        REQUIRE(t, text != NULL, "cannot read %s", docs[d]);
+        while ((at = harness_doc_command(at, cmd, sizeof cmd)) != NULL) {
+            char *tok, *save = cmd;
+            int k = 0;
+            commands++;
+            while ((tok = strtok(save, " ")) != NULL) {
+                save = NULL;
+                if (k++ == 1) {
+                    char args[80];
+                    snprintf(sub, sizeof sub, "%s", tok);
+                    snprintf(args, sizeof args, "%s --help", sub);
+                    CHECK(t, cli_run(args, help, sizeof help) == 0, "%s: 'pds %s' is no command", docs[d], sub);
+                } else if (k > 2 && tok[0] == '-') {
+                    char *eq = strchr(tok, '=');
+                    if (eq) *eq = '\0';
+                    CHECK(t, harness_help_names(help, tok), "%s: 'pds %s' has no option %s", docs[d], sub, tok);
+                } else if (HARNESS_STARTS(tok, "scenes/")) {
+                    FILE *f = fopen(tok, "rb");
+                    CHECK(t, f != NULL, "%s: %s is not shipped", docs[d], tok);
+                    if (f) fclose(f);
+                }
+            }
+        }
+        free(text);
+    }
+    CHECK(t, commands >= 15, "only %d commands found in the teaching texts", commands);
+    {
+        /* the scene block after "Save this as", against the shipped file */
+        char *tut = harness_slurp("docs/tutorial.md", NULL), *shipped = harness_slurp("scenes/teaching.scene", NULL);
+        char a[4096], b[4096];
+        size_t na = 0, nb = 0;
+        const char *p, *q;
+        REQUIRE(t, tut && shipped, "cannot read the tutorial or scenes/teaching.scene");
+        p = strstr(tut, "Save this as");
+        REQUIRE(t, p != NULL, "the tutorial no longer says where to save its scene");
+        p = strstr(p, "\n\n");
+        for (p = p ? p + 2 : tut + strlen(tut); *p; p = q ? q + 1 : p + strlen(p)) {
+            q = strchr(p, '\n');
+            if ((q ? q : p + strlen(p)) == p) continue; /* a blank line within the block */
+            if (!HARNESS_STARTS(p, "    ")) break;
+            while (*p == ' ') p++;
+            while (*p && *p != '\n' && na + 2 < sizeof a) a[na++] = *p++;
+            a[na++] = '\n';
+        }
+        for (p = shipped; *p; p = q ? q + 1 : p + strlen(p)) {
+            q = strchr(p, '\n');
+            while (*p == ' ') p++;
+            if (*p == '#' || *p == '\n' || !*p) continue;
+            while (*p && *p != '\n' && nb + 2 < sizeof b) b[nb++] = *p++;
+            b[nb++] = '\n';
+        }
+        a[na] = b[nb] = '\0';
+        CHECK(t, na > 100 && !strcmp(a, b), "the tutorial's scene:\n%s\nscenes/teaching.scene:\n%s", a, b);
+        free(tut);
+        free(shipped);
+    }
+}
+
 static const pds_test_case tests_harness[] = {
     {"harness_sweep_over_spp_lowers_rmse_and_reports_the_best",
      test_harness_sweep_over_spp_lowers_rmse_and_reports_the_best},
@@ -1204,4 +1317,5 @@ static const pds_test_case tests_harness[] = {
      test_harness_sweep_flags_an_optimum_at_the_edge_and_draws_photons_log_log},
     {"harness_race_difference_scale_is_shared_each_or_given",
      test_harness_race_difference_scale_is_shared_each_or_given},
+    {"harness_teaching_texts_commands_are_the_tools", test_harness_teaching_texts_commands_are_the_tools},
 };
