@@ -1179,18 +1179,19 @@ static void test_harness_render_takes_the_baseline_options(pds_test_ctx *t)
           "--help describes the harness and the baselines");
 }
 
-/* The next documented command of a teaching text (docs/): a line whose
-   text starts with "./pds ", joined with the lines its trailing
-   backslashes continue, into cmd; returns where to go on, NULL at the
-   end. */
+/* The next documented command of a text: a line of a code block (four
+   spaces in) whose text starts with "./pds " or "pds ", joined with the
+   lines its trailing backslashes continue, into cmd; returns where to go
+   on, NULL at the end. */
 static const char *harness_doc_command(const char *text, char *cmd, size_t n)
 {
     while (*text) {
         const char *line = text, *end = strchr(text, '\n');
         size_t len = 0;
         text = end ? end + 1 : line + strlen(line);
+        if (!HARNESS_STARTS(line, "    ")) continue;
         while (*line == ' ') line++;
-        if (!HARNESS_STARTS(line, "./pds ")) continue;
+        if (!HARNESS_STARTS(line, "./pds ") && !HARNESS_STARTS(line, "pds ")) continue;
         for (;;) {
             size_t k = (size_t)((end ? end : line + strlen(line)) - line);
             int more = k > 0 && line[k - 1] == '\\';
@@ -1221,35 +1222,53 @@ static int harness_help_names(const char *h, const char *o)
     return 0;
 }
 
-/* The teaching texts' commands stay runnable (docs/tutorial.md and
-   docs/exercises.md, which courses hand out): each command exists, every
-   option they give is one its --help names, every shipped scene they name
-   is there, and the scene the tutorial has the reader type is
-   scenes/teaching.scene, as it says (less that file's comment lines). */
+/* The commands the texts print stay the tool's (the README's code blocks,
+   and docs/tutorial.md and docs/exercises.md, which courses hand out):
+   each names a command there is, every option it gives (in a usage line
+   too: [--mask MASK.pfm]) is one that command's --help names (race and
+   sweep take render's as well), and every shipped scene it names is
+   there; and the scene the tutorial has the reader type is
+   scenes/teaching.scene, as it says (less that file's comment lines).
+   Lines of output ("pds render: unknown option ...") and `pds help` are
+   left out. */
 static void test_harness_teaching_texts_commands_are_the_tools(pds_test_ctx *t)
 {
-    static const char *const docs[] = {"docs/tutorial.md", "docs/exercises.md"};
-    char cmd[2048], help[32768], sub[64];
+    static const char *const docs[] = {"README.md", "docs/tutorial.md", "docs/exercises.md"};
+    static char help[65536], render_help[32768];
+    char cmd[2048], sub[64];
     int d, commands = 0;
-    for (d = 0; d < 2; d++) {
+    REQUIRE(t, cli_run("render --help", render_help, sizeof render_help) == 0, "pds render --help");
+    for (d = 0; d < 3; d++) {
         char *text = harness_slurp(docs[d], NULL);
         const char *at = text;
         REQUIRE(t, text != NULL, "cannot read %s", docs[d]);
         while ((at = harness_doc_command(at, cmd, sizeof cmd)) != NULL) {
             char *tok, *save = cmd;
-            int k = 0;
-            commands++;
+            int k = 0, both = 0;
             while ((tok = strtok(save, " ")) != NULL) {
+                size_t len;
                 save = NULL;
                 if (k++ == 1) {
                     char args[80];
+                    len = strlen(tok);
+                    if ((len > 0 && tok[len - 1] == ':') || !strcmp(tok, "help")) break; /* output, or help's list */
+                    commands++;
                     snprintf(sub, sizeof sub, "%s", tok);
                     snprintf(args, sizeof args, "%s --help", sub);
                     CHECK(t, cli_run(args, help, sizeof help) == 0, "%s: 'pds %s' is no command", docs[d], sub);
-                } else if (k > 2 && tok[0] == '-') {
+                    both = !strcmp(sub, "race") || !strcmp(sub, "sweep");
+                    continue;
+                }
+                if (k < 3) continue;
+                if (tok[0] == '#') break; /* a comment to the end of the line */
+                while (*tok == '[' || *tok == '(') tok++;
+                len = strlen(tok);
+                while (len > 0 && strchr("]),|.", tok[len - 1])) tok[--len] = '\0';
+                if (tok[0] == '-' && (isalpha((unsigned char)tok[1]) || (tok[1] == '-' && isalpha((unsigned char)tok[2])))) {
                     char *eq = strchr(tok, '=');
                     if (eq) *eq = '\0';
-                    CHECK(t, harness_help_names(help, tok), "%s: 'pds %s' has no option %s", docs[d], sub, tok);
+                    CHECK(t, harness_help_names(help, tok) || (both && harness_help_names(render_help, tok)),
+                          "%s: 'pds %s' has no option %s", docs[d], sub, tok);
                 } else if (HARNESS_STARTS(tok, "scenes/")) {
                     FILE *f = fopen(tok, "rb");
                     CHECK(t, f != NULL, "%s: %s is not shipped", docs[d], tok);
@@ -1259,7 +1278,7 @@ static void test_harness_teaching_texts_commands_are_the_tools(pds_test_ctx *t)
         }
         free(text);
     }
-    CHECK(t, commands >= 15, "only %d commands found in the teaching texts", commands);
+    CHECK(t, commands >= 60, "only %d commands found in the texts", commands);
     {
         /* the scene block after "Save this as", against the shipped file */
         char *tut = harness_slurp("docs/tutorial.md", NULL), *shipped = harness_slurp("scenes/teaching.scene", NULL);
