@@ -15937,7 +15937,7 @@ static pds_status pds__debug_finish(pds_debug *d, pds__debug_buf *b, int nb, int
         for (i = 0; i < n; i++) pds__colour_scale((int)val->rgb[3 * i], val->rgb[3 * i + 1], &pic->rgb[3 * i]);
         for (j = 0; j < PDS__SELECT_ESTIMATES; j++) {
             float rgb[3];
-            char label[4];
+            char label[12]; /* (an int's digits: gcc -O1 cannot see j < 8) */
             int x0 = j * w / PDS__SELECT_ESTIMATES;
             pds__colour_scale(j, 1.0, rgb);
             for (y = h + 2; y < h + 6; y++)
