@@ -14367,6 +14367,7 @@ static void pds__material_preview_colour(const pds_material *m, double rgb[3])
 {
     int c;
     for (c = 0; c < 3; c++) {
+        rgb[c] = 0.0; /* (a type outside the enum: black) */
         switch (m->type) {
         case PDS_MAT_DIFFUSE: rgb[c] = m->albedo[c]; break;
         case PDS_MAT_MIRROR: rgb[c] = m->reflectance[c]; break;
@@ -25076,7 +25077,7 @@ pds_status pds_bench_rays(const char *path, long rays, pds_bench_rays_result *ou
     pds_scene *s = NULL;
     pds_status st;
     pds__v3 *org = NULL, *dir = NULL, lo, hi, ext, centre;
-    long n, i, side, hits;
+    long n, i, side, hits = 0;
     int kind, rep;
     double largest;
     if (!path || !out || rays < 1) return pds__fail(err, PDS_ERR_INVALID_ARG, NULL, 0, 0, "pds_bench_rays: bad argument");
