@@ -2877,19 +2877,20 @@ static int bench_photons(int argc, char **argv)
 static int bench_pass(int argc, char **argv)
 {
     static const char *defaults[] = {"scenes/refraction.scene", "scenes/reflection.scene"};
-    const char **paths = (const char **)argv;
-    int n = 0, i;
+    const char *scenes[64], **paths = scenes, *v;
+    int n = 0, i, rc;
     long photons = 400000;
     for (i = 0; i < argc; i++) {
-        if (!strcmp(argv[i], "--photons")) {
-            if (i + 1 >= argc || parse_count(argv[i + 1], 1000, 100000000L, &photons) != 0)
-                return usage_error("bench pass: --photons needs a count from 1000 to 1e8, got '%s'",
-                                   i + 1 < argc ? argv[i + 1] : "");
-            i++;
+        if (arg_is(argv[i], "--photons")) {
+            if ((rc = option_value(argc, argv, &i, &v))) return rc;
+            if (parse_count(v, 1000, 100000000L, &photons) != 0)
+                return usage_error("bench pass: --photons needs a count from 1000 to 1e8, got '%s'", v);
         } else if (argv[i][0] == '-' && argv[i][1] != '\0') {
             return usage_error("bench pass: unknown option '%s' (--photons)", argv[i]);
+        } else if (n == 64) {
+            return usage_error("%s", "bench pass takes at most 64 scenes");
         } else {
-            paths[n++] = argv[i]; /* (argv keeps its order: n <= i) */
+            scenes[n++] = argv[i];
         }
     }
     if (n == 0) {
