@@ -1231,13 +1231,57 @@ static int harness_help_names(const char *h, const char *o)
    scenes/teaching.scene, as it says (less that file's comment lines).
    Lines of output ("pds render: unknown option ...") and `pds help` are
    left out. */
+/* The lines of text from p on, each without its leading spaces, into out
+   (NUL-terminated, at most size bytes). block: the lines of one indented
+   code block (it ends at the first line not four spaces in; blank lines
+   within it are skipped); else every line but blank ones and '#' comments.
+   Returns the length. */
+static size_t harness_trimmed_lines(const char *p, int block, char *out, size_t size)
+{
+    size_t n = 0;
+    const char *q;
+    for (; *p; p = q ? q + 1 : p + strlen(p)) {
+        q = strchr(p, '\n');
+        if ((q ? q : p + strlen(p)) == p) continue; /* a blank line */
+        if (block && !HARNESS_STARTS(p, "    ")) break;
+        while (*p == ' ') p++;
+        if (!block && (*p == '#' || *p == '\n' || !*p)) continue;
+        while (*p && *p != '\n' && n + 2 < size) out[n++] = *p++;
+        out[n++] = '\n';
+    }
+    out[n] = '\0';
+    return n;
+}
+
+/* `pds SUB --help` (its output into the cache's next slot the first time;
+   NULL when SUB is no command or the cache is full). */
+typedef struct harness_helps {
+    char name[16][64];
+    char text[16][32768];
+    int n;
+} harness_helps;
+
+static const char *harness_help_of(harness_helps *h, const char *sub)
+{
+    char args[96];
+    int i;
+    for (i = 0; i < h->n; i++)
+        if (!strcmp(h->name[i], sub)) return h->text[i];
+    if (h->n == 16 || strlen(sub) >= sizeof h->name[0]) return NULL;
+    snprintf(args, sizeof args, "%s --help", sub);
+    if (cli_run(args, h->text[h->n], sizeof h->text[0]) != 0) return NULL;
+    snprintf(h->name[h->n], sizeof h->name[0], "%s", sub);
+    return h->text[h->n++];
+}
+
 static void test_harness_teaching_texts_commands_are_the_tools(pds_test_ctx *t)
 {
     static const char *const docs[] = {"README.md", "docs/tutorial.md", "docs/exercises.md"};
-    static char help[65536], render_help[32768];
+    static harness_helps helps;
+    const char *help = "", *render_help = harness_help_of(&helps, "render");
     char cmd[2048], sub[64];
     int d, commands = 0;
-    REQUIRE(t, cli_run("render --help", render_help, sizeof render_help) == 0, "pds render --help");
+    REQUIRE(t, render_help != NULL, "pds render --help");
     for (d = 0; d < 3; d++) {
         char *text = harness_slurp(docs[d], NULL);
         const char *at = text;
@@ -1249,13 +1293,13 @@ static void test_harness_teaching_texts_commands_are_the_tools(pds_test_ctx *t)
                 size_t len;
                 save = NULL;
                 if (k++ == 1) {
-                    char args[80];
                     len = strlen(tok);
                     if ((len > 0 && tok[len - 1] == ':') || !strcmp(tok, "help")) break; /* output, or help's list */
                     commands++;
                     snprintf(sub, sizeof sub, "%s", tok);
-                    snprintf(args, sizeof args, "%s --help", sub);
-                    CHECK(t, cli_run(args, help, sizeof help) == 0, "%s: 'pds %s' is no command", docs[d], sub);
+                    help = harness_help_of(&helps, sub);
+                    CHECK(t, help != NULL, "%s: 'pds %s' is no command", docs[d], sub);
+                    if (!help) help = "";
                     both = !strcmp(sub, "race") || !strcmp(sub, "sweep");
                     continue;
                 }
@@ -1283,29 +1327,12 @@ static void test_harness_teaching_texts_commands_are_the_tools(pds_test_ctx *t)
         /* the scene block after "Save this as", against the shipped file */
         char *tut = harness_slurp("docs/tutorial.md", NULL), *shipped = harness_slurp("scenes/teaching.scene", NULL);
         char a[4096], b[4096];
-        size_t na = 0, nb = 0;
-        const char *p, *q;
+        const char *p;
         REQUIRE(t, tut && shipped, "cannot read the tutorial or scenes/teaching.scene");
         p = strstr(tut, "Save this as");
-        REQUIRE(t, p != NULL, "the tutorial no longer says where to save its scene");
-        p = strstr(p, "\n\n");
-        for (p = p ? p + 2 : tut + strlen(tut); *p; p = q ? q + 1 : p + strlen(p)) {
-            q = strchr(p, '\n');
-            if ((q ? q : p + strlen(p)) == p) continue; /* a blank line within the block */
-            if (!HARNESS_STARTS(p, "    ")) break;
-            while (*p == ' ') p++;
-            while (*p && *p != '\n' && na + 2 < sizeof a) a[na++] = *p++;
-            a[na++] = '\n';
-        }
-        for (p = shipped; *p; p = q ? q + 1 : p + strlen(p)) {
-            q = strchr(p, '\n');
-            while (*p == ' ') p++;
-            if (*p == '#' || *p == '\n' || !*p) continue;
-            while (*p && *p != '\n' && nb + 2 < sizeof b) b[nb++] = *p++;
-            b[nb++] = '\n';
-        }
-        a[na] = b[nb] = '\0';
-        CHECK(t, na > 100 && !strcmp(a, b), "the tutorial's scene:\n%s\nscenes/teaching.scene:\n%s", a, b);
+        REQUIRE(t, p != NULL && (p = strstr(p, "\n\n")) != NULL, "the tutorial no longer says where to save its scene");
+        CHECK(t, harness_trimmed_lines(p + 2, 1, a, sizeof a) > 100 && harness_trimmed_lines(shipped, 0, b, sizeof b) > 0 && !strcmp(a, b),
+              "the tutorial's scene:\n%s\nscenes/teaching.scene:\n%s", a, b);
         free(tut);
         free(shipped);
     }
