@@ -634,28 +634,40 @@ static void test_png_carries_metadata_as_text_chunks(pds_test_ctx *t)
     pds_image_free(&img);
 }
 
-/* The references under scenes/ say what they are: caustics-only but
-   cardioid.ref.pfm, a full path-traced render (Makefile "references"). */
+/* The references under scenes/ say what they are and have the size races
+   against them use: caustics-only but cardioid.ref.pfm, a full
+   path-traced render (Makefile "references"). */
 static void test_shipped_references_carry_their_kind(pds_test_ctx *t)
 {
-    static const char *const refs[6][2] = {
-        {"scenes/refraction.ref.pfm", PDS_META_KIND_CAUSTICS}, {"scenes/reflection.ref.pfm", PDS_META_KIND_CAUSTICS},
-        {"scenes/ring_octahedron.ref.pfm", PDS_META_KIND_CAUSTICS},
-        {"scenes/cardioid.caustics.ref.pfm", PDS_META_KIND_CAUSTICS},
-        {"scenes/bunny.caustics.ref.pfm", PDS_META_KIND_CAUSTICS}, {"scenes/cardioid.ref.pfm", PDS_META_KIND_FULL}};
+    static const struct {
+        const char *path, *kind;
+        int w, h;
+    } refs[] = {{"scenes/refraction.ref.pfm", PDS_META_KIND_CAUSTICS, 256, 256},
+                {"scenes/reflection.ref.pfm", PDS_META_KIND_CAUSTICS, 256, 256},
+                {"scenes/ring_octahedron.ref.pfm", PDS_META_KIND_CAUSTICS, 512, 512},
+                {"scenes/cardioid.caustics.ref.pfm", PDS_META_KIND_CAUSTICS, 256, 192},
+                {"scenes/bunny.caustics.ref.pfm", PDS_META_KIND_CAUSTICS, 256, 256},
+                {"scenes/cognac.caustics.ref.pfm", PDS_META_KIND_CAUSTICS, 256, 256},
+                {"scenes/prism.caustics.ref.pfm", PDS_META_KIND_CAUSTICS, 240, 160},
+                {"scenes/cornell.caustics.ref.pfm", PDS_META_KIND_CAUSTICS, 256, 256},
+                {"scenes/demo.caustics.ref.pfm", PDS_META_KIND_CAUSTICS, 256, 192},
+                {"scenes/torus.caustics.ref.pfm", PDS_META_KIND_CAUSTICS, 256, 256},
+                {"scenes/cardioid.ref.pfm", PDS_META_KIND_FULL, 256, 192}};
     static pds_image_meta meta;
-    int i;
-    for (i = 0; i < 6; i++) {
+    size_t i;
+    for (i = 0; i < sizeof refs / sizeof refs[0]; i++) {
         pds_image img;
         pds_error err;
         const char *kind;
-        if (pds_image_read(refs[i][0], &img, &meta, &err) != PDS_OK) {
+        if (pds_image_read(refs[i].path, &img, &meta, &err) != PDS_OK) {
             CHECK(t, 0, "%s", err.text);
             continue;
         }
         kind = pds_image_meta_get(&meta, PDS_META_KIND);
-        CHECK(t, kind && !strcmp(kind, refs[i][1]), "%s: kind %s, not %s", refs[i][0], kind ? kind : "(none)",
-              refs[i][1]);
+        CHECK(t, kind && !strcmp(kind, refs[i].kind), "%s: kind %s, not %s", refs[i].path, kind ? kind : "(none)",
+              refs[i].kind);
+        CHECK(t, img.width == refs[i].w && img.height == refs[i].h, "%s: %dx%d, not %dx%d", refs[i].path, img.width,
+              img.height, refs[i].w, refs[i].h);
         pds_image_free(&img);
     }
 }
