@@ -80,7 +80,7 @@ update-golden: tests/test_pds
 # Newton's prism (spectral) ppm with 40 x 1M photons at 240 x 160, seed
 # 1001 (about a minute). The Cornell box, the demo and the embedded torus
 # get ppm from a third of a pixel or less with 16 samples a pixel and
-# 400-800 million photons (5-7 minutes each): ppm's automatic radius,
+# 400-800 million photons (5-8 minutes each): ppm's automatic radius,
 # which a 40-second render starts from, blurs their caustics by more
 # than the methods' errors differ.
 references: pds tests/ref_light
