@@ -1666,6 +1666,7 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
         if (st->gather_radius > 0.0) printf(" max_radius_used=%g", st->gather_radius);
         printf(" time_eye=%.3f time_photons=%.3f", st->time_eye_s, st->time_photons_s);
         print_scale_pixels(st->scale_pixels);
+        if (st->through_pixels > 0) printf(" through_pixels=%ld", st->through_pixels);
         if (m == PDS_METHOD_SPM && c->opt.paths != PDS_PATHS_CAUSTICS_ONLY) {
             /* the full image: gi's global map of streams and final gather
                (map_bytes above holds both maps, time_map both builds) */
@@ -1859,6 +1860,7 @@ static pds_status part_image(const pds_partial *part, pds_image *img, pds_render
     if (s == PDS_OK && st) {
         st->nonfinite = report.nonfinite;
         for (k = 0; k < PDS_SCALE_ESTIMATES; k++) st->scale_pixels[k] = report.scale_pixels[k];
+        st->through_pixels = report.through_pixels;
         /* the pixels' choice of scale is the photon pass's (as in pds_render) */
         st->time_photons_s += report.choice_s;
         st->time_total_s += report.choice_s;
@@ -2363,6 +2365,7 @@ static int cmd_merge(int argc, char **argv)
         printf("merge parts=%d shards=%d fraction=%.6f width=%d height=%d", n, info.shard_count, report.fraction,
                img.width, img.height);
         print_scale_pixels(report.scale_pixels);
+        if (report.through_pixels > 0) printf(" through_pixels=%ld", report.through_pixels);
         printf(" time_total=%.3f nonfinite=%ld output=%s\n", pds_time_now() - t0, report.nonfinite, output);
     }
     for (i = 0; i < n; i++) pds_partial_free(parts[i]);

@@ -945,6 +945,11 @@ typedef struct pds_render_stats {
                                or blended with [0]); a pixel that was not
                                seen whole in every pass keeps [0] and is
                                counted in none. All 0 in other renders */
+    long through_pixels;    /* ... and of the pixels not seen whole in every
+                               pass (seen through glass or in a mirror),
+                               those that took a blur the halves of the
+                               passes chose (the odd-numbered passes'
+                               photons against the others') */
 } pds_render_stats;
 
 /* What a render will need, from the scene and options alone, before any
@@ -1067,6 +1072,7 @@ typedef struct pds_merge_report {
     long scale_pixels[PDS_SCALE_ESTIMATES]; /* pds_render_stats.scale_pixels: the pixels'
                                choice of scale (all 0 when the parts hold
                                one scale) */
+    long through_pixels;    /* pds_render_stats.through_pixels */
     double choice_s;        /* seconds that choice took (0 when the parts
                                hold one scale): part of the photon pass's
                                time, which pds_render counts in

@@ -268,8 +268,8 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
     /* PDS: no map, but each thread holds up to 4096 landings (216 bytes
        each) before it splats them, however its photons split: the
        estimate is pm's without the photons plus those, and with the
-       pixels' choice of scale (pass_select) 6 more sums a pixel in the
-       part's two images, 5 in each thread's and two sums and a long a
+       pixels' choice of scale (pass_select) 10 more sums a pixel in the
+       part's two images, 8 in each thread's and two sums and a long a
        pixel for the pixels' counts and whole vertices; a render on two threads holds one image (with its
        second scale's) and one thread's landings more than on one */
     opt.memory_limit = 0.0;
@@ -284,7 +284,7 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
         REQUIRE(t, pds_render_estimate_get(s, &opt, &pest, &err) == PDS_OK, "pds estimate: %s", err.text);
         CHECK(t, pest.stored_photons == 0.0 &&
                      pest.memory_bytes == est.memory_bytes - 5000.0 * (sizeof(long) == 8 ? 149 : 133) + 2 * 4096 * 216.0 +
-                                              (second ? pixels * 16 * (2 * 6 + 2 * 5) + pixels * (32.0 + sizeof(long))
+                                              (second ? pixels * 16 * (2 * 10 + 2 * 8) + pixels * (32.0 + sizeof(long))
                                                       : 0.0),
               "pds estimate %.0f bytes, pm's %.0f", pest.memory_bytes, est.memory_bytes);
         REQUIRE(t, pds_render(s, &opt, &img, &st, &err) == PDS_OK, "pds render: %s", err.text);
@@ -295,19 +295,19 @@ static void test_render_memory_estimate_bounds_the_render_and_refuses_too_much(p
         opt.threads = 1;
         REQUIRE(t, pds_render(s, &opt, &img, &one, &err) == PDS_OK, "pds render, one thread: %s", err.text);
         pds_image_free(&img);
-        CHECK(t, st.memory_bytes - one.memory_bytes == (size_t)(pixels * (3 + (second ? 5 : 0)) * 16 + 4096 * 216),
+        CHECK(t, st.memory_bytes - one.memory_bytes == (size_t)(pixels * (3 + (second ? 8 : 0)) * 16 + 4096 * 216),
               "two threads %lu bytes, one %lu", (unsigned long)st.memory_bytes, (unsigned long)one.memory_bytes);
     }
     {
         /* over the limit on 4 threads and within it on 2: pm is refused
            with what a thread holds and that 2 would fit, and not told so
            where one alone is over; pds, where 2 of its 4 threads' images
-           (3 + 5 sums a pixel) fit, renders with its threads taking turns
+           (3 + 8 sums a pixel) fit, renders with its threads taking turns
            at 2 shared ones: 2 images less memory than on its own 4, and
            the same image bit for bit as on one thread */
         pds_render_estimate e4, e1;
         pds_render_stats s4, own;
-        double image = pixels * (3 + PDS__SEL_THREAD) * sizeof(pds__sum128);
+        double image = pixels * (3 + PDS__SEL_THREAD + PDS__SEL_THREAD_ODD) * sizeof(pds__sum128);
         pds_image one_img = {0, 0, NULL};
         int m;
         for (m = 0; m < 2; m++) {

@@ -1695,7 +1695,7 @@ static void test_pds_scale_choice_takes_the_estimate_the_validation_says_is_clos
                 if (pass == 3) photon[PDS__STRIDE_SELECT * i + PDS__SEL_VALID2].hi = 1; /* a very noisy validation */
                 if (pass == 2 && px == W / 2 - 1) photon[PDS__STRIDE_SELECT * i + PDS__SEL_COUNT].hi = 1; /* edge right */
             }
-        pds__choice_report report = {NULL, NULL, NULL, 0.0};
+        pds__choice_report report = {NULL, NULL, NULL, 0.0, NULL};
         report.chose = chose;
         memset(chose, 0, sizeof chose);
         REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out, 1, &report) == 0,
@@ -1804,7 +1804,7 @@ static void test_pds_scale_choice_makes_no_choice_where_there_is_no_light(pds_te
     long chose[PDS__SELECT_ESTIMATES];
     uint64_t r = 777;
     int px, py, c, moved = 0, tested = 0;
-    pds__choice_report report = {NULL, NULL, NULL, 0.0};
+    pds__choice_report report = {NULL, NULL, NULL, 0.0, NULL};
     memset(eye, 0, sizeof eye);
     memset(photon, 0, sizeof photon);
     memset(neg, 0, sizeof neg);
@@ -1843,11 +1843,123 @@ static void test_pds_scale_choice_makes_no_choice_where_there_is_no_light(pds_te
           "every pixel counted");
 }
 
+/* The blur of the pixels seen through glass (pds__through_choice, through
+   the image pds__partial_image makes). A part of K = 8 passes, 4 of them
+   odd, 64 x 16 pixels, none seen whole (so the validated choice leaves
+   them all): each half A (odd passes) and B (even) is the truth plus
+   noise of its own, sd 0.3 a channel, the image their mean. The left
+   half is flat (2 a channel): blurs take its noise off, and its interior
+   pixels' error falls by more than half. The right half is columns
+   alternating 1 and 3: only the blurs along the columns keep them (the
+   square and row boxes would put a pixel 0.67 to 1 off, where the noise
+   of their mean is 0.17 on average), and its interior's mean error falls
+   by more than 40%. (Values within the sums' rounding, 1e-4.) The pixels seen
+   whole keep the validated choice: a band of such pixels (taking part
+   in every pass, the choice's other candidates all the pass's own)
+   comes out as the pass's values, untouched. A part whose sums hold no
+   odd passes apart (a render before them, or one that did not keep
+   them) keeps every pixel's value and counts no blur; nor does a part
+   of one pass. */
+static void test_pds_through_choice_blurs_where_the_halves_say_noise(pds_test_ctx *t)
+{
+    enum { W = 64, H = 16, K = 8, KO = 4, N = W * H };
+    static pds__sum128 photon[N * PDS__STRIDE_SELECT], neg[N * PDS__STRIDE_SELECT];
+    static float out[N * 3];
+    static double eye[N * 3], mean[N * 3];
+    uint64_t r = 2024;
+    long through = 0;
+    double se_before = 0.0, se_after = 0.0, worst_right = 0.0, abs_right = 0.0, abs_right_before = 0.0, moved_whole = 0.0;
+    int n_right = 0;
+    int px, py, c, round;
+    memset(eye, 0, sizeof eye);
+    for (round = 0; round < 3; round++) {
+        pds__choice_report report = {NULL, NULL, NULL, 0.0, NULL};
+        memset(photon, 0, sizeof photon);
+        memset(neg, 0, sizeof neg);
+        for (py = 0; py < H; py++)
+            for (px = 0; px < W; px++) {
+                int i = py * W + px;
+                for (c = 0; c < 3; c++) {
+                    double truth = px < W / 2 ? 2.0 : px % 2 ? 3.0 : 1.0, u[2], a, b;
+                    int k;
+                    for (k = 0; k < 2; k++) {
+                        /* a sum of 12 uniforms: about normal, sd 1 */
+                        int j;
+                        u[k] = -6.0;
+                        for (j = 0; j < 12; j++) {
+                            r = r * 6364136223846793005ULL + 1442695040888963407ULL;
+                            u[k] += (double)(r >> 11) * (1.0 / 9007199254740992.0);
+                        }
+                    }
+                    a = truth + 0.3 * u[0];
+                    b = truth + 0.3 * u[1];
+                    mean[3 * i + c] = (KO * a + (K - KO) * b) / K;
+                    sel_set(photon, neg, i, c, mean[3 * i + c], K);
+                    sel_set(photon, neg, i, PDS__SEL_ODD + c, KO * a / K, K);
+                    sel_set(photon, neg, i, PDS__SEL_HALF + c, mean[3 * i + c], K);
+                }
+                sel_set(photon, neg, i, PDS__SEL_VALID, mean[3 * i] + mean[3 * i + 1] + mean[3 * i + 2], K);
+                /* round 1: rows 6-9 seen whole in every pass */
+                photon[PDS__STRIDE_SELECT * i + PDS__SEL_COUNT].lo = round == 1 && py >= 6 && py <= 9 ? K : 0;
+                photon[PDS__STRIDE_SELECT * i + PDS__SEL_ODDS].lo = round == 2 ? 0 : KO;
+            }
+        report.through = &through;
+        through = 0;
+        REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out, 1, &report) == 0,
+                "image, round %d", round);
+        for (py = 0; py < H; py++)
+            for (px = 0; px < W; px++) {
+                int i = py * W + px;
+                for (c = 0; c < 3; c++) {
+                    double truth = px < W / 2 ? 2.0 : px % 2 ? 3.0 : 1.0, v = out[3 * i + c];
+                    if (round == 0 && px >= 3 && px < W / 2 - 3 && py >= 3 && py < H - 3) {
+                        se_before += (mean[3 * i + c] - truth) * (mean[3 * i + c] - truth);
+                        se_after += (v - truth) * (v - truth);
+                    }
+                    if (round == 0 && px >= W / 2 + 3 && py >= 3 && py < H - 3) {
+                        worst_right = fmax(worst_right, fabs(v - truth));
+                        abs_right += fabs(v - truth);
+                        abs_right_before += fabs(mean[3 * i + c] - truth);
+                        n_right++;
+                    }
+                    if (round == 1 && py >= 6 && py <= 9)
+                        moved_whole = fmax(moved_whole, fabs(v - mean[3 * i + c]) / fmax(fabs(mean[3 * i + c]), 1.0));
+                    if (round == 2)
+                        moved_whole = fmax(moved_whole, fabs(v - mean[3 * i + c]) / fmax(fabs(mean[3 * i + c]), 1.0));
+                }
+            }
+        if (round == 0) {
+            CHECK(t, se_after < 0.25 * se_before, "the flat half's squared error %g, before the blurs %g", se_after,
+                  se_before);
+            CHECK(t, abs_right < 0.6 * abs_right_before,
+                  "the columns: a pixel ends %g from its truth, their mean error %g (before the blurs %g)", worst_right,
+                  abs_right / n_right, abs_right_before / n_right);
+            CHECK(t, through > N / 2, "%ld pixels took a blur", through);
+        }
+        if (round == 2) CHECK(t, through == 0, "with no odd passes apart %ld pixels took a blur", through);
+        CHECK(t, moved_whole < 1e-4, "round %d: a pixel seen whole (or with no halves) moved by %g", round,
+              moved_whole);
+        moved_whole = 0.0;
+    }
+    /* one pass: no halves */
+    through = 0;
+    {
+        pds__choice_report report = {NULL, NULL, NULL, 0.0, NULL};
+        for (px = 0; px < N; px++) photon[PDS__STRIDE_SELECT * px + PDS__SEL_ODDS].lo = 0;
+        report.through = &through;
+        REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, 1, out, 1, &report) == 0,
+                "image of one pass");
+        CHECK(t, through == 0, "one pass: %ld pixels took a blur", through);
+    }
+}
+
 /* The image made from the sums (the choice of scale: its box means, its
    segments' blurs, its per-pixel steps) on threads is the same, bit for
    bit, as on one, for an image large enough to be shared out
    (PDS__PARALLEL_PIXELS): noisy sums whose pixels take part in broad
-   patches with edges between them, a smooth truth for V. */
+   patches with edges between them, a smooth truth for V; the pixels
+   between the patches choose their blur by the odd passes' half
+   (pds__through_choice), which holds the pass's scale's noise. */
 static void test_pds_image_making_is_identical_for_any_thread_count(pds_test_ctx *t)
 {
     enum { W = 480, H = 300, N = W * H, K = 6 };
@@ -1855,7 +1967,7 @@ static void test_pds_image_making_is_identical_for_any_thread_count(pds_test_ctx
     pds__sum128 *neg = (pds__sum128 *)calloc((size_t)N * PDS__STRIDE_SELECT, sizeof *neg);
     double *eye = (double *)calloc((size_t)N * 3, sizeof *eye);
     float *out[3];
-    long chose[3][PDS__SELECT_ESTIMATES];
+    long chose[3][PDS__SELECT_ESTIMATES], through[3];
     static const int threads[3] = {1, 2, 5};
     uint64_t r = 12345;
     int i, k, c, used = 0;
@@ -1879,7 +1991,9 @@ static void test_pds_image_making_is_identical_for_any_thread_count(pds_test_ctx
             double half = px < 120 ? truth + 1.2 * u[1] : px < 240 ? truth + 0.02 * u[1] : truth + chk;
             sel_set(photon, neg, i, c, base + 0.1 * c, K);
             sel_set(photon, neg, i, PDS__SEL_HALF + c, half + 0.1 * c, K);
+            sel_set(photon, neg, i, PDS__SEL_ODD + c, 0.5 * (truth + 0.1 * c) + 0.4 * u[c], K);
         }
+        photon[PDS__STRIDE_SELECT * i + PDS__SEL_ODDS].lo = K / 2;
         sel_set(photon, neg, i, PDS__SEL_VALID, 3.0 * truth + 0.3 + 2.0 * u[2], K);
         /* patches that take part, edges along every 37th column and 23rd row */
         photon[PDS__STRIDE_SELECT * i + PDS__SEL_COUNT].lo = ((px / 60 + py / 50) % 3) ? K : 0;
@@ -1887,8 +2001,10 @@ static void test_pds_image_making_is_identical_for_any_thread_count(pds_test_ctx
             (px % 37 == 36 ? 1u : 0u) | (py % 23 == 22 ? (uint64_t)1 << 32 : 0u);
     }
     for (k = 0; k < 3; k++) {
-        pds__choice_report report = {NULL, NULL, NULL, 0.0};
+        pds__choice_report report = {NULL, NULL, NULL, 0.0, NULL};
         report.chose = chose[k];
+        report.through = &through[k];
+        through[k] = 0;
         memset(chose[k], 0, sizeof chose[k]);
         REQUIRE(t, pds__partial_image(eye, photon, neg, PDS__STRIDE_SELECT, W, H, 1000.0, 1.0, K, out[k], threads[k],
                                       &report) == 0,
@@ -1897,9 +2013,11 @@ static void test_pds_image_making_is_identical_for_any_thread_count(pds_test_ctx
     for (k = 0; k < PDS__SELECT_ESTIMATES; k++) used += chose[0][k] > 0;
     CHECK(t, used >= 4, "the noisy sums took %d of the candidates: %ld %ld %ld %ld %ld %ld %ld %ld", used, chose[0][0],
           chose[0][1], chose[0][2], chose[0][3], chose[0][4], chose[0][5], chose[0][6], chose[0][7]);
+    CHECK(t, through[0] > 1000, "only %ld pixels seen through glass took a blur", through[0]);
     for (k = 1; k < 3; k++) {
         CHECK(t, memcmp(out[0], out[k], sizeof(float) * 3 * N) == 0, "%d threads: the image differs", threads[k]);
-        CHECK(t, memcmp(chose[0], chose[k], sizeof chose[0]) == 0, "%d threads: the choices differ", threads[k]);
+        CHECK(t, memcmp(chose[0], chose[k], sizeof chose[0]) == 0 && through[0] == through[k],
+              "%d threads: the choices differ", threads[k]);
     }
     free(photon);
     free(neg);
@@ -2050,6 +2168,7 @@ static const pds_test_case tests_pds[] = {
      test_pds_scale_choice_takes_the_estimate_the_validation_says_is_closest},
     {"pds_scale_choice_makes_no_choice_where_there_is_no_light",
      test_pds_scale_choice_makes_no_choice_where_there_is_no_light},
+    {"pds_through_choice_blurs_where_the_halves_say_noise", test_pds_through_choice_blurs_where_the_halves_say_noise},
     {"pds_image_making_is_identical_for_any_thread_count", test_pds_image_making_is_identical_for_any_thread_count},
     {"pds_large_default_image_is_identical_for_any_thread_count",
      test_pds_large_default_image_is_identical_for_any_thread_count},

@@ -54,7 +54,8 @@ static const shards_case shards_cases[] = {
        every round's direct light and the rounds of its passes */
     {"pds (eye rounds)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 3, 0, 0},
     /* 13: the pixels' choice of two scales, from the odd and even passes
-       of every shard */
+       of every shard; and the pixels seen through the glass ball choose
+       their blur by the odd passes' half (pass 1, in the second shard) */
     {"pds (two scales)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 1, 0},
     /* 14: a photon budget's default eye rounds, one every 1.5 w h spp
        photons, with more photons (24 x 16 x 2 samples: 12288 photons, 10
@@ -123,6 +124,7 @@ static void test_shards_merge_equals_the_single_run_bit_for_bit(pds_test_ctx *t)
         REQUIRE(t, pds_render(s, &opt, &full, &fst, &err) == PDS_OK, "%s: render: %s", c->name, err.text);
         for (p = 0; p < 3 * (size_t)full.width * full.height; p++) caustic += full.rgb[p];
         CHECK(t, caustic > 0.0, "%s: a black image", c->name);
+        if (c->select) CHECK(t, fst.through_pixels > 0, "%s: no pixel seen through glass took a blur", c->name);
         for (i = 0; i < 3; i++) {
             pds_render_stats st;
             opt.shard_index = i;
@@ -544,7 +546,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     pds_partial_free(back);
     back = NULL;
     {
-        /* format version 10 holds the values in groups (most words are 0:
+        /* format version 11 (as 10) holds the values in groups (most words are 0:
            the S- of an RGB render, pixels no photon reached), fewer bytes
            than their 8 rows of 24 x 3 doubles and 2 x 24 x 16 x 3 sums
            whole; a file of version 9, the same header and the values
@@ -552,7 +554,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
         size_t n10 = 0, whole = 1072 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 3 * 16 + 8;
         unsigned char *v10 = shards_slurp(path, &n10);
         REQUIRE(t, v10 != NULL && n10 > 1072 + 16, "slurp");
-        CHECK(t, v10[8] == 10 && n10 < whole, "version %d, %lu bytes (%lu whole)", v10[8], (unsigned long)n10,
+        CHECK(t, v10[8] == 11 && n10 < whole, "version %d, %lu bytes (%lu whole)", v10[8], (unsigned long)n10,
               (unsigned long)whole);
         bytes = shards_whole_v9(p, v10, &n);
         REQUIRE(t, bytes != NULL && n == whole, "version 9: %lu bytes", (unsigned long)n);
@@ -623,7 +625,7 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
     copy[8] = 1;
     shards_spit(bad, copy, n);
     CHECK(t, pds_partial_read(bad, &back, &err) == PDS_ERR_PARSE &&
-                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 10"),
+                 strstr(err.text, ": partial file format version 1; this pds reads versions 2 to 11"),
           "format version: %s", err.text);
     memcpy(copy, bytes, n);
     memcpy(copy + 12, "9.9.9", 5);
@@ -650,10 +652,10 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
                  strstr(err.text, "not the ones the part was rendered with"),
           "other options: %s", err.text);
     {
-        /* with the pixels' choice of scale the part holds 9 sums a pixel
-           in each image, and reads back to the same image; format version
-           8 held other sums with it (the odd and even passes'), and such a
-           file is refused */
+        /* with the pixels' choice of scale the part holds 13 sums a pixel
+           in each image, and reads back to the same image; format versions
+           9 and 10 held 9 (no odd passes' apart) and version 8 other sums
+           with it (the odd and even passes'), and such files are refused */
         pds_partial *q = NULL, *qb = NULL;
         unsigned char *qbytes;
         size_t qn = 0;
@@ -668,10 +670,14 @@ static void test_shards_partial_file_round_trips_and_is_versioned(pds_test_ctx *
             qbytes = shards_whole_v9(q, v10, &qn);
             free(v10);
         }
-        CHECK(t, qbytes && qn == 1072 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 9 * 16 + 8 && qbytes[568 + 8 * 49] == 1,
+        CHECK(t, qbytes && qn == 1072 + 8 * 24 * 3 * 8 + 2 * 24 * 16 * 13 * 16 + 8 && qbytes[568 + 8 * 49] == 1,
               "two scales: %lu bytes", (unsigned long)qn);
         if (qbytes && qn > 16) {
             pds_partial *old8 = NULL;
+            shards_spit(bad, qbytes, qn); /* as version 9 */
+            CHECK(t, pds_partial_read(bad, &old8, &err) == PDS_ERR_PARSE &&
+                         strstr(err.text, "a render with --pass-select in format version 9"),
+                  "version 9 with its scales: %s", err.text);
             qbytes[8] = 8;
             pds__put_u64(qbytes + qn - 8, pds__fnv1a64(qbytes, qn - 8));
             shards_spit(bad, qbytes, qn);
