@@ -13117,7 +13117,9 @@ static void pds__box_mean(double *x, double *tmp, double *cols, int w, int h, in
      seen straight from a pinhole camera (pds__eye_merge): its value is
      its box filter, which is what V estimates. Every other pixel (seen
      through glass or in a mirror, a silhouette's, a spectral or
-     thin-lens render's) keeps the pass's scale.
+     thin-lens render's) keeps the pass's scale here; those of an RGB
+     pinhole render then choose a blur by their passes' halves
+     (pds__through_choice, below).
    Why not the passes' own spread: consecutive passes' photons are one
    Halton sequence, so any split of the passes into halves gives
    complementary point sets, and the halves' difference overstates the
