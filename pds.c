@@ -13770,14 +13770,18 @@ static long pds__partial_image(const double *eye, const pds__sum128 *photon, con
    image of a render of w x h pixels: a time budget's passes end that
    much early, so that the image is made within the budget, as pm's
    gather is. Timed on the render's clock over a made-up state of at most
-   128 x 128 pixels, every one taking part (the choice's work a pixel does
-   not depend on the values), and scaled by the pixels. Not divided by
-   the threads that share a large image out (pds__image_threads): its
-   boxes are bound by memory, and on 2 threads the demo scene's image
-   (512 x 384) took 0.14 s where this says 0.17 s, an HD image 1.47 s
-   where it says 1.79 s; at 256 x 256 and below, one thread, it is within
-   20% (0.058 s for 0.056 s on the refraction case). 0 when memory runs
-   out. */
+   128 x 128 pixels, bands of which take part in the validated choice and
+   bands not, which choose their blur by the passes' halves
+   (pds__through_choice; the work a pixel does not depend on the values),
+   and scaled by the pixels. Not divided by the threads that share a large
+   image out (pds__image_threads): its boxes are bound by memory (before
+   the halves' choice, on 2 threads, the demo scene's image (512 x 384)
+   took 0.14 s where this said 0.17 s, an HD image 1.47 s where it said
+   1.79 s). At 256 x 256, one thread, the image of a 200,000-photon part
+   took 0.071 s where this says 0.064 s on the refraction case, but 0.097
+   s for 0.061 s on the torus and 0.095 s for 0.063 s on the teaching
+   scene (8 December 2026): up to a thirtieth of a second late on a small
+   image. 0 when memory runs out. */
 static double pds__choice_seconds(const pds__clock *clock, int w, int h)
 {
     int cw = w < 128 ? w : 128, ch = h < 128 ? h : 128, c;
