@@ -13609,16 +13609,18 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
    the standard errors' bound holds that to 0.3-0.7% and keeps most of
    the gain elsewhere (README "Pixels seen through glass"). Fills rgb
    (the photon part, 3 a pixel, the pass's scale there) where such a
-   pixel takes a blur; *through (if not NULL) counts those pixels.
-   Returns 0 when memory runs out. */
+   pixel takes a blur; *through (if not NULL) counts those pixels, and
+   the scales view (if not NULL) marks them PDS__VIEW_THROUGH. Returns 0
+   when memory runs out. */
 #define PDS__THROUGH_WINDOW 2
 #define PDS__THROUGH_SURE 1.5
 #define PDS__THROUGH_BLURS 6
+#define PDS__VIEW_THROUGH PDS__SELECT_ESTIMATES /* its number in the scales view */
 /* box radius, along rows (1), columns (2) or both (3) */
 static const int pds__through_blur[PDS__THROUGH_BLURS][2] = {{1, 3}, {1, 1}, {1, 2}, {2, 3}, {2, 1}, {2, 2}};
 
 static int pds__through_choice(const pds__sum128 *photon, const pds__sum128 *neg, int w, int h, long passes,
-                               double scale, double *rgb, int threads, long *through)
+                               double scale, double *rgb, int threads, long *through, float *view)
 {
     static const pds__sum128 none[PDS__STRIDE_SELECT]; /* S- where there is none: 0 */
     size_t n = (size_t)w * (size_t)h, i;
@@ -13710,8 +13712,13 @@ static int pds__through_choice(const pds__sum128 *photon, const pds__sum128 *neg
             }
         }
     }
-    if (through)
-        for (i = 0; i < n; i++) *through += took[i];
+    for (i = 0; i < n; i++) {
+        if (through) *through += took[i];
+        if (view && took[i]) {
+            view[3 * i] = (float)PDS__VIEW_THROUGH;
+            view[3 * i + 1] = 1.0f;
+        }
+    }
     free(mem);
     free(zero);
     return 1;
@@ -13744,7 +13751,8 @@ static long pds__partial_image(const double *eye, const pds__sum128 *photon, con
         long passes = q < (double)(LONG_MAX / 2) ? (long)q : LONG_MAX / 2;
         sel = (double *)malloc(sizeof *sel * (n ? n : 1));
         if (!sel || !pds__scale_choice(photon, neg, w, h, passes, scale, sel, threads, report) ||
-            !pds__through_choice(photon, neg, w, h, passes, scale, sel, threads, report ? report->through : NULL)) {
+            !pds__through_choice(photon, neg, w, h, passes, scale, sel, threads, report ? report->through : NULL,
+                                 report ? report->view : NULL)) {
             free(rgb);
             free(sel);
             return -1;
@@ -13809,7 +13817,7 @@ static double pds__choice_seconds(const pds__clock *clock, int w, int h)
         }
         t0 = pds__clock_now(clock);
         if (pds__scale_choice(sums, NULL, cw, ch, 2, 1.0 / 1024.0, rgb, 1, &report) &&
-            pds__through_choice(sums, NULL, cw, ch, 2, 1.0 / 1024.0, rgb, 1, NULL))
+            pds__through_choice(sums, NULL, cw, ch, 2, 1.0 / 1024.0, rgb, 1, NULL, NULL))
             t = (pds__clock_now(clock) - t0) * ((double)w * (double)h / (double)n);
     }
     free(sums);
@@ -15699,15 +15707,18 @@ static void pds__colour_aniso(double t, float rgb[3])
    (pds__scale_choice: 0 the passes' scale grey, 1 the second red, the
    first's boxes of radius 1, 1 x 3, 2 x 3 green, blue, purple, along the
    rows orange, along the columns cyan, the second's box pink), dimmer the
-   less of it a blend holds (share: its weight, 1 alone). */
+   less of it a blend holds (share: its weight, 1 alone); and
+   PDS__VIEW_THROUGH, a pixel not seen whole that took a blur by its
+   passes' halves (pds__through_choice), pale yellow. */
 static void pds__colour_scale(int j, double share, float rgb[3])
 {
-    static const float palette[PDS__SELECT_ESTIMATES][3] = {
+    static const float palette[PDS__SELECT_ESTIMATES + 1][3] = {
         {0.45f, 0.45f, 0.45f}, {0.95f, 0.2f, 0.15f}, {0.2f, 0.75f, 0.2f}, {0.15f, 0.45f, 1.0f},
-        {0.65f, 0.3f, 0.95f},  {1.0f, 0.6f, 0.05f},  {0.1f, 0.9f, 0.9f},  {1.0f, 0.45f, 0.75f}};
+        {0.65f, 0.3f, 0.95f},  {1.0f, 0.6f, 0.05f},  {0.1f, 0.9f, 0.9f},  {1.0f, 0.45f, 0.75f},
+        {1.0f, 0.95f, 0.6f}};
     double k = 0.35 + 0.65 * (share < 0.0 ? 0.0 : share > 1.0 ? 1.0 : share);
     int c;
-    for (c = 0; c < 3; c++) rgb[c] = j >= 0 && j < PDS__SELECT_ESTIMATES ? (float)(k * palette[j][c]) : 0.0f;
+    for (c = 0; c < 3; c++) rgb[c] = j >= 0 && j <= PDS__VIEW_THROUGH ? (float)(k * palette[j][c]) : 0.0f;
 }
 
 /* Format v in at most 7 characters the font has ("0.25", "1.2e+04"). */
@@ -16113,17 +16124,17 @@ static pds_status pds__debug_finish(pds_debug *d, pds__debug_buf *b, int nb, int
         int j, x, y;
         if (pds_image_alloc(pic, w, h + PDS_DEBUG_LEGEND_ROWS) != PDS_OK) return PDS_ERR_NOMEM;
         for (i = 0; i < n; i++) pds__colour_scale((int)val->rgb[3 * i], val->rgb[3 * i + 1], &pic->rgb[3 * i]);
-        for (j = 0; j < PDS__SELECT_ESTIMATES; j++) {
+        for (j = 0; j <= PDS__VIEW_THROUGH; j++) {
             float rgb[3];
-            char label[12]; /* (an int's digits: gcc -O1 cannot see j < 8) */
-            int x0 = j * w / PDS__SELECT_ESTIMATES;
+            char label[12]; /* (an int's digits: gcc -O1 cannot see j < 9) */
+            int x0 = j * w / (PDS__VIEW_THROUGH + 1);
             pds__colour_scale(j, 1.0, rgb);
             for (y = h + 2; y < h + 6; y++)
                 for (x = x0; x < x0 + 3 && x < w; x++) memcpy(&pic->rgb[3 * ((size_t)y * w + x)], rgb, sizeof rgb);
             snprintf(label, sizeof label, "%d", j);
             pds__draw_text(pic, x0, h + 8, label, rgb);
         }
-        d->scale_max[PDS_DEBUG_SCALES] = PDS__SELECT_ESTIMATES - 1;
+        d->scale_max[PDS_DEBUG_SCALES] = PDS__VIEW_THROUGH;
     }
     if (b[0].landings && pds__debug_count_view(d, PDS_DEBUG_LANDINGS, b, nb, w, h, 1)) return PDS_ERR_NOMEM;
     if (b[0].splats && pds__debug_count_view(d, PDS_DEBUG_SPLATS, b, nb, w, h, 0)) return PDS_ERR_NOMEM;

@@ -556,7 +556,10 @@ static void test_core_refuses_the_environment_light(pds_test_ctx *t)
 /* The scales view is the image's own choice of scale (progressive PDS,
    the default): its numbers count, estimate by estimate, what the render
    reports in scale_pixels; every pixel's colour is its estimate's, dimmed
-   by its weight in a blend, black where it took no part; no pixel is
+   by its weight in a blend, black where it took no part (pale yellow,
+   PDS__VIEW_THROUGH, where such a pixel took a blur by its passes'
+   halves: as many as the render's through_pixels, on a glass ball's
+   floor seen through it); no pixel is
    counted as taking an estimate it has no share of (until 7 December
    2026 a blend of weight 0, the pass's own value, that rounding made
    look better, was counted as the candidate's: a quarter of the
@@ -570,7 +573,7 @@ static void test_debug_scales_view_is_the_images_choice(pds_test_ctx *t)
     pds_render_stats st[2];
     pds_debug dbg[2], paper;
     const pds_image *val = &dbg[0].value[PDS_DEBUG_SCALES], *pic = &dbg[0].picture[PDS_DEBUG_SCALES];
-    long count[PDS_SCALE_ESTIMATES] = {0};
+    long count[PDS_SCALE_ESTIMATES] = {0}, through = 0;
     int k, threads[2] = {1, 3}, used = 0, unshared = 0, wrong = 0, parted = 0;
     float dim[3], full[3];
     size_t i, n = 24 * 24;
@@ -590,7 +593,10 @@ static void test_debug_scales_view_is_the_images_choice(pds_test_ctx *t)
         int j = (int)val->rgb[3 * i];
         float c[3];
         pds__colour_scale(j, val->rgb[3 * i + 1], c);
-        if (j >= 0) {
+        if (j == PDS__VIEW_THROUGH) {
+            /* seen in the mirror, blurred by its passes' halves */
+            through += val->rgb[3 * i + 1] == 1.0f;
+        } else if (j >= 0) {
             REQUIRE(t, j < PDS_SCALE_ESTIMATES && (float)j == val->rgb[3 * i], "pixel %lu: estimate %g", (unsigned long)i,
                     val->rgb[3 * i]);
             count[j]++;
@@ -608,6 +614,8 @@ static void test_debug_scales_view_is_the_images_choice(pds_test_ctx *t)
         used += count[k] > 0;
     }
     CHECK(t, parted > (int)n / 2 && used >= 3, "%d pixels took part, %d estimates", parted, used);
+    CHECK(t, through == st[0].through_pixels, "%ld pixels blurred through the mirror in the view, %ld in the render",
+          through, st[0].through_pixels);
     CHECK(t, unshared == 0, "%d pixels counted for an estimate they have no share of", unshared);
     /* a blend is drawn dimmer by its weight */
     pds__colour_scale(3, 0.5, dim);
@@ -619,6 +627,33 @@ static void test_debug_scales_view_is_the_images_choice(pds_test_ctx *t)
                  memcmp(pic->rgb, dbg[1].picture[PDS_DEBUG_SCALES].rgb,
                         sizeof(float) * 3 * (size_t)pic->width * pic->height) == 0,
           "the view differs on 3 threads");
+    {
+        /* a glass ball on the floor: the pixels that see the floor
+           through it take no part, and those that took a blur by their
+           passes' halves are marked, as many as the render counts */
+        static const char ball[] = "camera { position 0 2 4 look_at 0 0.3 0 fov 40 resolution 48 32 spp 4 }\n"
+                                   "material floor diffuse { albedo 0.8 }\n"
+                                   "material glass dielectric { ior 1.5 }\n"
+                                   "quad { material floor size 6 6 }\n"
+                                   "sphere { material glass radius 0.5 translate 0 0.6 0 }\n"
+                                   "light point { position 0.3 3 0.2 power 200 }\n";
+        pds_debug bd;
+        pds_render_stats bst;
+        long marked = 0;
+        pds_options_default(&opt);
+        pds_debug_init(&bd);
+        bd.views = 1u << PDS_DEBUG_SCALES;
+        opt.photons = 4 * 16384;
+        opt.paths = PDS_PATHS_CAUSTICS_ONLY;
+        opt.threads = 2;
+        opt.debug = &bd;
+        REQUIRE(t, render_text(ball, &opt, &img, &bst), "the glass ball");
+        for (i = 0; i < 48 * 32; i++) marked += bd.value[PDS_DEBUG_SCALES].rgb[3 * i] == (float)PDS__VIEW_THROUGH;
+        CHECK(t, marked > 0 && marked == bst.through_pixels, "the glass ball: %ld pixels marked, %ld counted", marked,
+              bst.through_pixels);
+        pds_image_free(&img);
+        pds_debug_free(&bd);
+    }
     REQUIRE(t, teach_render(1u << PDS_DEBUG_SCALES, 2, &img, NULL, &paper), "the paper's PDS");
     for (i = 0, wrong = 0; i < n; i++) wrong += paper.value[PDS_DEBUG_SCALES].rgb[3 * i] != -1.0f;
     CHECK(t, wrong == 0, "%d pixels of the paper's PDS took part in a choice", wrong);
