@@ -42,8 +42,9 @@
                   (PNG and OpenEXR not in PDS_NO_PNG)
      >>metrics    RMSE and SSIM
      >>partial    the exact state of a render or a shard of it: the image
-                  from it (with the pixels' validated choice of scale),
-                  merging shards, the partial file (not in
+                  from it (with the pixels' validated choice of scale,
+                  and the blur of those seen through glass by their
+                  passes' halves), merging shards, the partial file (not in
                   PDS_NO_PARTIAL_FILE)
      >>render     camera (pinhole, thin lens), path tracer and eye pass (the
                   photon methods' eye chains split at glass; a pixel's
@@ -13605,7 +13606,7 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
      The passes' photons are one Halton sequence, so the halves'
    difference overstates the noise of their mean (said at the choice
    above): unchecked, E_F leans to the blurs, which cost the pool's
-   caustic network, seen through its water, 1-7% at 100,000 photons;
+   caustic network, seen through its water, 3-7% at 100,000 photons;
    the standard errors' bound holds that to 0.3-0.7% and keeps most of
    the gain elsewhere (README "Pixels seen through glass"). Fills rgb
    (the photon part, 3 a pixel, the pass's scale there) where such a
