@@ -13362,6 +13362,13 @@ typedef struct pds__choice_report {
     long *through; /* the pixels not seen whole that took a blur (pds__through_choice) */
 } pds__choice_report;
 
+/* Does the pixel whose sums begin at ps take part in the choice: was it
+   one merged vertex seen directly in every one of the passes? */
+static int pds__seen_whole(const pds__sum128 *ps, long passes)
+{
+    return passes > 0 && ps[PDS__SEL_COUNT].lo >= (uint64_t)passes;
+}
+
 /* Pixels a .. b-1 from the sums: the pass's scale into rgb, the second
    scale, V, V's terms' squares, whether the pixel takes part (m) and its
    edges; and the column-major copies of m and of the edges below. */
@@ -13387,7 +13394,7 @@ static void pds__choice_read(void *ctx, size_t a, size_t b, void *scratch)
            being y unit scale */
         q->var[i] = (pds__sum128_value(ps[PDS__SEL_VALID2]) - pds__sum128_value(ns[PDS__SEL_VALID2])) * PDS__TWO64 *
                     scale * scale;
-        q->m[i] = q->passes > 0 && ps[PDS__SEL_COUNT].lo >= (uint64_t)q->passes ? 1.0 : 0.0;
+        q->m[i] = pds__seen_whole(ps, q->passes) ? 1.0 : 0.0;
         q->edge[i] = (unsigned char)((ps[PDS__SEL_COUNT].hi & 0xffffffffu) ? 1 : 0);
         q->mt[at] = q->m[i];
         q->edget[at] = (unsigned char)((ps[PDS__SEL_COUNT].hi >> 32) ? 1 : 0);
@@ -13610,7 +13617,9 @@ static int pds__scale_choice(const pds__sum128 *photon, const pds__sum128 *neg, 
    the standard errors' bound holds that to 0.3-0.7% and keeps most of
    the gain elsewhere (README "Pixels seen through glass"). Fills rgb
    (the photon part, 3 a pixel, the pass's scale there) where such a
-   pixel takes a blur; *through (if not NULL) counts those pixels, and
+   pixel takes a blur (it holds every pixel's photon part at the pass's
+   scale or the validated choice's, as pds__scale_choice left it);
+   *through (if not NULL) counts those pixels, and
    the scales view (if not NULL) marks them PDS__VIEW_THROUGH. Returns 0
    when memory runs out. */
 #define PDS__THROUGH_WINDOW 2
@@ -13655,11 +13664,11 @@ static int pds__through_choice(const pds__sum128 *photon, const pds__sum128 *neg
     for (i = 0; i < n; i++) {
         const pds__sum128 *ps = photon + PDS__STRIDE_SELECT * i;
         const pds__sum128 *ns = neg ? neg + PDS__STRIDE_SELECT * i : none;
-        nm[i] = ps[PDS__SEL_COUNT].lo >= (uint64_t)passes ? 0.0 : 1.0;
+        nm[i] = pds__seen_whole(ps, passes) ? 0.0 : 1.0;
         nmt[(i % (size_t)w) * (size_t)h + i / (size_t)w] = nm[i];
         any |= nm[i] > 0.0;
         for (c = 0; c < 3; c++) {
-            double all = (pds__sum128_value(ps[c]) - pds__sum128_value(ns[c])) * scale;
+            double all = rgb[3 * i + c]; /* the pass's scale, where nm */
             double odd = (pds__sum128_value(ps[PDS__SEL_ODD + c]) - pds__sum128_value(ns[PDS__SEL_ODD + c])) * scale;
             a[3 * i + c] = odd * (double)passes / (double)ko;
             b[3 * i + c] = (all - odd) * (double)passes / (double)ke;
