@@ -1658,6 +1658,7 @@ static void print_render_line(const run_cfg *c, const pds_render_stats *st, cons
         if (m == PDS_METHOD_PDS && !c->opt.progressive && c->opt.time_s > 0.0)
             printf(" photons_planned=%.0f", st->photons_planned);
         printf(" eye_vertices=%ld", st->eye_vertices);
+        if (m == PDS_METHOD_PDS) printf(" eye_samples=%ld", st->eye_samples);
         if (m == PDS_METHOD_PPM) printf(" passes=%d", st->passes);
         printf("%s", params);
         if (MBIT(m) & M_MAP) printf(" map_bytes=%lu", (unsigned long)st->map_bytes);

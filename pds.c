@@ -15536,9 +15536,36 @@ typedef struct pds__render_job {
     long *row_counts;      /* with path: 4 counters per row */
     const unsigned char *row_values; /* with path: per row, 0 = its vertices
                               only (the path's values argument); NULL: all */
+    long samples_traced;   /* guarded by lock: camera samples traced */
+    const long *keep_of;   /* per pixel, its vertex in keep_v to record instead
+                              of tracing it, or -1 (pds__eye_retrace); NULL: none */
+    const pds__eye_vertex *keep_v;
 } pds__render_job;
 
-static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
+/* Append the n vertices v (of pixel `pixel`, their importance and weight
+   divided by `spp` unless it is 0) to row y's; sets out_of_memory if it
+   cannot. */
+static void pds__row_append(pds__render_job *job, int y, pds__eye_vertex *v, int n, uint64_t pixel, int spp)
+{
+    pds__eye_vertex **arr = &job->row_vertices[y];
+    int j, c;
+    if (pds__grow((void **)arr, &job->row_cap[y], job->row_count[y] + (size_t)n, sizeof **arr) == 0) {
+        for (j = 0; j < n; j++) {
+            for (c = 0; c < 3 && spp > 0; c++) {
+                v[j].importance[c] /= (float)spp;
+                v[j].weight[c] /= (float)spp;
+            }
+            v[j].pixel = (int)pixel;
+            (*arr)[job->row_count[y]++] = v[j];
+        }
+    } else {
+        pds__mutex_lock(&job->lock);
+        job->out_of_memory = 1;
+        pds__mutex_unlock(&job->lock);
+    }
+}
+
+static int pds__render_pixel(pds__render_job *job, int x, int y, double *out)
 {
     uint64_t pixel = (uint64_t)y * (uint64_t)job->frame.width + (uint64_t)x;
     /* the stratification's permutations: one pattern per pixel and pass */
@@ -15546,6 +15573,13 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
     int record = job->record_eye && (job->record_pass < 0 || job->record_pass == job->pass);
     size_t first = record ? job->row_count[y] : 0; /* the pixel's first vertex */
     int k, c;
+    if (record && job->keep_of && job->keep_of[pixel] >= 0) {
+        /* seen whole in round 0 of a caustics-only render: that vertex
+           again, untraced (pds__eye_retrace) */
+        pds__eye_vertex v = job->keep_v[job->keep_of[pixel]];
+        pds__row_append(job, y, &v, 1, pixel, 0);
+        return 0;
+    }
     for (k = 0; k < job->spp; k++) {
         uint64_t sample = (uint64_t)job->pass * (uint64_t)job->spp + (uint64_t)k;
         uint64_t idx = pixel * (uint64_t)job->total_spp_max + sample;
@@ -15568,28 +15602,12 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
         if (job->method != PDS_METHOD_PREVIEW) {
             pds__eye_vertex v[PDS__EYE_LEAVES];
             double lambda = job->tracer.spectral ? pds__eye_wavelength(job->seed, pixel, sample) : 0.0;
-            int recorded, j;
+            int recorded;
             recorded = job->path ? job->path(job->path_ctx, &job->tracer, org, dir, idx, lambda, acc,
                                              record ? v : NULL, &job->row_counts[4 * (size_t)y],
                                              !job->row_values || job->row_values[y])
                                  : pds__trace_path(&job->tracer, org, dir, idx, lambda, acc, record ? v : NULL);
-            if (recorded) {
-                pds__eye_vertex **arr = &job->row_vertices[y];
-                if (pds__grow((void **)arr, &job->row_cap[y], job->row_count[y] + (size_t)recorded, sizeof **arr) == 0) {
-                    for (j = 0; j < recorded; j++) {
-                        for (c = 0; c < 3; c++) {
-                            v[j].importance[c] /= (float)job->spp;
-                            v[j].weight[c] /= (float)job->spp;
-                        }
-                        v[j].pixel = (int)pixel;
-                        (*arr)[job->row_count[y]++] = v[j];
-                    }
-                } else {
-                    pds__mutex_lock(&job->lock);
-                    job->out_of_memory = 1;
-                    pds__mutex_unlock(&job->lock);
-                }
-            }
+            if (recorded) pds__row_append(job, y, v, recorded, pixel, job->spp);
         } else {
             pds__tri_hit th;
             if (pds__bvh_intersect(&job->scene->bvh, org, dir, 0.0, DBL_MAX, &th)) {
@@ -15605,6 +15623,7 @@ static void pds__render_pixel(pds__render_job *job, int x, int y, double *out)
     }
     if (record && job->merge_eye && job->row_count[y] > first + 1)
         job->row_count[y] = first + pds__eye_merge(job->row_vertices[y] + first, job->row_count[y] - first, &job->frame, job->spp);
+    return job->spp;
 }
 
 static void *pds__render_worker(void *arg)
@@ -15613,16 +15632,18 @@ static void *pds__render_worker(void *arg)
     int is_caller = pds__thread_equal(pds__thread_self(), job->caller);
     for (;;) {
         int y, x, done, k;
+        long traced = 0;
         pds__mutex_lock(&job->lock);
         k = job->stop ? job->nrows : job->next_row++;
         pds__mutex_unlock(&job->lock);
         if (k >= job->nrows) break;
         y = job->rows[k];
         for (x = 0; x < job->frame.width; x++)
-            pds__render_pixel(job, x, y, &job->sum[3 * ((size_t)y * job->frame.width + x)]);
-        pds__clock_spent(&job->clock, PDS__WORK_EYE, (double)job->frame.width * job->spp);
+            traced += pds__render_pixel(job, x, y, &job->sum[3 * ((size_t)y * job->frame.width + x)]);
+        pds__clock_spent(&job->clock, PDS__WORK_EYE, (double)traced);
         pds__mutex_lock(&job->lock);
         done = ++job->rows_done;
+        job->samples_traced += traced;
         pds__mutex_unlock(&job->lock);
         if (is_caller && job->progress &&
             job->progress(job->progress_user, PDS_PHASE_EYE, job->progress_base + job->progress_scale * done / job->nrows,
@@ -24730,13 +24751,29 @@ static pds_partial *pds__partial_new(const pds_scene *scene, const pds_options *
 /* Eye rounds (pds__pds_passes): the render's eye job runs pass `round`
    (sample indices round spp .. round spp + spp - 1 of every pixel) over
    every row, and the vertices it recorded replace the last round's. The
-   values add into the job's sums; rc->traced counts the passes in them. */
+   values add into the job's sums; rc->traced counts the passes in them.
+   A caustics-only render (rc->keep_whole) traces only the pixels that
+   round 0 did not see whole: a whole pixel is one vertex at its centre
+   (pds__eye_merge), which a new pass would put back in place, and its
+   samples' values are no caustic's (the image's eye values are 0). It
+   keeps round 0's vertex (*v on the first call: round 0 is every part's
+   first eye pass, the render's setup sees to it), so every part keeps
+   the same ones. */
 typedef struct pds__retrace_ctx {
     pds__render_job *job;
     int threads;
     pds__eye_vertex *verts; /* the vertices in use (freed by the next round) */
     long traced;            /* eye passes whose values the job's sums hold */
+    int keep_whole;         /* caustics only: keep round 0's whole pixels */
+    long *keep_of;          /* ... the job's keep_of and keep_v, once made */
+    pds__eye_vertex *keep_v;
 } pds__retrace_ctx;
+
+/* Is u a whole pixel's vertex (of an image of npix pixels)? */
+static int pds__eye_kept(const pds__eye_vertex *u, size_t npix)
+{
+    return u->whole && pds__eye_vertex_merged(u) && u->pixel >= 0 && (size_t)u->pixel < npix;
+}
 
 static pds_status pds__eye_retrace(void *vctx, long round, pds__eye_vertex **v, size_t *n, pds_error *err)
 {
@@ -24746,6 +24783,22 @@ static pds_status pds__eye_retrace(void *vctx, long round, pds__eye_vertex **v, 
     size_t count = 0;
     int y;
     if (((long long)round + 1) * job->spp > (long long)job->total_spp_max) return PDS_OK; /* no sample indices left */
+    if (rc->keep_whole && !rc->keep_of) {
+        /* the first round after round 0: its whole pixels' vertices */
+        size_t i, k = 0, npix = (size_t)job->frame.width * (size_t)job->frame.height;
+        for (i = 0; i < *n; i++) k += pds__eye_kept((*v) + i, npix);
+        rc->keep_of = (long *)malloc(npix * sizeof *rc->keep_of);
+        rc->keep_v = (pds__eye_vertex *)malloc((k > 0 ? k : 1) * sizeof *rc->keep_v);
+        if (!rc->keep_of || !rc->keep_v) return pds__nomem(err);
+        for (i = 0; i < npix; i++) rc->keep_of[i] = -1;
+        for (i = k = 0; i < *n; i++)
+            if (pds__eye_kept((*v) + i, npix)) {
+                rc->keep_of[(*v)[i].pixel] = (long)k;
+                rc->keep_v[k++] = (*v)[i];
+            }
+        job->keep_of = rc->keep_of;
+        job->keep_v = rc->keep_v;
+    }
     for (y = 0; y < job->frame.height; y++) {
         job->row_vertices[y] = NULL;
         job->row_count[y] = job->row_cap[y] = 0;
@@ -24890,6 +24943,10 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
                kept, and the image has more than caustics) the mean of
                every round's, each eye pass traced again as its round comes */
             rounds.round = pds__eye_round_of(I + part->units_done * N, part->units_total, rounds.rounds);
+            /* caustics only: round 0 first, whatever round the part starts
+               in, since the later rounds keep its whole pixels
+               (pds__eye_retrace); the first pass then traces its own */
+            if (opt->paths == PDS_PATHS_CAUSTICS_ONLY && job.merge_eye) rounds.round = 0;
             job.record_pass = (int)rounds.round;
             if (part->rows_done < part->rows_own && opt->paths != PDS_PATHS_CAUSTICS_ONLY) {
                 pass0 = 0;
@@ -24963,6 +25020,10 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
     rc.threads = threads;
     rc.verts = NULL;
     rc.traced = job.pass - pass0;
+    rc.keep_whole = rounds.rounds > 1 && opt->paths == PDS_PATHS_CAUSTICS_ONLY && job.merge_eye;
+    rc.keep_of = NULL;
+    rc.keep_v = NULL;
+    stats->eye_samples = job.samples_traced;
     pds__mutex_destroy(&job.lock);
     stats->time_eye_s = pds__clock_now(&job.clock) - job.t0 - gi_map_s;
     stats->memory_bytes =
@@ -25028,7 +25089,10 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
         } else if (!st && completed == job.nrows && rounds.rounds > 1) {
             job.pass = (int)rounds.rounds; /* for stats->spp: the caustic's samples */
         }
+        stats->eye_samples = job.samples_traced; /* with the rounds' */
         free(rc.verts);
+        free(rc.keep_of);
+        free(rc.keep_v);
         free(job.row_vertices);
         free(job.row_count);
         free(job.row_cap);

@@ -874,6 +874,9 @@ typedef struct pds_render_stats {
     long dropped_degenerate;/* photons whose footprint had collapsed */
     long split;             /* pds: photons and sub-photons split in four */
     long eye_vertices;      /* vertices in the eye-path map */
+    long eye_samples;       /* camera samples traced, eye rounds' included
+                               (a caustics-only render's later rounds skip
+                               the pixels its first saw whole) */
     long saturated;         /* terms that overflowed a pixel's exact photon
                                sum (2^128 units, some 10^18 times the scene's
                                typical radiance), which then stays at its

@@ -549,6 +549,65 @@ static void test_pds_eye_rounds_keep_the_analytic_image(pds_test_ctx *t)
     pds_image_free(&rounds1);
 }
 
+/* The mirror scene's light and mirror over a gently curved floor (a
+   sphere of radius 20), seen at a slant: every pixel sees the floor
+   directly; and the same with the mirror in view. */
+static const char slant_floor_scene[] =
+    "camera { position -1.2 1.5 1.2 look_at -0.4 0 -0.1 fov 30 resolution 24 24 spp 16 }\n"
+    "material floor diffuse { albedo 0.5 }\n"
+    "material glass mirror { reflectance 0.9 }\n"
+    "sphere { material floor radius 20 segments 256 rings 128 translate 0 -20 0 }\n"
+    "quad { material glass size 3 3 rotate 90 0 0 1 translate 1 1.5 0 }\n"
+    "light point { position 0 1 0 power 100 }\n";
+static const char slant_mirror_scene[] =
+    "camera { position -0.4 1.5 1.2 look_at 1.0 0.4 -0.1 fov 40 resolution 24 24 spp 16 }\n"
+    "material floor diffuse { albedo 0.5 }\n"
+    "material glass mirror { reflectance 0.9 }\n"
+    "sphere { material floor radius 20 segments 256 rings 128 translate 0 -20 0 }\n"
+    "quad { material glass size 3 3 rotate 90 0 0 1 translate 1 1.5 0 }\n"
+    "light point { position 0 1 0 power 100 }\n";
+
+/* A caustics-only render's eye rounds trace only the pixels that round 0
+   did not see whole (pds__eye_retrace); a pixel seen whole keeps round 0's
+   vertex, since its value is no caustic's. With every pixel seeing the
+   floor directly, 8 rounds (spp 128) trace round 0's 576 x 16 camera
+   samples and no more, a full image 576 x 16 x 15 (its direct light is
+   every round's, traced first, and rounds 1-7 again for their vertices
+   as their passes come); with the mirror in view, each later round traces the
+   pixels that see the floor through it, 16 samples each, the same for 1
+   and 2 threads. A shard's split of these rounds is checked in
+   tests/test_shards.c (pds (caustic eye rounds)). */
+static void test_pds_caustic_eye_rounds_keep_round_0s_whole_pixels(pds_test_ctx *t)
+{
+    pds_image img = {0, 0, NULL}, img1 = {0, 0, NULL};
+    pds_render_stats st, st1;
+    long later;
+    REQUIRE(t, photon_render_text(slant_floor_scene, PDS_METHOD_PDS, 131072, 3.0, PDS_PATHS_CAUSTICS_ONLY, 2, &img, &st,
+                                  eye_rounds_8),
+            "render");
+    CHECK(t, st.spp == 128 && st.eye_samples == 576 * 16, "spp %d, %ld camera samples traced", st.spp, st.eye_samples);
+    pds_image_free(&img);
+    REQUIRE(t, photon_render_text(slant_floor_scene, PDS_METHOD_PDS, 131072, 3.0, PDS_PATHS_ALL, 2, &img, &st,
+                                  eye_rounds_8),
+            "render");
+    CHECK(t, st.spp == 128 && st.eye_samples == 576 * 16 * 15, "full image: spp %d, %ld camera samples traced", st.spp,
+          st.eye_samples);
+    pds_image_free(&img);
+    REQUIRE(t, photon_render_text(slant_mirror_scene, PDS_METHOD_PDS, 131072, 3.0, PDS_PATHS_CAUSTICS_ONLY, 2, &img, &st,
+                                  eye_rounds_8),
+            "render");
+    REQUIRE(t, photon_render_text(slant_mirror_scene, PDS_METHOD_PDS, 131072, 3.0, PDS_PATHS_CAUSTICS_ONLY, 1, &img1, &st1,
+                                  eye_rounds_8),
+            "render");
+    later = (st.eye_samples - 576 * 16) / 16 / 7; /* the pixels each later round traced */
+    CHECK(t, st.spp == 128 && st.eye_samples == 576 * 16 + 7 * 16 * later && later > 24 && later < 576 - 24,
+          "mirror in view: %ld camera samples traced (%ld pixels a later round)", st.eye_samples, later);
+    CHECK(t, st1.eye_samples == st.eye_samples && memcmp(img.rgb, img1.rgb, sizeof *img.rgb * 3 * 24 * 24) == 0,
+          "1 and 2 threads differ");
+    pds_image_free(&img);
+    pds_image_free(&img1);
+}
+
 /* A photon budget left to the default (eye_rounds 0) takes one eye round
    every 1.5 w h spp photons (pds__budget_rounds; w h spp: a round's eye
    samples): on the 24 x 24 mirror at 16 samples a pixel (13,824 photons
@@ -2192,6 +2251,7 @@ static const pds_test_case tests_pds[] = {
     {"eye_rounds_are_runs_of_consecutive_passes", test_eye_rounds_are_runs_of_consecutive_passes},
     {"light_traced_reference_meets_the_analytic_caustic", test_light_traced_reference_meets_the_analytic_caustic},
     {"pds_eye_rounds_keep_the_analytic_image", test_pds_eye_rounds_keep_the_analytic_image},
+    {"pds_caustic_eye_rounds_keep_round_0s_whole_pixels", test_pds_caustic_eye_rounds_keep_round_0s_whole_pixels},
     {"pds_photon_budget_takes_eye_rounds_in_proportion_to_its_photons",
      test_pds_photon_budget_takes_eye_rounds_in_proportion_to_its_photons},
     {"pds_time_budget_eye_rounds_keep_the_analytic_image", test_pds_time_budget_eye_rounds_keep_the_analytic_image},

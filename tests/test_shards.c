@@ -61,6 +61,9 @@ static const shards_case shards_cases[] = {
        photons, with more photons (24 x 16 x 2 samples: 12288 photons, 10
        rounds, held to one a pass: 6), which every shard works out alike */
     {"pds (default eye rounds)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_ALL, 0, 0, 12288},
+    /* 15: caustics only, a round a pass: the shards of rounds 1 and 2
+       trace round 0 first, whose whole pixels every later round keeps */
+    {"pds (caustic eye rounds)", PDS_METHOD_PDS, 1, PDS_METHOD_PDS, PDS_PATHS_CAUSTICS_ONLY, 3, 1, 0},
 };
 
 static void shards_options(const shards_case *c, pds_options *opt)
