@@ -16593,14 +16593,47 @@ static int pds__eye_vertex_merged(const pds__eye_vertex *v)
    image's grid of them (width x height; 0 x 0: no grid, every merged
    vertex in the second part). f: the camera, to measure how far the
    whole vertices project from their pixels' centres (grid_slack; NULL:
-   half a pixel, anywhere in the pixel). */
-static pds_status pds__eye_map_build(pds__eye_map *map, int width, int height, const pds__camera_frame *f,
+   half a pixel, anywhere in the pixel). The three parts are built on up
+   to `threads` threads (the same trees for any count: each part's build
+   is one thread's). */
+typedef struct pds__map_parts_job {
+    pds__eye_map *map;
+    const pds__eye_vertex *tmp; /* the vertices sorted into their parts */
+    pds_status st[3];
+} pds__map_parts_job;
+
+/* Build parts [a, b) of job->map (pds__parallel_for). */
+static void pds__map_parts(void *ctx, size_t a, size_t b, void *scratch)
+{
+    pds__map_parts_job *job = (pds__map_parts_job *)ctx;
+    pds__eye_map *map = job->map;
+    size_t part, i;
+    (void)scratch;
+    for (part = a; part < b; part++) {
+        size_t first = part == 0 ? 0 : part == 1 ? map->n_single : map->n_whole;
+        size_t count = part == 0 ? map->n_single : part == 1 ? map->n_whole - map->n_single : map->n - map->n_whole;
+        pds__kdtree *kd = part == 0 ? &map->tree : part == 1 ? &map->merged : &map->whole;
+        const pds__eye_vertex *tmp = job->tmp;
+        job->st[part] = pds__kdtree_build(kd, count ? &tmp[first].pos[0] : NULL, sizeof *tmp / sizeof(float), count, NULL);
+        if (job->st[part]) continue;
+        for (i = 0; i < count; i++) {
+            if (part == 2) {
+                map->v[first + i] = tmp[first + i]; /* pixel order; the tree's perm maps to it */
+            } else {
+                map->v[first + i] = tmp[first + kd->perm[i]];
+                kd->perm[i] = i;
+            }
+        }
+    }
+}
+
+static pds_status pds__eye_map_build(pds__eye_map *map, int width, int height, const pds__camera_frame *f, int threads,
                                      pds_error *err)
 {
+    pds__map_parts_job parts;
     size_t n = map->n, npix = (size_t)width * (size_t)height, i, k, part;
     pds__eye_vertex *tmp = (pds__eye_vertex *)malloc(sizeof *tmp * (n ? n : 1));
     unsigned char *take = (unsigned char *)calloc(n ? n : 1, 1);
-    pds_status st;
     map->grid = NULL;
     map->grid_pos = NULL;
     map->grid_w = map->grid_h = 0;
@@ -16662,26 +16695,17 @@ static pds_status pds__eye_map_build(pds__eye_map *map, int width, int height, c
             map->grid_slack = pds__max2(map->grid_slack, pds__max2(px, py));
         }
     }
+    parts.map = map;
+    parts.tmp = tmp;
+    parts.st[0] = parts.st[1] = parts.st[2] = PDS_ERR_NOMEM;
+    (void)pds__parallel_for(threads, 3, 1, 0, pds__map_parts, &parts);
+    free(tmp);
     for (part = 0; part < 3; part++) {
-        size_t first = part == 0 ? 0 : part == 1 ? map->n_single : map->n_whole;
-        size_t count = part == 0 ? map->n_single : part == 1 ? map->n_whole - map->n_single : n - map->n_whole;
-        pds__kdtree *kd = part == 0 ? &map->tree : part == 1 ? &map->merged : &map->whole;
-        st = pds__kdtree_build(kd, count ? &tmp[first].pos[0] : NULL, sizeof *tmp / sizeof(float), count, err);
-        if (st) {
-            free(tmp);
+        if (parts.st[part]) {
             pds__eye_map_free_index(map);
-            return st;
-        }
-        for (i = 0; i < count; i++) {
-            if (part == 2) {
-                map->v[first + i] = tmp[first + i]; /* pixel order; the tree's perm maps to it */
-            } else {
-                map->v[first + i] = tmp[first + kd->perm[i]];
-                kd->perm[i] = i;
-            }
+            return pds__nomem(err);
         }
     }
-    free(tmp);
     map->hot = (pds__eye_hot *)malloc(sizeof *map->hot * (n ? n : 1));
     if (!map->hot) {
         pds__eye_map_free_index(map);
@@ -18681,7 +18705,7 @@ static long pds__pds_passes(pds__photon_job *job, pds__eye_map *map, const pds_o
                 memset(map, 0, sizeof *map);
                 map->v = v;
                 map->n = n;
-                if ((*st = pds__eye_map_build(map, job->frame.width, job->frame.height, &job->frame, err))) break;
+                if ((*st = pds__eye_map_build(map, job->frame.width, job->frame.height, &job->frame, threads, err))) break;
                 job->eye_round = r;
                 job->eye_round_s = pds__clock_now(&job->clock) - t;
                 t_photons = 0.0;
@@ -20208,7 +20232,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
     map.n = nvertices;
     if (splats) {
         pds__camera_frame frame = pds__camera_setup(&s->camera, width, height);
-        st = pds__eye_map_build(&map, width, height, &frame, err);
+        st = pds__eye_map_build(&map, width, height, &frame, threads, err);
         if (st) return st;
     }
     if (rounds && progressive) {

@@ -1150,7 +1150,7 @@ static void test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does(
     memset(&map, 0, sizeof map);
     map.v = v;
     map.n = NV;
-    REQUIRE(t, pds__eye_map_build(&map, 0, 0, NULL, NULL) == PDS_OK, "eye map");
+    REQUIRE(t, pds__eye_map_build(&map, 0, 0, NULL, 1, NULL) == PDS_OK, "eye map");
     CHECK(t, map.n_single == 240 && map.merged.n == 120, "%zu single and %zu merged vertices, want 240 and 120",
           map.n_single, map.merged.n);
     splat_test_job(&job, &buf, &map, f, sum);
@@ -1355,7 +1355,7 @@ static void whole_pixels_grid_against_tree(pds_test_ctx *t, int corners)
     memset(&map, 0, sizeof map);
     map.v = v;
     map.n = n;
-    REQUIRE(t, pds__eye_map_build(&map, W, H, &f, NULL) == PDS_OK, "eye map");
+    REQUIRE(t, pds__eye_map_build(&map, W, H, &f, 2, NULL) == PDS_OK, "eye map");
     CHECK(t, map.n_single == 0 && map.merged.n == merged_other && map.whole.n == n - merged_other,
           "parts %zu / %zu / %zu, want 0 / %zu / %zu", map.n_single, map.merged.n, map.whole.n, merged_other,
           n - merged_other);
@@ -1458,7 +1458,7 @@ static void test_pds_splat_roulette_keeps_the_mean_and_follows_the_footprints_ar
     memset(&map, 0, sizeof map);
     map.v = v;
     map.n = NV;
-    REQUIRE(t, pds__eye_map_build(&map, 0, 0, NULL, NULL) == PDS_OK, "eye map");
+    REQUIRE(t, pds__eye_map_build(&map, 0, 0, NULL, 1, NULL) == PDS_OK, "eye map");
     splat_test_job(&job, &buf, &map, f, sum);
     job.sample_angle = 0.00045;
     pds_options_default(&opt);
