@@ -16864,6 +16864,10 @@ typedef struct pds__photon_job {
                                   batch unit_first + (unit_start + b) unit_stride
                                   of the render (0, 1, 0 for all of them) */
     long own_batches;          /* batches this call will run, for the progress */
+    const struct pds__photon_job *then; /* progressive pds: a job whose photons
+                                  the same run traces after this one's (the
+                                  validation's), so that no thread waits for
+                                  the others between them; NULL: none */
     int cancelled;             /* guarded by lock: the progress callback said stop */
     double build_s, gather_s;  /* pm, pdm: time of the last map build and gather */
     double gather_deadline;    /* pm, pdm, spm: with a time budget, the clock's time
@@ -18275,19 +18279,26 @@ static void *pds__photon_worker(void *arg)
     pds__mutex_unlock(&job->lock);
     for (;;) {
         long b, i, first = 0, last = 0, done;
+        const pds__photon_job *use = job; /* whose photons the batch traces */
         pds__mutex_lock(&job->lock);
         if (job->deadline > 0.0 && pds__clock_now(&job->clock) >= job->deadline) job->stop = 1;
         b = job->stop ? -1 : job->next_batch++;
         if (b >= 0) b = job->unit_first + (job->unit_start + b) * job->unit_stride;
-        if (b >= 0 && b * (long)PDS__PHOTON_BATCH >= job->n_total) b = -1;
+        if (b >= 0 && b * (long)PDS__PHOTON_BATCH >= job->n_total) {
+            /* then the next job's batches (unit_stride 1 there) */
+            long own = (job->n_total + PDS__PHOTON_BATCH - 1) / PDS__PHOTON_BATCH;
+            use = job->then;
+            b -= own;
+            if (!use || b * (long)PDS__PHOTON_BATCH >= use->n_total) b = -1;
+        }
         if (b >= 0) {
             first = b * (long)PDS__PHOTON_BATCH;
-            last = first + PDS__PHOTON_BATCH < job->n_total ? first + PDS__PHOTON_BATCH : job->n_total;
+            last = first + PDS__PHOTON_BATCH < use->n_total ? first + PDS__PHOTON_BATCH : use->n_total;
             pds__clock_spent(&job->clock, PDS__WORK_TRACED, (double)(last - first));
         }
         pds__mutex_unlock(&job->lock);
         if (b < 0) break;
-        for (i = first; i < last; i++) pds__trace_photon(job, buf, job->index_offset + i);
+        for (i = first; i < last; i++) pds__trace_photon(use, buf, use->index_offset + i);
         pds__mutex_lock(&job->lock);
         done = ++job->batches_done;
         pds__mutex_unlock(&job->lock);
@@ -18582,28 +18593,20 @@ static void pds__validate_bin(const pds__photon_job *job, pds__splat_buf *buf, c
 /* The validation's photons of pass k (pds__scale_choice): the job's
    validate_photons photons of its own seed, numbered k validate_photons
    on, traced bare (no differentials, no splitting) into the validation
-   sums, each weighted for validate_photons a pass. The job is left as it
-   was. */
-static void pds__validate_run(pds__photon_job *job, int threads, long k)
+   sums, each weighted for validate_photons a pass. *v becomes the job
+   that traces them (a copy of job's; the pass's run traces them after
+   its own photons, as its `then`). */
+static void pds__validate_job(const pds__photon_job *job, long k, pds__photon_job *v)
 {
-    pds__land_fn land = job->land;
-    int differentials = job->differentials, split_depth = job->split_depth;
-    uint64_t seed = job->seed;
-    long n_total = job->n_total;
-    double n_planned = job->n_planned;
-    job->land = pds__validate_bin;
-    job->differentials = 0;
-    job->split_depth = 0;
-    job->seed = job->validate_seed;
-    job->n_total = job->validate_photons;
-    job->n_planned = (double)job->validate_photons;
-    pds__photon_run(job, threads, k * job->validate_photons);
-    job->land = land;
-    job->differentials = differentials;
-    job->split_depth = split_depth;
-    job->seed = seed;
-    job->n_total = n_total;
-    job->n_planned = n_planned;
+    *v = *job;
+    v->then = NULL;
+    v->land = pds__validate_bin;
+    v->differentials = 0;
+    v->split_depth = 0;
+    v->seed = job->validate_seed;
+    v->n_total = job->validate_photons;
+    v->n_planned = (double)job->validate_photons;
+    v->index_offset = k * job->validate_photons;
 }
 
 /* Do whole vertices a and b (of neighbouring pixels) see one surface? Their
@@ -18674,6 +18677,7 @@ static long pds__pds_passes(pds__photon_job *job, pds__eye_map *map, const pds_o
 {
     long k_max, m, k, run = 0;
     double t_pass = 0.0, t_photons = 0.0; /* t_photons: the passes' time since the last eye pass */
+    pds__photon_job validation;           /* the pass's validation photons (job->then) */
     if (deadline > 0.0) {
         m = opt->pass_photons;
         k_max = LONG_MAX / m - 1;
@@ -18713,12 +18717,14 @@ static long pds__pds_passes(pds__photon_job *job, pds__eye_map *map, const pds_o
             }
         }
         pds__pass_begin(job, opt, k, m);
-        pds__photon_run(job, threads, k * m);
         if (job->validate) {
             pds__count_direct(job, map);
-            pds__validate_run(job, threads, k);
-            job->odd_passes += k & 1;
+            pds__validate_job(job, k, &validation);
+            job->then = &validation;
         }
+        pds__photon_run(job, threads, k * m);
+        job->then = NULL;
+        if (job->validate) job->odd_passes += k & 1;
         t_pass = pds__clock_now(&job->clock) - t;
         t_photons += t_pass;
         run++;
