@@ -16563,20 +16563,45 @@ typedef struct pds__eye_map {
                                   from its pixel's centre, along x or y
                                   (pds__eye_map_build measures it) */
     pds__eye_hot *hot;         /* n: v's splat fields, in v's order */
+    /* the build's buffers, kept for the next build (an eye round's): a
+       page first touched costs some 10 us on a virtual machine, and a
+       round's map would touch some 30 MB anew */
+    pds__eye_vertex *scratch;
+    unsigned char *take;
+    size_t scratch_cap, take_cap, grid_cap, grid_pos_cap, hot_cap;
 } pds__eye_map;
 
-/* Free what pds__eye_map_build made (not v). */
-static void pds__eye_map_free_index(pds__eye_map *map)
+/* Free the trees pds__eye_map_build made, keeping its buffers for the
+   next build. */
+static void pds__eye_map_free_trees(pds__eye_map *map)
 {
     pds__kdtree_free(&map->tree);
     pds__kdtree_free(&map->merged);
     pds__kdtree_free(&map->whole);
+}
+
+/* Free the build's scratch buffers (when no build follows). */
+static void pds__eye_map_free_scratch(pds__eye_map *map)
+{
+    free(map->scratch);
+    free(map->take);
+    map->scratch = NULL;
+    map->take = NULL;
+    map->scratch_cap = map->take_cap = 0;
+}
+
+/* Free what pds__eye_map_build made (not v). */
+static void pds__eye_map_free_index(pds__eye_map *map)
+{
+    pds__eye_map_free_trees(map);
+    pds__eye_map_free_scratch(map);
     free(map->grid);
     free(map->grid_pos);
+    free(map->hot);
     map->grid = NULL;
     map->grid_pos = NULL;
-    free(map->hot);
     map->hot = NULL;
+    map->grid_cap = map->grid_pos_cap = map->hot_cap = 0;
 }
 
 /* A merged vertex stands for a pixel: its half-axes are not zero. */
@@ -16632,20 +16657,28 @@ static pds_status pds__eye_map_build(pds__eye_map *map, int width, int height, c
 {
     pds__map_parts_job parts;
     size_t n = map->n, npix = (size_t)width * (size_t)height, i, k, part;
-    pds__eye_vertex *tmp = (pds__eye_vertex *)malloc(sizeof *tmp * (n ? n : 1));
-    unsigned char *take = (unsigned char *)calloc(n ? n : 1, 1);
-    map->grid = NULL;
-    map->grid_pos = NULL;
+    pds__eye_vertex *tmp;
+    unsigned char *take;
     map->grid_w = map->grid_h = 0;
     if (!(n < (size_t)INT_MAX)) npix = 0; /* more vertices than an int counts: no grid */
-    if (npix > 0) map->grid = (int *)malloc(sizeof *map->grid * npix);
-    if (!tmp || !take || (npix > 0 && !map->grid)) {
-        free(tmp);
-        free(take);
+    if (npix == 0) {
         free(map->grid);
+        free(map->grid_pos);
         map->grid = NULL;
+        map->grid_pos = NULL;
+        map->grid_cap = map->grid_pos_cap = 0;
+    }
+    if (pds__grow((void **)&map->scratch, &map->scratch_cap, n ? n : 1, sizeof *map->scratch) ||
+        pds__grow((void **)&map->take, &map->take_cap, n ? n : 1, 1) ||
+        pds__grow((void **)&map->hot, &map->hot_cap, n ? n : 1, sizeof *map->hot) ||
+        (npix > 0 && (pds__grow((void **)&map->grid, &map->grid_cap, npix, sizeof *map->grid) ||
+                      pds__grow((void **)&map->grid_pos, &map->grid_pos_cap, 3 * (n + 1), sizeof *map->grid_pos)))) {
+        pds__eye_map_free_index(map);
         return pds__nomem(err);
     }
+    tmp = map->scratch;
+    take = map->take;
+    memset(take, 0, n ? n : 1);
     for (i = 0; i < npix; i++) map->grid[i] = -1;
     /* the whole pixels' vertices: the first of a pixel (one is all there
        are), in pixel order */
@@ -16669,16 +16702,9 @@ static pds_status pds__eye_map_build(pds__eye_map *map, int width, int height, c
             map->grid[i] = (int)(k - map->n_whole);
             k++;
         }
-    free(take);
     if (npix > 0) {
         map->grid_w = width;
         map->grid_h = height;
-        map->grid_pos = (float *)malloc(sizeof *map->grid_pos * 3 * (n - map->n_whole + 1));
-        if (!map->grid_pos) {
-            free(tmp);
-            pds__eye_map_free_index(map);
-            return pds__nomem(err);
-        }
         map->grid_slack = f ? 0.0 : 0.5;
         for (i = map->n_whole; i < n; i++) {
             float *p = &map->grid_pos[3 * (i - map->n_whole)];
@@ -16699,17 +16725,11 @@ static pds_status pds__eye_map_build(pds__eye_map *map, int width, int height, c
     parts.tmp = tmp;
     parts.st[0] = parts.st[1] = parts.st[2] = PDS_ERR_NOMEM;
     (void)pds__parallel_for(threads, 3, 1, 0, pds__map_parts, &parts);
-    free(tmp);
     for (part = 0; part < 3; part++) {
         if (parts.st[part]) {
             pds__eye_map_free_index(map);
             return pds__nomem(err);
         }
-    }
-    map->hot = (pds__eye_hot *)malloc(sizeof *map->hot * (n ? n : 1));
-    if (!map->hot) {
-        pds__eye_map_free_index(map);
-        return pds__nomem(err);
     }
     for (i = 0; i < n; i++) {
         const pds__eye_vertex *v = &map->v[i];
@@ -18705,8 +18725,7 @@ static long pds__pds_passes(pds__photon_job *job, pds__eye_map *map, const pds_o
             if (v == map->v) {
                 job->retrace = NULL; /* no sample indices left for another */
             } else {
-                pds__eye_map_free_index(map);
-                memset(map, 0, sizeof *map);
+                pds__eye_map_free_trees(map); /* its buffers serve the new one */
                 map->v = v;
                 map->n = n;
                 if ((*st = pds__eye_map_build(map, job->frame.width, job->frame.height, &job->frame, threads, err))) break;
@@ -20240,6 +20259,7 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
         pds__camera_frame frame = pds__camera_setup(&s->camera, width, height);
         st = pds__eye_map_build(&map, width, height, &frame, threads, err);
         if (st) return st;
+        if (!(rounds && progressive)) pds__eye_map_free_scratch(&map); /* no round will rebuild it */
     }
     if (rounds && progressive) {
         /* eye rounds (pds__pds_passes) */
