@@ -20685,7 +20685,8 @@ static pds_status pds__photon_pass(const pds_scene *s, const pds_options *opt, p
                                    pds__kdtree_memory(&map.whole) +
                                    (map.grid ? npix * sizeof *map.grid + 3 * (map.n - map.n_whole) * sizeof(float)
                                              : 0) +
-                                   (map.hot ? map.n * sizeof *map.hot : 0) + stats->map_bytes +
+                                   (map.hot ? map.n * sizeof *map.hot : 0) +
+                                   (map.scratch ? map.n * (sizeof *map.scratch + 1) : 0) + stats->map_bytes +
                                    (size_t)job.nimages * npix *
                                        (3 + (job.validate ? PDS__SEL_THREAD + PDS__SEL_THREAD_ODD : 0) +
                                         (job.spectral ? 3 : 0)) *
