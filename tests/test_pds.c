@@ -567,6 +567,12 @@ static const char slant_mirror_scene[] =
     "quad { material glass size 3 3 rotate 90 0 0 1 translate 1 1.5 0 }\n"
     "light point { position 0 1 0 power 100 }\n";
 
+/* A render of 131,072 photons in 8 eye rounds (eye_rounds_8). */
+static int rounds8_render(const char *scene, pds_paths paths, int threads, pds_image *img, pds_render_stats *st)
+{
+    return photon_render_text(scene, PDS_METHOD_PDS, 131072, 3.0, paths, threads, img, st, eye_rounds_8);
+}
+
 /* A caustics-only render's eye rounds trace only the pixels that round 0
    did not see whole (pds__eye_retrace); a pixel seen whole keeps round 0's
    vertex, since its value is no caustic's. With every pixel seeing the
@@ -582,23 +588,15 @@ static void test_pds_caustic_eye_rounds_keep_round_0s_whole_pixels(pds_test_ctx 
     pds_image img = {0, 0, NULL}, img1 = {0, 0, NULL};
     pds_render_stats st, st1;
     long later;
-    REQUIRE(t, photon_render_text(slant_floor_scene, PDS_METHOD_PDS, 131072, 3.0, PDS_PATHS_CAUSTICS_ONLY, 2, &img, &st,
-                                  eye_rounds_8),
-            "render");
+    REQUIRE(t, rounds8_render(slant_floor_scene, PDS_PATHS_CAUSTICS_ONLY, 2, &img, &st), "render");
     CHECK(t, st.spp == 128 && st.eye_samples == 576 * 16, "spp %d, %ld camera samples traced", st.spp, st.eye_samples);
     pds_image_free(&img);
-    REQUIRE(t, photon_render_text(slant_floor_scene, PDS_METHOD_PDS, 131072, 3.0, PDS_PATHS_ALL, 2, &img, &st,
-                                  eye_rounds_8),
-            "render");
+    REQUIRE(t, rounds8_render(slant_floor_scene, PDS_PATHS_ALL, 2, &img, &st), "render");
     CHECK(t, st.spp == 128 && st.eye_samples == 576 * 16 * 15, "full image: spp %d, %ld camera samples traced", st.spp,
           st.eye_samples);
     pds_image_free(&img);
-    REQUIRE(t, photon_render_text(slant_mirror_scene, PDS_METHOD_PDS, 131072, 3.0, PDS_PATHS_CAUSTICS_ONLY, 2, &img, &st,
-                                  eye_rounds_8),
-            "render");
-    REQUIRE(t, photon_render_text(slant_mirror_scene, PDS_METHOD_PDS, 131072, 3.0, PDS_PATHS_CAUSTICS_ONLY, 1, &img1, &st1,
-                                  eye_rounds_8),
-            "render");
+    REQUIRE(t, rounds8_render(slant_mirror_scene, PDS_PATHS_CAUSTICS_ONLY, 2, &img, &st), "render");
+    REQUIRE(t, rounds8_render(slant_mirror_scene, PDS_PATHS_CAUSTICS_ONLY, 1, &img1, &st1), "render");
     later = (st.eye_samples - 576 * 16) / 16 / 7; /* the pixels each later round traced */
     CHECK(t, st.spp == 128 && st.eye_samples == 576 * 16 + 7 * 16 * later && later > 24 && later < 576 - 24,
           "mirror in view: %ld camera samples traced (%ld pixels a later round)", st.eye_samples, later);
