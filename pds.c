@@ -24604,19 +24604,26 @@ static pds_status pds__camera_check(const pds_scene *scene, const pds_options *o
     return PDS_OK;
 }
 
-/* Join the per-row eye vertices in row order (then free the rows). */
-static pds__eye_vertex *pds__join_rows(pds__render_job *job, size_t *count)
+/* Join the per-row eye vertices in row order into `into` (grown or
+   shrunk to fit; NULL: a new array; on failure it is left as it was and
+   NULL returned), then free the rows unless keep (eye rounds follow,
+   whose rows would otherwise grow again from nothing, page by page). */
+static pds__eye_vertex *pds__join_rows(pds__render_job *job, size_t *count, pds__eye_vertex *into, int keep)
 {
     size_t total = 0, at = 0;
     int y;
     pds__eye_vertex *all;
     for (y = 0; y < job->frame.height; y++) total += job->row_count[y];
-    all = (pds__eye_vertex *)malloc(sizeof *all * (total ? total : 1));
+    all = (pds__eye_vertex *)realloc(into, sizeof *all * (total ? total : 1));
     for (y = 0; all && y < job->frame.height; y++) {
         if (job->row_count[y]) memcpy(all + at, job->row_vertices[y], sizeof *all * job->row_count[y]);
         at += job->row_count[y];
     }
-    for (y = 0; y < job->frame.height; y++) free(job->row_vertices[y]);
+    for (y = 0; !keep && y < job->frame.height; y++) {
+        free(job->row_vertices[y]);
+        job->row_vertices[y] = NULL;
+        job->row_cap[y] = 0;
+    }
     *count = total;
     return all;
 }
@@ -24813,7 +24820,9 @@ static pds_partial *pds__partial_new(const pds_scene *scene, const pds_options *
 typedef struct pds__retrace_ctx {
     pds__render_job *job;
     int threads;
-    pds__eye_vertex *verts; /* the vertices in use (freed by the next round) */
+    pds__eye_vertex *verts; /* the vertices in use */
+    pds__eye_vertex *spare; /* the round's before them (the next round joins into it) */
+    size_t n_verts, n_spare; /* their vertices */
     long traced;            /* eye passes whose values the job's sums hold */
     int keep_whole;         /* caustics only: keep round 0's whole pixels */
     long *keep_of;          /* ... the job's keep_of and keep_v, once made */
@@ -24850,10 +24859,7 @@ static pds_status pds__eye_retrace(void *vctx, long round, pds__eye_vertex **v, 
         job->keep_of = rc->keep_of;
         job->keep_v = rc->keep_v;
     }
-    for (y = 0; y < job->frame.height; y++) {
-        job->row_vertices[y] = NULL;
-        job->row_count[y] = job->row_cap[y] = 0;
-    }
+    for (y = 0; y < job->frame.height; y++) job->row_count[y] = 0; /* the rows' arrays serve again */
     job->pass = job->record_pass = (int)round;
     job->next_row = job->rows_done = 0;
     job->progress = NULL; /* a round is part of the photon pass */
@@ -24861,15 +24867,15 @@ static pds_status pds__eye_retrace(void *vctx, long round, pds__eye_vertex **v, 
     pds__run_threads(rc->threads, pds__render_worker, job);
     pds__mutex_destroy(&job->lock);
     rc->traced++;
-    if (job->out_of_memory) {
-        for (y = 0; y < job->frame.height; y++) free(job->row_vertices[y]);
-        return pds__nomem(err);
-    }
-    all = pds__join_rows(job, &count);
+    if (job->out_of_memory) return pds__nomem(err); /* the rows are freed with the job */
+    /* into the round's before the last (the last one's map is still
+       built on rc->verts; the caller rebuilds it on these) */
+    all = pds__join_rows(job, &count, rc->spare, 1);
     if (!all) return pds__nomem(err);
-    free(rc->verts);
+    rc->spare = rc->verts;
+    rc->n_spare = rc->n_verts;
     rc->verts = *v = all;
-    *n = count;
+    *n = rc->n_verts = count;
     return PDS_OK;
 }
 
@@ -25069,7 +25075,8 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
     }
     rc.job = &job;
     rc.threads = threads;
-    rc.verts = NULL;
+    rc.verts = rc.spare = NULL;
+    rc.n_verts = rc.n_spare = 0;
     rc.traced = job.pass - pass0;
     rc.keep_whole = rounds.rounds > 1 && opt->paths == PDS_PATHS_CAUSTICS_ONLY && job.merge_eye;
     rc.keep_of = NULL;
@@ -25112,12 +25119,10 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
     }
     if (job.record_eye) {
         size_t nv = 0;
-        pds__eye_vertex *verts = job.out_of_memory ? NULL : pds__join_rows(&job, &nv);
+        pds__eye_vertex *verts = job.out_of_memory ? NULL : pds__join_rows(&job, &nv, NULL, rounds.rounds > 1);
         rc.verts = verts;
+        rc.n_verts = nv;
         rounds.eye_s = stats->time_eye_s;
-        if (job.out_of_memory) {
-            for (y = 0; y < h; y++) free(job.row_vertices[y]);
-        }
         if (!verts) st = pds__nomem(err);
         else if (completed == job.nrows) {
             /* a time budget is the render's: the photon pass gets what the
@@ -25141,9 +25146,16 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
             job.pass = (int)rounds.rounds; /* for stats->spp: the caustic's samples */
         }
         stats->eye_samples = job.samples_traced; /* with the rounds' */
+        if (rounds.rounds > 1) {
+            /* what the rounds keep: the rows' arrays and the round before's vertices */
+            stats->memory_bytes += rc.n_spare * sizeof *rc.spare;
+            for (y = 0; y < h; y++) stats->memory_bytes += job.row_cap[y] * sizeof **job.row_vertices;
+        }
         free(rc.verts);
+        free(rc.spare);
         free(rc.keep_of);
         free(rc.keep_v);
+        for (y = 0; y < h; y++) free(job.row_vertices[y]); /* kept for rounds, or after a failure */
         free(job.row_vertices);
         free(job.row_count);
         free(job.row_cap);
