@@ -1417,6 +1417,100 @@ static void test_pds_whole_pixels_are_found_through_the_image_as_through_their_t
     whole_pixels_grid_against_tree(t, 0);
 }
 
+/* The floor of whole_pixels_grid_against_tree (every pixel's vertex at
+   its centre ray), with every third vertex a single sample (no half-axes)
+   and every seventh merged but not whole; the vertices of pixels below
+   `rows` only. Returns how many. */
+static size_t rebuild_test_floor(pds__eye_vertex *v, int w, int rows, const pds__camera_frame *f)
+{
+    pds__v3 up = pds__v(0.0, 1.0, 0.0);
+    pds_material m = splat_test_floor();
+    double beta[3] = {0.5, 0.5, 0.5};
+    size_t n = 0;
+    int x, y;
+    for (y = 0; y < rows; y++)
+        for (x = 0; x < w; x++) {
+            pds__v3 d = pds__camera_dir(f, x + 0.5, y + 0.5), p, ex, ey;
+            double tf = -f->origin.y / d.y;
+            int k = y * w + x;
+            if (!(tf > 0.0)) continue;
+            p = pds__add(f->origin, pds__scale(d, tf));
+            if (!pds__pixel_axes(f, p, up, &ex, &ey) ||
+                !pds__eye_vertex_set(&v[n], &m, p, up, up, pds__normalize(pds__sub(f->origin, p)), beta, 0))
+                continue;
+            v[n].pixel = k;
+            if (k % 3 != 0) {
+                pds__f3_set(v[n].px, ex);
+                pds__f3_set(v[n].py, ey);
+                v[n].whole = k % 7 != 0;
+            }
+            n++;
+        }
+    return n;
+}
+
+/* An eye round rebuilds its map in the buffers of the last build
+   (pds__eye_map_free_trees, then pds__eye_map_build): on fewer vertices
+   than the first build's, the rebuilt map is the fresh build's bit for
+   bit (its parts, vertex order, grid, grid positions, slack, splat
+   fields and trees; two threads' build the same as one thread's), and it
+   kept the first build's scratch and hot arrays (their capacity for the
+   first build's vertices) rather than making new ones. */
+static void test_eye_map_rebuild_in_its_buffers_is_a_fresh_build(pds_test_ctx *t)
+{
+    enum { W = 64, H = 48 };
+    pds__camera_frame f = merge_test_camera();
+    pds__eye_vertex *big = (pds__eye_vertex *)calloc(W * H, sizeof *big);
+    pds__eye_vertex *small = (pds__eye_vertex *)calloc(W * H, sizeof *small);
+    pds__eye_vertex *copy = (pds__eye_vertex *)calloc(W * H, sizeof *copy);
+    pds__eye_map re, fresh;
+    size_t nb, ns;
+    size_t scratch_cap, hot_cap;
+    REQUIRE(t, big && small && copy, "memory");
+    nb = rebuild_test_floor(big, W, H, &f);
+    ns = rebuild_test_floor(small, W, 30, &f);
+    memcpy(copy, small, ns * sizeof *small);
+    /* a build grows its buffers by doubling from 16: 2048 for the small
+       set alone, 4096 once the big one has been built */
+    REQUIRE(t, ns > 1000 && ns <= 2048 && nb > 2048, "%zu and %zu vertices", ns, nb);
+    memset(&re, 0, sizeof re);
+    re.v = big;
+    re.n = nb;
+    REQUIRE(t, pds__eye_map_build(&re, W, H, &f, 2, NULL) == PDS_OK, "first build");
+    scratch_cap = re.scratch_cap;
+    hot_cap = re.hot_cap;
+    pds__eye_map_free_trees(&re);
+    re.v = small;
+    re.n = ns;
+    REQUIRE(t, pds__eye_map_build(&re, W, H, &f, 2, NULL) == PDS_OK, "rebuild");
+    memset(&fresh, 0, sizeof fresh);
+    fresh.v = copy;
+    fresh.n = ns;
+    REQUIRE(t, pds__eye_map_build(&fresh, W, H, &f, 1, NULL) == PDS_OK, "fresh build");
+    CHECK(t, re.n_single == fresh.n_single && re.n_whole == fresh.n_whole && re.n_single > 0 &&
+                 re.n_whole > re.n_single && re.n_whole < ns,
+          "parts %zu / %zu against %zu / %zu", re.n_single, re.n_whole, fresh.n_single, fresh.n_whole);
+    CHECK(t, memcmp(small, copy, ns * sizeof *small) == 0, "the vertices' order differs");
+    CHECK(t, memcmp(re.grid, fresh.grid, W * H * sizeof *re.grid) == 0 &&
+                 memcmp(re.grid_pos, fresh.grid_pos, 3 * (ns - re.n_whole) * sizeof *re.grid_pos) == 0 &&
+                 re.grid_slack == fresh.grid_slack,
+          "grids differ");
+    CHECK(t, memcmp(re.hot, fresh.hot, ns * sizeof *re.hot) == 0, "splat fields differ");
+    CHECK(t, re.tree.n == fresh.tree.n && re.whole.n == fresh.whole.n &&
+                 memcmp(re.tree.pts, fresh.tree.pts, 3 * re.tree.n * sizeof(float)) == 0 &&
+                 memcmp(re.tree.axis, fresh.tree.axis, re.tree.n) == 0 &&
+                 memcmp(re.whole.pts, fresh.whole.pts, 3 * re.whole.n * sizeof(float)) == 0,
+          "trees differ");
+    CHECK(t, re.scratch_cap == scratch_cap && re.hot_cap == hot_cap && fresh.scratch_cap < scratch_cap,
+          "the rebuild allocated anew: scratch %zu (first %zu, fresh %zu), hot %zu (first %zu)", re.scratch_cap,
+          scratch_cap, fresh.scratch_cap, re.hot_cap, hot_cap);
+    pds__eye_map_free_index(&re);
+    pds__eye_map_free_index(&fresh);
+    free(big);
+    free(small);
+    free(copy);
+}
+
 /* The splat's cost roulette (pds__splat, PDS__SPLAT_ROULETTE): a round
    footprint over a floor of eye vertices, splatted as photons 0..P-1 of a
    pass whose bound it exceeds about fourfold, keeps a share of them, and
@@ -2216,6 +2310,7 @@ static const pds_test_case tests_pds[] = {
     {"pds_whole_pixel_kernel_is_each_pixels_own_average", test_pds_whole_pixel_kernel_is_each_pixels_own_average},
     {"pds_whole_pixels_are_found_through_the_image_as_through_their_tree",
      test_pds_whole_pixels_are_found_through_the_image_as_through_their_tree},
+    {"eye_map_rebuild_in_its_buffers_is_a_fresh_build", test_eye_map_rebuild_in_its_buffers_is_a_fresh_build},
     {"pds_splat_finds_single_and_merged_vertices_as_brute_force_does",
      test_pds_splat_finds_single_and_merged_vertices_as_brute_force_does},
     {"pds_second_scale_is_the_pass_at_half_the_smoothing", test_pds_second_scale_is_the_pass_at_half_the_smoothing},
