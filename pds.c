@@ -15537,9 +15537,9 @@ typedef struct pds__render_job {
     const unsigned char *row_values; /* with path: per row, 0 = its vertices
                               only (the path's values argument); NULL: all */
     long samples_traced;   /* guarded by lock: camera samples traced */
-    const long *keep_of;   /* per pixel, its vertex in keep_v to record instead
+    long *keep_of;         /* per pixel, its vertex in keep_v to record instead
                               of tracing it, or -1 (pds__eye_retrace); NULL: none */
-    const pds__eye_vertex *keep_v;
+    pds__eye_vertex *keep_v;
 } pds__render_job;
 
 /* Append the n vertices v (of pixel `pixel`, their importance and weight
@@ -16610,6 +16610,13 @@ static int pds__eye_vertex_merged(const pds__eye_vertex *v)
     return v->px[0] != 0.0f || v->px[1] != 0.0f || v->px[2] != 0.0f;
 }
 
+/* Is v a whole pixel's vertex (pds__eye_merge), of a pixel of an image of
+   npix pixels? */
+static int pds__eye_vertex_whole(const pds__eye_vertex *v, size_t npix)
+{
+    return pds__eye_vertex_merged(v) && v->whole && v->pixel >= 0 && (size_t)v->pixel < npix;
+}
+
 /* Sort map->v[0, n) into its three parts (single samples first, in their
    order) and build each part's tree; the first two are then put in their
    tree's order, so that a splat reads the vertices of one leaf from
@@ -16684,8 +16691,7 @@ static pds_status pds__eye_map_build(pds__eye_map *map, int width, int height, c
        are), in pixel order */
     for (i = 0; i < n && npix > 0; i++) {
         const pds__eye_vertex *v = &map->v[i];
-        if (pds__eye_vertex_merged(v) && v->whole && v->pixel >= 0 && (size_t)v->pixel < npix &&
-            map->grid[v->pixel] < 0) {
+        if (pds__eye_vertex_whole(v, npix) && map->grid[v->pixel] < 0) {
             map->grid[v->pixel] = (int)i;
             take[i] = 1;
         }
@@ -24825,15 +24831,7 @@ typedef struct pds__retrace_ctx {
     size_t n_verts, n_spare; /* their vertices */
     long traced;            /* eye passes whose values the job's sums hold */
     int keep_whole;         /* caustics only: keep round 0's whole pixels */
-    long *keep_of;          /* ... the job's keep_of and keep_v, once made */
-    pds__eye_vertex *keep_v;
 } pds__retrace_ctx;
-
-/* Is u a whole pixel's vertex (of an image of npix pixels)? */
-static int pds__eye_kept(const pds__eye_vertex *u, size_t npix)
-{
-    return u->whole && pds__eye_vertex_merged(u) && u->pixel >= 0 && (size_t)u->pixel < npix;
-}
 
 static pds_status pds__eye_retrace(void *vctx, long round, pds__eye_vertex **v, size_t *n, pds_error *err)
 {
@@ -24843,21 +24841,20 @@ static pds_status pds__eye_retrace(void *vctx, long round, pds__eye_vertex **v, 
     size_t count = 0;
     int y;
     if (((long long)round + 1) * job->spp > (long long)job->total_spp_max) return PDS_OK; /* no sample indices left */
-    if (rc->keep_whole && !rc->keep_of) {
-        /* the first round after round 0: its whole pixels' vertices */
+    if (rc->keep_whole && !job->keep_of) {
+        /* the first round after round 0: its whole pixels' vertices (the
+           job frees them) */
         size_t i, k = 0, npix = (size_t)job->frame.width * (size_t)job->frame.height;
-        for (i = 0; i < *n; i++) k += pds__eye_kept((*v) + i, npix);
-        rc->keep_of = (long *)malloc(npix * sizeof *rc->keep_of);
-        rc->keep_v = (pds__eye_vertex *)malloc((k > 0 ? k : 1) * sizeof *rc->keep_v);
-        if (!rc->keep_of || !rc->keep_v) return pds__nomem(err);
-        for (i = 0; i < npix; i++) rc->keep_of[i] = -1;
+        for (i = 0; i < *n; i++) k += pds__eye_vertex_whole((*v) + i, npix);
+        job->keep_of = (long *)malloc(npix * sizeof *job->keep_of);
+        job->keep_v = (pds__eye_vertex *)malloc((k > 0 ? k : 1) * sizeof *job->keep_v);
+        if (!job->keep_of || !job->keep_v) return pds__nomem(err);
+        for (i = 0; i < npix; i++) job->keep_of[i] = -1;
         for (i = k = 0; i < *n; i++)
-            if (pds__eye_kept((*v) + i, npix)) {
-                rc->keep_of[(*v)[i].pixel] = (long)k;
-                rc->keep_v[k++] = (*v)[i];
+            if (pds__eye_vertex_whole((*v) + i, npix)) {
+                job->keep_of[(*v)[i].pixel] = (long)k;
+                job->keep_v[k++] = (*v)[i];
             }
-        job->keep_of = rc->keep_of;
-        job->keep_v = rc->keep_v;
     }
     for (y = 0; y < job->frame.height; y++) job->row_count[y] = 0; /* the rows' arrays serve again */
     job->pass = job->record_pass = (int)round;
@@ -24980,6 +24977,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
        are pass r's, after those of the rounds before it. */
     job.record_pass = -1;
     memset(&rounds, 0, sizeof rounds);
+    memset(&rc, 0, sizeof rc);
     if (opt->method == PDS_METHOD_PDS && opt->progressive && photons && !opt->debug && opt->eye_rounds != 1) {
         long most = PDS_MAX_SPP / job.spp;
         if (opt->time_s > 0.0 && N == 1) {
@@ -24993,6 +24991,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
     if (rounds.rounds > 1) {
         rounds.retrace = pds__eye_retrace;
         rounds.ctx = &rc;
+        rc.keep_whole = opt->paths == PDS_PATHS_CAUSTICS_ONLY && job.merge_eye;
         job.total_spp_max = job.spp * (int)rounds.rounds;
         if (opt->time_s <= 0.0) {
             /* a photon budget: the eye pass is the round of the part's first
@@ -25003,7 +25002,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
             /* caustics only: round 0 first, whatever round the part starts
                in, since the later rounds keep its whole pixels
                (pds__eye_retrace); the first pass then traces its own */
-            if (opt->paths == PDS_PATHS_CAUSTICS_ONLY && job.merge_eye) rounds.round = 0;
+            if (rc.keep_whole) rounds.round = 0;
             job.record_pass = (int)rounds.round;
             if (part->rows_done < part->rows_own && opt->paths != PDS_PATHS_CAUSTICS_ONLY) {
                 pass0 = 0;
@@ -25075,13 +25074,7 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
     }
     rc.job = &job;
     rc.threads = threads;
-    rc.verts = rc.spare = NULL;
-    rc.n_verts = rc.n_spare = 0;
     rc.traced = job.pass - pass0;
-    rc.keep_whole = rounds.rounds > 1 && opt->paths == PDS_PATHS_CAUSTICS_ONLY && job.merge_eye;
-    rc.keep_of = NULL;
-    rc.keep_v = NULL;
-    stats->eye_samples = job.samples_traced;
     pds__mutex_destroy(&job.lock);
     stats->time_eye_s = pds__clock_now(&job.clock) - job.t0 - gi_map_s;
     stats->memory_bytes =
@@ -25145,7 +25138,6 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
         } else if (!st && completed == job.nrows && rounds.rounds > 1) {
             job.pass = (int)rounds.rounds; /* for stats->spp: the caustic's samples */
         }
-        stats->eye_samples = job.samples_traced; /* with the rounds' */
         if (rounds.rounds > 1) {
             /* what the rounds keep: the rows' arrays and the round before's vertices */
             stats->memory_bytes += rc.n_spare * sizeof *rc.spare;
@@ -25153,13 +25145,14 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
         }
         free(rc.verts);
         free(rc.spare);
-        free(rc.keep_of);
-        free(rc.keep_v);
+        free(job.keep_of);
+        free(job.keep_v);
         for (y = 0; y < h; y++) free(job.row_vertices[y]); /* kept for rounds, or after a failure */
         free(job.row_vertices);
         free(job.row_count);
         free(job.row_cap);
     }
+    stats->eye_samples = job.samples_traced; /* the eye pass's and its rounds' */
     if (gi) {
         /* the caustic method's map (pm, pdm, ppm) and the global maps */
         size_t gbytes = pds__gi_map_bytes(&gmap);
