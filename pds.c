@@ -15540,21 +15540,17 @@ typedef struct pds__render_job {
     long *keep_of;         /* per pixel, its vertex in keep_v to record instead
                               of tracing it, or -1 (pds__eye_retrace); NULL: none */
     pds__eye_vertex *keep_v;
+    size_t n_kept;         /* keep_v's vertices */
 } pds__render_job;
 
-/* Append the n vertices v (of pixel `pixel`, their importance and weight
-   divided by `spp` unless it is 0) to row y's; sets out_of_memory if it
-   cannot. */
-static void pds__row_append(pds__render_job *job, int y, pds__eye_vertex *v, int n, uint64_t pixel, int spp)
+/* Append the n vertices v of pixel `pixel` to row y's; sets
+   out_of_memory if it cannot. */
+static void pds__row_append(pds__render_job *job, int y, pds__eye_vertex *v, int n, uint64_t pixel)
 {
     pds__eye_vertex **arr = &job->row_vertices[y];
-    int j, c;
+    int j;
     if (pds__grow((void **)arr, &job->row_cap[y], job->row_count[y] + (size_t)n, sizeof **arr) == 0) {
         for (j = 0; j < n; j++) {
-            for (c = 0; c < 3 && spp > 0; c++) {
-                v[j].importance[c] /= (float)spp;
-                v[j].weight[c] /= (float)spp;
-            }
             v[j].pixel = (int)pixel;
             (*arr)[job->row_count[y]++] = v[j];
         }
@@ -15577,7 +15573,7 @@ static int pds__render_pixel(pds__render_job *job, int x, int y, double *out)
         /* seen whole in round 0 of a caustics-only render: that vertex
            again, untraced (pds__eye_retrace) */
         pds__eye_vertex v = job->keep_v[job->keep_of[pixel]];
-        pds__row_append(job, y, &v, 1, pixel, 0);
+        pds__row_append(job, y, &v, 1, pixel);
         return 0;
     }
     for (k = 0; k < job->spp; k++) {
@@ -15602,12 +15598,17 @@ static int pds__render_pixel(pds__render_job *job, int x, int y, double *out)
         if (job->method != PDS_METHOD_PREVIEW) {
             pds__eye_vertex v[PDS__EYE_LEAVES];
             double lambda = job->tracer.spectral ? pds__eye_wavelength(job->seed, pixel, sample) : 0.0;
-            int recorded;
+            int recorded, j;
             recorded = job->path ? job->path(job->path_ctx, &job->tracer, org, dir, idx, lambda, acc,
                                              record ? v : NULL, &job->row_counts[4 * (size_t)y],
                                              !job->row_values || job->row_values[y])
                                  : pds__trace_path(&job->tracer, org, dir, idx, lambda, acc, record ? v : NULL);
-            if (recorded) pds__row_append(job, y, v, recorded, pixel, job->spp);
+            for (j = 0; j < recorded; j++)
+                for (c = 0; c < 3; c++) {
+                    v[j].importance[c] /= (float)job->spp;
+                    v[j].weight[c] /= (float)job->spp;
+                }
+            if (recorded) pds__row_append(job, y, v, recorded, pixel);
         } else {
             pds__tri_hit th;
             if (pds__bvh_intersect(&job->scene->bvh, org, dir, 0.0, DBL_MAX, &th)) {
@@ -24855,6 +24856,7 @@ static pds_status pds__eye_retrace(void *vctx, long round, pds__eye_vertex **v, 
                 job->keep_of[(*v)[i].pixel] = (long)k;
                 job->keep_v[k++] = (*v)[i];
             }
+        job->n_kept = k;
     }
     for (y = 0; y < job->frame.height; y++) job->row_count[y] = 0; /* the rows' arrays serve again */
     job->pass = job->record_pass = (int)round;
@@ -25139,8 +25141,9 @@ static pds_status pds__render_into(const pds_scene *scene, const pds_options *gi
             job.pass = (int)rounds.rounds; /* for stats->spp: the caustic's samples */
         }
         if (rounds.rounds > 1) {
-            /* what the rounds keep: the rows' arrays and the round before's vertices */
-            stats->memory_bytes += rc.n_spare * sizeof *rc.spare;
+            /* what the rounds keep: the rows' arrays, the round before's
+               vertices and round 0's whole ones */
+            stats->memory_bytes += (rc.n_spare + job.n_kept) * sizeof *rc.spare + (job.keep_of ? npix * sizeof(long) : 0);
             for (y = 0; y < h; y++) stats->memory_bytes += job.row_cap[y] * sizeof **job.row_vertices;
         }
         free(rc.verts);
